@@ -1,0 +1,1 @@
+"""remote_trigger.analysis: equilibria, Jacobians and eigenvalues of frictional packings."""

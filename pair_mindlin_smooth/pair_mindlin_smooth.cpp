@@ -1,0 +1,439 @@
+/* ----------------------------------------------------------------------
+   remote-trigger: pair style mindlin/smooth (LAMMPS plugin)
+
+   Each owned atom i loops over a FULL neighbor list and updates only its
+   own side of each contact (the history slot matched by partner tag).
+   The contacts of i are summed in ascending partner tag, so forces do not
+   depend on neighbor-list order: runs with any number of MPI ranks and
+   runs continued from data files are bitwise reproducible.
+------------------------------------------------------------------------- */
+
+#include "pair_mindlin_smooth.h"
+
+#include "mindlin_smooth_kernel.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "force.h"
+#include "memory.h"
+#include "neigh_list.h"
+#include "neighbor.h"
+#include "update.h"
+
+#include <cmath>
+#include <cstring>
+
+using namespace LAMMPS_NS;
+
+static const char HISTORY_PARTNER[] = "mindlin_partner";
+static const char HISTORY_T[] = "mindlin_t";
+
+/* ---------------------------------------------------------------------- */
+
+PairMindlinSmooth::PairMindlinSmooth(LAMMPS *lmp) :
+    Pair(lmp), kn(nullptr), kt(nullptr), mu(nullptr), maxrad(nullptr), ncol(0),
+    idx_partner(-1), idx_t(-1)
+{
+  single_enable = 1;
+  restartinfo = 1;
+  writedata = 1;
+  finitecutflag = 1;
+  no_virial_fdotr_compute = 1;
+  single_extra = 5;
+  svector = new double[single_extra];
+}
+
+/* ---------------------------------------------------------------------- */
+
+PairMindlinSmooth::~PairMindlinSmooth()
+{
+  delete[] svector;
+  if (allocated) {
+    memory->destroy(setflag);
+    memory->destroy(cutsq);
+    memory->destroy(kn);
+    memory->destroy(kt);
+    memory->destroy(mu);
+    delete[] maxrad;
+  }
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairMindlinSmooth::allocate()
+{
+  allocated = 1;
+  const int n = atom->ntypes + 1;
+  memory->create(setflag, n, n, "pair:setflag");
+  memory->create(cutsq, n, n, "pair:cutsq");
+  memory->create(kn, n, n, "pair:kn");
+  memory->create(kt, n, n, "pair:kt");
+  memory->create(mu, n, n, "pair:mu");
+  for (int i = 0; i < n; i++)
+    for (int j = 0; j < n; j++) {
+      setflag[i][j] = 0;
+      kn[i][j] = kt[i][j] = mu[i][j] = 0.0;
+    }
+  maxrad = new double[n];
+  for (int i = 0; i < n; i++) maxrad[i] = 0.0;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairMindlinSmooth::settings(int narg, char **arg)
+{
+  if (narg != 0)
+    error->all(FLERR, "Pair style mindlin/smooth takes no arguments, got '{}'", arg[0]);
+}
+
+/* ----------------------------------------------------------------------
+   pair_coeff I J k_n k_t mu
+------------------------------------------------------------------------- */
+
+void PairMindlinSmooth::coeff(int narg, char **arg)
+{
+  if (narg != 5)
+    error->all(FLERR,
+               "Pair coeff for mindlin/smooth needs 5 arguments (I J k_n k_t mu), got {}",
+               narg);
+  if (!allocated) allocate();
+
+  int ilo, ihi, jlo, jhi;
+  utils::bounds(FLERR, arg[0], 1, atom->ntypes, ilo, ihi, error);
+  utils::bounds(FLERR, arg[1], 1, atom->ntypes, jlo, jhi, error);
+
+  const double kn_one = utils::numeric(FLERR, arg[2], false, lmp);
+  const double kt_one = utils::numeric(FLERR, arg[3], false, lmp);
+  const double mu_one = utils::numeric(FLERR, arg[4], false, lmp);
+
+  if (!std::isfinite(kn_one) || kn_one <= 0.0)
+    error->all(FLERR, "Pair coeff mindlin/smooth: k_n must be > 0, got {}", arg[2]);
+  if (!std::isfinite(kt_one) || kt_one < 0.0)
+    error->all(FLERR, "Pair coeff mindlin/smooth: k_t must be >= 0, got {}", arg[3]);
+  if (!std::isfinite(mu_one) || mu_one < 0.0)
+    error->all(FLERR, "Pair coeff mindlin/smooth: mu must be >= 0, got {}", arg[4]);
+
+  int count = 0;
+  for (int i = ilo; i <= ihi; i++) {
+    for (int j = MAX(jlo, i); j <= jhi; j++) {
+      kn[i][j] = kn_one;
+      kt[i][j] = kt_one;
+      mu[i][j] = mu_one;
+      setflag[i][j] = 1;
+      count++;
+    }
+  }
+  if (count == 0)
+    error->all(FLERR, "Pair coeff mindlin/smooth: no type pairs in '{} {}'", arg[0], arg[1]);
+}
+
+/* ----------------------------------------------------------------------
+   look up the per-atom history arrays created by fix property/atom
+------------------------------------------------------------------------- */
+
+void PairMindlinSmooth::find_history()
+{
+  int flag, cols;
+  idx_partner = atom->find_custom(HISTORY_PARTNER, flag, cols);
+  if (idx_partner < 0 || flag != 0 || cols < 1)
+    error->all(FLERR,
+               "Pair style mindlin/smooth needs the contact history arrays; define "
+               "'fix ID all property/atom i2_{} 8 d2_{} 8 ghost no' before "
+               "read_data/create_atoms",
+               HISTORY_PARTNER, HISTORY_T);
+  ncol = cols;
+  int flag_t, cols_t;
+  idx_t = atom->find_custom(HISTORY_T, flag_t, cols_t);
+  if (idx_t < 0 || flag_t != 1 || cols_t != ncol)
+    error->all(FLERR,
+               "Pair style mindlin/smooth: per-atom array d2_{} must exist with as "
+               "many columns as i2_{} ({})",
+               HISTORY_T, HISTORY_PARTNER, ncol);
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairMindlinSmooth::init_style()
+{
+  if (!atom->radius_flag || !atom->omega_flag || !atom->torque_flag)
+    error->all(FLERR, "Pair style mindlin/smooth requires atom style sphere");
+  if (domain->dimension != 2)
+    error->all(FLERR,
+               "Pair style mindlin/smooth supports 2d simulations only (dimension 2), "
+               "this one has dimension {}",
+               domain->dimension);
+  if (comm->ghost_velocity == 0)
+    error->all(FLERR,
+               "Pair style mindlin/smooth requires ghost atoms store velocity: "
+               "use 'comm_modify vel yes'");
+
+  find_history();
+  contacts.resize(ncol);
+
+  // Full list with per-type cutoffs (largest radii of the two types): a
+  // size-based full list would stop compute pair/local from deriving its
+  // half list from ours (LAMMPS has no halffull/size list builder).
+  neighbor->add_request(this, NeighConst::REQ_FULL);
+
+  // largest radius per atom type sets the neighbor cutoff
+
+  const int ntypes = atom->ntypes;
+  std::vector<double> local(ntypes + 1, 0.0);
+  const double *radius = atom->radius;
+  const int *type = atom->type;
+  for (int i = 0; i < atom->nlocal; i++) local[type[i]] = MAX(local[type[i]], radius[i]);
+  MPI_Allreduce(local.data(), maxrad, ntypes + 1, MPI_DOUBLE, MPI_MAX, world);
+}
+
+/* ---------------------------------------------------------------------- */
+
+double PairMindlinSmooth::init_one(int i, int j)
+{
+  if (setflag[i][j] == 0) {
+    if (setflag[i][i] == 0 || setflag[j][j] == 0)
+      error->all(FLERR, "Pair style mindlin/smooth: coefficients for types {} {} are not set",
+                 i, j);
+    // geometric mixing, as pair granular does
+    kn[i][j] = sqrt(kn[i][i] * kn[j][j]);
+    kt[i][j] = sqrt(kt[i][i] * kt[j][j]);
+    mu[i][j] = sqrt(mu[i][i] * mu[j][j]);
+  }
+  kn[j][i] = kn[i][j];
+  kt[j][i] = kt[i][j];
+  mu[j][i] = mu[i][j];
+  if (!std::isfinite(mu[i][j]) || mu[i][j] < 0.0)
+    error->all(FLERR, "Pair style mindlin/smooth: mu for types {} {} must be >= 0, got {}", i, j,
+               mu[i][j]);
+  return maxrad[i] + maxrad[j];
+}
+
+/* ----------------------------------------------------------------------
+   slot of partner jtag in the history of atom i, -1 if none
+------------------------------------------------------------------------- */
+
+int PairMindlinSmooth::lookup(int i, tagint jtag) const
+{
+  const int *partner = atom->iarray[idx_partner][i];
+  for (int k = 0; k < ncol; k++) {
+    if (partner[k] == jtag) return k;
+    if (partner[k] == 0) break;    // slots are packed
+  }
+  return -1;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairMindlinSmooth::compute(int eflag, int vflag)
+{
+  ev_init(eflag, vflag);
+
+  // re-read: the arrays move when atoms are added or sorted
+  find_history();
+  int **partner = atom->iarray[idx_partner];
+  double **tdisp = atom->darray[idx_t];
+
+  double **x = atom->x;
+  double **v = atom->v;
+  double **f = atom->f;
+  double **omega = atom->omega;
+  double **torque = atom->torque;
+  const double *radius = atom->radius;
+  const int *type = atom->type;
+  const tagint *tag = atom->tag;
+
+  const int update_history = (update->setupflag == 0);
+  const double dt = update->dt;
+
+  const int inum = list->inum;
+  const int *ilist = list->ilist;
+  const int *numneigh = list->numneigh;
+  int **firstneigh = list->firstneigh;
+
+  for (int ii = 0; ii < inum; ii++) {
+    const int i = ilist[ii];
+    const int itype = type[i];
+    const double xi0 = x[i][0], yi0 = x[i][1], radi = radius[i];
+    const int *jlist = firstneigh[i];
+    const int jnum = numneigh[i];
+    int nc = 0;
+
+    for (int jj = 0; jj < jnum; jj++) {
+      const int j = jlist[jj] & NEIGHMASK;
+      const double delx = xi0 - x[j][0];
+      const double dely = yi0 - x[j][1];
+      const double rsq = delx * delx + dely * dely;
+      const double radsum = radi + radius[j];
+      if (rsq >= radsum * radsum) continue;
+
+      const int jtype = type[j];
+      const double r = sqrt(rsq);
+      const double nx = delx / r, ny = dely / r;
+      const double delta = radsum - r;
+
+      if (nc == ncol)
+        error->one(FLERR,
+                   "Pair style mindlin/smooth: atom {} has more than {} contacts; give "
+                   "i2_{} and d2_{} more columns",
+                   tag[i], ncol, HISTORY_PARTNER, HISTORY_T);
+
+      const int slot = lookup(i, tag[j]);
+      double xi = (slot >= 0) ? tdisp[i][slot] : 0.0;
+      if (update_history) {
+        // slip of the contact point of i relative to j along s = (ny, -nx)
+        const double vs = ny * (v[i][0] - v[j][0]) - nx * (v[i][1] - v[j][1]);
+        xi += dt * (vs + (radi * omega[i][2] + radius[j] * omega[j][2]));
+      }
+
+      const MindlinSmooth::Params p = {kn[itype][jtype], kt[itype][jtype], mu[itype][jtype]};
+      const MindlinSmooth::Response res = MindlinSmooth::evaluate(p, delta, xi);
+
+      Contact &c = contacts[nc++];
+      c.tag = tag[j];
+      c.xi = res.xi;
+      c.fx = res.fn * nx + res.ft * ny;
+      c.fy = res.fn * ny - res.ft * nx;
+      c.tz = radi * res.ft;
+      c.en = 0.4 * res.fn * delta;    // Hertz elastic energy (2/5) k_n delta^{5/2}
+      c.delx = delx;
+      c.dely = dely;
+    }
+
+    // canonical order: ascending partner tag (insertion sort, nc <= ncol)
+    for (int a = 1; a < nc; a++) {
+      const Contact key = contacts[a];
+      int b = a - 1;
+      while (b >= 0 && contacts[b].tag > key.tag) {
+        contacts[b + 1] = contacts[b];
+        b--;
+      }
+      contacts[b + 1] = key;
+    }
+    for (int a = 1; a < nc; a++)
+      if (contacts[a].tag == contacts[a - 1].tag)
+        error->one(FLERR,
+                   "Pair style mindlin/smooth: atom {} touches two periodic images of "
+                   "atom {}; the box is too small",
+                   tag[i], contacts[a].tag);
+
+    for (int a = 0; a < nc; a++) {
+      const Contact &c = contacts[a];
+      f[i][0] += c.fx;
+      f[i][1] += c.fy;
+      torque[i][2] += c.tz;
+      if (evflag) ev_tally_xyz_full(i, c.en, 0.0, c.fx, c.fy, 0.0, c.delx, c.dely, 0.0);
+    }
+
+    if (update_history) {
+      for (int a = 0; a < nc; a++) {
+        partner[i][a] = contacts[a].tag;
+        tdisp[i][a] = contacts[a].xi;
+      }
+      for (int a = nc; a < ncol; a++) {
+        partner[i][a] = 0;
+        tdisp[i][a] = 0.0;
+      }
+    }
+  }
+}
+
+/* ----------------------------------------------------------------------
+   force of one pair from the stored history; never changes state.
+   fforce: normal force / r along x_i - x_j.
+   svector: F_t,x  F_t,y  u = |t|/t*  t_x  t_y  (tangential part, on atom i)
+------------------------------------------------------------------------- */
+
+double PairMindlinSmooth::single(int i, int j, int itype, int jtype, double rsq,
+                                 double /*factor_coul*/, double /*factor_lj*/, double &fforce)
+{
+  for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
+  fforce = 0.0;
+  const double radsum = atom->radius[i] + atom->radius[j];
+  if (rsq >= radsum * radsum) return 0.0;
+
+  if (idx_t < 0) find_history();
+  const int slot = lookup(i, atom->tag[j]);
+  const double xi = (slot >= 0) ? atom->darray[idx_t][i][slot] : 0.0;
+
+  double **x = atom->x;
+  const double delx = x[i][0] - x[j][0];
+  const double dely = x[i][1] - x[j][1];
+  const double r = sqrt(rsq);
+  const double nx = delx / r, ny = dely / r;
+  const double delta = radsum - r;
+  const MindlinSmooth::Params p = {kn[itype][jtype], kt[itype][jtype], mu[itype][jtype]};
+  const MindlinSmooth::Response res = MindlinSmooth::evaluate(p, delta, xi);
+
+  fforce = res.fn / r;
+  svector[0] = res.ft * ny;
+  svector[1] = -res.ft * nx;
+  svector[2] = res.u;
+  svector[3] = res.xi * ny;
+  svector[4] = -res.xi * nx;
+  return 0.4 * res.fn * delta;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void *PairMindlinSmooth::extract(const char *str, int &dim)
+{
+  dim = 2;
+  if (strcmp(str, "k_n") == 0) return (void *) kn;
+  if (strcmp(str, "k_t") == 0) return (void *) kt;
+  if (strcmp(str, "mu") == 0) return (void *) mu;
+  return nullptr;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairMindlinSmooth::write_restart(FILE *fp)
+{
+  for (int i = 1; i <= atom->ntypes; i++)
+    for (int j = i; j <= atom->ntypes; j++) {
+      fwrite(&setflag[i][j], sizeof(int), 1, fp);
+      if (setflag[i][j]) {
+        fwrite(&kn[i][j], sizeof(double), 1, fp);
+        fwrite(&kt[i][j], sizeof(double), 1, fp);
+        fwrite(&mu[i][j], sizeof(double), 1, fp);
+      }
+    }
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairMindlinSmooth::read_restart(FILE *fp)
+{
+  allocate();
+  const int me = comm->me;
+  for (int i = 1; i <= atom->ntypes; i++)
+    for (int j = i; j <= atom->ntypes; j++) {
+      if (me == 0) utils::sfread(FLERR, &setflag[i][j], sizeof(int), 1, fp, nullptr, error);
+      MPI_Bcast(&setflag[i][j], 1, MPI_INT, 0, world);
+      if (setflag[i][j]) {
+        double buf[3];
+        if (me == 0) utils::sfread(FLERR, buf, sizeof(double), 3, fp, nullptr, error);
+        MPI_Bcast(buf, 3, MPI_DOUBLE, 0, world);
+        kn[i][j] = buf[0];
+        kt[i][j] = buf[1];
+        mu[i][j] = buf[2];
+      }
+    }
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairMindlinSmooth::write_data(FILE *fp)
+{
+  for (int i = 1; i <= atom->ntypes; i++)
+    fprintf(fp, "%d %.17g %.17g %.17g\n", i, kn[i][i], kt[i][i], mu[i][i]);
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairMindlinSmooth::write_data_all(FILE *fp)
+{
+  for (int i = 1; i <= atom->ntypes; i++)
+    for (int j = i; j <= atom->ntypes; j++)
+      fprintf(fp, "%d %d %.17g %.17g %.17g\n", i, j, kn[i][j], kt[i][j], mu[i][j]);
+}
