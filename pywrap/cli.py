@@ -1,0 +1,43 @@
+"""The ``remote-trigger`` command line.
+
+Each subcommand lives in its own module, which defines
+``register(subparsers)``; the module is named in :data:`SUBCOMMANDS` and
+imported only when the command line is built, so ``import lammps`` (which
+imports this package through its plugin entry point) stays light.
+"""
+import argparse
+import importlib
+import sys
+
+#: modules that each add one or more subcommands
+SUBCOMMANDS = [
+    "remote_trigger.pywrap.demo",
+]
+
+
+def build_parser():
+    """Return the argument parser with every subcommand registered."""
+    parser = argparse.ArgumentParser(
+        prog="remote-trigger",
+        description="Frictional disks with smoothed Mindlin contacts in LAMMPS: "
+                    "remote triggering of earthquakes (Charan, Pomyalov, Procaccia).")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for name in SUBCOMMANDS:
+        importlib.import_module(name).register(sub)
+    return parser
+
+
+def main(argv=None):
+    """Run the command line; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args) or 0
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"remote-trigger {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
