@@ -1,0 +1,138 @@
+"""Bad input gives a LAMMPS error that names the problem, never a crash or a silent run."""
+import pytest
+
+from .lmputil import HIST, KN, KT, add_disk, box_commands, new_lammps
+
+
+def base(lmp, hist=True, atom_style="sphere", dimension=2, vel=True):
+    cmds = box_commands()
+    if not hist:
+        cmds.remove(HIST)
+    if atom_style != "sphere":
+        cmds = [f"atom_style {atom_style}" if c.startswith("atom_style") else c for c in cmds]
+    if dimension != 2:
+        cmds = [f"dimension {dimension}" if c.startswith("dimension") else c for c in cmds]
+        cmds = [c.replace("-0.5 0.5", "0 20") for c in cmds]
+    if not vel:
+        cmds.remove("comm_modify vel yes")
+    lmp.commands_list(cmds)
+
+
+def run_expect(cmds, match, **kw):
+    lmp = new_lammps()
+    try:
+        base(lmp, **kw)
+        with pytest.raises(Exception, match=match):
+            lmp.commands_list(cmds)
+    finally:
+        lmp.close()
+
+
+@pytest.mark.parametrize("coeff, match", [
+    ("* * -1.0 1.0 1.0", r"k_n must be > 0, got -1\.0"),
+    ("* * 0 1.0 1.0", r"k_n must be > 0, got 0"),
+    ("* * 2e5 -3 1.0", r"k_t must be >= 0, got -3"),
+    ("* * 2e5 1e4 -0.5", r"mu must be >= 0, got -0\.5"),
+    ("* * 2e5 1e4 nan", r"Expected floating point parameter instead of 'nan'"),
+    ("* * 2e5 1e4", r"needs 5 arguments \(I J k_n k_t mu\), got 4"),
+    ("* * 2e5 abc 1.0", r"Expected floating point parameter instead of 'abc'"),
+    ("1 3 2e5 1e4 1.0", r"(?i)numeric index 3 is out of bounds|out of range|bound"),
+])
+def test_bad_pair_coeff(coeff, match):
+    run_expect(["pair_style mindlin/smooth", f"pair_coeff {coeff}"], match)
+
+
+def test_pair_style_takes_no_arguments():
+    run_expect(["pair_style mindlin/smooth 2.5"], r"takes no arguments, got '2.5'")
+
+
+def test_missing_coefficients():
+    lmp = new_lammps()
+    base(lmp)
+    add_disk(lmp, 1, 0.5, 5.0, 5.0)
+    lmp.commands_list(["pair_style mindlin/smooth", "pair_coeff 1 1 2e5 1e4 1.0"])
+    with pytest.raises(Exception, match=r"coefficients for types 1 2 are not set|"
+                                         r"All pair coeffs are not set"):
+        lmp.command("run 0")
+    lmp.close()
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(hist=False), r"needs the contact history arrays; define 'fix ID all property/atom "
+                       r"i2_mindlin_partner 8 d2_mindlin_t 8"),
+    (dict(vel=False), r"requires ghost atoms store velocity: use 'comm_modify vel yes'"),
+])
+def test_missing_setup_is_reported_at_run(kw, match):
+    lmp = new_lammps()
+    base(lmp, **kw)
+    add_disk(lmp, 1, 0.5, 5.0, 5.0)
+    lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
+    with pytest.raises(Exception, match=match):
+        lmp.command("run 0")
+    lmp.close()
+
+
+def test_non_sphere_atom_style():
+    lmp = new_lammps()
+    base(lmp, atom_style="atomic")
+    lmp.commands_list(["create_atoms 1 single 5 5 0 units box", "mass * 1.0",
+                       "pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
+    with pytest.raises(Exception, match=r"requires atom style sphere"):
+        lmp.command("run 0")
+    lmp.close()
+
+
+def test_three_dimensions_rejected():
+    lmp = new_lammps()
+    base(lmp, dimension=3)
+    lmp.commands_list(["create_atoms 1 single 5 5 5 units box", "set atom 1 mass 1.0",
+                       "pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
+    with pytest.raises(Exception, match=r"supports 2d simulations only \(dimension 2\), "
+                                        r"this one has dimension 3"):
+        lmp.command("run 0")
+    lmp.close()
+
+
+def test_too_many_contacts_per_disk():
+    lmp = new_lammps()
+    cmds = box_commands()
+    cmds[cmds.index(HIST)] = ("fix hist all property/atom i2_mindlin_partner 2 "
+                              "d2_mindlin_t 2 d_mindlin_wall_t ghost no")
+    lmp.commands_list(cmds)
+    for x, y in [(5.0, 5.0), (5.99, 5.0), (4.01, 5.0), (5.0, 5.99)]:
+        add_disk(lmp, 1, 0.5, x, y)
+    lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
+    with pytest.raises(Exception, match=r"atom 1 has more than 2 contacts"):
+        lmp.command("run 0")
+    lmp.close()
+
+
+@pytest.mark.parametrize("args, match", [
+    ("-2e5 1e4 1.0 yplane 0.0", r"k_n must be > 0, got -2e5"),
+    ("2e5 -1 1.0 yplane 0.0", r"k_t must be >= 0, got -1"),
+    ("2e5 1e4 -1 yplane 0.0", r"mu must be >= 0, got -1"),
+    ("2e5 1e4 1.0 xplane 0.0", r"supports only 'yplane y_lo', got 'xplane'"),
+    ("2e5 1e4 1.0 yplane", r"needs: fix ID group wall/mindlin/smooth k_n k_t mu yplane y_lo"),
+])
+def test_bad_wall_arguments(args, match):
+    run_expect([f"fix w all wall/mindlin/smooth {args}"], match)
+
+
+def test_wall_needs_history_and_equal_style_variable():
+    lmp = new_lammps()
+    base(lmp, hist=False)
+    add_disk(lmp, 1, 0.5, 5.0, 0.4)
+    lmp.commands_list([f"fix w all wall/mindlin/smooth {KN} {KT} 1.0 yplane 0.0"])
+    with pytest.raises(Exception, match=r"needs the wall history vector; add 'd_mindlin_wall_t'"):
+        lmp.command("run 0")
+    lmp.close()
+    lmp = new_lammps()
+    base(lmp)
+    add_disk(lmp, 1, 0.5, 5.0, 0.4)
+    lmp.commands_list([f"fix w all wall/mindlin/smooth {KN} {KT} v_nope yplane 0.0"])
+    with pytest.raises(Exception, match=r"variable nope for mu does not exist"):
+        lmp.command("run 0")
+    lmp.command("variable nope atom 1.0")
+    with pytest.raises(Exception, match=r"variable nope for mu is not equal-style"):
+        lmp.command("run 0")
+    lmp.close()
