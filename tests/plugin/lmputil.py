@@ -68,10 +68,11 @@ def packing_commands(n, seed, width=None):
     return cmds, width, height
 
 
-def settled_packing(lmp, n, seed, steps=20000, mu=MU, kt=KT, shear=0.0):
+def settled_packing(lmp, n, seed, steps=20000, mu=MU, kt=KT, shear=0.0, load=5.0):
     """Build and settle a packing under a downward load with damping.
 
-    With ``shear`` > 0 the upper disks also get a horizontal force, so that
+    The load per disk is ``load`` (downward). With ``shear`` > 0 the upper
+    disks also get a horizontal force (times ``load``), so that
     some contacts approach the Coulomb limit. Leaves no integrator or load
     fixes defined except nve/sphere and enforce2d.
     """
@@ -81,14 +82,14 @@ def settled_packing(lmp, n, seed, steps=20000, mu=MU, kt=KT, shear=0.0):
     lmp.commands_list(style_commands(kt=kt, mu=mu))
     lmp.commands_list([
         "fix nve all nve/sphere disc", "fix 2d all enforce2d", "timestep 5e-4",
-        "fix load all addforce 0.0 -1.0 0.0", "fix damp all viscous 2.0",
+        f"fix load all addforce 0.0 {-load!r} 0.0", "fix damp all viscous 2.0",
         f"run {steps}",
     ])
     if shear:
         lmp.commands_list([
             f"region upper block INF INF {0.6 * height} INF INF INF units box",
             "group upper region upper",
-            f"fix shear upper addforce {shear!r} 0.0 0.0",
+            f"fix shear upper addforce {shear * load!r} 0.0 0.0",
             f"run {steps // 4}",
             "unfix shear",
         ])
@@ -107,17 +108,19 @@ def gather(lmp, name, count, dtype=1):
 
 def history(lmp):
     """(partner, xi, wall_xi) ordered by atom ID; serial runs only."""
-    tag = np.array(lmp.numpy.extract_atom("id"), dtype=np.int64)
+    nlocal = lmp.extract_global("nlocal")
+    tag = np.array(lmp.numpy.extract_atom("id")[:nlocal], dtype=np.int64)
     order = np.argsort(tag)
-    part = np.array(lmp.numpy.extract_atom("i2_mindlin_partner"), dtype=np.int64)[order]
-    xi = np.array(lmp.numpy.extract_atom("d2_mindlin_t"), dtype=np.float64)[order]
-    wall = np.array(lmp.numpy.extract_atom("d_mindlin_wall_t"), dtype=np.float64)[order]
+    part = np.array(lmp.numpy.extract_atom("i2_mindlin_partner")[:nlocal], np.int64)[order]
+    xi = np.array(lmp.numpy.extract_atom("d2_mindlin_t")[:nlocal], np.float64)[order]
+    wall = np.array(lmp.numpy.extract_atom("d_mindlin_wall_t")[:nlocal], np.float64)[order]
     return part, xi, wall
 
 
 def set_per_atom(lmp, name, atom_id, values):
     """Set a per-atom vector property (v, omega, x) of one atom; serial runs."""
-    tag = np.asarray(lmp.numpy.extract_atom("id"))
+    nlocal = lmp.extract_global("nlocal")
+    tag = np.asarray(lmp.numpy.extract_atom("id")[:nlocal])
     idx = int(np.nonzero(tag == atom_id)[0][0])
     arr = lmp.numpy.extract_atom(name)
     for k, val in enumerate(values):
