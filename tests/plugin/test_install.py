@@ -49,3 +49,20 @@ def test_python_module_has_styles():
     assert ["pair", "mindlin/smooth"] in lmp.available_plugins("pair") or \
         ["pair", "mindlin/smooth"] in lmp.available_plugins()
     lmp.close()
+
+
+def test_plugin_built_for_the_loaded_lammps_version(tmp_path):
+    """Reloading the installed .so explicitly makes LAMMPS print the version
+    the plugin was compiled for whenever it differs from its own."""
+    from remote_trigger.pywrap._plugin import PLUGIN_FILE
+
+    deck = tmp_path / "in.reload"
+    deck.write_text("plugin unload pair mindlin/smooth\n"
+                    "plugin unload fix wall/mindlin/smooth\n"
+                    f"plugin load {PLUGIN_FILE}\nplugin list\n")
+    lmp = os.path.join(os.path.dirname(sys.executable), "lmp")
+    res = subprocess.run([lmp, "-in", str(deck), "-log", "none"], capture_output=True,
+                         text=True, cwd=tmp_path, timeout=120)
+    assert res.returncode == 0, res.stdout[-2000:]
+    assert res.stdout.count("Loading plugin:") == 2, res.stdout
+    assert "compiled for LAMMPS version" not in res.stdout, res.stdout
