@@ -12,6 +12,7 @@ import sys
 #: modules that each add one or more subcommands
 SUBCOMMANDS = [
     "remote_trigger.pywrap.demo",
+    "remote_trigger.analysis.normal_form",
 ]
 
 
