@@ -12,7 +12,9 @@ import sys
 #: modules that each add one or more subcommands
 SUBCOMMANDS = [
     "remote_trigger.pywrap.demo",
+    "remote_trigger.pywrap.stages_cli",
     "remote_trigger.analysis.normal_form",
+    "remote_trigger.analysis.cli_jacobian",
 ]
 
 

@@ -1,0 +1,96 @@
+"""``remote-trigger jacobian DUMP -o OUT.npz``: stiffness matrix and spectrum of a dump.
+
+Reads an equilibrium dump (``docs/conventions.md`` section 3, with its
+sidecar ``DUMP.json``), assembles K = -dG/dq (paper Appendix C), removes
+rattlers, computes the eigenvalues of M^-1 K and decides whether a complex
+pair is present; writes everything to a NumPy ``.npz`` file (keys in
+``docs/analysis.md``) and prints a one-screen summary.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .analyze import analyze
+from .state import read_dump
+
+
+def register(subparsers):
+    """Add the ``jacobian`` subcommand to an argparse subparsers object."""
+    p = subparsers.add_parser(
+        "jacobian", help="stiffness matrix K = -dG/dq and eigenvalues of an equilibrium dump",
+        description="Assemble K = -dG/dq over q = (x, y, R theta) per disk from an "
+                    "equilibrium dump (with contact history), remove rattlers, compute the "
+                    "eigenvalues of M^-1 K and write them to an .npz file.")
+    p.add_argument("dump", help="text dump (dump custom, %%.17g, sorted by id) with the "
+                                "history columns; parameters from DUMP.json")
+    p.add_argument("-o", "--output", required=True, help="output .npz file")
+    p.add_argument("--frame", type=int, default=-1, help="snapshot index (default: last)")
+    for name, hlp in (("k-n", "normal stiffness k_n"), ("k-t", "tangential stiffness k_t"),
+                      ("mu", "friction coefficient"), ("wall-y", "height of the flat wall")):
+        p.add_argument(f"--{name}", type=float, default=None,
+                       help=f"{hlp} (overrides the sidecar JSON)")
+    p.add_argument("--method", choices=("auto", "dense", "sparse"), default="auto",
+                   help="eigenvalue path: dense LAPACK or ARPACK shift-invert (default auto: "
+                        "dense up to 3000 dofs)")
+    p.add_argument("--k", type=int, default=40, help="sparse path: eigenvalues per shift "
+                                                     "(default 40)")
+    p.add_argument("--sigma", type=float, default=None,
+                   help="sparse path: shift in units of 1/time^2 (default: 0.25 x the largest "
+                        "diagonal entry of M^-1 K after rattler removal, inside the band "
+                        "where pairs coalesce)")
+    p.add_argument("--min-contacts", type=int, default=2,
+                   help="rattler criterion: fewer contacts than this (default 2)")
+    p.add_argument("--no-eigen", action="store_true", help="write K only")
+    p.set_defaults(func=run)
+
+
+def run(args):
+    """Execute the subcommand; returns the exit status."""
+    if not os.path.exists(args.dump):
+        raise FileNotFoundError(f"dump file not found: {args.dump}")
+    state = read_dump(args.dump, frame=args.frame, k_n=args.k_n, k_t=args.k_t, mu=args.mu,
+                      wall_y=args.wall_y)
+    res = analyze(state, eigenvalues=not args.no_eigen, decide=not args.no_eigen,
+                  method=args.method, k=args.k, sigma=args.sigma,
+                  min_contacts=args.min_contacts)
+    sigma = res.eigen.sigma if res.eigen is not None and res.eigen.sigma is not None \
+        else np.nan
+    K = res.K
+    lam = res.eigenvalues if res.eigen is not None else np.zeros(0, complex)
+    dec = res.decision
+    flag = -1 if dec is None or dec.complex_present is None else int(dec.complex_present)
+    out = {
+        "K_data": K.data, "K_indices": K.indices, "K_indptr": K.indptr,
+        "K_shape": np.array(K.shape, dtype=np.int64),
+        "mass": res.mass, "ids": state.dof_ids(), "rattlers": res.rattlers.ids,
+        "keep_dofs": res.rattlers.keep_dofs, "eigenvalues": lam,
+        "complex_pair": np.int64(flag),
+        "confidence": np.float64(np.nan if dec is None else dec.confidence),
+        "growth_rate": np.float64(np.nan if res.eigen is None else res.growth_rate),
+        "residual": np.float64(res.max_residual),
+        "method": np.str_("none" if res.eigen is None else res.eigen.method),
+        "sigma": np.float64(sigma),
+    }
+    outdir = os.path.dirname(os.path.abspath(args.output))
+    if not os.path.isdir(outdir):
+        raise FileNotFoundError(f"output folder does not exist: {outdir}")
+    np.savez(args.output, **out)
+    lines = [
+        f"jacobian: {state.n} disks, {state.n_contacts} contacts, "
+        f"{state.wall_index.size} wall contacts, K {K.shape[0]}x{K.shape[1]} nnz {K.nnz}",
+        f"  residual max |G| = {res.max_residual:.3g}; rattlers removed: "
+        f"{res.rattlers.ids.size} {res.rattlers.ids.tolist()[:20]}"
+        f"{' ...' if res.rattlers.ids.size > 20 else ''}",
+    ]
+    if res.eigen is not None and lam.size:
+        what = {1: "yes", 0: "no", -1: "undecided"}[flag]
+        lines.append(f"  eigenvalues ({res.eigen.method}): {lam.size}, Re in "
+                     f"[{lam.real.min():.6g}, {lam.real.max():.6g}], growth rate max Im omega "
+                     f"= {res.growth_rate:.6g}")
+        lines.append(f"  complex pair: {what} (confidence margin {dec.confidence:.3g})"
+                     if dec is not None else "  complex pair: not tested")
+    lines.append(f"  written: {args.output}")
+    print("\n".join(lines))
+    return 0

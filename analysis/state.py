@@ -1,0 +1,775 @@
+r"""Equilibrium states: read a LAMMPS dump (with contact history) into float64 arrays.
+
+A :class:`State` holds everything the Jacobian needs: disk ids, positions,
+radii, masses and moments of inertia, the periodic box, every disk-disk
+contact with its signed tangential displacement :math:`\xi_{ij}` and every
+disk-wall contact with its :math:`\xi_{iw}` and overlap, plus the external
+loads. The format read is that of ``docs/conventions.md`` section 3: a text
+``dump custom`` written with ``format float %.17g`` and sorted by id,
+
+.. code-block:: text
+
+    id type radius mass x y vx vy omegaz fx fy tqz v_fext_x v_fext_y
+    i2_mindlin_partner[1..K] d2_mindlin_t[1..K] d_mindlin_wall_t
+
+and an optional sidecar JSON ``<dump>.json`` with the model parameters
+``k_n, k_t, mu, wall_y, F_x, F_y, dt`` that a dump cannot carry.
+
+Contacts come from the history columns: atom i lists partner ids in
+``i2_mindlin_partner`` and the matching :math:`\xi` (seen from i) in
+``d2_mindlin_t``. Each contact is listed on both sides with the same value
+(:math:`\xi_{ji} = \xi_{ij}` because :math:`s_{ji} = -s_{ij}`); the reader keeps
+the side with the smaller id and checks that the mirror matches.
+
+.. warning::
+
+   The history and the geometry must describe the same instant, which is the
+   case for a dump written after a time step (the pair style updates the
+   history at every step). A pair that overlaps but has no history entry is
+   kept with :math:`\xi = 0` (a contact that forms starts from zero), and a
+   history entry whose disks no longer overlap is dropped; both are counted in
+   :attr:`State.notes` and reported with a :class:`UserWarning`.
+"""
+from __future__ import annotations
+
+import json
+import os
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["ContactParams", "State", "read_dump", "find_contacts", "minimum_image"]
+
+#: columns a dump must have (the history columns are checked separately)
+REQUIRED_COLUMNS = ("id", "type", "radius", "mass", "x", "y", "fx", "fy", "tqz",
+                    "v_fext_x", "v_fext_y", "d_mindlin_wall_t")
+OPTIONAL_COLUMNS = ("vx", "vy", "omegaz")
+PARTNER = "i2_mindlin_partner"
+XI = "d2_mindlin_t"
+#: the model parameters of the sidecar JSON
+PARAM_KEYS = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt")
+#: disks of the same moment-of-inertia convention as ``fix nve/sphere ... disc``
+DISC_INERTIA = 0.5
+
+
+@dataclass(frozen=True)
+class ContactParams:
+    """Contact-law parameters shared by the pair style and the wall.
+
+    Attributes
+    ----------
+    k_n : float
+        Normal stiffness, force/length^{3/2} (Eq. 1), > 0.
+    k_t : float
+        Tangential stiffness, force/length^{3/2} (Eq. 3), >= 0.
+    mu : float
+        Coulomb friction coefficient (Eq. 2), >= 0.
+    """
+
+    k_n: float
+    k_t: float
+    mu: float
+
+    def __post_init__(self):
+        for name, lo, strict in (("k_n", 0.0, True), ("k_t", 0.0, False), ("mu", 0.0, False)):
+            val = getattr(self, name)
+            if (isinstance(val, bool) or not isinstance(val, (int, float, np.floating, np.integer))
+                    or not np.isfinite(val)):
+                raise ValueError(f"contact parameter {name} must be a finite number, got {val!r}")
+            if (strict and val <= lo) or (not strict and val < lo):
+                raise ValueError(f"contact parameter {name} must be {'>' if strict else '>='} "
+                                 f"{lo}, got {val!r}")
+            object.__setattr__(self, name, float(val))
+
+    @property
+    def frictional(self):
+        """True when tangential forces exist (k_t > 0 and mu > 0)."""
+        return self.k_t > 0.0 and self.mu > 0.0
+
+
+@dataclass
+class State:
+    """A packing of disks with its contact history, in float64.
+
+    Disks are stored in ascending atom id; "index" below means the position
+    in that order (0-based), which is also the disk's block in the generalized
+    coordinates q = (x_k, y_k, R_k theta_k), dof 3k + c (MODEL.md section 7).
+
+    Attributes
+    ----------
+    ids : ndarray of int64, shape (N,)
+        Atom ids, strictly ascending.
+    positions : ndarray, shape (N, 2)
+        Centres (x, y), length units.
+    radii, masses : ndarray, shape (N,)
+        Radius (length) and mass (mass units), > 0.
+    inertia : ndarray, shape (N,)
+        Moment of inertia I = I0 m R^2 with I0 = 1/2 (solid disk, MODEL.md
+        section 1).
+    box_lo, box_hi : ndarray, shape (2,)
+        Box bounds in x and y.
+    periodic : tuple of bool
+        Periodicity in (x, y); the model has (True, False).
+    params : ContactParams
+        k_n, k_t, mu of the pair style and the wall.
+    wall_y : float or None
+        Height of the flat wall (``yplane``); None means no wall.
+    contact_i, contact_j : ndarray of int64, shape (C,)
+        Disk indices of each disk-disk contact, ``ids[contact_i] < ids[contact_j]``.
+    contact_xi : ndarray, shape (C,)
+        Signed tangential displacement xi_ij (length), t_ij = xi_ij s with
+        s = (n_y, -n_x), n = (r_i - r_j)/|r_i - r_j| (Eq. 14).
+    wall_index : ndarray of int64, shape (W,)
+        Disks touching the wall.
+    wall_xi, wall_delta : ndarray, shape (W,)
+        Tangential displacement (along +x) and overlap R - (y - wall_y) > 0.
+    external : ndarray, shape (N, 2)
+        External load on each disk (force units); F_x, -F_y on ``top``.
+    contact_forces : ndarray, shape (N, 3) or None
+        (fx, fy, tqz) of the dump: pair plus wall forces and torque.
+    velocities : ndarray, shape (N, 2) or None
+    omega : ndarray, shape (N,) or None
+    types : ndarray of int64, shape (N,)
+    F_x, F_y, dt : float or None
+        Loads and time step from the sidecar, informational.
+    timestep : int or None
+        LAMMPS step of the snapshot.
+    source : str or None
+        File read.
+    notes : dict
+        Counts of repaired inconsistencies (``unrecorded_contacts``,
+        ``stale_history``, ``stale_wall_history``).
+    """
+
+    ids: np.ndarray
+    positions: np.ndarray
+    radii: np.ndarray
+    masses: np.ndarray
+    inertia: np.ndarray
+    box_lo: np.ndarray
+    box_hi: np.ndarray
+    periodic: tuple
+    params: ContactParams
+    wall_y: float | None
+    contact_i: np.ndarray
+    contact_j: np.ndarray
+    contact_xi: np.ndarray
+    wall_index: np.ndarray
+    wall_xi: np.ndarray
+    wall_delta: np.ndarray
+    external: np.ndarray
+    contact_forces: np.ndarray | None = None
+    velocities: np.ndarray | None = None
+    omega: np.ndarray | None = None
+    types: np.ndarray | None = None
+    F_x: float | None = None
+    F_y: float | None = None
+    dt: float | None = None
+    timestep: int | None = None
+    source: str | None = None
+    notes: dict = field(default_factory=dict)
+
+    @property
+    def n(self):
+        """Number of disks N."""
+        return int(self.ids.size)
+
+    @property
+    def ndof(self):
+        """Number of generalized coordinates, 3N."""
+        return 3 * self.n
+
+    @property
+    def n_contacts(self):
+        """Number of disk-disk contacts C."""
+        return int(self.contact_i.size)
+
+    @property
+    def box_length(self):
+        """Box lengths (L_x, L_y), shape (2,)."""
+        return self.box_hi - self.box_lo
+
+    def mass_diagonal(self):
+        """Diagonal of the mass matrix M = diag(m, m, I/R^2) per disk, shape (3N,).
+
+        The third entry is the mass of phi = R theta: I theta'' = T gives
+        (I/R^2) phi'' = T/R (paper Eq. 42).
+        """
+        md = np.empty(self.ndof)
+        md[0::3] = self.masses
+        md[1::3] = self.masses
+        md[2::3] = self.inertia / self.radii**2
+        return md
+
+    def dof_ids(self):
+        """Atom id of every degree of freedom (x, y, R theta per disk), shape (3N,)."""
+        return np.repeat(self.ids, 3)
+
+    def contact_counts(self):
+        """Number of contacts of every disk, wall included, shape (N,)."""
+        z = np.bincount(self.contact_i, minlength=self.n) + np.bincount(self.contact_j,
+                                                                         minlength=self.n)
+        return z + np.bincount(self.wall_index, minlength=self.n)
+
+    def separation(self, i, j):
+        """Minimum-image r_i - r_j for index arrays i, j; shape (len(i), 2)."""
+        return minimum_image(self.positions[i] - self.positions[j], self.box_length,
+                             self.periodic)
+
+    def with_xi(self, contact_xi=None, wall_xi=None):
+        """Copy with other tangential displacements (same contacts).
+
+        Parameters
+        ----------
+        contact_xi : array_like, shape (C,), optional
+        wall_xi : array_like, shape (W,), optional
+
+        Returns
+        -------
+        State
+        """
+        import dataclasses
+
+        cx = self.contact_xi if contact_xi is None else np.asarray(contact_xi, np.float64)
+        wx = self.wall_xi if wall_xi is None else np.asarray(wall_xi, np.float64)
+        if cx.shape != self.contact_xi.shape or wx.shape != self.wall_xi.shape:
+            raise ValueError(f"xi arrays must have shapes {self.contact_xi.shape} and "
+                             f"{self.wall_xi.shape}, got {cx.shape} and {wx.shape}")
+        return dataclasses.replace(self, contact_xi=cx.copy(), wall_xi=wx.copy())
+
+
+def minimum_image(d, box_length, periodic):
+    """Apply the minimum-image convention to separation vectors.
+
+    Parameters
+    ----------
+    d : ndarray, shape (..., 2)
+        Raw separations r_i - r_j.
+    box_length : array_like, shape (2,)
+    periodic : sequence of bool, length 2
+
+    Returns
+    -------
+    ndarray, shape (..., 2)
+    """
+    d = np.array(d, dtype=np.float64, copy=True)
+    for a in range(2):
+        if periodic[a]:
+            L = box_length[a]
+            d[..., a] -= L * np.round(d[..., a] / L)
+    return d
+
+
+def _check_params(params, wall_y):
+    if not isinstance(params, ContactParams):
+        raise ValueError(f"params must be a ContactParams, got {type(params).__name__}")
+    if wall_y is not None and not np.isfinite(wall_y):
+        raise ValueError(f"wall_y must be finite or None, got {wall_y!r}")
+
+
+def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=None):
+    """All overlapping disk pairs (geometric contacts), O(N log N).
+
+    Parameters
+    ----------
+    positions : ndarray, shape (N, 2)
+    radii : ndarray, shape (N,)
+    box_lo, box_hi : array_like, shape (2,)
+    periodic : sequence of bool
+    ids : array_like, shape (N,), optional
+        Atom ids, only to name disks in error messages.
+
+    Returns
+    -------
+    i, j : ndarray of int64, shape (P,)
+        Index pairs with i < j and delta = R_i + R_j - |r_i - r_j| > 0.
+    rho : ndarray, shape (P,)
+        Centre distances.
+
+    Raises
+    ------
+    ValueError
+        If the centre of a disk lies inside another disk (distance below the
+        larger radius), where the contact normal and the Hertz law are
+        meaningless; the message names both indices and the distance.
+    """
+    from scipy.spatial import cKDTree
+
+    pos = np.asarray(positions, dtype=np.float64)
+    n = pos.shape[0]
+    if n < 2:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    box_lo = np.asarray(box_lo, np.float64)
+    box_hi = np.asarray(box_hi, np.float64)
+    L = box_hi - box_lo
+    shifted = pos - box_lo
+    boxsize = np.empty(2)
+    for a in range(2):
+        if periodic[a]:
+            shifted[:, a] = np.mod(shifted[:, a], L[a])
+            shifted[:, a] = np.where(shifted[:, a] >= L[a], 0.0, shifted[:, a])
+            boxsize[a] = L[a]
+        else:
+            span = shifted[:, a].max() - shifted[:, a].min()
+            shifted[:, a] -= shifted[:, a].min()
+            boxsize[a] = 4.0 * (span + 4.0 * radii.max()) + 1.0
+    cut = 2.0 * float(np.max(radii))
+    tree = cKDTree(shifted, boxsize=boxsize)
+    pairs = tree.query_pairs(cut, output_type="ndarray").astype(np.int64)
+    if pairs.size == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    i, j = pairs[:, 0], pairs[:, 1]
+    swap = i > j
+    i, j = np.where(swap, j, i), np.where(swap, i, j)
+    d = minimum_image(pos[i] - pos[j], L, periodic)
+    rho = np.hypot(d[:, 0], d[:, 1])
+    bad = rho < np.maximum(radii[i], radii[j])
+    if np.any(bad):
+        k = int(np.argmax(bad))
+        who = (f"atom ids {ids[i[k]]} and {ids[j[k]]}" if ids is not None
+               else f"disks at indices {i[k]} and {j[k]}")
+        raise ValueError(f"overlapping centres: {who} are "
+                         f"{float(rho[k])!r} apart, closer than the larger radius "
+                         f"{float(max(radii[i[k]], radii[j[k]]))!r}")
+    touch = radii[i] + radii[j] - rho > 0.0
+    order = np.lexsort((j[touch], i[touch]))
+    return i[touch][order], j[touch][order], rho[touch][order]
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def _read_frames(path):
+    """Yield (timestep, natoms, bounds, boxflags, columns, rows) of each snapshot."""
+    with open(path, "r") as fh:
+        lines = fh.read().splitlines()
+    k = 0
+    nl = len(lines)
+    frames = []
+    while k < nl:
+        if not lines[k].strip():
+            k += 1
+            continue
+        if not lines[k].startswith("ITEM: TIMESTEP"):
+            raise ValueError(f"{path}: line {k + 1}: expected 'ITEM: TIMESTEP', got "
+                             f"{lines[k][:60]!r}")
+        try:
+            step = int(lines[k + 1].split()[0])
+            if not lines[k + 2].startswith("ITEM: NUMBER OF ATOMS"):
+                raise ValueError(f"line {k + 3}: expected 'ITEM: NUMBER OF ATOMS'")
+            natoms = int(lines[k + 3].split()[0])
+            head = lines[k + 4]
+            if not head.startswith("ITEM: BOX BOUNDS"):
+                raise ValueError(f"line {k + 5}: expected 'ITEM: BOX BOUNDS'")
+            flags = head.split()[3:]
+            if any(f in ("xy", "xz", "yz") for f in flags) or "abc" in head:
+                raise ValueError(f"triclinic boxes are not supported: {head!r}")
+            bounds = np.array([[float(v) for v in lines[k + 5 + a].split()[:2]]
+                               for a in range(3)])
+            cols_line = lines[k + 8]
+            if not cols_line.startswith("ITEM: ATOMS"):
+                raise ValueError(f"line {k + 9}: expected 'ITEM: ATOMS ...'")
+        except IndexError:
+            raise ValueError(f"{path}: truncated file: snapshot header at line {k + 1} is "
+                             f"incomplete") from None
+        except ValueError as exc:
+            raise ValueError(f"{path}: malformed snapshot header near line {k + 1}: "
+                             f"{exc}") from None
+        columns = cols_line.split()[2:]
+        body = lines[k + 9:k + 9 + natoms]
+        if len(body) < natoms:
+            raise ValueError(f"{path}: truncated file: snapshot at step {step} declares "
+                             f"{natoms} atoms but has {len(body)} atom lines")
+        frames.append((step, natoms, bounds, flags, columns, body, k + 10))
+        k += 9 + natoms
+    if not frames:
+        raise ValueError(f"{path}: no snapshot found (empty file?)")
+    return frames
+
+
+def _parse_body(path, columns, body, first_line):
+    ncol = len(columns)
+    rows = []
+    for m, line in enumerate(body):
+        parts = line.split()
+        if len(parts) != ncol:
+            raise ValueError(f"{path}: line {first_line + m}: expected {ncol} values, got "
+                             f"{len(parts)} (truncated or corrupt line)")
+        rows.append(parts)
+    try:
+        data = np.array(rows, dtype=np.float64)
+    except ValueError as exc:
+        raise ValueError(f"{path}: non-numeric value in the atom lines: {exc}") from None
+    return data.reshape(len(body), ncol)
+
+
+def _history_columns(columns, prefix):
+    """Indices of prefix[1..K] columns in order (or of the expanded prefix[*])."""
+    found = {}
+    for c, name in enumerate(columns):
+        if name.startswith(prefix + "[") and name.endswith("]"):
+            try:
+                found[int(name[len(prefix) + 1:-1])] = c
+            except ValueError:
+                raise ValueError(f"unreadable history column name {name!r}") from None
+    if not found:
+        return None
+    K = max(found)
+    missing = [k for k in range(1, K + 1) if k not in found]
+    if missing:
+        raise ValueError(f"history columns {prefix}{missing} are missing (have "
+                         f"{sorted(found)})")
+    return [found[k] for k in range(1, K + 1)]
+
+
+def load_sidecar(path):
+    """Read ``<dump>.json``; returns a dict (empty if the file does not exist).
+
+    Raises
+    ------
+    ValueError
+        If the JSON is unreadable or a value is not a number (or null for wall_y).
+    """
+    side = path + ".json"
+    if not os.path.exists(side):
+        return {}
+    try:
+        with open(side) as fh:
+            data = json.load(fh)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{side}: not valid JSON: {exc}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{side}: expected a JSON object, got {type(data).__name__}")
+    out = {}
+    for key in PARAM_KEYS:
+        if key in data:
+            val = data[key]
+            if val is None and key == "wall_y":
+                out[key] = None
+                continue
+            if isinstance(val, bool) or not isinstance(val, (int, float)):
+                raise ValueError(f"{side}: {key} must be a number, got {val!r}")
+            out[key] = float(val)
+    return out
+
+
+def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=None,
+              F_y=None, dt=None, no_wall=False, mirror_rtol=1e-9, require_contacts=True,
+              inertia_factor=DISC_INERTIA):
+    """Read one snapshot of an equilibrium dump into a :class:`State`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Text ``dump custom`` file (docs/conventions.md section 3).
+    frame : int, optional
+        Which snapshot, Python indexing (default the last one).
+    k_n, k_t, mu, wall_y, F_x, F_y, dt : float, optional
+        Model parameters; each overrides the sidecar ``<path>.json``. k_n, k_t,
+        mu and wall_y are required from one of the two sources.
+    no_wall : bool, optional
+        Read a system without the flat wall (wall_y ignored, wall history must
+        be zero).
+    mirror_rtol : float, optional
+        The two sides of a contact must satisfy
+        ``|xi_ij - xi_ji| <= mirror_rtol * max(t*, |xi_ij|)``; LAMMPS writes
+        exact mirrors, so the default 1e-9 only absorbs periodic-image rounding.
+    require_contacts : bool, optional
+        Raise if the packing has no contact at all (default True).
+    inertia_factor : float, optional
+        I0 in I = I0 m R^2 (default 1/2, ``fix nve/sphere ... disc``).
+
+    Returns
+    -------
+    State
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        Truncated or malformed file, missing columns, NaN/inf values, ids not
+        unique, non-positive radius or mass, overlapping centres, history
+        naming an unknown atom, a contact listed on one side only or with
+        mirror values that differ, missing parameters, or no contacts.
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"dump file not found: {path}")
+    frames = _read_frames(path)
+    try:
+        step, natoms, bounds, flags, columns, body, first = frames[frame]
+    except IndexError:
+        raise ValueError(f"{path}: frame {frame} does not exist ({len(frames)} "
+                         f"snapshots)") from None
+    missing = [c for c in REQUIRED_COLUMNS if c not in columns]
+    pcols = _history_columns(columns, PARTNER)
+    xcols = _history_columns(columns, XI)
+    if pcols is None:
+        missing.append(PARTNER + "[*]")
+    if xcols is None:
+        missing.append(XI + "[*]")
+    if missing:
+        raise ValueError(f"{path}: missing dump columns {missing}; the analyzer needs "
+                         f"'{' '.join(REQUIRED_COLUMNS[:-1])} {PARTNER}[*] {XI}[*] "
+                         f"d_mindlin_wall_t' (docs/conventions.md section 3)")
+    if len(pcols) != len(xcols):
+        raise ValueError(f"{path}: {len(pcols)} {PARTNER} columns but {len(xcols)} {XI} "
+                         f"columns")
+    data = _parse_body(path, columns, body, first)
+    if natoms == 0:
+        raise ValueError(f"{path}: the snapshot has no atoms")
+    col = {name: c for c, name in enumerate(columns)}
+    bad = ~np.isfinite(data)
+    if np.any(bad):
+        r, c = np.argwhere(bad)[0]
+        raise ValueError(f"{path}: non-finite value {float(data[r, c])!r} in column "
+                         f"{columns[c]!r} of atom line {r + 1} (line {first + r} of the file)")
+
+    ids_f = data[:, col["id"]]
+    ids = ids_f.astype(np.int64)
+    if np.any(ids != ids_f) or np.any(ids <= 0):
+        raise ValueError(f"{path}: atom ids must be positive integers")
+    order = np.argsort(ids, kind="stable")
+    data = data[order]
+    ids = ids[order]
+    if np.any(np.diff(ids) == 0):
+        dup = ids[np.nonzero(np.diff(ids) == 0)[0][0]]
+        raise ValueError(f"{path}: atom id {dup} appears twice")
+
+    side = load_sidecar(path)
+    given = dict(k_n=k_n, k_t=k_t, mu=mu, wall_y=wall_y, F_x=F_x, F_y=F_y, dt=dt)
+    par = {key: (given[key] if given[key] is not None else side.get(key)) for key in PARAM_KEYS}
+    lack = [key for key in ("k_n", "k_t", "mu") if par[key] is None]
+    if par["wall_y"] is None and not no_wall:
+        lack.append("wall_y")
+    if lack:
+        raise ValueError(f"{path}: model parameters {lack} are neither in the sidecar "
+                         f"{path + '.json'} nor given explicitly")
+    params = ContactParams(par["k_n"], par["k_t"], par["mu"])
+
+    lo = bounds[:2, 0].copy()
+    hi = bounds[:2, 1].copy()
+    periodic = tuple(len(flags) > a and flags[a] == "pp" for a in range(2))
+    if np.any(hi <= lo):
+        raise ValueError(f"{path}: box bounds must satisfy lo < hi, got {bounds[:2].tolist()}")
+
+    partners = data[:, pcols]
+    xis = data[:, xcols]
+    wall_t = data[:, col["d_mindlin_wall_t"]]
+    extras = {}
+    for name in OPTIONAL_COLUMNS:
+        extras[name] = data[:, col[name]] if name in col else None
+    vel = (np.column_stack([extras["vx"], extras["vy"]])
+           if extras["vx"] is not None and extras["vy"] is not None else None)
+    return build_state(
+        ids=ids, positions=data[:, [col["x"], col["y"]]], radii=data[:, col["radius"]],
+        masses=data[:, col["mass"]], box_lo=lo, box_hi=hi, periodic=periodic, params=params,
+        wall_y=None if no_wall else float(par["wall_y"]),
+        partners=partners, partner_xi=xis, wall_t=wall_t,
+        external=data[:, [col["v_fext_x"], col["v_fext_y"]]],
+        contact_forces=data[:, [col["fx"], col["fy"], col["tqz"]]],
+        velocities=vel, omega=extras["omegaz"], types=data[:, col["type"]].astype(np.int64),
+        F_x=par["F_x"], F_y=par["F_y"], dt=par["dt"], timestep=step, source=path,
+        mirror_rtol=mirror_rtol, require_contacts=require_contacts,
+        inertia_factor=inertia_factor)
+
+
+def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y,
+                partners=None, partner_xi=None, wall_t=None, periodic=(True, False),
+                external=None, contact_forces=None, velocities=None, omega=None, types=None,
+                F_x=None, F_y=None, dt=None, timestep=None, source=None, mirror_rtol=1e-9,
+                require_contacts=True, inertia_factor=DISC_INERTIA):
+    """Build a :class:`State` from per-atom arrays in the dump's layout.
+
+    Parameters
+    ----------
+    ids : array_like of int, shape (N,)
+        Atom ids (any order; the state is sorted by id).
+    positions : array_like, shape (N, 2)
+    radii, masses : array_like, shape (N,)
+    box_lo, box_hi : array_like, shape (2,)
+    params : ContactParams
+    wall_y : float or None
+    partners : array_like of int, shape (N, K), optional
+        ``i2_mindlin_partner``: partner ids, 0 for empty slots. None means no
+        history at all (every geometric contact gets xi = 0).
+    partner_xi : array_like, shape (N, K), optional
+        ``d2_mindlin_t``.
+    wall_t : array_like, shape (N,), optional
+        ``d_mindlin_wall_t``.
+    periodic : sequence of bool
+    external : array_like, shape (N, 2), optional
+        External loads (zero if None).
+    mirror_rtol : float
+        Tolerance of the mirror check (see :func:`read_dump`).
+    require_contacts : bool
+    inertia_factor : float
+
+    Other parameters are stored as given (see :class:`State`).
+
+    Returns
+    -------
+    State
+
+    Raises
+    ------
+    ValueError
+        See :func:`read_dump`.
+    """
+    ids = np.asarray(ids).astype(np.int64)
+    n = ids.size
+    pos = np.asarray(positions, dtype=np.float64).reshape(n, 2)
+    radii = np.asarray(radii, dtype=np.float64).reshape(n)
+    masses = np.asarray(masses, dtype=np.float64).reshape(n)
+    _check_params(params, wall_y)
+    for name, arr in (("positions", pos), ("radius", radii), ("mass", masses)):
+        if not np.all(np.isfinite(arr)):
+            k = int(np.argwhere(~np.isfinite(arr))[0][0])
+            raise ValueError(f"{name} of atom id {ids[k]} is not finite: {float(arr[k])!r}")
+    if np.any(radii <= 0):
+        k = int(np.argmax(radii <= 0))
+        raise ValueError(f"radius of atom id {ids[k]} must be > 0, got {float(radii[k])!r}")
+    if np.any(masses <= 0):
+        k = int(np.argmax(masses <= 0))
+        raise ValueError(f"mass of atom id {ids[k]} must be > 0, got {float(masses[k])!r}")
+    order = np.argsort(ids, kind="stable")
+    if np.any(np.diff(ids[order]) == 0):
+        raise ValueError(f"atom id {ids[order][np.argmax(np.diff(ids[order]) == 0)]} "
+                         f"appears twice")
+
+    def srt(a, shape=None, dtype=np.float64):
+        if a is None:
+            return None
+        a = np.asarray(a, dtype=dtype)
+        if shape is not None:
+            a = a.reshape(shape)
+        return a[order].copy()
+
+    ids = ids[order]
+    pos, radii, masses = pos[order].copy(), radii[order].copy(), masses[order].copy()
+    external = np.zeros((n, 2)) if external is None else srt(external, (n, 2))
+    box_lo = np.asarray(box_lo, np.float64)[:2].copy()
+    box_hi = np.asarray(box_hi, np.float64)[:2].copy()
+    L = box_hi - box_lo
+    periodic = tuple(bool(p) for p in periodic)
+
+    gi, gj, rho = find_contacts(pos, radii, box_lo, box_hi, periodic, ids=ids)
+    notes = {"unrecorded_contacts": 0, "stale_history": 0, "stale_wall_history": 0}
+
+    # ---- disk-disk history -> (i, j, xi) with the mirror check
+    if partners is not None:
+        P = srt(partners, (n, -1), np.float64)
+        X = srt(partner_xi, P.shape, np.float64)
+        if np.any(P != np.round(P)) or np.any(P < 0):
+            raise ValueError(f"{PARTNER} must hold non-negative integer atom ids")
+        P = P.astype(np.int64)
+        rows, slots = np.nonzero(P > 0)
+        pid = P[rows, slots]
+        pxi = X[rows, slots]
+        cidx = np.searchsorted(ids, pid)
+        cidx = np.minimum(cidx, n - 1)
+        unknown = ids[cidx] != pid
+        if np.any(unknown):
+            k = int(np.argmax(unknown))
+            raise ValueError(f"history of atom id {ids[rows[k]]} names partner id {pid[k]}, "
+                             f"which is not in the snapshot")
+        self_c = cidx == rows
+        if np.any(self_c):
+            raise ValueError(f"atom id {ids[rows[np.argmax(self_c)]]} lists itself as a "
+                             f"contact partner")
+        keys = rows * n + cidx
+        ks = np.argsort(keys)
+        keys, rows, cidx, pxi = keys[ks], rows[ks], cidx[ks], pxi[ks]
+        if np.any(np.diff(keys) == 0):
+            k = int(np.argmax(np.diff(keys) == 0))
+            raise ValueError(f"atom id {ids[rows[k]]} lists partner id {ids[cidx[k]]} twice")
+        # every entry must have its mirror (j lists i)
+        mkeys_all = cidx * n + rows
+        mpos_all = np.minimum(np.searchsorted(keys, mkeys_all), keys.size - 1)
+        lone = keys[mpos_all] != mkeys_all
+        if np.any(lone):
+            k = int(np.argmax(lone))
+            raise ValueError(f"contact {ids[rows[k]]}-{ids[cidx[k]]} is in the history of "
+                             f"atom id {ids[rows[k]]} but not in that of atom id "
+                             f"{ids[cidx[k]]} (the two sides must mirror each other)")
+        prim = rows < cidx
+        hi_, hj, hxi = rows[prim], cidx[prim], pxi[prim]
+        mxi = pxi[mpos_all[prim]]
+        # scale of the check: t* of the contact (or |xi| without friction)
+        d = minimum_image(pos[hi_] - pos[hj], L, periodic)
+        delta_h = radii[hi_] + radii[hj] - np.hypot(d[:, 0], d[:, 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ts = (params.mu * params.k_n * np.maximum(delta_h, 0.0) / params.k_t
+                  if params.k_t > 0 else np.full(delta_h.shape, np.inf))
+        scale = np.maximum(np.abs(hxi), np.where(np.isfinite(ts), ts, 0.0))
+        mism = np.abs(hxi - mxi) > mirror_rtol * scale
+        if np.any(mism):
+            k = int(np.argmax(mism))
+            raise ValueError(f"contact {ids[hi_[k]]}-{ids[hj[k]]}: the two sides of the "
+                             f"history disagree, xi = {float(hxi[k])!r} on atom id "
+                             f"{ids[hi_[k]]} and {float(mxi[k])!r} on atom id {ids[hj[k]]} "
+                             f"(must be equal)")
+        hxi = 0.5 * (hxi + mxi)
+    else:
+        hi_ = hj = np.zeros(0, np.int64)
+        hxi = np.zeros(0)
+
+    # ---- merge with the geometric contacts
+    gkeys = gi * n + gj
+    hkeys = hi_ * n + hj
+    in_geo = np.isin(hkeys, gkeys)
+    stale = int((~in_geo).sum())
+    unrec = ~np.isin(gkeys, hkeys)
+    notes["stale_history"] = stale
+    notes["unrecorded_contacts"] = int(unrec.sum()) if partners is not None else 0
+    ci = np.concatenate([hi_[in_geo], gi[unrec]])
+    cj = np.concatenate([hj[in_geo], gj[unrec]])
+    cxi = np.concatenate([hxi[in_geo], np.zeros(int(unrec.sum()))])
+    srt_c = np.lexsort((cj, ci))
+    ci, cj, cxi = ci[srt_c], cj[srt_c], cxi[srt_c]
+
+    # ---- wall
+    if wall_y is not None:
+        wdelta_all = radii - (pos[:, 1] - wall_y)
+        widx = np.nonzero(wdelta_all > 0.0)[0].astype(np.int64)
+        wt = np.zeros(n) if wall_t is None else srt(wall_t, (n,))
+        wxi = wt[widx].copy()
+        stale_w = int(np.count_nonzero((wdelta_all <= 0.0) & (wt != 0.0)))
+        notes["stale_wall_history"] = stale_w
+        wdelta = wdelta_all[widx]
+        if np.any(wdelta >= radii[widx]):
+            k = widx[np.argmax(wdelta >= radii[widx])]
+            raise ValueError(f"the centre of atom id {ids[k]} (y = {float(pos[k, 1])!r}) is at or "
+                             f"below the wall y = {wall_y!r}")
+    else:
+        widx = np.zeros(0, np.int64)
+        wxi = np.zeros(0)
+        wdelta = np.zeros(0)
+        if wall_t is not None and np.any(np.asarray(wall_t) != 0.0):
+            raise ValueError("wall history d_mindlin_wall_t is nonzero but no wall is given "
+                             "(wall_y is None)")
+
+    if partners is not None and (notes["stale_history"] or notes["unrecorded_contacts"]
+                                 or notes["stale_wall_history"]):
+        warnings.warn(f"{source or 'state'}: history and geometry disagree: "
+                      f"{notes['unrecorded_contacts']} overlapping pairs without history "
+                      f"(kept with xi = 0), {notes['stale_history']} history entries without "
+                      f"overlap and {notes['stale_wall_history']} stale wall entries "
+                      f"(dropped)", UserWarning, stacklevel=3)
+
+    if require_contacts and ci.size == 0 and widx.size == 0:
+        raise ValueError(f"{source or 'state'}: no contacts: none of the {n} disks overlaps "
+                         f"another disk or the wall, so there is no stiffness to analyse")
+
+    return State(
+        ids=ids, positions=pos, radii=radii, masses=masses,
+        inertia=float(inertia_factor) * masses * radii**2, box_lo=box_lo, box_hi=box_hi,
+        periodic=periodic, params=params, wall_y=None if wall_y is None else float(wall_y),
+        contact_i=ci.astype(np.int64), contact_j=cj.astype(np.int64),
+        contact_xi=cxi.astype(np.float64), wall_index=widx, wall_xi=wxi.astype(np.float64),
+        wall_delta=wdelta.astype(np.float64), external=external,
+        contact_forces=srt(contact_forces, (n, 3)), velocities=srt(velocities, (n, 2)),
+        omega=srt(omega, (n,)), types=srt(types, (n,), np.int64), F_x=F_x, F_y=F_y, dt=dt,
+        timestep=timestep, source=source, notes=notes)

@@ -1,0 +1,311 @@
+"""Configuration of the driver stages: frozen, validated dataclasses.
+
+Every stage takes one configuration object. All fields have defaults (the
+paper's values, MODEL.md), are validated in ``__post_init__`` (a
+:class:`ConfigError`, a ``ValueError``, names the field and the bad value),
+and round-trip through HDF5 attributes (:meth:`StageConfig.to_attrs`,
+:meth:`StageConfig.from_attrs`). :meth:`StageConfig.from_dict` rejects
+unknown keys.
+
+Units are LAMMPS ``lj`` units of the model (mass m = 1, length 2 R1 = 1).
+"""
+from dataclasses import dataclass, fields, asdict
+import json
+import math
+import os
+
+
+class ConfigError(ValueError):
+    """A configuration value is invalid; the message names field and value."""
+
+
+def _num(name, val):
+    if isinstance(val, bool) or not isinstance(val, (int, float)):
+        raise ConfigError(f"{name} must be a number, got {name} = {val!r}")
+    if not math.isfinite(val):
+        raise ConfigError(f"{name} must be finite, got {name} = {val!r}")
+    return float(val)
+
+
+def _positive(name, val):
+    if _num(name, val) <= 0:
+        raise ConfigError(f"{name} must be > 0, got {name} = {val!r}")
+
+
+def _nonneg(name, val):
+    if _num(name, val) < 0:
+        raise ConfigError(f"{name} must be >= 0, got {name} = {val!r}")
+
+
+def _int(name, val, lo):
+    if isinstance(val, bool) or not isinstance(val, int):
+        raise ConfigError(f"{name} must be an integer, got {name} = {val!r}")
+    if val < lo:
+        raise ConfigError(f"{name} must be >= {lo}, got {name} = {val!r}")
+
+
+@dataclass(frozen=True)
+class StageConfig:
+    """Model parameters shared by every stage.
+
+    Attributes
+    ----------
+    datafile : str
+        LAMMPS data file to start from (must exist).
+    k_n : float
+        Normal stiffness (Eq. 1), > 0. Default 2e5.
+    k_t : float or None
+        Tangential stiffness (Eq. 3), >= 0; None means 2 k_n / 7.
+    mu : float
+        Friction coefficient (Eq. 2, static mu_0), >= 0. Default 1.
+    F_y : float
+        Downward load on each ``top`` disk, > 0. Default 3.
+    dt : float
+        Time step, > 0. Default 1e-3.
+    """
+
+    datafile: str = ""
+    k_n: float = 2e5
+    k_t: float = None
+    mu: float = 1.0
+    F_y: float = 3.0
+    dt: float = 1e-3
+
+    def __post_init__(self):
+        if not isinstance(self.datafile, (str, os.PathLike)) or not str(self.datafile):
+            raise ConfigError(f"datafile must be a file name, got datafile = {self.datafile!r}")
+        object.__setattr__(self, "datafile", os.fspath(self.datafile))
+        if not os.path.isfile(self.datafile):
+            raise ConfigError(f"datafile does not exist: datafile = {self.datafile!r}")
+        _positive("k_n", self.k_n)
+        if self.k_t is None:
+            object.__setattr__(self, "k_t", 2.0 * float(self.k_n) / 7.0)
+        _nonneg("k_t", self.k_t)
+        _nonneg("mu", self.mu)
+        _positive("F_y", self.F_y)
+        _positive("dt", self.dt)
+        self.validate()
+
+    def validate(self):
+        """Stage-specific checks (overridden)."""
+
+    # ------------------------------------------------------------ conversion
+    @classmethod
+    def from_dict(cls, data):
+        """Build from a mapping; unknown keys raise :class:`ConfigError`."""
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ConfigError(f"unknown configuration key(s) for {cls.__name__}: "
+                              f"{', '.join(unknown)} (known: {', '.join(sorted(names))})")
+        return cls(**dict(data))
+
+    def replace(self, **changes):
+        """Copy with some fields changed (validated again)."""
+        d = asdict(self)
+        d.update(changes)
+        return type(self).from_dict(d)
+
+    def to_attrs(self):
+        """Dict for HDF5 attributes: None becomes the string ``'None'``."""
+        out = {"config_class": type(self).__name__}
+        for k, v in asdict(self).items():
+            out[k] = "None" if v is None else v
+        return out
+
+    @classmethod
+    def from_attrs(cls, attrs, check_file=True):
+        """Inverse of :meth:`to_attrs` (extra attributes are ignored)."""
+        names = {f.name for f in fields(cls)}
+        d = {}
+        for k in names:
+            if k in attrs:
+                v = attrs[k]
+                if hasattr(v, "item"):
+                    v = v.item()
+                if isinstance(v, bytes):
+                    v = v.decode()
+                d[k] = None if v == "None" else v
+        return cls.from_dict(d)
+
+    def to_json(self):
+        """JSON text of the configuration."""
+        return json.dumps(asdict(self), sort_keys=True)
+
+
+@dataclass(frozen=True)
+class RelaxConfig(StageConfig):
+    """Relaxation to mechanical equilibrium (MODEL.md section 6, step 1).
+
+    Attributes
+    ----------
+    F_x : float
+        Horizontal load on each ``top`` disk (any sign). Default 0.
+    f_min : float
+        Target residual max_i max(|F_i|, |T_i|/R_i), > 0. Default 1e-15 (paper).
+    f_accept : float
+        Largest residual accepted as "equilibrium at round-off level" when
+        Newton stagnates above f_min (double precision cannot resolve forces
+        below ~ k_eff eps |x|); >= f_min. Default 1e-10.
+    gamma, gamma_rot : float
+        Damping of the over-damped dynamics: ``fix viscous`` rate (1/time,
+        m = 1) and ``fix viscous/sphere`` coefficient; > 0. Defaults 2, 0.1.
+    settle_steps : int
+        Compaction aid for a loose packing (0 = off): steps of frictionless
+        (``mu_settle``) damped dynamics with gravity ``g_settle`` on all
+        disks, before the real relaxation. Default 0.
+    mu_settle, g_settle : float
+        Defaults 0 and 0.05.
+    check_every : int
+        Damped steps between residual checks, >= 1. Default 1000.
+    max_steps : int
+        Give up after this many damped steps, >= 1. Default 5,000,000.
+    newton : bool
+        Polish with Newton steps (analytic stiffness). Default True.
+    newton_start : float
+        Newton is tried once the residual is below newton_start * F_y, > 0.
+        Default 1e-3.
+    newton_iter : int
+        Maximum Newton iterations per attempt, >= 1. Default 30.
+    slide : float
+        Error (no equilibrium) once the mean x displacement of ``top`` from
+        the start exceeds this length, > 0. Default 2.
+    """
+
+    F_x: float = 0.0
+    f_min: float = 1e-15
+    f_accept: float = 1e-10
+    gamma: float = 2.0
+    gamma_rot: float = 0.1
+    settle_steps: int = 0
+    mu_settle: float = 0.0
+    g_settle: float = 0.05
+    check_every: int = 1000
+    max_steps: int = 5_000_000
+    newton: bool = True
+    newton_start: float = 1e-3
+    newton_iter: int = 30
+    slide: float = 2.0
+
+    def validate(self):
+        _num("F_x", self.F_x)
+        _positive("f_min", self.f_min)
+        _positive("f_accept", self.f_accept)
+        if self.f_accept < self.f_min:
+            raise ConfigError(f"f_accept must be >= f_min = {self.f_min!r}, got "
+                              f"f_accept = {self.f_accept!r}")
+        _positive("gamma", self.gamma)
+        _positive("gamma_rot", self.gamma_rot)
+        _int("settle_steps", self.settle_steps, 0)
+        _nonneg("mu_settle", self.mu_settle)
+        _nonneg("g_settle", self.g_settle)
+        _int("check_every", self.check_every, 1)
+        _int("max_steps", self.max_steps, 1)
+        if not isinstance(self.newton, bool):
+            raise ConfigError(f"newton must be True or False, got newton = {self.newton!r}")
+        _positive("newton_start", self.newton_start)
+        _int("newton_iter", self.newton_iter, 1)
+        _positive("slide", self.slide)
+
+
+@dataclass(frozen=True)
+class RampConfig(RelaxConfig):
+    """F_x ramp with eigenvalue analysis and bisection (MODEL.md section 6, step 2).
+
+    Attributes
+    ----------
+    F_x : float
+        Start value of the ramp (the data file is re-equilibrated there first).
+    dF_x : float
+        Ramp step, > 0. Default 1e-4 (paper).
+    F_x_max : float
+        Stop (no complex pair found) beyond this value, > F_x. Default 1.
+    tol : float
+        Bisection tolerance on F_x^c, > 0. Default 1e-7.
+    """
+
+    dF_x: float = 1e-4
+    F_x_max: float = 1.0
+    tol: float = 1e-7
+
+    def validate(self):
+        super().validate()
+        _positive("dF_x", self.dF_x)
+        _num("F_x_max", self.F_x_max)
+        if self.F_x_max <= self.F_x:
+            raise ConfigError(f"F_x_max must be > F_x = {self.F_x!r}, got "
+                              f"F_x_max = {self.F_x_max!r}")
+        _positive("tol", self.tol)
+
+
+@dataclass(frozen=True)
+class DynamicsConfig(StageConfig):
+    """Undamped runs from an equilibrium (perturbation and instability).
+
+    Attributes
+    ----------
+    F_x : float
+        Horizontal load of the run (should match the equilibrium's).
+    t_max : float
+        Simulated time, > 0. Default 1000.
+    record_every : int
+        Steps between records of D(t), v and mu, >= 1. Default 100.
+    a : float
+        Amplitude of f(t) = a cos(omega_p t) added to F_x on ``top``, >= 0.
+        Default 1e-12 (paper).
+    omega_p : float
+        Angular frequency of f(t), >= 0. Default 0.01.
+    B, w, mu_ss : float
+        mu(v) law (Eq. 4): mu = mu0 (B exp(-w (v~ - v~0)) + mu_ss) above v~0;
+        defaults 0.2, 0.4, 0.8 (mu0 is ``mu``).
+    v0 : float or None
+        Threshold velocity; None means measured by run (a).
+    v_ss : float or None
+        Velocity scale of v~ = v / v_ss; None means v_ss = v0.
+    d_sat : float
+        Instability: stop once D(t) exceeds this, > 0. Default 1e-2.
+    """
+
+    F_x: float = 0.0
+    t_max: float = 1000.0
+    record_every: int = 100
+    a: float = 1e-12
+    omega_p: float = 0.01
+    B: float = 0.2
+    w: float = 0.4
+    mu_ss: float = 0.8
+    v0: float = None
+    v_ss: float = None
+    d_sat: float = 1e-2
+
+    def validate(self):
+        _num("F_x", self.F_x)
+        _positive("t_max", self.t_max)
+        _int("record_every", self.record_every, 1)
+        _nonneg("a", self.a)
+        _nonneg("omega_p", self.omega_p)
+        _nonneg("B", self.B)
+        _nonneg("w", self.w)
+        _nonneg("mu_ss", self.mu_ss)
+        for name in ("v0", "v_ss"):
+            val = getattr(self, name)
+            if val is not None:
+                _positive(name, val)
+        _positive("d_sat", self.d_sat)
+
+
+def check_packing_args(n, seed, phi=0.82):
+    """Validate the arguments of the packing generator.
+
+    Raises
+    ------
+    ConfigError
+        If n is not an even integer >= 6, seed is not a non-negative integer,
+        or phi is outside (0.1, 0.91).
+    """
+    _int("n", n, 6)
+    if n % 2:
+        raise ConfigError(f"n must be even (equal numbers of both radii), got n = {n}")
+    _int("seed", seed, 0)
+    if not 0.1 < _num("phi", phi) < 0.91:
+        raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {phi!r}")

@@ -1,0 +1,330 @@
+"""Mechanical equilibrium: over-damped dynamics and Newton polishing.
+
+The residual of disk i is its generalized force (paper Eq. 42)
+
+.. math::
+
+    G_i = (F_{x,i},\ F_{y,i},\ T_i / R_i), \qquad
+    r = \max_i \max(|F_i|, |T_i|/R_i),
+
+contact forces plus the external loads on ``top``. Equilibrium means
+r < f_min (paper: 1e-15).
+
+Newton polishing
+----------------
+With K = -dG/dq the analytic stiffness (``remote_trigger.analysis.jacobian``,
+paper Appendix C), one Newton step solves K dq = G and applies dq *as a
+displacement that advances the contact history by the same increment rule as
+the dynamics* (Eq. 14): with no integrator fix defined, the driver sets
+x += dq_xy, v = dq_xy / dt and omega = dphi / (R dt), runs one step (the pair
+style and the wall fix add dt (s.(v_i - v_j) + R_i w_i + R_j w_j) = d xi to
+the history; nothing moves the atoms), then zeroes the velocities. A step is
+accepted only if it lowers r; otherwise the previous state is restored and
+polishing stops, so the residual history is monotone once polishing starts.
+
+.. warning::
+
+   Double precision bounds the residual that any method can reach: a
+   position x carries an error ~ eps |x| and a contact of stiffness
+   k_eff = (3/2) k_n delta^(1/2) (~ 7e3 at the default loads) turns it into
+   a force error ~ k_eff eps |x| ~ 1e-12 -- 1e-11 for |x| ~ 5 -- 10. The
+   paper's f_min = 1e-15 is therefore below round-off for its own packing;
+   the driver reports the residual it reached and accepts a stagnating
+   Newton iteration below ``f_accept``.
+"""
+from dataclasses import dataclass, field
+import time
+
+import numpy as np
+
+DAMPING_FIXES = ("damp", "rdamp")
+#: largest displacement (length) one Newton step may apply; longer steps are
+#: scaled down (and accepted only if they lower the residual)
+MAX_NEWTON_STEP = 0.02
+INTEGRATOR_FIXES = ("integ",)
+
+
+class NoEquilibriumError(RuntimeError):
+    """No mechanical equilibrium: the top layer slides away (or never settles)."""
+
+
+@dataclass
+class RelaxRecord:
+    """History of one relaxation (all lists have one entry per check).
+
+    Attributes
+    ----------
+    time : list of float
+        Simulated time of damped dynamics so far (lj units).
+    residual : list of float
+        r after that check (damped phase: estimate with the damping force
+        removed; Newton phase: exact, v = 0).
+    phase : list of str
+        ``'damped'`` or ``'newton'``.
+    wall : list of float
+        Wall-clock seconds since the start.
+    """
+
+    time: list = field(default_factory=list)
+    residual: list = field(default_factory=list)
+    phase: list = field(default_factory=list)
+    wall: list = field(default_factory=list)
+
+    def add(self, t, r, phase, t0):
+        self.time.append(float(t))
+        self.residual.append(float(r))
+        self.phase.append(phase)
+        self.wall.append(time.perf_counter() - t0)
+
+
+def residual_of(state, damping=None):
+    """Generalized residual G (N, 3) and r from a gathered :class:`AtomState`.
+
+    Parameters
+    ----------
+    state : AtomState
+        With ``f`` and ``torque`` of the last force evaluation.
+    damping : tuple (gamma, gamma_rot), optional
+        Remove the viscous forces -gamma v and torques -gamma_rot omega that
+        ``fix viscous`` / ``fix viscous/sphere`` added.
+
+    Returns
+    -------
+    G : ndarray, shape (N, 3)
+    r : float
+    """
+    f = state.f.copy()
+    tq = state.torque.copy()
+    if damping is not None:
+        f += damping[0] * state.v
+        tq += damping[1] * state.omega
+    G = np.column_stack([f, tq / state.radius])
+    r = max(float(np.max(np.hypot(G[:, 0], G[:, 1]))), float(np.max(np.abs(G[:, 2]))))
+    return G, r
+
+
+def analysis_state(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0):
+    """Convert an :class:`AtomState` into ``remote_trigger.analysis`` State."""
+    from remote_trigger.analysis.state import ContactParams, build_state
+
+    ext = np.zeros((state.n, 2))
+    ext[state.top, 0] = F_x
+    ext[state.top, 1] = -F_y
+    return build_state(
+        ids=state.ids, positions=state.x, radii=state.radius, masses=state.mass,
+        box_lo=state.box_lo, box_hi=state.box_hi,
+        params=ContactParams(float(k_n), float(k_t), float(mu)), wall_y=wall_y,
+        partners=state.partner, partner_xi=state.xi, wall_t=state.wall_xi, external=ext,
+        velocities=state.v, omega=state.omega, types=state.types, F_x=F_x, F_y=F_y,
+        require_contacts=False)
+
+
+def stiffness_dense(state, k_n, k_t, mu, F_x, F_y):
+    """Dense K = -dG/dq (3N x 3N) of a gathered state (analysis Jacobian)."""
+    from remote_trigger.analysis import jacobian
+
+    st = analysis_state(state, k_n, k_t, mu, F_x, F_y)
+    K = jacobian.stiffness_matrix(st)
+    return K.toarray() if hasattr(K, "toarray") else np.asarray(K)
+
+
+def newton_step(K, G):
+    """Solve K dq = G for dq (shape (N, 3)), ignoring disks without contacts.
+
+    Rows and columns that are entirely zero (contactless disks) are dropped;
+    the rest is solved by LU, or by least squares if K is singular (a disk
+    held by one contact has a zero rolling mode).
+    """
+    import scipy.linalg as sla
+
+    g = G.reshape(-1)
+    live = np.any(K != 0.0, axis=1) | np.any(K != 0.0, axis=0)
+    idx = np.nonzero(live)[0]
+    dq = np.zeros_like(g)
+    if idx.size == 0:
+        return dq.reshape(-1, 3)
+    Kr = K[np.ix_(idx, idx)]
+    gr = g[idx]
+    sol = None
+    import warnings
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", sla.LinAlgWarning)
+            lu = sla.lu_factor(Kr, check_finite=True)
+        if np.all(np.isfinite(lu[0])) and np.min(np.abs(np.diag(lu[0]))) > \
+                1e-13 * np.max(np.abs(np.diag(lu[0]))):
+            sol = sla.lu_solve(lu, gr)
+    except (sla.LinAlgError, ValueError):
+        sol = None
+    if sol is None or not np.all(np.isfinite(sol)):
+        sol = sla.lstsq(Kr, gr, cond=1e-14)[0]
+    dq[idx] = sol
+    return dq.reshape(-1, 3)
+
+
+def exact_residual(eng):
+    """r of the current state with v = 0 and no damping/integrator fix: ``run 0``."""
+    eng.run(0, pre=True)
+    st = eng.gather_state()
+    G, r = residual_of(st)
+    return st, G, r
+
+
+def polish(eng, cfg, F_x, record, t0, t_sim, target=None):
+    """Newton iterations on the live LAMMPS state (see module docstring).
+
+    Parameters
+    ----------
+    eng : Engine
+        Scene loaded, no damping or integrator fix, velocities zero.
+    cfg : RelaxConfig
+    F_x : float
+        Current horizontal load (for the external forces of the Jacobian).
+    record : RelaxRecord
+        Appended with one ``'newton'`` entry per accepted step.
+    t0 : float
+        perf_counter at the start of the relaxation.
+    t_sim : float
+        Simulated damped time so far (for the record).
+    target : float, optional
+        Stop below this residual (default ``cfg.f_min``).
+
+    Returns
+    -------
+    r : float
+        Residual reached (the state in LAMMPS is the best one found).
+    stagnated : bool
+        True if the last step did not lower the residual.
+    """
+    target = cfg.f_min if target is None else target
+    state, G, r = exact_residual(eng)
+    record.add(t_sim, r, "newton", t0)
+    stagnated = False
+    for _ in range(cfg.newton_iter):
+        if r < target:
+            break
+        dq = None
+        if eng.rank == 0:   # one solve, broadcast: every rank applies the same step
+            K = stiffness_dense(state, cfg.k_n, cfg.k_t, cfg.mu, F_x, cfg.F_y)
+            dq = newton_step(K, G)
+        dq = eng.comm.bcast(dq, root=0)
+        if not np.all(np.isfinite(dq)):
+            stagnated = True
+            break
+        big = float(np.max(np.abs(dq)))
+        if big > MAX_NEWTON_STEP:      # far from the basin: shorten the step
+            dq *= MAX_NEWTON_STEP / big
+        eng.scatter("x", state.x + dq[:, :2])
+        eng.scatter("v", dq[:, :2] / cfg.dt)
+        eng.scatter("omega", dq[:, 2] / (state.radius * cfg.dt))
+        eng.run(1, pre=True)
+        eng.scatter("v", np.zeros((state.n, 2)))
+        eng.scatter("omega", np.zeros(state.n))
+        new = eng.gather_state()
+        G_new, r_new = residual_of(new)
+        if not r_new < r:
+            eng.restore(state)
+            state, G, r = exact_residual(eng)
+            stagnated = True
+            break
+        state, G, r = new, G_new, r_new
+        record.add(t_sim, r, "newton", t0)
+    return r, stagnated
+
+
+def dynamics_commands(cfg):
+    """The damping and integrator fixes of ``in.relax`` (its dynamics section)."""
+    return (f"fix damp all viscous {cfg.gamma!r}\n"
+            f"fix rdamp all viscous/sphere {cfg.gamma_rot!r}\n"
+            "fix integ all nve/sphere disc\n")
+
+
+def top_xcm(eng):
+    """Mean unwrapped x of the ``top`` disks."""
+    st = eng.gather_state()
+    return float(np.mean(st.unwrapped_x()[st.top, 0]))
+
+
+def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
+    """Bring the loaded scene to equilibrium at load F_x.
+
+    Over-damped dynamics in chunks of ``cfg.check_every`` steps; once the
+    residual estimate is below ``cfg.newton_start``, Newton polishing; if
+    polishing stagnates above ``cfg.f_accept``, back to dynamics.
+
+    Parameters
+    ----------
+    eng : Engine
+        Scene of ``in.relax`` loaded (fix ``2d`` present; damping and
+        integrator fixes may or may not be).
+    cfg : RelaxConfig
+    F_x : float
+        Load to equilibrate at (``variable load_x`` is set to it).
+    record : RelaxRecord, optional
+    progress : callable, optional
+        Called as ``progress(residual)`` after each check.
+    newton_first : bool
+        Try Newton before any dynamics (ramp steps from a nearby equilibrium).
+
+    Returns
+    -------
+    r : float
+        Final residual (LAMMPS holds the equilibrium, v = 0, no damping fixes).
+    t_sim : float
+        Damped time used.
+    record : RelaxRecord
+
+    Raises
+    ------
+    NoEquilibriumError
+        If the top layer slides farther than ``cfg.slide`` or ``cfg.max_steps``
+        damped steps do not reach ``cfg.f_accept``.
+    """
+    t0 = time.perf_counter()
+    record = RelaxRecord() if record is None else record
+    eng.command(f"variable load_x equal {F_x!r}")
+    x0 = top_xcm(eng)
+    t_sim = 0.0
+    steps = 0
+
+    def newton():
+        eng.unfix(*DAMPING_FIXES, *INTEGRATOR_FIXES)
+        eng.command("velocity all set 0.0 0.0 0.0")
+        eng.command("set group all omega 0.0 0.0 0.0")
+        return polish(eng, cfg, F_x, record, t0, t_sim)
+
+    if newton_first and cfg.newton:
+        r, stagnated = newton()
+        if r < cfg.f_min or (stagnated and r < cfg.f_accept):
+            return r, t_sim, record
+    while True:
+        if not eng.has_fix("integ"):
+            eng.commands(dynamics_commands(cfg))
+        eng.run(cfg.check_every, pre=True)
+        steps += cfg.check_every
+        t_sim += cfg.check_every * cfg.dt
+        st = eng.gather_state()
+        _, r = residual_of(st, (cfg.gamma, cfg.gamma_rot))
+        record.add(t_sim, r, "damped", t0)
+        if progress is not None:
+            progress(r)
+        dx = float(np.mean(st.unwrapped_x()[st.top, 0])) - x0
+        if abs(dx) > cfg.slide:
+            raise NoEquilibriumError(
+                f"no equilibrium at F_x = {F_x!r}: the top layer slid {dx:.3g} "
+                f"(> slide = {cfg.slide}) in t = {t_sim:.4g}")
+        if cfg.newton and r < cfg.newton_start * cfg.F_y:
+            r, stagnated = newton()
+            if r < cfg.f_min or (stagnated and r < cfg.f_accept):
+                return r, t_sim, record
+        elif not cfg.newton and r < cfg.f_min:
+            eng.unfix(*DAMPING_FIXES, *INTEGRATOR_FIXES)
+            eng.command("velocity all set 0.0 0.0 0.0")
+            eng.command("set group all omega 0.0 0.0 0.0")
+            _, _, r = exact_residual(eng)
+            record.add(t_sim, r, "damped", t0)
+            return r, t_sim, record
+        if steps >= cfg.max_steps:
+            raise NoEquilibriumError(
+                f"no equilibrium reached at F_x = {F_x!r} within max_steps = "
+                f"{cfg.max_steps} (residual {r:.3g} > f_accept = {cfg.f_accept})")

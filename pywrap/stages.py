@@ -1,0 +1,684 @@
+"""The driver stages: relax, ramp, perturb, instability (MODEL.md section 6).
+
+Each stage is one function taking a validated configuration
+(:mod:`remote_trigger.pywrap.config`) and an output folder, and returning a
+result object. All MPI ranks of the communicator call the function (LAMMPS
+runs domain-decomposed); rank 0 writes the files and runs the eigenvalue
+analysis, and broadcasts every decision so that all ranks follow the same path.
+
+Files (fixed names under the output folder ``out``; docs/driver.md):
+
+========================  ===================================================
+``relax.h5``              relaxation history; ``relax/equilibrium.*``
+``ramp.h5``               one row per ramp step and per bisection step;
+                          ``ramp/step_NNNNN.*``, ``ramp/bisect_NNN.*``
+``perturb_{a,b,c}.h5``    the three undamped runs; ``perturb/equilibrium.*``
+``instability.h5``        the undamped run above F_x^c;
+                          ``instability/equilibrium.*``
+========================  ===================================================
+
+``X.*`` is an equilibrium: ``X.data`` (``write_data``, exact restart),
+``X.dump`` and ``X.dump.json`` (docs/conventions.md section 3).
+"""
+from dataclasses import dataclass, field
+import json
+import os
+import time
+
+import numpy as np
+
+from .config import ConfigError, RelaxConfig, RampConfig, DynamicsConfig
+from .engine import Engine, DUMP_COLUMNS
+from . import equilibrium as eq
+from .results import write_atomic, SeriesWriter, read_all
+
+RESULT_VERSION = 1
+
+
+# --------------------------------------------------------------------------- helpers
+def _progress(total, desc, quiet, rank, unit="it"):
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, disable=quiet or rank != 0, unit=unit,
+                leave=False, dynamic_ncols=True)
+
+
+def _deck_vars(cfg, datafile, F_x):
+    return {"datafile": datafile, "kn": float(cfg.k_n), "kt": float(cfg.k_t),
+            "mu": float(cfg.mu), "Fx": float(F_x), "Fy": float(cfg.F_y),
+            "dt": float(cfg.dt),
+            "gamma": float(getattr(cfg, "gamma", 2.0)),
+            "gamma_rot": float(getattr(cfg, "gamma_rot", 0.1))}
+
+
+def load_relax_scene(eng, cfg, datafile, F_x, deck="in.relax"):
+    """Load the scene (and damped dynamics) of ``deck`` from a data file."""
+    eng.clear()
+    eng.load_deck(deck, _deck_vars(cfg, datafile, F_x), ("scene", "dynamics"))
+
+
+def save_equilibrium(eng, cfg, F_x, prefix):
+    """Write ``prefix.data``, ``prefix.dump`` and ``prefix.dump.json``.
+
+    The state must be an equilibrium with v = 0 and no damping fix. The dump
+    holds contact forces only (the loads are switched off for its ``run 0``:
+    ``variable loadon equal 0``) and the loads in ``v_fext_x v_fext_y``.
+    Each file is written under a temporary name and renamed.
+    """
+    rank0 = eng.rank == 0
+    eng.command("variable loadon equal 0")
+    eng.run(0)
+    eng.command(f"write_dump all custom {prefix}.dump.part {DUMP_COLUMNS} "
+                f"modify sort id format float %.17g")
+    eng.command("variable loadon equal 1")
+    eng.command(f"write_data {prefix}.data.part nocoeff")
+    eng.run(0)
+    if rank0:
+        side = {"k_n": float(cfg.k_n), "k_t": float(cfg.k_t), "mu": float(cfg.mu),
+                "wall_y": 0.0, "F_x": float(F_x), "F_y": float(cfg.F_y),
+                "dt": float(cfg.dt)}
+        with open(f"{prefix}.dump.json.part", "w") as fh:
+            json.dump(side, fh)
+        os.replace(f"{prefix}.dump.json.part", f"{prefix}.dump.json")
+        os.replace(f"{prefix}.dump.part", f"{prefix}.dump")
+        os.replace(f"{prefix}.data.part", f"{prefix}.data")
+    eng.comm.Barrier()
+
+
+def packing_fraction(state):
+    """phi = sum pi R^2 / (L h), h = max(y + R) above the wall at y = 0."""
+    L = state.box_hi[0] - state.box_lo[0]
+    h = float(np.max(state.x[:, 1] + state.radius))
+    return float(np.sum(np.pi * state.radius ** 2) / (L * h))
+
+
+def _analyze(eng, dump):
+    """Eigen-analysis of a dump on rank 0, broadcast to all ranks."""
+    from .stability import analyze_dump
+
+    res = None
+    err = None
+    if eng.rank == 0:
+        try:
+            res = analyze_dump(dump)
+        except Exception as exc:  # noqa: BLE001 - re-raised on all ranks
+            err = f"{type(exc).__name__}: {exc}"
+    res, err = eng.comm.bcast((res, err), root=0)
+    if err:
+        raise RuntimeError(f"analysis of {dump} failed: {err}")
+    return res
+
+
+def _ensure_dir(eng, path):
+    if eng.rank == 0:
+        os.makedirs(path, exist_ok=True)
+    eng.comm.Barrier()
+
+
+def _relax_cfg(cfg, F_x):
+    """A RelaxConfig with the model of ``cfg`` (for equilibrating dynamics stages)."""
+    keys = ("datafile", "k_n", "k_t", "mu", "F_y", "dt")
+    base = {k: getattr(cfg, k) for k in keys}
+    if isinstance(cfg, RelaxConfig):
+        base = {k: getattr(cfg, k) for k in RelaxConfig.__dataclass_fields__}
+    base["F_x"] = float(F_x)
+    return RelaxConfig.from_dict(base)
+
+
+# --------------------------------------------------------------------------- relax
+@dataclass
+class RelaxResult:
+    """Outcome of :func:`relax`.
+
+    Attributes
+    ----------
+    residual : float
+        r = max_i max(|F_i|, |T_i|/R_i) reached (exact, ``run 0``).
+    converged : bool
+        r < f_min (else r is the round-off floor, < f_accept).
+    wall_time : float
+        Seconds.
+    damped_time : float
+        Simulated time of over-damped dynamics (lj units).
+    newton_iterations : int
+        Accepted Newton steps.
+    packing_fraction : float
+    history : RelaxRecord
+    datafile, dumpfile, h5 : str
+        Outputs.
+    """
+
+    residual: float
+    converged: bool
+    wall_time: float
+    damped_time: float
+    newton_iterations: int
+    packing_fraction: float
+    history: object
+    datafile: str
+    dumpfile: str
+    h5: str
+
+
+def relax(cfg, out, comm=None, quiet=False, log="none"):
+    """Relax a packing to mechanical equilibrium at load (F_x, -F_y).
+
+    Parameters
+    ----------
+    cfg : RelaxConfig
+    out : str
+        Output folder: writes ``relax.h5`` and ``relax/equilibrium.*``.
+    comm : mpi4py communicator, optional
+    quiet : bool
+        No progress bar.
+    log : str
+        LAMMPS log file.
+
+    Returns
+    -------
+    RelaxResult
+
+    Raises
+    ------
+    NoEquilibriumError
+        If the top layer slides away or no equilibrium is reached.
+    """
+    if not isinstance(cfg, RelaxConfig):
+        raise ConfigError(f"relax needs a RelaxConfig, got {type(cfg).__name__}")
+    t0 = time.perf_counter()
+    with Engine(comm=comm, log=log) as eng:
+        _ensure_dir(eng, os.path.join(out, "relax"))
+        load_relax_scene(eng, cfg, cfg.datafile, cfg.F_x)
+        bar = _progress(None, "relax", quiet, eng.rank, unit="chk")
+        if cfg.settle_steps > 0:
+            eng.commands(
+                f"pair_coeff * * {cfg.k_n!r} {cfg.k_t!r} {cfg.mu_settle!r}\n"
+                f"variable mu_now equal {cfg.mu_settle!r}\n"
+                f"fix grav all gravity {cfg.g_settle!r} vector 0 -1 0\n"
+                f"run {cfg.settle_steps}\n"
+                "unfix grav\n"
+                f"pair_coeff * * {cfg.k_n!r} {cfg.k_t!r} {cfg.mu!r}\n"
+                f"variable mu_now equal {cfg.mu!r}\n")
+
+        def prog(r):
+            bar.update(1)
+            bar.set_postfix_str(f"residual {r:.2e}")
+
+        try:
+            r, t_sim, rec = eq.equilibrate(eng, cfg, cfg.F_x, progress=prog)
+        finally:
+            bar.close()
+        prefix = os.path.join(out, "relax", "equilibrium")
+        save_equilibrium(eng, cfg, cfg.F_x, prefix)
+        state = eng.gather_state()
+        phi = packing_fraction(state)
+        wall = time.perf_counter() - t0
+        nnewton = max(0, sum(1 for p in rec.phase if p == "newton") - 1)
+        h5 = os.path.join(out, "relax.h5")
+        if eng.rank == 0:
+            attrs = dict(cfg.to_attrs(), stage="relax", status="complete",
+                         version=RESULT_VERSION, residual=r, converged=bool(r < cfg.f_min),
+                         wall_time=wall, damped_time=t_sim, packing_fraction=phi,
+                         n_ranks=eng.size, datafile_out=prefix + ".data",
+                         dumpfile=prefix + ".dump")
+            write_atomic(h5, attrs, {
+                "history/time": np.asarray(rec.time), "history/residual":
+                np.asarray(rec.residual), "history/phase": np.asarray(rec.phase, object),
+                "history/wall_time": np.asarray(rec.wall)})
+        eng.comm.Barrier()
+    return RelaxResult(r, bool(r < cfg.f_min), wall, t_sim, nnewton, phi, rec,
+                       prefix + ".data", prefix + ".dump", h5)
+
+
+# --------------------------------------------------------------------------- ramp
+@dataclass
+class RampResult:
+    """Outcome of :func:`ramp`.
+
+    Attributes
+    ----------
+    F_x : ndarray
+        Loads of the ramp steps.
+    residual : ndarray
+        Residual reached at each step.
+    complex_pair : ndarray of bool
+    growth_rate : ndarray
+        max Im sqrt(lambda) at each step (0 when stable).
+    bisection_F_x, bisection_complex : ndarray
+    F_x_c_low, F_x_c_high : float
+        Bracket of F_x^c (last stable, first unstable); NaN if not found.
+    status : str
+        ``'complete'``, ``'no_complex_pair'``, ``'no_equilibrium'`` or
+        ``'complex_at_start'``.
+    h5 : str
+    """
+
+    F_x: np.ndarray
+    residual: np.ndarray
+    complex_pair: np.ndarray
+    growth_rate: np.ndarray
+    bisection_F_x: np.ndarray
+    bisection_complex: np.ndarray
+    F_x_c_low: float
+    F_x_c_high: float
+    status: str
+    h5: str
+    message: str = ""
+
+    @property
+    def F_x_c(self):
+        """Midpoint of the bracket."""
+        return 0.5 * (self.F_x_c_low + self.F_x_c_high)
+
+
+class _RampLog:
+    """In-memory copy of ramp.h5, rewritten atomically after every row."""
+
+    COLS = ("F_x", "residual", "complex", "growth_rate", "max_imag", "n_rattlers",
+            "wall_time", "damped_time")
+
+    def __init__(self, cfg, path):
+        self.cfg = cfg
+        self.path = path
+        self.rows = {"steps": {c: [] for c in self.COLS}, "bisection": {c: [] for c in
+                                                                        self.COLS}}
+        self.files = {"steps": [], "bisection": []}
+        self.eig = {}
+        self.attrs = {}
+
+    def add(self, kind, name, datafile, values, eigenvalues):
+        for c in self.COLS:
+            self.rows[kind][c].append(values[c])
+        self.files[kind].append(datafile)
+        self.eig[f"{kind}/{name}"] = np.asarray(eigenvalues, complex)
+
+    def write(self, status, **attrs):
+        self.attrs.update(attrs)
+        a = dict(self.cfg.to_attrs(), stage="ramp", status=status, version=RESULT_VERSION,
+                 **self.attrs)
+        ds = {}
+        for kind in ("steps", "bisection"):
+            for c in self.COLS:
+                ds[f"{kind}/{c}"] = np.asarray(self.rows[kind][c], dtype=np.float64)
+            ds[f"{kind}/datafile"] = np.asarray(self.files[kind], dtype=object)
+        for k, v in self.eig.items():
+            ds[f"eigenvalues/{k}"] = v
+        write_atomic(self.path, a, ds)
+
+    @classmethod
+    def load(cls, cfg, path):
+        try:
+            attrs, data = read_all(path)
+        except OSError as exc:
+            raise ConfigError(f"cannot resume: {path} is not a readable HDF5 file "
+                              f"({exc})") from None
+        for k, v in cfg.to_attrs().items():
+            if k == "datafile":
+                continue
+            old = attrs.get(k)
+            if isinstance(old, bytes):
+                old = old.decode()
+            if old is None or str(old) != str(v):
+                raise ConfigError(f"cannot resume {path}: its configuration has {k} = "
+                                  f"{old!r}, this run has {k} = {v!r}")
+        log = cls(cfg, path)
+        for kind in ("steps", "bisection"):
+            for c in cls.COLS:
+                key = f"{kind}/{c}"
+                if key not in data:
+                    raise ConfigError(f"cannot resume: {path} lacks dataset {key}")
+                log.rows[kind][c] = [float(x) for x in data[key]]
+            log.files[kind] = [str(s) for s in data.get(f"{kind}/datafile", [])]
+        for k, v in data.items():
+            if k.startswith("eigenvalues/"):
+                log.eig[k[len("eigenvalues/"):]] = v
+        log.attrs = {k: v for k, v in attrs.items()
+                     if k in ("F_x_c_low", "F_x_c_high", "message")}
+        log.status = attrs.get("status", "running")
+        return log
+
+
+def _ramp_point(eng, cfg, start_file, F_x, prefix):
+    """Equilibrate at F_x from ``start_file``, save ``prefix.*``, analyse.
+
+    Returns (values dict, eigenvalues, StabilityResult).
+    """
+    t0 = time.perf_counter()
+    load_relax_scene(eng, cfg, start_file, F_x, deck="in.ramp_step")
+    r, t_sim, _ = eq.equilibrate(eng, cfg, F_x, newton_first=True)
+    save_equilibrium(eng, cfg, F_x, prefix)
+    res = _analyze(eng, prefix + ".dump")
+    vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
+            "growth_rate": res.growth_rate, "max_imag": res.max_imag,
+            "n_rattlers": float(res.n_rattlers), "wall_time": time.perf_counter() - t0,
+            "damped_time": t_sim}
+    return vals, res
+
+
+def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=None):
+    """Ramp F_x until a complex eigenvalue pair appears, then bisect F_x^c.
+
+    Step k has F_x = cfg.F_x + k dF_x (k = 0 re-equilibrates the data file at
+    cfg.F_x). Each step starts from the previous equilibrium's data file,
+    equilibrates (Newton first, damped dynamics if needed), writes
+    ``ramp/step_NNNNN.*`` and is analysed (:mod:`.stability`). After the first
+    step with a complex pair, F_x^c is bisected between the last stable and
+    the first unstable load, each point starting from the last stable
+    equilibrium, until the bracket is below ``cfg.tol``.
+
+    Parameters
+    ----------
+    cfg : RampConfig
+    out : str
+        Output folder (``ramp.h5``, ``ramp/``).
+    comm : mpi4py communicator, optional
+    quiet : bool
+    resume : bool
+        Continue an interrupted ramp from its last completed equilibrium; the
+        configuration must be the same. Without ``resume`` an existing
+        ``ramp.h5`` is an error (nothing is overwritten).
+    log : str
+        LAMMPS log file.
+    stop_after : int, optional
+        Testing aid: return (status ``'interrupted'``) after this many new
+        equilibria, as if killed.
+
+    Returns
+    -------
+    RampResult
+
+    Raises
+    ------
+    ConfigError
+        Bad configuration, ``ramp.h5`` exists without ``resume``, or the file
+        to resume is unreadable or from another configuration.
+    """
+    if not isinstance(cfg, RampConfig):
+        raise ConfigError(f"ramp needs a RampConfig, got {type(cfg).__name__}")
+    h5 = os.path.join(out, "ramp.h5")
+    folder = os.path.join(out, "ramp")
+    with Engine(comm=comm, log=log) as eng:
+        exists = eng.comm.bcast(os.path.exists(h5) if eng.rank == 0 else None, root=0)
+        if exists and not resume:
+            raise ConfigError(f"{h5} exists: use resume (--resume) to continue it, or "
+                              f"another output folder (nothing was overwritten)")
+        rlog, err = None, None
+        if eng.rank == 0:
+            try:
+                rlog = _RampLog.load(cfg, h5) if (resume and exists) else _RampLog(cfg, h5)
+            except ConfigError as exc:
+                err = str(exc)
+        rlog, err = eng.comm.bcast((rlog, err), root=0)
+        if err:
+            raise ConfigError(err)
+        _ensure_dir(eng, folder)
+        status = getattr(rlog, "status", "running")
+        if status in ("complete", "no_complex_pair", "no_equilibrium", "complex_at_start"):
+            return _ramp_result(rlog, status)
+        new = 0
+        steps = rlog.rows["steps"]
+        bar = _progress(None, "ramp", quiet, eng.rank, unit="step")
+        try:
+            # ---- ramp
+            while not (steps["complex"] and steps["complex"][-1] > 0):
+                k = len(steps["F_x"])
+                F = cfg.F_x + k * cfg.dF_x
+                if F > cfg.F_x_max:
+                    rlog.attrs["message"] = f"no complex pair up to F_x_max = {cfg.F_x_max}"
+                    if eng.rank == 0:
+                        rlog.write("no_complex_pair")
+                    return _ramp_result(rlog, "no_complex_pair")
+                start = cfg.datafile if k == 0 else rlog.files["steps"][-1]
+                prefix = os.path.join(folder, f"step_{k:05d}")
+                try:
+                    vals, res = _ramp_point(eng, cfg, start, F, prefix)
+                except eq.NoEquilibriumError as exc:
+                    rlog.attrs["message"] = str(exc)
+                    if eng.rank == 0:
+                        rlog.write("no_equilibrium")
+                    return _ramp_result(rlog, "no_equilibrium")
+                rlog.add("steps", f"step_{k:05d}", prefix + ".data", vals, res.eigenvalues)
+                if eng.rank == 0:
+                    rlog.write("running")
+                bar.update(1)
+                bar.set_postfix_str(f"F_x {F:.6g} r {vals['residual']:.1e} "
+                                    f"complex {bool(vals['complex'])}")
+                new += 1
+                if stop_after is not None and new >= stop_after:
+                    return _ramp_result(rlog, "interrupted")
+            if len(steps["F_x"]) == 1:
+                rlog.attrs["message"] = "complex pair already at the start value of F_x"
+                if eng.rank == 0:
+                    rlog.write("complex_at_start")
+                return _ramp_result(rlog, "complex_at_start")
+            # ---- bisection
+            lo, hi = steps["F_x"][-2], steps["F_x"][-1]
+            lo_file = rlog.files["steps"][-2]
+            bis = rlog.rows["bisection"]
+            for F, c, f in zip(bis["F_x"], bis["complex"], rlog.files["bisection"]):
+                if c > 0:
+                    hi = F
+                else:
+                    lo, lo_file = F, f
+            while hi - lo > cfg.tol:
+                j = len(bis["F_x"])
+                mid = 0.5 * (lo + hi)
+                prefix = os.path.join(folder, f"bisect_{j:03d}")
+                try:
+                    vals, res = _ramp_point(eng, cfg, lo_file, mid, prefix)
+                except eq.NoEquilibriumError:
+                    vals = {c: np.nan for c in _RampLog.COLS}
+                    vals.update(F_x=mid, complex=2.0)   # no equilibrium: above F_x^c
+                    res = None
+                rlog.add("bisection", f"bisect_{j:03d}", prefix + ".data", vals,
+                         [] if res is None else res.eigenvalues)
+                if vals["complex"] > 0:
+                    hi = mid
+                else:
+                    lo, lo_file = mid, prefix + ".data"
+                rlog.attrs.update(F_x_c_low=lo, F_x_c_high=hi)
+                if eng.rank == 0:
+                    rlog.write("running")
+                bar.update(1)
+                bar.set_postfix_str(f"F_x^c in [{lo:.9g}, {hi:.9g}]")
+                new += 1
+                if stop_after is not None and new >= stop_after:
+                    return _ramp_result(rlog, "interrupted")
+            rlog.attrs.update(F_x_c_low=lo, F_x_c_high=hi)
+            if eng.rank == 0:
+                rlog.write("complete")
+            return _ramp_result(rlog, "complete")
+        finally:
+            bar.close()
+
+
+def _ramp_result(rlog, status):
+    s, b = rlog.rows["steps"], rlog.rows["bisection"]
+    return RampResult(
+        F_x=np.asarray(s["F_x"]), residual=np.asarray(s["residual"]),
+        complex_pair=np.asarray(s["complex"]) > 0, growth_rate=np.asarray(s["growth_rate"]),
+        bisection_F_x=np.asarray(b["F_x"]), bisection_complex=np.asarray(b["complex"]) > 0,
+        F_x_c_low=float(rlog.attrs.get("F_x_c_low", np.nan)),
+        F_x_c_high=float(rlog.attrs.get("F_x_c_high", np.nan)), status=status,
+        h5=rlog.path, message=str(rlog.attrs.get("message", "")))
+
+
+# --------------------------------------------------------------------------- undamped
+@dataclass
+class SeriesResult:
+    """Time series of one undamped run.
+
+    Attributes
+    ----------
+    t, D, v_top, mu : ndarray
+        Time, MSD D(t) (Eq. 8, from the starting equilibrium), mean x-velocity
+        of ``top`` (signed), friction coefficient in force.
+    h5 : str
+    extra : dict
+        Stage-specific numbers (e.g. ``v0``, ``growth_rate``).
+    """
+
+    t: np.ndarray
+    D: np.ndarray
+    v_top: np.ndarray
+    mu: np.ndarray
+    h5: str
+    extra: dict = field(default_factory=dict)
+
+
+def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, attrs=None):
+    """Run ``in.perturb``'s scene from ``datafile`` and record every record_every steps."""
+    eng.clear()
+    v = _deck_vars(cfg, datafile, cfg.F_x)
+    v.pop("gamma")
+    v.pop("gamma_rot")
+    v.update(variables)
+    eng.load_deck("in.perturb", v, ("scene", "dynamics"))
+    n = cfg.record_every
+    eng.commands("compute msd all msd\n"
+                 f"fix rec all ave/time {n} 1 {n} c_msd[4] v_vtop v_mu_now\n")
+    nsteps = int(round(cfg.t_max / cfg.dt))
+    nrec = max(1, nsteps // n)
+    cols = ("t", "D", "v_top", "mu")
+    writer = None
+    if eng.rank == 0:
+        writer = SeriesWriter(h5, dict(cfg.to_attrs(), **(attrs or {}),
+                                       version=RESULT_VERSION, n_ranks=eng.size), cols)
+    out = {c: [] for c in cols}
+
+    def add(row):
+        for c in cols:
+            out[c].append(row[c])
+        if writer is not None:
+            writer.append(row)
+
+    add({"t": 0.0, "D": 0.0, "v_top": 0.0, "mu": eng.equal("mu_now")})
+    bar = _progress(nrec, desc, quiet, eng.rank, unit="rec")
+    status = "complete"
+    try:
+        for k in range(nrec):
+            eng.run(n, pre=(k == 0))
+            vals = [eng.lmp.extract_fix("rec", 0, 1, i) for i in range(3)]
+            add({"t": (k + 1) * n * cfg.dt, "D": vals[0], "v_top": vals[1], "mu": vals[2]})
+            bar.update(1)
+            if stop is not None and stop(out):
+                status = "stopped"
+                break
+    finally:
+        bar.close()
+        if writer is not None:
+            writer.close(status=status)
+    return SeriesResult(*(np.asarray(out[c]) for c in cols), h5=h5)
+
+
+def _equilibrium_for(eng, cfg, out, name, quiet):
+    """Equilibrate cfg.datafile at cfg.F_x; save ``out/name/equilibrium.*``."""
+    folder = os.path.join(out, name)
+    _ensure_dir(eng, folder)
+    rcfg = _relax_cfg(cfg, cfg.F_x)
+    load_relax_scene(eng, rcfg, cfg.datafile, cfg.F_x)
+    r, _, _ = eq.equilibrate(eng, rcfg, cfg.F_x, newton_first=True)
+    prefix = os.path.join(folder, "equilibrium")
+    save_equilibrium(eng, rcfg, cfg.F_x, prefix)
+    return prefix, r
+
+
+def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc"):
+    """The three undamped runs of Fig. 5 from the equilibrium at cfg.F_x.
+
+    (a) unperturbed; (b) f(t) = a cos(omega_p t) added to F_x on ``top``;
+    (c) like (b) with mu(v) (Eq. 4) on every contact and the wall; v0 is the
+    largest |v_top| of run (a) unless ``cfg.v0`` is given, v_ss = v0 unless
+    ``cfg.v_ss`` is given.
+
+    Returns
+    -------
+    dict
+        ``{'a': SeriesResult, 'b': ..., 'c': ...}`` for the runs done;
+        ``extra`` holds ``residual`` (of the equilibrium), ``v0`` and ``v_ss``.
+    """
+    if not isinstance(cfg, DynamicsConfig):
+        raise ConfigError(f"perturb needs a DynamicsConfig, got {type(cfg).__name__}")
+    results = {}
+    with Engine(comm=comm, log=log) as eng:
+        prefix, r = _equilibrium_for(eng, cfg, out, "perturb", quiet)
+        data = prefix + ".data"
+        v0 = cfg.v0
+        base = {"equilibrium": data, "equilibrium_residual": r, "stage": "perturb"}
+        if "a" in runs or v0 is None:
+            res = _undamped_run(eng, cfg, data, os.path.join(out, "perturb_a.h5"),
+                                {"a": 0.0, "muv": 0}, "perturb (a)", quiet,
+                                attrs=dict(base, run="a"))
+            results["a"] = res
+            if v0 is None:
+                v0 = float(np.max(np.abs(res.v_top)))
+                if not v0 > 0:
+                    v0 = np.finfo(float).tiny
+        vss = cfg.v_ss if cfg.v_ss is not None else v0
+        if "b" in runs:
+            results["b"] = _undamped_run(
+                eng, cfg, data, os.path.join(out, "perturb_b.h5"),
+                {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 0}, "perturb (b)", quiet,
+                attrs=dict(base, run="b"))
+        if "c" in runs:
+            results["c"] = _undamped_run(
+                eng, cfg, data, os.path.join(out, "perturb_c.h5"),
+                {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 1, "v0": float(v0),
+                 "vss": float(vss), "B": float(cfg.B), "w": float(cfg.w),
+                 "muss": float(cfg.mu_ss)}, "perturb (c)", quiet,
+                attrs=dict(base, run="c", v0=v0, v_ss=vss))
+        for res in results.values():
+            res.extra.update(residual=r, v0=v0, v_ss=vss)
+    return results
+
+
+def growth_fit(t, D, lo_decades=3.0, hi=None):
+    """Fit D ~ exp(2 g t) on the exponential stretch of an MSD series.
+
+    Uses records with D above 10^lo_decades times the initial noise level
+    (median of the first 5 % of positive D) and below ``hi`` (default
+    max(D)/1e3). Returns g (1/time), NaN if fewer than 5 records qualify.
+    """
+    t, D = np.asarray(t), np.asarray(D)
+    pos = D > 0
+    if np.count_nonzero(pos) < 10:
+        return float("nan")
+    head = D[pos][:max(5, int(0.05 * np.count_nonzero(pos)))]
+    noise = float(np.median(head))
+    hi = float(np.max(D)) / 1e3 if hi is None else hi
+    sel = pos & (D > noise * 10 ** lo_decades) & (D < hi)
+    if np.count_nonzero(sel) < 5:
+        return float("nan")
+    slope = np.polyfit(t[sel], np.log(D[sel]), 1)[0]
+    return float(slope / 2.0)
+
+
+def instability(cfg, out, comm=None, quiet=False, log="none"):
+    """Undamped run from the equilibrium at F_x > F_x^c until D(t) saturates.
+
+    Stops when D exceeds ``cfg.d_sat`` or at ``cfg.t_max``. Also analyses the
+    starting equilibrium (predicted growth rate max Im sqrt(lambda), Eq. 6)
+    and fits the measured rate of D ~ exp(2 g t).
+
+    Returns
+    -------
+    SeriesResult
+        ``extra``: ``predicted_growth_rate``, ``measured_growth_rate``,
+        ``complex_pair``, ``residual``, ``saturated``.
+    """
+    if not isinstance(cfg, DynamicsConfig):
+        raise ConfigError(f"instability needs a DynamicsConfig, got {type(cfg).__name__}")
+    with Engine(comm=comm, log=log) as eng:
+        prefix, r = _equilibrium_for(eng, cfg, out, "instability", quiet)
+        st = _analyze(eng, prefix + ".dump")
+        res = _undamped_run(
+            eng, cfg, prefix + ".data", os.path.join(out, "instability.h5"),
+            {"a": 0.0, "muv": 0}, "instability", quiet,
+            stop=lambda o: o["D"][-1] > cfg.d_sat,
+            attrs={"stage": "instability", "equilibrium": prefix + ".data",
+                   "equilibrium_residual": r, "predicted_growth_rate": st.growth_rate,
+                   "complex_pair": st.complex_pair})
+        res.extra.update(predicted_growth_rate=st.growth_rate, complex_pair=st.complex_pair,
+                         residual=r, saturated=bool(res.D[-1] > cfg.d_sat),
+                         measured_growth_rate=growth_fit(res.t, res.D, hi=cfg.d_sat / 1e2))
+    return res

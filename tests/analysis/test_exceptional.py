@@ -1,0 +1,157 @@
+"""Certified complex-pair decisions near an exceptional point (MODEL.md section 8)."""
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from remote_trigger.analysis.eigen import condition_numbers
+from remote_trigger.analysis.exceptional import (block_discriminant, classify_projected,
+                                                 classify_spectrum, normal_form)
+
+EPSILONS = [1e-2, 1e-4, 1e-6, 1e-8, 1e-10]
+
+
+@pytest.mark.parametrize("d", [0.5, 0.1, 0.01])
+@pytest.mark.parametrize("eps", EPSILONS + [-e for e in EPSILONS])
+def test_normal_form_decided_correctly(d, eps):
+    """J = [[1-d, eta], [-eta, 1+d]], eta = d (1 - eps): complex iff eps < 0."""
+    J = normal_form(d, eps)
+    res = classify_spectrum(J, screen=np.inf)           # always the 2 x 2 Schur test
+    assert res.complex_present is (eps < 0), (res.confidence, res.pairs)
+    assert res.confidence > 1.0
+    # with the default first-order screening of well-separated real pairs: same answer
+    assert classify_spectrum(J).complex_present is (eps < 0)
+    pair = res.pairs[0]
+    assert pair.method == "schur-2x2"
+    assert pair.certified and pair.margin == res.confidence
+    # the discriminant of the 2 x 2 block is d^2 eps (2 - eps) up to its error bound
+    D_exact = d * d * eps * (2.0 - eps)
+    assert abs(pair.discriminant - D_exact) <= pair.bound
+
+
+def test_normal_form_eigenvalues_and_condition_numbers():
+    """lambda = 1 -+ d sqrt(1 - nu^2) (Eq. 11); kappa grows like eps^(-1/2) at the EP."""
+    import scipy.linalg as sla
+
+    d = 0.3
+    kap = []
+    for eps in (1e-4, 1e-6, 1e-8):
+        J = normal_form(d, eps)
+        lam, vl, vr = sla.eig(J, left=True, right=True)
+        nu = 1.0 - eps
+        np.testing.assert_allclose(np.sort(lam.real), 1.0 + np.array([-1, 1]) * d
+                                   * np.sqrt(1 - nu * nu), rtol=0, atol=1e-7)
+        kap.append(condition_numbers(vl, vr).max())
+    kap = np.array(kap)
+    np.testing.assert_allclose(kap[1:] / kap[:-1], 10.0, rtol=0.05)
+    assert kap[-1] > 1e3                      # ill-conditioned eigenvalues ...
+    assert classify_spectrum(normal_form(d, 1e-8)).confidence > 100   # ... sound decision
+
+
+@pytest.mark.parametrize("d", [0.5, 0.1])
+def test_never_certified_wrong(d):
+    """Down to eps = 1e-16 the answer is right or 'undecided', never wrong."""
+    for k in range(2, 17):
+        for sign in (1, -1):
+            eps = sign * 10.0 ** -k
+            res = classify_spectrum(normal_form(d, eps))
+            if res.complex_present is not None:
+                assert res.complex_present is (eps < 0), (d, eps)
+    # far below the resolution the test refuses to decide
+    assert classify_spectrum(normal_form(d, 1e-16)).complex_present is None
+    assert classify_spectrum(normal_form(d, -1e-16)).complex_present is None
+
+
+def embedded(d, eps, n=30, seed=0):
+    """The normal form hidden in an n x n non-normal matrix by an orthogonal similarity."""
+    rng = np.random.default_rng(seed)
+    B = np.zeros((n, n))
+    B[:2, :2] = normal_form(d, eps)
+    B[2:, 2:] = np.diag(np.linspace(2.0, 10.0, n - 2)) + \
+        np.triu(rng.normal(scale=0.3, size=(n - 2, n - 2)), 1)
+    B[:2, 2:] = rng.normal(scale=0.3, size=(2, n - 2))
+    Q, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    return Q @ B @ Q.T
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_embedded_normal_form(seed):
+    for k in range(2, 15, 2):
+        for sign in (1, -1):
+            eps = sign * 10.0 ** -k
+            res = classify_spectrum(embedded(0.5, eps, seed=seed))
+            if k <= 6:
+                assert res.complex_present is (eps < 0) and res.confidence > 10, (eps, res)
+            elif res.complex_present is not None:
+                assert res.complex_present is (eps < 0), eps
+
+
+def test_symmetric_matrix_is_certified_real():
+    rng = np.random.default_rng(3)
+    X = rng.normal(size=(25, 25))
+    res = classify_spectrum(X + X.T)
+    assert res.complex_present is False and res.confidence > 1
+    assert all(not p.is_complex for p in res.pairs)
+    assert len(res.pairs) == 24
+
+
+def test_input_uncertainty_lowers_confidence():
+    J = normal_form(0.1, -1e-6)
+    r0 = classify_spectrum(J)
+    r1 = classify_spectrum(J, input_error=1e-9)
+    assert r0.complex_present and r1.complex_present
+    assert r1.confidence < r0.confidence / 100
+    assert classify_spectrum(J, input_error=1e-5).complex_present is None
+
+
+def test_block_discriminant():
+    D, g, rnd = block_discriminant([[1.0, 2.0], [-3.0, 4.0]])
+    assert D == pytest.approx(2.25 - 6.0) and g == pytest.approx(np.sqrt(2 * 2.25 + 4 + 9))
+    assert 0 < rnd < 1e-14
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="square"):
+        classify_spectrum(np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="non-finite"):
+        classify_spectrum(np.array([[1.0, np.nan], [0.0, 1.0]]))
+    with pytest.raises(ValueError, match="real"):
+        classify_spectrum(np.eye(2) * 1j)
+    with pytest.raises(ValueError, match="input_error"):
+        classify_spectrum(np.eye(2), input_error=-1.0)
+
+
+def sparse_with_pair(eps, n=1500, d=0.05, seed=0):
+    """Sparse non-normal matrix, eigenvalues 1..40 plus the normal form shifted to 20.
+
+    Block upper-triangular (eigenvalues are those of the diagonal blocks), then
+    symmetrically permuted.
+    """
+    rng = np.random.default_rng(seed)
+    diag = np.linspace(1.0, 40.0, n - 2)
+    diag = diag[np.abs(diag - 20.0) > 0.05]
+    m = diag.size + 2
+    A = sp.lil_matrix((m, m))
+    A[0:2, 0:2] = 20.0 * normal_form(d, eps)
+    for k, v in enumerate(diag):
+        A[k + 2, k + 2] = v
+    rows = rng.integers(0, m, 3 * m)
+    cols = rng.integers(0, m, 3 * m)
+    keep = cols > rows
+    upper = sp.coo_matrix((rng.normal(scale=0.2, size=keep.sum()), (rows[keep], cols[keep])),
+                          shape=(m, m))
+    A = (A.tocsr() + upper.tocsr())
+    A[0, 1] = 20.0 * d * (1 - eps)
+    A[1, 0] = -20.0 * d * (1 - eps)
+    p = rng.permutation(m)
+    P = sp.identity(m, format="csr")[p]
+    return (P @ A @ P.T).tocsr()
+
+
+@pytest.mark.parametrize("eps", [1e-3, -1e-3, 1e-6, -1e-6])
+def test_sparse_projected_decision(eps):
+    A = sparse_with_pair(eps)
+    res, resid = classify_projected(A, sigma=19.95, k=12)
+    assert resid < 1e-8
+    assert res.complex_present is (eps < 0), res.confidence
+    lam = res.eigenvalues
+    assert np.min(np.abs(lam - 20.0)) < 0.5

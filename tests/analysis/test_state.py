@@ -1,0 +1,214 @@
+"""Reading equilibrium dumps: round trip, parameters, and clear errors on bad input."""
+import json
+
+import numpy as np
+import pytest
+
+from remote_trigger.analysis.state import ContactParams, build_state, read_dump
+
+from .builders import random_packing, write_dump
+
+
+@pytest.fixture(scope="module")
+def packing():
+    return random_packing(seed=11)
+
+
+def test_round_trip_is_exact(tmp_path, packing):
+    path = write_dump(tmp_path / "eq.dump", packing)
+    st = read_dump(path)
+    assert st.n == packing.n and st.n_contacts == packing.n_contacts
+    # ids ascending; write_dump wrote the (shuffled) ids in the packing's order
+    assert np.all(np.diff(st.ids) > 0)
+    np.testing.assert_array_equal(st.ids, packing.ids)
+    np.testing.assert_array_equal(st.positions, packing.positions)     # %.17g is exact
+    np.testing.assert_array_equal(st.radii, packing.radii)
+    np.testing.assert_array_equal(st.contact_i, packing.contact_i)
+    np.testing.assert_array_equal(st.contact_j, packing.contact_j)
+    np.testing.assert_array_equal(st.contact_xi, packing.contact_xi)
+    np.testing.assert_array_equal(st.wall_index, packing.wall_index)
+    np.testing.assert_array_equal(st.wall_xi, packing.wall_xi)
+    assert st.params == packing.params and st.wall_y == 0.0
+    np.testing.assert_allclose(st.inertia, 0.5 * st.masses * st.radii**2, rtol=0, atol=0)
+    np.testing.assert_array_equal(st.mass_diagonal()[2::3], 0.5 * st.masses)
+    assert st.periodic == (True, False)
+    assert st.notes == {"unrecorded_contacts": 0, "stale_history": 0, "stale_wall_history": 0}
+    # the contacts' ids satisfy ids[i] < ids[j]
+    assert np.all(st.ids[st.contact_i] < st.ids[st.contact_j])
+
+
+def test_dump_rows_in_any_order_and_last_frame(tmp_path, packing):
+    def shuffle(header, rows):
+        rng = np.random.default_rng(0)
+        return header, [rows[k] for k in rng.permutation(len(rows))]
+
+    path = tmp_path / "shuffled.dump"
+    write_dump(path, packing, transform=shuffle)
+    text = open(path).read()
+    moved = packing.with_xi(packing.contact_xi * 0.5)
+    p2 = tmp_path / "second.dump"
+    write_dump(p2, moved, sidecar=False)
+    with open(path, "a") as fh:                     # two snapshots in one file
+        fh.write(open(p2).read())
+    st_last = read_dump(path)
+    st_first = read_dump(path, frame=0)
+    np.testing.assert_array_equal(st_last.contact_xi, moved.contact_xi)
+    np.testing.assert_array_equal(st_first.contact_xi, packing.contact_xi)
+    assert text.count("ITEM: TIMESTEP") == 1
+
+
+def test_explicit_parameters_override_sidecar(tmp_path, packing):
+    path = write_dump(tmp_path / "eq.dump", packing)
+    st = read_dump(path, mu=0.5, k_t=1000.0)
+    assert st.params == ContactParams(packing.params.k_n, 1000.0, 0.5)
+    nos = write_dump(tmp_path / "nos.dump", packing, sidecar=False)
+    with pytest.raises(ValueError, match=r"\['k_n', 'k_t', 'mu', 'wall_y'\]"):
+        read_dump(nos)
+    st2 = read_dump(nos, k_n=2e5, k_t=1e4, mu=1.0, wall_y=0.0)
+    assert st2.params.k_t == 1e4
+
+
+@pytest.mark.parametrize("col", ["radius", "d2_mindlin_t[3]", "v_fext_y", "x",
+                                 "d_mindlin_wall_t"])
+def test_missing_column_is_named(tmp_path, packing, col):
+    path = write_dump(tmp_path / "eq.dump", packing, drop=(col,))
+    with pytest.raises(ValueError, match="missing"):
+        read_dump(path)
+
+
+def test_nan_is_reported_with_its_column(tmp_path, packing):
+    def poison(header, rows):
+        parts = rows[4].split()
+        parts[4] = "nan"                            # column x
+        rows[4] = " ".join(parts)
+        return header, rows
+
+    path = write_dump(tmp_path / "nan.dump", packing, transform=poison)
+    with pytest.raises(ValueError, match=r"non-finite value nan in column 'x'"):
+        read_dump(path)
+
+
+def test_truncated_file(tmp_path, packing):
+    path = write_dump(tmp_path / "eq.dump", packing)
+    lines = open(path).read().splitlines()
+    with open(path, "w") as fh:
+        fh.write("\n".join(lines[:-3]) + "\n")
+    with pytest.raises(ValueError, match="truncated file"):
+        read_dump(path)
+    with open(path, "w") as fh:                     # cut inside a line
+        fh.write("\n".join(lines[:-1]) + "\n" + lines[-1][:20] + "\n")
+    with pytest.raises(ValueError, match="expected .* values"):
+        read_dump(path)
+    with open(path, "w") as fh:
+        fh.write("\n".join(lines[:3]) + "\n")
+    with pytest.raises(ValueError, match="truncated file"):
+        read_dump(path)
+    open(path, "w").close()
+    with pytest.raises(ValueError, match="no snapshot"):
+        read_dump(path)
+
+
+def test_missing_file():
+    with pytest.raises(FileNotFoundError, match="nowhere.dump"):
+        read_dump("/nonexistent/nowhere.dump")
+
+
+def test_overlapping_centres(tmp_path, packing):
+    pos = packing.positions.copy()
+    pos[3] = pos[7] + [1e-3, 0.0]
+
+    def move(header, rows):
+        parts = rows[3].split()
+        parts[4], parts[5] = "%.17g" % pos[3, 0], "%.17g" % pos[3, 1]
+        rows[3] = " ".join(parts)
+        return header, rows
+
+    path = write_dump(tmp_path / "eq.dump", packing, transform=move)
+    with pytest.raises(ValueError, match=r"overlapping centres: atom ids \d+ and \d+ are"):
+        read_dump(path)
+
+
+def test_no_contacts(tmp_path):
+    pos = np.array([[1.0, 2.0], [4.0, 2.0], [7.0, 5.0]])
+    st = build_state(ids=[1, 2, 3], positions=pos, radii=[0.5, 0.7, 0.5], masses=[1, 1, 1],
+                     box_lo=[0, -1], box_hi=[10, 10], params=ContactParams(2e5, 5e4, 1.0),
+                     wall_y=0.0, require_contacts=False)
+    path = write_dump(tmp_path / "free.dump", st)
+    with pytest.raises(ValueError, match="no contacts"):
+        read_dump(path)
+
+
+def test_mirror_mismatch_and_one_sided_contact(tmp_path, packing):
+    path = write_dump(tmp_path / "eq.dump", packing)
+    lines = open(path).read().splitlines()
+    cols = lines[8].split()[2:]
+    c_xi = cols.index("d2_mindlin_t[1]")
+    c_p = cols.index("i2_mindlin_partner[1]")
+    row = next(k for k in range(9, len(lines)) if int(lines[k].split()[c_p]) > 0)
+    parts = lines[row].split()
+    parts[c_xi] = "%.17g" % (float(parts[c_xi]) + 1e-6)
+    bad = lines.copy()
+    bad[row] = " ".join(parts)
+    with open(path, "w") as fh:
+        fh.write("\n".join(bad) + "\n")
+    with pytest.raises(ValueError, match="two sides of the history disagree"):
+        read_dump(path)
+    parts = lines[row].split()
+    parts[c_p] = "0"                               # the partner entry of one side gone
+    for k in range(1, 8):                          # keep slots packed
+        parts[c_p + k - 1] = lines[row].split()[c_p + k]
+    parts[c_p + 7] = "0"
+    bad = lines.copy()
+    bad[row] = " ".join(parts)
+    with open(path, "w") as fh:
+        fh.write("\n".join(bad) + "\n")
+    with pytest.raises(ValueError, match="not in that of atom id"):
+        read_dump(path)
+
+
+def test_unknown_partner_and_bad_sidecar(tmp_path, packing):
+    path = write_dump(tmp_path / "eq.dump", packing)
+    lines = open(path).read().splitlines()
+    cols = lines[8].split()[2:]
+    c_p = cols.index("i2_mindlin_partner[8]")
+    parts = lines[9].split()
+    parts[c_p] = "99999"
+    lines[9] = " ".join(parts)
+    with open(path, "w") as fh:
+        fh.write("\n".join(lines) + "\n")
+    with pytest.raises(ValueError, match="partner id 99999"):
+        read_dump(path)
+    path2 = write_dump(tmp_path / "ok.dump", packing)
+    json.dump({"k_n": "big", "k_t": 1.0, "mu": 1.0, "wall_y": 0.0}, open(str(path2) + ".json",
+                                                                          "w"))
+    with pytest.raises(ValueError, match="k_n must be a number"):
+        read_dump(path2)
+    with pytest.raises(ValueError, match="mu must be >= 0"):
+        read_dump(path, mu=-1.0)
+
+
+def test_history_geometry_disagreement_is_repaired_with_warning(tmp_path, packing):
+    """An overlapping pair with no history gets xi = 0; a stale entry is dropped."""
+    with pytest.warns(UserWarning, match="overlapping pairs without history"):
+        st = build_state(ids=packing.ids, positions=packing.positions, radii=packing.radii,
+                         masses=packing.masses, box_lo=packing.box_lo, box_hi=packing.box_hi,
+                         params=packing.params, wall_y=0.0,
+                         partners=np.zeros((packing.n, 8), np.int64),
+                         partner_xi=np.zeros((packing.n, 8)))
+    assert st.notes["unrecorded_contacts"] == packing.n_contacts
+    np.testing.assert_array_equal(st.contact_xi, 0.0)
+    path = write_dump(tmp_path / "eq.dump", packing)
+    moved = packing.positions.copy()
+    k = packing.contact_i[0]
+    moved[k, 1] = moved[:, 1].max() + 3.0          # lift one disk out of its contacts
+    lines = open(path).read().splitlines()
+    row = 9 + int(np.nonzero(np.array([int(l.split()[0]) for l in lines[9:]])
+                             == packing.ids[k])[0][0])
+    parts = lines[row].split()
+    parts[5] = "%.17g" % moved[k, 1]
+    lines[row] = " ".join(parts)
+    with open(path, "w") as fh:
+        fh.write("\n".join(lines) + "\n")
+    with pytest.warns(UserWarning, match="history and geometry disagree"):
+        st2 = read_dump(path)
+    assert st2.notes["stale_history"] >= 1

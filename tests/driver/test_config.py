@@ -1,0 +1,88 @@
+"""Configuration validation, HDF5 round trip, and errors that lose nothing."""
+import os
+
+import h5py
+import numpy as np
+import pytest
+
+from remote_trigger.pywrap.config import (ConfigError, RelaxConfig, RampConfig,
+                                          DynamicsConfig, check_packing_args)
+
+
+@pytest.mark.parametrize("key, val", [
+    ("f_min", 0.0), ("f_min", -1e-15), ("F_y", 0.0), ("F_y", -3.0), ("k_n", -2e5),
+    ("mu", -0.1), ("dt", 0.0), ("gamma", -1.0), ("check_every", 0)])
+def test_bad_values_name_field_and_value(packing_file, key, val):
+    with pytest.raises(ConfigError) as exc:
+        RelaxConfig.from_dict({"datafile": packing_file, key: val})
+    assert key in str(exc.value) and repr(val) in str(exc.value)
+
+
+def test_unknown_key(packing_file):
+    with pytest.raises(ConfigError, match="fmin"):
+        RampConfig.from_dict({"datafile": packing_file, "fmin": 1e-15})
+
+
+def test_missing_datafile(tmp_path):
+    missing = str(tmp_path / "nope.data")
+    with pytest.raises(ConfigError, match="nope.data"):
+        RelaxConfig(datafile=missing)
+
+
+def test_negative_n():
+    with pytest.raises(ConfigError, match="n = -100"):
+        check_packing_args(-100, 0)
+
+
+def test_defaults_and_hdf5_round_trip(packing_file, tmp_path):
+    cfg = RampConfig(datafile=packing_file, dF_x=2e-4)
+    assert cfg.k_t == pytest.approx(2 * cfg.k_n / 7) and cfg.f_min == 1e-15
+    with h5py.File(tmp_path / "c.h5", "w") as fh:
+        for k, v in cfg.to_attrs().items():
+            fh.attrs[k] = v
+    with h5py.File(tmp_path / "c.h5", "r") as fh:
+        back = RampConfig.from_attrs(dict(fh.attrs))
+    assert back == cfg
+    d = DynamicsConfig(datafile=packing_file)
+    assert DynamicsConfig.from_attrs(d.to_attrs()) == d and d.v0 is None
+
+
+def test_cli_reports_bad_value(packing_file, capsys):
+    from remote_trigger.pywrap.cli import main
+
+    assert main(["relax", "--datafile", packing_file, "--F-y", "-3", "--quiet"]) == 2
+    assert "F_y = -3.0" in capsys.readouterr().err
+    assert main(["generate", "--n", "-10"]) == 2
+    assert "n = -10" in capsys.readouterr().err
+
+
+def test_corrupt_and_truncated_dump(relaxed, tmp_path):
+    from remote_trigger.pywrap.stability import analyze_dump
+
+    text = open(relaxed.dumpfile).read()
+    bad = tmp_path / "trunc.dump"
+    bad.write_text(text[: len(text) // 2])
+    open(str(bad) + ".json", "w").write(open(relaxed.dumpfile + ".json").read())
+    with pytest.raises(ValueError, match="trunc.dump"):
+        analyze_dump(str(bad))
+    garbage = tmp_path / "garbage.dump"
+    garbage.write_text("ITEM: TIMESTEP\nhello\n")
+    with pytest.raises(ValueError, match="garbage.dump"):
+        analyze_dump(str(garbage))
+
+
+def test_ramp_refuses_to_overwrite_and_bad_resume_file(relaxed, tmp_path):
+    from remote_trigger.pywrap import stages
+
+    cfg = RampConfig(datafile=relaxed.datafile, dF_x=0.01)
+    out = tmp_path / "r"
+    out.mkdir()
+    h5 = out / "ramp.h5"
+    h5.write_bytes(b"not an hdf5 file")
+    before = h5.read_bytes()
+    with pytest.raises(ConfigError, match="exists"):
+        stages.ramp(cfg, str(out), quiet=True)
+    with pytest.raises(ConfigError, match="ramp.h5"):
+        stages.ramp(cfg, str(out), quiet=True, resume=True)
+    assert h5.read_bytes() == before          # nothing lost
+    assert not os.path.exists(out / "ramp" / "step_00000.data")

@@ -1,0 +1,90 @@
+"""Each deck runs standalone with the venv's lmp and writes what it documents."""
+import json
+import os
+import subprocess
+
+import numpy as np
+
+from remote_trigger.pywrap.engine import DECK_DIR, DUMP_COLUMNS, deck_sections
+
+from .conftest import LMP, cli_env
+
+
+def _lmp(tmp_path, deck, **var):
+    args = [LMP, "-in", os.path.join(DECK_DIR, deck), "-log", "log.lammps"]
+    for k, v in var.items():
+        args += ["-var", k, str(v)]
+    out = subprocess.run(args, cwd=tmp_path, env=cli_env(), capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
+    assert "ERROR" not in out.stdout
+    return out.stdout
+
+
+def _check_dump(path):
+    from remote_trigger.analysis.state import read_dump
+
+    with open(path) as fh:
+        lines = fh.read().splitlines()
+    header = next(l for l in lines if l.startswith("ITEM: ATOMS")).split()[2:]
+    base = [c for c in DUMP_COLUMNS.split() if "[*]" not in c]
+    assert [c for c in header if "[" not in c] == base
+    assert sum(c.startswith("i2_mindlin_partner[") for c in header) == 8
+    side = json.load(open(path + ".json"))
+    assert set(side) == {"k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt"}
+    return read_dump(path, require_contacts=False), side
+
+
+def test_decks_have_sections():
+    for deck in ("in.relax", "in.ramp_step", "in.perturb"):
+        sec = deck_sections(os.path.join(DECK_DIR, deck))
+        assert "read_data" in sec["scene"] and "fix integ" in sec["dynamics"]
+        assert sec["variables"].lstrip().startswith("#")   # documented on top
+
+
+def test_relax_deck(tmp_path, packing_file):
+    _lmp(tmp_path, "in.relax", datafile=packing_file, settle_steps=5000, nsteps=5000,
+         out="r")
+    st, side = _check_dump(str(tmp_path / "r.dump"))
+    assert st.n == 20 and side["F_x"] == 0 and side["F_y"] == 3
+    assert os.path.exists(tmp_path / "r.data")
+
+
+def test_ramp_step_deck(tmp_path, relaxed):
+    _lmp(tmp_path, "in.ramp_step", datafile=relaxed.datafile, Fx=0.001, nsteps=2000,
+         out="s")
+    st, side = _check_dump(str(tmp_path / "s.dump"))
+    assert side["F_x"] == 0.001
+    np.testing.assert_array_equal(st.external[st.external[:, 1] < 0, 0], 0.001)
+
+
+def test_perturb_deck(tmp_path, relaxed):
+    _lmp(tmp_path, "in.perturb", datafile=relaxed.datafile, a=1e-6, wp=1.0,
+         muv=1, v0=1e-9, nsteps=2000, every=100, out="p")
+    rows = np.loadtxt(tmp_path / "p.txt")
+    assert rows.shape == (21, 4)
+    assert np.all(rows[:, 3] <= 1.0) and np.all(rows[:, 3] >= 0.8)
+    assert np.min(rows[:, 3]) < 1.0                  # mu(v) acted
+    _lmp(tmp_path, "in.perturb", datafile=relaxed.datafile, nsteps=1000, out="q")
+    rows = np.loadtxt(tmp_path / "q.txt")
+    assert np.all(rows[:, 3] == 1.0) and np.max(rows[:, 1]) < 1e-20
+
+
+def test_scenes_contain_only_what_they_need(relaxed):
+    from remote_trigger.pywrap.engine import Engine
+
+    def scene(**var):
+        eng = Engine()
+        eng.load_deck("in.perturb", dict(datafile=relaxed.datafile, **var),
+                      ("scene", "dynamics"))
+        return eng
+
+    with scene() as eng:                                   # (a)
+        assert not eng.has_fix("muv") and not eng.has_fix("damp")
+        assert "pert" not in eng.lmp.available_ids("variable")
+    with scene(a=1e-12) as eng:                            # (b)
+        assert "pert" in eng.lmp.available_ids("variable") and not eng.has_fix("muv")
+    with scene(a=1e-12, muv=1, v0=1e-10) as eng:           # (c)
+        assert eng.has_fix("muv") and not eng.has_fix("damp")
+    with Engine() as eng:                                  # relax: damping only here
+        eng.load_deck("in.relax", {"datafile": relaxed.datafile}, ("scene", "dynamics"))
+        assert eng.has_fix("damp") and not eng.has_fix("muv")

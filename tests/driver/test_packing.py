@@ -1,0 +1,62 @@
+"""The packing generator: reproducible, valid geometry, readable by LAMMPS."""
+import numpy as np
+import pytest
+
+from remote_trigger.pywrap.packing import generate, write_data, box_width, RADII
+
+
+def test_same_seed_same_packing_other_seed_differs():
+    a, b, c = generate(40, seed=7), generate(40, seed=7), generate(40, seed=8)
+    for name in ("x", "y", "radius", "type", "top"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert not np.array_equal(a.x, c.x)
+
+
+@pytest.mark.parametrize("n", [20, 100])
+def test_geometry(n):
+    p = generate(n, seed=3)
+    assert p.n == n
+    # equal numbers of both radii, types 1 = small, 2 = large
+    assert np.count_nonzero(p.radius == RADII[0]) == n // 2
+    np.testing.assert_array_equal(p.type, np.where(p.radius == RADII[0], 1, 2))
+    # width gives an L x L box at phi = 0.82
+    assert p.width == pytest.approx(np.sqrt(np.sum(np.pi * p.radius ** 2) / 0.82))
+    # no overlaps (periodic in x), nothing below the wall
+    dx = p.x[:, None] - p.x[None, :]
+    dx -= p.width * np.round(dx / p.width)
+    dy = p.y[:, None] - p.y[None, :]
+    gap = np.hypot(dx, dy) - (p.radius[:, None] + p.radius[None, :])
+    np.fill_diagonal(gap, 1.0)
+    assert gap.min() > 0
+    assert np.all(p.y - p.radius >= 0)
+    # the top line is above every bulk disk, even in number, evenly spaced
+    assert p.n_top >= 2 and p.n_top % 2 == 0
+    assert p.y[p.top].min() > p.y[~p.top].max()
+    assert np.allclose(np.diff(np.sort(p.x[p.top])), p.width / p.n_top)
+
+
+def test_data_file_read_by_lammps(tmp_path):
+    from remote_trigger.pywrap.engine import Engine
+
+    p = generate(30, seed=2)
+    path = tmp_path / "p.data"
+    write_data(p, path)
+    with Engine() as eng:
+        eng.load_deck("in.relax", {"datafile": str(path)}, ("scene",))
+        eng.command("run 0")
+        st = eng.gather_state()
+        assert eng.natoms == 30
+        np.testing.assert_array_equal(st.top, p.top)
+        np.testing.assert_array_equal(st.x[:, 0], p.x)      # exact round trip
+        np.testing.assert_array_equal(st.radius, p.radius)
+        np.testing.assert_array_equal(st.mass, np.ones(30))  # set mass 1, not density
+        assert int(eng.lmp.extract_global("natoms")) == 30
+
+
+@pytest.mark.parametrize("kw, msg", [
+    (dict(n=-4), "n = -4"), (dict(n=21), "n = 21"),
+    (dict(n=20, radii=(-0.5, 0.7)), "radii"), (dict(n=20, radii=(0.7, 0.5)), "radii"),
+    (dict(n=20, phi=1.5), "phi = 1.5")])
+def test_bad_arguments(kw, msg):
+    with pytest.raises(ValueError, match=msg.replace("(", r"\(")):
+        generate(**kw)

@@ -1,0 +1,89 @@
+"""Ramp: a complex pair appears, bisection brackets F_x^c, resume reproduces it."""
+import os
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+
+from remote_trigger.pywrap.config import RampConfig
+from remote_trigger.pywrap import stages
+from remote_trigger.pywrap.results import read_all
+
+from .conftest import CLI, cli_env
+
+DF = 0.01
+TOL = 1e-5
+
+
+@pytest.fixture(scope="module")
+def full_ramp(relaxed, tmp_path_factory):
+    out = tmp_path_factory.mktemp("ramp_full")
+    cfg = RampConfig(datafile=relaxed.datafile, dF_x=DF, tol=TOL)
+    return cfg, stages.ramp(cfg, str(out), quiet=True)
+
+
+def test_ramp_finds_complex_pair_and_bisects(full_ramp):
+    cfg, res = full_ramp
+    assert res.status == "complete", res.message
+    # every step before the last is stable, the last has a complex pair
+    assert res.complex_pair[-1] and not np.any(res.complex_pair[:-1])
+    assert res.growth_rate[-1] > 0 and np.all(res.growth_rate[:-1] == 0)
+    np.testing.assert_allclose(res.F_x, cfg.F_x + DF * np.arange(res.F_x.size), rtol=0,
+                               atol=1e-15)
+    # bracket inside the last ramp interval and narrower than tol
+    assert res.F_x[-2] <= res.F_x_c_low < res.F_x_c_high <= res.F_x[-1]
+    assert 0 < res.F_x_c_high - res.F_x_c_low <= TOL
+    # bisection points are consistent: complex above the bracket, stable below
+    bf, bc = res.bisection_F_x, res.bisection_complex
+    assert np.all(bf[bc] >= res.F_x_c_high) and np.all(bf[~bc] <= res.F_x_c_low)
+    assert np.all(res.residual < 1e-10)
+
+
+def test_ramp_h5_layout(full_ramp):
+    cfg, res = full_ramp
+    attrs, data = read_all(res.h5)
+    assert attrs["status"] == "complete" and attrs["stage"] == "ramp"
+    assert RampConfig.from_attrs(attrs) == cfg
+    assert attrs["F_x_c_low"] == res.F_x_c_low and attrs["F_x_c_high"] == res.F_x_c_high
+    n = res.F_x.size
+    for c in ("F_x", "residual", "complex", "growth_rate", "datafile"):
+        assert data[f"steps/{c}"].shape == (n,)
+    assert all(os.path.exists(f) for f in data["steps/datafile"])
+    last = f"eigenvalues/steps/step_{n - 1:05d}"
+    assert np.any(np.abs(data[last].imag) > 0)
+
+
+def test_resume_after_interruption_reproduces(full_ramp, relaxed, tmp_path):
+    cfg, full = full_ramp
+    rng = np.random.default_rng(int(time.time()))
+    k = int(rng.integers(1, full.F_x.size + full.bisection_F_x.size - 1))
+    part = stages.ramp(cfg, str(tmp_path), quiet=True, stop_after=k)
+    assert part.status == "interrupted"
+    res = stages.ramp(cfg, str(tmp_path), quiet=True, resume=True)
+    assert res.status == "complete"
+    assert res.F_x_c_low == full.F_x_c_low and res.F_x_c_high == full.F_x_c_high, k
+    np.testing.assert_array_equal(res.residual, full.residual)
+    np.testing.assert_array_equal(res.bisection_F_x, full.bisection_F_x)
+
+
+def test_resume_after_kill_9(full_ramp, relaxed, tmp_path):
+    """SIGKILL the command line in the middle of a ramp, then --resume."""
+    cfg, full = full_ramp
+    args = [CLI, "ramp", "--datafile", relaxed.datafile, "--out", str(tmp_path),
+            "--dF-x", str(DF), "--tol", str(TOL), "--quiet"]
+    proc = subprocess.Popen(args, env=cli_env(), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    target = tmp_path / "ramp" / f"step_{max(2, full.F_x.size // 2):05d}.dump"
+    t0 = time.time()
+    while not target.exists() and proc.poll() is None and time.time() - t0 < 60:
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    attrs, data = read_all(str(tmp_path / "ramp.h5"))     # still a valid file
+    assert attrs["status"] == "running"
+    out = subprocess.run(args + ["--resume"], env=cli_env(), capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    attrs, _ = read_all(str(tmp_path / "ramp.h5"))
+    assert attrs["F_x_c_low"] == full.F_x_c_low and attrs["F_x_c_high"] == full.F_x_c_high
