@@ -5,9 +5,9 @@
 #include "fix_wall_mindlin_smooth.h"
 
 #include "mindlin_smooth_kernel.h"
+#include "mindlin_smooth_setup.h"
 
 #include "atom.h"
-#include "domain.h"
 #include "error.h"
 #include "input.h"
 #include "memory.h"
@@ -100,13 +100,7 @@ void FixWallMindlinSmooth::find_history()
 
 void FixWallMindlinSmooth::init()
 {
-  if (!atom->radius_flag || !atom->omega_flag || !atom->torque_flag)
-    error->all(FLERR, "Fix wall/mindlin/smooth requires atom style sphere");
-  if (domain->dimension != 2)
-    error->all(FLERR,
-               "Fix wall/mindlin/smooth supports 2d simulations only (dimension 2), "
-               "this one has dimension {}",
-               domain->dimension);
+  MindlinSmooth::require_2d_spheres(lmp, "Fix wall/mindlin/smooth");
   find_history();
   if (!mu_var.empty()) {
     mu_ivar = input->variable->find(mu_var.c_str());

@@ -11,10 +11,10 @@
 #include "pair_mindlin_smooth.h"
 
 #include "mindlin_smooth_kernel.h"
+#include "mindlin_smooth_setup.h"
 
 #include "atom.h"
 #include "comm.h"
-#include "domain.h"
 #include "error.h"
 #include "force.h"
 #include "memory.h"
@@ -157,13 +157,7 @@ void PairMindlinSmooth::find_history()
 
 void PairMindlinSmooth::init_style()
 {
-  if (!atom->radius_flag || !atom->omega_flag || !atom->torque_flag)
-    error->all(FLERR, "Pair style mindlin/smooth requires atom style sphere");
-  if (domain->dimension != 2)
-    error->all(FLERR,
-               "Pair style mindlin/smooth supports 2d simulations only (dimension 2), "
-               "this one has dimension {}",
-               domain->dimension);
+  MindlinSmooth::require_2d_spheres(lmp, "Pair style mindlin/smooth");
   if (comm->ghost_velocity == 0)
     error->all(FLERR,
                "Pair style mindlin/smooth requires ghost atoms store velocity: "

@@ -1,0 +1,30 @@
+/* -*- c++ -*- ----------------------------------------------------------
+   remote-trigger: set-up checks shared by pair mindlin/smooth and
+   fix wall/mindlin/smooth.
+------------------------------------------------------------------------- */
+
+#ifndef REMOTE_TRIGGER_MINDLIN_SMOOTH_SETUP_H
+#define REMOTE_TRIGGER_MINDLIN_SMOOTH_SETUP_H
+
+#include "atom.h"
+#include "domain.h"
+#include "error.h"
+#include "lammps.h"
+
+namespace MindlinSmooth {
+
+// Both styles need disks: atom style sphere in a 2d simulation.
+// `what` names the command in the error, e.g. "Pair style mindlin/smooth".
+inline void require_2d_spheres(LAMMPS_NS::LAMMPS *lmp, const char *what)
+{
+  if (!lmp->atom->radius_flag || !lmp->atom->omega_flag || !lmp->atom->torque_flag)
+    lmp->error->all(FLERR, "{} requires atom style sphere", what);
+  if (lmp->domain->dimension != 2)
+    lmp->error->all(FLERR,
+                    "{} supports 2d simulations only (dimension 2), this one has dimension {}",
+                    what, lmp->domain->dimension);
+}
+
+}    // namespace MindlinSmooth
+
+#endif
