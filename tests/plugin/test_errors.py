@@ -136,3 +136,14 @@ def test_wall_needs_history_and_equal_style_variable():
     with pytest.raises(Exception, match=r"variable nope for mu is not equal-style"):
         lmp.command("run 0")
     lmp.close()
+
+
+def test_coincident_centres_are_an_error_not_nan():
+    lmp = new_lammps()
+    base(lmp)
+    add_disk(lmp, 1, 0.5, 5.0, 5.0)
+    add_disk(lmp, 1, 0.5, 5.0, 5.0)
+    lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
+    with pytest.raises(Exception, match=r"atoms 1 and 2 have coincident centres"):
+        lmp.command("run 0")
+    lmp.close()

@@ -63,6 +63,14 @@ def test_no_tangential_force_without_friction_or_stiffness():
         assert kernel.derivatives(KN, kt, mu, DELTA, 2e-3)[1:] == (0.0, 0.0)
 
 
+@pytest.mark.parametrize("mu, delta", [(5e-324, 1e-3), (1e-300, 1e-30), (1e-10, 5e-324)])
+def test_underflowing_sliding_length_means_no_friction(mu, delta):
+    # t* = mu k_n delta / k_t underflows to 0: no tangential force, never 0/0
+    r = kernel.evaluate(KN, KT, mu, delta, 1e-3)
+    assert r["ft"] == 0.0 and r["xi"] == 0.0 and r["u"] == 0.0
+    assert all(np.isfinite(kernel.derivatives(KN, KT, mu, delta, 1e-3)))
+
+
 def test_force_continuous_at_zero_overlap():
     for d in (1e-6, 1e-10, 1e-14):
         r = kernel.evaluate(KN, KT, MU, d, 0.5 * MU * KN * d / KT)
