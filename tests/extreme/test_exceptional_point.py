@@ -1,0 +1,82 @@
+"""Near the exceptional point: F_x within 1e-8 of F_x^c, without a ramp.
+
+A cheap stand-in for the ramp: the normal form J(d, eps) of MODEL.md section 8
+embedded, by an orthogonal similarity, in a larger non-normal matrix with a
+spread of real eigenvalues (the rest of the spectrum), and the distance to the
+exceptional point written as eps = c (F_x^c - F_x). Complex iff F_x > F_x^c.
+The certified test must never be wrong, must say "undecided" (confidence < 1)
+rather than guess, must certify (confidence > 1) once |F_x - F_x^c| is at the
+1e-8 level, and a bisection driven by it must bracket F_x^c.
+"""
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from remote_trigger.analysis import exceptional as ex
+
+FXC = 0.0123456789
+C = 1.0                      # d eps / d F_x
+
+
+def embedded(F_x, d=0.5, n=40, seed=0):
+    eps = C * (FXC - F_x)
+    rng = np.random.default_rng(seed)
+    lam = np.linspace(3.0, 60.0, n - 2)
+    T = np.diag(lam) + np.triu(rng.normal(scale=0.3, size=(n - 2, n - 2)), 1)
+    B = np.zeros((n, n))
+    B[:2, :2] = 10.0 * ex.normal_form(d, eps)      # pair near 10, inside the spectrum
+    B[2:, 2:] = T
+    B[:2, 2:] = rng.normal(scale=0.3, size=(2, n - 2))
+    Q, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    return Q @ B @ Q.T
+
+
+@pytest.mark.parametrize("dF", [1e-6, 1e-7, 3e-8, 1e-8, -1e-8, -3e-8, -1e-7, -1e-6])
+def test_decision_correct_and_confident_within_1e_8(dF):
+    dec = ex.classify_spectrum(embedded(FXC + dF))
+    assert dec.complex_present is not None, dec.confidence
+    assert dec.complex_present == (dF > 0)
+    assert dec.confidence > 1.0
+    if abs(dF) >= 1e-7:
+        assert dec.confidence > 10.0
+
+
+@pytest.mark.parametrize("dF", [1e-10, -1e-10, 1e-12, -1e-12, 0.0])
+def test_closer_than_resolution_is_undecided_not_wrong(dF):
+    dec = ex.classify_spectrum(embedded(FXC + dF))
+    if dec.complex_present is None:
+        assert dec.confidence <= 1.0
+    else:
+        assert dec.complex_present == (dF > 0) and dec.confidence > 1.0
+
+
+def test_confidence_grows_linearly_with_distance():
+    m = [ex.classify_spectrum(embedded(FXC + dF)).confidence for dF in (1e-8, 1e-7, 1e-6)]
+    assert 3 < m[1] / m[0] < 30 and 3 < m[2] / m[1] < 30, m
+
+
+def test_bisection_brackets_the_critical_load():
+    lo, hi = FXC - 1e-4, FXC + 1e-4
+    while hi - lo > 1e-8:
+        mid = 0.5 * (lo + hi)
+        dec = ex.classify_spectrum(embedded(mid))
+        if dec.complex_present is None:          # closer than the resolution: stop here
+            assert dec.confidence <= 1.0 and abs(mid - FXC) < 1e-8
+            lo = hi = mid
+            break
+        if dec.complex_present:
+            hi = mid
+        else:
+            lo = mid
+    assert lo - 1e-8 <= FXC <= hi + 1e-8 and hi - lo <= 1e-8
+
+
+@pytest.mark.parametrize("dF", [1e-7, -1e-7])
+def test_projected_sparse_path_near_the_point(dF):
+    A = sp.csr_matrix(embedded(FXC + dF, n=60))
+    dec, res = ex.classify_projected(A, sigma=10.0, k=8)
+    assert dec.complex_present is None or dec.complex_present == (dF > 0)
+    if dec.complex_present is None:
+        assert dec.confidence <= 1.0
+    else:
+        assert dec.confidence > 1.0

@@ -1,0 +1,61 @@
+"""F_x far beyond sliding: no equilibrium, a clear message, no hang.
+
+With mu = 1 and F_y = 3 per top disk, F_x = 30 is ten times the Coulomb
+limit of the whole top line; the driver's relaxation must raise
+NoEquilibriumError (Python) / exit with status 3 (command line) within a
+bounded time.
+"""
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+
+N = 20
+
+
+@pytest.fixture(scope="module")
+def datafile(tmp_path_factory):
+    from remote_trigger.pywrap.packing import generate, write_data
+
+    path = tmp_path_factory.mktemp("noeq") / "p.data"
+    write_data(generate(N, seed=2), path)
+    return str(path)
+
+
+def test_equilibrate_raises_clear_error_quickly(datafile, tmp_path):
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.config import RelaxConfig
+    from remote_trigger.pywrap.equilibrium import NoEquilibriumError
+
+    cfg = RelaxConfig(datafile=datafile, F_x=30.0, max_steps=200000)
+    t0 = time.perf_counter()
+    with pytest.raises(NoEquilibriumError, match=r"no equilibrium at F_x = 30\.0: the top "
+                                                 r"layer slid"):
+        stages.relax(cfg, str(tmp_path / "out"), quiet=True)
+    assert time.perf_counter() - t0 < 30.0
+
+
+def test_max_steps_bounds_a_slow_case(datafile, tmp_path):
+    """Even when the slide criterion is not met, max_steps ends the run with a message."""
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.config import RelaxConfig
+    from remote_trigger.pywrap.equilibrium import NoEquilibriumError
+
+    cfg = RelaxConfig(datafile=datafile, F_x=30.0, slide=1e9, max_steps=3000,
+                      check_every=1000)
+    t0 = time.perf_counter()
+    with pytest.raises(NoEquilibriumError, match="within max_steps = 3000"):
+        stages.relax(cfg, str(tmp_path / "out2"), quiet=True)
+    assert time.perf_counter() - t0 < 30.0
+
+
+def test_command_line_exit_status_3(datafile, tmp_path):
+    cli = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    p = subprocess.run([cli, "relax", "--datafile", datafile, "--out", str(tmp_path / "o"),
+                        "--F-x", "30", "--quiet"], capture_output=True, text=True, timeout=60,
+                       env=env)
+    assert p.returncode == 3, (p.returncode, p.stderr[-500:])
+    assert "no equilibrium" in p.stderr + p.stdout
