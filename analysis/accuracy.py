@@ -483,8 +483,13 @@ def section_eigen(ctx):
     err = pair_err(None if out is None else out.eigenvalues)
     if not note and not err < 1e-3:
         dmax = float(np.max(A.diagonal()))
-        note = (f"pair not found: lambda/max diag = {lam_c.real / dmax:.2f} is outside "
-                f"COALESCENCE_BAND {eigen.COALESCENCE_BAND}")
+        ratio = lam_c.real / dmax
+        lo, hi = eigen.COALESCENCE_BAND
+        where = ("inside" if lo <= ratio <= hi else "outside")
+        note = (f"pair not found: lambda/max diag = {ratio:.2f} is {where} "
+                f"COALESCENCE_BAND {eigen.COALESCENCE_BAND}"
+                + (", between the windows of the 6 shifts (k = 12 each)"
+                   if where == "inside" else ""))
     rows.append(Row("eigen", "ARPACK band scan", "6 shifts x k = 12", err, w, note=note))
     out, w, note = timed(lambda: exceptional.classify_spectrum(A.toarray()))
     if out is not None:
