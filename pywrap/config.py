@@ -15,6 +15,10 @@ import math
 import os
 
 
+#: relaxation protocols of :class:`RelaxConfig` (docs/driver.md)
+PROTOCOLS = ("frictionless-then-friction", "frictional")
+
+
 class ConfigError(ValueError):
     """A configuration value is invalid; the message names field and value."""
 
@@ -150,12 +154,35 @@ class RelaxConfig(StageConfig):
     gamma, gamma_rot : float
         Damping of the over-damped dynamics: ``fix viscous`` rate (1/time,
         m = 1) and ``fix viscous/sphere`` coefficient; > 0. Defaults 2, 0.1.
+    protocol : str
+        ``'frictionless-then-friction'`` (default, **choice**, docs/driver.md):
+        (i) compact the bulk only, frictionless, with gravity ``g_settle``
+        for ``settle_steps`` steps while the ``top`` disks are held (not
+        integrated); (ii) lower the ``top`` line rigidly until its lowest
+        point is ``top_gap`` above the highest bulk point; (iii) gravity off,
+        relax frictionless (mu = 0, history stays 0) under the loads
+        (over-damped + Newton); (iv) switch friction on (``mu``): the
+        history is zero, so the state is still an equilibrium (checked).
+        ``'frictional'``: the former protocol (compaction of all disks with
+        ``mu_settle`` and gravity, then relaxation with friction ``mu``).
     settle_steps : int
-        Compaction aid for a loose packing (0 = off): steps of frictionless
-        (``mu_settle``) damped dynamics with gravity ``g_settle`` on all
-        disks, before the real relaxation. Default 0.
-    mu_settle, g_settle : float
-        Defaults 0 and 0.05.
+        Compaction steps with gravity (0 = no compaction, e.g. for a data
+        file that is already an equilibrium), >= 0. Default 30000.
+    g_settle : float
+        Gravity of the compaction, >= 0. Default 0.5.
+    mu_settle : float
+        Friction during the compaction of the ``'frictional'`` protocol,
+        >= 0. Default 0 (the default protocol compacts with mu = 0).
+    top_gap : float
+        Gap between the lowest point of the lowered ``top`` line and the
+        highest point of the compacted bulk, > 0. Default 0.05.
+    top_attempts : int
+        Placements of the ``top`` line tried, >= 1 (default 4): if after the
+        frictionless relaxation some bulk disk centre is above a top disk
+        centre, the relaxation is repeated from the same compacted bulk with
+        the line shifted along x by k/top_attempts of its spacing; the first
+        placement that keeps every top centre above every bulk centre is
+        kept (else the one with the largest clearance, reported).
     check_every : int
         Damped steps between residual checks, >= 1. Default 1000.
     max_steps : int
@@ -177,9 +204,12 @@ class RelaxConfig(StageConfig):
     f_accept: float = 1e-10
     gamma: float = 2.0
     gamma_rot: float = 0.1
-    settle_steps: int = 0
+    protocol: str = "frictionless-then-friction"
+    settle_steps: int = 30000
     mu_settle: float = 0.0
-    g_settle: float = 0.05
+    g_settle: float = 0.5
+    top_gap: float = 0.05
+    top_attempts: int = 4
     check_every: int = 1000
     max_steps: int = 5_000_000
     newton: bool = True
@@ -196,7 +226,12 @@ class RelaxConfig(StageConfig):
                               f"f_accept = {self.f_accept!r}")
         _positive("gamma", self.gamma)
         _positive("gamma_rot", self.gamma_rot)
+        if self.protocol not in PROTOCOLS:
+            raise ConfigError(f"protocol must be one of {', '.join(PROTOCOLS)}, got "
+                              f"protocol = {self.protocol!r}")
         _int("settle_steps", self.settle_steps, 0)
+        _positive("top_gap", self.top_gap)
+        _int("top_attempts", self.top_attempts, 1)
         _nonneg("mu_settle", self.mu_settle)
         _nonneg("g_settle", self.g_settle)
         _int("check_every", self.check_every, 1)

@@ -1,26 +1,29 @@
 """Linear stability of an equilibrium dump (driver side of the analyzer).
 
-The ramp calls :func:`analyze_dump` on every equilibrium dump it writes. It
-reads the dump with ``remote_trigger.analysis.state.read_dump`` (the format of
-docs/conventions.md section 3), assembles K = -dG/dq with
-``remote_trigger.analysis.jacobian`` (paper Appendix C, Eqs. 44-67), removes
-rattlers iteratively (frictional criterion: fewer than 2 contacts), and
-computes the eigenvalues lambda of M^-1 K (Eq. 6: omega = +-sqrt(lambda)).
+The ramp calls :func:`analyze_dump` on every equilibrium dump it writes. The
+work is done by the analyzer, :func:`remote_trigger.analysis.analyze.analyze`
+(docs/analysis.md): K = -dG/dq (paper Appendix C), rattlers removed
+iteratively (frictional criterion: fewer than 2 contacts), eigenvalues of
+M^-1 K (Eq. 6: omega = +-sqrt(lambda)) and the **certified** complex-pair
+decision from the 2 x 2 blocks of the real Schur form with error bounds
+(``remote_trigger.analysis.exceptional``). No threshold on Im lambda is used:
+the decision is ``'complex'`` (a pair certified complex), ``'real'`` (every
+pair certified real) or ``'undecided'`` (some pair is so close to an
+exceptional point that its sign cannot be certified in double precision),
+each with its margin (``confidence``, > 1 = certified).
 
-Complex pairs are detected from the **real Schur form** of M^-1 K, as
-MODEL.md section 7 asks: LAPACK standardises 2 x 2 diagonal blocks so that a
-block remains only for a complex-conjugate pair, which is robust where
-eigenvalues coalesce (an exceptional point, where the eigenvalues themselves
-are ill-conditioned). A block counts if its imaginary part exceeds
-``rtol`` times the spectral scale max |lambda| (default 1e-10), to ignore
-round-off pairs among near-zero eigenvalues.
-
-If the analyzer package later provides its own eigenvalue module, this
-function is the one place to switch to it.
+Ramp policy for ``'undecided'`` (docs/driver.md): it is *not* counted as a
+complex pair (the ramp goes on, bisection treats the point as the stable
+side), and it is recorded (``decision`` = -1 with its margin) in ramp.h5.
+An undecided point is within round-off of an exceptional point, i.e. at the
+resolution limit of F_x^c itself.
 """
 from dataclasses import dataclass
 
 import numpy as np
+
+#: numeric codes of the decision stored in ramp.h5
+DECISION_CODES = {"complex": 1, "real": 0, "undecided": -1}
 
 
 @dataclass
@@ -33,15 +36,24 @@ class StabilityResult:
         Eigenvalues of M^-1 K over the kept degrees of freedom, sorted by
         real part.
     complex_pair : bool
-        True if a complex-conjugate pair exists (oscillatory instability).
+        True iff a complex-conjugate pair is *certified* (``decision ==
+        'complex'``): an oscillatory instability.
     max_imag : float
-        Largest |Im lambda| among the pairs (0 if none).
+        Largest |Im lambda| over the eigenvalues if ``complex_pair``, else 0.
     growth_rate : float
-        max Im(omega) = max over eigenvalues of |Im sqrt(lambda)|, the
-        exponential growth rate of a linear perturbation (1/time).
+        max |Im omega| over omega = +-sqrt(lambda) (1/time); 0 for a real
+        positive spectrum.
     n_rattlers : int
         Disks removed as rattlers.
     rattler_ids : ndarray of int64
+    decision : str
+        ``'complex'``, ``'real'`` or ``'undecided'``.
+    confidence : float
+        Margin of the decision (docs/analysis.md): > 1 certified; for
+        ``'undecided'`` the margin (< 1) of the least certain pair.
+    residual : float
+        max over disks of max(|F_i|, |T_i|/R_i) recomputed by the analyzer
+        from the dump (loads included).
     """
 
     eigenvalues: np.ndarray
@@ -50,56 +62,56 @@ class StabilityResult:
     growth_rate: float
     n_rattlers: int
     rattler_ids: np.ndarray
+    decision: str = "real"
+    confidence: float = float("inf")
+    residual: float = float("nan")
+
+    @property
+    def decision_code(self):
+        """1 complex, 0 real, -1 undecided (as stored in ramp.h5)."""
+        return DECISION_CODES[self.decision]
 
 
-def analyze_state(state, rtol=1e-10):
-    """Eigen-analysis of an analysis ``State`` (see module docstring).
+def analyze_state(state):
+    """Eigen-analysis of an analysis ``State`` with the analyzer (dense path).
 
     Parameters
     ----------
     state : remote_trigger.analysis.state.State
-    rtol : float
-        Relative threshold on |Im lambda| for a pair to count.
 
     Returns
     -------
     StabilityResult
     """
-    import scipy.linalg as sla
-    from remote_trigger.analysis import jacobian
+    from remote_trigger.analysis.analyze import analyze
+    from remote_trigger.analysis import eigen, exceptional, jacobian
 
-    K = jacobian.stiffness_matrix(state)
-    rat = jacobian.find_rattlers(state)
-    Kr, mr = jacobian.remove_dofs(K, state.mass_diagonal(), rat.keep_dofs)
-    Kr = Kr.toarray() if hasattr(Kr, "toarray") else np.asarray(Kr)
-    if Kr.size == 0:
+    # K, rattlers and residual from analyze(); the dense spectrum and the
+    # certified decision from one classify_spectrum call (its Schur form gives
+    # the eigenvalues too: analyze(..., eigenvalues=True) would run a second,
+    # separate eigenvalue solve -- 20-30 % of the time of a ramp step)
+    res = analyze(state, eigenvalues=False, decide=False)
+    rat = res.rattlers
+    if rat.keep_dofs.size == 0:      # every disk a rattler: nothing to decide
         return StabilityResult(np.zeros(0, complex), False, 0.0, 0.0, int(rat.ids.size),
-                               rat.ids)
-    A = Kr / mr[:, None]
-    T = sla.schur(A, output="real")[0]
-    lam = np.linalg.eigvals(A)
-    scale = float(np.max(np.abs(lam))) if lam.size else 1.0
-    max_imag = 0.0
-    n = T.shape[0]
-    k = 0
-    while k < n - 1:
-        if T[k + 1, k] != 0.0:
-            blk = T[k:k + 2, k:k + 2]
-            tr, det = blk[0, 0] + blk[1, 1], blk[0, 0] * blk[1, 1] - blk[0, 1] * blk[1, 0]
-            disc = tr * tr / 4.0 - det
-            if disc < 0:
-                max_imag = max(max_imag, float(np.sqrt(-disc)))
-            k += 2
-        else:
-            k += 1
-    complex_pair = max_imag > rtol * scale
-    growth = float(np.max(np.abs(np.sqrt(lam.astype(complex)).imag))) if complex_pair else 0.0
-    order = np.lexsort((lam.imag, lam.real))
-    return StabilityResult(lam[order], bool(complex_pair), max_imag, growth,
-                           int(rat.ids.size), rat.ids)
+                               np.asarray(rat.ids, np.int64), "real", float("inf"),
+                               res.max_residual)
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
+    dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray())
+    if dec.complex_present is None:
+        decision = "undecided"
+    else:
+        decision = "complex" if dec.complex_present else "real"
+    lam = np.asarray(dec.eigenvalues, np.complex128)
+    lam = lam[np.lexsort((lam.imag, lam.real))]
+    cplx = decision == "complex"
+    max_imag = float(np.max(np.abs(lam.imag))) if (cplx and lam.size) else 0.0
+    return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
+                           int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
+                           float(dec.confidence), res.max_residual)
 
 
-def analyze_dump(path, rtol=1e-10):
+def analyze_dump(path):
     """Read an equilibrium dump (+ sidecar JSON) and analyse it.
 
     Raises
@@ -114,4 +126,4 @@ def analyze_dump(path, rtol=1e-10):
         state = read_dump(path, require_contacts=False)
     except (OSError, KeyError, IndexError, ValueError) as exc:
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
-    return analyze_state(state, rtol=rtol)
+    return analyze_state(state)

@@ -133,19 +133,33 @@ class RelaxResult:
     Attributes
     ----------
     residual : float
-        r = max_i max(|F_i|, |T_i|/R_i) reached (exact, ``run 0``).
+        r = max_i max(|F_i|, |T_i|/R_i) reached (exact, ``run 0``), with the
+        friction of ``cfg.mu`` on.
     converged : bool
         r < f_min (else r is the round-off floor, < f_accept).
     wall_time : float
         Seconds.
     damped_time : float
-        Simulated time of over-damped dynamics (lj units).
+        Simulated time of over-damped dynamics (lj units), compaction excluded.
     newton_iterations : int
         Accepted Newton steps.
     packing_fraction : float
+        phi = sum pi R^2 / (L h), h = max(y + R), all disks (top included).
     history : RelaxRecord
     datafile, dumpfile, h5 : str
         Outputs.
+    protocol : str
+        Protocol used (``cfg.protocol``).
+    antisymmetry : float
+        ||K - K^T||_F / ||K||_F of the final equilibrium (0 when every
+        tangential displacement is zero).
+    top_clearance : float
+        min over top disks of y minus max over bulk disks of y (> 0: every
+        top disk centre is above every bulk disk centre).
+    compaction_time : float
+        Wall seconds of the compaction (and piston) phases.
+    top_attempts : int
+        Placements of the ``top`` line tried (default protocol).
     """
 
     residual: float
@@ -158,10 +172,192 @@ class RelaxResult:
     datafile: str
     dumpfile: str
     h5: str
+    protocol: str = "frictionless-then-friction"
+    antisymmetry: float = float("nan")
+    top_clearance: float = float("nan")
+    compaction_time: float = 0.0
+    top_attempts: int = 0
+
+
+def set_friction(eng, cfg, mu):
+    """Set the friction coefficient of the pair style and the wall to ``mu``.
+
+    Needs a scene of ``in.relax`` (its wall uses ``v_mu_now``).
+    """
+    eng.commands(f"pair_coeff * * {float(cfg.k_n)!r} {float(cfg.k_t)!r} {float(mu)!r}\n"
+                 f"variable mu_now equal {float(mu)!r}\n")
+
+
+def compact_bulk(eng, cfg):
+    """Protocol step (i): frictionless compaction of the bulk under gravity.
+
+    The ``top`` disks are not integrated (held where they are, above the
+    bulk); the bulk disks move with the damped dynamics of ``in.relax`` and
+    gravity ``cfg.g_settle`` for ``cfg.settle_steps`` steps. Friction must
+    already be off. Ends with v = omega = 0 and the dynamics of ``in.relax``
+    restored on all disks.
+    """
+    eng.unfix("integ")
+    eng.commands("group bulk subtract all top\n"
+                 "fix integ bulk nve/sphere disc\n"
+                 f"fix grav bulk gravity {float(cfg.g_settle)!r} vector 0 -1 0\n")
+    eng.run(cfg.settle_steps, pre=True)
+    eng.unfix("grav", "integ")
+    eng.command("velocity all set 0.0 0.0 0.0")
+    eng.command("set group all omega 0.0 0.0 0.0")
+    eng.command("fix integ all nve/sphere disc")
+
+
+def place_top(eng, gap):
+    """Protocol step (ii): move the ``top`` line rigidly (along y) onto the bulk.
+
+    After the move the lowest point of the line, min over top of (y - R), is
+    ``gap`` above the highest bulk point, max over bulk of (y + R): no top
+    disk touches the bulk, and each falls onto the bulk surface under F_y.
+
+    Returns
+    -------
+    float
+        The displacement applied (negative = down).
+
+    Raises
+    ------
+    ValueError
+        If the moved line would leave the box.
+    """
+    st = eng.gather_state()
+    top = st.top
+    if not np.any(top) or np.all(top):
+        raise ValueError(f"place_top needs top and bulk disks, got {int(top.sum())} top "
+                         f"disks of {st.n}")
+    y, R = st.x[:, 1], st.radius
+    dy = float(np.max(y[~top] + R[~top]) + gap - np.min(y[top] - R[top]))
+    if np.max(y[top] + R[top]) + dy >= st.box_hi[1]:
+        raise ValueError(f"the top line does not fit below the box top ylo/yhi = "
+                         f"{st.box_hi[1]!r} after a move by dy = {dy!r}")
+    eng.command(f"displace_atoms top move 0.0 {dy!r} 0.0 units box")
+    return dy
+
+
+def press_top(eng, cfg, F_x, max_steps=200000, v_stop=1e-6):
+    """Protocol step (iii a): the ``top`` line as a rigid piston on the bulk.
+
+    ``fix aveforce`` (defined after the loads and the damping, so that it
+    averages the total force) gives every top disk the mean force of the
+    line: the line translates rigidly, pressing on the frictionless bulk
+    with the loads, so no bulk disk can squeeze between two top disks while
+    the surface layer rearranges. Damped dynamics in chunks of
+    ``cfg.check_every`` steps until the largest speed is below ``v_stop``
+    (or ``max_steps``); then the constraint is removed and v = omega = 0.
+
+    Returns
+    -------
+    int
+        Steps run.
+    """
+    eng.command(f"variable load_x equal {float(F_x)!r}")
+    if not eng.has_fix("integ"):
+        eng.commands(eq.dynamics_commands(cfg))
+    eng.command("fix piston top aveforce 0.0 0.0 NULL")
+    steps = 0
+    try:
+        while steps < max_steps:
+            eng.run(cfg.check_every, pre=(steps == 0))
+            steps += cfg.check_every
+            v = eng.gather("v")[:, :2]
+            if float(np.max(np.hypot(v[:, 0], v[:, 1]))) < v_stop:
+                break
+    finally:
+        eng.unfix("piston")
+    eng.command("velocity all set 0.0 0.0 0.0")
+    eng.command("set group all omega 0.0 0.0 0.0")
+    return steps
+
+
+def top_clearance(state):
+    """min over top disks of y minus max over bulk disks of y (centres)."""
+    y = state.x[:, 1]
+    return float(np.min(y[state.top]) - np.max(y[~state.top]))
+
+
+def antisymmetry(state, cfg, F_x):
+    """||K - K^T||_F / ||K||_F of a gathered state (K: analysis Jacobian)."""
+    K = eq.stiffness_dense(state, cfg.k_n, cfg.k_t, cfg.mu, F_x, cfg.F_y)
+    nrm = float(np.linalg.norm(K))
+    return float(np.linalg.norm(K - K.T) / nrm) if nrm > 0 else 0.0
+
+
+def _frictionless_then_friction(eng, cfg, prog, t0):
+    """Steps (i)-(iv) of the default protocol (see :func:`relax`).
+
+    Returns (r, t_sim, record, compaction wall time, attempts).
+    """
+    cfg0 = cfg.replace(mu=0.0)
+    load_relax_scene(eng, cfg0, cfg.datafile, cfg.F_x)
+    t_comp = 0.0
+    offsets = [0.0]
+    if cfg.settle_steps > 0:
+        tc = time.perf_counter()
+        compact_bulk(eng, cfg)
+        place_top(eng, cfg.top_gap)
+        t_comp = time.perf_counter() - tc
+        st = eng.gather_state()
+        spacing = float(st.box_hi[0] - st.box_lo[0]) / max(1, int(np.count_nonzero(st.top)))
+        offsets = [k * spacing / cfg.top_attempts for k in range(cfg.top_attempts)]
+    start = eng.gather_state()
+    best = None
+    for k, dx in enumerate(offsets):
+        if k > 0:                      # same compacted bulk, line shifted along x
+            eng.restore(start)
+            eng.command(f"displace_atoms top move {dx!r} 0.0 0.0 units box")
+        if cfg.settle_steps > 0:
+            tc = time.perf_counter()
+            press_top(eng, cfg0, cfg.F_x)
+            t_comp += time.perf_counter() - tc
+        try:
+            r, t_sim, rec = eq.equilibrate(eng, cfg0, cfg.F_x, progress=prog)
+        except eq.NoEquilibriumError as exc:
+            if k + 1 < len(offsets):
+                continue
+            if best is not None:
+                break
+            raise eq.NoEquilibriumError(
+                f"frictionless stage of protocol {cfg.protocol!r}: {exc}") from None
+        st = eng.gather_state()
+        clear = top_clearance(st)
+        if best is None or clear > best[0]:
+            best = (clear, st, r, t_sim, rec, k)
+        if clear > 0:
+            break
+    clear, st, r, t_sim, rec, k = best
+    if k != len(offsets) - 1 or not clear > 0:
+        eng.restore(st)
+    eng.unfix(*eq.DAMPING_FIXES, *eq.INTEGRATOR_FIXES)
+    # (iv) friction on; xi = 0 on every contact, so the forces are unchanged
+    set_friction(eng, cfg, cfg.mu)
+    st, _, r = eq.exact_residual(eng)
+    if np.any(st.xi != 0.0) or np.any(st.wall_xi != 0.0):
+        raise RuntimeError("friction switched on with nonzero contact history "
+                           f"(max |xi| = {float(np.max(np.abs(st.xi))):.3g})")
+    rec.add(t_sim, r, "friction-on", t0)
+    if not r < cfg.f_accept:         # (not expected: xi = 0) polish with friction
+        r, t_sim, rec = eq.equilibrate(eng, cfg, cfg.F_x, record=rec, progress=prog,
+                                       newton_first=True)
+    return r, t_sim, rec, t_comp, k + 1
 
 
 def relax(cfg, out, comm=None, quiet=False, log="none"):
     """Relax a packing to mechanical equilibrium at load (F_x, -F_y).
+
+    ``cfg.protocol = 'frictionless-then-friction'`` (default; docs/driver.md):
+    frictionless compaction of the bulk under gravity with the ``top`` line
+    held (:func:`compact_bulk`, skipped if ``settle_steps`` = 0), the line
+    lowered onto the bulk (:func:`place_top`), frictionless relaxation under
+    the loads (over-damped + Newton), then friction ``cfg.mu`` switched on
+    with zero history (still an equilibrium: the residual is re-evaluated,
+    and polished with friction if it is not below ``f_accept``).
+    ``'frictional'``: compaction of all disks with ``mu_settle``, then
+    relaxation with friction.
 
     Parameters
     ----------
@@ -188,30 +384,36 @@ def relax(cfg, out, comm=None, quiet=False, log="none"):
     t0 = time.perf_counter()
     with Engine(comm=comm, log=log) as eng:
         _ensure_dir(eng, os.path.join(out, "relax"))
-        load_relax_scene(eng, cfg, cfg.datafile, cfg.F_x)
         bar = _progress(None, "relax", quiet, eng.rank, unit="chk")
-        if cfg.settle_steps > 0:
-            eng.commands(
-                f"pair_coeff * * {cfg.k_n!r} {cfg.k_t!r} {cfg.mu_settle!r}\n"
-                f"variable mu_now equal {cfg.mu_settle!r}\n"
-                f"fix grav all gravity {cfg.g_settle!r} vector 0 -1 0\n"
-                f"run {cfg.settle_steps}\n"
-                "unfix grav\n"
-                f"pair_coeff * * {cfg.k_n!r} {cfg.k_t!r} {cfg.mu!r}\n"
-                f"variable mu_now equal {cfg.mu!r}\n")
 
         def prog(r):
             bar.update(1)
             bar.set_postfix_str(f"residual {r:.2e}")
 
+        t_comp, attempts = 0.0, 0
         try:
-            r, t_sim, rec = eq.equilibrate(eng, cfg, cfg.F_x, progress=prog)
+            if cfg.protocol == "frictionless-then-friction":
+                r, t_sim, rec, t_comp, attempts = _frictionless_then_friction(
+                    eng, cfg, prog, t0)
+            else:
+                load_relax_scene(eng, cfg, cfg.datafile, cfg.F_x)
+                if cfg.settle_steps > 0:
+                    tc = time.perf_counter()
+                    set_friction(eng, cfg, cfg.mu_settle)
+                    eng.commands(f"fix grav all gravity {cfg.g_settle!r} vector 0 -1 0\n"
+                                 f"run {cfg.settle_steps}\nunfix grav\n")
+                    set_friction(eng, cfg, cfg.mu)
+                    t_comp = time.perf_counter() - tc
+                r, t_sim, rec = eq.equilibrate(eng, cfg, cfg.F_x, progress=prog)
         finally:
             bar.close()
         prefix = os.path.join(out, "relax", "equilibrium")
         save_equilibrium(eng, cfg, cfg.F_x, prefix)
         state = eng.gather_state()
         phi = packing_fraction(state)
+        asym = antisymmetry(state, cfg, cfg.F_x) if eng.rank == 0 else None
+        asym = eng.comm.bcast(asym, root=0)
+        clear = top_clearance(state)
         wall = time.perf_counter() - t0
         nnewton = max(0, sum(1 for p in rec.phase if p == "newton") - 1)
         h5 = os.path.join(out, "relax.h5")
@@ -219,6 +421,8 @@ def relax(cfg, out, comm=None, quiet=False, log="none"):
             attrs = dict(cfg.to_attrs(), stage="relax", status="complete",
                          version=RESULT_VERSION, residual=r, converged=bool(r < cfg.f_min),
                          wall_time=wall, damped_time=t_sim, packing_fraction=phi,
+                         antisymmetry=asym, top_clearance=clear, compaction_time=t_comp,
+                         top_attempts=attempts,
                          n_ranks=eng.size, datafile_out=prefix + ".data",
                          dumpfile=prefix + ".dump")
             write_atomic(h5, attrs, {
@@ -227,7 +431,9 @@ def relax(cfg, out, comm=None, quiet=False, log="none"):
                 "history/wall_time": np.asarray(rec.wall)})
         eng.comm.Barrier()
     return RelaxResult(r, bool(r < cfg.f_min), wall, t_sim, nnewton, phi, rec,
-                       prefix + ".data", prefix + ".dump", h5)
+                       prefix + ".data", prefix + ".dump", h5, protocol=cfg.protocol,
+                       antisymmetry=asym, top_clearance=clear, compaction_time=t_comp,
+                       top_attempts=attempts)
 
 
 # --------------------------------------------------------------------------- ramp
@@ -242,6 +448,7 @@ class RampResult:
     residual : ndarray
         Residual reached at each step.
     complex_pair : ndarray of bool
+        Certified complex pair (analyzer decision ``'complex'``).
     growth_rate : ndarray
         max Im sqrt(lambda) at each step (0 when stable).
     bisection_F_x, bisection_complex : ndarray
@@ -251,6 +458,12 @@ class RampResult:
         ``'complete'``, ``'no_complex_pair'``, ``'no_equilibrium'`` or
         ``'complex_at_start'``.
     h5 : str
+    message : str
+    decision, confidence : ndarray
+        Analyzer decision per ramp step (1 complex, 0 real, -1 undecided;
+        undecided counts as not complex) and its margin (> 1 certified).
+    bisection_decision : ndarray
+        Same for the bisection points (NaN where no equilibrium was found).
     """
 
     F_x: np.ndarray
@@ -264,6 +477,9 @@ class RampResult:
     status: str
     h5: str
     message: str = ""
+    decision: np.ndarray = None
+    confidence: np.ndarray = None
+    bisection_decision: np.ndarray = None
 
     @property
     def F_x_c(self):
@@ -274,8 +490,8 @@ class RampResult:
 class _RampLog:
     """In-memory copy of ramp.h5, rewritten atomically after every row."""
 
-    COLS = ("F_x", "residual", "complex", "growth_rate", "max_imag", "n_rattlers",
-            "wall_time", "damped_time")
+    COLS = ("F_x", "residual", "complex", "decision", "confidence", "growth_rate",
+            "max_imag", "n_rattlers", "wall_time", "damped_time", "newton_steps")
 
     def __init__(self, cfg, path):
         self.cfg = cfg
@@ -293,17 +509,55 @@ class _RampLog:
         self.eig[f"{kind}/{name}"] = np.asarray(eigenvalues, complex)
 
     def write(self, status, **attrs):
+        """Bring ramp.h5 up to date, atomically.
+
+        The previous file is copied to a temporary name, the new rows are
+        appended to its resizable datasets and the new eigenvalue datasets
+        added, and the copy is renamed over ramp.h5 (``os.replace``), so the
+        file on disk is always complete (old or new), even after ``kill -9``.
+        The cost per write no longer grows with the number of stored
+        eigenvalue sets (a full rewrite did: 57 s of a 650-step ramp).
+        """
+        import shutil
+        import h5py
+
         self.attrs.update(attrs)
         a = dict(self.cfg.to_attrs(), stage="ramp", status=status, version=RESULT_VERSION,
                  **self.attrs)
-        ds = {}
-        for kind in ("steps", "bisection"):
-            for c in self.COLS:
-                ds[f"{kind}/{c}"] = np.asarray(self.rows[kind][c], dtype=np.float64)
-            ds[f"{kind}/datafile"] = np.asarray(self.files[kind], dtype=object)
-        for k, v in self.eig.items():
-            ds[f"eigenvalues/{k}"] = v
-        write_atomic(self.path, a, ds)
+        tmp = f"{self.path}.tmp{os.getpid()}"
+        fresh = not getattr(self, "_synced", False) or not os.path.exists(self.path)
+        if fresh:
+            mode = "w"
+        else:
+            shutil.copyfile(self.path, tmp)
+            mode = "a"
+        with h5py.File(tmp, mode) as fh:
+            for k, v in a.items():
+                fh.attrs[k] = v
+            for kind in ("steps", "bisection"):
+                cols = {c: np.asarray(self.rows[kind][c], dtype=np.float64)
+                        for c in self.COLS}
+                cols["datafile"] = np.asarray([str(f) for f in self.files[kind]],
+                                              dtype=object)
+                for c, arr in cols.items():
+                    name = f"{kind}/{c}"
+                    if name not in fh:
+                        kw = {"dtype": h5py.string_dtype()} if c == "datafile" else {}
+                        fh.create_dataset(name, data=arr, maxshape=(None,),
+                                          chunks=(256,), **kw)
+                        continue
+                    ds = fh[name]
+                    old = ds.shape[0]
+                    if arr.shape[0] != old:
+                        ds.resize((arr.shape[0],))
+                        ds[old:] = arr[old:]
+            for k, v in self.eig.items():
+                name = f"eigenvalues/{k}"
+                if name not in fh:
+                    fh.create_dataset(name, data=v)
+            fh.flush()
+        os.replace(tmp, self.path)
+        self._synced = True
 
     @classmethod
     def load(cls, cfg, path):
@@ -335,6 +589,7 @@ class _RampLog:
         log.attrs = {k: v for k, v in attrs.items()
                      if k in ("F_x_c_low", "F_x_c_high", "message")}
         log.status = attrs.get("status", "running")
+        log._synced = False          # rewrite in full once (older files: fixed-size)
         return log
 
 
@@ -345,13 +600,15 @@ def _ramp_point(eng, cfg, start_file, F_x, prefix):
     """
     t0 = time.perf_counter()
     load_relax_scene(eng, cfg, start_file, F_x, deck="in.ramp_step")
-    r, t_sim, _ = eq.equilibrate(eng, cfg, F_x, newton_first=True)
+    r, t_sim, rec = eq.equilibrate(eng, cfg, F_x, newton_first=True)
     save_equilibrium(eng, cfg, F_x, prefix)
     res = _analyze(eng, prefix + ".dump")
     vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
+            "decision": float(res.decision_code), "confidence": float(res.confidence),
             "growth_rate": res.growth_rate, "max_imag": res.max_imag,
             "n_rattlers": float(res.n_rattlers), "wall_time": time.perf_counter() - t0,
-            "damped_time": t_sim}
+            "damped_time": t_sim,
+            "newton_steps": float(max(0, sum(p == "newton" for p in rec.phase) - 1))}
     return vals, res
 
 
@@ -365,6 +622,11 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     step with a complex pair, F_x^c is bisected between the last stable and
     the first unstable load, each point starting from the last stable
     equilibrium, until the bracket is below ``cfg.tol``.
+
+    "Complex pair" is the analyzer's certified decision
+    (:mod:`.stability`); an ``'undecided'`` point (within round-off of an
+    exceptional point) counts as not complex and is recorded as such
+    (``decision`` = -1 and its margin in ramp.h5).
 
     Parameters
     ----------
@@ -500,7 +762,9 @@ def _ramp_result(rlog, status):
         bisection_F_x=np.asarray(b["F_x"]), bisection_complex=np.asarray(b["complex"]) > 0,
         F_x_c_low=float(rlog.attrs.get("F_x_c_low", np.nan)),
         F_x_c_high=float(rlog.attrs.get("F_x_c_high", np.nan)), status=status,
-        h5=rlog.path, message=str(rlog.attrs.get("message", "")))
+        h5=rlog.path, message=str(rlog.attrs.get("message", "")),
+        decision=np.asarray(s["decision"]), confidence=np.asarray(s["confidence"]),
+        bisection_decision=np.asarray(b["decision"]))
 
 
 # --------------------------------------------------------------------------- undamped

@@ -48,8 +48,14 @@ def test_ramp_h5_layout(full_ramp):
     assert RampConfig.from_attrs(attrs) == cfg
     assert attrs["F_x_c_low"] == res.F_x_c_low and attrs["F_x_c_high"] == res.F_x_c_high
     n = res.F_x.size
-    for c in ("F_x", "residual", "complex", "growth_rate", "datafile"):
+    for c in ("F_x", "residual", "complex", "decision", "confidence", "growth_rate",
+              "newton_steps", "datafile"):
         assert data[f"steps/{c}"].shape == (n,)
+    # the analyzer's certified decision: real before, complex at the last step
+    assert np.all(data["steps/decision"][:-1] == 0) and data["steps/decision"][-1] == 1
+    assert np.all(data["steps/confidence"] > 1)
+    np.testing.assert_array_equal(data["steps/complex"], data["steps/decision"] == 1)
+    np.testing.assert_array_equal(res.decision, data["steps/decision"])
     assert all(os.path.exists(f) for f in data["steps/datafile"])
     last = f"eigenvalues/steps/step_{n - 1:05d}"
     assert np.any(np.abs(data[last].imag) > 0)
