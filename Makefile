@@ -37,7 +37,7 @@ $(STAMP): $(PY) $(SOURCES)
 install: $(STAMP)
 
 demo: install
-	$(VENV)/bin/remote-trigger demo --out $(OUT)
+	$(VENV)/bin/remote-trigger paper --out $(OUT)
 
 test: install
 	$(PY) -m pytest -q -ra

@@ -1,0 +1,214 @@
+r"""Follow the pair of eigenvalues that coalesces at F_x^c through a ramp (Fig. 3).
+
+The ramp (``ramp.h5``, docs/driver.md) stores the spectrum of M^-1 K at every
+equilibrium: ramp steps, bisection points and, in the paper job, a short
+continuation above F_x^c. :func:`track_pair` identifies the pair that is
+born at F_x^c and follows it down and up the load:
+
+1. **Birth.** At the first unstable load of the bracket (the smallest F_x
+   with a complex pair) the pair with the largest |Im lambda| is taken
+   (at the end of a bisection it is the only pair, born within ``tol``).
+2. **Ancestors.** At the last stable load, its two real ancestors are the
+   two eigenvalues closest to Re lambda of the pair.
+3. **Down the ramp** each tracked real eigenvalue is matched to the
+   eigenvalue of the next lower load that is nearest to it (the two matches
+   distinct). Real eigenvalues of a one-parameter family of real matrices
+   cannot cross without coalescing, so nearest-neighbour matching with
+   steps much smaller than the level spacing keeps their identity; the
+   matching distance relative to the local level spacing is recorded
+   (``ambiguity``) so that a doubtful track is visible.
+4. **Up the ramp** the complex pair is matched the same way (lambda with
+   Im > 0 and its conjugate).
+
+.. math::
+
+   \lambda_{a,b}(F_x) = \lambda_c \mp c_-\sqrt{F_x^c - F_x}\quad (F_x < F_x^c),
+   \qquad
+   \lambda_\pm = \lambda_c \pm i\,c_+\sqrt{F_x - F_x^c}\quad (F_x > F_x^c)
+
+near an exceptional point; the figure shows exactly these two branches.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class PairTrack:
+    """The coalescing pair along the ramp.
+
+    Attributes
+    ----------
+    F_x : ndarray, shape (n,)
+        Loads, increasing.
+    lam_a, lam_b : ndarray of complex, shape (n,)
+        The two tracked eigenvalues: below F_x^c real with Re a < Re b;
+        above, lam_b = conj(lam_a) with Im lam_b > 0.
+    complex_pair : ndarray of bool, shape (n,)
+        True where the tracked pair is complex.
+    rank : int
+        Position of the lower ancestor in the ascending spectrum at the last
+        stable load (0 = softest).
+    n_modes : int
+        Size of the spectrum there.
+    lam_c : float
+        Re lambda of the pair at its birth.
+    ambiguity : float
+        Largest ratio, over all matches, of the matching distance to the
+        distance of the second-best candidate (< 1; close to 1 means the
+        identity of the track is doubtful).
+    """
+
+    F_x: np.ndarray
+    lam_a: np.ndarray
+    lam_b: np.ndarray
+    complex_pair: np.ndarray
+    rank: int
+    n_modes: int
+    lam_c: float
+    ambiguity: float
+
+
+def complex_mask(lam, rtol=1e-10):
+    """Eigenvalues with |Im| above rtol * max|lambda| (the ramp's criterion)."""
+    lam = np.asarray(lam, complex)
+    if lam.size == 0:
+        return np.zeros(0, bool)
+    return np.abs(lam.imag) > rtol * float(np.max(np.abs(lam)))
+
+
+def _nearest_two(values, targets):
+    """Indices of distinct nearest matches of two targets; returns (idx, ambiguity)."""
+    best, best_cost = None, np.inf
+    d0 = np.abs(values - targets[0])
+    d1 = np.abs(values - targets[1])
+    c0 = np.argsort(d0)[:3]
+    c1 = np.argsort(d1)[:3]
+    for i in c0:
+        for j in c1:
+            if i != j and d0[i] + d1[j] < best_cost:
+                best, best_cost = (int(i), int(j)), d0[i] + d1[j]
+    amb = 0.0
+    for k, (d, idx) in enumerate(((d0, best[0]), (d1, best[1]))):
+        others = np.delete(d, list(best))
+        if others.size:
+            amb = max(amb, float(d[idx] / max(np.min(others), 1e-300)))
+    return best, amb
+
+
+def track_pair(points, rtol=1e-10):
+    """Track the coalescing pair through a set of equilibria.
+
+    Parameters
+    ----------
+    points : sequence of (float, ndarray, bool or None)
+        (F_x, eigenvalues, complex) of every equilibrium, in any order;
+        ``complex`` is the ramp's certified decision: True (complex pair),
+        False (all real) or None (*undecided*: too close to the exceptional
+        point for the certified test; such points are skipped, since their
+        computed eigenvalues are not reliable there). Points with an empty
+        spectrum are ignored.
+    rtol : float
+        Relative threshold on |Im lambda| for the "complex" flag of the
+        tracked pair above F_x^c.
+
+    Returns
+    -------
+    PairTrack or None
+        None if no point has a complex pair or no point below it is real.
+
+    Raises
+    ------
+    ValueError
+        If ``points`` holds no spectrum at all.
+    """
+    pts, cplx = [], []
+    for F, lam, dec in sorted(points, key=lambda p: float(p[0])):
+        lam = np.asarray(lam, complex)
+        if lam.size and dec is not None:
+            pts.append((float(F), lam))
+            cplx.append(bool(dec))
+    if not pts:
+        raise ValueError("track_pair needs at least one spectrum, got none")
+    if not any(cplx):
+        return None
+    first = cplx.index(True)
+    if first == 0:
+        return None
+    # birth: the pair with the largest |Im| at the first unstable load
+    F_hi, lam_hi = pts[first]
+    cand = lam_hi[lam_hi.imag > 0]
+    if cand.size == 0:
+        return None
+    born = cand[np.argmax(cand.imag)]
+    # ancestors at the last stable load
+    F_lo, lam_lo = pts[first - 1]
+    re = lam_lo.real
+    (ia, ib), amb = _nearest_two(re, np.array([born.real, born.real]))
+    a, b = sorted((re[ia], re[ib]))
+    rank = int(np.searchsorted(np.sort(re), a))
+    out = {F_hi: (np.conj(born), born, True), F_lo: (complex(a), complex(b), False)}
+    # down the ramp
+    cur = np.array([a, b])
+    for F, lam in reversed(pts[:first - 1]):
+        (i, j), am = _nearest_two(lam.real, cur)
+        amb = max(amb, am)
+        cur = np.sort(lam.real[[i, j]])
+        out[F] = (complex(cur[0]), complex(cur[1]), False)
+    # up the ramp
+    cur_c = born
+    for F, lam in pts[first + 1:]:
+        mask = complex_mask(lam, rtol)
+        up = np.flatnonzero(lam.imag >= 0)
+        d = np.abs(lam[up] - cur_c)
+        order = np.argsort(d)
+        if d.size > 1:
+            amb = max(amb, float(d[order[0]] / max(d[order[1]], 1e-300)))
+        k = int(up[order[0]])
+        cur_c = lam[k]
+        out[F] = (np.conj(cur_c), cur_c, bool(mask[k]))
+    Fs = np.array(sorted(out))
+    la = np.array([out[F][0] for F in Fs], complex)
+    lb = np.array([out[F][1] for F in Fs], complex)
+    cp = np.array([out[F][2] for F in Fs], bool)
+    return PairTrack(F_x=Fs, lam_a=la, lam_b=lb, complex_pair=cp, rank=rank,
+                     n_modes=int(lam_lo.size), lam_c=float(born.real), ambiguity=float(amb))
+
+
+def ramp_points(h5path, extra=()):
+    """(F_x, eigenvalues, decision) of every equilibrium of a ``ramp.h5`` plus ``extra``.
+
+    Parameters
+    ----------
+    h5path : str
+        A ramp file (docs/driver.md). The decision comes from its column
+        ``decision`` (1 complex, 0 real, -1 undecided -> None) or, in files
+        without it, from ``complex`` (> 0). Bisection points without an
+        equilibrium have no spectrum and are skipped.
+    extra : sequence of (float, ndarray, bool)
+        More points (e.g. the continuation above F_x^c).
+
+    Returns
+    -------
+    list of (float, ndarray, bool or None)
+    """
+    import h5py
+
+    pts = []
+    with h5py.File(h5path, "r") as fh:
+        for kind, prefix in (("steps", "step_"), ("bisection", "bisect_")):
+            F = fh[f"{kind}/F_x"][()]
+            if f"{kind}/decision" in fh:
+                C = [None if d < 0 else bool(d > 0) for d in fh[f"{kind}/decision"][()]]
+            else:
+                C = [bool(c > 0) for c in fh[f"{kind}/complex"][()]]
+            grp = fh.get(f"eigenvalues/{kind}")
+            if grp is None:
+                continue
+            names = sorted(k for k in grp.keys() if k.startswith(prefix))
+            for name in names:
+                idx = int(name[len(prefix):])
+                if idx < len(F):
+                    pts.append((float(F[idx]), grp[name][()], C[idx]))
+    pts.extend((float(F), np.asarray(lam, complex), c) for F, lam, c in extra)
+    return pts

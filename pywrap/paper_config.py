@@ -1,0 +1,374 @@
+"""Configuration of ``remote-trigger paper``: one frozen, validated dataclass.
+
+Sources, in increasing priority: the defaults below (the paper's parameters,
+MODEL.md), the ``--quick`` preset (:data:`QUICK`), a TOML file
+(``--config FILE``, Python 3.11 ``tomllib``) and command-line flags. Every
+field has a flag of the same name with ``-`` for ``_`` (``--dF-x`` style
+capitals kept: ``--dF_x`` and ``--dF-x`` both work); ``--set KEY=VALUE``
+sets any field as well. Unknown keys are errors that name the key.
+
+The optional TOML table ``[relax]`` passes extra fields to the relaxation
+(:class:`remote_trigger.pywrap.config.RelaxConfig`, e.g. ``settle_steps``,
+``g_settle``, ``protocol``); its keys are checked by that class.
+
+Units are LAMMPS ``lj`` units (m = 1, 2 R1 = 1, time from k_n).
+"""
+from dataclasses import dataclass, field, fields, asdict
+import math
+import os
+
+from .config import ConfigError
+
+#: paper's reference values (Charan, Pomyalov & Procaccia), for the report only
+PAPER = {
+    "packing_fraction": 0.8171,           # Section III.B
+    "f_min": 1e-15,                        # Section III.B
+    "F_x_c_mu1_low": 0.0091,               # Fig. 3 inset / Section III.C.3: stable
+    "F_x_c_mu1_high": 0.012,               # Fig. 4: unstable
+    "F_x_fig4": 0.012,                     # Fig. 4
+    "F_x_fig5": 0.0091,                    # Fig. 5
+    "msd_decades_fig4": 15.0,              # Fig. 4 "some 15 orders of magnitude"
+    "msd_level_fig5a": 1e-20,              # Fig. 5 (a) blue line
+    "msd_max_fig5b": 1e-17,                # Fig. 5 (a) green line
+    "msd_decades_fig5c": 12.0,             # Fig. 5 (a) red line, "more than 12"
+    "velocity_decades_fig5c": 7.0,         # Fig. 5 (b), "more than 7"
+}
+
+#: midpoint of the paper's bracket 0.0091 < F_x^c(mu=1) < 0.012, used to define
+#: "the same relative distance" from F_x^c (docs/paper.md)
+PAPER_F_X_C_MID = 0.5 * (PAPER["F_x_c_mu1_low"] + PAPER["F_x_c_mu1_high"])
+
+
+def _num(name, val, lo=None, lo_open=False, hi=None):
+    if isinstance(val, bool) or not isinstance(val, (int, float)):
+        raise ConfigError(f"{name} must be a number, got {name} = {val!r}")
+    val = float(val)
+    if math.isnan(val):
+        raise ConfigError(f"{name} must be a number, got {name} = {val!r}")
+    if lo is not None and (val < lo or (lo_open and val == lo)):
+        op = ">" if lo_open else ">="
+        raise ConfigError(f"{name} must be {op} {lo:g}, got {name} = {val!r}")
+    if hi is not None and val > hi:
+        raise ConfigError(f"{name} must be <= {hi:g}, got {name} = {val!r}")
+    return val
+
+
+def _int(name, val, lo):
+    if isinstance(val, bool) or not isinstance(val, int):
+        raise ConfigError(f"{name} must be an integer, got {name} = {val!r}")
+    if val < lo:
+        raise ConfigError(f"{name} must be >= {lo}, got {name} = {val!r}")
+
+
+@dataclass(frozen=True)
+class PaperConfig:
+    """Everything ``remote-trigger paper`` needs.
+
+    Attributes
+    ----------
+    n : int
+        Number of disks, even, >= 6. Default 100 (paper).
+    seed : int
+        Seed of the packing generator, >= 0. Default 1.
+    phi : float
+        Packing fraction that sets the box width L (generator), in (0.1, 0.91).
+        Default 0.82.
+    k_n : float
+        Normal stiffness, > 0. Default 2e5 (paper).
+    k_t : float or None
+        Tangential stiffness, >= 0; None means 2 k_n / 7 (paper).
+    F_y : float
+        Downward load per ``top`` disk, > 0. Default 3 (paper).
+    dt : float
+        Time step (lj), > 0. Default 1e-3.
+    mu : float
+        Friction coefficient of the main ramp and of Figs. 4-5 (mu0), > 0.
+        Default 1.
+    mu_low : float
+        Friction coefficient of the second ramp, > 0, != mu. Default 0.8.
+    dF_x : float
+        Ramp step, > 0. Default 2.5e-4 (the paper used 1e-4; see docs/paper.md).
+    tol : float
+        Bisection tolerance on F_x^c, > 0. Default 1e-7.
+    F_x_max : float
+        Largest F_x of a ramp, > 0. Default 0.5.
+    extend_factor : float
+        The eigenvalue tracking of Fig. 3 is continued above F_x^c up to
+        extend_factor * F_x^c (and at least to the load of Fig. 4), > 1.
+        Default 1.2.
+    extend_steps : int
+        Equilibria of that continuation, >= 1. Default 8.
+    fig4_ratio : float
+        F_x of Fig. 4 = fig4_ratio * F_x^c(mu), > 1. Default 0.012 / 0.01055
+        (the paper's F_x over the midpoint of its bracket of F_x^c).
+    fig5_ratio : float
+        F_x of Fig. 5 = fig5_ratio * F_x^c(mu), in (0, 1). Default
+        0.0091 / 0.01055.
+    t_instability : float
+        Longest time of the Fig. 4 run, > 0. The run lasts
+        min(t_instability, instability_span / g) with g the predicted growth
+        rate, and stops once D exceeds ``d_sat``. Default 20000.
+    instability_span : float
+        See ``t_instability``, > 0. Default 35 (D grows by e^70 = 30 decades).
+    d_sat : float
+        Stop the Fig. 4 run once D(t) exceeds this, > 0. Default 1.
+    t_perturb : float
+        Time of each Fig. 5 run, > 0. Default 2000 (3.2 periods of f(t)).
+    record_every : int
+        Steps between records of D, v and mu, >= 1. Default 500 (0.5 tau).
+    a : float
+        Amplitude of f(t) = a cos(omega_p t), >= 0. Default 1e-12 (paper).
+    omega_p : float
+        Angular frequency of f(t) in 1/(lj time), >= 0. Default 0.01 (paper;
+        interpretation in docs/paper.md).
+    B, w, mu_ss : float
+        mu(v) law (Eq. 4), >= 0. Defaults 0.2, 0.4, 0.8 (paper).
+    nf_delta : float
+        delta of the normal form, in (0, 1). Default 0.1.
+    nf_eps : list of float
+        eps values of the normal-form scan, each in (0, 1].
+    nf_tau : list of float
+        Damping times of the scan (inf allowed: no damping), each > 0.
+    relax : dict
+        Extra fields of the relaxation's ``RelaxConfig`` (checked there).
+    np : int
+        MPI ranks, >= 1. Default 1. With np > 1 the job re-launches itself
+        under the environment's ``mpirun`` (docs/paper.md).
+    quick : bool
+        The small, fast variant (:data:`QUICK`) was requested.
+    """
+
+    n: int = 100
+    seed: int = 1
+    phi: float = 0.82
+    k_n: float = 2e5
+    k_t: float = None
+    F_y: float = 3.0
+    dt: float = 1e-3
+    mu: float = 1.0
+    mu_low: float = 0.8
+    dF_x: float = 2.5e-4
+    tol: float = 1e-7
+    F_x_max: float = 0.5
+    extend_factor: float = 1.2
+    extend_steps: int = 8
+    fig4_ratio: float = PAPER["F_x_fig4"] / PAPER_F_X_C_MID
+    fig5_ratio: float = PAPER["F_x_fig5"] / PAPER_F_X_C_MID
+    t_instability: float = 20000.0
+    instability_span: float = 35.0
+    d_sat: float = 1.0
+    t_perturb: float = 2000.0
+    record_every: int = 500
+    a: float = 1e-12
+    omega_p: float = 0.01
+    B: float = 0.2
+    w: float = 0.4
+    mu_ss: float = 0.8
+    nf_delta: float = 0.1
+    nf_eps: tuple = (1e-1, 3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4)
+    nf_tau: tuple = (math.inf, 3e3, 3e2, 3e1)
+    relax: dict = field(default_factory=dict)
+    np: int = 1
+    quick: bool = False
+
+    def __post_init__(self):
+        _int("n", self.n, 6)
+        if self.n % 2:
+            raise ConfigError(f"n must be even (equal numbers of both radii), got n = {self.n}")
+        _int("seed", self.seed, 0)
+        if not 0.1 < _num("phi", self.phi) < 0.91:
+            raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {self.phi!r}")
+        _num("k_n", self.k_n, 0, lo_open=True)
+        if self.k_t is None:
+            object.__setattr__(self, "k_t", 2.0 * float(self.k_n) / 7.0)
+        _num("k_t", self.k_t, 0)
+        _num("F_y", self.F_y, 0, lo_open=True)
+        _num("dt", self.dt, 0, lo_open=True)
+        _num("mu", self.mu, 0, lo_open=True)
+        _num("mu_low", self.mu_low, 0, lo_open=True)
+        if self.mu_low == self.mu:
+            raise ConfigError(f"mu_low must differ from mu = {self.mu!r}, got "
+                              f"mu_low = {self.mu_low!r}")
+        _num("dF_x", self.dF_x, 0, lo_open=True)
+        _num("tol", self.tol, 0, lo_open=True)
+        _num("F_x_max", self.F_x_max, 0, lo_open=True)
+        if self.dF_x >= self.F_x_max:
+            raise ConfigError(f"dF_x must be < F_x_max = {self.F_x_max!r}, got "
+                              f"dF_x = {self.dF_x!r}")
+        _num("extend_factor", self.extend_factor, 1, lo_open=True)
+        _int("extend_steps", self.extend_steps, 1)
+        _num("fig4_ratio", self.fig4_ratio, 1, lo_open=True)
+        r5 = _num("fig5_ratio", self.fig5_ratio, 0, lo_open=True)
+        if r5 >= 1:
+            raise ConfigError(f"fig5_ratio must be < 1 (a stable load), got "
+                              f"fig5_ratio = {self.fig5_ratio!r}")
+        for name in ("t_instability", "instability_span", "d_sat", "t_perturb"):
+            _num(name, getattr(self, name), 0, lo_open=True)
+        _int("record_every", self.record_every, 1)
+        for name in ("a", "omega_p", "B", "w", "mu_ss"):
+            _num(name, getattr(self, name), 0)
+        if not 0 < _num("nf_delta", self.nf_delta) < 1:
+            raise ConfigError(f"nf_delta must be in (0, 1), got nf_delta = {self.nf_delta!r}")
+        object.__setattr__(self, "nf_eps", self._list("nf_eps", self.nf_eps))
+        object.__setattr__(self, "nf_tau", self._list("nf_tau", self.nf_tau))
+        for e in self.nf_eps:
+            if not 0 < e <= 1:
+                raise ConfigError(f"nf_eps values must be in (0, 1], got nf_eps = "
+                                  f"{list(self.nf_eps)!r}")
+        for t in self.nf_tau:
+            if not t > 0:
+                raise ConfigError(f"nf_tau values must be > 0 (inf: no damping), got "
+                                  f"nf_tau = {list(self.nf_tau)!r}")
+        if not isinstance(self.relax, dict):
+            raise ConfigError(f"relax must be a table of RelaxConfig fields, got "
+                              f"relax = {self.relax!r}")
+        reserved = sorted(set(self.relax) & {"datafile", "k_n", "k_t", "mu", "F_y", "dt",
+                                             "F_x"})
+        if reserved:
+            raise ConfigError(f"relax.{reserved[0]} is set by the paper job itself; use the "
+                              f"top-level key {reserved[0]!r} instead")
+        _int("np", self.np, 1)
+        if not isinstance(self.quick, bool):
+            raise ConfigError(f"quick must be true or false, got quick = {self.quick!r}")
+
+    @staticmethod
+    def _list(name, val):
+        if isinstance(val, (int, float)) and not isinstance(val, bool):
+            val = [val]
+        if not isinstance(val, (list, tuple)) or not val:
+            raise ConfigError(f"{name} must be a non-empty list of numbers, got "
+                              f"{name} = {val!r}")
+        out = []
+        for v in val:
+            if isinstance(v, str) and v.strip().lower() in ("inf", "infinity"):
+                v = math.inf
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
+                raise ConfigError(f"{name} must be a list of numbers, got {name} = {val!r}")
+            out.append(float(v))
+        return tuple(out)
+
+    # ------------------------------------------------------------------ building
+    @classmethod
+    def names(cls):
+        """Names of all fields."""
+        return [f.name for f in fields(cls)]
+
+    @classmethod
+    def from_dict(cls, data):
+        """Build from a mapping; unknown keys raise :class:`ConfigError` naming them."""
+        names = set(cls.names())
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ConfigError(f"unknown configuration key {unknown[0]!r}"
+                              + (f" (and {', '.join(map(repr, unknown[1:]))})"
+                                 if len(unknown) > 1 else "")
+                              + f"; known keys: {', '.join(sorted(names))}")
+        return cls(**dict(data))
+
+    def to_dict(self):
+        """Plain dict of all fields (tuples as lists)."""
+        d = asdict(self)
+        for k in ("nf_eps", "nf_tau"):
+            d[k] = list(d[k])
+        return d
+
+    def to_attrs(self):
+        """Flat dict for HDF5 attributes (None -> 'None', lists kept, relax as JSON)."""
+        import json
+
+        out = {}
+        for k, v in self.to_dict().items():
+            if v is None:
+                v = "None"
+            elif k == "relax":
+                v = json.dumps(v, sort_keys=True)
+            out[k] = v
+        return out
+
+
+#: the ``--quick`` preset: a small packing, coarse steps, short runs
+QUICK = {
+    "n": 40,
+    "dF_x": 2e-3,
+    "tol": 2e-5,
+    "extend_steps": 3,
+    "t_instability": 6000.0,
+    "t_perturb": 600.0,
+    "record_every": 500,
+    "nf_eps": [1e-1, 1e-2, 1e-3],
+    "nf_tau": [math.inf, 3e2],
+    "relax": {"settle_steps": 15000},
+}
+
+
+def read_toml(path):
+    """Read a TOML configuration file into a dict (keys checked later).
+
+    Parameters
+    ----------
+    path : str
+        File name.
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    ConfigError
+        If the file is missing or not valid TOML (the message names the file).
+    """
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10
+        try:
+            import tomli as tomllib
+        except ImportError:
+            raise ConfigError("reading a TOML config needs Python >= 3.11 (tomllib) or the "
+                              "tomli package") from None
+    if not os.path.isfile(path):
+        raise ConfigError(f"config file does not exist: {path!r}")
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"config file {path!r} is not valid TOML: {exc}") from None
+
+
+def build_config(toml=None, overrides=None, quick=False):
+    """Merge defaults, the quick preset, a TOML file and overrides.
+
+    Parameters
+    ----------
+    toml : str, optional
+        TOML file; its ``quick = true`` has the same effect as ``quick``.
+    overrides : dict, optional
+        Values from the command line (highest priority).
+    quick : bool
+        Apply :data:`QUICK` before the file and the overrides.
+
+    Returns
+    -------
+    PaperConfig
+
+    Raises
+    ------
+    ConfigError
+        Unknown key (named), bad value (named), unreadable file.
+    """
+    from_file = read_toml(toml) if toml else {}
+    overrides = dict(overrides or {})
+    quick = bool(quick or overrides.get("quick") or from_file.get("quick") is True)
+    d = {}
+    if quick:
+        d.update({k: (dict(v) if isinstance(v, dict) else v) for k, v in QUICK.items()})
+        d["quick"] = True
+    for src in (from_file, overrides):
+        for k, v in src.items():
+            if k == "relax" and isinstance(v, dict) and isinstance(d.get("relax"), dict):
+                d["relax"] = dict(d["relax"], **v)
+            else:
+                d[k] = v
+    if quick:
+        d["quick"] = True
+    return PaperConfig.from_dict(d)

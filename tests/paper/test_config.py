@@ -1,0 +1,164 @@
+"""Configuration of ``remote-trigger paper``: defaults, TOML, flags, errors."""
+import json
+import math
+import os
+
+import pytest
+
+from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.paper_config import (PaperConfig, QUICK, PAPER, PAPER_F_X_C_MID,
+                                                build_config, read_toml)
+from remote_trigger.pywrap import paper
+from remote_trigger.pywrap.cli import main as cli_main
+
+
+def test_defaults_are_the_papers_parameters():
+    cfg = PaperConfig()
+    assert (cfg.n, cfg.k_n, cfg.F_y, cfg.mu, cfg.mu_low) == (100, 2e5, 3.0, 1.0, 0.8)
+    assert cfg.k_t == pytest.approx(2 * 2e5 / 7)
+    assert (cfg.a, cfg.omega_p, cfg.B, cfg.w, cfg.mu_ss) == (1e-12, 0.01, 0.2, 0.4, 0.8)
+    # "the same relative distance": paper's loads over the midpoint of its bracket
+    assert cfg.fig4_ratio == pytest.approx(0.012 / 0.01055)
+    assert cfg.fig5_ratio == pytest.approx(0.0091 / 0.01055)
+    assert PAPER_F_X_C_MID == pytest.approx(0.5 * (PAPER["F_x_c_mu1_low"]
+                                                   + PAPER["F_x_c_mu1_high"]))
+
+
+def test_precedence_defaults_quick_toml_flags(tmp_path):
+    toml = tmp_path / "c.toml"
+    toml.write_text('seed = 7\nt_perturb = 123.0\nnf_tau = ["inf", 30.0]\n'
+                    '[relax]\ng_settle = 0.4\n')
+    cfg = build_config(str(toml), {"t_perturb": 50.0}, quick=True)
+    assert cfg.quick and cfg.n == QUICK["n"] and cfg.dF_x == QUICK["dF_x"]   # quick preset
+    assert cfg.seed == 7                                                      # file
+    assert cfg.t_perturb == 50.0                                              # flag wins
+    assert cfg.nf_tau == (math.inf, 30.0)
+    # [relax] tables merge: the quick preset's settle_steps and the file's g_settle
+    assert cfg.relax == dict(QUICK["relax"], g_settle=0.4)
+
+
+def test_quick_from_the_file(tmp_path):
+    toml = tmp_path / "q.toml"
+    toml.write_text("quick = true\n")
+    assert build_config(str(toml)).n == QUICK["n"]
+
+
+@pytest.mark.parametrize("text, key", [
+    ("sead = 3\n", "sead"),                       # misspelt key
+    ("[relax]\nmu = 0.5\n", "relax.mu"),           # set by the job itself
+    ("[ramp]\ntol = 1e-6\n", "ramp"),              # no such table
+])
+def test_toml_unknown_keys_are_named(tmp_path, text, key):
+    toml = tmp_path / "bad.toml"
+    toml.write_text(text)
+    with pytest.raises(ConfigError) as exc:
+        build_config(str(toml))
+    assert key in str(exc.value)
+
+
+def test_unknown_relax_key_is_named_by_relaxconfig(tmp_path):
+    data = tmp_path / "p.data"
+    data.write_text("x")
+    cfg = PaperConfig(relax={"settel_steps": 10})
+    with pytest.raises(ConfigError, match="settel_steps"):
+        paper.relax_config(cfg, str(data))
+
+
+def test_toml_syntax_error_and_missing_file(tmp_path):
+    toml = tmp_path / "broken.toml"
+    toml.write_text("n = = 3\n")
+    with pytest.raises(ConfigError, match="broken.toml"):
+        read_toml(str(toml))
+    with pytest.raises(ConfigError, match="nothere.toml"):
+        read_toml(str(tmp_path / "nothere.toml"))
+
+
+@pytest.mark.parametrize("key, val", [
+    ("n", 7), ("n", 2), ("seed", -1), ("mu", 0.0), ("mu_low", 1.0), ("dF_x", -1e-4),
+    ("tol", 0.0), ("fig4_ratio", 0.9), ("fig5_ratio", 1.2), ("t_perturb", 0.0),
+    ("record_every", 0), ("a", -1e-12), ("nf_delta", 1.5), ("nf_eps", [0.1, 2.0]),
+    ("nf_tau", [-1.0]), ("np", 0), ("n", "100"), ("quick", "yes")])
+def test_bad_values_name_the_key(key, val):
+    with pytest.raises(ConfigError) as exc:
+        PaperConfig.from_dict({key: val})
+    assert key in str(exc.value)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--n", "7"], ["n = 7"]),
+    (["--set", "bogus=1"], ["bogus"]),
+    (["--set", "novalue"], ["KEY=VALUE"]),
+    (["--fig5-ratio", "1.5"], ["fig5_ratio"]),
+    (["--config", "/nonexistent/c.toml"], ["c.toml"]),
+])
+def test_cli_bad_options_exit_2(argv, words, tmp_path, capsys):
+    status = cli_main(["paper", "--out", str(tmp_path / "o")] + argv)
+    err = capsys.readouterr().err
+    assert status == 2
+    for w in words:
+        assert w in err
+    assert not (tmp_path / "o").exists()          # nothing was started
+
+
+def test_cli_rejects_non_numbers(tmp_path):
+    with pytest.raises(SystemExit) as exc:
+        cli_main(["paper", "--out", str(tmp_path), "--seed", "one"])
+    assert exc.value.code == 2
+
+
+def test_flags_and_set_reach_the_config(tmp_path):
+    parser = __import__("remote_trigger.pywrap.cli", fromlist=["x"]).build_parser()
+    args = parser.parse_args(["paper", "--quick", "--seed", "5", "--dF-x", "0.003",
+                              "--set", "nf_eps=[0.1,0.01]", "--set", "relax={\"g_settle\": 0.3}"])
+    cfg = paper.config_from_args(args)
+    assert cfg.quick and cfg.seed == 5 and cfg.dF_x == 0.003
+    assert cfg.nf_eps == (0.1, 0.01) and cfg.relax["g_settle"] == 0.3
+
+
+def test_relaunch_command_and_resolved_config(tmp_path, monkeypatch):
+    """--np 2 re-launches `mpirun -np 2 python -m ...cli paper` with the same config."""
+    import subprocess
+
+    seen = {}
+
+    def fake_call(cmd, env=None):
+        seen["cmd"] = cmd
+        i = cmd.index("--resolved-config")
+        with open(cmd[i + 1]) as fh:
+            seen["cfg"] = json.load(fh)
+        seen["env"] = env
+        return 0
+
+    monkeypatch.setattr(subprocess, "call", fake_call)
+    monkeypatch.delenv("REMOTE_TRIGGER_PAPER_CHILD", raising=False)
+    out = str(tmp_path / "o")
+    assert cli_main(["paper", "--quick", "--np", "2", "--seed", "4", "--out", out]) == 0
+    cmd = seen["cmd"]
+    assert os.path.basename(cmd[0]) == "mpirun" and cmd[1:3] == ["-np", "2"]
+    assert cmd[cmd.index("--out") + 1] == out and "paper" in cmd
+    assert seen["env"]["REMOTE_TRIGGER_PAPER_CHILD"] == "1"
+    parser = __import__("remote_trigger.pywrap.cli", fromlist=["x"]).build_parser()
+    path = tmp_path / "resolved.json"
+    path.write_text(json.dumps(seen["cfg"]))
+    again = paper.config_from_args(parser.parse_args(
+        ["paper", "--resolved-config", str(path)]))
+    assert again == build_config(None, {"np": 2, "seed": 4}, quick=True)
+
+
+def test_output_folder_rules(tmp_path):
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("mine")
+    with pytest.raises(ConfigError, match="not written by"):
+        paper.prepare_out(str(foreign))
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    with pytest.raises(ConfigError, match="afile"):
+        paper.prepare_out(str(afile))
+    old = tmp_path / "old"
+    (old / "ramp_mu1" / "ramp").mkdir(parents=True)
+    for name in ("paper.json", "report.md", "relax.h5", "fig3_eigenvalues.png", "keep.txt",
+                 "figures-notes.md"):
+        (old / name).write_text("x")
+    paper.prepare_out(str(old))
+    assert sorted(os.listdir(old)) == ["figures-notes.md", "keep.txt"]
