@@ -43,7 +43,7 @@ test: install
 	$(PY) -m pytest -q -ra
 
 bench: install
-	$(PY) benchmarks/bench_pair.py
+	$(PY) benchmarks/run_all.py
 
 clean:
 	rm -rf build $(VENV) .pytest_cache
