@@ -101,6 +101,7 @@ void FixWallMindlinSmooth::find_history()
 void FixWallMindlinSmooth::init()
 {
   MindlinSmooth::require_2d_spheres(lmp, "Fix wall/mindlin/smooth");
+  MindlinSmooth::forbid_minimize(lmp, "Fix wall/mindlin/smooth");
   find_history();
   if (!mu_var.empty()) {
     mu_ivar = input->variable->find(mu_var.c_str());

@@ -10,6 +10,7 @@
 #include "domain.h"
 #include "error.h"
 #include "lammps.h"
+#include "update.h"
 
 namespace MindlinSmooth {
 
@@ -23,6 +24,18 @@ inline void require_2d_spheres(LAMMPS_NS::LAMMPS *lmp, const char *what)
     lmp->error->all(FLERR,
                     "{} supports 2d simulations only (dimension 2), this one has dimension {}",
                     what, lmp->domain->dimension);
+}
+
+// The tangential displacement is advanced by the velocities of each MD step
+// (v dt is the step's displacement); an energy minimization moves atoms
+// without meaningful velocities, so it would corrupt the history. Refuse it.
+inline void forbid_minimize(LAMMPS_NS::LAMMPS *lmp, const char *what)
+{
+  if (lmp->update->whichflag == 2)
+    lmp->error->all(FLERR,
+                    "{} cannot be used with minimize: the contact history follows the "
+                    "dynamics; relax with damped dynamics instead",
+                    what);
 }
 
 }    // namespace MindlinSmooth

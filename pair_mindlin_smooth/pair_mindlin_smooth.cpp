@@ -158,6 +158,7 @@ void PairMindlinSmooth::find_history()
 void PairMindlinSmooth::init_style()
 {
   MindlinSmooth::require_2d_spheres(lmp, "Pair style mindlin/smooth");
+  MindlinSmooth::forbid_minimize(lmp, "Pair style mindlin/smooth");
   if (comm->ghost_velocity == 0)
     error->all(FLERR,
                "Pair style mindlin/smooth requires ghost atoms store velocity: "
@@ -204,12 +205,11 @@ double PairMindlinSmooth::init_one(int i, int j)
 }
 
 /* ----------------------------------------------------------------------
-   slot of partner jtag in the history of atom i, -1 if none
+   slot of partner jtag among one atom's ncol history slots, -1 if none
 ------------------------------------------------------------------------- */
 
-int PairMindlinSmooth::lookup(int i, tagint jtag) const
+static inline int find_slot(const int *partner, int ncol, tagint jtag)
 {
-  const int *partner = atom->iarray[idx_partner][i];
   for (int k = 0; k < ncol; k++) {
     if (partner[k] == jtag) return k;
     if (partner[k] == 0) break;    // slots are packed
@@ -251,6 +251,8 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
     const double xi0 = x[i][0], yi0 = x[i][1], radi = radius[i];
     const int *jlist = firstneigh[i];
     const int jnum = numneigh[i];
+    const int *ipartner = partner[i];
+    const double *itdisp = tdisp[i];
     int nc = 0;
 
     for (int jj = 0; jj < jnum; jj++) {
@@ -277,8 +279,8 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
                    "i2_{} and d2_{} more columns",
                    tag[i], ncol, HISTORY_PARTNER, HISTORY_T);
 
-      const int slot = lookup(i, tag[j]);
-      double xi = (slot >= 0) ? tdisp[i][slot] : 0.0;
+      const int slot = find_slot(ipartner, ncol, tag[j]);
+      double xi = (slot >= 0) ? itdisp[slot] : 0.0;
       if (update_history) {
         // slip of the contact point of i relative to j along s = (ny, -nx)
         const double vs = ny * (v[i][0] - v[j][0]) - nx * (v[i][1] - v[j][1]);
@@ -352,7 +354,7 @@ double PairMindlinSmooth::single(int i, int j, int itype, int jtype, double rsq,
   if (rsq >= radsum * radsum || rsq == 0.0) return 0.0;    // compute() rejects rsq == 0
 
   if (idx_t < 0) find_history();
-  const int slot = lookup(i, atom->tag[j]);
+  const int slot = find_slot(atom->iarray[idx_partner][i], ncol, atom->tag[j]);
   const double xi = (slot >= 0) ? atom->darray[idx_t][i][slot] : 0.0;
 
   double **x = atom->x;

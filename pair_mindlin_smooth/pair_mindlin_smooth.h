@@ -54,7 +54,6 @@ class PairMindlinSmooth : public Pair {
 
   void allocate();
   void find_history();
-  int lookup(int i, tagint jtag) const;
 };
 
 }    // namespace LAMMPS_NS

@@ -147,3 +147,22 @@ def test_coincident_centres_are_an_error_not_nan():
     with pytest.raises(Exception, match=r"atoms 1 and 2 have coincident centres"):
         lmp.command("run 0")
     lmp.close()
+
+
+@pytest.mark.parametrize("wall", [False, True])
+def test_minimize_is_refused(wall):
+    """History follows the MD steps (v dt); a minimizer would corrupt it."""
+    lmp = new_lammps()
+    base(lmp)
+    add_disk(lmp, 1, 0.5, 5.0, 5.0)
+    add_disk(lmp, 1, 0.5, 5.9, 5.0)
+    if wall:
+        lmp.command(f"fix w all wall/mindlin/smooth {KN} {KT} 1.0 yplane 0.0")
+        lmp.commands_list(["pair_style zero 2.0", "pair_coeff * *"])
+        what = "Fix wall/mindlin/smooth"
+    else:
+        lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
+        what = "Pair style mindlin/smooth"
+    with pytest.raises(Exception, match=what + r" cannot be used with minimize"):
+        lmp.command("minimize 0 1e-10 10 100")
+    lmp.close()
