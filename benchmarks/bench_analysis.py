@@ -13,8 +13,14 @@
 
 Run from the repository root:  python benchmarks/bench_analysis.py [--quick]
 """
-import argparse
 import os
+
+# one BLAS thread next to LAMMPS, as the remote-trigger command line does
+# (pywrap/cli.py); must be set before numpy is imported
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse
 import sys
 import tempfile
 import time

@@ -10,8 +10,14 @@ Goal: the mu = 1 ramp in <= 2 minutes on a 2-core machine.
     python benchmarks/bench_ramp.py [--seeds 1] [--mu 1 0.8] [--n 100]
     mpirun -np 2 python benchmarks/bench_ramp.py     # LAMMPS on 2 ranks
 """
-import argparse
 import os
+
+# one BLAS thread next to LAMMPS, as the remote-trigger command line does
+# (pywrap/cli.py); must be set before numpy is imported
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse
 import tempfile
 import time
 

@@ -20,8 +20,14 @@ residual each reached, wall time and the ratio (goal >= 20).
 
     python benchmarks/bench_relax.py [--seed 1] [--n 100] [--target 1e-10]
 """
-import argparse
 import os
+
+# one BLAS thread next to LAMMPS, as the remote-trigger command line does
+# (pywrap/cli.py); must be set before numpy is imported
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse
 import tempfile
 import time
 
