@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, fields, asdict
 import math
 import os
 
-from .config import ConfigError
+from .config import ConfigError, _int
 
 #: paper's reference values (Charan, Pomyalov & Procaccia), for the report only
 PAPER = {
@@ -51,13 +51,6 @@ def _num(name, val, lo=None, lo_open=False, hi=None):
     if hi is not None and val > hi:
         raise ConfigError(f"{name} must be <= {hi:g}, got {name} = {val!r}")
     return val
-
-
-def _int(name, val, lo):
-    if isinstance(val, bool) or not isinstance(val, int):
-        raise ConfigError(f"{name} must be an integer, got {name} = {val!r}")
-    if val < lo:
-        raise ConfigError(f"{name} must be >= {lo}, got {name} = {val!r}")
 
 
 @dataclass(frozen=True)
