@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, fields, asdict
 import math
 import os
 
-from .config import ConfigError, _int
+from .config import ConfigError, DynamicsConfig, _int
 
 #: paper's reference values (Charan, Pomyalov & Procaccia), for the report only
 PAPER = {
@@ -152,11 +152,12 @@ class PaperConfig:
     d_sat: float = 1.0
     t_perturb: float = 2000.0
     record_every: int = 500
-    a: float = 1e-12
-    omega_p: float = 0.01
-    B: float = 0.2
-    w: float = 0.4
-    mu_ss: float = 0.8
+    # forcing and mu(v) law: the driver's defaults (one source, MODEL.md 4-5)
+    a: float = DynamicsConfig.a
+    omega_p: float = DynamicsConfig.omega_p
+    B: float = DynamicsConfig.B
+    w: float = DynamicsConfig.w
+    mu_ss: float = DynamicsConfig.mu_ss
     nf_delta: float = 0.1
     nf_eps: tuple = (1e-1, 3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4)
     nf_tau: tuple = (math.inf, 3e3, 3e2, 3e1)
