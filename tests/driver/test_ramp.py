@@ -1,7 +1,5 @@
 """Ramp: a complex pair appears, bisection brackets F_x^c, resume reproduces it."""
 import os
-import signal
-import subprocess
 import time
 
 import numpy as np
@@ -10,8 +8,6 @@ import pytest
 from remote_trigger.pywrap.config import RampConfig
 from remote_trigger.pywrap import stages
 from remote_trigger.pywrap.results import read_all
-
-from .conftest import CLI, cli_env
 
 DF = 0.01
 TOL = 1e-5
@@ -74,22 +70,4 @@ def test_resume_after_interruption_reproduces(full_ramp, relaxed, tmp_path):
     np.testing.assert_array_equal(res.bisection_F_x, full.bisection_F_x)
 
 
-def test_resume_after_kill_9(full_ramp, relaxed, tmp_path):
-    """SIGKILL the command line in the middle of a ramp, then --resume."""
-    cfg, full = full_ramp
-    args = [CLI, "ramp", "--datafile", relaxed.datafile, "--out", str(tmp_path),
-            "--dF-x", str(DF), "--tol", str(TOL), "--quiet"]
-    proc = subprocess.Popen(args, env=cli_env(), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
-    target = tmp_path / "ramp" / f"step_{max(2, full.F_x.size // 2):05d}.dump"
-    t0 = time.time()
-    while not target.exists() and proc.poll() is None and time.time() - t0 < 60:
-        time.sleep(0.01)
-    proc.send_signal(signal.SIGKILL)
-    proc.wait()
-    attrs, data = read_all(str(tmp_path / "ramp.h5"))     # still a valid file
-    assert attrs["status"] == "running"
-    out = subprocess.run(args + ["--resume"], env=cli_env(), capture_output=True, text=True)
-    assert out.returncode == 0, out.stderr
-    attrs, _ = read_all(str(tmp_path / "ramp.h5"))
-    assert attrs["F_x_c_low"] == full.F_x_c_low and attrs["F_x_c_high"] == full.F_x_c_high
+# kill -9 at random moments, then --resume: tests/driver/test_kill.py
