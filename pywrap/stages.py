@@ -125,6 +125,19 @@ def _relax_cfg(cfg, F_x):
     return RelaxConfig.from_dict(base)
 
 
+def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
+    """Load ``datafile``, check ``cfg.dt`` against the stability limit, resolve 'auto'.
+
+    Returns ``(cfg with a numeric dt, TimestepInfo)``; see
+    :func:`remote_trigger.pywrap.timestep.resolve`. No step is run.
+    """
+    from .timestep import resolve
+
+    probe = cfg.replace(dt=1.0) if cfg.dt == "auto" else cfg   # dt unused: no step run
+    load_relax_scene(eng, probe, datafile, F_x)
+    return resolve(eng, cfg, F_x, a_priori=a_priori, stage=stage)
+
+
 # --------------------------------------------------------------------------- relax
 @dataclass
 class RelaxResult:
@@ -160,6 +173,12 @@ class RelaxResult:
         Wall seconds of the compaction (and piston) phases.
     top_attempts : int
         Placements of the ``top`` line tried (default protocol).
+    timestep : dict
+        The time-step decision (:class:`~remote_trigger.pywrap.timestep.TimestepInfo`:
+        ``dt_used``, ``dt_max``, ``dt_fraction``, ``dt_limit_source``,
+        ``dt_auto``) plus ``dt_max_equilibrium`` and
+        ``dt_fraction_equilibrium``, the eigenvalue limit of the final
+        equilibrium.
     """
 
     residual: float
@@ -177,6 +196,7 @@ class RelaxResult:
     top_clearance: float = float("nan")
     compaction_time: float = 0.0
     top_attempts: int = 0
+    timestep: dict = field(default_factory=dict)
 
 
 def set_friction(eng, cfg, mu):
@@ -340,7 +360,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
         raise RuntimeError("friction switched on with nonzero contact history "
                            f"(max |xi| = {float(np.max(np.abs(st.xi))):.3g})")
     rec.add(t_sim, r, "friction-on", t0)
-    if not r < cfg.f_accept:         # (not expected: xi = 0) polish with friction
+    if not r < eq.accept_level(cfg, st):   # (not expected: xi = 0) polish with friction
         r, t_sim, rec = eq.equilibrate(eng, cfg, cfg.F_x, record=rec, progress=prog,
                                        newton_first=True)
     return r, t_sim, rec, t_comp, k + 1
@@ -384,6 +404,9 @@ def relax(cfg, out, comm=None, quiet=False, log="none"):
     t0 = time.perf_counter()
     with Engine(comm=comm, log=log) as eng:
         _ensure_dir(eng, os.path.join(out, "relax"))
+        cfg_in = cfg
+        cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "relax",
+                                     a_priori=cfg.settle_steps > 0)
         bar = _progress(None, "relax", quiet, eng.rank, unit="chk")
 
         def prog(r):
@@ -418,7 +441,14 @@ def relax(cfg, out, comm=None, quiet=False, log="none"):
         nnewton = max(0, sum(1 for p in rec.phase if p == "newton") - 1)
         h5 = os.path.join(out, "relax.h5")
         if eng.rank == 0:
-            attrs = dict(cfg.to_attrs(), stage="relax", status="complete",
+            from .timestep import limit_of
+
+            lim_eq, _ = limit_of(state, cfg, cfg.F_x)
+            dtinfo.update(dt_max_equilibrium=lim_eq,
+                          dt_fraction_equilibrium=cfg.dt / lim_eq if lim_eq < np.inf else 0.0)
+        dtinfo = eng.comm.bcast(dtinfo, root=0)
+        if eng.rank == 0:
+            attrs = dict(cfg_in.to_attrs(), **dtinfo, stage="relax", status="complete",
                          version=RESULT_VERSION, residual=r, converged=bool(r < cfg.f_min),
                          wall_time=wall, damped_time=t_sim, packing_fraction=phi,
                          antisymmetry=asym, top_clearance=clear, compaction_time=t_comp,
@@ -433,7 +463,7 @@ def relax(cfg, out, comm=None, quiet=False, log="none"):
     return RelaxResult(r, bool(r < cfg.f_min), wall, t_sim, nnewton, phi, rec,
                        prefix + ".data", prefix + ".dump", h5, protocol=cfg.protocol,
                        antisymmetry=asym, top_clearance=clear, compaction_time=t_comp,
-                       top_attempts=attempts)
+                       top_attempts=attempts, timestep=dict(dtinfo))
 
 
 # --------------------------------------------------------------------------- ramp
@@ -464,6 +494,9 @@ class RampResult:
         undecided counts as not complex) and its margin (> 1 certified).
     bisection_decision : ndarray
         Same for the bisection points (NaN where no equilibrium was found).
+    timestep : dict
+        The time-step decision at the start (``dt_used``, ``dt_max``,
+        ``dt_fraction``, ``dt_limit_source``, ``dt_auto``; also in ramp.h5).
     """
 
     F_x: np.ndarray
@@ -480,6 +513,7 @@ class RampResult:
     decision: np.ndarray = None
     confidence: np.ndarray = None
     bisection_decision: np.ndarray = None
+    timestep: dict = field(default_factory=dict)
 
     @property
     def F_x_c(self):
@@ -558,6 +592,11 @@ class _RampLog:
             fh.flush()
         os.replace(tmp, self.path)
         self._synced = True
+        if not getattr(self, "_cleaned", False):     # temp files of killed runs
+            from .results import clean_stale_tmp
+
+            clean_stale_tmp(self.path)
+            self._cleaned = True
 
     @classmethod
     def load(cls, cfg, path):
@@ -587,7 +626,7 @@ class _RampLog:
             if k.startswith("eigenvalues/"):
                 log.eig[k[len("eigenvalues/"):]] = v
         log.attrs = {k: v for k, v in attrs.items()
-                     if k in ("F_x_c_low", "F_x_c_high", "message")}
+                     if k in ("F_x_c_low", "F_x_c_high", "message", "dt_used")}
         log.status = attrs.get("status", "running")
         log._synced = False          # rewrite in full once (older files: fixed-size)
         return log
@@ -674,6 +713,11 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         if err:
             raise ConfigError(err)
         _ensure_dir(eng, folder)
+        rcfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "ramp")
+        if "dt_used" in rlog.attrs and cfg.dt == "auto":   # resume: the same step
+            rcfg = cfg.replace(dt=float(rlog.attrs["dt_used"]))
+            dtinfo.update(dt_used=rcfg.dt, dt_fraction=rcfg.dt / dtinfo["dt_max"])
+        rlog.attrs.update(dtinfo)
         status = getattr(rlog, "status", "running")
         if status in ("complete", "no_complex_pair", "no_equilibrium", "complex_at_start"):
             return _ramp_result(rlog, status)
@@ -693,7 +737,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
                 start = cfg.datafile if k == 0 else rlog.files["steps"][-1]
                 prefix = os.path.join(folder, f"step_{k:05d}")
                 try:
-                    vals, res = _ramp_point(eng, cfg, start, F, prefix)
+                    vals, res = _ramp_point(eng, rcfg, start, F, prefix)
                 except eq.NoEquilibriumError as exc:
                     rlog.attrs["message"] = str(exc)
                     if eng.rank == 0:
@@ -727,7 +771,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
                 mid = 0.5 * (lo + hi)
                 prefix = os.path.join(folder, f"bisect_{j:03d}")
                 try:
-                    vals, res = _ramp_point(eng, cfg, lo_file, mid, prefix)
+                    vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix)
                 except eq.NoEquilibriumError:
                     vals = {c: np.nan for c in _RampLog.COLS}
                     vals.update(F_x=mid, complex=2.0)   # no equilibrium: above F_x^c
@@ -764,7 +808,8 @@ def _ramp_result(rlog, status):
         F_x_c_high=float(rlog.attrs.get("F_x_c_high", np.nan)), status=status,
         h5=rlog.path, message=str(rlog.attrs.get("message", "")),
         decision=np.asarray(s["decision"]), confidence=np.asarray(s["confidence"]),
-        bisection_decision=np.asarray(b["decision"]))
+        bisection_decision=np.asarray(b["decision"]),
+        timestep={k: v for k, v in rlog.attrs.items() if k.startswith("dt_")})
 
 
 # --------------------------------------------------------------------------- undamped
@@ -818,7 +863,7 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
 
     add({"t": 0.0, "D": 0.0, "v_top": 0.0, "mu": eng.equal("mu_now")})
     bar = _progress(nrec, desc, quiet, eng.rank, unit="rec")
-    status = "complete"
+    status = "failed"               # until the loop ends normally
     try:
         for k in range(nrec):
             eng.run(n, pre=(k == 0))
@@ -828,6 +873,8 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
             if stop is not None and stop(out):
                 status = "stopped"
                 break
+        else:
+            status = "complete"
     finally:
         bar.close()
         if writer is not None:
@@ -865,10 +912,12 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc"):
         raise ConfigError(f"perturb needs a DynamicsConfig, got {type(cfg).__name__}")
     results = {}
     with Engine(comm=comm, log=log) as eng:
+        cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "perturb")
         prefix, r = _equilibrium_for(eng, cfg, out, "perturb", quiet)
         data = prefix + ".data"
         v0 = cfg.v0
-        base = {"equilibrium": data, "equilibrium_residual": r, "stage": "perturb"}
+        base = {"equilibrium": data, "equilibrium_residual": r, "stage": "perturb",
+                **dtinfo}
         if "a" in runs or v0 is None:
             res = _undamped_run(eng, cfg, data, os.path.join(out, "perturb_a.h5"),
                                 {"a": 0.0, "muv": 0}, "perturb (a)", quiet,
@@ -892,29 +941,46 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc"):
                  "muss": float(cfg.mu_ss)}, "perturb (c)", quiet,
                 attrs=dict(base, run="c", v0=v0, v_ss=vss))
         for res in results.values():
-            res.extra.update(residual=r, v0=v0, v_ss=vss)
+            res.extra.update(residual=r, v0=v0, v_ss=vss, timestep=dict(dtinfo))
     return results
 
 
 def growth_fit(t, D, lo_decades=3.0, hi=None):
     """Fit D ~ exp(2 g t) on the exponential stretch of an MSD series.
 
-    Uses records with D above 10^lo_decades times the initial noise level
-    (median of the first 5 % of positive D) and below ``hi`` (default
-    max(D)/1e3). Returns g (1/time), NaN if fewer than 5 records qualify.
+    The stretch is the one the paper report uses
+    (:func:`remote_trigger.pywrap.report.growth_window`): contiguous, from the
+    first record with D above 10^lo_decades times the initial noise level
+    (median of the first 5 % of positive D) to the first record above
+    min(``hi``, max(D)/1e3) -- the growth before the first nonlinear
+    saturation. (Before, every record between the two levels was used, which
+    let a saturated plateau below ``hi`` into the fit: 0.0117 instead of
+    0.0159 for a predicted 0.0162.)
+
+    Parameters
+    ----------
+    t, D : array_like, shape (n,)
+        Times and MSD (Eq. 8).
+    lo_decades : float
+        Start of the window above the noise level, in decades.
+    hi : float, optional
+        Absolute upper bound of the window (e.g. the stop level / 100).
+
+    Returns
+    -------
+    float
+        g (1/time); NaN with fewer than 5 records in the window or no noise
+        level (no positive D).
     """
-    t, D = np.asarray(t), np.asarray(D)
-    pos = D > 0
-    if np.count_nonzero(pos) < 10:
+    from .report import growth_window, noise_level
+
+    t, D = np.asarray(t, float), np.asarray(D, float)
+    Dmax = float(np.max(D)) if D.size else 0.0
+    if not Dmax > 0:
         return float("nan")
-    head = D[pos][:max(5, int(0.05 * np.count_nonzero(pos)))]
-    noise = float(np.median(head))
-    hi = float(np.max(D)) / 1e3 if hi is None else hi
-    sel = pos & (D > noise * 10 ** lo_decades) & (D < hi)
-    if np.count_nonzero(sel) < 5:
-        return float("nan")
-    slope = np.polyfit(t[sel], np.log(D[sel]), 1)[0]
-    return float(slope / 2.0)
+    top = 1e-3 if hi is None else min(1e-3, float(hi) / Dmax)
+    _, g = growth_window(t, D, noise_level(t, D), lo=10.0 ** lo_decades, hi=top)
+    return g
 
 
 def instability(cfg, out, comm=None, quiet=False, log="none"):
@@ -933,6 +999,7 @@ def instability(cfg, out, comm=None, quiet=False, log="none"):
     if not isinstance(cfg, DynamicsConfig):
         raise ConfigError(f"instability needs a DynamicsConfig, got {type(cfg).__name__}")
     with Engine(comm=comm, log=log) as eng:
+        cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "instability")
         prefix, r = _equilibrium_for(eng, cfg, out, "instability", quiet)
         st = _analyze(eng, prefix + ".dump")
         res = _undamped_run(
@@ -941,8 +1008,9 @@ def instability(cfg, out, comm=None, quiet=False, log="none"):
             stop=lambda o: o["D"][-1] > cfg.d_sat,
             attrs={"stage": "instability", "equilibrium": prefix + ".data",
                    "equilibrium_residual": r, "predicted_growth_rate": st.growth_rate,
-                   "complex_pair": st.complex_pair})
+                   "complex_pair": st.complex_pair, **dtinfo})
         res.extra.update(predicted_growth_rate=st.growth_rate, complex_pair=st.complex_pair,
                          residual=r, saturated=bool(res.D[-1] > cfg.d_sat),
+                         timestep=dict(dtinfo),
                          measured_growth_rate=growth_fit(res.t, res.D, hi=cfg.d_sat / 1e2))
     return res

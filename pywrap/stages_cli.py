@@ -15,17 +15,33 @@ def _add_model(p):
     p.add_argument("--mu", type=float, help="friction coefficient (default 1)")
     p.add_argument("--F-x", dest="F_x", type=float, help="horizontal load on top disks")
     p.add_argument("--F-y", dest="F_y", type=float, help="downward load on top disks (3)")
+    p.add_argument("--dt", type=_dt_arg, help="time step, or 'auto' = 0.1 x the stability "
+                   "limit of the start state (default 1e-3); a dt at or above the limit "
+                   "is refused")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="any configuration field, e.g. --set k_n=2e5 (repeatable)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--log", default="none", help="LAMMPS log file (default none)")
 
 
+def _dt_arg(text):
+    """``--dt``: a number or 'auto'."""
+    import argparse
+
+    if text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"dt must be a number or 'auto', got {text!r}") \
+            from None
+
+
 def _config(cls, args, extra=()):
     from .config import ConfigError
 
     d = {"datafile": args.datafile}
-    for key in ("mu", "F_x", "F_y") + tuple(extra):
+    for key in ("mu", "F_x", "F_y", "dt") + tuple(extra):
         val = getattr(args, key, None)
         if val is not None:
             d[key] = val
