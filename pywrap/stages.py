@@ -844,8 +844,13 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
     v.update(variables)
     eng.load_deck("in.perturb", v, ("scene", "dynamics"))
     n = cfg.record_every
+    # fix vmax: running max of |v_top| over EVERY step (ave/histo's global
+    # vector [4] is the max of all inputs; 'ave running' keeps it over the run)
     eng.commands("compute msd all msd\n"
-                 f"fix rec all ave/time {n} 1 {n} c_msd[4] v_vtop v_mu_now\n")
+                 f"fix rec all ave/time {n} 1 {n} c_msd[4] v_vtop v_mu_now\n"
+                 "variable absvtop equal abs(v_vtop)\n"
+                 f"fix vmax all ave/histo 1 {n} {n} 0.0 1.0 1 v_absvtop mode scalar "
+                 "ave running\n")
     nsteps = int(round(cfg.t_max / cfg.dt))
     nrec = max(1, nsteps // n)
     cols = ("t", "D", "v_top", "mu")
@@ -864,11 +869,13 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
     add({"t": 0.0, "D": 0.0, "v_top": 0.0, "mu": eng.equal("mu_now")})
     bar = _progress(nrec, desc, quiet, eng.rank, unit="rec")
     status = "failed"               # until the loop ends normally
+    vmax = 0.0
     try:
         for k in range(nrec):
             eng.run(n, pre=(k == 0))
             vals = [eng.lmp.extract_fix("rec", 0, 1, i) for i in range(3)]
             add({"t": (k + 1) * n * cfg.dt, "D": vals[0], "v_top": vals[1], "mu": vals[2]})
+            vmax = float(eng.lmp.extract_fix("vmax", 0, 1, 3))
             bar.update(1)
             if stop is not None and stop(out):
                 status = "stopped"
@@ -878,8 +885,9 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
     finally:
         bar.close()
         if writer is not None:
-            writer.close(status=status)
-    return SeriesResult(*(np.asarray(out[c]) for c in cols), h5=h5)
+            writer.close(attrs={"v_top_max": vmax}, status=status)
+    return SeriesResult(*(np.asarray(out[c]) for c in cols), h5=h5,
+                        extra={"v_top_max": vmax})
 
 
 def _equilibrium_for(eng, cfg, out, name, quiet):
@@ -899,7 +907,9 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc"):
 
     (a) unperturbed; (b) f(t) = a cos(omega_p t) added to F_x on ``top``;
     (c) like (b) with mu(v) (Eq. 4) on every contact and the wall; v0 is the
-    largest |v_top| of run (a) unless ``cfg.v0`` is given, v_ss = v0 unless
+    largest |v_top| of run (a) over every step (``fix ave/histo``'s running
+    max, not only the recorded steps: mu(v) is evaluated every step) unless
+    ``cfg.v0`` is given, v_ss = v0 unless
     ``cfg.v_ss`` is given.
 
     Returns
@@ -923,8 +933,8 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc"):
                                 {"a": 0.0, "muv": 0}, "perturb (a)", quiet,
                                 attrs=dict(base, run="a"))
             results["a"] = res
-            if v0 is None:
-                v0 = float(np.max(np.abs(res.v_top)))
+            if v0 is None:              # max |v_top| over every step, not only records
+                v0 = float(res.extra["v_top_max"])
                 if not v0 > 0:
                     v0 = np.finfo(float).tiny
         vss = cfg.v_ss if cfg.v_ss is not None else v0

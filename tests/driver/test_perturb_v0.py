@@ -1,0 +1,36 @@
+"""v0 of the perturbation runs is the max of |v_top| over every step of run (a)."""
+import numpy as np
+
+from remote_trigger.pywrap import stages
+from remote_trigger.pywrap.config import DynamicsConfig
+from remote_trigger.pywrap.engine import Engine
+from remote_trigger.pywrap.results import read_all
+
+EVERY, STEPS = 25, 400
+
+
+def test_v0_is_per_step_max_of_run_a(relaxed, tmp_path):
+    cfg = DynamicsConfig(datafile=relaxed.datafile, F_x=0.05, t_max=STEPS * 1e-3,
+                         record_every=EVERY)
+    res = stages.perturb(cfg, str(tmp_path), quiet=True, runs="a")["a"]
+    v0 = res.extra["v0"]
+    # independent: the same run one step at a time, |v_top| read after every step
+    eq = str(tmp_path / "perturb" / "equilibrium.data")
+    per_step = []
+    with Engine() as eng:
+        v = stages._deck_vars(cfg, eq, cfg.F_x)
+        v.pop("gamma")
+        v.pop("gamma_rot")
+        v.update({"a": 0.0, "muv": 0})
+        eng.load_deck("in.perturb", v, ("scene", "dynamics"))
+        for k in range(STEPS):
+            eng.run(1, pre=(k == 0))
+            per_step.append(abs(eng.equal("vtop")))
+    per_step = np.asarray(per_step)
+    np.testing.assert_allclose(v0, per_step.max(), rtol=1e-12)
+    # the records (every EVERY steps) see the same velocities, but not all of them
+    np.testing.assert_allclose(np.abs(res.v_top[1:]), per_step[EVERY - 1::EVERY],
+                               rtol=1e-12, atol=0)
+    assert v0 > np.max(np.abs(res.v_top))         # the records alone miss the peak
+    attrs, _ = read_all(res.h5)
+    assert attrs["v_top_max"] == v0 and attrs["status"] == "complete"
