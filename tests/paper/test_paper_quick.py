@@ -173,9 +173,11 @@ def test_stable_below_F_x_c_with_and_without_forcing(run):
 
 def test_growth_with_velocity_dependent_friction(run):
     out, _ = run
-    a, _ = series(out, "perturb_a.h5")
+    a, a_attrs = series(out, "perturb_a.h5")
     c, attrs = series(out, "perturb_c.h5")
     level = np.median(a["D"][a["t"] > 0])
     assert c["D"].max() > 1e12 * level
     assert c["mu"].min() < 0.81                   # mu(v) fell towards mu_ss = 0.8
-    assert attrs["v0"] == pytest.approx(np.max(np.abs(a["v_top"])))
+    # v0: max |v_top| of run (a) over every step, at least the recorded max
+    assert attrs["v0"] == a_attrs["v_top_max"]
+    assert attrs["v0"] >= np.max(np.abs(a["v_top"]))
