@@ -23,10 +23,17 @@ With two or more MPI ranks the independent stages run side by side (task
 parallelism: ranks split into two groups; the two ramps, then the
 instability run + normal form against the perturbation runs); within a
 group LAMMPS decomposes the domain as usual.
+
+Checkpoints: the manifest ``paper.json`` is rewritten (atomically, by rank
+0) after every phase with that phase's summary; ``--resume``
+(:func:`run_paper`, ``resume=True``) reloads the finished phases, continues
+the ramps from their ``ramp.h5`` and reruns any other unfinished phase from
+its start, so that the report equals that of an uninterrupted run.
 """
 import json
 import math
 import os
+import re
 import shutil
 import sys
 import time
@@ -55,8 +62,11 @@ def prepare_out(out):
 
     An empty or missing folder is used as is. A folder that holds a previous
     run of this job (``paper.json``) has exactly the outputs of that job
-    removed (:data:`OUTPUTS`, ``ramp_mu*``, ``fig*.png``); anything else in
-    it is left alone. A non-empty folder without ``paper.json`` is refused.
+    removed (:data:`OUTPUTS`, ``ramp_mu*``, ``fig*.png``, and the temporary
+    ``NAME.tmpPID`` files of writes cut short); anything else in it is left
+    alone. A non-empty folder without ``paper.json`` is refused.
+    (``--resume`` with a ``paper.json`` in ``out`` deletes nothing and does
+    not call this; see :func:`run_paper`.)
 
     Raises
     ------
@@ -74,8 +84,9 @@ def prepare_out(out):
                           f"`remote-trigger paper` (no {MANIFEST}); choose another --out")
     for name in entries:
         path = os.path.join(out, name)
-        ours = name in OUTPUTS or any(name.startswith(g) for g in OUTPUT_GLOBS)
-        if name.startswith("fig") and not name.endswith(".png"):
+        base = re.sub(r"\.tmp\d+$", "", name)   # temporary file of a killed write
+        ours = base in OUTPUTS or any(base.startswith(g) for g in OUTPUT_GLOBS)
+        if base.startswith("fig") and not base.endswith(".png"):
             ours = False
         if not ours:
             continue
@@ -106,19 +117,15 @@ def _json_default(obj):
 
 
 class _Clock:
-    """Wall-clock phases and brief progress lines (printed by a group leader)."""
+    """Brief progress lines with the elapsed time (printed by a group leader)."""
 
-    def __init__(self, speak):
-        self.t0 = time.perf_counter()
+    def __init__(self, speak, t0=None):
+        self.t0 = time.perf_counter() if t0 is None else t0
         self.speak = speak
-        self.phases = {}
 
     def say(self, msg):
         if self.speak:
             print(f"[paper {time.perf_counter() - self.t0:7.1f} s] {msg}", flush=True)
-
-    def phase(self, name, seconds):
-        self.phases[name] = float(seconds)
 
 
 # --------------------------------------------------------------------------- stages
@@ -275,15 +282,23 @@ def extension_loads(F_lo, F_hi, F_c, cfg, main):
     return loads
 
 
-def run_ramp(cfg, out, mu, relaxed, comm, clock, main):
-    """Ramp at friction ``mu`` plus its continuation; returns a summary dict."""
+def run_ramp(cfg, out, mu, relaxed, comm, clock, main, resume=False):
+    """Ramp at friction ``mu`` plus its continuation; returns a summary dict.
+
+    With ``resume`` an existing ``ramp.h5`` is continued
+    (``stages.ramp(..., resume=True)``); the continuation is always run
+    from its start.
+    """
     from . import stages
 
     rcfg = ramp_config(cfg, relaxed, mu)
     folder = ramp_dir(out, mu)
     t0 = time.perf_counter()
-    clock.say(f"ramp mu = {mu:g}: dF_x = {cfg.dF_x:g}, bisection to {cfg.tol:g}")
-    res = stages.ramp(rcfg, folder, comm=comm, quiet=True)
+    again = resume and os.path.exists(os.path.join(folder, "ramp.h5"))
+    clock.say(f"ramp mu = {mu:g}: dF_x = {cfg.dF_x:g}, bisection to {cfg.tol:g}"
+              + (f" (continuing {os.path.join(os.path.basename(folder), 'ramp.h5')})"
+                 if again else ""))
+    res = stages.ramp(rcfg, folder, comm=comm, quiet=True, resume=resume)
     t_ramp = time.perf_counter() - t0
     summ = {"mu": float(mu), "status": res.status, "message": res.message,
             "F_x_c_low": res.F_x_c_low, "F_x_c_high": res.F_x_c_high,
@@ -405,6 +420,162 @@ def run_normal_form(cfg, out, clock):
     return {"wall": wall}
 
 
+# --------------------------------------------------------------------------- manifest, resume
+def _normalised(d):
+    """``d`` after a JSON round trip (tuples -> lists, numpy -> Python), for comparisons."""
+    return json.loads(json.dumps(d, default=_json_default))
+
+
+#: configuration keys that may differ between the sessions of one job (they
+#: do not change any result: serial and two-rank runs are bitwise identical)
+RESUME_FREE_KEYS = ("np",)
+
+
+def config_difference(stored, cfg):
+    """Keys whose values differ between a stored configuration and ``cfg``.
+
+    Parameters
+    ----------
+    stored : dict
+        ``config`` of a manifest (``paper.json``).
+    cfg : PaperConfig
+
+    Returns
+    -------
+    list of (str, object, object)
+        ``(key, stored value, value of cfg)``, sorted by key; keys of
+        :data:`RESUME_FREE_KEYS` are ignored. A key missing on one side has
+        the value ``'<missing>'`` there.
+    """
+    a, b = _normalised(stored), _normalised(cfg.to_dict())
+    missing = "<missing>"
+    return [(k, a.get(k, missing), b.get(k, missing)) for k in sorted(set(a) | set(b))
+            if k not in RESUME_FREE_KEYS and a.get(k, missing) != b.get(k, missing)]
+
+
+def load_manifest(out, cfg):
+    """The manifest of the job in ``out`` to resume, checked against ``cfg``.
+
+    Parameters
+    ----------
+    out : str
+        Absolute path of the output folder; ``out/paper.json`` must exist.
+    cfg : PaperConfig
+        Configuration of this session.
+
+    Returns
+    -------
+    dict
+        The manifest (see :func:`run_paper`).
+
+    Raises
+    ------
+    ConfigError
+        If ``paper.json`` is unreadable, was written for another folder
+        (the HDF5 files hold absolute paths), or its configuration differs
+        from ``cfg`` (the message names every differing key with both values).
+        Nothing is deleted.
+    """
+    path = os.path.join(out, MANIFEST)
+    try:
+        with open(path) as fh:
+            man = json.load(fh)
+        if not isinstance(man, dict) or not isinstance(man.get("config"), dict):
+            raise ValueError("no 'config' object")
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"cannot resume from {path}: unreadable manifest ({exc}); "
+                          f"run without --resume to start the job over") from None
+    old_out = man.get("out")
+    if old_out is not None and os.path.realpath(old_out) != os.path.realpath(out):
+        raise ConfigError(f"cannot resume from {path}: the job was written to out = "
+                          f"{old_out!r} and its files refer to it; resume it there or start "
+                          f"over without --resume")
+    diff = config_difference(man["config"], cfg)
+    if diff:
+        what = "; ".join(f"{k} = {old!r} in {MANIFEST}, {k} = {new!r} now"
+                         for k, old, new in diff)
+        raise ConfigError(f"cannot resume {out}: its configuration differs: {what}. Resume "
+                          f"with the options of the interrupted job, or drop --resume to "
+                          f"start over (nothing was deleted)")
+    return man
+
+
+def _files_of(out, name, entry):
+    """Files a finished phase leaves behind (its summary is trusted only if they exist)."""
+    if name == "relax":
+        return [entry["datafile"], os.path.join(out, "relax.h5")]
+    if name.startswith("ramp"):
+        files = [entry["h5"]]
+        ok = [r for r in entry.get("extension", []) if "error" not in r]
+        if entry.get("status") == "complete":
+            files.append(os.path.join(os.path.dirname(entry["h5"]), "extend.h5"))
+        return files + [r["datafile"] for r in ok]
+    if name == "instability":
+        return [entry["h5"]]
+    if name == "perturb":
+        return ([os.path.join(out, f"perturb_{x}.h5") for x in "abc"]
+                + [os.path.join(out, "perturb", "equilibrium.dump")])
+    if name == "normal_form":
+        return [os.path.join(out, "normal_form.h5"), os.path.join(out, "fig_normal_form.png")]
+    return []
+
+
+def finished_phases(man, out, check_files=True):
+    """Summaries of the phases a manifest records as finished (and whose files exist).
+
+    Parameters
+    ----------
+    man : dict
+        Manifest (``paper.json``).
+    out : str
+        Output folder.
+    check_files : bool
+        Keep only phases whose output files (HDF5, data files, PNG) all exist,
+        so that deleting a phase's files makes ``--resume`` run it again.
+
+    Returns
+    -------
+    dict
+        ``relax``, ``ramp0``, ``ramp1`` (main mu, mu_low), ``instability``,
+        ``perturb``, ``normal_form`` -> summary, for those that are done.
+    """
+    found = {}
+    if man.get("relax"):
+        found["relax"] = man["relax"]
+    for k, r in enumerate((man.get("ramps") or [])[:2]):
+        if r:
+            found[f"ramp{k}"] = r
+    for name in ("instability", "perturb", "normal_form"):
+        if man.get(name):
+            found[name] = man[name]
+    if not check_files:
+        return found
+    return {k: v for k, v in found.items()
+            if all(os.path.exists(f) for f in _files_of(out, k, v))}
+
+
+def _report_done(out, man):
+    """The manifest says complete, and the report and every figure it lists exist."""
+    figs = [f for f in (man.get("figures") or {}).values()
+            if not str(f).startswith("error")]
+    return (man.get("status") == "complete" and
+            all(os.path.isfile(os.path.join(out, f)) for f in ("report.md", "report.json"))
+            and all(os.path.isfile(f) for f in figs))
+
+
+def _utc_now():
+    return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+
+
+def _ordered_phases(phases, cfg):
+    """Phase timings in the order of the job (unknown names last)."""
+    order = ["relax", f"ramp_mu{cfg.mu:g}", f"ramp_mu{cfg.mu_low:g}", "instability",
+             "perturb", "normal_form", "figures", "total"]
+    out = {k: phases[k] for k in order if k in phases}
+    out.update({k: v for k, v in phases.items() if k not in out})
+    return out
+
+
 # --------------------------------------------------------------------------- the job
 def _guarded(fn):
     """Run fn(); return the exception it raised (None if none), so that all
@@ -416,7 +587,13 @@ def _guarded(fn):
     return None
 
 
-def run_paper(cfg, out, comm=None, speak=True):
+def _raise_first(errs):
+    err = next((e for e in errs if e is not None), None)
+    if err is not None:
+        raise err
+
+
+def run_paper(cfg, out, comm=None, speak=True, resume=False):
     """Run the whole job; all ranks of ``comm`` call it.
 
     Parameters
@@ -429,39 +606,99 @@ def run_paper(cfg, out, comm=None, speak=True):
         run in two groups at once.
     speak : bool
         Print progress lines.
+    resume : bool
+        Continue the job whose manifest ``out/paper.json`` is there (same
+        configuration, else :class:`ConfigError`; see :func:`load_manifest`):
+        finished phases are reloaded from the manifest, the ramps continue
+        from their ``ramp.h5``, any other unfinished phase is run from its
+        start. A complete job is left as it is. Without a manifest in
+        ``out``, a new job starts (as without ``resume``).
 
     Returns
     -------
     str
         Path of ``report.md`` (on every rank).
+
+    Notes
+    -----
+    The manifest ``paper.json`` (written by rank 0 only, atomically) holds
+    the resolved configuration, ``status`` (``'running'``, ``'complete'``),
+    ``out``, one entry per session in ``sessions`` (start time, resumed or
+    not, ranks, elapsed seconds at its last checkpoint, phases reused), the
+    wall time of every finished phase in ``phases``, and the summary of each
+    finished phase: ``relax``, ``ramps`` (``[main mu, mu_low]``, ``null``
+    until done), ``instability``, ``perturb``, ``normal_form``; at the end
+    ``figures``. It is rewritten when the job starts and after every phase
+    (with two rank groups: after each phase of rank 0's group, and for the
+    other group's phases at the next point where the groups meet). The
+    figures and the report are made from the manifest as it is on disk
+    (one JSON round trip), so that a resumed job and an uninterrupted one
+    feed them the same numbers.
     """
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD if comm is None else comm
     rank, size = comm.Get_rank(), comm.Get_size()
     out = os.path.abspath(out)
-    err = None
+    mpath = os.path.join(out, MANIFEST)
+    path = os.path.join(out, "report.md")
+    t_job = time.perf_counter()
+    wclock = _Clock(speak and rank == 0)
+
+    # 0. a new job (prepare_out), or the manifest of the job to resume
+    summary, complete, err = None, False, None
     if rank == 0:
         try:
-            prepare_out(out)
-            write_json(os.path.join(out, MANIFEST), {
-                "job": "remote-trigger paper", "status": "running",
-                "config": cfg.to_dict(), "n_ranks": size, "argv": sys.argv})
+            man = load_manifest(out, cfg) if resume and os.path.isfile(mpath) else None
+            if man is None:
+                prepare_out(out)
+                done, sessions, phases = {}, [], {}
+            else:
+                done = finished_phases(man, out)
+                complete = (_report_done(out, man) and
+                            len(done) == len(finished_phases(man, out, False)))
+                sessions = list(man.get("sessions") or [])
+                names = {"relax": "relax", "ramp0": f"ramp_mu{cfg.mu:g}",
+                         "ramp1": f"ramp_mu{cfg.mu_low:g}", "instability": "instability",
+                         "perturb": "perturb", "normal_form": "normal_form"}
+                keep = {names[k] for k in done}
+                phases = {k: v for k, v in (man.get("phases") or {}).items() if k in keep}
+            summary = {"job": "remote-trigger paper", "status": "running", "out": out,
+                       "config": cfg.to_dict(), "n_ranks": size, "paper": PAPER,
+                       "task_parallel": size >= 2, "argv": sys.argv, "phases": phases,
+                       "sessions": sessions + [{"started": _utc_now(),
+                                                "resume": man is not None, "n_ranks": size,
+                                                "elapsed": 0.0, "reused": sorted(done)}],
+                       "ramps": [done.get("ramp0"), done.get("ramp1")]}
+            for k in ("relax", "instability", "perturb", "normal_form"):
+                if k in done:
+                    summary[k] = done[k]
+            if complete:
+                wclock.say(f"--resume: the job in {out} is complete; nothing to do")
+            else:
+                if man is not None:
+                    wclock.say("--resume: reusing " + (", ".join(sorted(done)) or "nothing")
+                               + f" from {MANIFEST}")
+                write_json(mpath, summary)
         except (ConfigError, OSError) as exc:
             err = str(exc)
-    err = comm.bcast(err, root=0)
+    summary, complete, err = comm.bcast((summary, complete, err), root=0)
     if err:
         raise ConfigError(err)
-    if size >= 2:
-        color = rank % 2
-        group = comm.Split(color, rank)
-    else:
-        color, group = 0, comm
-    leader = group.Get_rank() == 0
-    clock = _Clock(speak and leader)
-    t_job = time.perf_counter()
-    summary = {"config": cfg.to_dict(), "n_ranks": size, "paper": PAPER,
-               "task_parallel": size >= 2}
+    if complete:
+        comm.Barrier()
+        return path
+
+    def checkpoint():
+        """Rewrite the manifest (rank 0 only; others do nothing)."""
+        if rank == 0:
+            summary["sessions"][-1]["elapsed"] = time.perf_counter() - t_job
+            write_json(mpath, summary)
+
+    def sync_checkpoint():
+        """Checkpoint on rank 0; an error there is raised on every rank."""
+        errs = comm.allgather(_guarded(checkpoint))
+        _raise_first(errs)
 
     # 1. packing + relaxation: on world rank 0 alone, so that the packing does not
     #    depend on the number of ranks (a domain-decomposed compaction is not
@@ -469,116 +706,143 @@ def run_paper(cfg, out, comm=None, speak=True):
     from .packing import generate, write_data
     from . import stages
 
-    wclock = _Clock(speak and rank == 0)
     datafile = os.path.join(out, "packing.data")
-    t0 = time.perf_counter()
-    rel, err = None, None
-    if rank == 0:
-        wclock.say(f"relax: N = {cfg.n}, seed {cfg.seed}")
-        solo = comm.Split(0, 0) if size > 1 else comm
-        try:
-            write_data(generate(cfg.n, seed=cfg.seed, phi=cfg.phi), datafile)
-            rel = stages.relax(relax_config(cfg, datafile), out, comm=solo, quiet=True)
-        except Exception as exc:  # noqa: BLE001 - re-raised on every rank below
-            err = exc
-        finally:
-            if size > 1:
-                solo.Free()
-    elif size > 1:
-        comm.Split(MPI.UNDEFINED, rank)
-    if size > 1:
-        rel, err = comm.bcast((rel, err), root=0)
-    if err is not None:
-        raise err
-    wclock.phase("relax", time.perf_counter() - t0)
-    wclock.say(f"relax: phi = {rel.packing_fraction:.4f}, residual {rel.residual:.2e} "
-               f"({time.perf_counter() - t0:.0f} s)")
-    summary["relax"] = {"residual": rel.residual, "packing_fraction": rel.packing_fraction,
-                        "converged": rel.converged, "wall": rel.wall_time,
-                        "datafile": rel.datafile, "protocol": getattr(rel, "protocol", "")}
+    if summary.get("relax"):
+        r = summary["relax"]
+        wclock.say(f"relax: done earlier ({MANIFEST}): phi = {r['packing_fraction']:.4f}, "
+                   f"residual {r['residual']:.2e}")
+    else:
+        t0 = time.perf_counter()
+        err = None
+        if rank == 0:
+            wclock.say(f"relax: N = {cfg.n}, seed {cfg.seed}")
+            solo = comm.Split(0, 0) if size > 1 else comm
+            try:
+                write_data(generate(cfg.n, seed=cfg.seed, phi=cfg.phi), datafile)
+                rel = stages.relax(relax_config(cfg, datafile), out, comm=solo, quiet=True)
+                summary["relax"] = {"residual": rel.residual,
+                                    "packing_fraction": rel.packing_fraction,
+                                    "converged": rel.converged, "wall": rel.wall_time,
+                                    "datafile": rel.datafile,
+                                    "protocol": getattr(rel, "protocol", "")}
+                summary["phases"]["relax"] = time.perf_counter() - t0
+                checkpoint()
+            except Exception as exc:  # noqa: BLE001 - re-raised on every rank below
+                err = exc
+            finally:
+                if size > 1:
+                    solo.Free()
+        elif size > 1:
+            comm.Split(MPI.UNDEFINED, rank)
+        if size > 1:
+            summary["relax"], summary["phases"], err = comm.bcast(
+                (summary.get("relax"), summary["phases"], err), root=0)
+        if err is not None:
+            raise err
+        r = summary["relax"]
+        wclock.say(f"relax: phi = {r['packing_fraction']:.4f}, residual {r['residual']:.2e} "
+                   f"({time.perf_counter() - t0:.0f} s)")
+    relaxed = summary["relax"]["datafile"]
+
+    if size >= 2:
+        color = rank % 2
+        group = comm.Split(color, rank)
+    else:
+        color, group = 0, comm
+    leader = group.Get_rank() == 0
+    clock = _Clock(speak and leader, t0=wclock.t0)
+
+    def merge(err):
+        """Bring the group leaders' new summaries to every rank; raise the first error."""
+        if size < 2:
+            _raise_first([err])
+            return
+        parts = comm.allgather((summary if leader else None, err))
+        for part, _ in parts:
+            if part is None:
+                continue
+            for k, rr in enumerate(part["ramps"]):
+                if rr is not None and summary["ramps"][k] is None:
+                    summary["ramps"][k] = rr
+            for k in ("instability", "perturb", "normal_form"):
+                if part.get(k) and not summary.get(k):
+                    summary[k] = part[k]
+            summary["phases"].update(part["phases"])
+        _raise_first([e for _, e in parts])
 
     # 2. ramps (one per group when task-parallel)
     mus = (cfg.mu, cfg.mu_low)
-    ramps = {}
 
     def do_ramps():
         for k, mu in enumerate(mus):
             if size >= 2 and k % 2 != color:
                 continue
+            if summary["ramps"][k] is not None:
+                rr = summary["ramps"][k]
+                clock.say(f"ramp mu = {mu:g}: done earlier ({MANIFEST}): " +
+                          (f"F_x^c in [{rr['F_x_c_low']:.7g}, {rr['F_x_c_high']:.7g}]"
+                           if rr["status"] == "complete" else rr["status"]))
+                continue
             t0 = time.perf_counter()
-            ramps[k] = run_ramp(cfg, out, mu, rel.datafile, group, clock, main=(k == 0))
-            clock.phase(f"ramp_mu{mu:g}", time.perf_counter() - t0)
+            summ = run_ramp(cfg, out, mu, relaxed, group, clock, main=(k == 0), resume=resume)
+            summary["ramps"][k] = summ
+            summary["phases"][f"ramp_mu{mu:g}"] = time.perf_counter() - t0
+            checkpoint()
 
-    err = _guarded(do_ramps)
-    if size >= 2:
-        merged, errs = {}, []
-        for part, e in comm.allgather((ramps if leader else {}, err)):
-            merged.update(part)
-            errs.append(e)
-        ramps = merged
-        err = next((e for e in errs if e is not None), None)
-    if err is not None:
-        raise err
-    summary["ramps"] = [ramps[0], ramps[1]]
-    main = ramps[0]
+    merge(_guarded(do_ramps))
+    sync_checkpoint()
+    main = summary["ramps"][0]
     F_c = (0.5 * (main["F_x_c_low"] + main["F_x_c_high"])
            if main["status"] == "complete" else None)
 
     # 3.-5. dynamics and normal form
-    jobs = {}
     if F_c is None:
         wclock.say(f"no F_x^c for mu = {cfg.mu:g} ({main['status']}): Figs. 4 and 5 skipped")
+
+    def run_phase(name, fn):
+        if summary.get(name):
+            clock.say(f"{name}: done earlier ({MANIFEST})")
+            return
+        t0 = time.perf_counter()
+        summary[name] = fn()
+        summary["phases"][name] = time.perf_counter() - t0
+        checkpoint()
 
     def do_jobs():
         if F_c is not None:
             if color == 0:
-                t0 = time.perf_counter()
-                jobs["instability"] = run_instability(cfg, out, F_c, main["extension"], main,
-                                                      group, clock)
-                clock.phase("instability", time.perf_counter() - t0)
+                run_phase("instability", lambda: run_instability(
+                    cfg, out, F_c, main["extension"], main, group, clock))
             if color == (1 if size >= 2 else 0):
-                t0 = time.perf_counter()
-                jobs["perturb"] = run_perturb(cfg, out, F_c, group, clock)
-                clock.phase("perturb", time.perf_counter() - t0)
+                run_phase("perturb", lambda: run_perturb(cfg, out, F_c, group, clock))
         if color == 0 and leader:
-            t0 = time.perf_counter()
-            jobs["normal_form"] = run_normal_form(cfg, out, clock)
-            clock.phase("normal_form", time.perf_counter() - t0)
+            run_phase("normal_form", lambda: run_normal_form(cfg, out, clock))
 
-    err = _guarded(do_jobs)
-    phases = dict(wclock.phases, **clock.phases)
-    if size >= 2:
-        merged, ph, errs = {}, {}, []
-        for part, p, e in comm.allgather((jobs if leader else {}, phases if leader else {},
-                                          err)):
-            merged.update(part)
-            ph.update(p)
-            errs.append(e)
-        jobs, phases = merged, ph
-        err = next((e for e in errs if e is not None), None)
-    if err is not None:
-        raise err
-    summary.update(jobs)
+    merge(_guarded(do_jobs))
+    sync_checkpoint()
 
-    # 6. figures and report (rank 0)
-    path = os.path.join(out, "report.md")
+    # 6. figures and report (rank 0), from the manifest as written
+    err = None
     if rank == 0:
         from . import figures, report
 
-        t0 = time.perf_counter()
-        figs = figures.make_all(out, summary)
-        phases["figures"] = time.perf_counter() - t0
-        phases["total"] = time.perf_counter() - t_job
-        summary["phases"] = phases
-        summary["figures"] = figs
-        summary["status"] = "complete"
-        write_json(os.path.join(out, MANIFEST), dict(summary, job="remote-trigger paper",
-                                                     argv=sys.argv))
-        report.write_report(out, summary)
-        wclock.say(f"done in {phases['total']:.0f} s")
+        try:
+            t0 = time.perf_counter()
+            summary["figures"] = figures.make_all(out, _normalised(summary))
+            summary["phases"]["figures"] = time.perf_counter() - t0
+            summary["phases"]["total"] = time.perf_counter() - t_job
+            summary["phases"] = _ordered_phases(summary["phases"], cfg)
+            summary["status"] = "complete"
+            checkpoint()
+            report.write_report(out, _normalised(summary))
+            wclock.say(f"done in {summary['phases']['total']:.0f} s")
+        except Exception as exc:  # noqa: BLE001 - re-raised on every rank below
+            err = exc
     if size >= 2:
         group.Free()
-    comm.Barrier()
+        err = comm.bcast(err, root=0)
+    if err is not None:
+        raise err
     return path
 
 
@@ -601,8 +865,20 @@ def register(subparsers):
                     "with eigenvalues and F_x^c, run the instability (Fig. 4) and the "
                     "perturbation runs (Fig. 5), the normal form, and write PNG figures and "
                     "report.md under --out. Values: defaults < --quick < --config TOML < "
-                    "flags. docs/paper.md describes everything.")
-    p.add_argument("--out", default="demo-out", help="output folder (default demo-out)")
+                    "flags. The job checkpoints after every phase (paper.json); --resume "
+                    "continues an interrupted one. docs/paper.md describes everything.")
+    p.add_argument("--out", default="demo-out",
+                   help="output folder (default demo-out); rerunning into a folder of an "
+                        "earlier job deletes that job's outputs first, unless --resume")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the interrupted job in --out: give the same options as "
+                        "that job (any other configuration is refused, naming the key, and "
+                        "nothing is deleted; --np may differ); phases finished (recorded in "
+                        "paper.json) are not redone, the ramps continue from ramp.h5, a "
+                        "phase cut short otherwise restarts; the report equals that of an "
+                        "uninterrupted run except for its timings. A complete job is left "
+                        "as it is (only the report path is printed); a folder without "
+                        "paper.json starts a new job")
     p.add_argument("--config", metavar="TOML", help="TOML file with any of the keys below")
     p.add_argument("--quick", action="store_true", default=None,
                    help="small, fast variant (N = 40, coarse steps, short runs)")
@@ -673,6 +949,8 @@ def _relaunch(cfg, args):
            "paper", "--out", args.out, "--resolved-config", path]
     if args.quiet:
         cmd.append("--quiet")
+    if args.resume:
+        cmd.append("--resume")
     env = dict(os.environ, REMOTE_TRIGGER_PAPER_CHILD="1")
     try:
         return subprocess.call(cmd, env=env)
@@ -688,11 +966,14 @@ def main(args):
     world = MPI.COMM_WORLD
     if cfg.np > 1 and world.Get_size() == 1 and not os.environ.get(
             "REMOTE_TRIGGER_PAPER_CHILD"):
+        if args.resume and os.path.isfile(os.path.join(args.out, MANIFEST)):
+            load_manifest(os.path.abspath(args.out), cfg)   # refuse before mpirun starts
         return _relaunch(cfg, args)
     from .equilibrium import NoEquilibriumError
 
     try:
-        path = run_paper(cfg, args.out, comm=world, speak=not args.quiet)
+        path = run_paper(cfg, args.out, comm=world, speak=not args.quiet,
+                         resume=args.resume)
     except NoEquilibriumError as exc:
         if world.Get_rank() == 0:
             print(f"remote-trigger paper: {exc}", file=sys.stderr)

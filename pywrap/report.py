@@ -470,7 +470,7 @@ def collect(out, summary):
         info.append(("F_x_fig5", "Fig. 5: F_x of the runs (fig5_ratio x F_x^c)", pz["F_x"]))
         info.append(("v_rise_decades", "Fig. 5 (c): rise of |v_top| from the noise level, "
                      "log10 max |v_c| / median |v_a|", pm["v_decades"]))
-        info.append(("v0", "Fig. 5: v0 = v_ss, largest recorded |v_top| of run (a) "
+        info.append(("v0", "Fig. 5: v0 = v_ss, largest |v_top| of run (a) over every step "
                      "[sigma/tau]", pm["v0"]))
         info.append(("trigger_time", "Fig. 5 (c): first time with mu < mu0 [tau]",
                      pm["trigger_time"]))
@@ -568,6 +568,13 @@ def write_report(out, summary):
         L += [f"* `{name}`: {shown}" if shown.startswith("error") else f"* ![{name}]({shown})"]
     L += ["", "## 8. Timings (wall clock, seconds)", "", "| phase | seconds |", "|---|---|"]
     L += [f"| {k} | {v:.1f} |" for k, v in ph.items()]
+    sessions = summary.get("sessions") or []
+    if len(sessions) > 1:
+        before = sum(float(s.get("elapsed", 0.0)) for s in sessions[:-1])
+        L += ["", f"Resumed job (`--resume`): {len(sessions)} sessions. A phase's time is "
+              "that of the session that finished it (a ramp continued from its ramp.h5: "
+              "the last part only); total is the last session's; the earlier sessions ran "
+              f"{before:.1f} s up to their last checkpoint."]
     L += ["", "## 9. Choices and interpretations", ""]
     L += [f"* F_x of Fig. 4 = {cfg['fig4_ratio']:.5g} F_x^c(mu = {cfg['mu']:g}) and of Fig. 5 "
           f"= {cfg['fig5_ratio']:.5g} F_x^c: the paper's 0.012 and 0.0091 divided by the "
@@ -576,8 +583,8 @@ def write_report(out, summary):
           f"* f(t) = a cos(omega_p t) with a = {cfg['a']:g} and omega_p = {cfg['omega_p']:g} "
           "in 1/tau (LAMMPS lj time): far below the natural frequencies sqrt(lambda) ~ 5-200 "
           "/tau of the packing, i.e. off resonance as in the paper.",
-          "* v0 = v_ss = the largest |v_top| recorded (every record_every steps) in run (a); "
-          "mu(v) is evaluated every step in run (c).",
+          "* v0 = v_ss = the largest |v_top| of run (a) over every step (fix ave/histo running "
+          "max); mu(v) is evaluated every step in run (c).",
           "* Eigenvalues are those of M^-1 K after rattler removal (frictional criterion, "
           "< 2 contacts); complex = certified by the analyzer (docs/analysis.md).",
           "* The coalescing pair is tracked from its birth at the first unstable bisection "
