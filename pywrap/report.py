@@ -425,6 +425,7 @@ def collect(out, summary):
         extra["compliance"] = C
         forced = abs(C) * cfg["a"]
         ratio_f = forced / math.sqrt(pm["level_a"]) if pm["level_a"] > 0 else float("nan")
+        triggered = bool(np.isfinite(pm["trigger_time"]))
         extra["forced_over_noise"] = ratio_f
         _check(checks, "forcing_fig5b", "Fig. 5 (b): response to f(t) over the noise, "
                "C a / sqrt(D_a) (C = d<x_top>/dF_x from the ramp)", ratio_f,
@@ -434,12 +435,15 @@ def collect(out, summary):
                        f"~C a = {forced:.2g} (C = {C:.3g}), below the noise displacement "
                        f"sqrt(D_a) = {math.sqrt(pm['level_a']):.2g} set by our residual "
                        f"force ({summary['relax']['residual']:.2g}; the paper's was 1e-15): "
-                       "f(t) is invisible in D, and in run (c) it is a noise excursion of "
-                       "|v_top| above v0, not f(t), that switches mu(v) on"))
+                       "f(t) is invisible in D" +
+                       ("; in run (c) it is a noise excursion of |v_top| above v0, not "
+                        "f(t), that switches mu(v) on" if triggered else
+                        "; its velocity ~omega_p C a is below the noise peaks of (a), so "
+                        "mu(v) is never switched on in run (c)")))
         dc = pm["decades_c"]
         same = abs(cfg["mu_low"] - cfg["mu_ss"] * cfg["mu"]) < 1e-12
         over = pz["F_x"] / Fc[1] if (1 in Fc and same) else float("nan")
-        how = ("" if not np.isfinite(over) else
+        how = ("" if not (np.isfinite(over) and triggered) else
                f"; F_x / F_x^c(mu = {mus[1]:g}) = {over:.3g}: " +
                ("after the friction drop the state is linearly unstable (exponential growth)"
                 if over > 1 else "after the friction drop the state is still linearly stable:"
@@ -448,10 +452,11 @@ def collect(out, summary):
         _check(checks, "msd_decades_fig5c", "Fig. 5 (c): decades of D above the (a) level "
                "with f(t) + mu(v)", dc, f"> {P['msd_decades_fig5c']:g}",
                dc > P["msd_decades_fig5c"], note=how.lstrip("; "),
-               reason=(f"max D_c = {pm.get('max_c', float('nan')):.3g}; mu fell to "
-                       f"{pm['min_mu_c']:.4g}" + (f" at t = {pm['trigger_time']:.4g}"
-                                                  if np.isfinite(pm["trigger_time"]) else
-                                                  " never (v never exceeded v0)") + how))
+               reason=(f"max D_c = {pm.get('max_c', float('nan')):.3g}; " +
+                       (f"mu fell to {pm['min_mu_c']:.4g} at t = {pm['trigger_time']:.4g}"
+                        if triggered else
+                        f"mu stayed at {pm['min_mu_c']:.4g} (|v_top| never exceeded v0)")
+                       + how))
         vd = pm["v_span"]
         _check(checks, "velocity_decades_fig5c", "Fig. 5 (c): decades spanned by |v_top(t)| "
                "(log10 max / min over the run: the velocity axis of panel b)", vd,
@@ -466,7 +471,9 @@ def collect(out, summary):
         mu_drop = np.isfinite(pm["min_mu_c"]) and pm["min_mu_c"] < cfg["mu"]
         _check(checks, "mu_drop_fig5c", "Fig. 5 (c): friction falls below mu0 (lowest mu "
                "reached)", pm["min_mu_c"], f"mu(v) -> mu_ss = {cfg['mu_ss'] * cfg['mu']:g}",
-               bool(mu_drop), reason="|v_top| never exceeded v0 in run (c)")
+               bool(mu_drop), reason=(f"|v_top| never exceeded v0 = {pm['v0']:.2g} in run (c): "
+                                      f"with a = {cfg['a']:g} the forcing is below the noise "
+                                      "(forcing_fig5b)"))
         info.append(("F_x_fig5", "Fig. 5: F_x of the runs (fig5_ratio x F_x^c)", pz["F_x"]))
         info.append(("v_rise_decades", "Fig. 5 (c): rise of |v_top| from the noise level, "
                      "log10 max |v_c| / median |v_a|", pm["v_decades"]))
