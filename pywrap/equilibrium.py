@@ -282,12 +282,6 @@ def dynamics_commands(cfg):
             "fix integ all nve/sphere disc\n")
 
 
-def top_xcm(eng):
-    """Mean unwrapped x of the ``top`` disks."""
-    st = eng.gather_state()
-    return float(np.mean(st.unwrapped_x()[st.top, 0]))
-
-
 def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
     """Bring the loaded scene to equilibrium at load F_x.
 
