@@ -313,6 +313,14 @@ class DynamicsConfig(StageConfig):
         Velocity scale of v~ = v / v_ss; None means v_ss = v0.
     d_sat : float
         Instability: stop once D(t) exceeds this, > 0. Default 1e-2.
+    t_on : float
+        Onset of f(t), >= 0: 0 (default) switches f(t) on as a step at t = 0;
+        t_on > 0 multiplies it by the raised cosine (1 - cos(pi t / t_on)) / 2
+        for t < t_on (smooth onset, no ringing of the fast modes).
+    tau : float or None
+        Viscous damping time, > 0: ``fix viscous`` with gamma = m / tau on
+        the translational velocities (Section IV's -(1/tau) dx/dt for the
+        positions; rotations undamped). None (default): no damping.
     """
 
     F_x: float = 0.0
@@ -326,6 +334,8 @@ class DynamicsConfig(StageConfig):
     v0: float = None
     v_ss: float = None
     d_sat: float = 1e-2
+    t_on: float = 0.0
+    tau: float = None
 
     def validate(self):
         _num("F_x", self.F_x)
@@ -341,6 +351,9 @@ class DynamicsConfig(StageConfig):
             if val is not None:
                 _positive(name, val)
         _positive("d_sat", self.d_sat)
+        _nonneg("t_on", self.t_on)
+        if self.tau is not None:
+            _positive("tau", self.tau)
 
 
 def check_packing_args(n, seed, phi=0.82):

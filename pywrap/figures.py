@@ -13,7 +13,7 @@ sigma/tau, D in sigma^2.
 ``fig2_mu_law.png``            mu(v) of Eq. 4 (paper Fig. 2)
 ``fig3_eigenvalues.png``       the coalescing pair vs F_x, both mu (Fig. 3)
 ``fig4_msd.png``               D(t) above F_x^c with the predicted rate (Fig. 4)
-``fig5_perturb.png``           runs (a), (b), (c) and mu(v(t)) (Fig. 5)
+``fig5_perturb.png``           runs (a)-(d), (p) and mu(v(t)) (Fig. 5)
 ``fig_normal_form.png``        A vs eps for several tau (normal form, Sec. IV)
 =============================  =================================================
 """
@@ -108,7 +108,8 @@ def fig_mu_law(summary, path):
     ax.text(vt[0] * 1.2, cfg["mu_ss"] + 0.005, r"$\mu_{ss}$", color="gray", va="bottom")
     ax.set_xlabel(r"$\tilde v = v / v_{ss}$ (v: mean x-velocity of the top line)")
     ax.set_ylabel(r"$\mu(\tilde v) / \mu_0$")
-    note = (f"v0 = v_ss = {v0:.3g} sigma/tau (largest |v| of run (a))" if np.isfinite(v0)
+    note = (f"v0 = v_ss = {v0:.3g} sigma/tau (margin x largest |v| of run (a))"
+            if np.isfinite(v0)
             else "v0 = v_ss (from run (a))")
     ax.set_title(f"Eq. 4: B = {cfg['B']:g}, w = {cfg['w']:g}, $\\mu_{{ss}}$ = "
                  f"{cfg['mu_ss']:g}\n{note}", fontsize=9)
@@ -215,15 +216,21 @@ def fig_msd(out, summary, path):
 
 # --------------------------------------------------------------------------- Fig. 5
 def fig_perturb(out, summary, path):
-    """(a) D(t) of the three runs; (b) mu(v(t)) vs |v| of run (c); (c) |v(t)|."""
+    """(a) D(t) of runs (a)-(d); (b) mu(v(t)) vs |v| of run (c) with Eq. 4 and mu*;
+    (c) |v_top(t)| of the runs."""
     plt = _plt()
     cfg = summary["config"]
+    pz = summary["perturb"]
     m = rep.perturb_metrics(out, summary)
-    fig, axs = plt.subplots(1, 3, figsize=(14, 4.2))
-    colors = {"a": "tab:blue", "b": "tab:green", "c": "tab:red"}
-    labels = {"a": "(a) unperturbed", "b": r"(b) $f(t) = a\cos\omega_p t$",
-              "c": r"(c) $f(t)$ + $\mu(v)$"}
-    for k in "abc":
+    fig, axs = plt.subplots(1, 3, figsize=(15, 4.4))
+    colors = {"a": "tab:blue", "b": "tab:green", "c": "tab:red", "d": "tab:purple",
+              "e": "tab:orange", "p": "tab:gray"}
+    ctl = (pz.get("control") or {}).get("F_x", float("nan"))
+    labels = {"a": "(a) unperturbed", "b": r"(b) $f(t)$",
+              "c": r"(c) $f(t)$ + $\mu(v)$",
+              "d": rf"(d) control: $f(t)$ + $\mu(v)$ at $F_x$ = {ctl:.4g}",
+              "p": rf"(p) paper's $a$ = {cfg['a_paper']:g} + $\mu(v)$"}
+    for k in "abcdp":
         s = m["series"].get(k)
         if s is None:
             continue
@@ -233,11 +240,14 @@ def fig_perturb(out, summary, path):
         v = np.abs(s["v_top"])
         axs[2].semilogy(s["t"][v > 0], v[v > 0], "-", color=colors[k], lw=0.6,
                         label=labels[k])
+    axs[2].axhline(m["v0"], color="k", ls=":", lw=1, label=r"$v_0$")
     axs[0].set_xlabel(T_LABEL)
     axs[0].set_ylabel(D_LABEL)
-    axs[0].set_title(f"(a) $F_x$ = {summary['perturb']['F_x']:.5g} = "
-                     f"{cfg['fig5_ratio']:.4g} $F_x^c$, $\\mu_0$ = {cfg['mu']:g}", fontsize=9)
-    axs[0].legend(fontsize=8)
+    w = pz.get("window", [float("nan")] * 2)
+    axs[0].set_title(f"(a) $F_x$ = {pz['F_x']:.5g} in [{w[0]:.5g}, {w[1]:.5g}], "
+                     f"$a$ = {pz.get('a', float('nan')):.2g}, $\\omega_p$ = {cfg['omega_p']:g}",
+                     fontsize=9)
+    axs[0].legend(fontsize=7)
     c = m["series"].get("c")
     if c is not None:
         v = np.abs(c["v_top"])
@@ -245,20 +255,25 @@ def fig_perturb(out, summary, path):
         axs[1].semilogx(v[ok], c["mu"][ok], ".", color="tab:red", ms=2,
                         label="run (c): $\\mu(v(t))$")
         v0, vss = m["v0"], m["v_ss"]
-        if np.isfinite(v0) and v0 > 0:
+        if np.isfinite(v0) and v0 > 0 and ok.any():
             vv = np.logspace(np.log10(max(v[ok].min(), 1e-30)), np.log10(v[ok].max()), 400)
             axs[1].semilogx(vv, mu_law(vv / vss, cfg["mu"], cfg["B"], cfg["w"], cfg["mu_ss"],
                                        v0 / vss), "k-", lw=1, label="Eq. 4")
-            axs[1].axvline(v0, color="gray", ls=":", lw=1)
+            axs[1].axvline(v0, color="gray", ls=":", lw=1, label="$v_0$")
+        ms = pz.get("mu_star") or {}
+        if np.isfinite(ms.get("low", float("nan"))):
+            axs[1].axhline(0.5 * (ms["low"] + ms["high"]), color="tab:purple", ls="--", lw=1,
+                           label=rf"$\mu^*$ = {0.5 * (ms['low'] + ms['high']):.4g}")
     axs[1].set_xlabel(r"$|v|$, mean x-velocity of the top line " + V_LABEL)
     axs[1].set_ylabel(r"friction coefficient $\mu$")
-    axs[1].set_title(f"(b) $\\mu(v)$ in run (c); v spans {m['v_decades']:.1f} decades",
-                     fontsize=9)
-    axs[1].legend(fontsize=8)
+    rc = m.get("c") or {}
+    axs[1].set_title(f"(b) $\\mu(v)$ in run (c); |v| rises {rc.get('v_decades', float('nan')):.1f}"
+                     " decades above the noise of (a)", fontsize=9)
+    axs[1].legend(fontsize=7)
     axs[2].set_xlabel(T_LABEL)
     axs[2].set_ylabel(r"$|v_{top}|$ " + V_LABEL)
     axs[2].set_title("(c) velocity of the top line", fontsize=9)
-    axs[2].legend(fontsize=8)
+    axs[2].legend(fontsize=7)
     fig.tight_layout()
     return _save(fig, path)
 

@@ -14,7 +14,9 @@ Steps (each a stage of :mod:`remote_trigger.pywrap.stages`):
    short *continuation* above F_x^c (:func:`continue_ramp`) so that Fig. 3
    shows the pair after its birth and Fig. 4 starts from an equilibrium.
 3. Fig. 4: ``instability`` at F_x = fig4_ratio * F_x^c(mu).
-4. Fig. 5: ``perturb`` (a, b, c) at F_x = fig5_ratio * F_x^c(mu).
+4. Fig. 5 (:mod:`.fig5`): a load inside the window F_x^c(mu_ss mu) < F_x <
+   F_x^c(mu), its friction-drop analysis (mu*), the runs (a)-(c) of the
+   paper, the controls (d), (e) and the paper's amplitude (p).
 5. The normal form (``remote_trigger.analysis.normal_form``).
 6. Figures (:mod:`.figures`) and ``report.md`` (:mod:`.report`), both made
    from the files alone.
@@ -45,7 +47,8 @@ from .paper_config import PaperConfig, PAPER, build_config
 
 #: files and folders the job writes under --out (removed when it is re-run there)
 OUTPUTS = ("paper.json", "packing.data", "relax.h5", "relax", "instability.h5", "instability",
-           "perturb_a.h5", "perturb_b.h5", "perturb_c.h5", "perturb", "normal_form.h5",
+           "perturb_a.h5", "perturb_b.h5", "perturb_c.h5", "perturb_d.h5", "perturb_e.h5",
+           "perturb_p.h5", "perturb", "normal_form.h5",
            "report.md", "report.json", "logs")
 OUTPUT_GLOBS = ("ramp_mu", "fig")
 MANIFEST = "paper.json"
@@ -162,7 +165,7 @@ def dynamics_config(cfg, datafile, F_x, t_max, **extra):
     from .config import DynamicsConfig
 
     d = dict(model_fields(cfg), datafile=datafile, mu=float(cfg.mu), F_x=float(F_x),
-             t_max=float(t_max), record_every=int(cfg.record_every), a=float(cfg.a),
+             t_max=float(t_max), record_every=int(cfg.record_every), a=float(cfg.a_paper),
              omega_p=float(cfg.omega_p), B=float(cfg.B), w=float(cfg.w),
              mu_ss=float(cfg.mu_ss), d_sat=float(cfg.d_sat))
     d.update(extra)
@@ -349,7 +352,7 @@ def run_instability(cfg, out, F_c, ext_rows, ramp_summary, comm, clock):
     res = stages.instability(dcfg, out, comm=comm, quiet=True)
     wall = time.perf_counter() - t0
     e = res.extra
-    from .report import growth_window, noise_level
+    from remote_trigger.analysis.series import growth_window, noise_level
 
     _, g_meas = growth_window(res.t, res.D, noise_level(res.t, res.D))
     clock.say(f"Fig. 4: D from {res.D[1]:.2e} to {res.D.max():.2e} in t = {res.t[-1]:.4g}; "
@@ -362,37 +365,17 @@ def run_instability(cfg, out, F_c, ext_rows, ramp_summary, comm, clock):
             "saturated": bool(e["saturated"]), "h5": res.h5}
 
 
-def run_perturb(cfg, out, F_c, comm, clock):
-    """Fig. 5: the three undamped runs at fig5_ratio * F_x^c, from the nearest lower step."""
-    import h5py
-    from . import stages
+def run_perturb(cfg, out, ramps, comm, clock):
+    """Fig. 5: the load in the friction window, its analysis and runs (a)-(e), (p).
 
-    F5 = cfg.fig5_ratio * F_c
-    folder = ramp_dir(out, cfg.mu)
-    start = None
-    if comm.Get_rank() == 0:
-        with h5py.File(os.path.join(folder, "ramp.h5"), "r") as fh:
-            F = fh["steps/F_x"][()]
-            files = [s.decode() if isinstance(s, bytes) else str(s)
-                     for s in fh["steps/datafile"][()]]
-        below = np.flatnonzero(F <= F5)
-        start = files[int(below[-1])] if below.size else files[0]
-    start = comm.bcast(start, root=0)
-    dcfg = dynamics_config(cfg, start, F5, cfg.t_perturb)
-    clock.say(f"Fig. 5: runs (a), (b), (c) at F_x = {F5:.6g} = {cfg.fig5_ratio:.4g} F_x^c, "
-              f"t = {cfg.t_perturb:g} each")
-    t0 = time.perf_counter()
-    res = stages.perturb(dcfg, out, comm=comm, quiet=True)
-    wall = time.perf_counter() - t0
-    eqres = analyze_on_root(comm, os.path.join(out, "perturb", "equilibrium.dump"))
-    c = res.get("c")
-    clock.say(f"Fig. 5: max D (a) {res['a'].D.max():.2e}, (b) {res['b'].D.max():.2e}, "
-              f"(c) {c.D.max():.2e}; min mu (c) {c.mu.min():.4g} ({wall:.0f} s)")
-    return {"F_x": F5, "start": start, "wall": wall,
-            "equilibrium_complex": bool(eqres.complex_pair),
-            "equilibrium_growth_rate": float(eqres.growth_rate),
-            "v0": float(c.extra.get("v0", float("nan"))),
-            "v_ss": float(c.extra.get("v_ss", float("nan")))}
+    See :mod:`.fig5`; returns its summary.
+    """
+    from .fig5 import run_fig5
+
+    summ = run_fig5(cfg, out, ramps, comm, clock)
+    clock.say(f"Fig. 5: done ({summ['wall']:.0f} s: " +
+              ", ".join(f"({k}) {v:.0f} s" for k, v in summ["walls"].items()) + ")")
+    return summ
 
 
 def run_normal_form(cfg, out, clock):
@@ -513,7 +496,7 @@ def _files_of(out, name, entry):
     if name == "instability":
         return [entry["h5"]]
     if name == "perturb":
-        return ([os.path.join(out, f"perturb_{x}.h5") for x in "abc"]
+        return (list((entry.get("files") or {}).values())
                 + [os.path.join(out, "perturb", "equilibrium.dump")])
     if name == "normal_form":
         return [os.path.join(out, "normal_form.h5"), os.path.join(out, "fig_normal_form.png")]
@@ -814,7 +797,8 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
                 run_phase("instability", lambda: run_instability(
                     cfg, out, F_c, main["extension"], main, group, clock))
             if color == (1 if size >= 2 else 0):
-                run_phase("perturb", lambda: run_perturb(cfg, out, F_c, group, clock))
+                run_phase("perturb", lambda: run_perturb(cfg, out, summary["ramps"], group,
+                                                         clock))
         if color == 0 and leader:
             run_phase("normal_form", lambda: run_normal_form(cfg, out, clock))
 

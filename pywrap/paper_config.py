@@ -94,9 +94,16 @@ class PaperConfig:
     fig4_ratio : float
         F_x of Fig. 4 = fig4_ratio * F_x^c(mu), > 1. Default 0.012 / 0.01055
         (the paper's F_x over the midpoint of its bracket of F_x^c).
-    fig5_ratio : float
-        F_x of Fig. 5 = fig5_ratio * F_x^c(mu), in (0, 1). Default
-        0.0091 / 0.01055.
+    fig5_window : float
+        F_x of Fig. 5 = F_x^c(mu_ss mu) + fig5_window (F_x^c(mu) - F_x^c(mu_ss mu)),
+        in (0, 1): inside the window where the state is stable with the
+        static friction mu and unstable once it has dropped to mu_ss mu
+        (the paper's design, Fig. 3's vertical line). The window's ends are
+        the ramps' brackets (mu_low is the ramp of the lower friction).
+        Default 0.6.
+    fig5_F_x : float or None
+        An explicit F_x of Fig. 5 instead (must be below F_x^c(mu), checked
+        once the ramp is done). Default None.
     t_instability : float
         Longest time of the Fig. 4 run, > 0. The run lasts
         min(t_instability, instability_span / g) with g the predicted growth
@@ -106,14 +113,46 @@ class PaperConfig:
     d_sat : float
         Stop the Fig. 4 run once D(t) exceeds this, > 0. Default 1.
     t_perturb : float
-        Time of each Fig. 5 run, > 0. Default 2000 (3.2 periods of f(t)).
+        Time of each Fig. 5 run, > 0 (a run stops earlier once D passes
+        ``fig5_d_run``). Default 1200 (1.9 periods of f(t)).
     record_every : int
-        Steps between records of D, v and mu, >= 1. Default 500 (0.5 tau).
-    a : float
-        Amplitude of f(t) = a cos(omega_p t), >= 0. Default 1e-12 (paper).
+        Steps between records of D, v and mu, >= 1. Default 500.
+    a : float or None
+        Amplitude of f(t) = a cos(omega_p t) in Fig. 5 runs (b)-(d), >= 0.
+        None (default): measured, a = fig5_forcing_margin v0 / (omega_p C)
+        with C = d<x_top>/dF_x of the ramp, so that the quasi-static velocity
+        of the top line under f(t), omega_p C a, is fig5_forcing_margin x v0.
+    a_paper : float
+        The paper's amplitude, run as its own row (p), >= 0. Default 1e-12.
     omega_p : float
-        Angular frequency of f(t) in 1/(lj time), >= 0. Default 0.01 (paper;
+        Angular frequency of f(t) in 1/(lj time), > 0. Default 0.01 (paper;
         interpretation in docs/paper.md).
+    t_on : float or None
+        Onset of f(t), >= 0: 0 = step at t = 0; > 0 = raised-cosine ramp over
+        t_on. None (default): a quarter period, pi / (2 omega_p).
+    fig5_v0_margin : float
+        v0 of mu(v) = fig5_v0_margin x the largest |v_top| over every step of
+        the first half of run (a), >= 1. Default 10.
+    fig5_forcing_margin : float
+        See ``a``, > 0. Default 10.
+    fig5_dt_fraction : float
+        Time step of the Fig. 5 runs as a fraction of the stability limit
+        2 / omega_max of the Fig. 5 equilibrium, in (0, 1). Default 0.2
+        (growth-rate error 2.7 % vs dt -> 0, docs/accuracy.md).
+    fig5_d_run : float
+        Runaway level of D: a run stops once D exceeds it, > 0. Default 1e-3
+        (``remote_trigger.analysis.series.D_RUNAWAY``).
+    fig5_settle_tol : float
+        mu(v) counts as settled at mu_ss mu once the median of mu over 50 tau
+        is within this of it, > 0. Default 0.01.
+    fig5_sat_span : float
+        A run whose friction has switched stops once it has saturated: max D
+        above 1e3 x its level right after the switch and grown less than 2x
+        over the last fig5_sat_span (``analysis.series.saturated``), > 0.
+        Default 100.
+    mu_star_tol : float
+        Bisection tolerance of mu* (the friction at which the Fig. 5 state
+        turns unstable), > 0. Default 1e-3.
     B, w, mu_ss : float
         mu(v) law (Eq. 4), >= 0. Defaults 0.2, 0.4, 0.8 (paper).
     nf_delta : float
@@ -146,15 +185,25 @@ class PaperConfig:
     extend_factor: float = 1.2
     extend_steps: int = 8
     fig4_ratio: float = PAPER["F_x_fig4"] / PAPER_F_X_C_MID
-    fig5_ratio: float = PAPER["F_x_fig5"] / PAPER_F_X_C_MID
+    fig5_window: float = 0.6
+    fig5_F_x: float = None
     t_instability: float = 20000.0
     instability_span: float = 35.0
     d_sat: float = 1.0
-    t_perturb: float = 2000.0
+    t_perturb: float = 1200.0
     record_every: int = 500
+    a: float = None
     # forcing and mu(v) law: the driver's defaults (one source, MODEL.md 4-5)
-    a: float = DynamicsConfig.a
+    a_paper: float = DynamicsConfig.a
     omega_p: float = DynamicsConfig.omega_p
+    t_on: float = None
+    fig5_v0_margin: float = 10.0
+    fig5_forcing_margin: float = 10.0
+    fig5_dt_fraction: float = 0.2
+    fig5_d_run: float = 1e-3
+    fig5_settle_tol: float = 0.01
+    fig5_sat_span: float = 100.0
+    mu_star_tol: float = 1e-3
     B: float = DynamicsConfig.B
     w: float = DynamicsConfig.w
     mu_ss: float = DynamicsConfig.mu_ss
@@ -192,15 +241,33 @@ class PaperConfig:
         _num("extend_factor", self.extend_factor, 1, lo_open=True)
         _int("extend_steps", self.extend_steps, 1)
         _num("fig4_ratio", self.fig4_ratio, 1, lo_open=True)
-        r5 = _num("fig5_ratio", self.fig5_ratio, 0, lo_open=True)
-        if r5 >= 1:
-            raise ConfigError(f"fig5_ratio must be < 1 (a stable load), got "
-                              f"fig5_ratio = {self.fig5_ratio!r}")
+        if not 0 < _num("fig5_window", self.fig5_window) < 1:
+            raise ConfigError(f"fig5_window must be in (0, 1), got "
+                              f"fig5_window = {self.fig5_window!r}")
+        if self.fig5_F_x is not None:
+            _num("fig5_F_x", self.fig5_F_x, 0, lo_open=True)
+        if not 0 < _num("fig5_dt_fraction", self.fig5_dt_fraction) < 1:
+            raise ConfigError(f"fig5_dt_fraction must be in (0, 1), got "
+                              f"fig5_dt_fraction = {self.fig5_dt_fraction!r}")
+        _num("fig5_v0_margin", self.fig5_v0_margin, 1)
+        for name in ("fig5_forcing_margin", "fig5_d_run", "fig5_settle_tol", "mu_star_tol",
+                     "fig5_sat_span",
+                     "omega_p"):
+            _num(name, getattr(self, name), 0, lo_open=True)
+        if self.a is not None:
+            _num("a", self.a, 0)
+        if self.t_on is not None:
+            _num("t_on", self.t_on, 0)
         for name in ("t_instability", "instability_span", "d_sat", "t_perturb"):
             _num(name, getattr(self, name), 0, lo_open=True)
         _int("record_every", self.record_every, 1)
-        for name in ("a", "omega_p", "B", "w", "mu_ss"):
+        for name in ("a_paper", "B", "w", "mu_ss"):
             _num(name, getattr(self, name), 0)
+        if self.fig5_F_x is None and \
+                abs(float(self.mu_low) - float(self.mu_ss) * float(self.mu)) > 1e-12 * self.mu:
+            raise ConfigError(f"the Fig. 5 window needs the second ramp at the dynamic "
+                              f"friction, mu_low = mu_ss * mu = {self.mu_ss * self.mu:g}, got "
+                              f"mu_low = {self.mu_low!r} (or give fig5_F_x)")
         if not 0 < _num("nf_delta", self.nf_delta) < 1:
             raise ConfigError(f"nf_delta must be in (0, 1), got nf_delta = {self.nf_delta!r}")
         object.__setattr__(self, "nf_eps", self._list("nf_eps", self.nf_eps))
@@ -287,7 +354,7 @@ QUICK = {
     "tol": 2e-5,
     "extend_steps": 3,
     "t_instability": 6000.0,
-    "t_perturb": 600.0,
+    "t_perturb": 500.0,
     "record_every": 500,
     "nf_eps": [1e-1, 1e-2, 1e-3],
     "nf_tau": [math.inf, 3e2],

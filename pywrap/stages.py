@@ -841,6 +841,7 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
     v = _deck_vars(cfg, datafile, cfg.F_x)
     v.pop("gamma")
     v.pop("gamma_rot")
+    v.update(ton=float(cfg.t_on), visc=0.0 if cfg.tau is None else 1.0 / float(cfg.tau))
     v.update(variables)
     eng.load_deck("in.perturb", v, ("scene", "dynamics"))
     n = cfg.record_every
@@ -853,7 +854,8 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
                  "ave running\n")
     nsteps = int(round(cfg.t_max / cfg.dt))
     nrec = max(1, nsteps // n)
-    cols = ("t", "D", "v_top", "mu")
+    # v_top_max: running max of |v_top| over every step up to the record
+    cols = ("t", "D", "v_top", "mu", "v_top_max")
     writer = None
     if eng.rank == 0:
         writer = SeriesWriter(h5, dict(cfg.to_attrs(), **(attrs or {}),
@@ -866,7 +868,7 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
         if writer is not None:
             writer.append(row)
 
-    add({"t": 0.0, "D": 0.0, "v_top": 0.0, "mu": eng.equal("mu_now")})
+    add({"t": 0.0, "D": 0.0, "v_top": 0.0, "mu": eng.equal("mu_now"), "v_top_max": 0.0})
     bar = _progress(nrec, desc, quiet, eng.rank, unit="rec")
     status = "failed"               # until the loop ends normally
     vmax = 0.0
@@ -874,8 +876,9 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
         for k in range(nrec):
             eng.run(n, pre=(k == 0))
             vals = [eng.lmp.extract_fix("rec", 0, 1, i) for i in range(3)]
-            add({"t": (k + 1) * n * cfg.dt, "D": vals[0], "v_top": vals[1], "mu": vals[2]})
             vmax = float(eng.lmp.extract_fix("vmax", 0, 1, 3))
+            add({"t": (k + 1) * n * cfg.dt, "D": vals[0], "v_top": vals[1], "mu": vals[2],
+                 "v_top_max": vmax})
             bar.update(1)
             if stop is not None and stop(out):
                 status = "stopped"
@@ -886,8 +889,8 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
         bar.close()
         if writer is not None:
             writer.close(attrs={"v_top_max": vmax}, status=status)
-    return SeriesResult(*(np.asarray(out[c]) for c in cols), h5=h5,
-                        extra={"v_top_max": vmax})
+    return SeriesResult(*(np.asarray(out[c]) for c in cols[:4]), h5=h5,
+                        extra={"v_top_max": vmax, "v_top_running_max": np.asarray(out[cols[4]])})
 
 
 def _equilibrium_for(eng, cfg, out, name, quiet):
@@ -959,7 +962,7 @@ def growth_fit(t, D, lo_decades=3.0, hi=None):
     """Fit D ~ exp(2 g t) on the exponential stretch of an MSD series.
 
     The stretch is the one the paper report uses
-    (:func:`remote_trigger.pywrap.report.growth_window`): contiguous, from the
+    (:func:`remote_trigger.analysis.series.growth_window`): contiguous, from the
     first record with D above 10^lo_decades times the initial noise level
     (median of the first 5 % of positive D) to the first record above
     min(``hi``, max(D)/1e3) -- the growth before the first nonlinear
@@ -982,7 +985,7 @@ def growth_fit(t, D, lo_decades=3.0, hi=None):
         g (1/time); NaN with fewer than 5 records in the window or no noise
         level (no positive D).
     """
-    from .report import growth_window, noise_level
+    from remote_trigger.analysis.series import growth_window, noise_level
 
     t, D = np.asarray(t, float), np.asarray(D, float)
     Dmax = float(np.max(D)) if D.size else 0.0

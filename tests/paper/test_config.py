@@ -16,10 +16,11 @@ def test_defaults_are_the_papers_parameters():
     cfg = PaperConfig()
     assert (cfg.n, cfg.k_n, cfg.F_y, cfg.mu, cfg.mu_low) == (100, 2e5, 3.0, 1.0, 0.8)
     assert cfg.k_t == pytest.approx(2 * 2e5 / 7)
-    assert (cfg.a, cfg.omega_p, cfg.B, cfg.w, cfg.mu_ss) == (1e-12, 0.01, 0.2, 0.4, 0.8)
+    assert (cfg.a_paper, cfg.omega_p, cfg.B, cfg.w, cfg.mu_ss) == (1e-12, 0.01, 0.2, 0.4, 0.8)
+    assert cfg.a is None                      # Fig. 5's amplitude is measured (fig5.py)
+    assert 0 < cfg.fig5_window < 1 and cfg.mu_low == cfg.mu_ss * cfg.mu
     # "the same relative distance": paper's loads over the midpoint of its bracket
     assert cfg.fig4_ratio == pytest.approx(0.012 / 0.01055)
-    assert cfg.fig5_ratio == pytest.approx(0.0091 / 0.01055)
     assert PAPER_F_X_C_MID == pytest.approx(0.5 * (PAPER["F_x_c_mu1_low"]
                                                    + PAPER["F_x_c_mu1_high"]))
 
@@ -75,8 +76,12 @@ def test_toml_syntax_error_and_missing_file(tmp_path):
 
 @pytest.mark.parametrize("key, val", [
     ("n", 7), ("n", 2), ("seed", -1), ("mu", 0.0), ("mu_low", 1.0), ("dF_x", -1e-4),
-    ("tol", 0.0), ("fig4_ratio", 0.9), ("fig5_ratio", 1.2), ("t_perturb", 0.0),
-    ("record_every", 0), ("a", -1e-12), ("nf_delta", 1.5), ("nf_eps", [0.1, 2.0]),
+    ("tol", 0.0), ("fig4_ratio", 0.9), ("fig5_window", 1.2), ("fig5_window", 0.0),
+    ("fig5_window", 1.0), ("fig5_F_x", -0.01), ("omega_p", 0.0), ("omega_p", -0.01),
+    ("t_on", -1.0), ("fig5_dt_fraction", 1.0), ("fig5_v0_margin", 0.5), ("t_perturb", 0.0),
+    ("mu_low", 0.7),
+    ("record_every", 0), ("a", -1e-12), ("a_paper", -1e-12), ("nf_delta", 1.5),
+    ("nf_eps", [0.1, 2.0]),
     ("nf_tau", [-1.0]), ("np", 0), ("n", "100"), ("quick", "yes")])
 def test_bad_values_name_the_key(key, val):
     with pytest.raises(ConfigError) as exc:
@@ -88,7 +93,9 @@ def test_bad_values_name_the_key(key, val):
     (["--n", "7"], ["n = 7"]),
     (["--set", "bogus=1"], ["bogus"]),
     (["--set", "novalue"], ["KEY=VALUE"]),
-    (["--fig5-ratio", "1.5"], ["fig5_ratio"]),
+    (["--fig5-window", "1.5"], ["fig5_window = 1.5"]),
+    (["--omega-p", "0"], ["omega_p = 0"]),
+    (["--a=-1e-6"], ["a = -1e-06"]),
     (["--config", "/nonexistent/c.toml"], ["c.toml"]),
 ])
 def test_cli_bad_options_exit_2(argv, words, tmp_path, capsys):

@@ -1,0 +1,241 @@
+"""Time series of undamped runs: noise level, exponential growth, boundedness, triggering.
+
+LAMMPS-free: every function takes plain arrays (the records of a run, as
+written by the driver in ``perturb_*.h5`` / ``instability.h5``: time ``t``,
+MSD ``D`` (paper Eq. 8), mean x-velocity of the top line ``v_top`` and the
+friction coefficient in force ``mu``). The definitions are those of
+docs/paper.md ("Fig. 5: criteria") and are used by the paper report, the
+trigger map and the driver alike (one implementation).
+"""
+import math
+
+import numpy as np
+
+#: default runaway level of D (sigma^2): the disks have moved by ~0.03 sigma rms,
+#: ~50x the typical contact overlap (F_y / k_n)^(2/3) ~ 6e-4 of the default
+#: model: the linear regime is left (docs/paper.md)
+D_RUNAWAY = 1e-3
+
+
+def noise_level(t, D, frac=0.05):
+    """Median of D over the first ``frac`` of the records with t > 0 and D > 0.
+
+    Parameters
+    ----------
+    t, D : array_like, shape (n,)
+    frac : float
+        Fraction of the records (at least 3) used.
+
+    Returns
+    -------
+    float
+        NaN when no record has D > 0.
+    """
+    sel = (np.asarray(t) > 0) & (np.asarray(D) > 0)
+    d = np.asarray(D)[sel]
+    if d.size == 0:
+        return float("nan")
+    return float(np.median(d[:max(3, int(frac * d.size))]))
+
+
+def growth_window(t, D, noise, lo=1e3, hi=1e-3, start=0):
+    """Exponential stretch of an MSD series and its growth rate g (D ~ e^{2 g t}).
+
+    The window runs from the first record (at or after index ``start``) with
+    D > lo x noise to the first later record with D > hi x max D (the growth
+    before the first nonlinear saturation; later records can fall and rise
+    again); g is the least-squares slope of ln D / 2 over it.
+
+    Parameters
+    ----------
+    t, D : array_like, shape (n,)
+    noise : float
+        Reference level (e.g. :func:`noise_level`).
+    lo, hi : float
+        Relative levels of the window's ends.
+    start : int
+        First record allowed in the window.
+
+    Returns
+    -------
+    ((i0, i1), g) or (None, nan)
+        With fewer than 5 records in the window: ``(None, nan)``.
+    """
+    t, D = np.asarray(t, float), np.asarray(D, float)
+    if not (noise > 0) or D.size == 0:
+        return None, float("nan")
+    idx = np.arange(D.size)
+    above = np.flatnonzero((D > lo * noise) & (idx >= start))
+    top = np.flatnonzero((D > hi * np.max(D)) & (idx >= start))
+    if above.size == 0 or top.size == 0:
+        return None, float("nan")
+    i0 = int(above[0])
+    later = top[top >= i0]
+    if later.size == 0:
+        return None, float("nan")
+    i1 = int(later[0])
+    if i1 - i0 < 4:
+        return None, float("nan")
+    sl = slice(i0, i1 + 1)
+    g = float(np.polyfit(t[sl], np.log(D[sl]), 1)[0] / 2.0)
+    return (i0, i1), g
+
+
+def first_crossing(t, x, level):
+    """Time of the first record with x > level (NaN if none).
+
+    Parameters
+    ----------
+    t, x : array_like, shape (n,)
+    level : float
+    """
+    i = np.flatnonzero(np.asarray(x) > level)
+    return float(np.asarray(t)[i[0]]) if i.size else float("nan")
+
+
+def friction_switch_time(t, mu, mu0):
+    """First record time with mu < mu0 (mu(v) switched on), NaN if never.
+
+    A relative tolerance of 1e-12 separates a switched-on law from mu0.
+    """
+    i = np.flatnonzero(np.asarray(mu) < mu0 * (1 - 1e-12))
+    return float(np.asarray(t)[i[0]]) if i.size else float("nan")
+
+
+def settle_index(t, mu, target, tol=0.01, span=50.0):
+    """First record from which the friction has settled at ``target``.
+
+    mu(v) is evaluated at the instantaneous top-line velocity, which crosses
+    zero twice per oscillation, so single records scatter up to mu0; the
+    friction counts as settled from the first record i such that the median
+    of mu over the records in [t_i, t_i + span] is within ``tol`` of
+    ``target`` (absolute).
+
+    Parameters
+    ----------
+    t, mu : array_like, shape (n,)
+    target : float
+        e.g. mu_ss mu0.
+    tol : float
+    span : float
+        Length of the median window (time).
+
+    Returns
+    -------
+    int or None
+        None if the friction never settles.
+    """
+    t, mu = np.asarray(t, float), np.asarray(mu, float)
+    j = np.searchsorted(t, t + span, side="right")
+    for i in range(t.size):
+        if j[i] - i < 3:
+            break
+        if abs(float(np.median(mu[i:j[i]])) - target) <= tol:
+            return i
+    return None
+
+
+def growth_over(t, D, t0, t1):
+    """Decades of growth of the running maximum of D from [t0, t0 + w] to [t1 - w, t1].
+
+    ``w = (t1 - t0) / 4``. D oscillates, so the maxima over the first and
+    last quarter of the interval are compared: log10(max D late / max D
+    early). A bounded (forced or free) oscillation gives ~0; an exponential
+    instability at rate g gives ~ 2 g (t1 - t0) (3/4) / ln 10.
+
+    Returns
+    -------
+    float
+        NaN if a quarter holds no positive D.
+    """
+    t, D = np.asarray(t, float), np.asarray(D, float)
+    w = (t1 - t0) / 4.0
+    early = D[(t >= t0) & (t <= t0 + w) & (D > 0)]
+    late = D[(t >= t1 - w) & (t <= t1) & (D > 0)]
+    if early.size == 0 or late.size == 0:
+        return float("nan")
+    return float(math.log10(late.max() / early.max()))
+
+
+def decades_above(x, level):
+    """log10(max |x| / level); NaN if level is not positive."""
+    x = np.abs(np.asarray(x, float))
+    if not (level > 0) or x.size == 0:
+        return float("nan")
+    return float(math.log10(max(float(x.max()), 1e-300) / level))
+
+
+def quasi_static_velocity(t, a, omega_p, C, t_on=0.0):
+    """Velocity of the top line following f(t) quasi-statically: d/dt [C f(t)].
+
+    f(t) = a e(t) cos(omega_p t) with e the onset envelope (1 for a step,
+    the raised cosine (1 - cos(pi t/t_on))/2 for t < t_on). C = d<x_top>/dF_x
+    is the static compliance of the top line (length/force). Valid for
+    omega_p far below the packing's natural frequencies (off resonance).
+
+    Parameters
+    ----------
+    t : array_like
+    a, omega_p, C, t_on : float
+
+    Returns
+    -------
+    ndarray
+        Same shape as t (length/time).
+    """
+    t = np.asarray(t, float)
+    if t_on > 0:
+        e = np.where(t < t_on, 0.5 * (1 - np.cos(np.pi * t / t_on)), 1.0)
+        de = np.where(t < t_on, 0.5 * np.pi / t_on * np.sin(np.pi * t / t_on), 0.0)
+    else:
+        e, de = np.ones_like(t), np.zeros_like(t)
+    return C * a * (de * np.cos(omega_p * t) - e * omega_p * np.sin(omega_p * t))
+
+
+def post_switch_level(t, D, mu, mu0, span=100.0):
+    """Level of D right after mu(v) switched on: median D over [t_s, t_s + span].
+
+    When the friction drops the equilibrium moves, and D jumps to the square
+    of that shift (the re-equilibration jump); growth is measured from there.
+
+    Returns
+    -------
+    float
+        NaN if mu never switched on or no record lies in the interval.
+    """
+    t, D = np.asarray(t, float), np.asarray(D, float)
+    ts = friction_switch_time(t, mu, mu0)
+    if not math.isfinite(ts):
+        return float("nan")
+    sel = (t >= ts) & (t <= ts + span) & (D > 0)
+    return float(np.median(D[sel])) if np.any(sel) else float("nan")
+
+
+def saturated(t, D, mu, mu0, span=100.0, rise=1e3):
+    """Has a triggered run's D stopped growing (nonlinear saturation)?
+
+    True once mu(v) has switched on, max D exceeds ``rise`` x the level right
+    after the switch (:func:`post_switch_level`), and the maximum of D over
+    the last ``span`` is below twice the maximum before it (an exponential
+    growing at rate g multiplies it by e^{2 g span}: 13.5 for g = 0.013,
+    span = 100).
+
+    Parameters
+    ----------
+    t, D, mu : array_like, shape (n,)
+    mu0 : float
+    span : float
+    rise : float
+
+    Returns
+    -------
+    bool
+    """
+    t, D = np.asarray(t, float), np.asarray(D, float)
+    if t.size < 3 or t[-1] - t[0] < 2 * span:
+        return False
+    lvl = post_switch_level(t, D, mu, mu0)
+    if not (lvl > 0) or D.max() < rise * lvl:
+        return False
+    last = t >= t[-1] - span
+    return bool(D[last].max() < 2.0 * D[~last].max())

@@ -1,0 +1,93 @@
+"""Time-series criteria of Fig. 5 and the trigger map (analysis.series), on series
+whose answer is known in closed form."""
+import math
+
+import numpy as np
+import pytest
+
+from remote_trigger.analysis import series as ser
+
+
+def triggered_series(g=0.013, jump=1e-12, t_switch=5.0, t_grow=500.0, sat=1e-7, n=2401,
+                     t_end=1200.0, mu0=1.0, mu_ss=0.8):
+    """A run of Fig. 5 (c) in closed form: mu switches at t_switch, D jumps to
+    `jump`, an unstable mode hidden below it grows at rate g (D ~ e^{2gt})
+    from t_grow on and saturates at `sat`; D oscillates (factor 1 + 0.5 sin)."""
+    t = np.linspace(0.0, t_end, n)
+    osc = 1.0 + 0.5 * np.sin(37.0 * t)
+    D = np.where(t < t_switch, 1e-25, jump + jump * np.exp(2 * g * np.maximum(t - t_grow, 0)))
+    D = np.minimum(D, sat) * osc
+    mu = np.where(t < t_switch, mu0, mu_ss)
+    mu[(np.arange(n) % 17 == 0) & (t > t_switch)] = mu0      # zero crossings of v_top
+    return t, D, mu
+
+
+def test_growth_window_recovers_the_rate_after_the_jump():
+    g = 0.013
+    t, D, mu = triggered_series(g=g)
+    i = ser.settle_index(t, mu, 0.8)
+    level = ser.post_switch_level(t, D, mu, 1.0)
+    assert level == pytest.approx(2e-12, rel=0.6)      # jump + the hidden mode
+    win, gm = ser.growth_window(t, D, level, lo=10.0, hi=1e-2, start=i)
+    assert win is not None and abs(gm / g - 1) < 0.05
+    # the window starts above 10 x the jump: the offset does not bias the rate low
+    assert D[win[0]] > 10 * level
+
+
+def test_growth_window_fails_on_a_bounded_series():
+    t = np.linspace(0, 1000, 2001)
+    D = 1e-12 * (1 + 0.5 * np.sin(3 * t))
+    assert ser.growth_window(t, D, 1e-12, lo=10.0)[0] is None
+
+
+def test_settle_index_scattered_records_and_never():
+    t, _, mu = triggered_series()
+    i = ser.settle_index(t, mu, 0.8, tol=0.01)
+    assert i is not None and t[i] <= 10.0
+    assert ser.settle_index(t, np.ones_like(t), 0.8) is None
+
+
+def test_saturated_only_after_growth_stops():
+    t, D, mu = triggered_series(g=0.013, sat=1e-7)
+    # D reaches 1e-7 at t = 500 + ln(1e5)/0.026 ~ 943
+    t_sat = 500 + math.log(1e5) / 0.026
+    first = next(k for k in range(10, t.size) if ser.saturated(t[:k], D[:k], mu[:k], 1.0))
+    # fires after D stops growing, within one span (100) of the saturation
+    assert t_sat < t[first - 1] <= t_sat + 101
+    # still growing: never saturated
+    t2, D2, mu2 = triggered_series(g=0.013, sat=1e3)
+    assert not any(ser.saturated(t2[:k], D2[:k], mu2[:k], 1.0) for k in range(10, t2.size, 50))
+    # no friction switch: never
+    assert not ser.saturated(t, D, np.ones_like(t), 1.0)
+
+
+def test_growth_over_bounded_and_exponential():
+    t = np.linspace(0, 1000, 4001)
+    bounded = 1e-12 * (1 + 0.9 * np.sin(5 * t) ** 2)
+    assert abs(ser.growth_over(t, bounded, 0.0, 1000.0)) < 0.05
+    g = 0.005
+    expo = 1e-12 * np.exp(2 * g * t) * (1 + 0.9 * np.sin(5 * t) ** 2)
+    expected = 2 * g * 750 / math.log(10)
+    assert ser.growth_over(t, expo, 0.0, 1000.0) == pytest.approx(expected, rel=0.02)
+
+
+def test_friction_switch_and_decades():
+    t = np.arange(5.0)
+    assert ser.friction_switch_time(t, [1, 1, 0.99, 0.8, 0.8], 1.0) == 2.0
+    assert math.isnan(ser.friction_switch_time(t, np.ones(5), 1.0))
+    assert ser.decades_above([1e-3, -1e-2], 1e-12) == pytest.approx(10.0)
+
+
+def test_quasi_static_velocity_step_and_smooth():
+    C, a, w = 0.5, 2e-6, 0.01
+    t = np.linspace(0, 2000, 4001)
+    v = ser.quasi_static_velocity(t, a, w, C)
+    assert np.max(np.abs(v)) == pytest.approx(C * a * w, rel=1e-4)
+    t_on = 0.5 * math.pi / w
+    vs = ser.quasi_static_velocity(t, a, w, C, t_on=t_on)
+    # continuous at t = 0 (no jump of the velocity) and equal to the step's after t_on
+    assert vs[0] == 0.0 and np.allclose(vs[t > t_on], v[t > t_on])
+    # against a finite difference of C f(t)
+    f = C * a * np.where(t < t_on, 0.5 * (1 - np.cos(np.pi * t / t_on)), 1.0) * np.cos(w * t)
+    fd = np.gradient(f, t)
+    assert np.max(np.abs(fd[1:-1] - vs[1:-1])) < 1e-3 * np.max(np.abs(vs))
