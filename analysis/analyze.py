@@ -11,8 +11,8 @@ remove rattlers iteratively (``jacobian.find_rattlers``, frictional criterion
 of fewer than 2 contacts), form M^-1 K with M = diag(m, m, I/R^2), compute
 its eigenvalues (dense LAPACK up to ``eigen.DENSE_MAX`` dofs, else ARPACK
 shift-invert) and decide whether a complex pair is present with the
-certified 2 x 2 Schur-block test of ``exceptional`` (dense path) or on the
-projected subspace (sparse path).
+certified test of ``exceptional`` (dense path: the whole spectrum; sparse
+path: the projected subspace).
 """
 from __future__ import annotations
 
@@ -110,9 +110,13 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
         n = Kr.shape[0]
         dense = method == "dense" or (method == "auto" and n <= _eigen.DENSE_MAX)
         if dense:
-            eig = _eigen.dense_eigen(Kr, mr, vectors=False)
             if decide:
+                # one LAPACK eigen-solve: the decision's eigenvalues are the spectrum
                 dec = _exc.classify_spectrum(_eigen.dynamical_matrix(Kr, mr).toarray())
+                eig = _eigen.EigenResult(np.asarray(dec.eigenvalues, np.complex128),
+                                         method="dense")
+            else:
+                eig = _eigen.dense_eigen(Kr, mr, vectors=False)
         else:
             if sigma is None:
                 sigma = _eigen.default_shift(Kr, mr)

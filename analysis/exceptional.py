@@ -8,63 +8,114 @@ error moves the eigenvalues by O(sqrt(u)). Whether a computed eigenvalue has
 a nonzero imaginary part is therefore not a sound test, and neither is any
 fixed threshold on Im lambda.
 
-The test here works on the **2 x 2 block** of the pair in the real Schur
-form, which stays well conditioned at an exceptional point because the
-two-dimensional invariant subspace of the pair does (as long as the pair is
-separated from the rest of the spectrum). For a real matrix A:
+**What is certified.** A is a float64 matrix. Every real number within half
+an ulp of A_ij rounds to A_ij, so the stored matrix stands for the whole box
+``|A~ - A| <= rel_error |A|`` entrywise (``rel_error`` = u = 2^-53 by
+default), plus an optional Frobenius ball ``||E||_F <= input_error``. The
+answer *complex* means: every matrix of that set has a non-real eigenvalue;
+*real*: every matrix of the set has only real eigenvalues; *undecided*:
+neither could be proven -- at the default ``rel_error`` this happens only
+where the float64 matrix itself cannot tell (some matrices that round to A
+have a complex pair and others do not), up to a factor of a few. Every
+bound below is rigorous: rounding errors of the float64 computations are
+bounded a priori (gamma_k = k u / (1 - k u), Higham, *Accuracy and Stability
+of Numerical Algorithms*, 2nd ed., section 3.5), the pair's small problem is
+evaluated exactly (error-free products and ``math.fsum``; rational
+arithmetic for the 2 x 2 discriminant).
 
-1. Compute the real Schur form A Z = Z T (LAPACK ``dgees`` via
-   :func:`scipy.linalg.schur`) and a bound e on the backward error,
-   e = ||A Z - Z T||_F + ||A||_F ||Z^T Z - I||_F + 2 n u ||A||_F
-   (+ a user-supplied uncertainty of A itself). T is then the exact Schur
-   form of some A + E0 with ||E0|| <= e.
-2. Move the pair to the leading 2 x 2 block B = T_11 with LAPACK
-   ``dtrsen``, which also estimates sep = sep(T_11, T_22).
-3. The pair is complex iff the discriminant
-   D = ((b11 - b22)/2)^2 + b12 b21 < 0 (invariant under similarity).
-4. Any matrix within e of A + E0 (A itself in particular) has its pair
-   equal to the eigenvalues of T_11 + dB with (Stewart's perturbation bound
-   for invariant subspaces, SIAM J. Numer. Anal. 10 (1973) 727; Golub &
-   Van Loan, Matrix Computations, section 7.2)
-   ||dB||_F <= eta = e + 2 e (||T_12||_F + e) / (sep - 2e),
-   valid when sep > 2e and 4 e (||T_12||_F + e) < (sep - 2e)^2; otherwise
-   the pair is not isolated at this precision and the decision is
-   "undecided".
-5. D is quadratic in B, so |dD| <= g eta + eta^2 exactly, with
-   g = ||grad D|| = sqrt(2 p^2 + b12^2 + b21^2), p = (b11 - b22)/2; a
-   rounding term 4u(p^2 + |b12 b21|) is added.
-6. **margin** = |D| / bound. margin > 1 certifies the sign of D: the pair is
-   complex (D < 0) or real (D > 0) for every matrix compatible with the
-   computation. The margin is the confidence reported with each decision
-   (log10(margin) = digits to spare). margin <= 1 gives "undecided".
+**Method** (``classify_spectrum``).
 
-Near the exceptional point D ~ (lambda_1 - lambda_2)^2 / 4 vanishes linearly
-in the distance eps to it while the bound stays ~ |b12| e, so the test
-resolves eps down to ~ e/|b12| instead of the sqrt(e) that a test on the
-computed eigenvalues could resolve at best.
+1. Eigenvalues and right eigenvectors (LAPACK ``dgeev``). The spectrum is
+   cut into *units*: each real eigenvalue alone, and 2 x 2 *pairs*: every
+   complex-conjugate pair and every two neighbouring real eigenvalues whose
+   eigenvectors are nearly parallel (|cos| > 1 - 1e-4: the real side of an
+   exceptional point). A pair gets a real orthonormal basis Q_c of its
+   invariant subspace ([Re v, Im v] or [v_1, v_2], orthonormalised); if that
+   basis is ill-conditioned (near the exceptional point) it is refined by
+   subspace iteration with (A - sigma I)^{-1}, sigma at the pair.
+2. X = [units' columns], R ~ X^{-1} (LAPACK), and S = X^{-1} A X, similar to
+   A, is enclosed row by row: with C = fl(R fl(A X)), F = R X - I
+   (||F||_inf < 1/2 required, which also proves X nonsingular),
+   S = (I + F)^{-1} R A X and S - RAX = -F S, so the total deviation of row i
+   of S from row i of C is at most
+   dev_i = gamma_n (|R| |AX| + |R||A||X|) 1 + f_i ||S||_inf, f_i = row sum of
+   |F|; the perturbation X^{-1} dA X of every matrix of the set is added.
+3. **Isolation** (block Gershgorin, Feingold & Varga, Pacific J. Math. 12
+   (1962) 1241): each real unit i has the disc |z - C_ii| <= sum_{j not in
+   unit} |C_ij| + dev_i; each pair c has the region
+   {z : sigma_min(S_cc - z I) <= r_c}, r_c the sum of its off-block row
+   entries, covered by the disc of centre (s11 + s22)/2 and radius
+   rho_c = (sqrt2 r + sqrt(2 r^2 + 4(|D| + r ||N||_F)))/2 (from
+   sigma_min(W) >= |det W| / ||W||_F; N = S_cc - tr/2 I). All discs are
+   centred on the real axis; if neighbouring ones are disjoint, each holds
+   exactly as many eigenvalues as its unit (the continuity argument of
+   Gershgorin's theorem), so a real unit's eigenvalue is real (its disc is
+   symmetric about the axis).
+4. **The pair** (the decision that matters). M_c = S_cc + S_cr P is the
+   exact 2 x 2 matrix of the pair, where P solves the Riccati equation
+   S_rr P - P S_cc = -S_rc + P S_cr P; by a contraction argument
+   (Stewart, SIAM J. Numer. Anal. 10 (1973) 727) ||P||_F <= 2 gamma/delta if
+   4 gamma eta < delta^2, gamma = ||S_rc||_F, eta = ||S_cr||_F, delta a
+   lower bound of sep(S_rr, S_cc) (block-diagonal part of S_rr against
+   S_cc, minus the norm of the rest). The coupling enters only at second
+   order: ||M_c - S_cc||_F <= 2 gamma eta / delta.
+   S_cc itself is first computed from C (*crude*). When that does not
+   decide with a margin of 1e4, or the pair was refined, it is computed
+   **sharply**: with the
+   exact residual r = A Q_c - Q_c M~ (each entry an exact sum of error-free
+   products, rounded once by ``math.fsum``), S_cc = M~ + Y_c r
+   (Y = X^{-1}), so the only first-order uncertainty left is
+   Y_c dA Q_c <= rel_error |R_c| |A| |Q_c|: the float64 representation of A.
+5. D(M) = ((m11 - m22)/2)^2 + m12 m21 is the similarity-invariant
+   discriminant: the pair is complex iff D < 0. It is evaluated exactly
+   (``fractions``) at the centre, and |dD| <= 2|p| dp + dp^2 + |m12| r21 +
+   |m21| r12 + r12 r21 (dp = (r11 + r22)/2, r_kl the entrywise radius) is
+   exact for a quadratic. **margin** = |D| / bound; > 1 certifies the sign.
+
+A 2 x 2 matrix (the normal form) is decided directly: S_cc = A, radius
+rel_error |A| (+ input_error), no similarity.
+
+The spectrum decision is *complex* if some pair is certified complex (no
+isolation needed: the Riccati argument alone proves M_c's eigenvalues are
+eigenvalues of every matrix of the set), *real* if every pair is certified
+real and every unit is isolated, else *undecided*. Its confidence is the
+largest certified-complex margin, the smallest margin (pair or isolation)
+when real, the smallest failing margin when undecided.
 
 For the normal form of MODEL.md section 8,
 J = [[1 - d, eta], [-eta, 1 + d]] with eps = 1 - eta/d: D = d^2 - eta^2 =
 d^2 eps (2 - eps), so the sign of D is that of eps; complex iff eps < 0.
 
-Screening. Real eigenvalues far apart (gap > ``screen`` x (kappa_a +
-kappa_b) e, first-order perturbation theory with the condition numbers
-kappa from left/right eigenvectors) are reported as certified real with that
-first-order margin; only close pairs and all complex pairs get the 2 x 2
-test.
+.. warning:: The decision is about the matrix given (and the set it stands
+   for), not about the physics behind it: a matrix assembled with larger
+   errors needs them as ``input_error``. The sparse path
+   (:func:`classify_projected`) decides for the projected matrix of the
+   window searched; eigenvalues outside that window are not bounded.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from fractions import Fraction
+import math
+import time
+import warnings
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.linalg import lapack
 
-__all__ = ["PairDecision", "SpectrumDecision", "block_discriminant", "schur_backward_error",
-           "decide_pair", "classify_spectrum", "classify_projected", "normal_form"]
+__all__ = ["PairDecision", "SpectrumDecision", "block_discriminant", "exact_residual",
+           "classify_spectrum", "classify_projected", "normal_form", "UNIT_ROUNDOFF"]
 
+#: unit roundoff of float64 (half an ulp of 1): the default entrywise relative
+#: uncertainty of the matrix (every real within half an ulp rounds to it)
+UNIT_ROUNDOFF = 2.0 ** -53
+U = UNIT_ROUNDOFF
 EPS = np.finfo(np.float64).eps
+TINY = np.finfo(np.float64).tiny
+_SPLIT = 134217729.0            # 2^27 + 1, Veltkamp splitting constant
+_PARALLEL = 1.0 - 1e-4          # |cos| of two real eigenvectors above which they form a pair
+_ILL = 100.0                    # pair basis condition above which the subspace is refined
+_SHARP_BELOW = 1e4              # crude margin below which a pair is also computed sharply
 
 
 def normal_form(d, eps):
@@ -87,7 +138,7 @@ def normal_form(d, eps):
 
 
 def block_discriminant(B):
-    """Discriminant of a 2 x 2 block and its gradient norm.
+    """Discriminant of a 2 x 2 block and its gradient norm (float64 estimate).
 
     Parameters
     ----------
@@ -101,7 +152,7 @@ def block_discriminant(B):
     g : float
         Euclidean norm of dD/dB.
     rnd : float
-        Bound on the rounding error in evaluating D.
+        Bound on the rounding error in evaluating D in float64.
     """
     B = np.asarray(B, dtype=np.float64)
     p = 0.5 * (B[0, 0] - B[1, 1])
@@ -111,65 +162,135 @@ def block_discriminant(B):
     return float(D), g, float(rnd)
 
 
-def _gamma(n):
-    return n * EPS / (1.0 - n * EPS)
+def _gamma(k):
+    return k * U / (1.0 - k * U)
 
 
-def schur_backward_error(A, T, Z):
-    """Bound e such that T is the exact real Schur form of A + E0, ||E0||_F <= e.
+def _up(x, k):
+    """Upper bound of a nonnegative quantity computed in float64 with depth-k sums."""
+    return x * (1.0 + 8.0 * _gamma(k + 4)) + (k + 4) * TINY
 
-    With R = A Z - Z T and w = ||Z^T Z - I||_F (both as computed), an
-    orthogonal U with ||U - Z||_F <= w exists and A U - U T = R + A (U - Z) -
-    (U - Z) T, so ||E0||_F <= ||R||_F + w (||A||_F + ||T||_F). The rounding
-    of the computed R and w themselves is bounded by gamma_n || |A||Z| + |Z||T| ||_F
-    and gamma_n || |Z|^T |Z| ||_F, gamma_n = n u / (1 - n u) (Higham, Accuracy
-    and Stability of Numerical Algorithms, section 3.5), and is added.
+
+# --------------------------------------------------------------------------- exact residual
+def _two_prod(a, b):
+    """p = fl(a b) and e with a b = p + e exactly (Dekker; no FMA, arrays)."""
+    p = a * b
+    c = _SPLIT * a
+    ah = c - (c - a)
+    al = a - ah
+    c = _SPLIT * b
+    bh = c - (c - b)
+    bl = b - bh
+    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl
+    return p, e
+
+
+def exact_residual(A, Q, M):
+    """R = A Q - Q M rounded once per entry, with a rigorous bound of its error.
+
+    Every product is split error-free (Dekker's TwoProduct, exact in binary64
+    barring underflow) and each entry's terms are summed by ``math.fsum``
+    (exact partials, one final rounding), so |R_exact - R| <= 2u |R| (+ a
+    tiny term for products near underflow).
 
     Parameters
     ----------
-    A, T, Z : ndarray, shape (n, n)
+    A : ndarray, shape (n, n)
+        Real, finite; zeros are skipped (sparse structure).
+    Q : ndarray, shape (n, k)
+    M : ndarray, shape (k, k)
 
     Returns
     -------
-    float
+    R : ndarray, shape (n, k)
+    err : ndarray, shape (n, k)
+        Entrywise bound on |A Q - Q M - R| (exact arithmetic).
+
+    Raises
+    ------
+    ValueError
+        If an entry is too large to be split exactly (|x| >= 2^995) or not
+        finite.
     """
-    n = A.shape[0]
-    g = _gamma(n)
-    aZ = np.abs(Z)
-    res = np.linalg.norm(A @ Z - Z @ T) + g * np.linalg.norm(np.abs(A) @ aZ + aZ @ np.abs(T))
-    orth = np.linalg.norm(Z.T @ Z - np.eye(n)) + g * np.linalg.norm(aZ.T @ aZ)
-    return float(res + orth * (np.linalg.norm(A) + np.linalg.norm(T)))
+    A = np.asarray(A, np.float64)
+    Q = np.asarray(Q, np.float64)
+    M = np.asarray(M, np.float64)
+    n, k = Q.shape
+    for name, X in (("A", A), ("Q", Q), ("M", M)):
+        if not np.all(np.isfinite(X)):
+            raise ValueError(f"exact_residual: {name} has non-finite entries")
+        if X.size and np.max(np.abs(X)) >= 2.0 ** 995:
+            raise ValueError(f"exact_residual: |{name}| too large to split exactly "
+                             f"({np.max(np.abs(X)):.3g} >= 2^995)")
+    rows, cols = np.nonzero(A)
+    a = A[rows, cols]
+    bounds = np.searchsorted(rows, np.arange(n + 1))
+    out = np.empty((n, k))
+    err = np.empty((n, k))
+    for col in range(k):
+        p, e = _two_prod(a, Q[cols, col])
+        pm, em = [], []
+        slack = np.zeros(n)
+        for l in range(k):
+            p2, e2 = _two_prod(-Q[:, l], np.full(n, M[l, col]))
+            pm.append(p2.tolist())
+            em.append(e2.tolist())
+            small = (p2 != 0) & (np.abs(p2) < 2.0 ** -960)
+            slack += np.where(small, 2.0 * U * np.abs(p2) + 2.0 ** -1070, 0.0)
+        small = (p != 0) & (np.abs(p) < 2.0 ** -960)
+        if np.any(small):
+            slack += np.bincount(rows[small], weights=2.0 * U * np.abs(p[small]) + 2.0 ** -1070,
+                                 minlength=n)
+        pl, el = p.tolist(), e.tolist()
+        for i in range(n):
+            b0, b1 = bounds[i], bounds[i + 1]
+            terms = pl[b0:b1] + el[b0:b1]
+            for l in range(k):
+                terms.append(pm[l][i])
+                terms.append(em[l][i])
+            out[i, col] = math.fsum(terms)
+        err[:, col] = 2.0 * U * np.abs(out[:, col]) + slack + 2.0 ** -1070
+    return out, err
 
 
+# --------------------------------------------------------------------------- results
 @dataclass
 class PairDecision:
-    """Decision for one pair of eigenvalues.
+    """Decision for one pair of eigenvalues (or the isolation of two neighbours).
 
     Attributes
     ----------
     eigenvalues : ndarray, complex, shape (2,)
-        The pair (from its 2 x 2 block, or the computed eigenvalues).
+        The pair (eigenvalues of the centre of its 2 x 2 block; for an
+        isolation entry the two neighbouring centres).
     is_complex : bool
-        Sign of the discriminant: True if the computed block has D < 0.
+        Sign of the discriminant at the centre: True if D < 0.
     certified : bool
-        True if margin > 1: the sign holds for every matrix within the
-        error bound.
+        True if margin > 1: the sign of D (pair) or the separation of the
+        two discs (isolation) holds for every matrix of the set.
     margin : float
-        |D| / (bound on the change of D); the confidence of the decision.
+        |D| / (bound on the change of D) for a pair; distance of the centres
+        / sum of the radii for an isolation entry.
     discriminant : float
-        D of the 2 x 2 block (1/time^4 for M^-1 K).
+        D of the pair's 2 x 2 block (1/time^4 for M^-1 K), rounded to float.
     bound : float
         Largest change of D compatible with the errors.
     eta : float
-        Bound on the perturbation of the 2 x 2 block.
+        Frobenius radius of the pair's 2 x 2 block (all errors, coupling
+        included).
     sep : float
-        LAPACK's estimate of sep(T_11, T_22) (inf for a 2 x 2 matrix).
+        Lower bound of sep(S_rr, S_cc) (inf for a 2 x 2 matrix).
     kappa : tuple of float or None
-        Condition numbers of the two eigenvalues (left/right eigenvectors).
+        Unused (kept for compatibility); None.
     method : str
-        ``'schur-2x2'`` or ``'first-order'`` (screened real pair).
+        ``'exact-2x2'`` (the matrix is 2 x 2), ``'riccati-2x2'`` (a pair of a
+        larger matrix) or ``'gershgorin'`` (isolation of two neighbouring
+        units).
     reason : str
-        Why a pair is undecided (empty otherwise).
+        Why an entry is not certified (empty otherwise).
+    sharp : bool
+        The pair's block was computed with the exact residual (step 4 of the
+        module docstring), not only from the float64 similarity.
     """
 
     eigenvalues: np.ndarray
@@ -181,8 +302,9 @@ class PairDecision:
     eta: float = float("nan")
     sep: float = float("inf")
     kappa: tuple | None = None
-    method: str = "schur-2x2"
+    method: str = "riccati-2x2"
     reason: str = ""
+    sharp: bool = False
 
     @property
     def decision(self):
@@ -199,19 +321,25 @@ class SpectrumDecision:
     Attributes
     ----------
     complex_present : bool or None
-        True: at least one pair is certified complex. False: every computed
-        pair is certified real. None: undecided (a pair is too close to an
-        exceptional point for the precision of the computation).
+        True: a pair is certified complex. False: every eigenvalue is
+        certified real. None: undecided (a pair is too close to an
+        exceptional point for the precision of the matrix, or a unit is not
+        isolated).
     confidence : float
         For True, the largest margin among certified complex pairs; for
-        False, the smallest margin among all real pairs; for None, the
-        margin of the least certain pair (< 1).
+        False, the smallest margin (pairs and isolation); for None, the
+        smallest margin (< 1) among the entries that failed.
     pairs : list of PairDecision
-        Every complex pair and every tested real pair.
+        Every pair and every isolation entry between neighbouring units.
     backward_error : float
-        e used (Frobenius norm, units of A).
+        Largest row deviation bound dev_i of the similarity (units of A).
     eigenvalues : ndarray, complex
-        All eigenvalues from the Schur form, sorted by real part.
+        All eigenvalues (LAPACK), sorted by real part.
+    timing : dict
+        Wall times in seconds: ``eigen`` (eigenvalues and vectors) and
+        ``decision`` (everything else).
+    reason : str
+        For an undecided spectrum, why.
     """
 
     complex_present: bool | None
@@ -219,148 +347,416 @@ class SpectrumDecision:
     pairs: list = field(default_factory=list)
     backward_error: float = 0.0
     eigenvalues: np.ndarray | None = None
+    timing: dict = field(default_factory=dict)
+    reason: str = ""
 
     @property
     def critical_pair(self):
         """The pair that decided (largest-margin complex pair if present, else least certain)."""
-        if not self.pairs:
+        cands = [p for p in self.pairs if p.method != "gershgorin"] or self.pairs
+        if not cands:
             return None
         if self.complex_present:
-            cands = [p for p in self.pairs if p.is_complex and p.certified]
-            return max(cands, key=lambda p: p.margin)
-        return min(self.pairs, key=lambda p: p.margin)
+            return max((p for p in cands if p.is_complex and p.certified),
+                       key=lambda p: p.margin)
+        return min(cands, key=lambda p: p.margin)
 
 
-def _blocks(T):
-    """(position, size) of the diagonal blocks of a quasi-triangular T."""
-    n = T.shape[0]
-    out = []
-    k = 0
-    while k < n:
-        if k + 1 < n and T[k + 1, k] != 0.0:
-            out.append((k, 2))
-            k += 2
-        else:
-            out.append((k, 1))
-            k += 1
-    return out
+# --------------------------------------------------------------------------- 2 x 2 algebra
+def _frac(M):
+    return [[Fraction(float(M[0, 0])), Fraction(float(M[0, 1]))],
+            [Fraction(float(M[1, 0])), Fraction(float(M[1, 1]))]]
 
 
-def _block_eigs(B):
-    tr = 0.5 * (B[0, 0] + B[1, 1])
-    D, _, _ = block_discriminant(B)
+def _disc_test(S, rad):
+    """Exact D of the centre S (Fractions) and a rigorous bound of its change.
+
+    Parameters
+    ----------
+    S : list of list of Fraction, 2 x 2
+    rad : ndarray, shape (2, 2)
+        Entrywise radius (>= 0).
+
+    Returns
+    -------
+    D : Fraction
+    bound : Fraction
+    """
+    r = [[Fraction(float(rad[i, j])) for j in range(2)] for i in range(2)]
+    p = (S[0][0] - S[1][1]) / 2
+    D = p * p + S[0][1] * S[1][0]
+    dp = (r[0][0] + r[1][1]) / 2
+    bound = 2 * abs(p) * dp + dp * dp + abs(S[0][1]) * r[1][0] + abs(S[1][0]) * r[0][1] \
+        + r[0][1] * r[1][0]
+    return D, bound
+
+
+def _pair_eigs(S):
+    tr = 0.5 * float(S[0][0] + S[1][1])
+    D = float(((S[0][0] - S[1][1]) / 2) ** 2 + S[0][1] * S[1][0])
     r = np.sqrt(complex(D))
     return np.array([tr - r, tr + r])
 
 
-def decide_pair(A, T, Z, positions, e, kappa=None, e_schur=None, recheck_max=600):
-    """2 x 2 Schur-block test for the eigenvalues at ``positions`` of T.
+def _margin(D, bound):
+    if bound == 0:
+        return math.inf if D != 0 else 0.0
+    return float(abs(D) / bound)
 
-    Parameters
-    ----------
-    A : ndarray, shape (n, n)
-        The matrix (only used to recompute the backward error after the
-        reordering).
-    T, Z : ndarray, shape (n, n)
-        Real Schur form A Z = Z T.
-    positions : sequence of two int
-        Diagonal positions of the pair (both rows of a 2 x 2 block, or two
-        1 x 1 blocks).
-    e : float
-        Uncertainty of A to add to the backward error of the reordered Schur
-        form (e.g. the uncertainty of A itself); >= 0.
-    kappa : tuple, optional
-        Condition numbers to report.
-    e_schur : float, optional
-        Backward-error bound of (T, Z) already computed. Above ``recheck_max``
-        dofs the reordered form is not re-verified (an O(n^3) product per
-        pair); its error is then *estimated* as e_schur + 20 n u ||T||_F
-        (each block swap of ``dtrexc`` is backward stable, Bai & Demmel 1993;
-        the constant is a generous estimate, not a proven bound).
-    recheck_max : int, optional
-        Largest n for which the reordered Schur form is re-verified.
 
-    Returns
-    -------
-    PairDecision
+def _cover_radius(S, r):
+    """Radius of a disc about tr(S)/2 containing {z : sigma_min(S - z I) <= r}.
+
+    S is the 2 x 2 centre (Fractions, exact); r >= 0 (float). With w = z -
+    tr/2, det(S - z I) = w^2 - D and ||S - z I||_F <= ||N||_F + sqrt2 |w|,
+    so sigma_min >= (|w|^2 - |D|) / (||N||_F + sqrt2 |w|), increasing in |w|.
     """
-    n = T.shape[0]
-    if n == 2:
-        B = T.copy()
-        T12n = 0.0
-        sep = np.inf
-        e_tot = e + schur_backward_error(A, T, Z)
+    p = (S[0][0] - S[1][1]) / 2
+    D = abs(float(p * p + S[0][1] * S[1][0])) * (1 + 4 * U)
+    nf = math.sqrt(float(2 * p * p + S[0][1] ** 2 + S[1][0] ** 2)) * (1 + 8 * U)
+    s2 = math.sqrt(2.0) * (1 + 2 * U)
+    rho = 0.5 * (s2 * r + math.sqrt(2.0 * r * r + 4.0 * (D + r * nf)))
+    return rho * (1 + 32 * U) + TINY
+
+
+def _sigma_min_2x2_lower(a, b, c, d):
+    """Vectorised rigorous lower bound of sigma_min([[a, b], [c, d]]) = |det| / sigma_max."""
+    det = a * d - b * c
+    err = _gamma(4) * (np.abs(a * d) + np.abs(b * c)) * (1 + 4 * U) + TINY
+    fro = np.sqrt(a * a + b * b + c * c + d * d) * (1 + _gamma(8))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.maximum(np.abs(det) - err, 0.0) / fro
+    return np.where(fro > 0, out * (1 - 4 * U), 0.0)
+
+
+def _sigma_min_lower(K):
+    """Rigorous lower bound of sigma_min(K) for a small square float matrix.
+
+    Z ~ K^{-1}; with E = I - Z K bounded (gamma_p |Z||K| for the product),
+    ||E||_F = e < 1 gives ||K^{-1}||_2 <= ||Z||_F / (1 - e).
+    """
+    p = K.shape[0]
+    try:
+        Z = np.linalg.inv(K)
+    except np.linalg.LinAlgError:
+        return 0.0
+    if not np.all(np.isfinite(Z)):
+        return 0.0
+    E = np.abs(np.eye(p) - Z @ K) * (1 + 2 * U) + _gamma(p + 2) * (np.abs(Z) @ np.abs(K))
+    e = _up(float(np.linalg.norm(E)), p * p)
+    if not e < 1.0:
+        return 0.0
+    return (1.0 - e) / _up(float(np.linalg.norm(Z)), p * p) * (1 - 4 * U)
+
+
+# --------------------------------------------------------------------------- units and bases
+@dataclass
+class _Unit:
+    idx: tuple                 # eigenvalue indices (1 or 2)
+    complex_pair: bool = False
+    merged: bool = False       # real pair formed because the eigenvectors are parallel
+
+
+def _units(lam, V):
+    """Split the spectrum into real units and pairs (complex pairs, parallel real pairs)."""
+    n = lam.size
+    units = []
+    reals = []
+    j = 0
+    while j < n:
+        if lam[j].imag != 0.0 and j + 1 < n and lam[j + 1] == np.conj(lam[j]):
+            units.append(_Unit((j, j + 1), complex_pair=True))
+            j += 2
+            continue
+        if lam[j].imag != 0.0:           # unpaired complex value: not from a real matrix
+            raise ValueError("eigenvalue solver returned an unpaired complex eigenvalue")
+        reals.append(j)
+        j += 1
+    reals.sort(key=lambda i: lam[i].real)
+    k = 0
+    while k < len(reals):
+        i = reals[k]
+        if k + 1 < len(reals):
+            i2 = reals[k + 1]
+            v1, v2 = V[:, i].real, V[:, i2].real
+            c = abs(v1 @ v2) / (np.linalg.norm(v1) * np.linalg.norm(v2))
+            if c > _PARALLEL:
+                units.append(_Unit((i, i2), merged=True))
+                k += 2
+                continue
+        units.append(_Unit((i,)))
+        k += 1
+    return units
+
+
+def _refine(A, sigma, Q, iters=4):
+    """Orthonormal basis of the 2-dimensional invariant subspace nearest sigma.
+
+    Subspace iteration with (A - sigma I)^{-1} from Q; returns Q unchanged if
+    the shifted matrix cannot be factorised or the iteration breaks down.
+    """
+    n = A.shape[0]
+    B = A - sigma * np.eye(n)
+    for _ in range(3):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            lu, piv = sla.lu_factor(B, check_finite=False)
+        if np.all(np.diag(lu) != 0):
+            break
+        sigma = sigma * (1 + 64 * EPS) + 64 * TINY
+        B = A - sigma * np.eye(n)
     else:
-        sel = np.zeros(n, np.int32)
-        sel[list(positions)] = 1
-        work, iwork, info = lapack.dtrsen_lwork(sel, T, job="B")
-        ts, qs, wr, wi, m, s, sep, info = lapack.dtrsen(
-            sel, T, Z, job="B", lwork=max(int(work), 1), liwork=max(int(iwork), 1))
-        if info != 0 or m != 2:
-            return PairDecision(np.full(2, np.nan + 0j), False, False, 0.0,
-                                reason=f"reordering failed (dtrsen info = {info}, m = {m})",
-                                kappa=kappa)
-        B = ts[:2, :2].copy()
-        T12n = float(np.linalg.norm(ts[:2, 2:]))
-        if n > recheck_max and e_schur is not None:
-            e_tot = e + e_schur + 20.0 * n * EPS * float(np.linalg.norm(T))
+        return Q
+    W = Q
+    for _ in range(iters):
+        Y = sla.lu_solve((lu, piv), W, check_finite=False)
+        if not np.all(np.isfinite(Y)):
+            return Q
+        W, _ = np.linalg.qr(Y)
+    return W
+
+
+def _pair_basis(A, lam, V, unit):
+    """Real orthonormal basis (n x 2) of a pair's invariant subspace; refined if ill-conditioned."""
+    i, j = unit.idx
+    if unit.complex_pair:
+        V0 = np.column_stack([V[:, i].real, V[:, i].imag])
+    else:
+        V0 = np.column_stack([V[:, i].real, V[:, j].real])
+    V0 = V0 / np.maximum(np.linalg.norm(V0, axis=0), TINY)
+    sv = np.linalg.svd(V0, compute_uv=False)
+    Q, _ = np.linalg.qr(V0)
+    cond = sv[0] / sv[1] if sv[1] > 0 else math.inf
+    if unit.merged or cond > _ILL:
+        sigma = 0.5 * (lam[i].real + lam[j].real)
+        return _refine(A, sigma, Q), True
+    return Q, False
+
+
+# --------------------------------------------------------------------------- verification
+class _Verified:
+    """Enclosure of S = X^{-1} A~ X, row by row (step 2 of the module docstring)."""
+
+    def __init__(self, A, X, blocks, rel_error, input_error):
+        n = A.shape[0]
+        self.n = n
+        self.ok = False
+        self.reason = ""
+        g = _gamma(n + 2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                R = np.linalg.inv(X)
+            except np.linalg.LinAlgError:
+                self.reason = "eigenvector basis is singular"
+                return
+        if not np.all(np.isfinite(R)):
+            self.reason = "eigenvector basis is singular"
+            return
+        aA, aX, aR = np.abs(A), np.abs(X), np.abs(R)
+        G = A @ X
+        C = R @ G
+        H = R @ X
+        xs = aX.sum(axis=1)
+        axs = aA @ xs
+        raxs = aR @ axs
+        rgs = aR @ np.abs(G).sum(axis=1)
+        rxs = aR @ xs
+        Fh = H
+        Fh[np.diag_indices(n)] -= 1.0
+        f = _up(np.abs(Fh).sum(axis=1) + g * rxs, n)
+        fmax = float(f.max())
+        if not fmax < 0.5:
+            self.reason = f"eigenvector basis too ill-conditioned (||R X - I|| = {fmax:.2g})"
+            return
+        e1 = g * (rgs + raxs)
+        absC = np.abs(C)
+        nrax = _up(float((absC.sum(axis=1) + e1).max()), n)
+        dev = e1 + f * (nrax / (1.0 - fmax))
+        ynorm_inf = _up(float(aR.sum(axis=1).max()), n) / (1.0 - fmax)
+        if rel_error > 0:
+            w = rel_error * raxs
+            dev = dev + w + f * (float(w.max()) / (1.0 - fmax))
+        if input_error > 0:
+            Rn = np.linalg.norm(R, axis=1)
+            Yn = Rn + f * (float(Rn.max()) / (1.0 - fmax))
+            dev = dev + Yn * input_error * float(np.linalg.norm(X, axis=0).sum())
+        self.dev = _up(dev, n)
+        for s, k in blocks:
+            absC[s:s + k, s:s + k] = 0.0
+        self.off = _up(absC.sum(axis=1), n)       # row sums outside the own block
+        self.absC = absC
+        self.C, self.R, self.f, self.fmax = C, R, f, fmax
+        self.ynorm_inf = ynorm_inf
+        self.raxs = raxs
+        self.ok = True
+
+    def crude_block(self, s):
+        """Centre (float) and entrywise radius of S_cc from the row enclosure."""
+        S = self.C[s:s + 2, s:s + 2].copy()
+        d = self.dev[s:s + 2]
+        return S, np.column_stack([d, d])
+
+    def sharp_block(self, A, Q, s, rel_error, input_error):
+        """S_cc = M~ + Y_c r with the exact residual r = A Q - Q M~ (step 4)."""
+        n = self.n
+        Mt = self.C[s:s + 2, s:s + 2].copy()
+        r, er = exact_residual(A, Q, Mt)
+        Rc = self.R[s:s + 2]
+        aRc = np.abs(Rc)
+        t = Rc @ r
+        rad = _gamma(n + 2) * (aRc @ np.abs(r)) + aRc @ er
+        # Y_c = R_c - (F Y)_c:  |(F Y r)_ik| <= f_i ||Y||_inf ||r_k + er_k||_inf
+        rcol = (np.abs(r) + er).max(axis=0)
+        rad = rad + np.outer(self.f[s:s + 2], self.ynorm_inf * rcol)
+        if rel_error > 0:
+            aAQ = np.abs(A) @ np.abs(Q)
+            rad = rad + rel_error * (aRc @ aAQ
+                                     + np.outer(self.f[s:s + 2], self.ynorm_inf
+                                                * aAQ.max(axis=0)))
+        if input_error > 0:
+            yc = float(np.linalg.norm(Rc)) + math.sqrt(2.0 * n) * float(self.f[s:s + 2].max()) \
+                * self.ynorm_inf
+            rad = rad + yc * input_error * float(np.linalg.norm(Q))
+        Sf = _frac(Mt)
+        Tf = _frac(t)
+        S = [[Sf[a][b] + Tf[a][b] for b in range(2)] for a in range(2)]
+        return S, _up(rad, n)
+
+
+@dataclass
+class _Block:
+    """What the decision of one pair c needs from the rest of S (step 4)."""
+
+    rest: bool                 # the matrix has more than the pair
+    gam: float                 # >= ||S_rc||_F
+    eta: float                 # >= ||S_cr||_F
+    err_rr: float              # >= ||S_rr - blockdiag||_F
+    r_c: float                 # block Gershgorin radius of the pair's rows
+    lam1: np.ndarray           # centres of the real units
+    others: list               # centres (2 x 2) of the other pairs
+
+    def decide(self, S, rad, sharp):
+        """PairDecision and cover radius for centre S (Fractions) and radius rad (2 x 2)."""
+        Sfl = np.array([[float(S[0][0]), float(S[0][1])], [float(S[1][0]), float(S[1][1])]])
+        rad = rad + U * np.abs(Sfl)          # float copy of the exact centre
+        D0 = ((S[0][0] - S[1][1]) / 2) ** 2 + S[0][1] * S[1][0]
+        if not np.all(np.isfinite(rad)):
+            return PairDecision(_pair_eigs(S), D0 < 0, False, 0.0, float(D0), eta=math.inf,
+                                reason="no finite bound on the block", sharp=sharp), math.inf
+        radn = _up(float(np.linalg.norm(rad)), 4)
+        sep = math.inf
+        if self.lam1.size:
+            sep = float(_sigma_min_2x2_lower(self.lam1 - Sfl[0, 0], -Sfl[1, 0], -Sfl[0, 1],
+                                             self.lam1 - Sfl[1, 1]).min())
+        for B in self.others:
+            Kr = np.kron(np.eye(2), B) - np.kron(Sfl.T, np.eye(2))
+            sep = min(sep, _sigma_min_lower(Kr))
+        delta = sep - self.err_rr - radn
+        ric = 0.0
+        if self.rest:
+            if not (delta > 0 and 4.0 * self.gam * self.eta < delta * delta * (1 - 8 * U)):
+                return PairDecision(
+                    _pair_eigs(S), D0 < 0, False, 0.0, float(D0), sep=float(sep), eta=radn,
+                    reason=f"pair not separated from the rest: sep >= {sep:.3g}, coupling "
+                           f"{self.gam:.3g} x {self.eta:.3g}", sharp=sharp), math.inf
+            ric = _up(2.0 * self.gam * self.eta / delta, 4)
+        D, bound = _disc_test(S, rad + ric)
+        cert = abs(D) > bound
+        dec = PairDecision(_pair_eigs(S), D < 0, bool(cert), _margin(D, bound), float(D),
+                           float(bound), _up(radn + 2 * ric, 4),
+                           float(delta if self.rest else math.inf), None, "riccati-2x2",
+                           "" if cert else "discriminant within its error bound", sharp)
+        # eig(M_c) lies in the block region only if the coupling term is below r_c
+        cover = math.inf if ric > self.r_c else _cover_radius(S, self.r_c + radn)
+        return dec, cover
+
+
+def _analyse(A, lam, V, units, rel_error, input_error):
+    """One verification pass over the given units. Returns (entries, summary data)."""
+    n = A.shape[0]
+    # column layout: units sorted by the real part of their eigenvalues
+    order = sorted(range(len(units)), key=lambda k: float(np.mean(lam[list(units[k].idx)].real)))
+    units = [units[k] for k in order]
+    cols, blocks, refined = [], [], []
+    s = 0
+    for un in units:
+        if len(un.idx) == 1:
+            v = V[:, un.idx[0]].real
+            cols.append((v / np.linalg.norm(v))[:, None])
+            blocks.append((s, 1))
+            refined.append(False)
+            s += 1
         else:
-            e_tot = e + schur_backward_error(A, ts, qs)
-    lam = _block_eigs(B)
-    D, g, rnd = block_discriminant(B)
-    if np.isfinite(sep):
-        sep2 = sep - 2.0 * e_tot
-        if sep2 <= 0 or 4.0 * e_tot * (T12n + e_tot) >= sep2 ** 2:
-            return PairDecision(lam, D < 0, False, 0.0, D, np.inf, np.inf, float(sep), kappa,
-                                reason=f"pair not isolated: sep = {sep:.3g} vs error "
-                                       f"{e_tot:.3g}")
-        eta = e_tot + 2.0 * e_tot * (T12n + e_tot) / sep2
-    else:
-        eta = e_tot
-    bound = g * eta + eta * eta + rnd
-    margin = abs(D) / bound if bound > 0 else np.inf
-    return PairDecision(lam, D < 0, margin > 1.0, float(margin), D, float(bound), float(eta),
-                        float(sep), kappa,
-                        reason="" if margin > 1.0 else "discriminant within its error bound")
+            Q, ref = _pair_basis(A, lam, V, un)
+            cols.append(Q)
+            blocks.append((s, 2))
+            refined.append(ref)
+            s += 2
+    X = np.hstack(cols)
+    ver = _Verified(A, X, blocks, rel_error, input_error)
+    if not ver.ok:
+        return None, ver
+    dev, off, C = ver.dev, ver.off, ver.C
+    lam1 = np.array([C[s, s] for s, k in blocks if k == 1])
+    offdev = off + dev
+    discs = []                       # (centre, radius, block index)
+    pending = []                     # (block, start, _Block, crude decision, cover, centre)
+    pair_out = []
+    for b, (s, k) in enumerate(blocks):
+        if k == 1:
+            discs.append((float(C[s, s]), float(offdev[s]), b))
+            continue
+        c = [s, s + 1]
+        rest = np.ones(n, bool)
+        rest[c] = False
+        blk = _Block(
+            rest=bool(rest.any()),
+            gam=_up(math.sqrt(float(np.sum((ver.absC[:, c].sum(axis=1)[rest]
+                                            + dev[rest]) ** 2))), n),
+            eta=_up(math.sqrt(float(np.sum(offdev[c] ** 2))), 2),
+            err_rr=_up(math.sqrt(float(np.sum(offdev[rest] ** 2))), n),
+            r_c=_up(float(offdev[c].sum()), 4),
+            lam1=lam1,
+            others=[C[s2:s2 + 2, s2:s2 + 2] for s2, k2 in blocks if k2 == 2 and s2 != s])
+        S0 = _frac(ver.crude_block(s)[0])
+        dec, cover = blk.decide(S0, ver.crude_block(s)[1], False)
+        pending.append((b, s, blk, dec, cover, S0))
+    # sharp enclosure: the pair nearest an exceptional point (smallest crude
+    # margin), refined pairs, and every pair the crude enclosure leaves unsure
+    crit = min(range(len(pending)), key=lambda q: pending[q][3].margin) if pending else -1
+    for q, (b, s, blk, dec, cover, S) in enumerate(pending):
+        if q == crit or refined[b] or not dec.certified or dec.margin < _SHARP_BELOW:
+            try:
+                Sx, radx = ver.sharp_block(A, X[:, s:s + 2], s, rel_error, input_error)
+            except ValueError:
+                Sx = None
+            if Sx is not None:
+                dec2, cover2 = blk.decide(Sx, radx, True)
+                if dec2.certified or not dec.certified:
+                    dec, cover, S = dec2, cover2, Sx
+        centre = float((S[0][0] + S[1][1]) / 2)
+        discs.append((centre, cover + U * abs(centre), b))
+        pair_out.append(dec)
+    # isolation of neighbouring discs (all centred on the real axis)
+    discs.sort(key=lambda d: d[0])
+    iso = []
+    for (c1, r1, b1), (c2, r2, b2) in zip(discs[:-1], discs[1:]):
+        gap = (c2 - c1) * (1 - 2 * U)
+        rr = (r1 + r2) * (1 + 2 * U)
+        m = gap / rr if rr > 0 else math.inf
+        iso.append(PairDecision(np.array([c1, c2], complex), False, bool(gap > rr), float(m),
+                                method="gershgorin",
+                                reason="" if gap > rr else "discs overlap", bound=rr))
+    conflicts = []
+    for (c1, r1, b1), (c2, r2, b2), e in zip(discs[:-1], discs[1:], iso):
+        if not e.certified and blocks[b1][1] == 1 and blocks[b2][1] == 1:
+            conflicts.append((units[b1].idx[0], units[b2].idx[0]))
+    ver.conflicts = conflicts
+    return pair_out + iso, ver
 
 
-def _match(lam_ref, lam):
-    """Index into lam of the nearest value to each lam_ref (greedy, unique)."""
-    used = np.zeros(lam.size, bool)
-    out = np.empty(lam_ref.size, np.int64)
-    for k, v in enumerate(lam_ref):
-        d = np.abs(lam - v)
-        d[used] = np.inf
-        out[k] = int(np.argmin(d))
-        used[out[k]] = True
-    return out
-
-
-def classify_spectrum(A, input_error=0.0, screen=100.0):
-    """Decide soundly whether the real matrix A has a complex pair of eigenvalues.
-
-    Parameters
-    ----------
-    A : ndarray or sparse matrix, shape (n, n)
-        Real matrix, e.g. M^{-1} K after rattler removal (dense; a sparse
-        matrix is densified).
-    input_error : float, optional
-        Absolute uncertainty (Frobenius norm) of A itself, added to the
-        backward error of the computation (default 0: decide for A exactly
-        as stored).
-    screen : float, optional
-        First-order margin above which a real pair is accepted without the
-        2 x 2 test (default 100).
-
-    Returns
-    -------
-    SpectrumDecision
-
-    Raises
-    ------
-    ValueError
-        If A is not square, not real, or not finite, or input_error < 0.
-    """
+def _validate(A, input_error, rel_error):
     if hasattr(A, "toarray"):
         A = A.toarray()
     A = np.asarray(A)
@@ -371,68 +767,108 @@ def classify_spectrum(A, input_error=0.0, screen=100.0):
     A = A.astype(np.float64)
     if not np.all(np.isfinite(A)):
         raise ValueError("A has non-finite entries")
-    if not (input_error >= 0):
-        raise ValueError(f"input_error must be >= 0, got {input_error!r}")
+    if not (input_error >= 0) or not math.isfinite(input_error):
+        raise ValueError(f"input_error must be finite and >= 0, got {input_error!r}")
+    if not (rel_error >= 0) or not rel_error < 0.01:
+        raise ValueError(f"rel_error must be in [0, 0.01), got {rel_error!r}")
+    return A
+
+
+def _decide_2x2(A, input_error, rel_error):
+    S = _frac(A)
+    rad = rel_error * np.abs(A) + input_error
+    D, bound = _disc_test(S, rad)
+    cert = abs(D) > bound
+    return PairDecision(_pair_eigs(S), D < 0, bool(cert), _margin(D, bound), float(D),
+                        float(bound), float(np.linalg.norm(rad)), math.inf, None, "exact-2x2",
+                        "" if cert else "discriminant within its error bound", True)
+
+
+def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF):
+    """Decide soundly whether the real matrix A has a complex pair of eigenvalues.
+
+    Parameters
+    ----------
+    A : ndarray or sparse matrix, shape (n, n)
+        Real matrix, e.g. M^{-1} K after rattler removal (dense; a sparse
+        matrix is densified).
+    input_error : float, optional
+        Absolute uncertainty (Frobenius norm) of A, on top of
+        ``rel_error`` (default 0).
+    rel_error : float, optional
+        Entrywise relative uncertainty of A (default u = 2^-53: every real
+        matrix that rounds to A; 0 decides for A exactly as stored).
+
+    Returns
+    -------
+    SpectrumDecision
+        See the module docstring for what each answer certifies.
+
+    Raises
+    ------
+    ValueError
+        If A is not square, not real, or not finite, or an error parameter
+        is out of range.
+    """
+    A = _validate(A, input_error, rel_error)
     n = A.shape[0]
+    t0 = time.perf_counter()
     if n < 2:
-        lam = np.linalg.eigvals(A).astype(complex) if n else np.zeros(0, complex)
-        return SpectrumDecision(False, np.inf, [], 0.0, lam)
-    T, Z = sla.schur(A, output="real")
-    e0 = schur_backward_error(A, T, Z)
-    e = e0 + input_error
-    blocks = _blocks(T)
-    lam_all = []
-    for p, sz in blocks:
-        lam_all.extend(_block_eigs(T[p:p + 2, p:p + 2]) if sz == 2 else [T[p, p] + 0j])
-    lam_all = np.array(lam_all)
-    # condition numbers from left/right eigenvectors (diagnostic and screening)
-    lam_e, vl, vr = sla.eig(A, left=True, right=True)
-    from .eigen import condition_numbers
-
-    kap_e = condition_numbers(vl, vr)
-    kap = kap_e[_match(lam_all, lam_e.astype(complex))]
-
-    pairs = []
-    # complex pairs
-    idx = 0
-    reals = []
-    for p, sz in blocks:
-        if sz == 2:
-            pairs.append(decide_pair(A, T, Z, (p, p + 1), input_error,
-                                     (float(kap[idx]), float(kap[idx + 1])), e_schur=e0))
-        else:
-            reals.append((lam_all[idx].real, p, float(kap[idx])))
-        idx += sz
-    reals.sort()
-    for (la, pa, ka), (lb, pb, kb) in zip(reals[:-1], reals[1:]):
-        gap = lb - la
-        first = gap / ((ka + kb) * e) if e > 0 else np.inf
-        if first > screen:
-            pairs.append(PairDecision(np.array([la, lb], complex), False, True, float(first),
-                                      kappa=(ka, kb), method="first-order"))
-        else:
-            pairs.append(decide_pair(A, T, Z, (pa, pb), input_error, (ka, kb), e_schur=e0))
-    lam_sorted = lam_all[np.lexsort((lam_all.imag, lam_all.real))]
-    return _summarize(pairs, e, lam_sorted)
+        lam = A.diagonal().astype(complex)
+        return SpectrumDecision(False, math.inf, [], 0.0, lam, {"eigen": 0.0, "decision": 0.0})
+    if n == 2:
+        lam = np.linalg.eigvals(A).astype(complex)
+        t1 = time.perf_counter()
+        p = _decide_2x2(A, input_error, rel_error)
+        lam = lam[np.lexsort((lam.imag, lam.real))]
+        return _summarize([p], 0.0, lam, {"eigen": t1 - t0,
+                                          "decision": time.perf_counter() - t1}, "")
+    lam, V = sla.eig(A, check_finite=False)
+    t1 = time.perf_counter()
+    lam_sorted = lam[np.lexsort((lam.imag, lam.real))]
+    try:
+        units = _units(lam, V)
+    except ValueError as exc:
+        return SpectrumDecision(None, 0.0, [], math.inf, lam_sorted,
+                                {"eigen": t1 - t0, "decision": time.perf_counter() - t1},
+                                str(exc))
+    entries, ver = _analyse(A, lam, V, units, rel_error, input_error)
+    if entries is not None and ver.conflicts:
+        # neighbouring real eigenvalues whose discs touch: decide them as a pair
+        taken, pairs = set(), []
+        for i, j in ver.conflicts:
+            if i not in taken and j not in taken:
+                pairs.append(_Unit((i, j), merged=True))
+                taken.update((i, j))
+        new = [un for un in units if not (len(un.idx) == 1 and un.idx[0] in taken)] + pairs
+        entries2, ver2 = _analyse(A, lam, V, new, rel_error, input_error)
+        if entries2 is not None:
+            entries, ver = entries2, ver2
+    timing = {"eigen": t1 - t0, "decision": time.perf_counter() - t1}
+    if entries is None:
+        return SpectrumDecision(None, 0.0, [], math.inf, lam_sorted, timing, ver.reason)
+    return _summarize(entries, float(np.max(ver.dev)), lam_sorted, timing, "")
 
 
-def _summarize(pairs, e, lam):
-    cert_c = [p for p in pairs if p.is_complex and p.certified]
+def _summarize(pairs, e, lam, timing, reason):
+    cert_c = [p for p in pairs if p.method != "gershgorin" and p.is_complex and p.certified]
     if cert_c:
-        return SpectrumDecision(True, max(p.margin for p in cert_c), pairs, e, lam)
+        return SpectrumDecision(True, max(p.margin for p in cert_c), pairs, e, lam, timing)
     unsure = [p for p in pairs if not p.certified]
     if unsure:
-        return SpectrumDecision(None, min(p.margin for p in unsure), pairs, e, lam)
-    conf = min((p.margin for p in pairs), default=np.inf)
-    return SpectrumDecision(False, conf, pairs, e, lam)
+        worst = min(unsure, key=lambda p: p.margin)
+        return SpectrumDecision(None, worst.margin, pairs, e, lam, timing,
+                                reason or worst.reason)
+    conf = min((p.margin for p in pairs), default=math.inf)
+    return SpectrumDecision(False, conf, pairs, e, lam, timing)
 
 
 def _orth(W, rtol=1e-10):
     """Orthonormal basis of the column span of W (SVD, tiny directions dropped)."""
-    U, sv, _ = np.linalg.svd(W, full_matrices=False)
+    U_, sv, _ = np.linalg.svd(W, full_matrices=False)
     if sv.size == 0 or sv[0] == 0:
-        return U[:, :0]
-    return U[:, sv > rtol * sv[0]]
+        return U_[:, :0]
+    return U_[:, sv > rtol * sv[0]]
 
 
 def classify_projected(A, sigma, k=12, enrich=2, input_error=0.0, tol=0.0, v0=None):
@@ -477,7 +913,9 @@ def classify_projected(A, sigma, k=12, enrich=2, input_error=0.0, tol=0.0, v0=No
     Returns
     -------
     decision : SpectrumDecision
-        On the k eigenvalues nearest sigma (``decision.eigenvalues``).
+        On the k eigenvalues nearest sigma (``decision.eigenvalues``);
+        ``decision.timing`` has ``eigen`` (ARPACK, enrichment, Rayleigh-Ritz)
+        and ``decision`` (the classification of T_k).
     residual : float
         ||A Q_k - Q_k T_k||_F.
 
@@ -489,6 +927,7 @@ def classify_projected(A, sigma, k=12, enrich=2, input_error=0.0, tol=0.0, v0=No
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
+    t0 = time.perf_counter()
     A = sp.csr_matrix(A, dtype=np.float64)
     n = A.shape[0]
     if not (2 <= k < n - 1):
@@ -515,4 +954,8 @@ def classify_projected(A, sigma, k=12, enrich=2, input_error=0.0, tol=0.0, v0=No
     Tk = T[:sdim, :sdim]
     R = A @ Qk - Qk @ Tk
     res = float(np.linalg.norm(R))
-    return classify_spectrum(Tk, input_error=res + input_error), res
+    t1 = time.perf_counter()
+    dec = classify_spectrum(Tk, input_error=res + input_error)
+    dec.timing = {"eigen": t1 - t0 + dec.timing.get("eigen", 0.0),
+                  "decision": dec.timing.get("decision", 0.0)}
+    return dec, res

@@ -1,13 +1,20 @@
 """Certified complex-pair decisions near an exceptional point (MODEL.md section 8)."""
+from fractions import Fraction
+import itertools
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
 from remote_trigger.analysis.eigen import condition_numbers
 from remote_trigger.analysis.exceptional import (block_discriminant, classify_projected,
-                                                 classify_spectrum, normal_form)
+                                                 classify_spectrum, exact_residual,
+                                                 normal_form)
+
+from .arb_oracle import discriminant_2x2, full_spectrum, pair_is
 
 EPSILONS = [1e-2, 1e-4, 1e-6, 1e-8, 1e-10]
+U = 2.0 ** -53
 
 
 @pytest.mark.parametrize("d", [0.5, 0.1, 0.01])
@@ -15,17 +22,61 @@ EPSILONS = [1e-2, 1e-4, 1e-6, 1e-8, 1e-10]
 def test_normal_form_decided_correctly(d, eps):
     """J = [[1-d, eta], [-eta, 1+d]], eta = d (1 - eps): complex iff eps < 0."""
     J = normal_form(d, eps)
-    res = classify_spectrum(J, screen=np.inf)           # always the 2 x 2 Schur test
+    res = classify_spectrum(J)
     assert res.complex_present is (eps < 0), (res.confidence, res.pairs)
     assert res.confidence > 1.0
-    # with the default first-order screening of well-separated real pairs: same answer
-    assert classify_spectrum(J).complex_present is (eps < 0)
     pair = res.pairs[0]
-    assert pair.method == "schur-2x2"
+    assert len(res.pairs) == 1 and pair.method == "exact-2x2"
     assert pair.certified and pair.margin == res.confidence
-    # the discriminant of the 2 x 2 block is d^2 eps (2 - eps) up to its error bound
-    D_exact = d * d * eps * (2.0 - eps)
-    assert abs(pair.discriminant - D_exact) <= pair.bound
+    # the discriminant is that of the stored matrix, exactly (rational arithmetic) ...
+    assert pair.discriminant == float(discriminant_2x2(J))
+    # ... and d^2 eps (2 - eps) up to the rounding of the entries
+    assert abs(pair.discriminant - d * d * eps * (2.0 - eps)) <= 4 * pair.bound
+
+
+def _box_has_both_signs(J, scale):
+    """Some corner of |J~ - J| <= scale u |J| has D > 0 and another D < 0 (exact)."""
+    signs = set()
+    for corner in itertools.product((-1, 1), repeat=4):
+        Jc = [Fraction(float(x)) * (1 + c * scale * Fraction(U))
+              for x, c in zip(np.ravel(J), corner)]
+        D = ((Jc[0] - Jc[3]) / 2) ** 2 + Jc[1] * Jc[2]
+        signs.add((D > 0) - (D < 0))
+    return {1, -1} <= signs
+
+
+@pytest.mark.parametrize("d, finest", [(0.5, 1e-15), (0.1, 1e-15), (0.01, 1e-13)])
+def test_normal_form_never_wrong_undecided_only_where_float64_cannot_tell(d, finest):
+    """Down to eps = 1e-17: right, or 'undecided' only where the float64 matrix cannot tell.
+
+    Certified answers agree with the exact (rational) discriminant of the
+    stored matrix and with the sign of eps; an undecided matrix has, within
+    4 half-ulps of its entries, matrices with a real and with a complex
+    pair.
+    """
+    certified = []
+    for k in range(2, 18):
+        for sign in (1, -1):
+            eps = sign * 10.0 ** -k
+            J = normal_form(d, eps)
+            res = classify_spectrum(J)
+            if res.complex_present is None:
+                assert res.confidence <= 1.0
+                assert _box_has_both_signs(J, 4.0), (d, eps, res.confidence)
+            else:
+                assert res.complex_present is (eps < 0), (d, eps)
+                assert res.complex_present is (discriminant_2x2(J) < 0), (d, eps)
+                certified.append(abs(eps))
+    assert min(certified) <= finest
+    # at eps = 1e-17 the stored matrix is an exceptional point or nearly: no answer
+    assert classify_spectrum(normal_form(d, 1e-17)).complex_present is None
+    assert classify_spectrum(normal_form(d, -1e-17)).complex_present is None
+    # decided for A exactly as stored (rel_error = 0), the 2 x 2 answer is exact
+    for eps in (1e-16, -1e-16, 3e-17):
+        J = normal_form(d, eps)
+        D = discriminant_2x2(J)
+        res = classify_spectrum(J, rel_error=0.0)
+        assert res.complex_present is (None if D == 0 else bool(D < 0))
 
 
 def test_normal_form_eigenvalues_and_condition_numbers():
@@ -45,20 +96,6 @@ def test_normal_form_eigenvalues_and_condition_numbers():
     np.testing.assert_allclose(kap[1:] / kap[:-1], 10.0, rtol=0.05)
     assert kap[-1] > 1e3                      # ill-conditioned eigenvalues ...
     assert classify_spectrum(normal_form(d, 1e-8)).confidence > 100   # ... sound decision
-
-
-@pytest.mark.parametrize("d", [0.5, 0.1])
-def test_never_certified_wrong(d):
-    """Down to eps = 1e-16 the answer is right or 'undecided', never wrong."""
-    for k in range(2, 17):
-        for sign in (1, -1):
-            eps = sign * 10.0 ** -k
-            res = classify_spectrum(normal_form(d, eps))
-            if res.complex_present is not None:
-                assert res.complex_present is (eps < 0), (d, eps)
-    # far below the resolution the test refuses to decide
-    assert classify_spectrum(normal_form(d, 1e-16)).complex_present is None
-    assert classify_spectrum(normal_form(d, -1e-16)).complex_present is None
 
 
 def embedded(d, eps, n=30, seed=0):
@@ -118,6 +155,8 @@ def test_bad_input():
         classify_spectrum(np.eye(2) * 1j)
     with pytest.raises(ValueError, match="input_error"):
         classify_spectrum(np.eye(2), input_error=-1.0)
+    with pytest.raises(ValueError, match="rel_error"):
+        classify_spectrum(np.eye(2), rel_error=0.5)
 
 
 def sparse_with_pair(eps, n=1500, d=0.05, seed=0):
@@ -155,3 +194,53 @@ def test_sparse_projected_decision(eps):
     assert res.complex_present is (eps < 0), res.confidence
     lam = res.eigenvalues
     assert np.min(np.abs(lam - 20.0)) < 0.5
+
+
+def test_exact_residual_against_rational_arithmetic():
+    """A Q - Q M entry by entry: within the returned bound of the exact value, bound ~ u."""
+    rng = np.random.default_rng(7)
+    n = 25
+    A = rng.normal(size=(n, n)) * 10.0 ** rng.integers(-8, 5, size=(n, n))
+    A[rng.random((n, n)) < 0.5] = 0.0
+    Q = rng.normal(size=(n, 2))
+    M = rng.normal(size=(2, 2))
+    r, err = exact_residual(A, Q, M)
+    Af = [[Fraction(float(x)) for x in row] for row in A]
+    for i in range(n):
+        for k in range(2):
+            exact = sum(Af[i][j] * Fraction(float(Q[j, k])) for j in range(n)) \
+                - sum(Fraction(float(Q[i, l])) * Fraction(float(M[l, k])) for l in range(2))
+            assert abs(Fraction(float(r[i, k])) - exact) <= Fraction(float(err[i, k]))
+            assert err[i, k] <= 3 * U * abs(r[i, k]) + 1e-300
+    with pytest.raises(ValueError, match="too large"):
+        exact_residual(np.full((2, 2), 1e300), np.ones((2, 2)), np.eye(2))
+
+
+EP_DISTANCES = [1e-6, 1e-8, 1e-10, 1e-12, 1e-14, -1e-14, -1e-12, -1e-10, -1e-8, -1e-6]
+
+
+@pytest.mark.parametrize("dist", EP_DISTANCES)
+def test_decisions_agree_with_arb(dist):
+    """The normal form hidden in a 40 x 40 non-normal matrix, eps = dist (complex iff < 0).
+
+    Independent checks with Arb: the enclosure of the whole spectrum of the
+    stored matrix, and the pair-local eigenpair test on every matrix that
+    rounds to it. Certified down to |eps| = 1e-14.
+    """
+    A = embedded(0.5, dist, n=40, seed=2)
+    res = classify_spectrum(A)
+    assert res.complex_present is (dist < 0), (dist, res.confidence, res.reason)
+    want = "complex" if res.complex_present else "real"
+    assert full_spectrum(A) == want
+    box = pair_is(A, res.critical_pair.eigenvalues, rel=U)
+    assert box in (want, None)                  # the oracle may fail to decide, not disagree
+    if abs(dist) >= 1e-12:
+        assert box == want
+
+
+def test_arb_oracle_can_fail():
+    """The oracle refuses a defective matrix and a normal form below the float64 resolution."""
+    assert pair_is(np.array([[1.0, 1.0], [0.0, 1.0]]), [1.0, 1.0]) is None
+    assert full_spectrum(np.array([[1.0, 1.0], [0.0, 1.0]])) is None
+    assert pair_is(normal_form(0.5, 1e-3), [0.9, 1.1]) == "real"
+    assert pair_is(normal_form(0.5, -1e-3), [1 + 0.02j, 1 - 0.02j]) == "complex"
