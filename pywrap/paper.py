@@ -310,9 +310,12 @@ def run_ramp(cfg, out, mu, relaxed, comm, clock, main, resume=False):
     if res.status != "complete":
         clock.say(f"ramp mu = {mu:g}: {res.status} ({res.message})")
         return summ
-    clock.say(f"ramp mu = {mu:g}: F_x^c in [{res.F_x_c_low:.7g}, {res.F_x_c_high:.7g}] "
-              f"({len(res.F_x)} steps + {len(res.bisection_F_x)} bisections, "
+    clock.say(f"ramp mu = {mu:g}: F_x^c in [{res.F_x_c_low:.9g}, {res.F_x_c_high:.9g}] "
+              f"(certified, width {res.F_x_c_width:.2g}; {len(res.F_x)} steps + "
+              f"{len(res.bisection_F_x)} bisections, {res.n_undecided} undecided, "
               f"{t_ramp:.0f} s)")
+    if not res.tol_reached:
+        clock.say(f"ramp mu = {mu:g}: {res.message}")
     F_c = 0.5 * (res.F_x_c_low + res.F_x_c_high)
     first_complex = int(np.flatnonzero(res.complex_pair)[0])
     start = os.path.join(folder, "ramp", f"step_{first_complex:05d}.data")

@@ -94,31 +94,37 @@ def spectrum_at_zero(h5path):
 
 
 def certified_bracket(h5path):
-    """Last certified-real and first certified-complex load of a ramp, and undecided count.
+    """The certified bracket of F_x^c of a ramp and the number of undecided equilibria.
 
     Returns
     -------
     dict
         ``real`` (largest F_x certified real below the first certified
-        complex one), ``complex`` (smallest F_x certified complex),
-        ``undecided`` (number of equilibria the certified test left
-        undecided); NaN / 0 when the file has no ``decision`` column.
+        complex one), ``complex`` (smallest F_x certified complex), ``width``
+        (complex - real), ``undecided`` (number of equilibria the certified
+        test left undecided), ``message`` (why the bracket is wider than the
+        ramp's ``tol``; empty otherwise); NaN / 0 when the file has no
+        ``decision`` column.
     """
     import h5py
 
     F, dec = [], []
     with h5py.File(h5path, "r") as fh:
+        msg = fh.attrs.get("message", "") if not fh.attrs.get("tol_reached", True) else ""
         for kind in ("steps", "bisection"):
             if f"{kind}/decision" not in fh:
-                return {"real": float("nan"), "complex": float("nan"), "undecided": 0}
+                return {"real": float("nan"), "complex": float("nan"), "width": float("nan"),
+                        "undecided": 0, "message": ""}
             F.extend(fh[f"{kind}/F_x"][()])
             dec.extend(fh[f"{kind}/decision"][()])
     F, dec = np.asarray(F, float), np.asarray(dec, float)
-    c = F[dec > 0]
+    c = F[dec == 1]
     first_c = float(np.min(c)) if c.size else float("nan")
     r = F[(dec == 0) & (F < first_c)] if c.size else F[dec == 0]
-    return {"real": float(np.max(r)) if r.size else float("nan"), "complex": first_c,
-            "undecided": int(np.count_nonzero(dec < 0))}
+    real = float(np.max(r)) if r.size else float("nan")
+    return {"real": real, "complex": first_c, "width": first_c - real,
+            "undecided": int(np.count_nonzero(dec < 0)),
+            "message": msg.decode() if isinstance(msg, bytes) else str(msg)}
 
 
 def instability_metrics(out, summary):
@@ -289,30 +295,36 @@ def collect(out, summary):
     if 0 in Fc:
         lo, hi = P["F_x_c_mu1_low"], P["F_x_c_mu1_high"]
         rr = ramps[0]
-        _check(checks, f"F_x_c_mu{mus[0]:g}", f"F_x^c(mu = {mus[0]:g}) (bisection midpoint)",
+        cb0 = certified_bracket(rr["h5"])
+        _check(checks, f"F_x_c_mu{mus[0]:g}", f"F_x^c(mu = {mus[0]:g}) (midpoint of the "
+               "certified bracket)",
                Fc[0], f"{lo:g} < F_x^c < {hi:g}", lo < Fc[0] < hi,
                reason=(f"F_x^c is a property of the individual packing; ours (N = "
                        f"{cfg['n']}, seed {cfg['seed']}, phi = {phi:.4f}, zero tangential "
                        f"history at F_x = 0) is {Fc[0] / (0.5 * (lo + hi)):.3g} x the "
-                       f"midpoint of the paper's bracket; bracket [{rr['F_x_c_low']:.8g}, "
-                       f"{rr['F_x_c_high']:.8g}]"),
-               note=f"bracket [{rr['F_x_c_low']:.8g}, {rr['F_x_c_high']:.8g}]")
+                       f"midpoint of the paper's bracket; certified bracket "
+                       f"[{cb0['real']:.9g}, {cb0['complex']:.9g}], width "
+                       f"{cb0['width']:.2g}"),
+               note=f"certified bracket [{cb0['real']:.9g}, {cb0['complex']:.9g}], width "
+                    f"{cb0['width']:.2g}")
         for k in (0, 1):
             if ramps[k]["status"] != "complete":
                 continue
             cb = certified_bracket(ramps[k]["h5"])
-            info.append((f"certified_bracket_mu{mus[k]:g}", f"mu = {mus[k]:g}: last certified-"
-                         f"real F_x below the first certified-complex one "
-                         f"({cb['complex']:.8g}); {cb['undecided']} equilibria undecided "
-                         "(too close to the exceptional point)", cb["real"]))
+            info.append((f"certified_bracket_mu{mus[k]:g}", f"mu = {mus[k]:g}: width of the "
+                         f"certified bracket [{cb['real']:.9g}, {cb['complex']:.9g}] of F_x^c "
+                         f"(largest F_x certified real, smallest certified complex); "
+                         f"{cb['undecided']} equilibria undecided"
+                         + (f"; {cb['message']}" if cb["message"] else ""), cb["width"]))
     else:
         _check(checks, f"F_x_c_mu{mus[0]:g}", f"F_x^c(mu = {mus[0]:g})", float("nan"),
                "0.0091 < F_x^c < 0.012", False,
                reason=f"ramp {ramps[0]['status']}: {ramps[0].get('message', '')}")
     if 1 in Fc:
         rr = ramps[1]
-        info.append(("F_x_c_mu%g" % mus[1], f"F_x^c(mu = {mus[1]:g}) (bisection midpoint; "
-                     f"bracket [{rr['F_x_c_low']:.8g}, {rr['F_x_c_high']:.8g}])", Fc[1]))
+        info.append(("F_x_c_mu%g" % mus[1], f"F_x^c(mu = {mus[1]:g}) (midpoint of the "
+                     f"certified bracket [{rr['F_x_c_low']:.9g}, {rr['F_x_c_high']:.9g}], "
+                     f"width {rr['F_x_c_high'] - rr['F_x_c_low']:.2g})", Fc[1]))
     order_ok = 0 in Fc and 1 in Fc and ((Fc[1] < Fc[0]) == (mus[1] < mus[0]))
     ratio = Fc[1] / Fc[0] if (0 in Fc and 1 in Fc) else float("nan")
     _check(checks, "F_x_c_ratio", f"F_x^c(mu = {mus[1]:g}) / F_x^c(mu = {mus[0]:g})", ratio,

@@ -5,18 +5,18 @@ work is done by the analyzer, :func:`remote_trigger.analysis.analyze.analyze`
 (docs/analysis.md): K = -dG/dq (paper Appendix C), rattlers removed
 iteratively (frictional criterion: fewer than 2 contacts), eigenvalues of
 M^-1 K (Eq. 6: omega = +-sqrt(lambda)) and the **certified** complex-pair
-decision from the 2 x 2 blocks of the real Schur form with error bounds
-(``remote_trigger.analysis.exceptional``). No threshold on Im lambda is used:
+decision (``remote_trigger.analysis.exceptional``: a verified similarity,
+Gershgorin isolation, and the pair's 2 x 2 block enclosed to the precision
+of the float64 matrix). No threshold on Im lambda is used:
 the decision is ``'complex'`` (a pair certified complex), ``'real'`` (every
-pair certified real) or ``'undecided'`` (some pair is so close to an
-exceptional point that its sign cannot be certified in double precision),
-each with its margin (``confidence``, > 1 = certified).
+eigenvalue certified real) or ``'undecided'`` (a pair is so close to an
+exceptional point that the float64 matrix cannot tell), each with its
+margin (``confidence``, > 1 = certified).
 
-Ramp policy for ``'undecided'`` (docs/driver.md): it is *not* counted as a
-complex pair (the ramp goes on, bisection treats the point as the stable
-side), and it is recorded (``decision`` = -1 with its margin) in ramp.h5.
-An undecided point is within round-off of an exceptional point, i.e. at the
-resolution limit of F_x^c itself.
+Ramp policy (docs/driver.md): only certified answers move the bracket of
+F_x^c. An ``'undecided'`` point is neither stable nor unstable; it is
+recorded (``decision`` = -1 with its margin) in ramp.h5, and the bisection
+works around it (``stages.ramp_bracket``, ``stages.next_bisection_point``).
 """
 from dataclasses import dataclass
 
@@ -54,6 +54,9 @@ class StabilityResult:
     residual : float
         max over disks of max(|F_i|, |T_i|/R_i) recomputed by the analyzer
         from the dump (loads included).
+    timing : dict
+        Wall times (s) of the eigen-solve (``eigen``) and of the certified
+        decision (``decision``).
     """
 
     eigenvalues: np.ndarray
@@ -65,6 +68,7 @@ class StabilityResult:
     decision: str = "real"
     confidence: float = float("inf")
     residual: float = float("nan")
+    timing: dict = None
 
     @property
     def decision_code(self):
@@ -87,7 +91,7 @@ def analyze_state(state):
     from remote_trigger.analysis import eigen, exceptional, jacobian
 
     # K, rattlers and residual from analyze(); the dense spectrum and the
-    # certified decision from one classify_spectrum call (its Schur form gives
+    # certified decision from one classify_spectrum call (its eigen-solve gives
     # the eigenvalues too: analyze(..., eigenvalues=True) would run a second,
     # separate eigenvalue solve -- 20-30 % of the time of a ramp step)
     res = analyze(state, eigenvalues=False, decide=False)
@@ -108,7 +112,7 @@ def analyze_state(state):
     max_imag = float(np.max(np.abs(lam.imag))) if (cplx and lam.size) else 0.0
     return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
                            int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
-                           float(dec.confidence), res.max_residual)
+                           float(dec.confidence), res.max_residual, dict(dec.timing))
 
 
 def analyze_dump(path):

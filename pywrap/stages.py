@@ -483,17 +483,25 @@ class RampResult:
         max Im sqrt(lambda) at each step (0 when stable).
     bisection_F_x, bisection_complex : ndarray
     F_x_c_low, F_x_c_high : float
-        Bracket of F_x^c (last stable, first unstable); NaN if not found.
+        Certified bracket of F_x^c: the largest F_x certified real below the
+        smallest F_x certified complex (undecided points are neither); NaN
+        if not found.
     status : str
         ``'complete'``, ``'no_complex_pair'``, ``'no_equilibrium'`` or
         ``'complex_at_start'``.
     h5 : str
     message : str
+        Set when the bracket stayed wider than ``tol`` (the points next to
+        F_x^c could not be certified) and for the other statuses.
     decision, confidence : ndarray
-        Analyzer decision per ramp step (1 complex, 0 real, -1 undecided;
-        undecided counts as not complex) and its margin (> 1 certified).
+        Analyzer decision per ramp step (1 complex, 0 real, -1 undecided)
+        and its margin (> 1 certified).
     bisection_decision : ndarray
         Same for the bisection points (NaN where no equilibrium was found).
+    tol_reached : bool
+        The bracket is at most ``tol`` wide.
+    n_undecided : int
+        Equilibria (steps and bisection) the analyzer left undecided.
     timestep : dict
         The time-step decision at the start (``dt_used``, ``dt_max``,
         ``dt_fraction``, ``dt_limit_source``, ``dt_auto``; also in ramp.h5).
@@ -514,11 +522,18 @@ class RampResult:
     confidence: np.ndarray = None
     bisection_decision: np.ndarray = None
     timestep: dict = field(default_factory=dict)
+    tol_reached: bool = False
+    n_undecided: int = 0
 
     @property
     def F_x_c(self):
         """Midpoint of the bracket."""
         return 0.5 * (self.F_x_c_low + self.F_x_c_high)
+
+    @property
+    def F_x_c_width(self):
+        """Width of the certified bracket, F_x_c_high - F_x_c_low (NaN if none)."""
+        return self.F_x_c_high - self.F_x_c_low
 
 
 class _RampLog:
@@ -626,10 +641,97 @@ class _RampLog:
             if k.startswith("eigenvalues/"):
                 log.eig[k[len("eigenvalues/"):]] = v
         log.attrs = {k: v for k, v in attrs.items()
-                     if k in ("F_x_c_low", "F_x_c_high", "message", "dt_used")}
+                     if k in ("F_x_c_low", "F_x_c_high", "F_x_c_width", "tol_reached",
+                              "n_undecided", "message", "dt_used")}
         log.status = attrs.get("status", "running")
         log._synced = False          # rewrite in full once (older files: fixed-size)
         return log
+
+
+def ramp_bracket(rlog):
+    """The certified bracket of F_x^c from every row of a ramp (steps and bisection).
+
+    Only certified answers count: ``hi`` is the smallest F_x certified
+    complex (decision 1), ``lo`` the largest F_x certified real (decision 0)
+    below it. Undecided points (decision -1) and points without an
+    equilibrium (``complex`` = 2) are neither stable nor unstable.
+
+    Returns
+    -------
+    lo, hi : float
+        NaN where there is no such point.
+    lo_file : str or None
+        Data file of the ``lo`` equilibrium (start of the next bisection point).
+    unknown : list of float
+        Loads strictly inside (lo, hi) without a certified answer.
+    """
+    F, dec, files = [], [], []
+    for kind in ("steps", "bisection"):
+        rows = rlog.rows[kind]
+        F.extend(rows["F_x"])
+        dec.extend(rows["decision"])
+        files.extend(rlog.files[kind])
+    F, dec = np.asarray(F, float), np.asarray(dec, float)
+    cx = F[dec == 1]
+    hi = float(cx.min()) if cx.size else float("nan")
+    real = np.flatnonzero((dec == 0) & (F < hi)) if cx.size else np.flatnonzero(dec == 0)
+    if real.size:
+        k = int(real[np.argmax(F[real])])
+        lo, lo_file = float(F[k]), files[k]
+    else:
+        lo, lo_file = float("nan"), None
+    unknown = sorted(float(f) for f, d in zip(F, dec)
+                     if not (d == 0 or d == 1) and lo < f < hi)
+    return lo, hi, lo_file, unknown
+
+
+def next_bisection_point(lo, hi, unknown, tol):
+    """Next load to decide inside the certified bracket, or why there is none.
+
+    Without undecided points inside, the midpoint. With some, they are
+    taken to mark the exceptional point's neighbourhood: the larger of the
+    two uncertified gaps [lo, min(unknown)] and [max(unknown), hi] is
+    halved, until both are at most tol/2.
+
+    Returns
+    -------
+    F : float or None
+    why : str
+        ``''`` (F given), ``'tol'`` (hi - lo <= tol), ``'undecided'`` (no
+        gap wider than tol/2 is left beside the undecided points) or
+        ``'resolution'`` (no float64 number strictly inside the gap).
+    """
+    if hi - lo <= tol:
+        return None, "tol"
+    if unknown:
+        g_lo, g_hi = unknown[0] - lo, hi - unknown[-1]
+        if max(g_lo, g_hi) <= 0.5 * tol:
+            return None, "undecided"
+        a, b = (lo, unknown[0]) if g_lo >= g_hi else (unknown[-1], hi)
+    else:
+        a, b = lo, hi
+    mid = 0.5 * (a + b)
+    if not a < mid < b:
+        return None, "resolution"
+    return mid, ""
+
+
+def _bracket_attrs(rlog, lo, hi, tol, why=""):
+    """ramp.h5 attributes of the certified bracket; a message when it is wider than tol."""
+    n_und = int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == -1)
+                    for k in ("steps", "bisection")))
+    width = hi - lo
+    attrs = dict(F_x_c_low=lo, F_x_c_high=hi, F_x_c_width=width,
+                 tol_reached=bool(width <= tol), n_undecided=n_und)
+    if why in ("undecided", "resolution"):
+        _, _, _, unknown = ramp_bracket(rlog)
+        zone = (f"the loads in [{unknown[0]:.10g}, {unknown[-1]:.10g}] could not be "
+                f"certified (closer to the exceptional point than the float64 matrix "
+                f"resolves, or no equilibrium)" if unknown else
+                "no float64 load is left strictly inside the bracket")
+        attrs["message"] = (f"bisection stopped at width {width:.3g} > tol = {tol:.3g}: "
+                            f"{zone}; F_x^c is certified only to [{lo:.10g}, {hi:.10g}]")
+    return attrs
 
 
 def _ramp_point(eng, cfg, start_file, F_x, prefix):
@@ -657,15 +759,19 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     Step k has F_x = cfg.F_x + k dF_x (k = 0 re-equilibrates the data file at
     cfg.F_x). Each step starts from the previous equilibrium's data file,
     equilibrates (Newton first, damped dynamics if needed), writes
-    ``ramp/step_NNNNN.*`` and is analysed (:mod:`.stability`). After the first
-    step with a complex pair, F_x^c is bisected between the last stable and
-    the first unstable load, each point starting from the last stable
-    equilibrium, until the bracket is below ``cfg.tol``.
+    ``ramp/step_NNNNN.*`` and is analysed (:mod:`.stability`) until a step is
+    certified complex.
 
-    "Complex pair" is the analyzer's certified decision
-    (:mod:`.stability`); an ``'undecided'`` point (within round-off of an
-    exceptional point) counts as not complex and is recorded as such
-    (``decision`` = -1 and its margin in ramp.h5).
+    "Complex" and "real" are the analyzer's certified decisions; an
+    ``'undecided'`` point is neither (recorded with ``decision`` = -1 and its
+    margin). The bracket of F_x^c is [largest load certified real, smallest
+    load certified complex] (:func:`ramp_bracket`); bisection works inside
+    it, each point starting from the ``lo`` equilibrium
+    (:func:`next_bisection_point`), until it is at most ``cfg.tol`` wide or
+    no further point can be certified next to the undecided ones. Then the
+    ramp is ``'complete'`` with ``tol_reached`` False and a message giving the
+    width reached; nothing narrower than what was certified is reported.
+    A bisection point without an equilibrium is no answer either.
 
     Parameters
     ----------
@@ -730,7 +836,10 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
                 k = len(steps["F_x"])
                 F = cfg.F_x + k * cfg.dF_x
                 if F > cfg.F_x_max:
-                    rlog.attrs["message"] = f"no complex pair up to F_x_max = {cfg.F_x_max}"
+                    n_und = int(np.count_nonzero(np.asarray(steps["decision"], float) == -1))
+                    rlog.attrs["message"] = (f"no complex pair certified up to F_x_max = "
+                                             f"{cfg.F_x_max}" + (f" ({n_und} steps undecided)"
+                                                                 if n_und else ""))
                     if eng.rank == 0:
                         rlog.write("no_complex_pair")
                     return _ramp_result(rlog, "no_complex_pair")
@@ -752,37 +861,35 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
                 new += 1
                 if stop_after is not None and new >= stop_after:
                     return _ramp_result(rlog, "interrupted")
-            if len(steps["F_x"]) == 1:
-                rlog.attrs["message"] = "complex pair already at the start value of F_x"
+            lo, hi, lo_file, unknown = ramp_bracket(rlog)
+            if lo_file is None:
+                rlog.attrs["message"] = (
+                    "complex pair already at the start value of F_x" if len(steps["F_x"]) == 1
+                    else f"no equilibrium certified real below the first certified complex "
+                         f"one (F_x = {hi:.10g}); the steps before it are undecided")
+                rlog.attrs.update(F_x_c_high=hi)
                 if eng.rank == 0:
                     rlog.write("complex_at_start")
                 return _ramp_result(rlog, "complex_at_start")
-            # ---- bisection
-            lo, hi = steps["F_x"][-2], steps["F_x"][-1]
-            lo_file = rlog.files["steps"][-2]
+            # ---- bisection, on certified answers only (docs/driver.md)
             bis = rlog.rows["bisection"]
-            for F, c, f in zip(bis["F_x"], bis["complex"], rlog.files["bisection"]):
-                if c > 0:
-                    hi = F
-                else:
-                    lo, lo_file = F, f
-            while hi - lo > cfg.tol:
+            while True:
+                lo, hi, lo_file, unknown = ramp_bracket(rlog)
+                mid, why = next_bisection_point(lo, hi, unknown, cfg.tol)
+                if mid is None:
+                    break
                 j = len(bis["F_x"])
-                mid = 0.5 * (lo + hi)
                 prefix = os.path.join(folder, f"bisect_{j:03d}")
                 try:
                     vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix)
                 except eq.NoEquilibriumError:
                     vals = {c: np.nan for c in _RampLog.COLS}
-                    vals.update(F_x=mid, complex=2.0)   # no equilibrium: above F_x^c
+                    vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
                     res = None
                 rlog.add("bisection", f"bisect_{j:03d}", prefix + ".data", vals,
                          [] if res is None else res.eigenvalues)
-                if vals["complex"] > 0:
-                    hi = mid
-                else:
-                    lo, lo_file = mid, prefix + ".data"
-                rlog.attrs.update(F_x_c_low=lo, F_x_c_high=hi)
+                lo, hi, _, _ = ramp_bracket(rlog)
+                rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
                 if eng.rank == 0:
                     rlog.write("running")
                 bar.update(1)
@@ -790,7 +897,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
                 new += 1
                 if stop_after is not None and new >= stop_after:
                     return _ramp_result(rlog, "interrupted")
-            rlog.attrs.update(F_x_c_low=lo, F_x_c_high=hi)
+            rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol, why))
             if eng.rank == 0:
                 rlog.write("complete")
             return _ramp_result(rlog, "complete")
@@ -803,13 +910,16 @@ def _ramp_result(rlog, status):
     return RampResult(
         F_x=np.asarray(s["F_x"]), residual=np.asarray(s["residual"]),
         complex_pair=np.asarray(s["complex"]) > 0, growth_rate=np.asarray(s["growth_rate"]),
-        bisection_F_x=np.asarray(b["F_x"]), bisection_complex=np.asarray(b["complex"]) > 0,
+        bisection_F_x=np.asarray(b["F_x"]), bisection_complex=np.asarray(b["complex"]) == 1,
         F_x_c_low=float(rlog.attrs.get("F_x_c_low", np.nan)),
         F_x_c_high=float(rlog.attrs.get("F_x_c_high", np.nan)), status=status,
         h5=rlog.path, message=str(rlog.attrs.get("message", "")),
         decision=np.asarray(s["decision"]), confidence=np.asarray(s["confidence"]),
         bisection_decision=np.asarray(b["decision"]),
-        timestep={k: v for k, v in rlog.attrs.items() if k.startswith("dt_")})
+        timestep={k: v for k, v in rlog.attrs.items() if k.startswith("dt_")},
+        tol_reached=bool(rlog.attrs.get("tol_reached", False)),
+        n_undecided=int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == -1)
+                            for k in ("steps", "bisection"))))
 
 
 # --------------------------------------------------------------------------- undamped

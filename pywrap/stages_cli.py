@@ -159,8 +159,12 @@ def run_ramp(args):
     res = stages.ramp(cfg, args.out, quiet=args.quiet, resume=args.resume, log=args.log)
     if _rank() == 0:
         if res.status == "complete":
-            print(f"ramp: F_x^c in [{res.F_x_c_low:.10g}, {res.F_x_c_high:.10g}] "
-                  f"({len(res.F_x)} steps, {len(res.bisection_F_x)} bisections) -> {res.h5}")
+            print(f"ramp: F_x^c in [{res.F_x_c_low:.10g}, {res.F_x_c_high:.10g}] (certified, "
+                  f"width {res.F_x_c_width:.3g}; {len(res.F_x)} steps, "
+                  f"{len(res.bisection_F_x)} bisections, {res.n_undecided} undecided) "
+                  f"-> {res.h5}")
+            if not res.tol_reached:
+                print(f"ramp: {res.message}")
         else:
             print(f"ramp: {res.status}: {res.message} -> {res.h5}")
     return 0 if res.status == "complete" else 1

@@ -31,9 +31,12 @@ def test_ramp_finds_complex_pair_and_bisects(full_ramp):
     # bracket inside the last ramp interval and narrower than tol
     assert res.F_x[-2] <= res.F_x_c_low < res.F_x_c_high <= res.F_x[-1]
     assert 0 < res.F_x_c_high - res.F_x_c_low <= TOL
-    # bisection points are consistent: complex above the bracket, stable below
-    bf, bc = res.bisection_F_x, res.bisection_complex
-    assert np.all(bf[bc] >= res.F_x_c_high) and np.all(bf[~bc] <= res.F_x_c_low)
+    assert res.tol_reached and res.F_x_c_width == res.F_x_c_high - res.F_x_c_low
+    # the bracket ends are certified answers: certified complex above it, real below
+    bf, bd = res.bisection_F_x, res.bisection_decision
+    assert np.all(bf[bd == 1] >= res.F_x_c_high) and np.all(bf[bd == 0] <= res.F_x_c_low)
+    assert res.F_x_c_low in set(bf[bd == 0]) | {res.F_x[-2]}
+    assert res.F_x_c_high in set(bf[bd == 1]) | {res.F_x[-1]}
     assert np.all(res.residual < 1e-10)
 
 
@@ -43,6 +46,8 @@ def test_ramp_h5_layout(full_ramp):
     assert attrs["status"] == "complete" and attrs["stage"] == "ramp"
     assert RampConfig.from_attrs(attrs) == cfg
     assert attrs["F_x_c_low"] == res.F_x_c_low and attrs["F_x_c_high"] == res.F_x_c_high
+    assert attrs["F_x_c_width"] == res.F_x_c_width and bool(attrs["tol_reached"])
+    assert attrs["n_undecided"] == res.n_undecided == 0
     n = res.F_x.size
     for c in ("F_x", "residual", "complex", "decision", "confidence", "growth_rate",
               "newton_steps", "datafile"):
@@ -71,3 +76,52 @@ def test_resume_after_interruption_reproduces(full_ramp, relaxed, tmp_path):
 
 
 # kill -9 at random moments, then --resume: tests/driver/test_kill.py
+
+
+def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, capsys,
+                                                        tmp_path):
+    """All points within W of F_x^c undecided: the bracket stays [certified real, complex].
+
+    The analyzer is made to answer 'undecided' near F_x^c (as it would for a
+    pair closer to its exceptional point than float64 resolves). The ramp
+    and its bisection must not count those points as stable: the bracket is
+    at least 2 W wide, wider than tol, and the command line says why.
+    """
+    import dataclasses
+    import json
+
+    from remote_trigger.pywrap import cli, stability
+
+    cfg, full = full_ramp
+    F_c = full.F_x_c
+    W = 0.3 * min(F_c - full.F_x[-2], full.F_x[-1] - F_c)
+    real = stability.analyze_dump
+
+    def fuzzy(path):
+        res = real(path)
+        with open(path + ".json") as fh:
+            F = json.load(fh)["F_x"]
+        if abs(F - F_c) < W:
+            return dataclasses.replace(res, decision="undecided", complex_pair=False,
+                                       confidence=0.5, max_imag=0.0)
+        return res
+
+    monkeypatch.setattr(stability, "analyze_dump", fuzzy)
+    out = str(tmp_path)
+    start = os.path.join(os.path.dirname(full.h5), "ramp", f"step_{full.F_x.size - 2:05d}.data")
+    F0 = float(full.F_x[-2])
+    rc = cli.main(["ramp", "--datafile", start, "--out", out, "--F-x", repr(F0),
+                   "--dF-x", repr(DF), "--tol", repr(TOL), "--quiet"])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    attrs, data = read_all(os.path.join(out, "ramp.h5"))
+    lo, hi = attrs["F_x_c_low"], attrs["F_x_c_high"]
+    assert attrs["status"] == "complete" and not attrs["tol_reached"]
+    assert lo < F_c - W and hi > F_c + W            # only certified points bound it
+    assert 2 * W < hi - lo <= 2 * W + TOL            # ... and it is narrowed up to the zone
+    assert attrs["F_x_c_width"] == hi - lo and attrs["n_undecided"] >= 2
+    dec = np.concatenate([data["steps/decision"], data["bisection/decision"]])
+    F = np.concatenate([data["steps/F_x"], data["bisection/F_x"]])
+    assert np.all(np.abs(F[dec == -1] - F_c) < W) and np.all(np.abs(F[dec >= 0] - F_c) >= W)
+    assert "bisection stopped at width" in attrs["message"]
+    assert f"width {hi - lo:.3g}" in text and "could not be certified" in text

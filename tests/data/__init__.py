@@ -1,0 +1,44 @@
+"""Test data files, looked up by name here and nowhere else.
+
+=====================================  =========================================
+name                                   what
+=====================================  =========================================
+``default_job_mu1_step_00258``         ``remote-trigger paper`` with the default
+                                       configuration (N = 100, seed 1): the ramp
+                                       at mu = 1, ``ramp_mu1/ramp/step_00258.data``,
+                                       F_x = 0.0645, the last ramp step before the
+                                       first complex pair; every bisection point
+                                       of that ramp starts from it.
+``default_job_mu0.8_step_00234``       the same for mu = 0.8:
+                                       ``ramp_mu0.8/ramp/step_00234.data``,
+                                       F_x = 0.0585.
+=====================================  =========================================
+
+Files are stored gzip-compressed (LAMMPS ``write_data`` text, 21 kB each).
+"""
+import gzip
+import os
+import shutil
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+FILES = {
+    "default_job_mu1_step_00258": "default_job_mu1_step_00258.data.gz",
+    "default_job_mu0.8_step_00234": "default_job_mu0.8_step_00234.data.gz",
+}
+
+
+def unpack(name, folder):
+    """Decompress data file ``name`` into ``folder``; returns the path of the copy.
+
+    Raises
+    ------
+    KeyError
+        If ``name`` is not a registered data file.
+    """
+    if name not in FILES:
+        raise KeyError(f"no test data file {name!r}; known: {sorted(FILES)}")
+    out = os.path.join(str(folder), FILES[name][:-3])
+    with gzip.open(os.path.join(HERE, FILES[name]), "rb") as src, open(out, "wb") as dst:
+        shutil.copyfileobj(src, dst)
+    return out
