@@ -4,7 +4,8 @@ For each seed: generate the default packing, relax it with the default
 protocol, then ramp F_x for each mu (default 1 and 0.8) from the *same*
 relaxed equilibrium, up to the first certified complex pair and bisection
 to ``tol``. Prints a table: relax time, ramp time, steps, bisections,
-F_x^c bracket, growth rate just above F_x^c, Newton steps per ramp step.
+certified F_x^c bracket and its width, undecided equilibria, growth rate
+just above F_x^c, Newton steps per ramp step.
 Goal: the mu = 1 ramp in <= 2 minutes on a 2-core machine.
 
     python benchmarks/bench_ramp.py [--seeds 1] [--mu 1 0.8] [--n 100]
@@ -65,16 +66,19 @@ def main(argv=None):
             g = float(res.growth_rate[-1]) if res.growth_rate.size else float("nan")
             rows.append((seed, mu, rel.wall_time, rel.packing_fraction, wall, res.F_x.size,
                          res.bisection_F_x.size, res.F_x_c_low, res.F_x_c_high, g, nst,
-                         res.status))
+                         res.status, res.n_undecided, res.F_x_c_width))
     if rank == 0:
         print(f"N = {args.n}, dF_x = {args.dF_x:g}, tol = {args.tol:g}, "
               f"{comm.Get_size()} MPI rank(s)")
         print(f"{'seed':>4} {'mu':>4} {'relax[s]':>8} {'phi':>6} {'ramp[s]':>8} "
               f"{'steps':>6} {'bisect':>6} {'F_x^c low':>12} {'F_x^c high':>12} "
-              f"{'growth':>9} {'newton/step':>11} status")
+              f"{'width':>8} {'undec':>5} {'growth':>9} {'newton/step':>11} status")
         for r in rows:
             print(f"{r[0]:4d} {r[1]:4g} {r[2]:8.2f} {r[3]:6.4f} {r[4]:8.1f} {r[5]:6d} "
-                  f"{r[6]:6d} {r[7]:12.9f} {r[8]:12.9f} {r[9]:9.2e} {r[10]:11.2f} {r[11]}")
+                  f"{r[6]:6d} {r[7]:12.9f} {r[8]:12.9f} {r[13]:8.2g} {r[12]:5d} {r[9]:9.2e} "
+                  f"{r[10]:11.2f} {r[11]}")
+        print("F_x^c low/high: the certified bracket (largest load certified real, smallest "
+              "certified complex); undec: equilibria the analyzer left undecided")
     return 0
 
 
