@@ -21,7 +21,9 @@ bound below is rigorous: rounding errors of the float64 computations are
 bounded a priori (gamma_k = k u / (1 - k u), Higham, *Accuracy and Stability
 of Numerical Algorithms*, 2nd ed., section 3.5), the pair's small problem is
 evaluated exactly (error-free products and ``math.fsum``; rational
-arithmetic for the 2 x 2 discriminant).
+arithmetic for the 2 x 2 discriminant). The a-priori bounds assume a BLAS
+whose matrix product is a sum of products in any order, with or without
+FMA (OpenBLAS, MKL, reference BLAS), not a Strassen-type algorithm.
 
 **Method** (``classify_spectrum``).
 
@@ -517,7 +519,7 @@ def _refine(A, sigma, Q, iters=4):
 
 
 def _pair_basis(A, lam, V, unit):
-    """Real orthonormal basis (n x 2) of a pair's invariant subspace; refined if ill-conditioned."""
+    """Real orthonormal basis (n x 2) of a pair's invariant subspace (refined near an EP)."""
     i, j = unit.idx
     if unit.complex_pair:
         V0 = np.column_stack([V[:, i].real, V[:, i].imag])

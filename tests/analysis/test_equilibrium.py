@@ -10,7 +10,7 @@ xi = 0 on every contact and the top line on top. F_x is then ramped with
 Newton re-equilibration.
 
 * At F_x = 0 the eigenvalues of M^-1 K after rattler removal are real
-  (certified by the Schur-block test) and positive.
+  (certified by the analyzer's test) and positive.
 * At F_x = 0.40 (far above F_x^c = 0.0646 of this packing, where max Im
   omega ~ 0.3; just above F_x^c it is ~0.002 - 0.02, too slow to measure in
   a test) the certified test finds complex pairs; an undamped LAMMPS run from that equilibrium shows
