@@ -239,3 +239,37 @@ def saturated(t, D, mu, mu0, span=100.0, rise=1e3):
         return False
     last = t >= t[-1] - span
     return bool(D[last].max() < 2.0 * D[~last].max())
+
+
+def settled_growth(t, D, mu, mu0, mu_target, settle_tol, lo=10.0, hi=1e-2):
+    """Exponential window of a triggered run, after mu(v) has settled.
+
+    The window (:func:`growth_window`) starts at the first record after the
+    friction has settled at ``mu_target`` (:func:`settle_index`) with D
+    above ``lo`` x the level right after the switch (:func:`post_switch_level`,
+    the re-equilibration jump) and ends at the first record above ``hi`` x
+    max D.
+
+    Parameters
+    ----------
+    t, D, mu : array_like, shape (n,)
+    mu0, mu_target, settle_tol, lo, hi : float
+
+    Returns
+    -------
+    dict or None
+        ``settle_index``, ``t_settle``, ``level``, ``window`` ([i0, i1] or
+        None), ``t_window``, ``growth_rate`` (g of D ~ e^{2gt}), ``mu_fit``
+        (median mu over the window); None if mu never settled.
+    """
+    t, D, mu = np.asarray(t, float), np.asarray(D, float), np.asarray(mu, float)
+    i = settle_index(t, mu, mu_target, tol=settle_tol)
+    if i is None:
+        return None
+    level = post_switch_level(t, D, mu, mu0)
+    win, g = growth_window(t, D, level, lo=lo, hi=hi, start=i)
+    return {"settle_index": int(i), "t_settle": float(t[i]), "level": level,
+            "window": list(win) if win else None,
+            "t_window": [float(t[win[0]]), float(t[win[1]])] if win else None,
+            "growth_rate": g,
+            "mu_fit": float(np.median(mu[win[0]:win[1] + 1])) if win else float("nan")}

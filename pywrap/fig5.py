@@ -180,39 +180,6 @@ def fig5_load(cfg, ramps):
     return lo + cfg.fig5_window * (hi - lo), lo, hi
 
 
-def growth_of_triggered(h5, mu0, mu_target, settle_tol, lo=10.0, hi=1e-2):
-    """Exponential window of a triggered run, after mu(v) has settled.
-
-    The window (:func:`remote_trigger.analysis.series.growth_window`) starts
-    at the first record after the friction has settled at ``mu_target``
-    (:func:`~remote_trigger.analysis.series.settle_index`) with D above
-    ``lo`` x the level right after the switch (the re-equilibration jump)
-    and ends at the first record above ``hi`` x max D.
-
-    Returns
-    -------
-    dict or None
-        ``settle_index``, ``t_settle``, ``level`` (post-switch D), ``window``
-        ((i0, i1) or None), ``t_window``, ``growth_rate`` (g of D ~ e^{2gt}),
-        ``mu_fit`` (median mu over the window); None if mu never settled.
-    """
-    import h5py
-    from remote_trigger.analysis import series as ser
-
-    with h5py.File(h5, "r") as fh:
-        t, D, mu = fh["t"][()], fh["D"][()], fh["mu"][()]
-    i = ser.settle_index(t, mu, mu_target, tol=settle_tol)
-    if i is None:
-        return None
-    level = ser.post_switch_level(t, D, mu, mu0)
-    win, g = ser.growth_window(t, D, level, lo=lo, hi=hi, start=i)
-    return {"settle_index": int(i), "t_settle": float(t[i]), "level": level,
-            "window": list(win) if win else None,
-            "t_window": [float(t[win[0]]), float(t[win[1]])] if win else None,
-            "growth_rate": g,
-            "mu_fit": float(np.median(mu[win[0]:win[1] + 1])) if win else float("nan")}
-
-
 def run_fig5(cfg, out, ramps, comm, clock):
     """The whole Fig. 5 phase; all ranks of ``comm`` call it.
 
@@ -225,7 +192,6 @@ def run_fig5(cfg, out, ramps, comm, clock):
     from .engine import Engine
     from .paper import ramp_config, dynamics_config
     from . import stages
-    from . import equilibrium as eq
 
     t_start = time.perf_counter()
     rank0 = comm.Get_rank() == 0
@@ -341,7 +307,7 @@ def run_fig5(cfg, out, ramps, comm, clock):
                "muss": float(cfg.mu_ss)}
         force = {"a": float(a), "wp": float(cfg.omega_p)}
         run("b", dcfg, data5, dict(force, muv=0), a_forcing=a)
-        run("c", dcfg, data5, dict(force, **muv), a_forcing=a, v0=v0, v_ss=v0)
+        rc = run("c", dcfg, data5, dict(force, **muv), a_forcing=a, v0=v0, v_ss=v0)
         if control is not None:
             ccfg = dcfg.replace(datafile=control["datafile"], F_x=control["F_x"])
             run("d", ccfg, control["datafile"], dict(force, **muv), a_forcing=a, v0=v0,
@@ -350,11 +316,9 @@ def run_fig5(cfg, out, ramps, comm, clock):
         run("p", dcfg, data5, dict({"a": float(cfg.a_paper), "wp": float(cfg.omega_p)}, **muv),
             a_forcing=float(cfg.a_paper), v0=v0, v_ss=v0)
         summ.update(walls=walls, files=run_files)
-        # ---- the friction reached in (c): its spectrum (predicted growth rate)
-        pred = None
-        if rank0:
-            pred = growth_of_triggered(run_files["c"], mu0, mu_ss, cfg.fig5_settle_tol)
-        pred = comm.bcast(pred, root=0)
+        # ---- the friction reached in (c): its spectrum (predicted growth rate);
+        #      (c)'s records are on every rank, so every rank gets the same window
+        pred = ser.settled_growth(rc.t, rc.D, rc.mu, mu0, mu_ss, cfg.fig5_settle_tol)
         if pred is not None and math.isfinite(pred["mu_fit"]):
             fit = friction_drop(eng, rcfg, data5, F5, pred["mu_fit"],
                                 os.path.join(folder, "drop_fit"))

@@ -91,3 +91,10 @@ def test_quasi_static_velocity_step_and_smooth():
     f = C * a * np.where(t < t_on, 0.5 * (1 - np.cos(np.pi * t / t_on)), 1.0) * np.cos(w * t)
     fd = np.gradient(f, t)
     assert np.max(np.abs(fd[1:-1] - vs[1:-1])) < 1e-3 * np.max(np.abs(vs))
+
+
+def test_settled_growth_composes_the_window():
+    t, D, mu = triggered_series(g=0.013)
+    res = ser.settled_growth(t, D, mu, 1.0, 0.8, 0.01)
+    assert res["mu_fit"] == pytest.approx(0.8) and abs(res["growth_rate"] / 0.013 - 1) < 0.05
+    assert ser.settled_growth(t, D, np.ones_like(t), 1.0, 0.8, 0.01) is None
