@@ -41,13 +41,8 @@ MUST_PASS = ["stable_fig5", "drop_unstable_fig5", "msd_growth_fig5a", "msd_fig5b
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("paper") / "quick-out"
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    proc = subprocess.run([CLI, "paper", "--quick", "--out", str(out)], capture_output=True,
-                          text=True, env=env, timeout=600)
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    return str(out), proc
+def run(paper_quick):
+    return paper_quick
 
 
 def split_row(line):

@@ -1,0 +1,1070 @@
+"""``remote-trigger trigger-map``: the threshold amplitude a_c of remote triggering.
+
+From the equilibria of a finished ``paper`` job (its mu0 ramp, Fig. 5's v0
+and friction law), for each load F_x (fractions of the window between
+F_x^c(mu_ss mu0) and F_x^c(mu0), and one load below it), each damping time
+tau (none, and LAMMPS ``fix viscous``), each angular frequency omega_p and
+each onset of f(t) (step, raised cosine), the smallest amplitude a of
+f(t) = a cos(omega_p t) that triggers: D(t) passes the runaway level
+D_run within t_max, with mu(v) (Eq. 4) on. docs/trigger_map.md describes the
+design; in short:
+
+* **Runaway level.** D_run = ``d_run_factor`` x max(D_drop, (C a)^2):
+  D_drop is the mean-square displacement of the load's equilibrium when the
+  friction drops to mu_ss mu0 and the packing re-equilibrates (computed
+  statically by Newton, :func:`.fig5.friction_drop`): what a friction drop
+  does without any instability; (C a)^2 that of the quasi-static response
+  to the forcing (C = d<x_top>/dF_x).
+* **Prediction, then bisection.** A probe run without mu(v) at
+  a_probe = v0 / (omega_p C) measures the largest |v_top| within t_max;
+  before mu(v) first switches, a run with mu(v) is the same run, so the
+  linear-response estimate a_lin = a_probe v0 / max |v_top| seeds the
+  bisection. The bracket [a_lo, a_hi] (a_lo not triggered, a_hi triggered)
+  is then narrowed in log a to a factor <= ``factor``. A run stops as soon
+  as D > D_run (triggered) or at t_max (not triggered).
+* **Controls.** For each load and tau, the run with mu(v) and no forcing (the
+  same run for every omega_p and onset: it has no forcing). If it triggers,
+  every point of that load and tau is ``noise-triggered`` and gets no a_c.
+* **Prediction of the damped rate.** The growth rate after the friction
+  drop with damping, from the quadratic eigenproblem
+  (:func:`remote_trigger.analysis.eigen.damped_growth_rate`).
+
+Work is spread over MPI ranks (each rank its own LAMMPS instance on
+``MPI.COMM_SELF``; tasks round robin); each task's runs are logged to
+``tasks/<key>.json`` (atomic), so a job killed (also ``kill -9``) and run
+again with ``--resume`` keeps every finished run. Rank 0 writes
+``trigger_map.h5`` (one row per map point), ``trigger_map.png`` and
+``trigger_map.md``.
+"""
+from dataclasses import dataclass, field, asdict, fields
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+from .config import ConfigError, _num, _int
+
+#: onsets of f(t)
+ONSETS = ("step", "smooth")
+#: name of the job's manifest
+MANIFEST = "trigger_map.json"
+#: file of the table
+TABLE = "trigger_map.h5"
+
+
+@dataclass(frozen=True)
+class MapConfig:
+    """Configuration of the trigger map.
+
+    Attributes
+    ----------
+    paper : str
+        Output folder of a complete ``remote-trigger paper`` job (its
+        ``paper.json``, ramps and Fig. 5 summary are read).
+    fractions : list of float
+        Loads in the window: F_x = F_x^c(mu_ss mu0) + f (F_x^c(mu0) -
+        F_x^c(mu_ss mu0)), each f in (0, 1). Default [0.25, 0.5, 0.75].
+    below : bool
+        Add the load below the window of the paper's Fig. 5 (d) control
+        (certified real after the friction drop). Default True.
+    omega_p : list of float
+        Angular frequencies of f(t), each > 0, non-empty.
+        Default [1e-3, 1e-2, 1e-1, 1].
+    natural : bool
+        Add the packing's lowest natural frequency omega_1 = sqrt(lambda_1)
+        and half of it (measured at the load nearest the window's middle).
+        Default True.
+    tau_g : list of float
+        Damping times in units of 1/g, g the growth rate after the friction
+        drop at the load nearest the window's middle: tau = tau_g / g, each
+        > 0. The undamped column is always there. Default [4, 1, 0.25].
+    tau : list of float
+        Explicit damping times (> 0); when given they replace ``tau_g``.
+    onsets : list of str
+        ``'step'`` and/or ``'smooth'`` (raised cosine over
+        t_on = pi / (2 omega_p)). Default both.
+    t_max : float
+        Simulated time of a run, > 0. Default 1200.
+    dt_fraction : float
+        Time step as a fraction of the stability limit of the load's
+        equilibrium, in (0, 1). Default 0.5 (checked by ``dt_check``).
+    dt_check : int
+        Number of map points redone at dt / 2 (the first points of the
+        undamped column of the window's middle load), >= 0. Default 2.
+    factor : float
+        Bisection target a_hi / a_lo, > 1. Default 1.25.
+    d_run_factor : float
+        Runaway level D_run = d_run_factor x max(D_drop, (C a)^2), > 1.
+        Default 100: twenty times the largest D of the untriggered runs
+        measured (a friction drop below the window, or damped: 4-5 D_drop)
+        and a decade below the level where the quick scene's instability
+        saturates (~1e3 D_drop).
+    a_max_factor : float
+        Largest amplitude tried: a_max_factor x (F_x^c(mu0) - F_x) (the
+        forcing's peak then reaches F_x^c(mu0) itself), > 0. Default 1.
+    record_every : int or None
+        Steps between records; None: about one time unit. Default None.
+    kappa_steps : int or None
+        Condition number kappa of the coalescing pair along the mu0 ramp:
+        the ``kappa_steps`` steps nearest F_x^c (None: every step).
+    np : int
+        MPI ranks (re-launch under mpirun), >= 1. Default 1.
+    quick : bool
+        The small test variant (:data:`QUICK`).
+    """
+
+    paper: str = ""
+    fractions: tuple = (0.25, 0.5, 0.75)
+    below: bool = True
+    omega_p: tuple = (1e-3, 1e-2, 1e-1, 1.0)
+    natural: bool = True
+    tau_g: tuple = (4.0, 1.0, 0.25)
+    tau: tuple = ()
+    onsets: tuple = ONSETS
+    t_max: float = 1200.0
+    dt_fraction: float = 0.5
+    dt_check: int = 2
+    factor: float = 1.25
+    d_run_factor: float = 1e2
+    a_max_factor: float = 1.0
+    record_every: int = None
+    kappa_steps: int = None
+    np: int = 1
+    quick: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.paper, str) or not self.paper:
+            raise ConfigError(f"paper must name the output folder of a paper job, got "
+                              f"paper = {self.paper!r}")
+        for name in ("fractions", "omega_p", "tau_g", "tau", "onsets"):
+            v = getattr(self, name)
+            if isinstance(v, (str, bytes)) or not hasattr(v, "__iter__"):
+                raise ConfigError(f"{name} must be a list, got {name} = {v!r}")
+            object.__setattr__(self, name, tuple(v))
+        for f in self.fractions:
+            if not 0.0 < _num("fractions", f) < 1.0:
+                raise ConfigError(f"fractions must each be in (0, 1) (inside the window), got "
+                                  f"fractions = {list(self.fractions)!r}")
+        if not self.fractions and not self.below:
+            raise ConfigError("no load: fractions is empty and below = false")
+        if not self.omega_p:
+            raise ConfigError("omega_p must not be empty, got omega_p = []")
+        for w in self.omega_p:
+            if not _num("omega_p", w) > 0:
+                raise ConfigError(f"omega_p must each be > 0, got omega_p = "
+                                  f"{list(self.omega_p)!r}")
+        for name in ("tau_g", "tau"):
+            for t in getattr(self, name):
+                if not _num(name, t) > 0:
+                    raise ConfigError(f"{name} must each be > 0, got {name} = "
+                                      f"{list(getattr(self, name))!r}")
+        for o in self.onsets:
+            if o not in ONSETS:
+                raise ConfigError(f"onsets must be among {list(ONSETS)}, got onsets = "
+                                  f"{list(self.onsets)!r}")
+        if not self.onsets:
+            raise ConfigError("onsets must not be empty, got onsets = []")
+        if not _num("t_max", self.t_max) > 0:
+            raise ConfigError(f"t_max must be > 0, got t_max = {self.t_max!r}")
+        if not 0.0 < _num("dt_fraction", self.dt_fraction) < 1.0:
+            raise ConfigError(f"dt_fraction must be in (0, 1), got dt_fraction = "
+                              f"{self.dt_fraction!r}")
+        _int("dt_check", self.dt_check, 0)
+        if not _num("factor", self.factor) > 1.0:
+            raise ConfigError(f"factor must be > 1, got factor = {self.factor!r}")
+        if not _num("d_run_factor", self.d_run_factor) > 1.0:
+            raise ConfigError(f"d_run_factor must be > 1, got d_run_factor = "
+                              f"{self.d_run_factor!r}")
+        if not _num("a_max_factor", self.a_max_factor) > 0:
+            raise ConfigError(f"a_max_factor must be > 0, got a_max_factor = "
+                              f"{self.a_max_factor!r}")
+        if self.record_every is not None:
+            _int("record_every", self.record_every, 1)
+        if self.kappa_steps is not None:
+            _int("kappa_steps", self.kappa_steps, 1)
+        _int("np", self.np, 1)
+
+    @classmethod
+    def names(cls):
+        """Names of all fields."""
+        return [f.name for f in fields(cls)]
+
+    @classmethod
+    def from_dict(cls, data):
+        """Build from a mapping; unknown keys raise :class:`ConfigError` naming them."""
+        unknown = sorted(set(data) - set(cls.names()))
+        if unknown:
+            raise ConfigError(f"unknown configuration key {unknown[0]!r}; known keys: "
+                              f"{', '.join(sorted(cls.names()))}")
+        return cls(**dict(data))
+
+    def to_dict(self):
+        """Plain dict (lists for tuples)."""
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+
+
+#: the ``--quick`` preset (a test on the ``paper --quick`` job)
+QUICK = {"fractions": [0.6], "below": True, "omega_p": [1.0], "natural": False,
+         "tau_g": [0.25], "onsets": ["step", "smooth"], "t_max": 300.0, "dt_check": 1,
+         "factor": 1.5, "kappa_steps": 8}
+
+
+def build_config(toml=None, overrides=None, quick=False):
+    """Defaults < quick preset < TOML file < overrides; returns :class:`MapConfig`."""
+    from .paper_config import read_toml
+
+    from_file = read_toml(toml) if toml else {}
+    overrides = dict(overrides or {})
+    quick = bool(quick or overrides.get("quick") or from_file.get("quick") is True)
+    d = dict(QUICK, quick=True) if quick else {}
+    d.update(from_file)
+    d.update(overrides)
+    if quick:
+        d["quick"] = True
+    return MapConfig.from_dict(d)
+
+
+# --------------------------------------------------------------------------- the paper job
+def load_paper_job(folder):
+    """Configuration and manifest of a complete paper job.
+
+    Returns
+    -------
+    (PaperConfig, dict)
+
+    Raises
+    ------
+    ConfigError
+        If ``folder/paper.json`` is missing, unreadable, not complete, or
+        lacks the Fig. 5 phase.
+    """
+    from .paper_config import PaperConfig
+
+    path = os.path.join(folder, "paper.json")
+    try:
+        with open(path) as fh:
+            man = json.load(fh)
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"paper = {folder!r} is not a paper job's output folder "
+                          f"({path}: {exc})") from None
+    if man.get("status") != "complete" or not man.get("perturb") or not man.get("ramps"):
+        raise ConfigError(f"paper = {folder!r}: the paper job is not complete "
+                          f"(status {man.get('status')!r}); finish it with "
+                          f"`remote-trigger paper --out {folder} --resume`")
+    d = dict(man["config"])
+    d["nf_tau"] = [math.inf if v is None else v for v in d.get("nf_tau", [])]
+    return PaperConfig.from_dict(d), man
+
+
+def _msd(a, b):
+    """Mean over disks of |r_a - r_b|^2 (minimum image along periodic x)."""
+    d = a.positions[:, :2] - b.positions[:, :2]
+    L = a.box_hi[0] - a.box_lo[0]
+    d[:, 0] -= L * np.round(d[:, 0] / L)
+    return float(np.mean(np.sum(d * d, axis=1)))
+
+
+def spectrum_numbers(dump_mu0, dump_drop, taus):
+    """Spectral numbers of one load: natural frequencies, kappa, damped rates.
+
+    Parameters
+    ----------
+    dump_mu0, dump_drop : str
+        Dumps of the equilibrium with mu0 and after the friction drop.
+    taus : list of float
+        Damping times (``fix viscous``: gamma = 1/tau on x and y).
+
+    Returns
+    -------
+    dict
+        ``omega_1``, ``omega_2`` (lowest natural frequencies with mu0),
+        ``growth`` (after the drop), ``pair`` (its eigenvalue),
+        ``kappa_drop`` (condition number of the complex pair after the
+        drop), ``kappa_mu0`` and ``gap_mu0`` (condition number and relative
+        distance to the nearest eigenvalue of the mu0 eigenvalue nearest the
+        pair: the spectral distance to the exceptional point), ``growth_tau``
+        (max Re s with damping, per tau), ``D_drop``.
+    """
+    from remote_trigger.analysis.state import read_dump
+    from remote_trigger.analysis.analyze import analyze
+    from remote_trigger.analysis.jacobian import remove_dofs
+    from remote_trigger.analysis import eigen
+
+    out = {}
+    s0, s1 = read_dump(dump_mu0), read_dump(dump_drop)
+    out["D_drop"] = _msd(s1, s0)
+    res = {}
+    for key, st in (("mu0", s0), ("drop", s1)):
+        an = analyze(st, eigenvalues=False, decide=False)
+        Kr, mr = remove_dofs(an.K, an.mass, an.rattlers.keep_dofs)
+        rot = (an.rattlers.keep_dofs % 3) == 2
+        res[key] = (eigen.dense_eigen(Kr, mr, vectors=True), Kr, mr, rot)
+    e0, e1 = res["mu0"][0], res["drop"][0]
+    w0 = np.sort(np.sqrt(np.abs(e0.eigenvalues.real)))
+    out["omega_1"], out["omega_2"] = float(w0[0]), float(w0[1])
+    gr = np.abs(np.sqrt(e1.eigenvalues).imag)
+    i = int(np.argmax(gr))
+    out["growth"] = float(gr[i])
+    out["pair"] = [float(e1.eigenvalues[i].real), float(e1.eigenvalues[i].imag)]
+    out["kappa_drop"] = float(e1.kappa[i])
+    lam0 = e0.eigenvalues
+    j = int(np.argmin(np.abs(lam0 - e1.eigenvalues[i].real)))
+    others = np.delete(lam0, j)
+    out["kappa_mu0"] = float(e0.kappa[j])
+    out["gap_mu0"] = float(np.min(np.abs(others - lam0[j])) / abs(lam0[j]))
+    _, Kr, mr, rot = res["drop"]
+    out["growth_tau"] = [eigen.damped_growth_rate(Kr, mr, np.where(rot, 0.0, 1.0 / t))
+                         for t in taus]
+    return out
+
+
+def ramp_kappa(ramp_h5, limit=None):
+    """Eigenvalue condition number of the coalescing pair along a ramp.
+
+    The pair is the complex pair of largest growth rate at the ramp's first
+    complex point (the high end of the F_x^c bracket); below it, at each step
+    from F_x^c downwards, the two real eigenvalues nearest the pair's position
+    at the step above (tracking). kappa = ||y|| ||x|| / |y^H x| from LAPACK's
+    left and right eigenvectors (:func:`remote_trigger.analysis.eigen.condition_numbers`).
+
+    Parameters
+    ----------
+    ramp_h5 : str
+        ``ramp.h5`` (its step dumps are read).
+    limit : int, optional
+        Only the ``limit`` steps nearest F_x^c.
+
+    Returns
+    -------
+    dict
+        ``F_x``, ``kappa`` (max of the pair's two), ``gap`` (|lambda_i -
+        lambda_j| / |lambda|: the spectral distance to the exceptional point),
+        ``kappa_max`` (largest over the spectrum), lists in increasing F_x;
+        ``lambda_c`` (the pair at the first complex point).
+    """
+    import h5py
+    from remote_trigger.analysis.state import read_dump
+    from remote_trigger.analysis.analyze import analyze
+    from remote_trigger.analysis.jacobian import remove_dofs
+    from remote_trigger.analysis import eigen
+
+    def spec(datafile):
+        st = read_dump(datafile[:-len(".data")] + ".dump")
+        an = analyze(st, eigenvalues=False, decide=False)
+        Kr, mr = remove_dofs(an.K, an.mass, an.rattlers.keep_dofs)
+        return eigen.dense_eigen(Kr, mr, vectors=True)
+
+    with h5py.File(ramp_h5, "r") as fh:
+        F = np.asarray(fh["steps/F_x"][()], float)
+        files = [x.decode() if isinstance(x, bytes) else str(x)
+                 for x in fh["steps/datafile"][()]]
+        dec = np.asarray(fh["steps/decision"][()], float)
+        hi = float(fh.attrs["F_x_c_high"])
+        bF = np.asarray(fh["bisection/F_x"][()], float) if "bisection" in fh else np.zeros(0)
+        bfiles = ([x.decode() if isinstance(x, bytes) else str(x)
+                   for x in fh["bisection/datafile"][()]] if "bisection" in fh else [])
+    pts = sorted(zip(list(F) + list(bF), files + bfiles))
+    top = [f for x, f in pts if x == hi]
+    e = spec(top[0])
+    g = np.abs(np.sqrt(e.eigenvalues).imag)
+    lam_c = e.eigenvalues[int(np.argmax(g))]
+    below = [(x, f) for x, f in pts if x < hi and x in set(F)][::-1]
+    if limit is not None:
+        below = below[:limit]
+    target = lam_c.real
+    rows = []
+    for x, f in below:
+        e = spec(f)
+        lam = e.eigenvalues
+        idx = np.argsort(np.abs(lam - target))[:2]
+        i, j = int(idx[0]), int(idx[1])
+        rows.append((x, float(max(e.kappa[i], e.kappa[j])),
+                     float(abs(lam[i] - lam[j]) / abs(0.5 * (lam[i] + lam[j]))),
+                     float(np.max(e.kappa))))
+        target = 0.5 * (lam[i].real + lam[j].real)
+    rows.sort()
+    del dec
+    return {"F_x": [r[0] for r in rows], "kappa": [r[1] for r in rows],
+            "gap": [r[2] for r in rows], "kappa_max": [r[3] for r in rows],
+            "lambda_c": [float(lam_c.real), float(lam_c.imag)], "F_x_c_high": hi}
+
+
+def prepare_loads(cfg, pcfg, man, out, comm):
+    """Equilibria, friction-drop analyses and spectral numbers of the map's loads.
+
+    Runs on rank 0 of ``comm`` (its own LAMMPS instance); the result is
+    written to ``out/loads.json`` and broadcast.
+
+    Returns
+    -------
+    dict
+        ``loads`` (list of dict), ``taus``, ``omegas``, ``v0``, ``mu0``,
+        ``mu_ss``, ``g_ref``.
+    """
+    from mpi4py import MPI
+
+    path = os.path.join(out, "loads.json")
+    result, err = None, None
+    if comm.Get_rank() == 0:
+        try:
+            if os.path.isfile(path):
+                with open(path) as fh:
+                    result = json.load(fh)
+            else:
+                result = _prepare_loads(cfg, pcfg, man, out)
+                from .paper import write_json
+                write_json(path, result)
+        except Exception as exc:  # noqa: BLE001 - re-raised on every rank
+            err = exc
+    err = comm.bcast(err, root=0)
+    if err is not None:
+        raise err
+    del MPI
+    return comm.bcast(result, root=0)
+
+
+def _prepare_loads(cfg, pcfg, man, out):
+    from mpi4py import MPI
+    from .engine import Engine
+    from .paper import ramp_config
+    from . import fig5
+    from remote_trigger.analysis.timestep import stability_limit
+    from remote_trigger.analysis.state import read_dump
+
+    ramps = man["ramps"]
+    fig = man["perturb"]
+    mu0 = float(pcfg.mu)
+    mu_ss = float(pcfg.mu_ss) * mu0
+    lo = float(ramps[1]["F_x_c_high"])
+    hi = float(ramps[0]["F_x_c_low"])
+    F_steps, files = fig5._ramp_steps(ramps[0]["h5"])
+    loads = [{"kind": f"window {f:g}", "fraction": float(f), "F_x": lo + f * (hi - lo)}
+             for f in cfg.fractions]
+    if cfg.below:
+        ctrl = fig.get("control")
+        if not ctrl:
+            raise ConfigError(f"paper = {cfg.paper!r}: its Fig. 5 has no control load below "
+                              f"the window; set below = false")
+        loads.append({"kind": "below", "fraction": (ctrl["F_x"] - lo) / (hi - lo),
+                      "F_x": float(ctrl["F_x"])})
+    folder = os.path.join(out, "loads")
+    os.makedirs(folder, exist_ok=True)
+    with Engine(comm=MPI.COMM_SELF) as eng:
+        for k, ld in enumerate(loads):
+            F = ld["F_x"]
+            below = np.flatnonzero(F_steps <= F)
+            start = files[int(below[-1])] if below.size else files[0]
+            rcfg = ramp_config(pcfg, start, mu0)
+            pre = os.path.join(folder, f"load{k}")
+            eq = fig5.friction_drop(eng, rcfg, start, F, mu0, pre)
+            dr = fig5.friction_drop(eng, rcfg, eq["datafile"], F, mu_ss, pre + "_drop")
+            ld.update(equilibrium=eq["datafile"], decision_mu0=eq["decision"],
+                      margin_mu0=eq["confidence"], decision_drop=dr["decision"],
+                      margin_drop=dr["confidence"], residual=eq["residual"],
+                      dt_max=float(stability_limit(read_dump(pre + ".dump",
+                                                             require_contacts=False))),
+                      compliance=float(fig5.top_compliance(ramps[0]["h5"], F)),
+                      a_max=float(cfg.a_max_factor * (hi - F)))
+    # the reference load (growth rate g of the tau_g column): nearest the middle
+    inside = [ld for ld in loads if ld["kind"] != "below"] or loads
+    ref = min(inside, key=lambda ld: abs(ld["fraction"] - 0.5))
+    pre_ref = os.path.join(folder, f"load{loads.index(ref)}")
+    g_ref = spectrum_numbers(pre_ref + ".dump", pre_ref + "_drop.dump", [])["growth"]
+    if cfg.tau:
+        taus = [float(t) for t in cfg.tau]
+    elif g_ref > 0:
+        taus = [float(t) / g_ref for t in cfg.tau_g]
+    else:
+        raise ConfigError("tau_g needs a growth rate after the friction drop at the "
+                          "window's middle load, which is 0 there; give tau explicitly")
+    for k, ld in enumerate(loads):
+        pre = os.path.join(folder, f"load{k}")
+        ld.update(spectrum_numbers(pre + ".dump", pre + "_drop.dump", taus))
+    omegas = [float(w) for w in cfg.omega_p]
+    if cfg.natural:
+        omegas += [0.5 * ref["omega_1"], ref["omega_1"]]
+    omegas = sorted(set(omegas))
+    return {"loads": loads, "taus": taus, "omegas": omegas, "v0": float(fig["v0"]),
+            "mu0": mu0, "mu_ss": mu_ss, "g_ref": float(g_ref), "window": [lo, hi],
+            "B": float(pcfg.B), "w": float(pcfg.w), "mu_ss_ratio": float(pcfg.mu_ss),
+            "k_n": float(pcfg.k_n), "k_t": float(pcfg.k_t), "F_y": float(pcfg.F_y),
+            "a_paper": float(pcfg.a_paper)}
+
+
+# --------------------------------------------------------------------------- tasks
+def make_tasks(cfg, setup):
+    """Controls (per load and tau) and threshold searches (per map point).
+
+    Returns
+    -------
+    list of dict
+        Each with ``key``, ``kind`` ('control' or 'threshold'), ``load``
+        (index), ``tau`` (None: undamped), and for thresholds ``omega_p``,
+        ``onset``, ``dt_fraction``.
+    """
+    taus = [None] + list(setup["taus"])
+    tasks = []
+    for i, _ in enumerate(setup["loads"]):
+        for j, tau in enumerate(taus):
+            tasks.append({"key": f"control_L{i}_T{j}", "kind": "control", "load": i,
+                          "tau": tau, "dt_fraction": cfg.dt_fraction})
+    for i, _ in enumerate(setup["loads"]):
+        for j, tau in enumerate(taus):
+            for k, w in enumerate(setup["omegas"]):
+                for onset in cfg.onsets:
+                    tasks.append({"key": f"L{i}_T{j}_W{k}_{onset}", "kind": "threshold",
+                                  "load": i, "tau": tau, "omega_p": w, "onset": onset,
+                                  "dt_fraction": cfg.dt_fraction})
+    # the dt check: the first points of the undamped column of the reference load
+    inside = [i for i, ld in enumerate(setup["loads"]) if ld["kind"] != "below"]
+    ref = min(inside or [0], key=lambda i: abs(setup["loads"][i]["fraction"] - 0.5))
+    picks = [t for t in tasks if t["kind"] == "threshold" and t["load"] == ref
+             and t["tau"] is None][:cfg.dt_check]
+    for t in picks:
+        tasks.append(dict(t, key=t["key"] + "_half", dt_fraction=0.5 * cfg.dt_fraction,
+                          check_of=t["key"]))
+    return tasks
+
+
+class _TaskLog:
+    """Runs of one task, checkpointed to ``tasks/<key>.json`` after each run."""
+
+    def __init__(self, path, task):
+        self.path = path
+        self.data = {"task": task, "runs": [], "status": "running"}
+        if os.path.isfile(path):
+            try:
+                with open(path) as fh:
+                    old = json.load(fh)
+                if old.get("task") == json.loads(json.dumps(task)):
+                    self.data = old
+            except (OSError, ValueError):
+                pass
+
+    def find(self, kind, a):
+        for r in self.data["runs"]:
+            if r["kind"] == kind and r["a"] == a:
+                return r
+        return None
+
+    def add(self, run):
+        from .paper import write_json
+        self.data["runs"].append(run)
+        write_json(self.path, self.data)
+
+    def finish(self, **result):
+        from .paper import write_json
+        self.data.update(result, status="complete")
+        write_json(self.path, self.data)
+
+    @property
+    def done(self):
+        return self.data.get("status") == "complete"
+
+
+def _dyn_config(setup, ld, task, dt):
+    from .config import DynamicsConfig
+
+    t_on = 0.0
+    if task.get("onset") == "smooth":
+        t_on = 0.5 * math.pi / task["omega_p"]
+    return DynamicsConfig.from_dict(dict(
+        datafile=ld["equilibrium"], k_n=setup["k_n"], k_t=setup["k_t"], F_y=setup["F_y"],
+        mu=setup["mu0"], F_x=ld["F_x"], dt=dt, t_max=task["t_max"],
+        record_every=task["record_every"], a=0.0, omega_p=task.get("omega_p", 0.01),
+        B=setup["B"], w=setup["w"], mu_ss=setup["mu_ss_ratio"], t_on=t_on, tau=task["tau"]))
+
+
+def _one_run(eng, setup, ld, task, a, muv, h5, d_run):
+    """One run from the load's equilibrium; returns its summary dict."""
+    from . import stages
+
+    dt = task["dt_fraction"] * ld["dt_max"]
+    dc = _dyn_config(setup, ld, task, dt)
+    v = {"a": float(a), "wp": float(task.get("omega_p", 0.01)), "muv": int(muv)}
+    if muv:
+        v.update(v0=setup["v0"], vss=setup["v0"], B=setup["B"], w=setup["w"],
+                 muss=setup["mu_ss_ratio"])
+    mu0 = setup["mu0"]
+
+    def stop(o):
+        return d_run is not None and o["D"][-1] > d_run
+
+    t0 = time.perf_counter()
+    r = stages._undamped_run(eng, dc, ld["equilibrium"], h5, v, h5, True, stop=stop,
+                             attrs={"stage": "trigger-map", "d_run": d_run or 0.0})
+    wall = time.perf_counter() - t0
+    sw = np.flatnonzero(r.mu < mu0)
+    hit = np.flatnonzero(r.D > d_run) if d_run is not None else np.zeros(0, int)
+    return {"a": float(a), "muv": int(muv), "triggered": bool(hit.size),
+            "t_switch": float(r.t[sw[0]]) if sw.size else None,
+            "t_run": float(r.t[hit[0]]) if hit.size else None,
+            "D_max": float(np.max(r.D)), "v_max": float(r.extra["v_top_max"]),
+            "t_end": float(r.t[-1]), "steps": int(round(r.t[-1] / dt)), "dt": dt,
+            "d_run": d_run, "wall": wall, "h5": h5}
+
+
+def d_run_level(cfg, ld, a):
+    """Runaway level of a run at amplitude a: d_run_factor x max(D_drop, (C a)^2)."""
+    return cfg.d_run_factor * max(ld["D_drop"], (ld["compliance"] * a) ** 2)
+
+
+def run_task(eng, cfg, setup, task, out):
+    """Do one task (resumable); returns its log data."""
+    ld = setup["loads"][task["load"]]
+    folder = os.path.join(out, "runs", task["key"])
+    os.makedirs(folder, exist_ok=True)
+    log = _TaskLog(os.path.join(out, "tasks", task["key"] + ".json"), task)
+    if log.done:
+        return log.data
+
+    def run(kind, a, muv, d_run):
+        old = log.find(kind, a)
+        if old is not None:
+            return old
+        r = _one_run(eng, setup, ld, task, a, muv,
+                     os.path.join(folder, f"{kind}_{len(log.data['runs']):02d}.h5"), d_run)
+        r["kind"] = kind
+        log.add(r)
+        return r
+
+    if task["kind"] == "control":
+        r = run("control", 0.0, 1, d_run_level(cfg, ld, 0.0))
+        log.finish(noise_triggered=r["triggered"], switched=r["t_switch"] is not None)
+        return log.data
+    v0 = setup["v0"]
+    C = abs(ld["compliance"])
+    w = task["omega_p"]
+    a_probe = v0 / (w * C)
+    probe = run("probe", a_probe, 0, None)
+    a_lin = a_probe * v0 / probe["v_max"] if probe["v_max"] > 0 else math.inf
+    a_max = ld["a_max"]
+    a_min = 1e-6 * min(a_lin, a_max)
+    f = cfg.factor
+    lo, hi = None, None
+    a = min(a_lin * math.sqrt(f), a_max)
+    step = f
+    status = None
+    while True:
+        r = run("mu(v)", a, 1, d_run_level(cfg, ld, a))
+        if r["triggered"]:
+            hi = a if hi is None else min(hi, a)
+        else:
+            lo = a if lo is None else max(lo, a)
+        if lo is not None and hi is not None:
+            if hi / lo <= f * (1 + 1e-12):
+                status = "bracketed"
+                break
+            a = math.sqrt(lo * hi)
+            continue
+        if hi is None:                       # nothing triggered yet: go up
+            if lo >= a_max:
+                status = "none up to a_max"
+                break
+            # mu(v) switched and nothing ran away: a larger forcing switches it
+            # earlier, no more; ask a_max at once
+            a = a_max if r["t_switch"] is not None else min(lo * step, a_max)
+        else:                                # everything triggered: go down
+            if hi <= a_min:
+                status = "all down to a_min"
+                break
+            a = max(hi / step, a_min)
+        step = step * step
+    res = {"a_lo": lo, "a_hi": hi, "a_lin": a_lin, "a_probe": a_probe, "a_max": a_max,
+           "a_min": a_min, "bracket_status": status,
+           "a_c": math.sqrt(lo * hi) if status == "bracketed" else None,
+           "n_runs": len(log.data["runs"]),
+           "wall": sum(r["wall"] for r in log.data["runs"])}
+    log.finish(**res)
+    return log.data
+
+
+# --------------------------------------------------------------------------- job
+def run_map(cfg, out, comm=None, speak=True, resume=False):
+    """The whole trigger map; every rank of ``comm`` calls it.
+
+    Returns
+    -------
+    str
+        Path of ``trigger_map.md`` (on every rank).
+    """
+    from mpi4py import MPI
+    from .engine import Engine
+
+    comm = comm or MPI.COMM_WORLD
+    rank, size = comm.Get_rank(), comm.Get_size()
+    out = os.path.abspath(out)
+    t_start = time.perf_counter()
+
+    def say(msg):
+        if speak and rank == 0:
+            print(f"[trigger-map {time.perf_counter() - t_start:7.1f} s] {msg}", flush=True)
+
+    err = None
+    if rank == 0:
+        try:
+            _check_out(cfg, out, resume)
+        except Exception as exc:  # noqa: BLE001 - re-raised on every rank
+            err = exc
+    err = comm.bcast(err, root=0)
+    if err is not None:
+        raise err
+    pcfg, man = load_paper_job(cfg.paper)
+    setup = prepare_loads(cfg, pcfg, man, out, comm)
+    say(f"{len(setup['loads'])} loads, tau = "
+        + ", ".join(f"{t:.4g}" for t in setup["taus"])
+        + f" (and none), omega_p = " + ", ".join(f"{w:.4g}" for w in setup["omegas"])
+        + f"; v0 = {setup['v0']:.3g}")
+    for ld in setup["loads"]:
+        say(f"  F_x = {ld['F_x']:.7g} ({ld['kind']}): mu0 {ld['decision_mu0']}, after the "
+            f"drop {ld['decision_drop']} (g = {ld['growth']:.4g}), D_drop = "
+            f"{ld['D_drop']:.3g}, kappa = {ld['kappa_mu0']:.3g} / {ld['kappa_drop']:.3g}")
+    tasks = make_tasks(cfg, setup)
+    rec = cfg.record_every
+    for t in tasks:
+        ld = setup["loads"][t["load"]]
+        t["t_max"] = float(cfg.t_max)
+        t["record_every"] = int(rec if rec is not None else
+                                max(1, round(1.0 / (t["dt_fraction"] * ld["dt_max"]))))
+    if rank == 0:
+        os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
+        os.makedirs(os.path.join(out, "runs"), exist_ok=True)
+    comm.Barrier()
+    mine = tasks[rank::size]
+    done = 0
+    with Engine(comm=MPI.COMM_SELF) as eng:
+        for t in mine:
+            d = run_task(eng, cfg, setup, t, out)
+            done += 1
+            if speak and (rank == 0 or size == 1):
+                res = d
+                txt = (f"a_c in [{res.get('a_lo') or 0:.3g}, {res.get('a_hi') or math.inf:.3g}]"
+                       f" ({res.get('bracket_status')})" if t["kind"] == "threshold" else
+                       f"noise-triggered: {res.get('noise_triggered')}")
+                say(f"rank 0: {done}/{len(mine)} {t['key']}: {txt}")
+    comm.Barrier()
+    from .paper import write_json
+    path = os.path.join(out, "trigger_map.md")
+    err = None
+    if rank == 0:
+        try:
+            rows = collect(out, tasks, setup)
+            kpath = os.path.join(out, "ramp_kappa.json")
+            if os.path.isfile(kpath):
+                with open(kpath) as fh:
+                    setup["ramp_kappa"] = json.load(fh)
+            else:
+                setup["ramp_kappa"] = ramp_kappa(man["ramps"][0]["h5"], cfg.kappa_steps)
+                write_json(kpath, setup["ramp_kappa"])
+            write_table(os.path.join(out, TABLE), rows, setup, cfg)
+            plot_map(os.path.join(out, "trigger_map.png"), rows, setup)
+            write_summary(path, rows, setup, cfg, time.perf_counter() - t_start, size)
+            write_json(os.path.join(out, MANIFEST),
+                       {"config": cfg.to_dict(), "out": out, "status": "complete",
+                        "n_tasks": len(tasks), "n_ranks": size,
+                        "wall": time.perf_counter() - t_start})
+        except Exception as exc:  # noqa: BLE001 - re-raised on every rank
+            err = exc
+    err = comm.bcast(err, root=0)
+    if err is not None:
+        raise err
+    say(f"done: {path}")
+    return path
+
+
+def _check_out(cfg, out, resume):
+    """Refuse an --out that is a file or holds other results; check --resume's config."""
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise ConfigError(f"--out {out!r} is a file, not a folder")
+    man = os.path.join(out, MANIFEST)
+    cfgfile = os.path.join(out, "config.json")
+    if os.path.isdir(out) and os.listdir(out):
+        if not os.path.isfile(cfgfile):
+            raise ConfigError(f"--out {out!r} holds other files; choose an empty or new "
+                              f"folder")
+        with open(cfgfile) as fh:
+            old = json.load(fh)
+        if not resume:
+            raise ConfigError(f"--out {out!r} holds a trigger map; add --resume to continue "
+                              f"it or choose another folder")
+        new = json.loads(json.dumps(dict(cfg.to_dict(), np=None)))
+        old = dict(old, np=None)
+        diff = [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+        if diff:
+            raise ConfigError(f"cannot resume {out!r}: its configuration differs in "
+                              + ", ".join(f"{k} = {old.get(k)!r} (then) vs {new.get(k)!r} (now)"
+                                          for k in diff))
+        del man
+        return
+    os.makedirs(out, exist_ok=True)
+    from .paper import write_json
+    write_json(cfgfile, cfg.to_dict())
+
+
+# --------------------------------------------------------------------------- outputs
+def collect(out, tasks, setup):
+    """One row per threshold task (with its control's verdict)."""
+    logs = {}
+    for t in tasks:
+        with open(os.path.join(out, "tasks", t["key"] + ".json")) as fh:
+            logs[t["key"]] = json.load(fh)
+    taus = [None] + list(setup["taus"])
+    rows = []
+    for t in tasks:
+        if t["kind"] != "threshold":
+            continue
+        d = logs[t["key"]]
+        j = taus.index(t["tau"])
+        ctrl = logs[f"control_L{t['load']}_T{j}"]
+        ld = setup["loads"][t["load"]]
+        noise = bool(ctrl.get("noise_triggered"))
+        status = "noise-triggered" if noise else d["bracket_status"]
+        trig = [r for r in d["runs"] if r["kind"] == "mu(v)" and r["triggered"]]
+        first = min(trig, key=lambda r: r["a"]) if trig else None
+        rows.append({
+            "key": t["key"], "load": t["load"], "F_x": ld["F_x"], "kind": ld["kind"],
+            "tau": math.inf if t["tau"] is None else t["tau"], "omega_p": t["omega_p"],
+            "onset": t["onset"], "dt_fraction": t["dt_fraction"],
+            "check_of": t.get("check_of", ""), "status": status,
+            "a_c": (d["a_c"] if not noise and d["a_c"] is not None else math.nan),
+            "a_lo": d["a_lo"] if d["a_lo"] is not None else math.nan,
+            "a_hi": d["a_hi"] if d["a_hi"] is not None else math.nan,
+            "a_lin": d["a_lin"], "a_max": d["a_max"], "n_runs": d["n_runs"],
+            "wall": d["wall"], "control_switched": bool(ctrl.get("switched")),
+            "t_switch": first["t_switch"] if first and first["t_switch"] is not None
+            else math.nan,
+            "t_run": first["t_run"] if first else math.nan,
+            "growth_tau": (ld["growth"] if t["tau"] is None else
+                           ld["growth_tau"][setup["taus"].index(t["tau"])]),
+        })
+    return rows
+
+
+_STR_COLS = ("key", "kind", "onset", "check_of", "status")
+
+
+def write_table(path, rows, setup, cfg):
+    """``trigger_map.h5``: columns under ``points/``, loads under ``loads/``."""
+    from .results import write_atomic
+
+    ds = {}
+    for c in rows[0]:
+        vals = [r[c] for r in rows]
+        ds[f"points/{c}"] = (np.array([str(v) for v in vals], dtype=object)
+                             if c in _STR_COLS else np.asarray(vals, dtype=float))
+    for c in ("F_x", "fraction", "D_drop", "growth", "kappa_mu0", "kappa_drop", "gap_mu0",
+              "omega_1", "dt_max", "compliance", "a_max", "margin_mu0", "margin_drop"):
+        ds[f"loads/{c}"] = np.array([ld[c] for ld in setup["loads"]], float)
+    ds["loads/kind"] = np.array([ld["kind"] for ld in setup["loads"]], dtype=object)
+    ds["loads/growth_tau"] = np.array([ld["growth_tau"] for ld in setup["loads"]], float)
+    rk = setup.get("ramp_kappa")
+    if rk:
+        for c in ("F_x", "kappa", "gap", "kappa_max"):
+            ds[f"ramp_kappa/{c}"] = np.array(rk[c], float)
+    ds["taus"] = np.array(setup["taus"], float)
+    ds["omegas"] = np.array(setup["omegas"], float)
+    attrs = {"stage": "trigger-map", "v0": setup["v0"], "a_paper": setup["a_paper"],
+             "g_ref": setup["g_ref"], "window": setup["window"],
+             "config": json.dumps(cfg.to_dict(), sort_keys=True)}
+    write_atomic(path, attrs, ds)
+
+
+def plot_map(path, rows, setup):
+    """a_c(omega_p): one panel per load, one line per tau and onset."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    loads = setup["loads"]
+    fig, axes = plt.subplots(1, len(loads), figsize=(4.2 * len(loads), 3.8), squeeze=False,
+                             sharey=True)
+    taus = [math.inf] + list(setup["taus"])
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, ld in enumerate(loads):
+        ax = axes[0, i]
+        for j, tau in enumerate(taus):
+            for onset, ls in (("step", "--"), ("smooth", "-")):
+                pts = sorted([r for r in rows if r["load"] == i and r["tau"] == tau
+                              and r["onset"] == onset and not r["check_of"]],
+                             key=lambda r: r["omega_p"])
+                if not pts:
+                    continue
+                w = np.array([r["omega_p"] for r in pts])
+                ac = np.array([r["a_c"] for r in pts])
+                lab = f"tau = {'inf' if math.isinf(tau) else f'{tau:.3g}'}, {onset}"
+                ax.plot(w, ac, ls, marker="o", color=colors[j % len(colors)], label=lab)
+                none = np.array([r["status"] == "none up to a_max" for r in pts])
+                if none.any():
+                    ax.plot(w[none], [r["a_max"] for r, n in zip(pts, none) if n], "v",
+                            color=colors[j % len(colors)], mfc="none")
+        ax.axhline(setup["a_paper"], color="k", lw=0.8, ls=":")
+        ax.text(ax.get_xlim()[0] if False else min(setup["omegas"]), setup["a_paper"] * 2,
+                "paper a = 1e-12", fontsize=7)
+        v0 = setup["v0"]
+        C = abs(ld["compliance"])
+        wg = np.array(setup["omegas"])
+        ax.plot(wg, v0 / (wg * C), color="0.5", lw=0.8, label="v0 / (omega_p C)")
+        for wn in (ld["omega_1"],):
+            ax.axvline(wn, color="0.7", lw=0.8)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(f"F_x = {ld['F_x']:.5g} ({ld['kind']})", fontsize=9)
+        ax.set_xlabel("omega_p")
+        if i == 0:
+            ax.set_ylabel("a_c")
+    axes[0, 0].legend(fontsize=6)
+    fig.tight_layout()
+    tmp = path + f".tmp{os.getpid()}.png"
+    fig.savefig(tmp, dpi=110)
+    plt.close(fig)
+    os.replace(tmp, path)
+
+
+def _fmt(x, f=".3g"):
+    return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, f)
+
+
+def write_summary(path, rows, setup, cfg, wall, size):
+    """``trigger_map.md``: loads, the map table, dt check, costs."""
+    L = ["# Trigger map", "",
+         f"Paper job: `{cfg.paper}`. v0 = {setup['v0']:.3g} (Fig. 5's), mu0 = "
+         f"{setup['mu0']:g}, mu_ss mu0 = {setup['mu_ss']:g}; window "
+         f"[{setup['window'][0]:.7g}, {setup['window'][1]:.7g}]. Runaway level D_run = "
+         f"{cfg.d_run_factor:g} x max(D_drop, (C a)^2); t_max = {cfg.t_max:g}; bisection "
+         f"to a_hi/a_lo <= {cfg.factor:g}.", "",
+         "## Loads", "",
+         "| F_x | kind | mu0 | after drop | g | g with tau | D_drop | kappa (mu0) | "
+         "gap (mu0) | kappa (drop) | omega_1 |",
+         "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for ld in setup["loads"]:
+        L.append(f"| {ld['F_x']:.7g} | {ld['kind']} | {ld['decision_mu0']} | "
+                 f"{ld['decision_drop']} | {ld['growth']:.4g} | "
+                 + ", ".join(f"{g:.3g}" for g in ld["growth_tau"])
+                 + f" | {ld['D_drop']:.3g} | {ld['kappa_mu0']:.3g} | {ld['gap_mu0']:.3g} | "
+                 f"{ld['kappa_drop']:.3g} | {ld['omega_1']:.4g} |")
+    L += ["", "tau = " + ", ".join(f"{t:.4g}" for t in setup["taus"])
+          + f" (tau_g / g_ref, g_ref = {setup['g_ref']:.4g}).", "",
+          "## Map", "",
+          "| F_x | tau | omega_p | onset | a_c | [a_lo, a_hi] | a_lin | status | "
+          "t_switch | t_run | runs | s |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if r["check_of"]:
+            continue
+        L.append(f"| {r['F_x']:.6g} | {_fmt(r['tau'])} | {r['omega_p']:.4g} | {r['onset']} |"
+                 f" {_fmt(r['a_c'])} | [{_fmt(r['a_lo'])}, {_fmt(r['a_hi'])}] | "
+                 f"{_fmt(r['a_lin'])} | {r['status']} | {_fmt(r['t_switch'], '.4g')} | "
+                 f"{_fmt(r['t_run'], '.4g')} | {r['n_runs']} | {r['wall']:.0f} |")
+    checks = [r for r in rows if r["check_of"]]
+    if checks:
+        L += ["", "## Time step check (dt / 2)", "",
+              "| point | dt fraction | [a_lo, a_hi] | at dt / 2 | overlap |", "|---|---|---|---|---|"]
+        by = {r["key"]: r for r in rows}
+        for r in checks:
+            o = by[r["check_of"]]
+            ov = (max(o["a_lo"], r["a_lo"]) <= min(o["a_hi"], r["a_hi"])
+                  if all(math.isfinite(x) for x in (o["a_lo"], o["a_hi"], r["a_lo"], r["a_hi"]))
+                  else None)
+            L.append(f"| {o['key']} | {o['dt_fraction']:g} | [{_fmt(o['a_lo'])}, "
+                     f"{_fmt(o['a_hi'])}] | [{_fmt(r['a_lo'])}, {_fmt(r['a_hi'])}] | "
+                     f"{'-' if ov is None else ('yes' if ov else 'no')} |")
+    rk = setup.get("ramp_kappa")
+    if rk and rk["F_x"]:
+        L += ["", "## Condition number of the coalescing pair along the mu0 ramp", "",
+              f"Pair at F_x^c: lambda_c = {rk['lambda_c'][0]:.6g} +- {abs(rk['lambda_c'][1]):.3g} i."
+              " gap = |lambda_i - lambda_j| / |lambda| of the two real eigenvalues that"
+              " coalesce (tracked down from F_x^c).", "",
+              "| F_x | gap | kappa | kappa_max |", "|---|---|---|---|"]
+        n_r = len(rk["F_x"])
+        for k in sorted(set(list(range(0, n_r, max(1, n_r // 12))) + [n_r - 1])):
+            L.append(f"| {rk['F_x'][k]:.7g} | {rk['gap'][k]:.3g} | {rk['kappa'][k]:.3g} | "
+                     f"{rk['kappa_max'][k]:.3g} |")
+    n = sum(r["n_runs"] for r in rows)
+    cpu = sum(r["wall"] for r in rows)
+    L += ["", "## Cost", "",
+          f"{len(rows)} map points, {n} runs (plus one control per load and tau), "
+          f"{cpu:.0f} s of run time; wall time {wall:.0f} s on {size} rank(s)."]
+    tmp = path + f".tmp{os.getpid()}"
+    with open(tmp, "w") as fh:
+        fh.write("\n".join(L) + "\n")
+    os.replace(tmp, path)
+
+
+# --------------------------------------------------------------------------- command line
+def register(subparsers):
+    """Add the ``trigger-map`` subcommand."""
+    p = subparsers.add_parser(
+        "trigger-map", help="threshold amplitude a_c of remote triggering vs omega_p, load, "
+                            "damping (from a paper job)",
+        description="From a complete `remote-trigger paper` job: bisect the smallest "
+                    "amplitude a of f(t) = a cos(omega_p t) whose run with mu(v) runs away, "
+                    "per load, damping time, frequency and onset; trigger_map.h5, "
+                    "trigger_map.png and trigger_map.md under --out. docs/trigger_map.md.")
+    p.add_argument("--paper", help="output folder of the paper job (required unless in "
+                                   "--config)")
+    p.add_argument("--out", default="trigger-map", help="output folder (default trigger-map)")
+    p.add_argument("--config", metavar="TOML", help="TOML file with any MapConfig key")
+    p.add_argument("--quick", action="store_true", default=None,
+                   help="small test variant (2 loads, 2 frequencies, 1 damping time)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted map in --out (same configuration; "
+                        "finished runs are kept)")
+    p.add_argument("--np", type=int, default=None, help="MPI ranks: re-launch under mpirun")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="any configuration key (repeatable), e.g. --set omega_p=[0.01,1]")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=main)
+
+
+def config_from_args(args):
+    """MapConfig from parsed arguments."""
+    from .paper import _parse_set
+
+    over = _parse_set(args.set)
+    if args.paper is not None:
+        over["paper"] = args.paper
+    if args.np is not None:
+        over["np"] = args.np
+    return build_config(args.config, over, quick=bool(args.quick))
+
+
+def main(args):
+    """``remote-trigger trigger-map``; returns the exit status."""
+    import shutil
+    import subprocess
+
+    cfg = config_from_args(args)
+    from mpi4py import MPI
+
+    world = MPI.COMM_WORLD
+    if cfg.np > 1 and world.Get_size() == 1 and not os.environ.get("REMOTE_TRIGGER_MAP_CHILD"):
+        load_paper_job(cfg.paper)
+        mpirun = os.path.join(os.path.dirname(sys.executable), "mpirun")
+        if not os.path.exists(mpirun):
+            mpirun = shutil.which("mpirun")
+        if not mpirun:
+            raise ConfigError(f"np = {cfg.np} needs mpirun; found none")
+        cmd = [mpirun, "-np", str(cfg.np), sys.executable, "-m", "remote_trigger.pywrap.cli",
+               "trigger-map", "--out", args.out, "--np", "1"]
+        if args.config:
+            cmd += ["--config", args.config]
+        if args.quick:
+            cmd.append("--quick")
+        for s in args.set:
+            cmd += ["--set", s]
+        if args.paper:
+            cmd += ["--paper", args.paper]
+        if args.resume:
+            cmd.append("--resume")
+        if args.quiet:
+            cmd.append("--quiet")
+        env = dict(os.environ, REMOTE_TRIGGER_MAP_CHILD="1")
+        return subprocess.call(cmd, env=env)
+    load_paper_job(cfg.paper)
+    path = run_map(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)
+    if world.Get_rank() == 0:
+        print(f"trigger map: {path}")
+    return 0

@@ -1,0 +1,90 @@
+"""``trigger-map`` configuration: bad input is refused, naming the value, nothing written."""
+import os
+
+import numpy as np
+import pytest
+
+from remote_trigger.pywrap import trigger_map as tm
+from remote_trigger.pywrap.cli import main
+from remote_trigger.pywrap.config import ConfigError
+
+
+@pytest.mark.parametrize("key,val,words", [
+    ("omega_p", [], "omega_p = []"),
+    ("omega_p", [0.01, 0.0], "omega_p = [0.01, 0.0]"),
+    ("omega_p", [-1.0], "omega_p = [-1.0]"),
+    ("tau", [100.0, 0.0], "tau = [100.0, 0.0]"),
+    ("tau", [-5.0], "tau = [-5.0]"),
+    ("tau_g", [0.0], "tau_g = [0.0]"),
+    ("fractions", [0.5, 1.0], "fractions = [0.5, 1.0]"),
+    ("fractions", [0.0], "fractions = [0.0]"),
+    ("onsets", ["ramp"], "onsets = ['ramp']"),
+    ("onsets", [], "onsets = []"),
+    ("t_max", 0.0, "t_max = 0.0"),
+    ("dt_fraction", 1.0, "dt_fraction = 1.0"),
+    ("factor", 1.0, "factor = 1.0"),
+    ("d_run_factor", 0.5, "d_run_factor = 0.5"),
+    ("a_max_factor", -1.0, "a_max_factor = -1.0"),
+    ("omega_p", 0.01, "omega_p = 0.01"),
+])
+def test_bad_values_name_the_value(key, val, words):
+    with pytest.raises(ConfigError) as err:
+        tm.MapConfig.from_dict({"paper": "x", key: val})
+    assert words in str(err.value)
+
+
+def test_unknown_key_and_missing_paper():
+    with pytest.raises(ConfigError, match="'omega'"):
+        tm.MapConfig.from_dict({"paper": "x", "omega": [1.0]})
+    with pytest.raises(ConfigError, match="paper"):
+        tm.MapConfig.from_dict({})
+
+
+@pytest.mark.parametrize("argv,words", [
+    (["--set", "omega_p=[]"], "omega_p = []"),
+    (["--set", "tau=[-1]"], "tau = [-1]"),
+    (["--set", "fractions=[1.5]"], "fractions = [1.5]"),
+    ([], "not a paper job's output folder"),
+])
+def test_cli_refuses_and_writes_nothing(argv, words, tmp_path, capsys):
+    out = tmp_path / "map"
+    status = main(["trigger-map", "--paper", str(tmp_path / "nopaper"), "--out", str(out)]
+                  + argv)
+    assert status == 2
+    assert words in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_quick_preset_and_precedence(tmp_path):
+    toml = tmp_path / "m.toml"
+    toml.write_text('paper = "p"\nt_max = 300.0\n')
+    cfg = tm.build_config(str(toml), {"factor": 1.2}, quick=True)
+    assert cfg.quick and cfg.t_max == 300.0 and cfg.factor == 1.2
+    assert list(cfg.omega_p) == tm.QUICK["omega_p"]
+
+
+def test_tasks_cover_the_grid_and_share_controls():
+    cfg = tm.MapConfig(paper="p", dt_check=2)
+    setup = {"loads": [{"kind": "window 0.25", "fraction": 0.25},
+                       {"kind": "window 0.5", "fraction": 0.5},
+                       {"kind": "below", "fraction": -0.5}],
+             "taus": [10.0, 100.0], "omegas": [0.01, 0.1, 1.0]}
+    tasks = tm.make_tasks(cfg, setup)
+    ctrl = [t for t in tasks if t["kind"] == "control"]
+    thr = [t for t in tasks if t["kind"] == "threshold" and "check_of" not in t]
+    half = [t for t in tasks if "check_of" in t]
+    assert len(ctrl) == 3 * 3 and len(thr) == 3 * 3 * 3 * 2 and len(half) == 2
+    assert all(t["load"] == 1 and t["tau"] is None for t in half)
+    assert all(t["dt_fraction"] == 0.5 * cfg.dt_fraction for t in half)
+    assert len({t["key"] for t in tasks}) == len(tasks)
+
+
+def test_msd_minimum_image():
+    class S:
+        def __init__(self, x):
+            self.positions = np.array(x, float)
+            self.box_lo = np.array([0.0, 0.0, -0.5])
+            self.box_hi = np.array([10.0, 5.0, 0.5])
+    a = S([[9.9999, 1.0, 0.0], [5.0, 2.0, 0.0]])
+    b = S([[0.0001, 1.0, 0.0], [5.0, 2.0, 0.0]])
+    assert tm._msd(a, b) == pytest.approx(0.5 * 0.0002 ** 2, rel=1e-6)
