@@ -87,10 +87,21 @@ def spectrum_at_zero(h5path):
         dec = float(fh["steps/decision"][0]) if "steps/decision" in fh else float("nan")
         conf = float(fh["steps/confidence"][0]) if "steps/confidence" in fh else float("nan")
         F0 = float(fh["steps/F_x"][0])
+        datafile = fh["steps/datafile"][0]
+    datafile = datafile.decode() if isinstance(datafile, bytes) else str(datafile)
+    asym = float("nan")
+    dump = datafile[:-len(".data")] + ".dump"
+    if os.path.isfile(dump):
+        from remote_trigger.analysis.state import read_dump
+        from remote_trigger.analysis.jacobian import stiffness_matrix
+
+        K = stiffness_matrix(read_dump(dump))
+        asym = float(np.sqrt(abs((K - K.T).multiply(K - K.T).sum()))
+                     / np.sqrt(abs(K.multiply(K).sum())))
     return {"F_x": F0, "complex": cplx > 0, "decision": dec, "confidence": conf,
             "min_re": float(np.min(lam.real)), "max_re": float(np.max(lam.real)),
             "max_abs_im": float(np.max(np.abs(lam.imag))), "n_modes": int(lam.size),
-            "real_positive": bool(cplx <= 0 and np.min(lam.real) > 0)}
+            "real_positive": bool(cplx <= 0 and np.min(lam.real) > 0), "asymmetry": asym}
 
 
 def certified_bracket(h5path):
@@ -278,8 +289,13 @@ def collect(out, summary):
                f"mu = {mu:g}: all eigenvalues real and positive at F_x = {sp['F_x']:g}",
                sp["real_positive"], "yes", sp["real_positive"],
                reason=(f"certified complex pair at F_x = 0 (min Re lambda = "
-                       f"{sp['min_re']:.4g})"),
-               note=f"min lambda = {sp['min_re']:.4g}, max = {sp['max_re']:.4g}")
+                       f"{sp['min_re']:.4g}); ||K - K^T||_F / ||K||_F = "
+                       f"{sp['asymmetry']:.3g}"),
+               note=(f"min lambda = {sp['min_re']:.4g}, max = {sp['max_re']:.4g}; "
+                     f"||K - K^T||_F / ||K||_F = {sp['asymmetry']:.3g}: the protocol "
+                     f"(friction switched on with zero tangential history) makes K "
+                     f"symmetric at F_x = 0, so this row checks the protocol, not the "
+                     f"physics"))
         if rr["status"] == "complete":
             Fc[k] = 0.5 * (rr["F_x_c_low"] + rr["F_x_c_high"])
         t = tr.get(k)
@@ -292,6 +308,25 @@ def collect(out, summary):
                reason=f"ramp status {rr['status']}: {rr.get('message', '')}",
                note=(f"lambda_c = {t.lam_c:.6g} (mode {t.rank + 1} of {t.n_modes} from "
                      f"the softest; tracking ambiguity {t.ambiguity:.2f})") if t else "")
+        if t is not None and rr["status"] == "complete":
+            from remote_trigger.analysis.exceptional import sqrt_law
+
+            sq = sqrt_law(t.F_x, t.lam_a, t.lam_b, rr["F_x_c_low"], rr["F_x_c_high"])
+            extra[f"sqrt_law_{k}"] = sq
+            ok = all(math.isfinite(sq[s_]) and abs(sq[s_] - 0.5) <= 0.1
+                     for s_ in ("below", "above"))
+            _check(checks, f"sqrt_law_mu{mu:g}",
+                   f"mu = {mu:g}: exponent p of the pair's gap lambda_b - lambda_a ~ "
+                   f"(F_x^c - F_x)^p below F_x^c (Im lambda ~ (F_x - F_x^c)^q above)",
+                   sq["below"], "p = q = 1/2 (generic exceptional point)", ok,
+                   reason=(f"p = {sq['below']:.3g} from {sq['n_below']} points, q = "
+                           f"{sq['above']:.3g} from {sq['n_above']} points (needs >= 3 "
+                           f"each, within 5 % of F_x^c and 10 bracket widths from it; "
+                           f"pass if both within 0.1 of 1/2)"),
+                   note=(f"q = {sq['above']:.3g}; |F_x - F_x^c| in "
+                         f"[{sq['range_below'][0]:.2g}, {sq['range_below'][1]:.2g}] below "
+                         f"({sq['n_below']} points), [{sq['range_above'][0]:.2g}, "
+                         f"{sq['range_above'][1]:.2g}] above ({sq['n_above']})"))
     if 0 in Fc:
         lo, hi = P["F_x_c_mu1_low"], P["F_x_c_mu1_high"]
         rr = ramps[0]
@@ -571,7 +606,8 @@ def _table(rows):
 
 SECTIONS = [
     ("relax", "1. Packing and relaxation", ("packing_fraction", "residual")),
-    ("eigen", "2. Eigenvalues and F_x^c (Fig. 3)", ("real_at_zero", "coalescence", "F_x_c")),
+    ("eigen", "2. Eigenvalues and F_x^c (Fig. 3)", ("real_at_zero", "coalescence", "sqrt_law",
+                                                    "F_x_c")),
     ("fig4", "3. Oscillatory instability above F_x^c (Fig. 4)", ("msd_decades_fig4",
                                                                  "growth_rate_fig4",
                                                                  "saturation_fig4")),

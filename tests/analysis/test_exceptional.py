@@ -244,3 +244,24 @@ def test_arb_oracle_can_fail():
     assert full_spectrum(np.array([[1.0, 1.0], [0.0, 1.0]])) is None
     assert pair_is(normal_form(0.5, 1e-3), [0.9, 1.1]) == "real"
     assert pair_is(normal_form(0.5, -1e-3), [1 + 0.02j, 1 - 0.02j]) == "complex"
+
+
+def test_sqrt_law_exponents_can_fail():
+    """A generic exceptional point gives 1/2 on both sides; a linear approach gives 1."""
+    from remote_trigger.analysis.exceptional import sqrt_law
+
+    Fc, w = 0.05, 1e-8
+    F = np.concatenate([Fc - np.geomspace(1e-6, 2e-3, 12), Fc + np.geomspace(1e-6, 2e-3, 8)])
+    d = F - Fc
+    mean = 100.0 + 3.0 * d
+    half = np.where(d < 0, 0.7 * np.sqrt(np.abs(d)), 0.0)
+    im = np.where(d > 0, 0.4 * np.sqrt(np.abs(d)), 0.0)
+    a, b = mean - half - 1j * im, mean + half + 1j * im
+    r = sqrt_law(F, a, b, Fc - w / 2, Fc + w / 2)
+    assert r["below"] == pytest.approx(0.5, abs=1e-9) and r["above"] == pytest.approx(0.5, abs=1e-9)
+    assert r["n_below"] == 12 and r["n_above"] == 8
+    lin = np.where(d < 0, 5.0 * np.abs(d), 0.0)           # two eigenvalues that merely meet
+    r = sqrt_law(F, mean - lin, mean + lin + 1j * im, Fc - w / 2, Fc + w / 2)
+    assert r["below"] == pytest.approx(1.0, abs=1e-9)
+    r = sqrt_law(F[:2], a[:2], b[:2], Fc - w / 2, Fc + w / 2)   # too few points
+    assert np.isnan(r["below"]) and np.isnan(r["above"])

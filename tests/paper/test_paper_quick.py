@@ -25,7 +25,7 @@ SECTIONS = ["## 1. Packing and relaxation", "## 2. Eigenvalues and F_x^c (Fig. 3
 FIGURES = ["fig1_packing", "fig2_mu_law", "fig3_eigenvalues", "fig4_msd", "fig5_perturb",
            "fig_normal_form"]
 CHECK_IDS = ["packing_fraction", "residual", "real_at_zero_mu1", "real_at_zero_mu0.8",
-             "coalescence_mu1", "coalescence_mu0.8", "F_x_c_mu1", "F_x_c_ratio",
+             "coalescence_mu1", "coalescence_mu0.8", "sqrt_law_mu1", "sqrt_law_mu0.8", "F_x_c_mu1", "F_x_c_ratio",
              "msd_decades_fig4", "growth_rate_fig4", "saturation_fig4", "stable_fig5",
              "drop_unstable_fig5", "msd_growth_fig5a", "msd_level_fig5a", "msd_fig5b",
              "forcing_fig5b", "growth_rate_fig5c", "msd_decades_fig5c",
