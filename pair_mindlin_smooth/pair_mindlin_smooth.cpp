@@ -10,6 +10,7 @@
 
 #include "pair_mindlin_smooth.h"
 
+#include "fix_mindlin_history.h"
 #include "mindlin_smooth_kernel.h"
 #include "mindlin_smooth_setup.h"
 
@@ -18,6 +19,7 @@
 #include "error.h"
 #include "force.h"
 #include "memory.h"
+#include "modify.h"
 #include "neigh_list.h"
 #include "neighbor.h"
 #include "update.h"
@@ -34,7 +36,7 @@ static const char HISTORY_T[] = "mindlin_t";
 
 PairMindlinSmooth::PairMindlinSmooth(LAMMPS *lmp) :
     Pair(lmp), kn(nullptr), kt(nullptr), mu(nullptr), maxrad(nullptr), ncol(0),
-    idx_partner(-1), idx_t(-1)
+    idx_partner(-1), idx_t(-1), history(nullptr)
 {
   single_enable = 1;
   restartinfo = 1;
@@ -50,6 +52,8 @@ PairMindlinSmooth::PairMindlinSmooth(LAMMPS *lmp) :
 PairMindlinSmooth::~PairMindlinSmooth()
 {
   delete[] svector;
+  if (history && modify->get_fix_by_id(FixMindlinHistory::ID))
+    modify->delete_fix(FixMindlinHistory::ID);
   if (allocated) {
     memory->destroy(setflag);
     memory->destroy(cutsq);
@@ -130,8 +134,20 @@ void PairMindlinSmooth::coeff(int narg, char **arg)
 }
 
 /* ----------------------------------------------------------------------
-   look up the per-atom history arrays created by fix property/atom
+   the history arrays: the internal fix's, or those of a fix property/atom
+   the deck defined before the atoms (older decks; history in data files)
 ------------------------------------------------------------------------- */
+
+void PairMindlinSmooth::setup_history()
+{
+  history = dynamic_cast<FixMindlinHistory *>(modify->get_fix_by_id(FixMindlinHistory::ID));
+  int flag, cols;
+  if (!history && atom->find_custom(HISTORY_PARTNER, flag, cols) < 0 &&
+      atom->find_custom(HISTORY_T, flag, cols) < 0)
+    history = dynamic_cast<FixMindlinHistory *>(
+        modify->add_fix(fmt::format("{} all mindlin/history", FixMindlinHistory::ID)));
+  find_history();
+}
 
 void PairMindlinSmooth::find_history()
 {
@@ -139,10 +155,10 @@ void PairMindlinSmooth::find_history()
   idx_partner = atom->find_custom(HISTORY_PARTNER, flag, cols);
   if (idx_partner < 0 || flag != 0 || cols < 1)
     error->all(FLERR,
-               "Pair style mindlin/smooth needs the contact history arrays; define "
-               "'fix ID all property/atom i2_{} 8 d2_{} 8 ghost no' before "
-               "read_data/create_atoms",
-               HISTORY_PARTNER, HISTORY_T);
+               "Pair style mindlin/smooth: a fix property/atom defines d2_{} but not i2_{}; "
+               "define both ('fix ID all property/atom i2_{} 8 d2_{} 8 d_mindlin_wall_t "
+               "ghost no') or neither",
+               HISTORY_T, HISTORY_PARTNER, HISTORY_PARTNER, HISTORY_T);
   ncol = cols;
   int flag_t, cols_t;
   idx_t = atom->find_custom(HISTORY_T, flag_t, cols_t);
@@ -164,8 +180,8 @@ void PairMindlinSmooth::init_style()
                "Pair style mindlin/smooth requires ghost atoms store velocity: "
                "use 'comm_modify vel yes'");
 
-  find_history();
-  contacts.resize(ncol);
+  setup_history();
+  if ((int) contacts.size() < ncol) contacts.resize(ncol);
 
   // Full list with per-type cutoffs (largest radii of the two types): a
   // size-based full list would stop compute pair/local from deriving its
@@ -180,6 +196,30 @@ void PairMindlinSmooth::init_style()
   const int *type = atom->type;
   for (int i = 0; i < atom->nlocal; i++) local[type[i]] = MAX(local[type[i]], radius[i]);
   MPI_Allreduce(local.data(), maxrad, ntypes + 1, MPI_DOUBLE, MPI_MAX, world);
+  insertion_radii();
+
+  double largest = 0.0;
+  for (int i = 1; i <= ntypes; i++) largest = MAX(largest, maxrad[i]);
+  if (!(largest > 0.0))
+    error->all(FLERR,
+               "Pair style mindlin/smooth: no disk has a radius > 0 and no fix pour or fix "
+               "deposit will insert any, so the neighbor cutoff would be 0");
+}
+
+/* ----------------------------------------------------------------------
+   disks that fix pour / fix deposit will insert during the run count in
+   the cutoff of their type (these fixes answer extract("radius", type))
+------------------------------------------------------------------------- */
+
+void PairMindlinSmooth::insertion_radii()
+{
+  for (const char *style : {"^pour", "^deposit"})
+    for (auto *ifix : modify->get_fix_by_style(style))
+      for (int i = 1; i <= atom->ntypes; i++) {
+        int itype = i;
+        auto *rad = static_cast<double *>(ifix->extract("radius", itype));
+        if (rad && *rad > maxrad[i]) maxrad[i] = *rad;
+      }
 }
 
 /* ---------------------------------------------------------------------- */
@@ -241,6 +281,7 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
   const double dt = update->dt;
 
   const int inum = list->inum;
+  int ncap = history ? (int) contacts.size() : ncol;    // contacts one atom may have
   const int *ilist = list->ilist;
   const int *numneigh = list->numneigh;
   int **firstneigh = list->firstneigh;
@@ -273,22 +314,16 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
       const double nx = delx / r, ny = dely / r;
       const double delta = radsum - r;
 
-      if (nc == ncol)
-        error->one(FLERR,
-                   "Pair style mindlin/smooth: atom {} has more than {} contacts; give "
-                   "i2_{} and d2_{} more columns",
-                   tag[i], ncol, HISTORY_PARTNER, HISTORY_T);
+      if (nc == ncap) ncap = more_contacts(tag[i]);
 
       const int slot = find_slot(ipartner, ncol, tag[j]);
-      double xi = (slot >= 0) ? itdisp[slot] : 0.0;
-      if (update_history) {
-        // slip of the contact point of i relative to j along s = (ny, -nx)
-        const double vs = ny * (v[i][0] - v[j][0]) - nx * (v[i][1] - v[j][1]);
-        xi += dt * (vs + (radi * omega[i][2] + radius[j] * omega[j][2]));
-      }
-
+      const double xi = (slot >= 0) ? itdisp[slot] : 0.0;
+      // slip of the contact point of i relative to j along s = (ny, -nx)
+      const double vs = ny * (v[i][0] - v[j][0]) - nx * (v[i][1] - v[j][1]);
+      const double slip = vs + (radi * omega[i][2] + radius[j] * omega[j][2]);
       const MindlinSmooth::Params p = {kn[itype][jtype], kt[itype][jtype], mu[itype][jtype]};
-      const MindlinSmooth::Response res = MindlinSmooth::evaluate(p, delta, xi);
+      const MindlinSmooth::Response res =
+          MindlinSmooth::step(p, delta, xi, slip, dt, update_history);
 
       Contact &c = contacts[nc++];
       c.tag = tag[j];
@@ -327,6 +362,12 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
     }
 
     if (update_history) {
+      if (nc > ncol) {
+        history->reserve(nc);    // more_contacts() made sure it exists
+        find_history();
+        partner = atom->iarray[idx_partner];
+        tdisp = atom->darray[idx_t];
+      }
       for (int a = 0; a < nc; a++) {
         partner[i][a] = contacts[a].tag;
         tdisp[i][a] = contacts[a].xi;
@@ -337,6 +378,24 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
       }
     }
   }
+}
+
+/* ----------------------------------------------------------------------
+   atom with tag itag has more contacts than fit: grow the scratch space
+   (internal history grows to match before it is written), or stop when a
+   fix property/atom with a fixed number of columns holds the history
+------------------------------------------------------------------------- */
+
+int PairMindlinSmooth::more_contacts(tagint itag)
+{
+  if (!history)
+    error->one(FLERR,
+               "Pair style mindlin/smooth: atom {} has more than {} contacts; give i2_{} and "
+               "d2_{} more columns, or drop the fix property/atom that defines them so that "
+               "the pair keeps the history itself with no limit",
+               itag, ncol, HISTORY_PARTNER, HISTORY_T);
+  contacts.resize(2 * contacts.size());
+  return (int) contacts.size();
 }
 
 /* ----------------------------------------------------------------------
@@ -354,7 +413,7 @@ double PairMindlinSmooth::single(int i, int j, int itype, int jtype, double rsq,
   if (rsq >= radsum * radsum || rsq == 0.0) return 0.0;    // compute() rejects rsq == 0
 
   if (idx_t < 0) find_history();
-  const int slot = find_slot(atom->iarray[idx_partner][i], ncol, atom->tag[j]);
+  const int slot = find_slot(atom->iarray[idx_partner][i], atom->icols[idx_partner], atom->tag[j]);
   const double xi = (slot >= 0) ? atom->darray[idx_t][i][slot] : 0.0;
 
   double **x = atom->x;

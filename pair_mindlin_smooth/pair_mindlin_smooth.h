@@ -3,9 +3,13 @@
 
    Hertz normal force plus the smoothed Mindlin tangential force of
    Charan, Pomyalov & Procaccia, Eq. (3), with per-contact history kept
-   in per-atom arrays of a fix property/atom:
+   in the per-atom arrays mindlin_partner / mindlin_t.  The pair creates
+   them through its internal fix mindlin/history (no limit on contacts per
+   atom), unless a fix property/atom already defines them:
 
      fix hist all property/atom i2_mindlin_partner 8 d2_mindlin_t 8 ghost no
+
+   which keeps working (fixed number of slots; history in data files).
 ------------------------------------------------------------------------- */
 
 #ifndef LMP_PAIR_MINDLIN_SMOOTH_H
@@ -50,10 +54,15 @@ class PairMindlinSmooth : public Pair {
   double *maxrad;                   // largest radius of each atom type
   int ncol;                         // contact slots per atom
   int idx_partner, idx_t;           // indices of the history arrays
-  std::vector<Contact> contacts;    // scratch space, ncol entries
+  std::vector<Contact> contacts;    // scratch space, >= ncol entries
+  class FixMindlinHistory *history;    // internal storage, or nullptr when
+                                       // a fix property/atom holds the arrays
 
   void allocate();
   void find_history();
+  void setup_history();
+  void insertion_radii();
+  int more_contacts(tagint);
 };
 
 }    // namespace LAMMPS_NS

@@ -58,8 +58,6 @@ def test_missing_coefficients():
 
 
 @pytest.mark.parametrize("kw, match", [
-    (dict(hist=False), r"needs the contact history arrays; define 'fix ID all property/atom "
-                       r"i2_mindlin_partner 8 d2_mindlin_t 8"),
     (dict(vel=False), r"requires ghost atoms store velocity: use 'comm_modify vel yes'"),
 ])
 def test_missing_setup_is_reported_at_run(kw, match):
@@ -68,6 +66,29 @@ def test_missing_setup_is_reported_at_run(kw, match):
     add_disk(lmp, 1, 0.5, 5.0, 5.0)
     lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
     with pytest.raises(Exception, match=match):
+        lmp.command("run 0")
+    lmp.close()
+
+
+def test_half_defined_history_arrays():
+    """A fix property/atom with only one of the two pair arrays is named in the error."""
+    lmp = new_lammps()
+    base(lmp, hist=False)
+    lmp.command("fix hist all property/atom d2_mindlin_t 8 ghost no")
+    add_disk(lmp, 1, 0.5, 5.0, 5.0)
+    lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
+    with pytest.raises(Exception, match=r"defines d2_mindlin_t but not i2_mindlin_partner; "
+                                        r"define both .*d_mindlin_wall_t ghost no'\) or neither"):
+        lmp.command("run 0")
+    lmp.close()
+
+
+def test_no_radius_no_insertion_is_not_a_zero_cutoff():
+    lmp = new_lammps()
+    base(lmp, hist=False)
+    lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
+    with pytest.raises(Exception, match=r"no disk has a radius > 0 and no fix pour or fix "
+                                        r"deposit will insert any"):
         lmp.command("run 0")
     lmp.close()
 
@@ -102,7 +123,9 @@ def test_too_many_contacts_per_disk():
     for x, y in [(5.0, 5.0), (5.99, 5.0), (4.01, 5.0), (5.0, 5.99)]:
         add_disk(lmp, 1, 0.5, x, y)
     lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
-    with pytest.raises(Exception, match=r"atom 1 has more than 2 contacts"):
+    with pytest.raises(Exception, match=r"atom 1 has more than 2 contacts; give i2_mindlin_partner "
+                                        r"and d2_mindlin_t more columns, or drop the fix "
+                                        r"property/atom"):
         lmp.command("run 0")
     lmp.close()
 
@@ -111,21 +134,32 @@ def test_too_many_contacts_per_disk():
     ("-2e5 1e4 1.0 yplane 0.0", r"k_n must be > 0, got -2e5"),
     ("2e5 -1 1.0 yplane 0.0", r"k_t must be >= 0, got -1"),
     ("2e5 1e4 -1 yplane 0.0", r"mu must be >= 0, got -1"),
-    ("2e5 1e4 1.0 xplane 0.0", r"supports only 'yplane y_lo', got 'xplane'"),
-    ("2e5 1e4 1.0 yplane", r"needs: fix ID group wall/mindlin/smooth k_n k_t mu yplane y_lo"),
+    ("2e5 1e4 1.0 xplane 0.0", r"xplane needs lo and hi \(NULL for an open side\), got 1"),
+    ("2e5 1e4 1.0 yplane", r"needs: fix ID group wall/mindlin/smooth k_n k_t mu xplane\|yplane"),
+    ("2e5 1e4 1.0 yplane NULL NULL", r"yplane lo and hi are both NULL"),
+    ("2e5 1e4 1.0 xplane 5 1", r"xplane lo must be below hi, got 5 and 1"),
+    ("2e5 1e4 1.0 xplane 0 abc", r"Expected floating point parameter instead of 'abc'"),
+    ("2e5 1e4 1.0 zcylinder -3", r"zcylinder R must be > 0, got -3"),
+    ("2e5 1e4 1.0 zcylinder 3 4", r"zcylinder needs one value \(R\), got 2"),
+    ("2e5 1e4 1.0 zplane 0 1", r"unknown wall style 'zplane'"),
 ])
 def test_bad_wall_arguments(args, match):
     run_expect([f"fix w all wall/mindlin/smooth {args}"], match)
 
 
-def test_wall_needs_history_and_equal_style_variable():
+def test_two_legacy_walls_cannot_share_the_history_vector():
     lmp = new_lammps()
-    base(lmp, hist=False)
+    base(lmp)
     add_disk(lmp, 1, 0.5, 5.0, 0.4)
-    lmp.commands_list([f"fix w all wall/mindlin/smooth {KN} {KT} 1.0 yplane 0.0"])
-    with pytest.raises(Exception, match=r"needs the wall history vector; add 'd_mindlin_wall_t'"):
+    lmp.commands_list([f"fix w1 all wall/mindlin/smooth {KN} {KT} 1.0 yplane 0.0",
+                       f"fix w2 all wall/mindlin/smooth {KN} {KT} 1.0 yplane -1.0"])
+    with pytest.raises(Exception, match=r"fixes w1 and w2 would both keep their history in "
+                                        r"d_mindlin_wall_t"):
         lmp.command("run 0")
     lmp.close()
+
+
+def test_wall_equal_style_variable():
     lmp = new_lammps()
     base(lmp)
     add_disk(lmp, 1, 0.5, 5.0, 0.4)

@@ -1,0 +1,245 @@
+/* ----------------------------------------------------------------------
+   remote-trigger: fix mindlin/history (LAMMPS plugin), internal
+------------------------------------------------------------------------- */
+
+#include "fix_mindlin_history.h"
+
+#include "atom.h"
+#include "comm.h"
+#include "error.h"
+#include "memory.h"
+
+#include <cstring>
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+static const char PARTNER[] = "mindlin_partner";
+static const char TDISP[] = "mindlin_t";
+
+/* ---------------------------------------------------------------------- */
+
+FixMindlinHistory::FixMindlinHistory(LAMMPS *lmp, int narg, char **arg) :
+    Fix(lmp, narg, arg), idx_partner(-1), idx_t(-1), ncol(START_COLUMNS), nrows(0)
+{
+  if (narg != 3)
+    error->all(FLERR, "Fix mindlin/history is created by pair style mindlin/smooth and takes "
+                      "no arguments");
+  int flag, cols;
+  if (atom->find_custom(PARTNER, flag, cols) >= 0 || atom->find_custom(TDISP, flag, cols) >= 0)
+    error->all(FLERR,
+               "Fix mindlin/history: per-atom arrays {} / {} already exist (from a fix "
+               "property/atom?)",
+               PARTNER, TDISP);
+
+  restart_global = 1;
+  restart_peratom = 1;
+  create_attribute = 1;
+  maxexchange_dynamic = 1;
+  maxexchange = 1 + 2 * ncol;
+
+  idx_partner = atom->add_custom(PARTNER, 0, ncol);
+  idx_t = atom->add_custom(TDISP, 1, ncol);
+  grow_arrays(atom->nmax);
+  atom->add_callback(Atom::GROW);
+  atom->add_callback(Atom::RESTART);
+}
+
+/* ---------------------------------------------------------------------- */
+
+FixMindlinHistory::~FixMindlinHistory()
+{
+  if (copymode) return;
+  atom->delete_callback(id, Atom::GROW);
+  atom->delete_callback(id, Atom::RESTART);
+  atom->remove_custom(idx_partner, 0, ncol);
+  atom->remove_custom(idx_t, 1, ncol);
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixMindlinHistory::setmask()
+{
+  return POST_NEIGHBOR;
+}
+
+/* ----------------------------------------------------------------------
+   all ranks adopt the largest column count at every neighbor-list build,
+   so that dumps and gathers see one width
+------------------------------------------------------------------------- */
+
+void FixMindlinHistory::setup_post_neighbor()
+{
+  agree_on_columns();
+}
+
+void FixMindlinHistory::post_neighbor()
+{
+  agree_on_columns();
+}
+
+void FixMindlinHistory::agree_on_columns()
+{
+  int all;
+  MPI_Allreduce(&ncol, &all, 1, MPI_INT, MPI_MAX, world);
+  if (all > ncol) set_columns(all);
+}
+
+/* ----------------------------------------------------------------------
+   global state: the column count (read back before the rows arrive)
+------------------------------------------------------------------------- */
+
+void FixMindlinHistory::write_restart(FILE *fp)
+{
+  agree_on_columns();    // called on every rank: maxsize_restart() is then global
+  if (comm->me == 0) {
+    const int size = sizeof(int);
+    fwrite(&size, sizeof(int), 1, fp);
+    fwrite(&ncol, sizeof(int), 1, fp);
+  }
+}
+
+void FixMindlinHistory::restart(char *buf)
+{
+  int n;
+  memcpy(&n, buf, sizeof(int));
+  reserve(n);
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixMindlinHistory::set_columns(int n)
+{
+  int **p_old = atom->iarray[idx_partner];
+  double **t_old = atom->darray[idx_t];
+  int **p_new = nullptr;
+  double **t_new = nullptr;
+  memory->create(p_new, nrows, n, "mindlin/history:partner");
+  memory->create(t_new, nrows, n, "mindlin/history:t");
+  const int keep = (n < ncol) ? n : ncol;
+  for (int i = 0; i < nrows; i++) {
+    for (int k = 0; k < keep; k++) {
+      p_new[i][k] = p_old[i][k];
+      t_new[i][k] = t_old[i][k];
+    }
+    for (int k = keep; k < n; k++) {
+      p_new[i][k] = 0;
+      t_new[i][k] = 0.0;
+    }
+  }
+  memory->destroy(p_old);
+  memory->destroy(t_old);
+  atom->iarray[idx_partner] = p_new;
+  atom->darray[idx_t] = t_new;
+  atom->icols[idx_partner] = n;
+  atom->dcols[idx_t] = n;
+  ncol = n;
+  maxexchange = 1 + 2 * ncol;
+}
+
+void FixMindlinHistory::reserve(int n)
+{
+  if (n <= ncol) return;
+  set_columns((n > 2 * ncol) ? n : 2 * ncol);
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixMindlinHistory::filled(int i) const
+{
+  const int *p = atom->iarray[idx_partner][i];
+  int n = 0;
+  while (n < ncol && p[n] != 0) n++;
+  return n;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixMindlinHistory::grow_arrays(int nmax)
+{
+  memory->grow(atom->iarray[idx_partner], nmax, ncol, "mindlin/history:partner");
+  memory->grow(atom->darray[idx_t], nmax, ncol, "mindlin/history:t");
+  for (int i = nrows; i < nmax; i++) set_arrays(i);
+  nrows = nmax;
+}
+
+void FixMindlinHistory::copy_arrays(int i, int j, int /*delflag*/)
+{
+  memcpy(atom->iarray[idx_partner][j], atom->iarray[idx_partner][i], ncol * sizeof(int));
+  memcpy(atom->darray[idx_t][j], atom->darray[idx_t][i], ncol * sizeof(double));
+}
+
+void FixMindlinHistory::set_arrays(int i)
+{
+  memset(atom->iarray[idx_partner][i], 0, ncol * sizeof(int));
+  memset(atom->darray[idx_t][i], 0, ncol * sizeof(double));
+}
+
+/* ----------------------------------------------------------------------
+   one atom's filled slots: n, then n (partner, t) pairs
+------------------------------------------------------------------------- */
+
+int FixMindlinHistory::pack_exchange(int i, double *buf)
+{
+  const int n = filled(i);
+  const int *p = atom->iarray[idx_partner][i];
+  const double *t = atom->darray[idx_t][i];
+  int m = 0;
+  buf[m++] = ubuf(n).d;
+  for (int k = 0; k < n; k++) {
+    buf[m++] = ubuf(p[k]).d;
+    buf[m++] = t[k];
+  }
+  return m;
+}
+
+int FixMindlinHistory::unpack_exchange(int nlocal, double *buf)
+{
+  const int n = (int) ubuf(buf[0]).i;
+  reserve(n);
+  set_arrays(nlocal);
+  int *p = atom->iarray[idx_partner][nlocal];
+  double *t = atom->darray[idx_t][nlocal];
+  int m = 1;
+  for (int k = 0; k < n; k++) {
+    p[k] = (int) ubuf(buf[m++]).i;
+    t[k] = buf[m++];
+  }
+  return m;
+}
+
+/* ----------------------------------------------------------------------
+   restart rows: total size first (LAMMPS convention), then as exchange
+------------------------------------------------------------------------- */
+
+int FixMindlinHistory::pack_restart(int i, double *buf)
+{
+  const int m = pack_exchange(i, buf + 1);
+  buf[0] = m + 1;
+  return m + 1;
+}
+
+void FixMindlinHistory::unpack_restart(int nlocal, int nth)
+{
+  double **extra = atom->extra;
+  int m = 0;
+  for (int i = 0; i < nth; i++) m += static_cast<int>(extra[nlocal][m]);
+  unpack_exchange(nlocal, &extra[nlocal][m + 1]);
+}
+
+int FixMindlinHistory::size_restart(int nlocal)
+{
+  return 2 + 2 * filled(nlocal);
+}
+
+int FixMindlinHistory::maxsize_restart()
+{
+  return 2 + 2 * ncol;
+}
+
+/* ---------------------------------------------------------------------- */
+
+double FixMindlinHistory::memory_usage()
+{
+  return (double) nrows * ncol * (sizeof(int) + sizeof(double));
+}

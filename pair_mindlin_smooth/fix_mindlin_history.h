@@ -1,0 +1,70 @@
+/* -*- c++ -*- ----------------------------------------------------------
+   remote-trigger: fix mindlin/history (LAMMPS plugin), internal
+
+   Per-contact history of pair style mindlin/smooth, created by the pair
+   (ID MINDLIN_HISTORY) when no fix property/atom defines the arrays.
+   It owns two per-atom custom arrays, registered with Atom under the
+   names the property/atom path uses, so dumps, extract_atom and gather
+   see them as i2_mindlin_partner[*] and d2_mindlin_t[*]:
+
+     mindlin_partner[i][k]   partner atom ID of contact k of atom i
+                             (0 = empty; filled slots come first)
+     mindlin_t[i][k]         atom i's side of that contact's tangential
+                             displacement
+
+   The number of columns starts at 8 and grows when an atom needs more
+   (on its own rank at once; all ranks agree again at the next
+   reneighboring and before a restart file is written).  Rows move with
+   their atoms between ranks and are carried by write_restart /
+   read_restart (the pair re-creates this fix with the same ID).
+------------------------------------------------------------------------- */
+
+#ifndef LMP_FIX_MINDLIN_HISTORY_H
+#define LMP_FIX_MINDLIN_HISTORY_H
+
+#include "fix.h"
+
+namespace LAMMPS_NS {
+
+class FixMindlinHistory : public Fix {
+ public:
+  static constexpr const char *ID = "MINDLIN_HISTORY";
+  static constexpr int START_COLUMNS = 8;
+
+  FixMindlinHistory(class LAMMPS *, int, char **);
+  ~FixMindlinHistory() override;
+
+  int setmask() override;
+  void setup_post_neighbor() override;
+  void post_neighbor() override;
+
+  void write_restart(FILE *) override;
+  void restart(char *) override;
+
+  void grow_arrays(int) override;
+  void copy_arrays(int, int, int) override;
+  void set_arrays(int) override;
+  int pack_exchange(int, double *) override;
+  int unpack_exchange(int, double *) override;
+  int pack_restart(int, double *) override;
+  void unpack_restart(int, int) override;
+  int size_restart(int) override;
+  int maxsize_restart() override;
+  double memory_usage() override;
+
+  // make room for at least n contacts per atom on this rank
+  void reserve(int n);
+
+ protected:
+  int idx_partner, idx_t;    // indices of the custom arrays in Atom
+  int ncol;                  // columns of both arrays on this rank
+  int nrows;                 // rows allocated
+
+  int filled(int i) const;
+  void set_columns(int);
+  void agree_on_columns();
+};
+
+}    // namespace LAMMPS_NS
+
+#endif
