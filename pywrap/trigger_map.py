@@ -560,6 +560,13 @@ class _TaskLog:
         self.data.update(result, status="complete")
         write_json(self.path, self.data)
 
+    def fail(self, error):
+        """Record the task as failed (redone by ``--resume``); returns the log data."""
+        from .paper import write_json
+        self.data.update(status="failed", error=str(error))
+        write_json(self.path, self.data)
+        return self.data
+
     @property
     def done(self):
         return self.data.get("status") == "complete"
@@ -734,10 +741,15 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
         os.makedirs(os.path.join(out, "runs"), exist_ok=True)
     comm.Barrier()
     mine = tasks[rank::size]
+    from .paper import write_json
     done = 0
     with Engine(comm=MPI.COMM_SELF) as eng:
         for t in mine:
-            d = run_task(eng, cfg, setup, t, out)
+            try:
+                d = run_task(eng, cfg, setup, t, out)
+            except Exception as exc:  # noqa: BLE001 - one failed point must not stop the map
+                d = _TaskLog(os.path.join(out, "tasks", t["key"] + ".json"), t)
+                d = d.fail(f"{type(exc).__name__}: {exc}")
             done += 1
             if speak and (rank == 0 or size == 1):
                 res = d
@@ -817,11 +829,20 @@ def collect(out, tasks, setup):
         if t["kind"] != "threshold":
             continue
         d = logs[t["key"]]
+        if d.get("status") == "failed":
+            d = dict(d, bracket_status="failed: " + d.get("error", ""), a_c=None, a_lo=None,
+                     a_hi=None, a_lin=math.nan, a_max=math.nan,
+                     n_runs=len(d.get("runs", [])),
+                     wall=sum(r["wall"] for r in d.get("runs", [])))
         j = taus.index(t["tau"])
         ctrl = logs[f"control_L{t['load']}_T{j}"]
+        if ctrl.get("status") == "failed":
+            ctrl = {"noise_triggered": None, "switched": None}
         ld = setup["loads"][t["load"]]
         noise = bool(ctrl.get("noise_triggered"))
         status = "noise-triggered" if noise else d["bracket_status"]
+        if ctrl.get("noise_triggered") is None:
+            status += " (control failed)"
         trig = [r for r in d["runs"] if r["kind"] == "mu(v)" and r["triggered"]]
         first = min(trig, key=lambda r: r["a"]) if trig else None
         rows.append({

@@ -88,3 +88,26 @@ def test_msd_minimum_image():
     a = S([[9.9999, 1.0, 0.0], [5.0, 2.0, 0.0]])
     b = S([[0.0001, 1.0, 0.0], [5.0, 2.0, 0.0]])
     assert tm._msd(a, b) == pytest.approx(0.5 * 0.0002 ** 2, rel=1e-6)
+
+
+def test_a_failed_point_is_a_row_with_its_reason(tmp_path):
+    """collect(): a task that raised is reported with its error; its neighbours are not."""
+    import json
+
+    setup = {"loads": [{"kind": "window 0.5", "fraction": 0.5, "F_x": 0.06}], "taus": [],
+             "omegas": [0.01]}
+    cfg = tm.MapConfig(paper="p", onsets=["step"], dt_check=0)
+    tasks = tm.make_tasks(cfg, setup)
+    (tmp_path / "tasks").mkdir()
+    logs = {
+        "control_L0_T0": {"task": tasks[0], "status": "complete", "runs": [],
+                          "noise_triggered": False, "switched": False},
+        "L0_T0_W0_step": {"task": tasks[1], "status": "failed", "runs": [],
+                          "error": "NoEquilibriumError: residual 3.0"},
+    }
+    for k, v in logs.items():
+        (tmp_path / "tasks" / f"{k}.json").write_text(json.dumps(v))
+    setup["loads"][0].update(growth=0.01, growth_tau=[])
+    rows = tm.collect(str(tmp_path), tasks, setup)
+    assert len(rows) == 1 and rows[0]["status"].startswith("failed: NoEquilibriumError")
+    assert np.isnan(rows[0]["a_c"])
