@@ -22,6 +22,10 @@ design; in short:
   bisection. The bracket [a_lo, a_hi] (a_lo not triggered, a_hi triggered)
   is then narrowed in log a to a factor <= ``factor``. A run stops as soon
   as D > D_run (triggered) or at t_max (not triggered).
+* **Forced twin.** For a bracketed point, the run at a_hi is repeated with
+  mu0 throughout (no mu(v)). If that run also passes D_run, the forcing
+  alone moves the packing that far (at a natural frequency, for instance):
+  the point is a ``forced response``, not a trigger, and gets no a_c.
 * **Controls.** For each load and tau, the run with mu(v) and no forcing (the
   same run for every omega_p and onset: it has no forcing). If it triggers,
   every point of that load and tau is ``noise-triggered`` and gets no a_c.
@@ -625,7 +629,8 @@ def run_task(eng, cfg, setup, task, out):
     folder = os.path.join(out, "runs", task["key"])
     os.makedirs(folder, exist_ok=True)
     log = _TaskLog(os.path.join(out, "tasks", task["key"] + ".json"), task)
-    if log.done:
+    if log.done and (task["kind"] == "control" or "forced" in log.data
+                     or log.data.get("bracket_status") != "bracketed"):
         return log.data
 
     def run(kind, a, muv, d_run):
@@ -680,8 +685,17 @@ def run_task(eng, cfg, setup, task, out):
                 break
             a = max(hi / step, a_min)
         step = step * step
+    # the forced twin: the same forcing at a_hi with mu0 throughout (no mu(v)). If it
+    # also passes D_run, the forcing alone moves the packing that far (e.g. at a
+    # natural frequency): a forced response, not a triggered instability.
+    forced = None
+    if status == "bracketed":
+        tw = run("twin", hi, 0, d_run_level(cfg, ld, hi))
+        forced = bool(tw["triggered"])
+        if forced:
+            status = "forced response"
     res = {"a_lo": lo, "a_hi": hi, "a_lin": a_lin, "a_probe": a_probe, "a_max": a_max,
-           "a_min": a_min, "bracket_status": status,
+           "a_min": a_min, "bracket_status": status, "forced": forced,
            "a_c": math.sqrt(lo * hi) if status == "bracketed" else None,
            "n_runs": len(log.data["runs"]),
            "wall": sum(r["wall"] for r in log.data["runs"])}

@@ -71,7 +71,12 @@ def test_window_load_triggers_at_the_predicted_amplitude(tmap):
         # the probe's linear-response estimate lies in the bracket, up to its factor
         assert lo / 1.5 <= pts["a_lin"][i] <= hi * 1.5, (lo, hi, pts["a_lin"][i])
         # re-read the runs: a_hi ran away after mu left mu0, a_lo never passed D_run
-        runs = {r["a"]: r for r in _task(out, pts["key"][i])["runs"] if r["kind"] == "mu(v)"}
+        log = _task(out, pts["key"][i])
+        # the forced twin (a_hi, mu0 throughout) stays below D_run: the friction drop did it
+        twin = [r for r in log["runs"] if r["kind"] == "twin"]
+        assert log["forced"] is False and len(twin) == 1 and twin[0]["a"] == hi
+        assert not twin[0]["triggered"] and twin[0]["D_max"] < twin[0]["d_run"] / 10
+        runs = {r["a"]: r for r in log["runs"] if r["kind"] == "mu(v)"}
         for a, want in ((hi, True), (lo, False)):
             r = runs[a]
             with h5py.File(r["h5"], "r") as fh:
