@@ -28,7 +28,7 @@ SUBCOMMANDS = [
     "remote_trigger.pywrap.trigger_map",
     "remote_trigger.analysis.normal_form",
     "remote_trigger.analysis.cli_jacobian",
-    "remote_trigger.analysis.accuracy",
+    "remote_trigger.pywrap.accuracy",
 ]
 
 

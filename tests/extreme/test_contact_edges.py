@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.accuracy import _LammpsFD
+from remote_trigger.pywrap.accuracy import _LammpsFD
 from remote_trigger.analysis.jacobian import stiffness_matrix
 
 from . import lmp_helpers as H

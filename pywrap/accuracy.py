@@ -561,7 +561,7 @@ def _atomic_text(path, text):
 
 def write_table(out, rows, ctx=None, attrs=None):
     """Write ``accuracy.md`` and ``accuracy.h5`` (atomically); return their paths."""
-    from ._io import write_h5_atomic
+    from remote_trigger.analysis._io import write_h5_atomic
 
     md = os.path.join(out, "accuracy.md")
     head = "# remote-trigger accuracy\n\n"
