@@ -38,6 +38,34 @@ def noise_level(t, D, frac=0.05):
     return float(np.median(d[:max(3, int(frac * d.size))]))
 
 
+def exp_rate(t, D, mask=None, min_records=5):
+    """Growth rate g of D ~ e^{2 g t}: least-squares slope of ln D over t, halved.
+
+    The one fit of a growth rate in the project (:func:`growth_window`, the
+    saturation test of the report and the accuracy study's time-step sweep
+    use it).
+
+    Parameters
+    ----------
+    t, D : array_like, shape (n,)
+        Times and MSD (Eq. 8).
+    mask : array_like of bool, shape (n,), optional
+        Records to fit (default all); records with D <= 0 are left out.
+    min_records : int
+        Fewer records give NaN.
+
+    Returns
+    -------
+    float
+        g (1/time), or NaN.
+    """
+    t, D = np.asarray(t, float), np.asarray(D, float)
+    sel = D > 0 if mask is None else np.asarray(mask, bool) & (D > 0)
+    if np.count_nonzero(sel) < min_records:
+        return float("nan")
+    return float(np.polyfit(t[sel], np.log(D[sel]), 1)[0] / 2.0)
+
+
 def growth_window(t, D, noise, lo=1e3, hi=1e-3, start=0):
     """Exponential stretch of an MSD series and its growth rate g (D ~ e^{2 g t}).
 
@@ -76,8 +104,7 @@ def growth_window(t, D, noise, lo=1e3, hi=1e-3, start=0):
     i1 = int(later[0])
     if i1 - i0 < 4:
         return None, float("nan")
-    sl = slice(i0, i1 + 1)
-    g = float(np.polyfit(t[sl], np.log(D[sl]), 1)[0] / 2.0)
+    g = exp_rate(t, D, (idx >= i0) & (idx <= i1))
     return (i0, i1), g
 
 

@@ -199,10 +199,8 @@ def section_relaxation(ctx):
 
 # --------------------------------------------------------------------------- time step
 def _growth_fit(t, D, t_from):
-    sel = (t >= t_from) & (D > 0)
-    if np.count_nonzero(sel) < 5:
-        return float("nan")
-    return float(np.polyfit(t[sel], np.log(D[sel]), 1)[0] / 2.0)
+    from remote_trigger.analysis.series import exp_rate
+    return exp_rate(t, D, np.asarray(t) >= t_from)
 
 
 def verlet_growth(lam, dt):

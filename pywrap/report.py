@@ -28,7 +28,7 @@ import os
 
 import numpy as np
 
-from remote_trigger.analysis.series import growth_window, noise_level  # noqa: F401 (API)
+from remote_trigger.analysis.series import exp_rate, growth_window, noise_level  # noqa: F401 (API)
 
 from .paper_config import PAPER
 
@@ -151,7 +151,7 @@ def instability_metrics(out, summary):
     # saturation: D in the last 10 % of the run no longer grows at the linear rate
     n = len(t)
     tail = slice(int(0.9 * n), n)
-    late = np.polyfit(t[tail], np.log(np.maximum(D[tail], 1e-300)), 1)[0] / 2 if n > 20 \
+    late = exp_rate(t[tail], np.maximum(D[tail], 1e-300), min_records=1) if n > 20 \
         else float("nan")
     return {"t": t, "D": D, "noise": noise, "D_max": Dmax,
             "decades": float(np.log10(Dmax / noise)) if noise > 0 else float("nan"),
