@@ -1,4 +1,4 @@
-"""Seeded generator of the loose initial packing (MODEL.md section 1).
+"""Seeded generator of the loose initial packing (docs/model.md section 1).
 
 The scene is N bidisperse disks (radii R1 = 0.5 and R2 = 0.7, equal numbers,
 mass m = 1 each) in a box periodic in x, above a flat wall at y = 0. The
@@ -123,7 +123,7 @@ def generate(n, seed=0, phi=0.82, phi_loose=0.55, max_tries=200000, radii=RADII)
     max_tries : int
         Random trials per disk before giving up.
     radii : tuple of float
-        (R1, R2), 0 < R1 < R2; default (0.5, 0.7) (MODEL.md section 1).
+        (R1, R2), 0 < R1 < R2; default (0.5, 0.7) (docs/model.md section 1).
 
     Returns
     -------

@@ -2,7 +2,7 @@
 
 One command reproduces Charan, Pomyalov & Procaccia, *Generic Mechanism for
 Remote Triggering of Earthquakes*, on the default scene (N = 100, the
-paper's parameters; MODEL.md) and writes everything under one folder
+paper's parameters; docs/model.md) and writes everything under one folder
 (``--out``, default ``demo-out``); docs/paper.md describes it in full.
 
 Steps (each a stage of :mod:`remote_trigger.pywrap.stages`):
@@ -382,7 +382,7 @@ def run_perturb(cfg, out, ramps, comm, clock):
 
 
 def run_normal_form(cfg, out, clock):
-    """Normal form (MODEL.md section 8): A vs eps for several tau; HDF5 + PNG."""
+    """Normal form (docs/model.md section 8): A vs eps for several tau; HDF5 + PNG."""
     from remote_trigger.analysis import normal_form as nf
     from .results import write_atomic
 

@@ -1,4 +1,4 @@
-"""The driver stages: relax, ramp, perturb, instability (MODEL.md section 6).
+"""The driver stages: relax, ramp, perturb, instability (docs/model.md section 6).
 
 Each stage is one function taking a validated configuration
 (:mod:`remote_trigger.pywrap.config`) and an output folder, and returning a
