@@ -14,13 +14,19 @@ import json
 import math
 import os
 
+from remote_trigger.analysis.errors import InputError
+
 
 #: relaxation protocols of :class:`RelaxConfig` (docs/driver.md)
 PROTOCOLS = ("frictionless-then-friction", "frictional")
 
 
-class ConfigError(ValueError):
-    """A configuration value is invalid; the message names field and value."""
+class ConfigError(InputError):
+    """A configuration value is invalid; the message names field and value.
+
+    A ``ValueError`` and a :class:`~remote_trigger.analysis.errors.RemoteTriggerError`
+    (command-line exit status 2).
+    """
 
 
 def _num(name, val):
