@@ -882,7 +882,9 @@ def register(subparsers):
         p.add_argument(*flags, dest=f"opt_{f}", type=typ, metavar=typ.__name__.upper(),
                        help=_FLAG_HELP.get(f, f"see docs/paper.md ({default!r})"
                                            if default is not None else "see docs/paper.md"))
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, resume_hint=(
+        "paper.json records every finished phase: the same command with --resume "
+        "continues the job"))
 
 
 def _parse_set(items):
@@ -956,15 +958,7 @@ def main(args):
         if args.resume and os.path.isfile(os.path.join(args.out, MANIFEST)):
             load_manifest(os.path.abspath(args.out), cfg)   # refuse before mpirun starts
         return _relaunch(cfg, args)
-    from .equilibrium import NoEquilibriumError
-
-    try:
-        path = run_paper(cfg, args.out, comm=world, speak=not args.quiet,
-                         resume=args.resume)
-    except NoEquilibriumError as exc:
-        if world.Get_rank() == 0:
-            print(f"remote-trigger paper: {exc}", file=sys.stderr)
-        return 3
+    path = run_paper(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)
     if world.Get_rank() == 0:
         print(f"report: {path}")
     return 0
