@@ -209,7 +209,8 @@ def write_data(packing, path):
     ----------
     packing : Packing
     path : str or os.PathLike
-        Output file; written to a temporary name and renamed (atomic).
+        Output file; written to a temporary name and renamed (atomic; the
+        temporary file is removed if writing or renaming fails).
     """
     p = packing
     lines = [
@@ -235,6 +236,11 @@ def write_data(packing, path):
     lines += ["", "topflag # i_top", ""]
     lines += [f"{k + 1} {int(p.top[k])}" for k in range(p.n)]
     tmp = f"{os.fspath(path)}.tmp{os.getpid()}"
-    with open(tmp, "w") as fh:
-        fh.write("\n".join(lines) + "\n")
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "w") as fh:
+            fh.write("\n".join(lines) + "\n")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise

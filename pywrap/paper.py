@@ -352,7 +352,7 @@ def run_instability(cfg, out, F_c, ext_rows, ramp_summary, comm, clock):
     clock.say(f"Fig. 4: undamped run at F_x = {F4:.6g} = {cfg.fig4_ratio:.4g} F_x^c, "
               f"predicted growth rate {g:.4g}, t_max = {t_max:.4g}")
     t0 = time.perf_counter()
-    res = stages.instability(dcfg, out, comm=comm, quiet=True)
+    res = stages.instability(dcfg, out, comm=comm, quiet=True, overwrite=True)
     wall = time.perf_counter() - t0
     e = res.extra
     from remote_trigger.analysis.series import growth_window, noise_level
@@ -705,7 +705,8 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
             solo = comm.Split(0, 0) if size > 1 else comm
             try:
                 write_data(generate(cfg.n, seed=cfg.seed, phi=cfg.phi), datafile)
-                rel = stages.relax(relax_config(cfg, datafile), out, comm=solo, quiet=True)
+                rel = stages.relax(relax_config(cfg, datafile), out, comm=solo, quiet=True,
+                                   overwrite=True)
                 summary["relax"] = {"residual": rel.residual,
                                     "packing_fraction": rel.packing_fraction,
                                     "converged": rel.converged, "wall": rel.wall_time,
