@@ -104,8 +104,9 @@ def merge_model(given, start, flags=None, override=False, keys=MODEL_KEYS):
         if val is not None:
             if old is not None and not override and not _agree(val, old):
                 flag = flags.get(key, f"--{key}")
+                given_text = f"{flag}{val!r}" if flag.endswith("=") else f"{flag} {val!r}"
                 raise InputError(
-                    f"{flag} {val!r} contradicts {key} = {old!r} of the start state "
+                    f"{given_text} contradicts {key} = {old!r} of the start state "
                     f"(sidecar {side_file}); leave {flag} out to use {old!r}, or give "
                     f"--override to use {val!r} anyway")
             values[key] = val

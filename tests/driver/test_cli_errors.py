@@ -258,7 +258,7 @@ def test_conflicting_value_needs_override(capsys, ramp_run, tmp_path):
     status, _, err = run_cli(capsys, "perturb", "--datafile", ramp_run["stable"] + ".data",
                              "--set", "k_n=3e5", "--out", tmp_path / "p", "--t-max", 0.1)
     assert status == 2
-    assert_one_line_error(err, "--set k_n= 300000.0 contradicts k_n = 200000.0")
+    assert_one_line_error(err, "--set k_n=300000.0 contradicts k_n = 200000.0")
 
 
 def test_instability_from_a_stable_state_refuses(capsys, ramp_run, tmp_path):
