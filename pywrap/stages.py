@@ -1124,7 +1124,59 @@ def check_runs(runs):
     return "".join(r for r in PERTURB_RUNS if r in runs)
 
 
-def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=False):
+def _perturb_resume_state(cfg, out, sha):
+    """What an interrupted ``perturb`` in ``out`` left that this one may keep (rank 0).
+
+    Returns
+    -------
+    residual : float or None
+        Residual of the kept equilibrium ``out/perturb/equilibrium.*``; None
+        if it is to be recomputed (then no run is kept either).
+    complete : dict
+        ``{run: SeriesResult}`` of the runs finished with this configuration.
+
+    Raises
+    ------
+    ConfigError
+        A run file in ``out`` was made with another configuration or from a
+        data file with other contents (its key and both values named).
+    """
+    residual, complete = None, {}
+    for run in PERTURB_RUNS:
+        path = os.path.join(out, f"perturb_{run}.h5")
+        if not os.path.exists(path):
+            continue
+        try:
+            attrs, data = read_all(path)
+        except OSError:                 # unreadable: redone
+            continue
+        if attrs.get("datafile_sha256") != sha:
+            raise ConfigError(f"cannot resume {path}: it ran from a data file with other "
+                              f"contents than datafile = {cfg.datafile!r} (nothing was "
+                              f"changed)")
+        for k, v in cfg.to_attrs().items():
+            if k == "datafile" or (run == "c" and k in ("v0", "v_ss") and v == "None"):
+                continue
+            old = attrs.get(k)
+            if isinstance(old, bytes):
+                old = old.decode()
+            if old is None or str(old) != str(v):
+                raise ConfigError(f"cannot resume {path}: its configuration has {k} = "
+                                  f"{old!r}, this run has {k} = {v!r} (nothing was changed)")
+        residual = float(attrs["equilibrium_residual"])
+        if attrs.get("status") == "complete":
+            complete[run] = SeriesResult(
+                data["t"], data["D"], data["v_top"], data["mu"], h5=path,
+                extra={"v_top_max": float(attrs["v_top_max"]),
+                       "v_top_running_max": data["v_top_max"]})
+    if residual is None or not all(os.path.exists(os.path.join(out, f))
+                                   for f in _equilibrium_files("perturb")):
+        return None, {}
+    return residual, complete
+
+
+def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=False,
+            resume=False):
     """The three undamped runs of Fig. 5 from the equilibrium at cfg.F_x.
 
     (a) unperturbed; (b) f(t) = a cos(omega_p t) added to F_x on ``top``;
@@ -1147,6 +1199,14 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
         and (c) is asked for: it measures v0).
     overwrite : bool
         Replace earlier perturb results in ``out`` (default: refuse).
+    resume : bool
+        Continue an interrupted perturb in ``out`` with the same
+        configuration and data file (compared with the run files'
+        attributes, ``datafile_sha256`` included): its equilibrium and the
+        runs finished (status ``'complete'``) are kept, the others are run
+        again from the same equilibrium data file, so the results are
+        bitwise those of an uninterrupted perturb. A folder without a run
+        file starts anew.
 
     Returns
     -------
@@ -1158,7 +1218,8 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
     ------
     ConfigError
         Unknown run letters, ``out`` not a writable folder or holding
-        perturb results (unless ``overwrite``), a bad data file.
+        perturb results (unless ``overwrite`` or ``resume``), a bad data
+        file, or a ``resume`` whose configuration or data file differs.
     """
     if not isinstance(cfg, DynamicsConfig):
         raise ConfigError(f"perturb needs a DynamicsConfig, got {type(cfg).__name__}")
@@ -1167,16 +1228,31 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
     with Engine(comm=comm, log=log) as eng:
         cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "perturb")
         prepare_out(eng, out, _equilibrium_files("perturb")
-                    + [f"perturb_{k}.h5" for k in PERTURB_RUNS], overwrite, "perturb")
-        prefix, r = _equilibrium_for(eng, cfg, out, "perturb", quiet)
+                    + [f"perturb_{k}.h5" for k in PERTURB_RUNS], overwrite or resume,
+                    "perturb")
+        sha, r, done, err = None, None, {}, None
+        if eng.rank == 0:
+            sha = file_sha256(cfg.datafile)
+            if resume:
+                try:
+                    r, done = _perturb_resume_state(cfg, out, sha)
+                except ConfigError as exc:
+                    err = str(exc)
+        r, done, err = eng.comm.bcast((r, done, err), root=0)
+        if err:
+            raise ConfigError(err)
+        if r is None:
+            prefix, r = _equilibrium_for(eng, cfg, out, "perturb", quiet)
+        else:
+            prefix = os.path.join(out, "perturb", "equilibrium")
         data = prefix + ".data"
         v0 = cfg.v0
         base = {"equilibrium": data, "equilibrium_residual": r, "stage": "perturb",
-                **dtinfo}
+                "datafile_sha256": str(eng.comm.bcast(sha, root=0)), **dtinfo}
         if "a" in runs or v0 is None:
-            res = _undamped_run(eng, cfg, data, os.path.join(out, "perturb_a.h5"),
-                                {"a": 0.0, "muv": 0}, "perturb (a)", quiet,
-                                attrs=dict(base, run="a"))
+            res = done.get("a") or _undamped_run(
+                eng, cfg, data, os.path.join(out, "perturb_a.h5"), {"a": 0.0, "muv": 0},
+                "perturb (a)", quiet, attrs=dict(base, run="a"))
             results["a"] = res
             if v0 is None:              # max |v_top| over every step, not only records
                 v0 = float(res.extra["v_top_max"])
@@ -1184,12 +1260,12 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
                     v0 = np.finfo(float).tiny
         vss = cfg.v_ss if cfg.v_ss is not None else v0
         if "b" in runs:
-            results["b"] = _undamped_run(
+            results["b"] = done.get("b") or _undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_b.h5"),
                 {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 0}, "perturb (b)", quiet,
                 attrs=dict(base, run="b"))
         if "c" in runs:
-            results["c"] = _undamped_run(
+            results["c"] = done.get("c") or _undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_c.h5"),
                 {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 1, "v0": float(v0),
                  "vss": float(vss), "B": float(cfg.B), "w": float(cfg.w),

@@ -118,10 +118,9 @@ INTERRUPT_HINTS = {
     "relax": "nothing of the relaxation is kept (relax has no --resume): rerun it",
     "ramp": "ramp.h5 holds every finished equilibrium: the same command with --resume "
             "continues it (bitwise the same result)",
-    "perturb": "the finished runs' files are complete, the interrupted one is kept up to "
-               "the interruption with status 'failed'; perturb has no --resume: rerun it "
-               "into another --out",
-    "instability": "instability.h5 is kept up to the interruption with status 'failed'; "
+    "perturb": "the finished runs are kept: the same command with --resume continues with "
+               "the interrupted one (bitwise the same result)",
+    "instability": "instability.h5 is kept up to its last checkpoint (status 'running'); "
                    "instability has no --resume: rerun it into another --out",
 }
 
@@ -159,6 +158,9 @@ def register(subparsers):
     p.add_argument("--omega-p", dest="omega_p", type=float, help="frequency of f(t) (0.01)")
     p.add_argument("--runs", default="abc", type=_runs_arg,
                    help="which runs, letters of a, b, c (default abc)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted perturb in --out (same options): its "
+                        "equilibrium and finished runs are kept")
     p.set_defaults(func=run_perturb, resume_hint=INTERRUPT_HINTS["perturb"])
 
     i = subparsers.add_parser("instability", help="undamped run above F_x^c until D saturates")
@@ -241,7 +243,8 @@ def run_perturb(args):
 
     cfg = _config(DynamicsConfig, args, ("t_max", "a", "omega_p"))
     _note_model(args, cfg)
-    res = stages.perturb(cfg, args.out, quiet=args.quiet, log=args.log, runs=args.runs)
+    res = stages.perturb(cfg, args.out, quiet=args.quiet, log=args.log, runs=args.runs,
+                         resume=args.resume)
     if _rank() == 0:
         for k, r in res.items():
             print(f"perturb ({k}): max D {r.D.max():.3e}, max |v_top| "

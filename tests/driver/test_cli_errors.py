@@ -233,6 +233,34 @@ def test_ramp_resume_refuses_another_datafile(capsys, ramp_run, tmp_path):
     assert (out / "ramp.h5").read_bytes() == before
 
 
+def test_perturb_resume_keeps_finished_runs_and_is_bitwise(capsys, relaxed, tmp_path):
+    """An interrupted perturb (run (b) cut short, (c) not started) resumed == uninterrupted."""
+    from remote_trigger.pywrap.results import read_all
+
+    argv = ["perturb", "--datafile", relaxed.datafile, "--t-max", 2, "--quiet"]
+    ref, cut = tmp_path / "ref", tmp_path / "cut"
+    assert run_cli(capsys, *argv, "--out", ref)[0] == 0
+    shutil.copytree(ref, cut)
+    with h5py.File(cut / "perturb_b.h5", "a") as fh:        # as Ctrl-C leaves it
+        fh.attrs["status"] = "failed"
+    os.remove(cut / "perturb_c.h5")
+    a_before = (cut / "perturb_a.h5").stat().st_mtime_ns
+    status, _, err = run_cli(capsys, *argv, "--out", cut, "--a", 2e-12, "--resume")
+    assert status == 2
+    assert_one_line_error(err, "cannot resume", "a = 1e-12, this run has a = 2e-12")
+    assert run_cli(capsys, *argv, "--out", cut, "--resume")[0] == 0
+    assert (cut / "perturb_a.h5").stat().st_mtime_ns == a_before      # kept, not redone
+    for run in "abc":
+        ra, rd = read_all(str(ref / f"perturb_{run}.h5"))
+        ca, cd = read_all(str(cut / f"perturb_{run}.h5"))
+        assert ca["status"] == "complete" and sorted(rd) == sorted(cd)
+        for k in rd:
+            np.testing.assert_array_equal(cd[k], rd[k], err_msg=f"{run}: {k}")
+    parser = cli.build_parser()
+    hint = parser.parse_args(["perturb", "--datafile", "x"]).resume_hint
+    assert "--resume continues" in hint
+
+
 # --------------------------------------------------------------------------- the model
 def test_stage_takes_the_model_from_the_sidecar(capsys, ramp_run, tmp_path):
     """``instability`` without --F-x runs at the start state's F_x (was: F_x = 0)."""
