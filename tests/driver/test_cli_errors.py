@@ -387,3 +387,7 @@ def test_mpi_only_rank_0_prints_global_numbers(ramp_run, tmp_path):
     assert jac.returncode == 0 and jac.stdout.count("jacobian:") == 1, jac.stdout
     bad = run("ramp", "--datafile", tmp_path / "missing.data", np_=2)
     assert bad.returncode == 2 and bad.stderr.count("error") == 1, bad.stderr
+    nf = run("normal-form", "-o", tmp_path / "nf", "--eps", 0.1, "--tau", "inf", np_=2)
+    assert nf.returncode == 0 and nf.stdout.count("normal form, delta") == 1, nf.stdout
+    acc = run("accuracy", "--quick", "-o", tmp_path / "acc", np_=2)
+    assert acc.returncode == 2 and acc.stderr.count("run it without mpirun") == 1, acc.stderr
