@@ -74,11 +74,16 @@ def prepare_out(out):
     Raises
     ------
     ConfigError
-        If ``out`` is a file, or a non-empty folder not written by this job.
+        If ``out`` is a file, cannot be created, or is a non-empty folder
+        not written by this job.
     """
     if os.path.exists(out) and not os.path.isdir(out):
         raise ConfigError(f"--out must be a folder, got a file: out = {out!r}")
-    os.makedirs(out, exist_ok=True)
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {out!r}: cannot create the folder "
+                          f"({exc.strerror or exc})") from None
     entries = os.listdir(out)
     if not entries:
         return

@@ -181,9 +181,10 @@ def test_out_naming_a_file(capsys, packing_file, tmp_path, cmd):
     assert afile.read_text() == "keep" and os.listdir(tmp_path) == ["a_file"]
 
 
-def test_unwritable_out(capsys, packing_file):
-    status, _, err = run_cli(capsys, "relax", "--datafile", packing_file, "--out",
-                             "/proc/remote-trigger/out", "--quiet")
+@pytest.mark.parametrize("cmd", ["relax", "paper"])
+def test_unwritable_out(capsys, packing_file, cmd):
+    argv = (["relax", "--datafile", packing_file] if cmd == "relax" else ["paper", "--quick"])
+    status, _, err = run_cli(capsys, *argv, "--out", "/proc/remote-trigger/out", "--quiet")
     assert status == 2
     assert_one_line_error(err, "'/proc/remote-trigger/out': cannot create the folder")
 
