@@ -202,6 +202,20 @@ def test_generate_onto_a_folder_leaves_nothing(capsys, tmp_path):
     assert os.listdir(tmp_path / "d") == [] and sorted(os.listdir(tmp_path)) == ["d"]
 
 
+def test_full_disk_is_one_line_status_1(capsys, tmp_path, monkeypatch):
+    import errno
+
+    from remote_trigger.pywrap import packing
+
+    def full(p, path):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path) + ".tmp1")
+
+    monkeypatch.setattr(packing, "write_data", full)
+    status, _, err = run_cli(capsys, "generate", "--n", 20, "--output", tmp_path / "p.data")
+    assert status == 1
+    assert_one_line_error(err, "no space left on the device writing", "p.data.tmp1")
+
+
 def test_relax_and_perturb_refuse_a_folder_with_their_results(capsys, relaxed, tmp_path):
     out = tmp_path / "o"
     assert run_cli(capsys, "relax", "--datafile", relaxed.datafile, "--out", out, "--quiet",
