@@ -25,7 +25,15 @@ from . import exceptional as _exc
 from . import jacobian as _jac
 from .state import read_dump
 
-__all__ = ["Analysis", "analyze", "analyze_dump"]
+__all__ = ["Analysis", "analyze", "analyze_dump", "roundoff_floor", "check_equilibrium"]
+
+#: a residual this many times the round-off floor is "far above" it: the state
+#: is not the equilibrium of the parameters it is analysed with
+FAR_ABOVE_FLOOR = 1e3
+#: smallest floor used (the driver's smallest acceptance level, 1e-10)
+FLOOR_MIN = 1e-10
+#: floor = ROUNDOFF_FACTOR eps X k_eff (the driver's acceptance level, docs/driver.md)
+ROUNDOFF_FACTOR = 4.0
 
 
 @dataclass
@@ -72,6 +80,83 @@ class Analysis:
         """max over disks of max(|F_i|, |T_i|/R_i) including the loads."""
         G = self.residual.reshape(-1, 3)
         return float(max(np.max(np.hypot(G[:, 0], G[:, 1])), np.max(np.abs(G[:, 2]))))
+
+
+def roundoff_floor(state):
+    r"""Residual that double precision allows for a state, as the driver accepts it.
+
+    .. math::
+
+        r_\mathrm{floor} = \max(10^{-10},\; 4\,\varepsilon\,X\,k_\mathrm{eff}),
+        \quad k_\mathrm{eff} = \tfrac32 k_n^{2/3} F^{1/3},
+
+    X the largest coordinate or box length, F the largest external load per
+    disk (or, without loads, the largest contact force of the dump, or 1):
+    the driver's acceptance level of a stagnating Newton iteration
+    (``remote_trigger.pywrap.equilibrium.accept_level``, docs/driver.md).
+
+    Parameters
+    ----------
+    state : State
+
+    Returns
+    -------
+    float
+        Force units.
+    """
+    X = max(float(np.max(np.abs(state.positions))), float(np.max(state.box_hi - state.box_lo)))
+    F = float(np.max(np.hypot(state.external[:, 0], state.external[:, 1]))) \
+        if state.external.size else 0.0
+    if not F > 0 and state.contact_forces is not None and state.contact_forces.size:
+        F = float(np.max(np.hypot(state.contact_forces[:, 0], state.contact_forces[:, 1])))
+    if not F > 0:
+        F = 1.0
+    keff = 1.5 * float(state.params.k_n) ** (2.0 / 3.0) * F ** (1.0 / 3.0)
+    return max(FLOOR_MIN, ROUNDOFF_FACTOR * np.finfo(float).eps * X * keff)
+
+
+def check_equilibrium(state, factor=FAR_ABOVE_FLOOR, what=None):
+    """Refuse a state whose residual is far above the round-off floor.
+
+    A Jacobian and its spectrum describe the linear motion about an
+    equilibrium; at a state that is not one (wrong k_n, mu or loads in the
+    sidecar, a dump written with too few digits, a state in motion) they
+    describe nothing, and a "complex pair" found there is meaningless.
+
+    Parameters
+    ----------
+    state : State
+    factor : float
+        Refuse above ``factor`` x :func:`roundoff_floor` (default 1e3).
+    what : str, optional
+        Name of the state in the message (default its source file).
+
+    Returns
+    -------
+    ratio : float
+        Residual / floor.
+
+    Raises
+    ------
+    NotEquilibriumError
+        An ``InputError`` (``ValueError``), naming the residual, the floor
+        and what to check.
+    """
+    from .errors import NotEquilibriumError
+
+    G = _jac.generalized_forces(state).reshape(-1, 3)
+    r = float(max(np.max(np.hypot(G[:, 0], G[:, 1])), np.max(np.abs(G[:, 2]))))
+    floor = roundoff_floor(state)
+    ratio = r / floor
+    if not ratio <= factor:
+        name = what or state.source or "the state"
+        raise NotEquilibriumError(
+            f"{name} is not an equilibrium of its parameters: residual max |G| = {r:.3g} "
+            f"is {ratio:.3g} x the round-off floor {floor:.3g} (k_n = {state.params.k_n!r},"
+            f" k_t = {state.params.k_t!r}, mu = {state.params.mu!r}, F_x = "
+            f"{state.F_x!r}, F_y = {state.F_y!r}); check the sidecar and the "
+            f"dump's precision (%.17g)")
+    return ratio
 
 
 def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=None,

@@ -5,10 +5,18 @@ sidecar ``DUMP.json``), assembles K = -dG/dq (paper Appendix C), removes
 rattlers, computes the eigenvalues of M^-1 K and decides whether a complex
 pair is present; writes everything to a NumPy ``.npz`` file (keys in
 ``docs/analysis.md``) and prints a one-screen summary.
+
+It refuses (exit status 2, nothing written) a dump whose residual is far
+above the round-off floor (:func:`~remote_trigger.analysis.analyze.check_equilibrium`):
+the spectrum of a state that is not an equilibrium means nothing.
+``--allow-residual`` analyses it anyway and prints a warning. A ``--k-n``,
+``--k-t`` or ``--mu`` that contradicts the sidecar is refused unless
+``--override``. Under ``mpirun`` it runs on rank 0 only.
 """
 from __future__ import annotations
 
 import os
+import sys
 
 import numpy as np
 
@@ -30,7 +38,13 @@ def register(subparsers):
     for name, hlp in (("k-n", "normal stiffness k_n"), ("k-t", "tangential stiffness k_t"),
                       ("mu", "friction coefficient"), ("wall-y", "height of the flat wall")):
         p.add_argument(f"--{name}", type=float, default=None,
-                       help=f"{hlp} (overrides the sidecar JSON)")
+                       help=f"{hlp} (default: the sidecar JSON's; a different value "
+                            f"needs --override)")
+    p.add_argument("--override", action="store_true",
+                   help="use --k-n/--k-t/--mu/--wall-y even where they contradict the sidecar")
+    p.add_argument("--allow-residual", action="store_true",
+                   help="analyse a state whose residual is far above the round-off floor "
+                        "(not an equilibrium of its parameters), with a warning")
     p.add_argument("--method", choices=("auto", "dense", "sparse"), default="auto",
                    help="eigenvalue path: dense LAPACK or ARPACK shift-invert (default auto: "
                         "dense up to 3000 dofs)")
@@ -43,15 +57,42 @@ def register(subparsers):
     p.add_argument("--min-contacts", type=int, default=2,
                    help="rattler criterion: fewer contacts than this (default 2)")
     p.add_argument("--no-eigen", action="store_true", help="write K only")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, serial=True)
 
 
 def run(args):
-    """Execute the subcommand; returns the exit status."""
+    """Execute the subcommand; returns the exit status.
+
+    Raises
+    ------
+    InputError
+        Bad output name, parameters that contradict the sidecar, or a state
+        far from equilibrium (without ``--allow-residual``).
+    FileNotFoundError, ValueError
+        Missing or malformed dump.
+    """
+    from ._io import output_file, write_npz_atomic
+    from .analyze import check_equilibrium
+    from .errors import NotEquilibriumError
+    from .sidecar import merge_model
+
+    output = output_file(args.output, "-o/--output", suffix=".npz")
     if not os.path.exists(args.dump):
         raise FileNotFoundError(f"dump file not found: {args.dump}")
+    given = {"k_n": args.k_n, "k_t": args.k_t, "mu": args.mu, "wall_y": args.wall_y}
+    merge_model(given, args.dump, flags={"k_n": "--k-n", "k_t": "--k-t", "mu": "--mu",
+                                         "wall_y": "--wall-y"},
+                override=args.override, keys=("k_n", "k_t", "mu", "wall_y"))
     state = read_dump(args.dump, frame=args.frame, k_n=args.k_n, k_t=args.k_t, mu=args.mu,
                       wall_y=args.wall_y)
+    try:
+        check_equilibrium(state, what=args.dump)
+        warning = None
+    except NotEquilibriumError as exc:
+        if not args.allow_residual:
+            raise NotEquilibriumError(f"{exc}; --allow-residual analyses it anyway") from None
+        warning = f"WARNING: {exc}; the eigenvalues below do not describe its motion"
+        print(f"remote-trigger jacobian: {warning}", file=sys.stderr, flush=True)
     res = analyze(state, eigenvalues=not args.no_eigen, decide=not args.no_eigen,
                   method=args.method, k=args.k, sigma=args.sigma,
                   min_contacts=args.min_contacts)
@@ -72,11 +113,9 @@ def run(args):
         "residual": np.float64(res.max_residual),
         "method": np.str_("none" if res.eigen is None else res.eigen.method),
         "sigma": np.float64(sigma),
+        "equilibrium": np.int64(warning is None),
     }
-    outdir = os.path.dirname(os.path.abspath(args.output))
-    if not os.path.isdir(outdir):
-        raise FileNotFoundError(f"output folder does not exist: {outdir}")
-    np.savez(args.output, **out)
+    write_npz_atomic(output, out)
     lines = [
         f"jacobian: {state.n} disks, {state.n_contacts} contacts, "
         f"{state.wall_index.size} wall contacts, K {K.shape[0]}x{K.shape[1]} nnz {K.nnz}",
@@ -91,6 +130,8 @@ def run(args):
                      f"= {res.growth_rate:.6g}")
         lines.append(f"  complex pair: {what} (confidence margin {dec.confidence:.3g})"
                      if dec is not None else "  complex pair: not tested")
+    if warning:
+        lines.append(f"  {warning}")
     lines.append(f"  written: {args.output}")
     print("\n".join(lines))
     return 0

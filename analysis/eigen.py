@@ -28,7 +28,7 @@ Two paths:
   with friction (not the default protocol) have pairs up to 0.71.
 
 Mass weighting uses the inertia that the dynamics uses, M = diag(m, m, I/R²)
-= diag(m, m, m/2) per disk (MODEL.md section 1, ``fix nve/sphere disc``).
+= diag(m, m, m/2) per disk (docs/model.md section 1, ``fix nve/sphere disc``).
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 r"""Is there a complex pair? A certified decision near an exceptional point.
 
 At the onset F_x^c two real eigenvalues of M^{-1}K collide and leave the real
-axis as a complex pair (MODEL.md section 7, paper Fig. 3). At the collision
+axis as a complex pair (docs/model.md section 7, paper Fig. 3). At the collision
 the matrix is defective (an exceptional point): the two eigenvectors become
 parallel, the eigenvalue condition numbers diverge, and an O(u) rounding
 error moves the eigenvalues by O(sqrt(u)). Whether a computed eigenvalue has
@@ -84,7 +84,7 @@ real and every unit is isolated, else *undecided*. Its confidence is the
 largest certified-complex margin, the smallest margin (pair or isolation)
 when real, the smallest failing margin when undecided.
 
-For the normal form of MODEL.md section 8,
+For the normal form of docs/model.md section 8,
 J = [[1 - d, eta], [-eta, 1 + d]] with eps = 1 - eta/d: D = d^2 - eta^2 =
 d^2 eps (2 - eps), so the sign of D is that of eps; complex iff eps < 0.
 

@@ -32,7 +32,7 @@ the complex step:
 * branch decisions (cap or not, contact or not, minimum image) are taken on
   real parts, so the derivative is the one-sided derivative of the branch the
   real configuration is on — the capped branch for a capped contact, which
-  is the "stays capped" rule of MODEL.md section 7.
+  is the "stays capped" rule of docs/model.md section 7.
 
 The forces are assembled as vectors: F_n = k_n δ^{3/2} n (Eq. 1),
 t = ξ s, F_t = −k_t δ^{1/2} g(u) t (Eq. 3) and the torque from the cross

@@ -282,15 +282,15 @@ def register(subparsers):
     p.add_argument("--force", type=float, default=0.0, help="forcing amplitude F (default 0)")
     p.add_argument("--omega", type=float, default=0.01, help="forcing frequency (default 0.01)")
     p.add_argument("-o", "--out", default="normal-form", help="output folder")
-    p.set_defaults(func=_main)
+    p.set_defaults(func=_main, serial=True)
 
 
 def _main(args):
     import os
 
-    from ._io import write_h5_atomic
+    from ._io import output_dir, write_h5_atomic
 
-    os.makedirs(args.out, exist_ok=True)
+    output_dir(args.out, "-o/--out")
     eps = np.array(sorted(args.eps, reverse=True), dtype=np.float64)
     taus = np.array(args.tau, dtype=np.float64)
     amp = amplitude_scan(args.delta, eps, taus, force=args.force, omega=args.omega)

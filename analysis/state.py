@@ -94,7 +94,7 @@ class State:
 
     Disks are stored in ascending atom id; "index" below means the position
     in that order (0-based), which is also the disk's block in the generalized
-    coordinates q = (x_k, y_k, R_k theta_k), dof 3k + c (MODEL.md section 7).
+    coordinates q = (x_k, y_k, R_k theta_k), dof 3k + c (docs/model.md section 7).
 
     Attributes
     ----------
@@ -105,7 +105,7 @@ class State:
     radii, masses : ndarray, shape (N,)
         Radius (length) and mass (mass units), > 0.
     inertia : ndarray, shape (N,)
-        Moment of inertia I = I0 m R^2 with I0 = 1/2 (solid disk, MODEL.md
+        Moment of inertia I = I0 m R^2 with I0 = 1/2 (solid disk, docs/model.md
         section 1).
     box_lo, box_hi : ndarray, shape (2,)
         Box bounds in x and y.

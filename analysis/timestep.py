@@ -56,6 +56,8 @@ import math
 
 import numpy as np
 
+from .errors import InputError
+
 __all__ = ["SAFETY_FACTOR", "TimestepError", "omega_max", "stability_limit",
            "stable_timestep", "hertz_limit", "check_timestep"]
 
@@ -65,8 +67,11 @@ SAFETY_FACTOR = 0.1
 _DENSE_LIMIT = 600
 
 
-class TimestepError(ValueError):
-    """A time step at or above the stability limit (the message gives the limit)."""
+class TimestepError(InputError):
+    """A time step at or above the stability limit (the message gives the limit).
+
+    A ``ValueError``; command-line exit status 2.
+    """
 
 
 def _dynamical(state):

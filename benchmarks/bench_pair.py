@@ -66,7 +66,7 @@ DEFAULT_CACHE = os.path.join(PROJECT, "build", "bench")
 #: version of the packing recipe; bump to invalidate cached data files
 PACKING_VERSION = 1
 
-# model parameters (MODEL.md defaults)
+# model parameters (docs/model.md defaults)
 KN = 2.0e5
 KT = 2.0 * KN / 7.0
 MU = 1.0

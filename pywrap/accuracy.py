@@ -715,6 +715,16 @@ def register(subparsers):
 
 
 def _main(args):
+    from mpi4py import MPI
+
+    from .errors import InputError
+
+    if MPI.COMM_WORLD.Get_size() > 1:
+        raise InputError(f"accuracy measures serial wall times: run it without mpirun "
+                         f"(got {MPI.COMM_WORLD.Get_size()} ranks)")
+    from ._io import output_dir
+
+    output_dir(args.out, "-o/--out")
     secs = tuple(s.strip() for s in args.sections.split(",") if s.strip())
     rows, paths = run_accuracy(args.out, quick=args.quick, n=args.n, seed=args.seed,
                                sections=secs)

@@ -1,7 +1,7 @@
 """Configuration of the driver stages: frozen, validated dataclasses.
 
 Every stage takes one configuration object. All fields have defaults (the
-paper's values, MODEL.md), are validated in ``__post_init__`` (a
+paper's values, docs/model.md), are validated in ``__post_init__`` (a
 :class:`ConfigError`, a ``ValueError``, names the field and the bad value),
 and round-trip through HDF5 attributes (:meth:`StageConfig.to_attrs`,
 :meth:`StageConfig.from_attrs`). :meth:`StageConfig.from_dict` rejects
@@ -14,13 +14,19 @@ import json
 import math
 import os
 
+from remote_trigger.analysis.errors import InputError
+
 
 #: relaxation protocols of :class:`RelaxConfig` (docs/driver.md)
 PROTOCOLS = ("frictionless-then-friction", "frictional")
 
 
-class ConfigError(ValueError):
-    """A configuration value is invalid; the message names field and value."""
+class ConfigError(InputError):
+    """A configuration value is invalid; the message names field and value.
+
+    A ``ValueError`` and a :class:`~remote_trigger.analysis.errors.RemoteTriggerError`
+    (command-line exit status 2).
+    """
 
 
 def _num(name, val):
@@ -148,7 +154,7 @@ class StageConfig:
 
 @dataclass(frozen=True)
 class RelaxConfig(StageConfig):
-    """Relaxation to mechanical equilibrium (MODEL.md section 6, step 1).
+    """Relaxation to mechanical equilibrium (docs/model.md section 6, step 1).
 
     Attributes
     ----------
@@ -259,7 +265,7 @@ class RelaxConfig(StageConfig):
 
 @dataclass(frozen=True)
 class RampConfig(RelaxConfig):
-    """F_x ramp with eigenvalue analysis and bisection (MODEL.md section 6, step 2).
+    """F_x ramp with eigenvalue analysis and bisection (docs/model.md section 6, step 2).
 
     Attributes
     ----------

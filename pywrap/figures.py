@@ -2,7 +2,7 @@
 
 Every function reads the HDF5 / dump files of an output folder written by
 :mod:`remote_trigger.pywrap.paper` and writes one PNG; :func:`make_all`
-writes all of them. Units are LAMMPS ``lj`` units (MODEL.md section 1):
+writes all of them. Units are LAMMPS ``lj`` units (docs/model.md section 1):
 length sigma = 2 R1, mass m, time tau (the lj time; with k_n = 2e5 in
 force / length^1.5 the contact frequencies are ~ 10 - 200 / tau), force
 in lj force units; eigenvalues of M^-1 K in 1/tau^2, velocities in

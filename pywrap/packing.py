@@ -1,4 +1,4 @@
-"""Seeded generator of the loose initial packing (MODEL.md section 1).
+"""Seeded generator of the loose initial packing (docs/model.md section 1).
 
 The scene is N bidisperse disks (radii R1 = 0.5 and R2 = 0.7, equal numbers,
 mass m = 1 each) in a box periodic in x, above a flat wall at y = 0. The
@@ -123,7 +123,7 @@ def generate(n, seed=0, phi=0.82, phi_loose=0.55, max_tries=200000, radii=RADII)
     max_tries : int
         Random trials per disk before giving up.
     radii : tuple of float
-        (R1, R2), 0 < R1 < R2; default (0.5, 0.7) (MODEL.md section 1).
+        (R1, R2), 0 < R1 < R2; default (0.5, 0.7) (docs/model.md section 1).
 
     Returns
     -------
@@ -209,7 +209,8 @@ def write_data(packing, path):
     ----------
     packing : Packing
     path : str or os.PathLike
-        Output file; written to a temporary name and renamed (atomic).
+        Output file; written to a temporary name and renamed (atomic; the
+        temporary file is removed if writing or renaming fails).
     """
     p = packing
     lines = [
@@ -235,6 +236,11 @@ def write_data(packing, path):
     lines += ["", "topflag # i_top", ""]
     lines += [f"{k + 1} {int(p.top[k])}" for k in range(p.n)]
     tmp = f"{os.fspath(path)}.tmp{os.getpid()}"
-    with open(tmp, "w") as fh:
-        fh.write("\n".join(lines) + "\n")
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "w") as fh:
+            fh.write("\n".join(lines) + "\n")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise

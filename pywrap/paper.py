@@ -2,7 +2,7 @@
 
 One command reproduces Charan, Pomyalov & Procaccia, *Generic Mechanism for
 Remote Triggering of Earthquakes*, on the default scene (N = 100, the
-paper's parameters; MODEL.md) and writes everything under one folder
+paper's parameters; docs/model.md) and writes everything under one folder
 (``--out``, default ``demo-out``); docs/paper.md describes it in full.
 
 Steps (each a stage of :mod:`remote_trigger.pywrap.stages`):
@@ -74,11 +74,16 @@ def prepare_out(out):
     Raises
     ------
     ConfigError
-        If ``out`` is a file, or a non-empty folder not written by this job.
+        If ``out`` is a file, cannot be created, or is a non-empty folder
+        not written by this job.
     """
     if os.path.exists(out) and not os.path.isdir(out):
         raise ConfigError(f"--out must be a folder, got a file: out = {out!r}")
-    os.makedirs(out, exist_ok=True)
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {out!r}: cannot create the folder "
+                          f"({exc.strerror or exc})") from None
     entries = os.listdir(out)
     if not entries:
         return
@@ -352,7 +357,7 @@ def run_instability(cfg, out, F_c, ext_rows, ramp_summary, comm, clock):
     clock.say(f"Fig. 4: undamped run at F_x = {F4:.6g} = {cfg.fig4_ratio:.4g} F_x^c, "
               f"predicted growth rate {g:.4g}, t_max = {t_max:.4g}")
     t0 = time.perf_counter()
-    res = stages.instability(dcfg, out, comm=comm, quiet=True)
+    res = stages.instability(dcfg, out, comm=comm, quiet=True, overwrite=True)
     wall = time.perf_counter() - t0
     e = res.extra
     from remote_trigger.analysis.series import growth_window, noise_level
@@ -382,7 +387,7 @@ def run_perturb(cfg, out, ramps, comm, clock):
 
 
 def run_normal_form(cfg, out, clock):
-    """Normal form (MODEL.md section 8): A vs eps for several tau; HDF5 + PNG."""
+    """Normal form (docs/model.md section 8): A vs eps for several tau; HDF5 + PNG."""
     from remote_trigger.analysis import normal_form as nf
     from .results import write_atomic
 
@@ -705,7 +710,8 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
             solo = comm.Split(0, 0) if size > 1 else comm
             try:
                 write_data(generate(cfg.n, seed=cfg.seed, phi=cfg.phi), datafile)
-                rel = stages.relax(relax_config(cfg, datafile), out, comm=solo, quiet=True)
+                rel = stages.relax(relax_config(cfg, datafile), out, comm=solo, quiet=True,
+                                   overwrite=True)
                 summary["relax"] = {"residual": rel.residual,
                                     "packing_fraction": rel.packing_fraction,
                                     "converged": rel.converged, "wall": rel.wall_time,
@@ -882,7 +888,9 @@ def register(subparsers):
         p.add_argument(*flags, dest=f"opt_{f}", type=typ, metavar=typ.__name__.upper(),
                        help=_FLAG_HELP.get(f, f"see docs/paper.md ({default!r})"
                                            if default is not None else "see docs/paper.md"))
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, resume_hint=(
+        "paper.json records every finished phase: the same command with --resume "
+        "continues the job"))
 
 
 def _parse_set(items):
@@ -956,15 +964,7 @@ def main(args):
         if args.resume and os.path.isfile(os.path.join(args.out, MANIFEST)):
             load_manifest(os.path.abspath(args.out), cfg)   # refuse before mpirun starts
         return _relaunch(cfg, args)
-    from .equilibrium import NoEquilibriumError
-
-    try:
-        path = run_paper(cfg, args.out, comm=world, speak=not args.quiet,
-                         resume=args.resume)
-    except NoEquilibriumError as exc:
-        if world.Get_rank() == 0:
-            print(f"remote-trigger paper: {exc}", file=sys.stderr)
-        return 3
+    path = run_paper(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)
     if world.Get_rank() == 0:
         print(f"report: {path}")
     return 0

@@ -1,7 +1,7 @@
 """Configuration of ``remote-trigger paper``: one frozen, validated dataclass.
 
 Sources, in increasing priority: the defaults below (the paper's parameters,
-MODEL.md), the ``--quick`` preset (:data:`QUICK`), a TOML file
+docs/model.md), the ``--quick`` preset (:data:`QUICK`), a TOML file
 (``--config FILE``, Python 3.11 ``tomllib``) and command-line flags. Every
 field has a flag of the same name with ``-`` for ``_`` (``--dF-x`` style
 capitals kept: ``--dF_x`` and ``--dF-x`` both work); ``--set KEY=VALUE``
@@ -193,7 +193,7 @@ class PaperConfig:
     t_perturb: float = 1200.0
     record_every: int = 500
     a: float = None
-    # forcing and mu(v) law: the driver's defaults (one source, MODEL.md 4-5)
+    # forcing and mu(v) law: the driver's defaults (one source, docs/model.md 4-5)
     a_paper: float = DynamicsConfig.a
     omega_p: float = DynamicsConfig.omega_p
     t_on: float = None

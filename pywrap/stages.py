@@ -1,4 +1,4 @@
-"""The driver stages: relax, ramp, perturb, instability (MODEL.md section 6).
+"""The driver stages: relax, ramp, perturb, instability (docs/model.md section 6).
 
 Each stage is one function taking a validated configuration
 (:mod:`remote_trigger.pywrap.config`) and an output folder, and returning a
@@ -33,6 +33,10 @@ from . import equilibrium as eq
 from .results import write_atomic, SeriesWriter, read_all
 
 RESULT_VERSION = 1
+
+
+class StableStartError(ConfigError):
+    """:func:`instability` asked to start from a linearly stable equilibrium (exit 2)."""
 
 
 # --------------------------------------------------------------------------- helpers
@@ -115,6 +119,50 @@ def _ensure_dir(eng, path):
     eng.comm.Barrier()
 
 
+def prepare_out(eng, out, files, overwrite=False, stage="stage"):
+    """Check and create the output folder of a stage, on rank 0, before any run.
+
+    Parameters
+    ----------
+    eng : Engine
+    out : str
+        Output folder (created with its parents).
+    files : list of str
+        The stage's results, relative to ``out``; any that exists is refused
+        unless ``overwrite`` (nothing is ever silently replaced).
+    overwrite : bool
+    stage : str
+        Name in messages.
+
+    Raises
+    ------
+    ConfigError
+        ``out`` is a file, cannot be created or written, or holds results of
+        the same stage (on every rank).
+    """
+    from remote_trigger.analysis._io import output_dir
+
+    err = None
+    if eng.rank == 0:
+        try:
+            output_dir(out, "--out")
+            if not overwrite:
+                found = [f for f in files if os.path.exists(os.path.join(out, f))]
+                if found:
+                    err = (f"the output folder {out!r} already holds {stage} results "
+                           f"({', '.join(found)}): choose another --out or remove them "
+                           f"(nothing was overwritten)")
+        except ValueError as exc:
+            err = str(exc)
+    err = eng.comm.bcast(err, root=0)
+    if err:
+        raise ConfigError(err)
+
+
+def _equilibrium_files(name):
+    return [os.path.join(name, "equilibrium" + ext) for ext in (".data", ".dump", ".dump.json")]
+
+
 def _relax_cfg(cfg, F_x):
     """A RelaxConfig with the model of ``cfg`` (for equilibrating dynamics stages)."""
     keys = ("datafile", "k_n", "k_t", "mu", "F_y", "dt")
@@ -131,8 +179,10 @@ def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
     Returns ``(cfg with a numeric dt, TimestepInfo)``; see
     :func:`remote_trigger.pywrap.timestep.resolve`. No step is run.
     """
+    from .datafile import check_datafile
     from .timestep import resolve
 
+    check_datafile(datafile)
     probe = cfg.replace(dt=1.0) if cfg.dt == "auto" else cfg   # dt unused: no step run
     load_relax_scene(eng, probe, datafile, F_x)
     return resolve(eng, cfg, F_x, a_priori=a_priori, stage=stage)
@@ -366,7 +416,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
     return r, t_sim, rec, t_comp, k + 1
 
 
-def relax(cfg, out, comm=None, quiet=False, log="none"):
+def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
     """Relax a packing to mechanical equilibrium at load (F_x, -F_y).
 
     ``cfg.protocol = 'frictionless-then-friction'`` (default; docs/driver.md):
@@ -389,6 +439,8 @@ def relax(cfg, out, comm=None, quiet=False, log="none"):
         No progress bar.
     log : str
         LAMMPS log file.
+    overwrite : bool
+        Replace the results of an earlier relax in ``out`` (default: refuse).
 
     Returns
     -------
@@ -396,6 +448,10 @@ def relax(cfg, out, comm=None, quiet=False, log="none"):
 
     Raises
     ------
+    ConfigError
+        ``out`` is not a writable folder or holds relax results (unless
+        ``overwrite``); the data file is empty, truncated, has non-finite
+        values or coincident disks.
     NoEquilibriumError
         If the top layer slides away or no equilibrium is reached.
     """
@@ -403,10 +459,11 @@ def relax(cfg, out, comm=None, quiet=False, log="none"):
         raise ConfigError(f"relax needs a RelaxConfig, got {type(cfg).__name__}")
     t0 = time.perf_counter()
     with Engine(comm=comm, log=log) as eng:
-        _ensure_dir(eng, os.path.join(out, "relax"))
         cfg_in = cfg
         cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "relax",
                                      a_priori=cfg.settle_steps > 0)
+        prepare_out(eng, out, ["relax.h5"] + _equilibrium_files("relax"), overwrite, "relax")
+        _ensure_dir(eng, os.path.join(out, "relax"))
         bar = _progress(None, "relax", quiet, eng.rank, unit="chk")
 
         def prog(r):
@@ -620,6 +677,20 @@ class _RampLog:
         except OSError as exc:
             raise ConfigError(f"cannot resume: {path} is not a readable HDF5 file "
                               f"({exc})") from None
+        old_file = attrs.get("datafile")
+        if isinstance(old_file, bytes):
+            old_file = old_file.decode()
+        old_sha = attrs.get("datafile_sha256")
+        if isinstance(old_sha, bytes):
+            old_sha = old_sha.decode()
+        same = (file_sha256(cfg.datafile) == str(old_sha)) if old_sha is not None else (
+            old_file is not None and os.path.abspath(str(old_file))
+            == os.path.abspath(cfg.datafile))
+        if not same:
+            raise ConfigError(f"cannot resume {path}: it ramps from datafile = {old_file!r}, "
+                              f"this run gives datafile = {cfg.datafile!r} "
+                              f"{'with other contents ' if old_sha is not None else ''}"
+                              f"(nothing was changed)")
         for k, v in cfg.to_attrs().items():
             if k == "datafile":
                 continue
@@ -642,10 +713,21 @@ class _RampLog:
                 log.eig[k[len("eigenvalues/"):]] = v
         log.attrs = {k: v for k, v in attrs.items()
                      if k in ("F_x_c_low", "F_x_c_high", "F_x_c_width", "tol_reached",
-                              "n_undecided", "message", "dt_used")}
+                              "n_undecided", "message", "dt_used", "datafile_sha256")}
         log.status = attrs.get("status", "running")
         log._synced = False          # rewrite in full once (older files: fixed-size)
         return log
+
+
+def file_sha256(path):
+    """SHA-256 (hex) of a file's contents: identifies a ramp's start file on resume."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
 
 
 def ramp_bracket(rlog):
@@ -812,8 +894,14 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         rlog, err = None, None
         if eng.rank == 0:
             try:
+                from remote_trigger.analysis._io import output_dir
+                from .datafile import check_datafile
+
+                check_datafile(cfg.datafile)
+                output_dir(out, "--out")
                 rlog = _RampLog.load(cfg, h5) if (resume and exists) else _RampLog(cfg, h5)
-            except ConfigError as exc:
+                rlog.attrs.setdefault("datafile_sha256", file_sha256(cfg.datafile))
+            except ValueError as exc:
                 err = str(exc)
         rlog, err = eng.comm.bcast((rlog, err), root=0)
         if err:
@@ -1015,7 +1103,80 @@ def _equilibrium_for(eng, cfg, out, name, quiet):
     return prefix, r
 
 
-def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc"):
+#: the runs of :func:`perturb`
+PERTURB_RUNS = "abc"
+
+
+def check_runs(runs):
+    """Validate the ``runs`` of :func:`perturb`; returns them in the order a, b, c.
+
+    Raises
+    ------
+    ConfigError
+        ``runs`` is empty or has a letter other than a, b, c (named).
+    """
+    if not isinstance(runs, str) or not runs:
+        raise ConfigError(f"runs must be a non-empty subset of 'abc', got runs = {runs!r}")
+    bad = sorted(set(runs) - set(PERTURB_RUNS))
+    if bad:
+        raise ConfigError(f"runs: unknown run letter(s) {', '.join(map(repr, bad))} in "
+                          f"runs = {runs!r} (the runs are a, b, c)")
+    return "".join(r for r in PERTURB_RUNS if r in runs)
+
+
+def _perturb_resume_state(cfg, out, sha):
+    """What an interrupted ``perturb`` in ``out`` left that this one may keep (rank 0).
+
+    Returns
+    -------
+    residual : float or None
+        Residual of the kept equilibrium ``out/perturb/equilibrium.*``; None
+        if it is to be recomputed (then no run is kept either).
+    complete : dict
+        ``{run: SeriesResult}`` of the runs finished with this configuration.
+
+    Raises
+    ------
+    ConfigError
+        A run file in ``out`` was made with another configuration or from a
+        data file with other contents (its key and both values named).
+    """
+    residual, complete = None, {}
+    for run in PERTURB_RUNS:
+        path = os.path.join(out, f"perturb_{run}.h5")
+        if not os.path.exists(path):
+            continue
+        try:
+            attrs, data = read_all(path)
+        except OSError:                 # unreadable: redone
+            continue
+        if attrs.get("datafile_sha256") != sha:
+            raise ConfigError(f"cannot resume {path}: it ran from a data file with other "
+                              f"contents than datafile = {cfg.datafile!r} (nothing was "
+                              f"changed)")
+        for k, v in cfg.to_attrs().items():
+            if k == "datafile" or (run == "c" and k in ("v0", "v_ss") and v == "None"):
+                continue
+            old = attrs.get(k)
+            if isinstance(old, bytes):
+                old = old.decode()
+            if old is None or str(old) != str(v):
+                raise ConfigError(f"cannot resume {path}: its configuration has {k} = "
+                                  f"{old!r}, this run has {k} = {v!r} (nothing was changed)")
+        residual = float(attrs["equilibrium_residual"])
+        if attrs.get("status") == "complete":
+            complete[run] = SeriesResult(
+                data["t"], data["D"], data["v_top"], data["mu"], h5=path,
+                extra={"v_top_max": float(attrs["v_top_max"]),
+                       "v_top_running_max": data["v_top_max"]})
+    if residual is None or not all(os.path.exists(os.path.join(out, f))
+                                   for f in _equilibrium_files("perturb")):
+        return None, {}
+    return residual, complete
+
+
+def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=False,
+            resume=False):
     """The three undamped runs of Fig. 5 from the equilibrium at cfg.F_x.
 
     (a) unperturbed; (b) f(t) = a cos(omega_p t) added to F_x on ``top``;
@@ -1025,26 +1186,73 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc"):
     ``cfg.v0`` is given, v_ss = v0 unless
     ``cfg.v_ss`` is given.
 
+    Parameters
+    ----------
+    cfg : DynamicsConfig
+    out : str
+        Output folder: ``perturb_{a,b,c}.h5`` and ``perturb/equilibrium.*``.
+    comm : mpi4py communicator, optional
+    quiet : bool
+    log : str
+    runs : str
+        Subset of ``'abc'`` (run (a) is also done when ``cfg.v0`` is None
+        and (c) is asked for: it measures v0).
+    overwrite : bool
+        Replace earlier perturb results in ``out`` (default: refuse).
+    resume : bool
+        Continue an interrupted perturb in ``out`` with the same
+        configuration and data file (compared with the run files'
+        attributes, ``datafile_sha256`` included): its equilibrium and the
+        runs finished (status ``'complete'``) are kept, the others are run
+        again from the same equilibrium data file, so the results are
+        bitwise those of an uninterrupted perturb. A folder without a run
+        file starts anew.
+
     Returns
     -------
     dict
         ``{'a': SeriesResult, 'b': ..., 'c': ...}`` for the runs done;
         ``extra`` holds ``residual`` (of the equilibrium), ``v0`` and ``v_ss``.
+
+    Raises
+    ------
+    ConfigError
+        Unknown run letters, ``out`` not a writable folder or holding
+        perturb results (unless ``overwrite`` or ``resume``), a bad data
+        file, or a ``resume`` whose configuration or data file differs.
     """
     if not isinstance(cfg, DynamicsConfig):
         raise ConfigError(f"perturb needs a DynamicsConfig, got {type(cfg).__name__}")
+    runs = check_runs(runs)
     results = {}
     with Engine(comm=comm, log=log) as eng:
         cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "perturb")
-        prefix, r = _equilibrium_for(eng, cfg, out, "perturb", quiet)
+        prepare_out(eng, out, _equilibrium_files("perturb")
+                    + [f"perturb_{k}.h5" for k in PERTURB_RUNS], overwrite or resume,
+                    "perturb")
+        sha, r, done, err = None, None, {}, None
+        if eng.rank == 0:
+            sha = file_sha256(cfg.datafile)
+            if resume:
+                try:
+                    r, done = _perturb_resume_state(cfg, out, sha)
+                except ConfigError as exc:
+                    err = str(exc)
+        r, done, err = eng.comm.bcast((r, done, err), root=0)
+        if err:
+            raise ConfigError(err)
+        if r is None:
+            prefix, r = _equilibrium_for(eng, cfg, out, "perturb", quiet)
+        else:
+            prefix = os.path.join(out, "perturb", "equilibrium")
         data = prefix + ".data"
         v0 = cfg.v0
         base = {"equilibrium": data, "equilibrium_residual": r, "stage": "perturb",
-                **dtinfo}
+                "datafile_sha256": str(eng.comm.bcast(sha, root=0)), **dtinfo}
         if "a" in runs or v0 is None:
-            res = _undamped_run(eng, cfg, data, os.path.join(out, "perturb_a.h5"),
-                                {"a": 0.0, "muv": 0}, "perturb (a)", quiet,
-                                attrs=dict(base, run="a"))
+            res = done.get("a") or _undamped_run(
+                eng, cfg, data, os.path.join(out, "perturb_a.h5"), {"a": 0.0, "muv": 0},
+                "perturb (a)", quiet, attrs=dict(base, run="a"))
             results["a"] = res
             if v0 is None:              # max |v_top| over every step, not only records
                 v0 = float(res.extra["v_top_max"])
@@ -1052,12 +1260,12 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc"):
                     v0 = np.finfo(float).tiny
         vss = cfg.v_ss if cfg.v_ss is not None else v0
         if "b" in runs:
-            results["b"] = _undamped_run(
+            results["b"] = done.get("b") or _undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_b.h5"),
                 {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 0}, "perturb (b)", quiet,
                 attrs=dict(base, run="b"))
         if "c" in runs:
-            results["c"] = _undamped_run(
+            results["c"] = done.get("c") or _undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_c.h5"),
                 {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 1, "v0": float(v0),
                  "vss": float(vss), "B": float(cfg.B), "w": float(cfg.w),
@@ -1106,25 +1314,69 @@ def growth_fit(t, D, lo_decades=3.0, hi=None):
     return g
 
 
-def instability(cfg, out, comm=None, quiet=False, log="none"):
+def instability(cfg, out, comm=None, quiet=False, log="none", overwrite=False,
+                allow_stable=True):
     """Undamped run from the equilibrium at F_x > F_x^c until D(t) saturates.
 
     Stops when D exceeds ``cfg.d_sat`` or at ``cfg.t_max``. Also analyses the
     starting equilibrium (predicted growth rate max Im sqrt(lambda), Eq. 6)
     and fits the measured rate of D ~ exp(2 g t).
 
+    Parameters
+    ----------
+    cfg : DynamicsConfig
+    out : str
+        Output folder: ``instability.h5`` and ``instability/equilibrium.*``.
+    comm : mpi4py communicator, optional
+    quiet : bool
+    log : str
+    overwrite : bool
+        Replace earlier instability results in ``out`` (default: refuse).
+    allow_stable : bool
+        Run also from an equilibrium without a certified complex pair (D
+        then stays at the noise level). False: refuse it
+        (:class:`StableStartError`, the equilibrium files are removed).
+
     Returns
     -------
     SeriesResult
         ``extra``: ``predicted_growth_rate``, ``measured_growth_rate``,
-        ``complex_pair``, ``residual``, ``saturated``.
+        ``complex_pair``, ``decision``, ``residual``, ``saturated``.
+
+    Raises
+    ------
+    ConfigError
+        ``out`` not a writable folder or holding instability results, a bad
+        data file.
+    StableStartError
+        The equilibrium has no certified complex pair and ``allow_stable``
+        is False.
     """
     if not isinstance(cfg, DynamicsConfig):
         raise ConfigError(f"instability needs a DynamicsConfig, got {type(cfg).__name__}")
     with Engine(comm=comm, log=log) as eng:
         cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "instability")
+        prepare_out(eng, out, ["instability.h5"] + _equilibrium_files("instability"),
+                    overwrite, "instability")
         prefix, r = _equilibrium_for(eng, cfg, out, "instability", quiet)
         st = _analyze(eng, prefix + ".dump")
+        if not st.complex_pair and not allow_stable:
+            if eng.rank == 0:
+                for f in _equilibrium_files("instability"):
+                    os.remove(os.path.join(out, f))
+                try:
+                    os.rmdir(os.path.join(out, "instability"))
+                except OSError:
+                    pass
+            eng.comm.Barrier()
+            what = ("every eigenvalue certified real" if st.decision == "real" else
+                    f"the complex-pair test is {st.decision}")
+            raise StableStartError(
+                f"the equilibrium at F_x = {cfg.F_x!r} is linearly stable "
+                f"({what}, margin {st.confidence:.3g}): D(t) would stay at the noise level "
+                f"and there is no growth rate to measure; start from a state above F_x^c "
+                f"(a ramp step at or after the first complex one) or use perturb "
+                f"(--allow-stable runs it anyway; nothing was written)")
         res = _undamped_run(
             eng, cfg, prefix + ".data", os.path.join(out, "instability.h5"),
             {"a": 0.0, "muv": 0}, "instability", quiet,
@@ -1133,6 +1385,7 @@ def instability(cfg, out, comm=None, quiet=False, log="none"):
                    "equilibrium_residual": r, "predicted_growth_rate": st.growth_rate,
                    "complex_pair": st.complex_pair, **dtinfo})
         res.extra.update(predicted_growth_rate=st.growth_rate, complex_pair=st.complex_pair,
+                         decision=st.decision,
                          residual=r, saturated=bool(res.D[-1] > cfg.d_sat),
                          timestep=dict(dtinfo),
                          measured_growth_rate=growth_fit(res.t, res.D, hi=cfg.d_sat / 1e2))

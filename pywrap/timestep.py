@@ -140,6 +140,9 @@ def resolve(eng, cfg, F_x, a_priori=False, stage="stage"):
     TimestepError
         If dt >= dt_max, or dt is ``'auto'`` and there is no contact and no
         a-priori bound (nothing sets a time scale).
+    ConfigError
+        If the start state cannot be analysed (e.g. disks whose centres lie
+        inside each other).
     """
     from remote_trigger.analysis.timestep import SAFETY_FACTOR, TimestepError, check_timestep
 
@@ -148,11 +151,17 @@ def resolve(eng, cfg, F_x, a_priori=False, stage="stage"):
     if eng.rank == 0:
         try:
             res = limit_of(state, cfg, F_x, a_priori=a_priori)
+        except ValueError as exc:      # the start state is unusable: bad input
+            err = ("input", f"{exc}")
         except Exception as exc:  # noqa: BLE001 - re-raised on every rank
-            err = f"{type(exc).__name__}: {exc}"
+            err = ("other", f"{type(exc).__name__}: {exc}")
     res, err = eng.comm.bcast((res, err), root=0)
+    if err and err[0] == "input":
+        from .config import ConfigError
+
+        raise ConfigError(f"{stage}: start state {cfg.datafile}: {err[1]}")
     if err:
-        raise RuntimeError(f"{stage}: stability limit of {cfg.datafile}: {err}")
+        raise RuntimeError(f"{stage}: stability limit of {cfg.datafile}: {err[1]}")
     lim, src = res
     auto = cfg.dt == "auto"
     if auto:

@@ -1,4 +1,4 @@
-"""Certified complex-pair decisions near an exceptional point (MODEL.md section 8)."""
+"""Certified complex-pair decisions near an exceptional point (docs/model.md section 8)."""
 from fractions import Fraction
 import itertools
 

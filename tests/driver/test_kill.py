@@ -285,8 +285,8 @@ def test_perturb_killed_leaves_readable_series(relaxed, tmp_path):
     """kill -9 during ``perturb``: the series files open, t is a prefix of the records."""
     rng = np.random.default_rng([SEED, 100])
     out = tmp_path / "out"
-    args = [CLI, "perturb", "--datafile", relaxed.datafile, "--F-x", "0.1", "--out",
-            str(out), "--t-max", "300", "--runs", "abc", "--quiet"]
+    args = [CLI, "perturb", "--datafile", relaxed.datafile, "--F-x", "0.1", "--override",
+            "--out", str(out), "--t-max", "300", "--runs", "abc", "--quiet"]
     err = tmp_path / "stderr"
     proc = _start(args, err)
     first = out / "perturb_a.h5"

@@ -1,6 +1,6 @@
 """Near the exceptional point: F_x within 1e-14 of F_x^c, without a ramp.
 
-A cheap stand-in for the ramp: the normal form J(d, eps) of MODEL.md section 8
+A cheap stand-in for the ramp: the normal form J(d, eps) of docs/model.md section 8
 embedded, by an orthogonal similarity, in a larger non-normal matrix with a
 spread of real eigenvalues (the rest of the spectrum), and the distance to the
 exceptional point written as eps = c (F_x^c - F_x). Complex iff F_x > F_x^c.

@@ -1,0 +1,408 @@
+"""The command line refuses instead of guessing (issue 13, item 3).
+
+Every trial is a command, its exit status (docs/driver.md, "Exit status":
+0 ok, 1 no result, 2 bad input, 3 no equilibrium, 130 interrupted) and the
+one line it prints. Commands that need no subprocess run in-process
+(``cli.main``); Ctrl-C and ``mpirun`` run the installed ``remote-trigger``.
+"""
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import time
+
+import h5py
+import numpy as np
+import pytest
+
+from remote_trigger.pywrap import cli
+
+from .conftest import CLI, MPIRUN, cli_env
+
+
+def run_cli(capsys, *argv):
+    """``cli.main`` in-process; returns (status, stdout, stderr)."""
+    status = cli.main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def assert_one_line_error(err, *needles, status=None):
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err and "error" in lines[0], err
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+
+
+@pytest.fixture(scope="module")
+def ramp_run(relaxed, tmp_path_factory):
+    """A coarse ramp of the small packing: a stable and an unstable start state."""
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.config import RampConfig
+
+    out = tmp_path_factory.mktemp("ramp")
+    res = stages.ramp(RampConfig(datafile=relaxed.datafile, dF_x=0.02, tol=1e-3), str(out),
+                      quiet=True)
+    assert res.status == "complete" and res.complex_pair[-1] and not res.complex_pair[0]
+    k = res.F_x.size - 1
+    step = lambda i: os.path.join(str(out), "ramp", f"step_{i:05d}")  # noqa: E731
+    return {"out": str(out), "stable": step(1), "unstable": step(k),
+            "F_unstable": float(res.F_x[k]), "F_stable": float(res.F_x[1]), "h5": res.h5}
+
+
+@pytest.fixture()
+def bad_files(packing_file, tmp_path):
+    """Empty, truncated, NaN and coincident-disk variants of the small packing."""
+    text = open(packing_file).read()
+    lines = text.splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("Atoms"))
+    files = {}
+    files["empty"] = tmp_path / "empty.data"
+    files["empty"].write_text("")
+    files["truncated"] = tmp_path / "truncated.data"
+    files["truncated"].write_text(text[:len(text) // 2])
+    nan = list(lines)
+    w = nan[k + 4].split()
+    w[5] = "nan"
+    nan[k + 4] = " ".join(w)
+    files["nan"] = tmp_path / "nan.data"
+    files["nan"].write_text("\n".join(nan) + "\n")
+    co = list(lines)
+    a, b = co[k + 2].split(), co[k + 3].split()
+    b[4:6] = a[4:6]
+    co[k + 3] = " ".join(b)
+    files["coincident"] = tmp_path / "coincident.data"
+    files["coincident"].write_text("\n".join(co) + "\n")
+    return files
+
+
+# --------------------------------------------------------------------------- the error layer
+def test_one_exception_base_keeps_builtin_bases():
+    from remote_trigger.analysis.errors import RemoteTriggerError
+    from remote_trigger.analysis.timestep import TimestepError
+    from remote_trigger.pywrap import errors
+    from remote_trigger.pywrap.config import ConfigError
+    from remote_trigger.pywrap.engine import EngineError
+    from remote_trigger.pywrap.equilibrium import NoEquilibriumError
+
+    assert errors.RemoteTriggerError is RemoteTriggerError
+    for cls, base, status in ((ConfigError, ValueError, 2), (TimestepError, ValueError, 2),
+                              (NoEquilibriumError, RuntimeError, 3),
+                              (EngineError, RuntimeError, 1)):
+        assert issubclass(cls, RemoteTriggerError) and issubclass(cls, base)
+        assert cls.exit_status == status
+
+
+def test_classify_statuses():
+    from remote_trigger.pywrap.equilibrium import NoEquilibriumError
+
+    assert cli.classify(NoEquilibriumError("no equilibrium at F_x = 1"))[:2] == (
+        3, "no equilibrium at F_x = 1")
+    assert cli.classify(ValueError("bad\nvalue"))[:2] == (2, "bad value")
+    assert cli.classify(FileNotFoundError(2, "No such file or directory", "x.data"))[0] == 2
+    assert cli.classify(OSError(28, "No space left on device", "o.h5"))[0] == 1
+    status, msg, internal = cli.classify(TypeError("boom"))
+    assert status == 1 and internal and "--debug" in msg and "TypeError: boom" in msg
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["--version"])
+    assert exc.value.code == 0
+    from importlib.metadata import version
+
+    assert capsys.readouterr().out.strip() == f"remote-trigger {version('remote-trigger')}"
+
+
+def test_usage_error_is_one_line(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["ramp", "--out", "x"])
+    assert exc.value.code == 2
+    assert_one_line_error(capsys.readouterr().err, "--datafile", "--help")
+
+
+@pytest.mark.parametrize("runs,bad", [("C", "'C'"), ("xyz", "'x', 'y', 'z'"), ("abd", "'d'")])
+def test_unknown_run_letters(capsys, relaxed, runs, bad):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["perturb", "--datafile", relaxed.datafile, "--runs", runs])
+    assert exc.value.code == 2
+    assert_one_line_error(capsys.readouterr().err, f"unknown run letter(s) {bad}")
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.config import ConfigError
+
+    with pytest.raises(ConfigError, match="unknown run letter"):
+        stages.check_runs(runs)
+
+
+def test_negative_option_values(capsys, relaxed, tmp_path):
+    assert cli.preprocess(["ramp", "--dF-x", "-2e-3", "--F-x", "-.5", "--tol", "1e-7"])[0] == [
+        "ramp", "--dF-x=-2e-3", "--F-x=-.5", "--tol", "1e-7"]
+    assert cli.preprocess(["relax", "--debug", "--F-x", "1"]) == (["relax", "--F-x", "1"], True)
+    # the value reaches the configuration, which names it
+    status, _, err = run_cli(capsys, "ramp", "--datafile", relaxed.datafile, "--out",
+                             tmp_path, "--dF-x", "-2e-3")
+    assert status == 2
+    assert_one_line_error(err, "dF_x must be > 0, got dF_x = -0.002")
+
+
+def test_debug_shows_traceback(capsys, bad_files, tmp_path):
+    status, _, err = run_cli(capsys, "relax", "--datafile", bad_files["empty"], "--out",
+                             tmp_path / "o", "--debug")
+    assert status == 2 and "Traceback" in err and "is empty" in err.splitlines()[-1]
+
+
+# --------------------------------------------------------------------------- input files
+@pytest.mark.parametrize("kind,needle", [
+    ("empty", "is empty"), ("truncated", "is truncated"),
+    ("nan", "non-finite value 'nan' in the Atoms line of atom"),
+    ("coincident", "atoms 1 and 2 are at the same place")])
+def test_bad_data_file(capsys, bad_files, tmp_path, kind, needle):
+    status, _, err = run_cli(capsys, "relax", "--datafile", bad_files[kind], "--out",
+                             tmp_path / "o", "--quiet")
+    assert status == 2
+    assert_one_line_error(err, needle, str(bad_files[kind]))
+    assert not (tmp_path / "o" / "relax.h5").exists()
+
+
+# --------------------------------------------------------------------------- output folders
+@pytest.mark.parametrize("cmd", ["relax", "demo", "generate"])
+def test_out_naming_a_file(capsys, packing_file, tmp_path, cmd):
+    afile = tmp_path / "a_file"
+    afile.write_text("keep")
+    argv = {"relax": ["relax", "--datafile", packing_file, "--out", afile],
+            "demo": ["demo", "--n", 6, "--steps", 10, "--out", afile],
+            "generate": ["generate", "--n", 20, "--output", afile / "p.data"]}[cmd]
+    status, _, err = run_cli(capsys, *argv)
+    assert status == 2
+    assert_one_line_error(err, str(afile))
+    assert afile.read_text() == "keep" and os.listdir(tmp_path) == ["a_file"]
+
+
+@pytest.mark.parametrize("cmd", ["relax", "paper"])
+def test_unwritable_out(capsys, packing_file, cmd):
+    argv = (["relax", "--datafile", packing_file] if cmd == "relax" else ["paper", "--quick"])
+    status, _, err = run_cli(capsys, *argv, "--out", "/proc/remote-trigger/out", "--quiet")
+    assert status == 2
+    assert_one_line_error(err, "'/proc/remote-trigger/out': cannot create the folder")
+
+
+def test_generate_onto_a_folder_leaves_nothing(capsys, tmp_path):
+    (tmp_path / "d").mkdir()
+    status, _, err = run_cli(capsys, "generate", "--n", 20, "--output", tmp_path / "d")
+    assert status == 2
+    assert_one_line_error(err, "--output must name a file, got a folder")
+    # the writer itself removes its temporary file when the rename fails
+    from remote_trigger.pywrap.packing import generate, write_data
+
+    with pytest.raises(IsADirectoryError):
+        write_data(generate(20, seed=1), tmp_path / "d")
+    assert os.listdir(tmp_path / "d") == [] and sorted(os.listdir(tmp_path)) == ["d"]
+
+
+def test_full_disk_is_one_line_status_1(capsys, tmp_path, monkeypatch):
+    import errno
+
+    from remote_trigger.pywrap import packing
+
+    def full(p, path):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path) + ".tmp1")
+
+    monkeypatch.setattr(packing, "write_data", full)
+    status, _, err = run_cli(capsys, "generate", "--n", 20, "--output", tmp_path / "p.data")
+    assert status == 1
+    assert_one_line_error(err, "no space left on the device writing", "p.data.tmp1")
+
+
+def test_relax_and_perturb_refuse_a_folder_with_their_results(capsys, relaxed, tmp_path):
+    out = tmp_path / "o"
+    assert run_cli(capsys, "relax", "--datafile", relaxed.datafile, "--out", out, "--quiet",
+                   "--set", "settle_steps=0")[0] == 0
+    before = (out / "relax.h5").read_bytes()
+    status, _, err = run_cli(capsys, "relax", "--datafile", relaxed.datafile, "--out", out,
+                             "--quiet", "--set", "settle_steps=0")
+    assert status == 2
+    assert_one_line_error(err, "already holds relax results", "relax.h5",
+                          "nothing was overwritten")
+    assert (out / "relax.h5").read_bytes() == before
+    argv = ["perturb", "--datafile", relaxed.datafile, "--out", out, "--quiet", "--runs", "a",
+            "--t-max", "0.1"]
+    assert run_cli(capsys, *argv)[0] == 0          # another stage: the same folder is fine
+    status, _, err = run_cli(capsys, *argv)
+    assert status == 2
+    assert_one_line_error(err, "already holds perturb results", "perturb_a.h5")
+
+
+def test_ramp_resume_refuses_another_datafile(capsys, ramp_run, tmp_path):
+    out = tmp_path / "r"
+    shutil.copytree(ramp_run["out"], out)
+    before = (out / "ramp.h5").read_bytes()
+    status, _, err = run_cli(capsys, "ramp", "--datafile", ramp_run["stable"] + ".data",
+                             "--out", out, "--dF-x", 0.02, "--tol", 1e-3, "--resume",
+                             "--quiet", "--override")
+    assert status == 2
+    assert_one_line_error(err, "cannot resume", "this run gives datafile =",
+                          "step_00001.data", "nothing was changed")
+    assert (out / "ramp.h5").read_bytes() == before
+
+
+def test_perturb_resume_keeps_finished_runs_and_is_bitwise(capsys, relaxed, tmp_path):
+    """An interrupted perturb (run (b) cut short, (c) not started) resumed == uninterrupted."""
+    from remote_trigger.pywrap.results import read_all
+
+    argv = ["perturb", "--datafile", relaxed.datafile, "--t-max", 2, "--quiet"]
+    ref, cut = tmp_path / "ref", tmp_path / "cut"
+    assert run_cli(capsys, *argv, "--out", ref)[0] == 0
+    shutil.copytree(ref, cut)
+    with h5py.File(cut / "perturb_b.h5", "a") as fh:        # as Ctrl-C leaves it
+        fh.attrs["status"] = "failed"
+    os.remove(cut / "perturb_c.h5")
+    a_before = (cut / "perturb_a.h5").stat().st_mtime_ns
+    status, _, err = run_cli(capsys, *argv, "--out", cut, "--a", 2e-12, "--resume")
+    assert status == 2
+    assert_one_line_error(err, "cannot resume", "a = 1e-12, this run has a = 2e-12")
+    assert run_cli(capsys, *argv, "--out", cut, "--resume")[0] == 0
+    assert (cut / "perturb_a.h5").stat().st_mtime_ns == a_before      # kept, not redone
+    for run in "abc":
+        ra, rd = read_all(str(ref / f"perturb_{run}.h5"))
+        ca, cd = read_all(str(cut / f"perturb_{run}.h5"))
+        assert ca["status"] == "complete" and sorted(rd) == sorted(cd)
+        for k in rd:
+            np.testing.assert_array_equal(cd[k], rd[k], err_msg=f"{run}: {k}")
+    parser = cli.build_parser()
+    hint = parser.parse_args(["perturb", "--datafile", "x"]).resume_hint
+    assert "--resume continues" in hint
+
+
+# --------------------------------------------------------------------------- the model
+def test_stage_takes_the_model_from_the_sidecar(capsys, ramp_run, tmp_path):
+    """``instability`` without --F-x runs at the start state's F_x (was: F_x = 0)."""
+    status, out, err = run_cli(capsys, "instability", "--datafile",
+                               ramp_run["unstable"] + ".data", "--out", tmp_path / "i",
+                               "--t-max", 0.5)
+    assert status == 0, err
+    F = json.load(open(ramp_run["unstable"] + ".dump.json"))["F_x"]
+    assert f"F_x = {F!r}" in out and "nan" not in out
+    assert float(re.search(r"predicted ([0-9.e+-]+) ->", out).group(1)) > 0, out
+    with h5py.File(tmp_path / "i" / "instability.h5") as fh:
+        assert fh.attrs["F_x"] == F and fh.attrs["complex_pair"]
+        assert fh.attrs["predicted_growth_rate"] > 0
+
+
+def test_conflicting_value_needs_override(capsys, ramp_run, tmp_path):
+    status, _, err = run_cli(capsys, "perturb", "--datafile", ramp_run["stable"] + ".data",
+                             "--F-x", "0.1", "--out", tmp_path / "p", "--t-max", 0.1)
+    F = json.load(open(ramp_run["stable"] + ".dump.json"))["F_x"]
+    assert status == 2
+    assert_one_line_error(err, f"--F-x 0.1 contradicts F_x = {F!r}", "--override")
+    assert not (tmp_path / "p").exists()
+    status, _, err = run_cli(capsys, "perturb", "--datafile", ramp_run["stable"] + ".data",
+                             "--set", "k_n=3e5", "--out", tmp_path / "p", "--t-max", 0.1)
+    assert status == 2
+    assert_one_line_error(err, "--set k_n=300000.0 contradicts k_n = 200000.0")
+
+
+def test_instability_from_a_stable_state_refuses(capsys, ramp_run, tmp_path):
+    status, out, err = run_cli(capsys, "instability", "--datafile",
+                               ramp_run["stable"] + ".data", "--out", tmp_path / "i",
+                               "--t-max", 1, "--quiet")
+    assert status == 2
+    assert_one_line_error(err, f"F_x = {ramp_run['F_stable']!r} is linearly stable",
+                          "every eigenvalue certified real", "--allow-stable")
+    assert os.listdir(tmp_path / "i") == []
+    status, out, err = run_cli(capsys, "instability", "--datafile",
+                               ramp_run["stable"] + ".data", "--out", tmp_path / "i",
+                               "--t-max", 0.2, "--quiet", "--allow-stable")
+    assert status == 0
+    assert "predicted none (the start is linearly stable: real)" in out and "nan" not in out
+
+
+# --------------------------------------------------------------------------- jacobian
+@pytest.fixture()
+def wrong_k_n(ramp_run, tmp_path):
+    """The stable equilibrium dump with a sidecar whose k_n, k_t are 100x too large."""
+    dump = tmp_path / "wrong.dump"
+    shutil.copyfile(ramp_run["stable"] + ".dump", dump)
+    side = json.load(open(ramp_run["stable"] + ".dump.json"))
+    side.update(k_n=100 * side["k_n"], k_t=100 * side["k_t"])
+    (tmp_path / "wrong.dump.json").write_text(json.dumps(side))
+    return dump
+
+
+def test_jacobian_refuses_a_non_equilibrium(capsys, wrong_k_n, tmp_path):
+    out = tmp_path / "K.npz"
+    status, stdout, err = run_cli(capsys, "jacobian", wrong_k_n, "-o", out)
+    assert status == 2 and not out.exists() and "complex pair" not in stdout
+    assert_one_line_error(err, "is not an equilibrium of its parameters", "round-off floor",
+                          "--allow-residual")
+    status, stdout, err = run_cli(capsys, "jacobian", wrong_k_n, "-o", out, "--allow-residual")
+    assert status == 0 and "WARNING" in err and "WARNING" in stdout
+    assert int(np.load(out)["equilibrium"]) == 0
+
+
+def test_jacobian_equilibrium_and_conflicts(capsys, ramp_run, tmp_path):
+    dump = ramp_run["stable"] + ".dump"
+    status, stdout, _ = run_cli(capsys, "jacobian", dump, "-o", tmp_path / "K.npz")
+    assert status == 0 and "complex pair: no" in stdout
+    assert int(np.load(tmp_path / "K.npz")["equilibrium"]) == 1
+    status, _, err = run_cli(capsys, "jacobian", dump, "-o", tmp_path / "L.npz", "--k-n", 3e5)
+    assert status == 2
+    assert_one_line_error(err, "--k-n 300000.0 contradicts k_n = 200000.0", "--override")
+
+
+@pytest.mark.parametrize("target", ["dir/", "dir", "missing/K.npz", "K.txt"])
+def test_jacobian_output_must_be_an_npz_file(capsys, ramp_run, tmp_path, target):
+    (tmp_path / "dir").mkdir()
+    status, _, err = run_cli(capsys, "jacobian", ramp_run["stable"] + ".dump", "-o",
+                             str(tmp_path / target) + ("/" if target.endswith("/") else ""))
+    assert status == 2
+    assert_one_line_error(err, "-o/--output")
+    assert os.listdir(tmp_path / "dir") == []
+
+
+# --------------------------------------------------------------------------- Ctrl-C, MPI
+def test_ctrl_c_in_a_ramp(relaxed, tmp_path):
+    out = tmp_path / "r"
+    cmd = [CLI, "ramp", "--datafile", relaxed.datafile, "--out", str(out), "--dF-x", "0.01",
+           "--tol", "1e-3", "--quiet"]
+    proc = subprocess.Popen(cmd, env=cli_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    t0 = time.monotonic()
+    while not (out / "ramp.h5").exists() and proc.poll() is None and time.monotonic() - t0 < 60:
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGINT)
+    stdout, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, (stdout, err)
+    assert err.strip().splitlines() == [
+        "remote-trigger ramp: interrupted; ramp.h5 holds every finished equilibrium: the same "
+        "command with --resume continues it (bitwise the same result)"], err
+    resumed = subprocess.run(cmd + ["--resume"], env=cli_env(), capture_output=True, text=True,
+                             timeout=120)
+    assert resumed.returncode == 0, resumed.stderr
+
+
+@pytest.mark.mpi
+def test_mpi_only_rank_0_prints_global_numbers(ramp_run, tmp_path):
+    def run(*argv, np_=1):
+        pre = [MPIRUN, "-np", str(np_)] if np_ > 1 else []
+        return subprocess.run(pre + [CLI, *map(str, argv)], env=cli_env(), capture_output=True,
+                              text=True, timeout=120)
+
+    demo = {n: run("demo", "--n", 40, "--steps", 4000, "--out", tmp_path / f"d{n}", np_=n)
+            for n in (1, 2)}
+    for n, p in demo.items():
+        assert p.returncode == 0, p.stderr
+        assert p.stdout.count("demo: settled") == 1, p.stdout
+    contacts = {n: [ln for ln in p.stdout.splitlines() if "contacts" in ln]
+                for n, p in demo.items()}
+    assert contacts[1] == contacts[2]
+    jac = run("jacobian", ramp_run["stable"] + ".dump", "-o", tmp_path / "K.npz", np_=2)
+    assert jac.returncode == 0 and jac.stdout.count("jacobian:") == 1, jac.stdout
+    bad = run("ramp", "--datafile", tmp_path / "missing.data", np_=2)
+    assert bad.returncode == 2 and bad.stderr.count("error") == 1, bad.stderr
+    nf = run("normal-form", "-o", tmp_path / "nf", "--eps", 0.1, "--tau", "inf", np_=2)
+    assert nf.returncode == 0 and nf.stdout.count("normal form, delta") == 1, nf.stdout
+    acc = run("accuracy", "--quick", "-o", tmp_path / "acc", np_=2)
+    assert acc.returncode == 2 and acc.stderr.count("run it without mpirun") == 1, acc.stderr
