@@ -722,7 +722,7 @@ def _main(args):
     if MPI.COMM_WORLD.Get_size() > 1:
         raise InputError(f"accuracy measures serial wall times: run it without mpirun "
                          f"(got {MPI.COMM_WORLD.Get_size()} ranks)")
-    from ._io import output_dir
+    from remote_trigger.analysis._io import output_dir
 
     output_dir(args.out, "-o/--out")
     secs = tuple(s.strip() for s in args.sections.split(",") if s.strip())

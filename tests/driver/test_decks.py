@@ -4,6 +4,7 @@ import os
 import subprocess
 
 import numpy as np
+import pytest
 
 from remote_trigger.pywrap.engine import DECK_DIR, DUMP_COLUMNS, deck_sections
 
@@ -41,17 +42,40 @@ def test_decks_have_sections():
         assert sec["variables"].lstrip().startswith("#")   # documented on top
 
 
-def test_relax_deck(tmp_path, packing_file):
-    _lmp(tmp_path, "in.relax", datafile=packing_file, settle_steps=5000, nsteps=5000,
-         out="r")
+def test_relax_deck(tmp_path, packing_file, relaxed):
+    """The deck runs the driver's protocol: same packing fraction, certified real at F_x = 0."""
+    from remote_trigger.analysis.analyze import analyze
+
+    _lmp(tmp_path, "in.relax", datafile=packing_file, settle_steps=20000, out="r")
     st, side = _check_dump(str(tmp_path / "r.dump"))
-    assert st.n == 20 and side["F_x"] == 0 and side["F_y"] == 3
+    assert st.n == 20 and side["F_x"] == 0 and side["F_y"] == 3 and side["mu"] == 1.0
     assert os.path.exists(tmp_path / "r.data")
+    a = analyze(st)
+    assert a.max_residual < 1e-9                       # fmin 1e-10 includes damping forces
+    assert a.decision.complex_present is False         # certified real, like the driver
+    assert np.all(st.contact_xi == 0) and np.all(st.wall_xi == 0)   # friction on, zero history
+
+    def phi(s):
+        L = s.box_hi[0] - s.box_lo[0]
+        return np.sum(np.pi * s.radii ** 2) / (L * np.max(s.positions[:, 1] + s.radii))
+    from remote_trigger.analysis.state import read_dump
+    drv = read_dump(relaxed.datafile[:-len(".data")] + ".dump")
+    assert phi(st) == pytest.approx(phi(drv), abs=5e-3)
+    top = st.external[:, 1] != 0
+    assert np.min(st.positions[top, 1]) > np.max(st.positions[~top, 1])   # line on top
+
+
+def test_relax_deck_stops_on_an_unreached_residual(tmp_path, packing_file):
+    args = [LMP, "-in", os.path.join(DECK_DIR, "in.relax"), "-log", "none", "-var",
+            "datafile", packing_file, "-var", "settle_steps", "2000", "-var", "nsteps", "1000"]
+    out = subprocess.run(args, cwd=tmp_path, env=cli_env(), capture_output=True, text=True)
+    assert out.returncode == 3 and "still above fmin" in out.stdout
+    assert not os.path.exists(tmp_path / "relaxed.dump")
 
 
 def test_ramp_step_deck(tmp_path, relaxed):
-    _lmp(tmp_path, "in.ramp_step", datafile=relaxed.datafile, Fx=0.001, nsteps=2000,
-         out="s")
+    out = _lmp(tmp_path, "in.ramp_step", datafile=relaxed.datafile, Fx=0.001, out="s")
+    assert "Fix halt condition for fix-id conv met" in out    # stops on fmin, not nsteps
     st, side = _check_dump(str(tmp_path / "s.dump"))
     assert side["F_x"] == 0.001
     np.testing.assert_array_equal(st.external[st.external[:, 1] < 0, 0], 0.001)
@@ -60,13 +84,14 @@ def test_ramp_step_deck(tmp_path, relaxed):
 def test_perturb_deck(tmp_path, relaxed):
     _lmp(tmp_path, "in.perturb", datafile=relaxed.datafile, a=1e-6, wp=1.0,
          muv=1, v0=1e-9, nsteps=2000, every=100, out="p")
-    rows = np.loadtxt(tmp_path / "p.txt")
-    assert rows.shape == (21, 4)
-    assert np.all(rows[:, 3] <= 1.0) and np.all(rows[:, 3] >= 0.8)
-    assert np.min(rows[:, 3]) < 1.0                  # mu(v) acted
+    rows = np.loadtxt(tmp_path / "p.txt")              # step time D v_top mu
+    assert rows.shape == (21, 5)
+    np.testing.assert_allclose(rows[:, 1], rows[:, 0] * 1e-3, rtol=1e-12)
+    assert np.all(rows[:, 4] <= 1.0) and np.all(rows[:, 4] >= 0.8)
+    assert np.min(rows[:, 4]) < 1.0                  # mu(v) acted
     _lmp(tmp_path, "in.perturb", datafile=relaxed.datafile, nsteps=1000, out="q")
     rows = np.loadtxt(tmp_path / "q.txt")
-    assert np.all(rows[:, 3] == 1.0) and np.max(rows[:, 1]) < 1e-20
+    assert np.all(rows[:, 4] == 1.0) and np.max(rows[:, 2]) < 1e-20
 
 
 def test_scenes_contain_only_what_they_need(relaxed):
