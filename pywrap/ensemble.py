@@ -1005,6 +1005,8 @@ def plot(path, rows, cfg):
     lo_b = min(allx + [PAPER_BRACKET[0]]) / 1.3
     hi_b = max(allx + [PAPER_BRACKET[1]]) * 1.3
     bins = np.geomspace(lo_b, hi_b, 25)
+    allr = [r["ratio"] for r in rows if math.isfinite(r["ratio"]) and r["status"] != "failed"]
+    rbins = np.linspace(min(allr + [1.0]) - 0.05, max(allr + [1.0]) + 0.05, 25)
     for k, n in enumerate(cfg.n):
         for I0, ls, fill in ((I0_DYNAMICS, "-", True), (cfg.inertia_I0, "--", False)):
             if I0 is None:
@@ -1018,7 +1020,7 @@ def plot(path, rows, cfg):
             y = [r["ratio"] for r in select(rows, ft, float(I0), n)]
             y = [v for v in y if math.isfinite(v)]
             if y:
-                ax[1].hist(y, bins=15, histtype="stepfilled" if fill else "step",
+                ax[1].hist(y, bins=rbins, histtype="stepfilled" if fill else "step",
                            alpha=0.35 if fill else 1.0, ls=ls, color=colors[k % len(colors)],
                            label=f"N = {n}, I0 = {I0:g}")
     ax[0].axvspan(*PAPER_BRACKET, color="k", alpha=0.15, label="paper (N = 100)")
