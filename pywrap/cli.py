@@ -43,6 +43,7 @@ SUBCOMMANDS = [
     "remote_trigger.pywrap.stages_cli",
     "remote_trigger.pywrap.paper",
     "remote_trigger.pywrap.trigger_map",
+    "remote_trigger.pywrap.ensemble",
     "remote_trigger.analysis.normal_form",
     "remote_trigger.analysis.cli_jacobian",
     "remote_trigger.pywrap.accuracy",

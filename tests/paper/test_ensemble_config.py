@@ -1,0 +1,111 @@
+"""``ensemble`` configuration: bad input is refused, naming the value, nothing written."""
+import pytest
+
+from remote_trigger.pywrap import ensemble as en
+from remote_trigger.pywrap.cli import main
+from remote_trigger.pywrap.config import ConfigError
+
+
+@pytest.mark.parametrize("key,val,words", [
+    ("seeds", [], "seeds = []"),
+    ("seeds", [[1, 2], []], "seeds = [[1, 2], []]"),
+    ("seeds", [[1], [2], [3]], "seeds = [[1], [2], [3]]"),
+    ("seeds", [1, -2], "seeds = [1, -2]"),
+    ("seeds", [1, 1], "seeds = [1, 1]"),
+    ("n", [100, 401], "n = [100, 401]"),
+    ("n", [4], "n = [4]"),
+    ("n", [], "n = []"),
+    ("mu_ss", 0.0, "mu_ss = 0.0"),
+    ("mu_ss", 1.2, "mu_ss = 1.2"),
+    ("mu", -1.0, "mu = -1.0"),
+    ("dF_x", 0.0, "dF_x = 0.0"),
+    ("tol", -1e-7, "tol = -1e-07"),
+    ("phi", 0.95, "phi = 0.95"),
+    ("inertia_I0", 0.5, "inertia_I0 = 0.5"),
+    ("inertia_extra_steps", -1, "inertia_extra_steps = -1"),
+    ("relax", {"settle_steps": -5}, "settle_steps = -5"),
+    ("frictional_relax", {"protocol": "frictional"}, "frictional_relax.protocol"),
+    ("np", 0, "np = 0"),
+])
+def test_bad_values_name_the_value(key, val, words):
+    d = {"n": [100, 400]}
+    d[key] = val
+    with pytest.raises(ConfigError) as err:
+        en.EnsembleConfig.from_dict(d)
+    assert words in str(err.value)
+
+
+def test_unknown_key():
+    with pytest.raises(ConfigError, match="'seed'"):
+        en.EnsembleConfig.from_dict({"seed": 3})
+
+
+def test_defaults_quick_and_precedence(tmp_path):
+    cfg = en.EnsembleConfig()
+    pk = cfg.packings()
+    assert len(pk) == 25 and pk[0] == {"key": "N100_s1", "n": 100, "seed": 1}
+    assert sum(p["n"] == 400 for p in pk) == 5
+    assert (cfg.dF_x, cfg.tol, cfg.mu, cfg.mu_ss) == (2.5e-4, 1e-7, 1.0, 0.8)
+    one = en.EnsembleConfig(n=[16, 20], seeds=[3, 4])
+    assert one.seeds == ((3, 4), (3, 4))
+    toml = tmp_path / "e.toml"
+    toml.write_text("n = [16]\nseeds = [7]\n[relax]\ng_settle = 0.4\n")
+    cfg = en.build_config(str(toml), {"tol": 1e-3}, quick=True)
+    assert cfg.n == (16,) and cfg.seeds == ((7,),) and cfg.tol == 1e-3 and cfg.quick
+    assert cfg.relax == {"settle_steps": 10000, "g_settle": 0.4}
+    assert cfg.dF_x == en.QUICK["dF_x"]
+
+
+@pytest.mark.parametrize("argv,words", [
+    (["--set", "seeds=[]"], "seeds = []"),
+    (["--set", "n=[100,33]"], "n = [100, 33]"),
+    (["--set", "mu_ss=1.5"], "mu_ss = 1.5"),
+    (["--set", "mu_ss=0"], "mu_ss = 0"),
+    (["--np", "0"], "np = 0"),
+    (["--set", "bogus=1"], "'bogus'"),
+])
+def test_cli_refuses_and_writes_nothing(argv, words, tmp_path, capsys):
+    out = tmp_path / "ens"
+    status = main(["ensemble", "--out", str(out)] + argv)
+    assert status == 2
+    err = capsys.readouterr().err
+    assert words in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_cli_refuses_foreign_or_existing_folder(tmp_path, capsys):
+    out = tmp_path / "ens"
+    out.mkdir()
+    (out / "x.txt").write_text("mine")
+    assert main(["ensemble", "--quick", "--out", str(out)]) == 2
+    assert "holds other files" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == ["x.txt"]
+
+
+def test_bracket_order_and_slope():
+    pts = [{"F_x": 0.0, "decision": 0}, {"F_x": 0.1, "decision": 0},
+           {"F_x": 0.15, "decision": -1}, {"F_x": 0.2, "decision": 1},
+           {"F_x": 0.3, "decision": 1}]
+    assert en.bracket(pts) == (0.1, 0.2)
+    lo, hi = en.bracket(pts[:2])
+    assert lo == 0.1 and hi == float("inf")
+    assert en.order_code(0.1, 0.2, 0.05, 0.08) == 1
+    assert en.order_code(0.1, 0.2, 0.25, 0.3) == 0
+    assert en.order_code(0.1, 0.2, 0.15, 0.3) == -1
+    assert en.order_code(0.1, 0.2, 0.25, float("inf")) == 0
+    # g = 3 sqrt(F - 0.1) exactly: the fit returns s = 3 and the onset 0.1
+    F = [0.1 + 1e-4, 0.1 + 4e-4, 0.1 + 9e-4]
+    g = [3 * (f - 0.1) ** 0.5 for f in F]
+    out = en.growth_slope(F, g, 0.0999, 0.10005)
+    assert out["slope"] == pytest.approx(3.0, rel=1e-9)
+    assert out["F_x_onset_fit"] == pytest.approx(0.1, abs=1e-12)
+    one = en.growth_slope([0.2], [0.3], 0.1, 0.2)
+    assert one["slope"] == pytest.approx(0.3 / 0.05 ** 0.5)
+
+
+def test_pair_position():
+    lam = [1.0, 2.0, 5.0 + 0.5j, 5.0 - 0.5j, 7.0, 10.0]
+    p = en.pair_position(lam)
+    assert p["pair_index"] == 3 and p["n_dof"] == 6
+    assert p["pair_re_rel"] == pytest.approx(0.5)
+    assert p["lambda_c"] == [5.0, 0.5]

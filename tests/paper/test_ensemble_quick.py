@@ -1,0 +1,146 @@
+"""``remote-trigger ensemble --quick``: serial and two ranks, resume, recorded failures.
+
+What must hold (each can fail): serial and ``--np 2`` give the same table
+(every column but the wall times); removing one finished packing's task file
+and resuming recomputes that packing only and gives the same table again; a
+packing whose relaxation fails is recorded with its reason while the others
+finish; the I0 = 1 rows are flagged as inconsistent with the dynamics.
+"""
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from remote_trigger.pywrap import ensemble as en
+
+CLI = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
+
+
+def _run(args):
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    return subprocess.run([CLI, "ensemble"] + args, capture_output=True, text=True, env=env,
+                          timeout=900)
+
+
+def _same(a, b):
+    assert sorted(a) == sorted(b)
+    for c in a:
+        if c == "wall":
+            continue
+        if a[c].dtype.kind in "fi":
+            assert np.array_equal(a[c], b[c], equal_nan=True), c
+        else:
+            assert list(a[c]) == list(b[c]), c
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory):
+    out = str(tmp_path_factory.mktemp("ens") / "serial")
+    proc = _run(["--quick", "--out", out])
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    return out, proc, en.read_table(os.path.join(out, en.TABLE))
+
+
+def test_outputs_and_rows(serial):
+    out, proc, t = serial
+    for f in ("ensemble.h5", "ensemble.md", "ensemble.json", "config.json"):
+        assert os.path.isfile(os.path.join(out, f)), f
+    with open(os.path.join(out, "ensemble.png"), "rb") as fh:
+        assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
+    assert proc.stdout.strip().splitlines()[-1].startswith("ensemble: ")
+    # 3 packings x (default I0 = 1/2, default I0 = 1, frictional)
+    assert len(t["key"]) == 9
+    assert list(t["key"][:3]) == ["N16_s1"] * 3
+    assert set(t["protocol"]) == {"frictionless-then-friction", "frictional"}
+    ft = (t["protocol"] == "frictionless-then-friction") & (t["I0"] == 0.5)
+    assert ft.sum() == 3
+    # certified brackets to tol at I0 = 1/2, mu_ss mu0 ramp too; ratio from the midpoints
+    for i in np.flatnonzero(ft):
+        assert t["status"][i] == "ok", t["reason"][i]
+        assert 0 < t["F_x_c_high"][i] - t["F_x_c_low"][i] <= 2e-3 * (1 + 1e-12)
+        assert 0 < t["F_x_c_ss_high"][i] - t["F_x_c_ss_low"][i] <= 2e-3 * (1 + 1e-12)
+        mid = 0.5 * (t["F_x_c_low"][i] + t["F_x_c_high"][i])
+        mid_ss = 0.5 * (t["F_x_c_ss_low"][i] + t["F_x_c_ss_high"][i])
+        assert t["ratio"][i] == pytest.approx(mid_ss / mid, rel=1e-12)
+        assert t["decision_at_zero"][i] == 0          # default protocol: real at F_x = 0
+        assert 1 <= t["pair_index"][i] < t["n_dof"][i]
+        assert 0 < t["pair_re_rel"][i] < 1
+        assert 0.5 < t["phi"][i] < 0.9
+    # I0 = 1 rows: flagged, same packings and phi
+    one = t["I0"] == 1.0
+    assert one.sum() == 3 and np.all(t["dynamics_consistent"][one] == 0)
+    assert all("inconsistent with the dynamics" in r for r in t["reason"][one])
+    assert np.array_equal(t["phi"][one], t["phi"][ft])
+    # every failed row says why
+    for s, r in zip(t["status"], t["reason"]):
+        assert s in ("ok", "incomplete", "failed")
+        if s == "failed":
+            assert r
+    md = open(os.path.join(out, "ensemble.md")).read()
+    for head in ("## F_x^c by size", "## N dependence", "hold for every packing",
+                 "## The paper's bracket", "## Frictional relaxation", "## Packings"):
+        assert head in md, head
+    assert "analysis convention only" in md
+
+
+def test_two_ranks_same_table(serial, tmp_path):
+    _, _, t1 = serial
+    out = str(tmp_path / "np2")
+    proc = _run(["--quick", "--np", "2", "--out", out, "--quiet"])
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    with open(os.path.join(out, en.MANIFEST)) as fh:
+        assert json.load(fh)["sessions"][-1]["n_ranks"] == 2
+    _same(t1, en.read_table(os.path.join(out, en.TABLE)))
+
+
+def test_resume_redoes_only_the_missing_packing(serial, tmp_path):
+    src, _, t1 = serial
+    out = str(tmp_path / "resumed")
+    shutil.copytree(src, out)
+    os.remove(os.path.join(out, "tasks", "N20_s1.json"))
+    proc = _run(["--quick", "--out", out])                       # no --resume: refused
+    assert proc.returncode == 2 and "--resume" in proc.stderr
+    proc = _run(["--quick", "--out", out, "--set", "tol=0.001", "--resume"])
+    assert proc.returncode == 2 and "tol = 0.002 (then) vs 0.001 (now)" in proc.stderr
+    proc = _run(["--quick", "--out", out, "--resume"])
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    with open(os.path.join(out, en.MANIFEST)) as fh:
+        man = json.load(fh)
+    assert man["sessions"][-1]["computed"] == ["N20_s1"]
+    assert man["sessions"][-1]["resume"] is True
+    _same(t1, en.read_table(os.path.join(out, en.TABLE)))
+
+
+def test_failure_is_recorded_and_others_finish(tmp_path, monkeypatch):
+    from mpi4py import MPI
+    from remote_trigger.pywrap.equilibrium import NoEquilibriumError
+
+    real = en._relax
+
+    def relax(cfg, datafile, folder, protocol):
+        if "N16_s2" in folder and protocol != "frictional":
+            raise NoEquilibriumError("top layer slid away (forced by the test)")
+        return real(cfg, datafile, folder, protocol)
+
+    monkeypatch.setattr(en, "_relax", relax)
+    cfg = en.build_config(None, {"n": [16], "seeds": [1, 2], "inertia_I0": None}, quick=True)
+    out = str(tmp_path / "fail")
+    en.run_ensemble(cfg, out, comm=MPI.COMM_SELF, speak=False)
+    t = en.read_table(os.path.join(out, en.TABLE))
+    assert list(t["key"]) == ["N16_s1", "N16_s1", "N16_s2", "N16_s2"]
+    bad = (t["key"] == "N16_s2") & (t["protocol"] == "frictionless-then-friction")
+    assert t["status"][bad][0] == "failed"
+    assert "NoEquilibriumError: top layer slid away" in t["reason"][bad][0]
+    assert math.isnan(t["F_x_c_low"][bad][0])
+    good = (t["key"] == "N16_s1") & (t["protocol"] == "frictionless-then-friction")
+    assert t["status"][good][0] == "ok" and t["F_x_c_low"][good][0] > 0
+    # the frictional protocol of the failed packing still ran
+    fr = (t["key"] == "N16_s2") & (t["protocol"] == "frictional")
+    assert t["status"][fr][0] == "ok"
+    md = open(os.path.join(out, "ensemble.md")).read()
+    assert "top layer slid away" in md
