@@ -51,7 +51,7 @@ Rank 0 writes ``ensemble.h5``, ``ensemble.png`` and ``ensemble.md``.
 
 .. warning::
    The I0 = 1 rows are an analysis convention, not a simulation: their
-   eigenvalues do not predict the simulated motion (MODEL.md section 1).
+   eigenvalues do not predict the simulated motion (docs/model.md section 1).
 """
 from dataclasses import dataclass, field, asdict, fields
 import json
@@ -94,7 +94,7 @@ class EnsembleConfig:
     phi : float
         Packing fraction of the generator's box, in (0.1, 0.91). Default 0.82.
     k_n, k_t, F_y, dt : float
-        Model (MODEL.md; k_t None: 2 k_n / 7). Defaults as ``paper``.
+        Model (docs/model.md; k_t None: 2 k_n / 7). Defaults as ``paper``.
     mu : float
         Static friction mu0, > 0. Default 1.
     mu_ss : float
