@@ -58,12 +58,11 @@ import json
 import math
 import os
 import shutil
-import sys
 import time
 
 import numpy as np
 
-from .config import ConfigError, PROTOCOLS, RelaxConfig, _int
+from .config import ConfigError, RelaxConfig, _int
 from .paper_config import PaperConfig, PAPER, _num, read_toml
 
 #: manifest of the job
@@ -1364,8 +1363,6 @@ def config_from_args(args):
 
 def main(args):
     """``remote-trigger ensemble``; returns the exit status."""
-    import subprocess
-
     cfg = config_from_args(args)
     from mpi4py import MPI
 
@@ -1374,25 +1371,9 @@ def main(args):
         out = os.path.abspath(args.out)
         if os.path.isdir(out) and os.listdir(out) or os.path.isfile(out):
             check_out(cfg, out, args.resume)       # refuse before mpirun starts
-        mpirun = os.path.join(os.path.dirname(sys.executable), "mpirun")
-        if not os.path.exists(mpirun):
-            mpirun = shutil.which("mpirun")
-        if not mpirun:
-            raise ConfigError(f"np = {cfg.np} needs mpirun; found none")
-        cmd = [mpirun, "-np", str(cfg.np), sys.executable, "-m", "remote_trigger.pywrap.cli",
-               "ensemble", "--out", args.out, "--np", "1"]
-        if args.config:
-            cmd += ["--config", args.config]
-        if args.quick:
-            cmd.append("--quick")
-        for s in args.set:
-            cmd += ["--set", s]
-        if args.resume:
-            cmd.append("--resume")
-        if args.quiet:
-            cmd.append("--quiet")
-        env = dict(os.environ, REMOTE_TRIGGER_ENS_CHILD="1")
-        return subprocess.call(cmd, env=env)
+        from .relaunch import relaunch
+
+        return relaunch("ensemble", args, cfg.np, "REMOTE_TRIGGER_ENS_CHILD")
     path = run_ensemble(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)
     if world.Get_rank() == 0:
         print(f"ensemble: {path}")

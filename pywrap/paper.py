@@ -928,13 +928,9 @@ def _relaunch(cfg, args):
     import subprocess
     import tempfile
 
-    here = os.path.dirname(sys.executable)
-    mpirun = os.path.join(here, "mpirun")
-    if not os.path.exists(mpirun):
-        mpirun = shutil.which("mpirun")
-    if not mpirun:
-        raise ConfigError(f"np = {cfg.np} needs mpirun, found none next to {sys.executable} "
-                          f"or on PATH; run `mpirun -np {cfg.np} remote-trigger paper` yourself")
+    from .relaunch import find_mpirun
+
+    mpirun = find_mpirun(cfg.np, "paper")
     d = cfg.to_dict()
     d["nf_tau"] = [None if math.isinf(v) else v for v in d["nf_tau"]]
     fd, path = tempfile.mkstemp(prefix="paper-config-", suffix=".json")

@@ -40,11 +40,10 @@ again with ``--resume`` keeps every finished run. Rank 0 writes
 ``trigger_map.h5`` (one row per map point), ``trigger_map.png`` and
 ``trigger_map.md``.
 """
-from dataclasses import dataclass, field, asdict, fields
+from dataclasses import dataclass, asdict, fields
 import json
 import math
 import os
-import sys
 import time
 
 import numpy as np
@@ -365,7 +364,6 @@ def ramp_kappa(ramp_h5, limit=None):
         F = np.asarray(fh["steps/F_x"][()], float)
         files = [x.decode() if isinstance(x, bytes) else str(x)
                  for x in fh["steps/datafile"][()]]
-        dec = np.asarray(fh["steps/decision"][()], float)
         hi = float(fh.attrs["F_x_c_high"])
         bF = np.asarray(fh["bisection/F_x"][()], float) if "bisection" in fh else np.zeros(0)
         bfiles = ([x.decode() if isinstance(x, bytes) else str(x)
@@ -390,7 +388,6 @@ def ramp_kappa(ramp_h5, limit=None):
                      float(np.max(e.kappa))))
         target = 0.5 * (lam[i].real + lam[j].real)
     rows.sort()
-    del dec
     return {"F_x": [r[0] for r in rows], "kappa": [r[1] for r in rows],
             "gap": [r[2] for r in rows], "kappa_max": [r[3] for r in rows],
             "lambda_c": [float(lam_c.real), float(lam_c.imag)], "F_x_c_high": hi}
@@ -408,8 +405,6 @@ def prepare_loads(cfg, pcfg, man, out, comm):
         ``loads`` (list of dict), ``taus``, ``omegas``, ``v0``, ``mu0``,
         ``mu_ss``, ``g_ref``.
     """
-    from mpi4py import MPI
-
     path = os.path.join(out, "loads.json")
     result, err = None, None
     if comm.Get_rank() == 0:
@@ -426,7 +421,6 @@ def prepare_loads(cfg, pcfg, man, out, comm):
     err = comm.bcast(err, root=0)
     if err is not None:
         raise err
-    del MPI
     return comm.bcast(result, root=0)
 
 
@@ -737,7 +731,7 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
     setup = prepare_loads(cfg, pcfg, man, out, comm)
     say(f"{len(setup['loads'])} loads, tau = "
         + ", ".join(f"{t:.4g}" for t in setup["taus"])
-        + f" (and none), omega_p = " + ", ".join(f"{w:.4g}" for w in setup["omegas"])
+        + " (and none), omega_p = " + ", ".join(f"{w:.4g}" for w in setup["omegas"])
         + f"; v0 = {setup['v0']:.3g}")
     for ld in setup["loads"]:
         say(f"  F_x = {ld['F_x']:.7g} ({ld['kind']}): mu0 {ld['decision_mu0']}, after the "
@@ -772,7 +766,6 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
                        f"noise-triggered: {res.get('noise_triggered')}")
                 say(f"rank 0: {done}/{len(mine)} {t['key']}: {txt}")
     comm.Barrier()
-    from .paper import write_json
     path = os.path.join(out, "trigger_map.md")
     err = None
     if rank == 0:
@@ -805,7 +798,6 @@ def _check_out(cfg, out, resume):
     """Refuse an --out that is a file or holds other results; check --resume's config."""
     if os.path.exists(out) and not os.path.isdir(out):
         raise ConfigError(f"--out {out!r} is a file, not a folder")
-    man = os.path.join(out, MANIFEST)
     cfgfile = os.path.join(out, "config.json")
     if os.path.isdir(out) and os.listdir(out):
         if not os.path.isfile(cfgfile):
@@ -823,7 +815,6 @@ def _check_out(cfg, out, resume):
             raise ConfigError(f"cannot resume {out!r}: its configuration differs in "
                               + ", ".join(f"{k} = {old.get(k)!r} (then) vs {new.get(k)!r} (now)"
                                           for k in diff))
-        del man
         return
     os.makedirs(out, exist_ok=True)
     from .paper import write_json
@@ -1068,36 +1059,16 @@ def config_from_args(args):
 
 def main(args):
     """``remote-trigger trigger-map``; returns the exit status."""
-    import shutil
-    import subprocess
-
     cfg = config_from_args(args)
     from mpi4py import MPI
 
     world = MPI.COMM_WORLD
     if cfg.np > 1 and world.Get_size() == 1 and not os.environ.get("REMOTE_TRIGGER_MAP_CHILD"):
+        from .relaunch import relaunch
+
         load_paper_job(cfg.paper)
-        mpirun = os.path.join(os.path.dirname(sys.executable), "mpirun")
-        if not os.path.exists(mpirun):
-            mpirun = shutil.which("mpirun")
-        if not mpirun:
-            raise ConfigError(f"np = {cfg.np} needs mpirun; found none")
-        cmd = [mpirun, "-np", str(cfg.np), sys.executable, "-m", "remote_trigger.pywrap.cli",
-               "trigger-map", "--out", args.out, "--np", "1"]
-        if args.config:
-            cmd += ["--config", args.config]
-        if args.quick:
-            cmd.append("--quick")
-        for s in args.set:
-            cmd += ["--set", s]
-        if args.paper:
-            cmd += ["--paper", args.paper]
-        if args.resume:
-            cmd.append("--resume")
-        if args.quiet:
-            cmd.append("--quiet")
-        env = dict(os.environ, REMOTE_TRIGGER_MAP_CHILD="1")
-        return subprocess.call(cmd, env=env)
+        return relaunch("trigger-map", args, cfg.np, "REMOTE_TRIGGER_MAP_CHILD",
+                        extra=["--paper", args.paper] if args.paper else [])
     load_paper_job(cfg.paper)
     path = run_map(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)
     if world.Get_rank() == 0:
