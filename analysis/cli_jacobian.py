@@ -71,7 +71,7 @@ def run(args):
     FileNotFoundError, ValueError
         Missing or malformed dump.
     """
-    from ._io import output_file, write_npz_atomic
+    from .output import output_file, write_npz_atomic
     from .analyze import check_equilibrium
     from .errors import NotEquilibriumError
     from .sidecar import merge_model

@@ -50,6 +50,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from .output import savefig_atomic
 
 X0 = np.array([1.0, -1.0]) / math.sqrt(2.0)
 
@@ -288,7 +289,7 @@ def register(subparsers):
 def _main(args):
     import os
 
-    from ._io import output_dir, write_h5_atomic
+    from .output import output_dir, write_h5_atomic
 
     output_dir(args.out, "-o/--out")
     eps = np.array(sorted(args.eps, reverse=True), dtype=np.float64)
@@ -328,9 +329,5 @@ def plot_amplitude(eps, taus, amp, est, delta, path):
     ax.set_title(rf"normal form, $\delta = {delta:g}$ (dashed: damped estimate)")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=120)
+    savefig_atomic(fig, path, dpi=120)
     plt.close(fig)
-    import os
-
-    os.replace(tmp, path)

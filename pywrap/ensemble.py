@@ -64,6 +64,7 @@ import numpy as np
 
 from .config import ConfigError, RelaxConfig, _int
 from .paper_config import PaperConfig, PAPER, _num, read_toml
+from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 
 #: manifest of the job
 MANIFEST = "ensemble.json"
@@ -1049,10 +1050,8 @@ def plot(path, rows, cfg):
     ax[2].set_ylabel("F_x^c(mu0): packings, median and quartiles")
     ax[2].legend(fontsize=7)
     fig.tight_layout()
-    tmp = path + f".tmp{os.getpid()}.png"
-    fig.savefig(tmp, dpi=110)
+    savefig_atomic(fig, path, dpi=110)
     plt.close(fig)
-    os.replace(tmp, path)
 
 
 def _f(x, f=".4g"):
@@ -1139,10 +1138,7 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
     L += ["", "## Cost", "",
           f"{n_pk} packings; {cpu:.0f} s of packing time in total; this session computed {len(computed)} packing(s) on {size} "
           f"rank(s) in {wall:.0f} s of wall time."]
-    tmp = path + f".tmp{os.getpid()}"
-    with open(tmp, "w") as fh:
-        fh.write("\n".join(L) + "\n")
-    os.replace(tmp, path)
+    write_text_atomic(path, "\n".join(L) + "\n")
 
 
 # --------------------------------------------------------------------------- job

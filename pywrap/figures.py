@@ -22,6 +22,7 @@ import os
 import numpy as np
 
 from . import report as rep
+from remote_trigger.analysis.output import savefig_atomic
 
 #: axis labels with units (lj: sigma = 2 R1, tau = lj time)
 T_LABEL = r"time $t$ [$\tau$]"
@@ -40,10 +41,8 @@ def _plt():
 
 
 def _save(fig, path):
-    tmp = path + ".tmp.png"
-    fig.savefig(tmp, dpi=120)
+    savefig_atomic(fig, path, dpi=120)
     _plt().close(fig)
-    os.replace(tmp, path)
     return path
 
 
@@ -193,7 +192,6 @@ def fig_msd(out, summary, path):
     g = m["predicted_growth_rate"]
     win = m["window"]
     if g > 0 and win is not None:
-        t_mid = 0.5 * (t[win[0]] + t[win[1]])
         sl = slice(win[0], win[1] + 1)
         # anchor: least-squares offset of ln D - 2 g t over the window
         c = float(np.mean(np.log(D[sl]) - 2 * g * t[sl]))

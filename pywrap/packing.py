@@ -30,9 +30,9 @@ The data file has ``atom_style sphere`` lines ``id type diameter density x y z``
 """
 from dataclasses import dataclass
 import math
-import os
 
 import numpy as np
+from remote_trigger.analysis.output import write_text_atomic
 
 #: radii of the two disk types (type 1 = small, type 2 = large)
 RADII = (0.5, 0.7)
@@ -235,12 +235,4 @@ def write_data(packing, path):
     lines += [f"{k + 1} {zeros}" for k in range(p.n)]
     lines += ["", "topflag # i_top", ""]
     lines += [f"{k + 1} {int(p.top[k])}" for k in range(p.n)]
-    tmp = f"{os.fspath(path)}.tmp{os.getpid()}"
-    try:
-        with open(tmp, "w") as fh:
-            fh.write("\n".join(lines) + "\n")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+    write_text_atomic(path, "\n".join(lines) + "\n")

@@ -44,6 +44,7 @@ import numpy as np
 
 from .config import ConfigError
 from .paper_config import PaperConfig, PAPER, build_config
+from remote_trigger.analysis.output import write_json_atomic
 
 #: files and folders the job writes under --out (removed when it is re-run there)
 OUTPUTS = ("paper.json", "packing.data", "relax.h5", "relax", "instability.h5", "instability",
@@ -106,10 +107,7 @@ def prepare_out(out):
 
 def write_json(path, data):
     """Write JSON atomically (temporary file + rename)."""
-    tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "w") as fh:
-        json.dump(data, fh, indent=1, sort_keys=True, default=_json_default)
-    os.replace(tmp, path)
+    write_json_atomic(path, data, indent=1, sort_keys=True, default=_json_default)
 
 
 def _json_default(obj):

@@ -22,7 +22,6 @@ Definitions (docs/paper.md)
 Verdicts are ``pass`` (the paper's statement holds for this run) or
 ``differs`` (with the reason, computed from the run where possible).
 """
-import json
 import math
 import os
 
@@ -31,6 +30,7 @@ import numpy as np
 from remote_trigger.analysis.series import exp_rate, growth_window, noise_level  # noqa: F401 (API)
 
 from .paper_config import PAPER
+from remote_trigger.analysis.output import write_json_atomic, write_text_atomic
 
 VERDICTS = ("pass", "differs")
 
@@ -693,18 +693,12 @@ def write_report(out, summary):
           "point down the ramp (nearest neighbour) and up the continuation above F_x^c.",
           "* docs/paper.md describes every step, option and file."]
     L += [""]
-    tmp = os.path.join(out, f"report.md.tmp{os.getpid()}")
-    with open(tmp, "w") as fh:
-        fh.write("\n".join(L))
-    os.replace(tmp, os.path.join(out, "report.md"))
+    write_text_atomic(os.path.join(out, "report.md"), "\n".join(L))
     js = {"checks": [dict(r, measured=_jsonable(r["measured"]),
                           paper=_jsonable(r["paper"])) for r in checks],
           "info": [{"id": i, "quantity": q, "value": _jsonable(v)} for i, q, v in info],
           "phases": ph, "paper_reference": PAPER}
-    tmp = os.path.join(out, f"report.json.tmp{os.getpid()}")
-    with open(tmp, "w") as fh:
-        json.dump(js, fh, indent=1)
-    os.replace(tmp, os.path.join(out, "report.json"))
+    write_json_atomic(os.path.join(out, "report.json"), js, indent=1)
     return checks, info
 
 

@@ -55,6 +55,7 @@ import re
 import time
 
 import numpy as np
+from remote_trigger.analysis.output import atomic_path
 
 
 def _set_attrs(obj, attrs):
@@ -62,10 +63,6 @@ def _set_attrs(obj, attrs):
         if isinstance(v, (list, tuple)):
             v = np.asarray(v)
         obj.attrs[k] = v
-
-
-def _tmp_name(path):
-    return f"{os.fspath(path)}.tmp{os.getpid()}"
 
 
 def _pid_alive(pid):
@@ -123,8 +120,7 @@ def _write_replace(path, attrs, datasets):
     """Write ``<path>.tmp<pid>`` completely, close it, rename it over ``path``."""
     import h5py
 
-    tmp = _tmp_name(path)
-    with h5py.File(tmp, "w") as fh:
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as fh:
         _set_attrs(fh, attrs)
         for name, val in datasets.items():
             dattrs = None
@@ -138,7 +134,6 @@ def _write_replace(path, attrs, datasets):
             else:
                 ds = fh.create_dataset(name, data=arr)
             _set_attrs(ds, dattrs)
-    os.replace(tmp, path)
 
 
 def write_atomic(path, attrs, datasets):

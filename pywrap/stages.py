@@ -31,6 +31,7 @@ from .config import ConfigError, RelaxConfig, RampConfig, DynamicsConfig
 from .engine import Engine, DUMP_COLUMNS
 from . import equilibrium as eq
 from .results import write_atomic, SeriesWriter, read_all
+from remote_trigger.analysis.output import atomic_path
 
 RESULT_VERSION = 1
 
@@ -140,7 +141,7 @@ def prepare_out(eng, out, files, overwrite=False, stage="stage"):
         ``out`` is a file, cannot be created or written, or holds results of
         the same stage (on every rank).
     """
-    from remote_trigger.analysis._io import output_dir
+    from remote_trigger.analysis.output import output_dir
 
     err = None
     if eng.rank == 0:
@@ -630,39 +631,38 @@ class _RampLog:
         self.attrs.update(attrs)
         a = dict(self.cfg.to_attrs(), stage="ramp", status=status, version=RESULT_VERSION,
                  **self.attrs)
-        tmp = f"{self.path}.tmp{os.getpid()}"
         fresh = not getattr(self, "_synced", False) or not os.path.exists(self.path)
-        if fresh:
-            mode = "w"
-        else:
-            shutil.copyfile(self.path, tmp)
-            mode = "a"
-        with h5py.File(tmp, mode) as fh:
-            for k, v in a.items():
-                fh.attrs[k] = v
-            for kind in ("steps", "bisection"):
-                cols = {c: np.asarray(self.rows[kind][c], dtype=np.float64)
-                        for c in self.COLS}
-                cols["datafile"] = np.asarray([str(f) for f in self.files[kind]],
-                                              dtype=object)
-                for c, arr in cols.items():
-                    name = f"{kind}/{c}"
+        with atomic_path(self.path) as tmp:
+            if fresh:
+                mode = "w"
+            else:
+                shutil.copyfile(self.path, tmp)
+                mode = "a"
+            with h5py.File(tmp, mode) as fh:
+                for k, v in a.items():
+                    fh.attrs[k] = v
+                for kind in ("steps", "bisection"):
+                    cols = {c: np.asarray(self.rows[kind][c], dtype=np.float64)
+                            for c in self.COLS}
+                    cols["datafile"] = np.asarray([str(f) for f in self.files[kind]],
+                                                  dtype=object)
+                    for c, arr in cols.items():
+                        name = f"{kind}/{c}"
+                        if name not in fh:
+                            kw = {"dtype": h5py.string_dtype()} if c == "datafile" else {}
+                            fh.create_dataset(name, data=arr, maxshape=(None,),
+                                              chunks=(256,), **kw)
+                            continue
+                        ds = fh[name]
+                        old = ds.shape[0]
+                        if arr.shape[0] != old:
+                            ds.resize((arr.shape[0],))
+                            ds[old:] = arr[old:]
+                for k, v in self.eig.items():
+                    name = f"eigenvalues/{k}"
                     if name not in fh:
-                        kw = {"dtype": h5py.string_dtype()} if c == "datafile" else {}
-                        fh.create_dataset(name, data=arr, maxshape=(None,),
-                                          chunks=(256,), **kw)
-                        continue
-                    ds = fh[name]
-                    old = ds.shape[0]
-                    if arr.shape[0] != old:
-                        ds.resize((arr.shape[0],))
-                        ds[old:] = arr[old:]
-            for k, v in self.eig.items():
-                name = f"eigenvalues/{k}"
-                if name not in fh:
-                    fh.create_dataset(name, data=v)
-            fh.flush()
-        os.replace(tmp, self.path)
+                        fh.create_dataset(name, data=v)
+                fh.flush()
         self._synced = True
         if not getattr(self, "_cleaned", False):     # temp files of killed runs
             from .results import clean_stale_tmp
@@ -894,7 +894,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         rlog, err = None, None
         if eng.rank == 0:
             try:
-                from remote_trigger.analysis._io import output_dir
+                from remote_trigger.analysis.output import output_dir
                 from .datafile import check_datafile
 
                 check_datafile(cfg.datafile)

@@ -183,7 +183,7 @@ def run_generate(args):
     from .config import ConfigError, check_packing_args
     from .packing import generate, write_data
 
-    from remote_trigger.analysis._io import output_dir, output_file
+    from remote_trigger.analysis.output import output_dir, output_file
 
     check_packing_args(args.n, args.seed, args.phi)
     if os.path.isdir(args.output) or args.output.endswith(os.sep):

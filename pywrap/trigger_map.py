@@ -49,6 +49,7 @@ import time
 import numpy as np
 
 from .config import ConfigError, _num, _int
+from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 
 #: onsets of f(t)
 ONSETS = ("step", "smooth")
@@ -943,10 +944,8 @@ def plot_map(path, rows, setup):
             ax.set_ylabel("a_c")
     axes[0, 0].legend(fontsize=6)
     fig.tight_layout()
-    tmp = path + f".tmp{os.getpid()}.png"
-    fig.savefig(tmp, dpi=110)
+    savefig_atomic(fig, path, dpi=110)
     plt.close(fig)
-    os.replace(tmp, path)
 
 
 def _fmt(x, f=".3g"):
@@ -1013,10 +1012,7 @@ def write_summary(path, rows, setup, cfg, wall, size):
     L += ["", "## Cost", "",
           f"{len(rows)} map points, {n} runs (plus one control per load and tau), "
           f"{cpu:.0f} s of run time; wall time {wall:.0f} s on {size} rank(s)."]
-    tmp = path + f".tmp{os.getpid()}"
-    with open(tmp, "w") as fh:
-        fh.write("\n".join(L) + "\n")
-    os.replace(tmp, path)
+    write_text_atomic(path, "\n".join(L) + "\n")
 
 
 # --------------------------------------------------------------------------- command line

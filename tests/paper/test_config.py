@@ -169,3 +169,20 @@ def test_output_folder_rules(tmp_path):
         (old / name).write_text("x")
     paper.prepare_out(str(old))
     assert sorted(os.listdir(old)) == ["figures-notes.md", "keep.txt"]
+
+
+def test_fig5_load_above_the_threshold_is_refused():
+    """fig5_F_x at or above F_x^c(mu0) (known only after the ramps) is refused by name."""
+    from remote_trigger.pywrap.fig5 import fig5_load
+
+    ramps = [{"F_x_c_low": 0.0646, "F_x_c_high": 0.06465, "status": "complete"},
+             {"F_x_c_low": 0.0587, "F_x_c_high": 0.05875, "status": "complete"}]
+    F, lo, hi = fig5_load(PaperConfig(), ramps)
+    assert lo == 0.05875 and hi == 0.0646 and lo < F < hi
+    assert fig5_load(PaperConfig(fig5_F_x=0.05), ramps)[0] == 0.05
+    for bad in (0.0646, 0.07):
+        with pytest.raises(ConfigError, match=f"fig5_F_x = {bad!r}"):
+            fig5_load(PaperConfig(fig5_F_x=bad), ramps)
+    empty = [ramps[0], {"F_x_c_low": 0.07, "F_x_c_high": 0.0701, "status": "complete"}]
+    with pytest.raises(ConfigError, match="no window for Fig. 5"):
+        fig5_load(PaperConfig(), empty)

@@ -1,6 +1,90 @@
-"""Atomic output: write to a temporary file in the same folder, then rename."""
+"""Output files and folders: every result is written atomically.
+
+A result file is only ever *replaced*, never modified in place: the new
+version is written completely under ``<path>.tmp<pid>`` (same folder, so the
+rename never crosses file systems) and renamed over ``<path>`` with
+:func:`os.replace`, atomic on POSIX. A reader, or the next run, finds at
+``<path>`` the previous complete file or the new complete one, whatever
+moment the writer was killed at (also ``kill -9``). If writing fails, the
+temporary file is removed and the exception propagates; a process killed in
+the middle leaves its ``<path>.tmp<pid>``, never read as a result (removed by
+the next write through :func:`remote_trigger.pywrap.results.clean_stale_tmp`).
+
+:func:`atomic_path` is the one implementation; the writers below (text,
+JSON, HDF5, ``.npz``, matplotlib figures) and the driver's
+(:mod:`remote_trigger.pywrap.results`) use it. :func:`output_file` and
+:func:`output_dir` check an output name before any work.
+"""
+import contextlib
+import json
 import os
-import tempfile
+
+
+def tmp_name(path):
+    """The temporary name ``<path>.tmp<pid>`` under which ``path`` is written."""
+    return f"{os.fspath(path)}.tmp{os.getpid()}"
+
+
+@contextlib.contextmanager
+def atomic_path(path):
+    """Context manager: a temporary file name that becomes ``path`` on success.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination; an existing file is replaced only when the body of the
+        ``with`` block finishes without an exception.
+
+    Yields
+    ------
+    str
+        ``<path>.tmp<pid>``, in the folder of ``path``. Write it completely
+        (and close it) inside the block.
+
+    Raises
+    ------
+    Whatever the body raises; the temporary file is then removed and
+    ``path`` is left as it was.
+
+    Examples
+    --------
+    >>> with atomic_path("out.h5") as tmp:          # doctest: +SKIP
+    ...     with h5py.File(tmp, "w") as fh:
+    ...         fh["x"] = x
+    """
+    tmp = tmp_name(path)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+
+
+def write_text_atomic(path, text):
+    """Write ``text`` (str) to ``path`` atomically (:func:`atomic_path`)."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "w") as fh:
+            fh.write(text)
+
+
+def write_json_atomic(path, data, **kwargs):
+    """``json.dump(data)`` to ``path`` atomically; ``kwargs`` go to :func:`json.dump`."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "w") as fh:
+            json.dump(data, fh, **kwargs)
+
+
+def savefig_atomic(fig, path, **kwargs):
+    """``fig.savefig`` to ``path`` atomically; the format is taken from ``path``'s suffix.
+
+    ``kwargs`` (e.g. ``dpi``) go to :meth:`matplotlib.figure.Figure.savefig`.
+    The figure is not closed.
+    """
+    fmt = os.path.splitext(os.fspath(path))[1].lstrip(".") or None
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=fmt, **kwargs)
 
 
 def write_h5_atomic(path, datasets, attrs=None):
@@ -18,10 +102,7 @@ def write_h5_atomic(path, datasets, attrs=None):
     import h5py
     import numpy as np
 
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".h5", dir=folder)
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as h5:
             for name, data in datasets.items():
                 arr = np.asarray(data)
@@ -30,12 +111,6 @@ def write_h5_atomic(path, datasets, attrs=None):
                 h5.create_dataset(name, data=arr)
             for key, val in (attrs or {}).items():
                 h5.attrs[key] = val
-            h5.flush()
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def output_file(path, option="-o", suffix=None):
@@ -100,13 +175,6 @@ def write_npz_atomic(path, arrays):
     """``numpy.savez`` to a temporary file in the same folder, then rename to ``path``."""
     import numpy as np
 
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
