@@ -63,11 +63,19 @@ def deck_path(name):
 def deck_sections(path):
     """Split a deck into its marked sections.
 
+    A section starts at a line ``#@name`` and runs to the next such line;
+    the lines before the first mark are the ``variables`` section. The
+    decks' sections (docs/driver.md, "Decks"): ``scene`` (atoms, groups,
+    pair style, wall, loads), ``damped`` (damping fixes and the integrator
+    of the relaxing decks), ``dynamics`` (what every run needs), ``actions``
+    (the standalone run), and the relax protocol's steps ``friction``,
+    ``start``, ``compact``, ``lower``, ``press``, ``relax``, ``output``.
+
     Returns
     -------
     dict
-        ``{'variables': str, 'scene': str, 'dynamics': str, 'actions': str}``
-        (missing sections are empty strings).
+        ``{name: str}``; ``variables``, ``scene``, ``dynamics`` and
+        ``actions`` are always present (empty strings if missing).
     """
     sections = {"variables": [], "scene": [], "dynamics": [], "actions": []}
     current = "variables"
@@ -232,6 +240,7 @@ class Engine:
         cannot be redefined, so a new scene needs a new instance.)
         """
         self.close()
+        self._deck = None
         self._start()
 
     def load_deck(self, name, variables=None, sections=("scene",)):
@@ -248,13 +257,39 @@ class Engine:
             Sections after the variable block to run, in order.
         """
         parts = deck_sections(deck_path(name))
+        for sec in sections:
+            if sec not in parts:
+                raise EngineError(f"deck {name} has no section {sec!r} "
+                                  f"(sections: {', '.join(parts)})")
         for key, val in (variables or {}).items():
             if isinstance(val, float):
                 val = f"{val:.17g}"
             self.command(f"variable {key} index {val}")
         self.commands(parts["variables"])
+        self._deck = (name, parts)
         for sec in sections:
             self.commands(parts[sec])
+
+    def run_section(self, section):
+        """Run one section of the deck loaded last (:meth:`load_deck`).
+
+        The deck's variables are those defined when it was loaded; the
+        driver's protocol steps are these sections, so a deck run with
+        ``lmp -in`` and the driver execute the same commands.
+
+        Raises
+        ------
+        EngineError
+            If no deck is loaded or it has no such section.
+        """
+        deck = getattr(self, "_deck", None)
+        if deck is None:
+            raise EngineError(f"run_section({section!r}): no deck loaded")
+        name, parts = deck
+        if section not in parts:
+            raise EngineError(f"deck {name} has no section {section!r} "
+                              f"(sections: {', '.join(parts)})")
+        self.commands(parts[section])
 
     def run(self, nsteps, pre=True, post=False):
         """``run nsteps`` (``pre no`` skips the setup when nothing changed)."""
@@ -270,6 +305,10 @@ class Engine:
         for fid in fix_ids:
             if self.has_fix(fid):
                 self.command(f"unfix {fid}")
+
+    def step(self):
+        """The current time step number (``ntimestep``)."""
+        return int(self.lmp.extract_global("ntimestep"))
 
     def equal(self, name):
         """Value of an equal-style variable (float64, same on all ranks)."""

@@ -282,13 +282,6 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None):
     return r, stagnated
 
 
-def dynamics_commands(cfg):
-    """The damping and integrator fixes of ``in.relax`` (its dynamics section)."""
-    return (f"fix damp all viscous {cfg.gamma!r}\n"
-            f"fix rdamp all viscous/sphere {cfg.gamma_rot!r}\n"
-            "fix integ all nve/sphere disc\n")
-
-
 def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
     """Bring the loaded scene to equilibrium at load F_x.
 
@@ -346,7 +339,7 @@ def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
             return r, t_sim, record
     while True:
         if not eng.has_fix("integ"):
-            eng.commands(dynamics_commands(cfg))
+            eng.run_section("damped")
         eng.run(cfg.check_every, pre=True)
         steps += cfg.check_every
         t_sim += cfg.check_every * cfg.dt

@@ -48,18 +48,28 @@ def _progress(total, desc, quiet, rank, unit="it"):
                 leave=False, dynamic_ncols=True)
 
 
+#: deck variable <- configuration field, passed when the configuration has it
+#: (otherwise the deck's default applies)
+_DECK_FIELDS = (("gamma", "gamma"), ("gamma_rot", "gamma_rot"),
+                ("settle_steps", "settle_steps"), ("g_settle", "g_settle"),
+                ("top_gap", "top_gap"), ("check", "check_every"))
+
+
 def _deck_vars(cfg, datafile, F_x):
-    return {"datafile": datafile, "kn": float(cfg.k_n), "kt": float(cfg.k_t),
-            "mu": float(cfg.mu), "Fx": float(F_x), "Fy": float(cfg.F_y),
-            "dt": float(cfg.dt),
-            "gamma": float(getattr(cfg, "gamma", 2.0)),
-            "gamma_rot": float(getattr(cfg, "gamma_rot", 0.1))}
+    v = {"datafile": datafile, "kn": float(cfg.k_n), "kt": float(cfg.k_t),
+         "mu": float(cfg.mu), "Fx": float(F_x), "Fy": float(cfg.F_y),
+         "dt": float(cfg.dt)}
+    for var, name in _DECK_FIELDS:
+        if hasattr(cfg, name):
+            val = getattr(cfg, name)
+            v[var] = int(val) if var in ("settle_steps", "check") else float(val)
+    return v
 
 
 def load_relax_scene(eng, cfg, datafile, F_x, deck="in.relax"):
-    """Load the scene (and damped dynamics) of ``deck`` from a data file."""
+    """Load the scene and the damped dynamics of ``deck`` from a data file."""
     eng.clear()
-    eng.load_deck(deck, _deck_vars(cfg, datafile, F_x), ("scene", "dynamics"))
+    eng.load_deck(deck, _deck_vars(cfg, datafile, F_x), ("scene", "damped", "dynamics"))
 
 
 def save_equilibrium(eng, cfg, F_x, prefix):
@@ -250,41 +260,37 @@ class RelaxResult:
     timestep: dict = field(default_factory=dict)
 
 
-def set_friction(eng, cfg, mu):
+def set_friction(eng, mu):
     """Set the friction coefficient of the pair style and the wall to ``mu``.
 
-    Needs a scene of ``in.relax`` (its wall uses ``v_mu_now``).
+    Runs the ``friction`` section of ``in.relax`` (its wall uses
+    ``v_mu_now``) with the string variable ``mu_set`` = ``repr(mu)`` (the
+    exact double); needs that scene loaded.
     """
-    eng.commands(f"pair_coeff * * {float(cfg.k_n)!r} {float(cfg.k_t)!r} {float(mu)!r}\n"
-                 f"variable mu_now equal {float(mu)!r}\n")
+    eng.command(f"variable mu_set string {float(mu)!r}")
+    eng.run_section("friction")
 
 
-def compact_bulk(eng, cfg):
+def compact_bulk(eng):
     """Protocol step (i): frictionless compaction of the bulk under gravity.
 
-    The ``top`` disks are not integrated (held where they are, above the
-    bulk); the bulk disks move with the damped dynamics of ``in.relax`` and
-    gravity ``cfg.g_settle`` for ``cfg.settle_steps`` steps. Friction must
-    already be off. Ends with v = omega = 0 and the dynamics of ``in.relax``
-    restored on all disks.
+    The ``compact`` section of ``in.relax``: the ``top`` disks are not
+    integrated (held where they are, above the bulk); the bulk disks move
+    with the damped dynamics and gravity ``g_settle`` for ``settle_steps``
+    steps (the deck variables, from the configuration). Friction must
+    already be off. Ends with v = omega = 0 and the integrator restored on
+    all disks.
     """
-    eng.unfix("integ")
-    eng.commands("group bulk subtract all top\n"
-                 "fix integ bulk nve/sphere disc\n"
-                 f"fix grav bulk gravity {float(cfg.g_settle)!r} vector 0 -1 0\n")
-    eng.run(cfg.settle_steps, pre=True)
-    eng.unfix("grav", "integ")
-    eng.command("velocity all set 0.0 0.0 0.0")
-    eng.command("set group all omega 0.0 0.0 0.0")
-    eng.command("fix integ all nve/sphere disc")
+    eng.run_section("compact")
 
 
 def place_top(eng, gap):
     """Protocol step (ii): move the ``top`` line rigidly (along y) onto the bulk.
 
-    After the move the lowest point of the line, min over top of (y - R), is
-    ``gap`` above the highest bulk point, max over bulk of (y + R): no top
-    disk touches the bulk, and each falls onto the bulk surface under F_y.
+    The ``lower`` section of ``in.relax``: after the move the lowest point of
+    the line, min over top of (y - R), is ``gap`` (the deck's ``top_gap``)
+    above the highest bulk point, max over bulk of (y + R): no top disk touches
+    the bulk, and each falls onto the bulk surface under F_y.
 
     Returns
     -------
@@ -294,32 +300,36 @@ def place_top(eng, gap):
     Raises
     ------
     ValueError
-        If the moved line would leave the box.
+        If there are no top or no bulk disks, or the moved line would leave
+        the box (checked before the move).
     """
     st = eng.gather_state()
     top = st.top
     if not np.any(top) or np.all(top):
         raise ValueError(f"place_top needs top and bulk disks, got {int(top.sum())} top "
                          f"disks of {st.n}")
+    # the deck's lower_measure section, on the gathered positions (no run 0)
     y, R = st.x[:, 1], st.radius
     dy = float(np.max(y[~top] + R[~top]) + gap - np.min(y[top] - R[top]))
     if np.max(y[top] + R[top]) + dy >= st.box_hi[1]:
         raise ValueError(f"the top line does not fit below the box top ylo/yhi = "
                          f"{st.box_hi[1]!r} after a move by dy = {dy!r}")
-    eng.command(f"displace_atoms top move 0.0 {dy!r} 0.0 units box")
+    eng.command(f"variable dy string {dy!r}")
+    eng.run_section("lower")
     return dy
 
 
-def press_top(eng, cfg, F_x, max_steps=200000, v_stop=1e-6):
+def press_top(eng, F_x):
     """Protocol step (iii a): the ``top`` line as a rigid piston on the bulk.
 
-    ``fix aveforce`` (defined after the loads and the damping, so that it
-    averages the total force) gives every top disk the mean force of the
-    line: the line translates rigidly, pressing on the frictionless bulk
-    with the loads, so no bulk disk can squeeze between two top disks while
-    the surface layer rearranges. Damped dynamics in chunks of
-    ``cfg.check_every`` steps until the largest speed is below ``v_stop``
-    (or ``max_steps``); then the constraint is removed and v = omega = 0.
+    The ``press`` section of ``in.relax``: ``fix aveforce`` (defined after
+    the loads and the damping, so that it averages the total force) gives
+    every top disk the mean force of the line: the line translates rigidly,
+    pressing on the frictionless bulk with the loads, so no bulk disk can
+    squeeze between two top disks while the surface layer rearranges.
+    Damped dynamics in runs of ``check`` steps until the largest speed is
+    below ``v_stop``, at most ``press_steps`` steps (deck variables); then
+    the ``press_end`` section removes the constraint and sets v = omega = 0.
 
     Returns
     -------
@@ -328,20 +338,22 @@ def press_top(eng, cfg, F_x, max_steps=200000, v_stop=1e-6):
     """
     eng.command(f"variable load_x equal {float(F_x)!r}")
     if not eng.has_fix("integ"):
-        eng.commands(eq.dynamics_commands(cfg))
-    eng.command("fix piston top aveforce 0.0 0.0 NULL")
+        eng.run_section("damped")
+    check = int(eng.equal("check_v"))
+    max_steps = int(eng.equal("press_steps_v"))
+    v_stop = eng.equal("v_stop_v")
+    eng.run_section("press")
     steps = 0
-    try:
+    try:                               # the loop of the deck's press_loop section
         while steps < max_steps:
-            eng.run(cfg.check_every, pre=(steps == 0))
-            steps += cfg.check_every
+            eng.run(check, pre=(steps == 0))
+            steps += check
             v = eng.gather("v")[:, :2]
             if float(np.max(np.hypot(v[:, 0], v[:, 1]))) < v_stop:
                 break
+        eng.run_section("press_end")
     finally:
         eng.unfix("piston")
-    eng.command("velocity all set 0.0 0.0 0.0")
-    eng.command("set group all omega 0.0 0.0 0.0")
     return steps
 
 
@@ -369,7 +381,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
     offsets = [0.0]
     if cfg.settle_steps > 0:
         tc = time.perf_counter()
-        compact_bulk(eng, cfg)
+        compact_bulk(eng)
         place_top(eng, cfg.top_gap)
         t_comp = time.perf_counter() - tc
         st = eng.gather_state()
@@ -383,7 +395,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
             eng.command(f"displace_atoms top move {dx!r} 0.0 0.0 units box")
         if cfg.settle_steps > 0:
             tc = time.perf_counter()
-            press_top(eng, cfg0, cfg.F_x)
+            press_top(eng, cfg.F_x)
             t_comp += time.perf_counter() - tc
         try:
             r, t_sim, rec = eq.equilibrate(eng, cfg0, cfg.F_x, progress=prog)
@@ -405,7 +417,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
         eng.restore(st)
     eng.unfix(*eq.DAMPING_FIXES, *eq.INTEGRATOR_FIXES)
     # (iv) friction on; xi = 0 on every contact, so the forces are unchanged
-    set_friction(eng, cfg, cfg.mu)
+    set_friction(eng, cfg.mu)
     st, _, r = eq.exact_residual(eng)
     if np.any(st.xi != 0.0) or np.any(st.wall_xi != 0.0):
         raise RuntimeError("friction switched on with nonzero contact history "
@@ -480,10 +492,10 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
                 load_relax_scene(eng, cfg, cfg.datafile, cfg.F_x)
                 if cfg.settle_steps > 0:
                     tc = time.perf_counter()
-                    set_friction(eng, cfg, cfg.mu_settle)
+                    set_friction(eng, cfg.mu_settle)
                     eng.commands(f"fix grav all gravity {cfg.g_settle!r} vector 0 -1 0\n"
                                  f"run {cfg.settle_steps}\nunfix grav\n")
-                    set_friction(eng, cfg, cfg.mu)
+                    set_friction(eng, cfg.mu)
                     t_comp = time.perf_counter() - tc
                 r, t_sim, rec = eq.equilibrate(eng, cfg, cfg.F_x, progress=prog)
         finally:

@@ -38,8 +38,38 @@ def _check_dump(path):
 def test_decks_have_sections():
     for deck in ("in.relax", "in.ramp_step", "in.perturb"):
         sec = deck_sections(os.path.join(DECK_DIR, deck))
-        assert "read_data" in sec["scene"] and "fix integ" in sec["dynamics"]
+        integ = sec["dynamics"] if deck == "in.perturb" else sec["damped"]
+        assert "read_data" in sec["scene"] and "fix integ" in integ
         assert sec["variables"].lstrip().startswith("#")   # documented on top
+    relax = deck_sections(os.path.join(DECK_DIR, "in.relax"))
+    for name in ("friction", "compact", "lower_measure", "lower", "press", "press_loop",
+                 "press_end", "relax", "output"):
+        assert relax.get(name, "").strip(), name
+
+
+def test_driver_protocol_commands_come_from_the_deck():
+    """stages.py writes none of the protocol's LAMMPS commands itself: one source."""
+    import ast
+    import inspect
+
+    from remote_trigger.pywrap import equilibrium, stages
+
+    strings = []                # string literals of the code, docstrings excluded
+    for mod in (stages, equilibrium):
+        tree = ast.parse(inspect.getsource(mod))
+        docs = {id(n.body[0].value) for n in ast.walk(tree)
+                if isinstance(n, (ast.Module, ast.FunctionDef, ast.ClassDef)) and n.body
+                and isinstance(n.body[0], ast.Expr) and isinstance(n.body[0].value, ast.Constant)}
+        strings += [n.value for n in ast.walk(tree) if isinstance(n, ast.Constant)
+                    and isinstance(n.value, str) and id(n) not in docs]
+    code = "\n".join(strings)
+    for cmd in ("pair_coeff", "aveforce", "fix grav bulk", "fix damp", "fix integ",
+                "viscous", "variable mu_now"):
+        assert cmd not in code, cmd
+    relax = deck_sections(os.path.join(DECK_DIR, "in.relax"))
+    assert "fix piston top aveforce" in relax["press"]
+    assert "fix grav bulk gravity ${g_settle}" in relax["compact"]
+    assert "pair_coeff * * ${kn} ${kt} ${mu_set}" in relax["friction"]
 
 
 def test_relax_deck(tmp_path, packing_file, relaxed):
@@ -60,7 +90,9 @@ def test_relax_deck(tmp_path, packing_file, relaxed):
         return np.sum(np.pi * s.radii ** 2) / (L * np.max(s.positions[:, 1] + s.radii))
     from remote_trigger.analysis.state import read_dump
     drv = read_dump(relaxed.datafile[:-len(".data")] + ".dump")
-    assert phi(st) == pytest.approx(phi(drv), abs=5e-3)
+    # the same compaction, line placement and piston (the driver runs these
+    # sections of the deck, in the same chunks); then damped vs damped + Newton
+    assert phi(st) == pytest.approx(phi(drv), abs=1e-6)
     top = st.external[:, 1] != 0
     assert np.min(st.positions[top, 1]) > np.max(st.positions[~top, 1])   # line on top
 
@@ -111,5 +143,5 @@ def test_scenes_contain_only_what_they_need(relaxed):
     with scene(a=1e-12, muv=1, v0=1e-10) as eng:           # (c)
         assert eng.has_fix("muv") and not eng.has_fix("damp")
     with Engine() as eng:                                  # relax: damping only here
-        eng.load_deck("in.relax", {"datafile": relaxed.datafile}, ("scene", "dynamics"))
+        eng.load_deck("in.relax", {"datafile": relaxed.datafile}, ("scene", "damped", "dynamics"))
         assert eng.has_fix("damp") and not eng.has_fix("muv")
