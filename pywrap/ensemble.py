@@ -65,6 +65,7 @@ import numpy as np
 from .config import ConfigError, RelaxConfig, _int
 from .paper_config import PaperConfig, PAPER, _num, read_toml
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
+from .parallel import on_rank0
 
 #: manifest of the job
 MANIFEST = "ensemble.json"
@@ -1253,17 +1254,12 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
         if speak and rank == 0:
             print(f"[ensemble {time.perf_counter() - t_start:7.1f} s] {msg}", flush=True)
 
-    err = None
-    if rank == 0:
-        try:
-            check_out(cfg, out, resume)
-            os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
-            os.makedirs(os.path.join(out, "packings"), exist_ok=True)
-        except Exception as exc:  # noqa: BLE001 - re-raised on every rank
-            err = exc
-    err = comm.bcast(err, root=0)
-    if err is not None:
-        raise err
+    def prepare():
+        check_out(cfg, out, resume)
+        os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
+        os.makedirs(os.path.join(out, "packings"), exist_ok=True)
+
+    on_rank0(comm, prepare)
     tasks = cfg.packings()
     order = sorted(range(len(tasks)), key=lambda i: (-tasks[i]["n"], i))
     mine = [tasks[i] for i in order[rank::size]]

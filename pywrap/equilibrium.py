@@ -1,4 +1,4 @@
-"""Mechanical equilibrium: over-damped dynamics and Newton polishing.
+r"""Mechanical equilibrium: over-damped dynamics and Newton polishing.
 
 The residual of disk i is its generalized force (paper Eq. 42)
 
@@ -176,7 +176,7 @@ ROUNDOFF_FACTOR = 4.0
 
 
 def accept_level(cfg, state):
-    """Residual accepted from a stagnating Newton iteration (``cfg.f_accept``).
+    r"""Residual accepted from a stagnating Newton iteration (``cfg.f_accept``).
 
     ``cfg.f_accept`` if it is a number. If it is None (default): the
     round-off floor of double precision, scaled with the contact stiffness

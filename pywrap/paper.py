@@ -182,18 +182,10 @@ def analyze_on_root(comm, dump):
     -------
     StabilityResult
     """
+    from .parallel import on_rank0
     from .stability import analyze_dump
 
-    res, err = None, None
-    if comm.Get_rank() == 0:
-        try:
-            res = analyze_dump(dump)
-        except Exception as exc:  # noqa: BLE001 - re-raised on all ranks
-            err = f"{type(exc).__name__}: {exc}"
-    res, err = comm.bcast((res, err), root=0)
-    if err:
-        raise RuntimeError(f"analysis of {dump} failed: {err}")
-    return res
+    return on_rank0(comm, analyze_dump, dump)
 
 
 def continue_ramp(rcfg, start_file, loads, folder, comm):

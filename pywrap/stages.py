@@ -31,6 +31,7 @@ from .config import ConfigError, RelaxConfig, RampConfig, DynamicsConfig
 from .engine import Engine, DUMP_COLUMNS
 from . import equilibrium as eq
 from .results import write_atomic, SeriesWriter, read_all
+from .parallel import on_rank0
 from remote_trigger.analysis.output import atomic_path
 
 RESULT_VERSION = 1
@@ -111,17 +112,7 @@ def _analyze(eng, dump):
     """Eigen-analysis of a dump on rank 0, broadcast to all ranks."""
     from .stability import analyze_dump
 
-    res = None
-    err = None
-    if eng.rank == 0:
-        try:
-            res = analyze_dump(dump)
-        except Exception as exc:  # noqa: BLE001 - re-raised on all ranks
-            err = f"{type(exc).__name__}: {exc}"
-    res, err = eng.comm.bcast((res, err), root=0)
-    if err:
-        raise RuntimeError(f"analysis of {dump} failed: {err}")
-    return res
+    return on_rank0(eng.comm, analyze_dump, dump)
 
 
 def _ensure_dir(eng, path):
@@ -153,21 +144,19 @@ def prepare_out(eng, out, files, overwrite=False, stage="stage"):
     """
     from remote_trigger.analysis.output import output_dir
 
-    err = None
-    if eng.rank == 0:
+    def check():
         try:
             output_dir(out, "--out")
-            if not overwrite:
-                found = [f for f in files if os.path.exists(os.path.join(out, f))]
-                if found:
-                    err = (f"the output folder {out!r} already holds {stage} results "
-                           f"({', '.join(found)}): choose another --out or remove them "
-                           f"(nothing was overwritten)")
         except ValueError as exc:
-            err = str(exc)
-    err = eng.comm.bcast(err, root=0)
-    if err:
-        raise ConfigError(err)
+            raise ConfigError(str(exc)) from None
+        if not overwrite:
+            found = [f for f in files if os.path.exists(os.path.join(out, f))]
+            if found:
+                raise ConfigError(f"the output folder {out!r} already holds {stage} results "
+                                  f"({', '.join(found)}): choose another --out or remove "
+                                  f"them (nothing was overwritten)")
+
+    on_rank0(eng.comm, check)
 
 
 def _equilibrium_files(name):
@@ -903,21 +892,20 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         if exists and not resume:
             raise ConfigError(f"{h5} exists: use resume (--resume) to continue it, or "
                               f"another output folder (nothing was overwritten)")
-        rlog, err = None, None
-        if eng.rank == 0:
-            try:
-                from remote_trigger.analysis.output import output_dir
-                from .datafile import check_datafile
+        def open_log():
+            from remote_trigger.analysis.output import output_dir
+            from .datafile import check_datafile
 
+            try:
                 check_datafile(cfg.datafile)
                 output_dir(out, "--out")
-                rlog = _RampLog.load(cfg, h5) if (resume and exists) else _RampLog(cfg, h5)
-                rlog.attrs.setdefault("datafile_sha256", file_sha256(cfg.datafile))
+                log_ = _RampLog.load(cfg, h5) if (resume and exists) else _RampLog(cfg, h5)
             except ValueError as exc:
-                err = str(exc)
-        rlog, err = eng.comm.bcast((rlog, err), root=0)
-        if err:
-            raise ConfigError(err)
+                raise ConfigError(str(exc)) from None
+            log_.attrs.setdefault("datafile_sha256", file_sha256(cfg.datafile))
+            return log_
+
+        rlog = on_rank0(eng.comm, open_log)
         _ensure_dir(eng, folder)
         rcfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "ramp")
         if "dt_used" in rlog.attrs and cfg.dt == "auto":   # resume: the same step
@@ -1049,8 +1037,8 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
     """Run ``in.perturb``'s scene from ``datafile`` and record every record_every steps."""
     eng.clear()
     v = _deck_vars(cfg, datafile, cfg.F_x)
-    v.pop("gamma")
-    v.pop("gamma_rot")
+    for var, _ in _DECK_FIELDS:        # the relaxing decks' variables
+        v.pop(var, None)
     v.update(ton=float(cfg.t_on), visc=0.0 if cfg.tau is None else 1.0 / float(cfg.tau))
     v.update(variables)
     eng.load_deck("in.perturb", v, ("scene", "dynamics"))
@@ -1242,17 +1230,13 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
         prepare_out(eng, out, _equilibrium_files("perturb")
                     + [f"perturb_{k}.h5" for k in PERTURB_RUNS], overwrite or resume,
                     "perturb")
-        sha, r, done, err = None, None, {}, None
-        if eng.rank == 0:
-            sha = file_sha256(cfg.datafile)
-            if resume:
-                try:
-                    r, done = _perturb_resume_state(cfg, out, sha)
-                except ConfigError as exc:
-                    err = str(exc)
-        r, done, err = eng.comm.bcast((r, done, err), root=0)
-        if err:
-            raise ConfigError(err)
+
+        def resume_state():
+            sha_ = file_sha256(cfg.datafile)
+            r_, done_ = _perturb_resume_state(cfg, out, sha_) if resume else (None, {})
+            return sha_, r_, done_
+
+        sha, r, done = on_rank0(eng.comm, resume_state)
         if r is None:
             prefix, r = _equilibrium_for(eng, cfg, out, "perturb", quiet)
         else:
@@ -1260,7 +1244,7 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
         data = prefix + ".data"
         v0 = cfg.v0
         base = {"equilibrium": data, "equilibrium_residual": r, "stage": "perturb",
-                "datafile_sha256": str(eng.comm.bcast(sha, root=0)), **dtinfo}
+                "datafile_sha256": str(sha), **dtinfo}
         if "a" in runs or v0 is None:
             res = done.get("a") or _undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_a.h5"), {"a": 0.0, "muv": 0},

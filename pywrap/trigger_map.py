@@ -50,6 +50,7 @@ import numpy as np
 
 from .config import ConfigError, _num, _int
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
+from .parallel import on_rank0
 
 #: onsets of f(t)
 ONSETS = ("step", "smooth")
@@ -407,22 +408,17 @@ def prepare_loads(cfg, pcfg, man, out, comm):
         ``mu_ss``, ``g_ref``.
     """
     path = os.path.join(out, "loads.json")
-    result, err = None, None
-    if comm.Get_rank() == 0:
-        try:
-            if os.path.isfile(path):
-                with open(path) as fh:
-                    result = json.load(fh)
-            else:
-                result = _prepare_loads(cfg, pcfg, man, out)
-                from .paper import write_json
-                write_json(path, result)
-        except Exception as exc:  # noqa: BLE001 - re-raised on every rank
-            err = exc
-    err = comm.bcast(err, root=0)
-    if err is not None:
-        raise err
-    return comm.bcast(result, root=0)
+    def load_or_prepare():
+        if os.path.isfile(path):
+            with open(path) as fh:
+                return json.load(fh)
+        from .paper import write_json
+
+        result = _prepare_loads(cfg, pcfg, man, out)
+        write_json(path, result)
+        return result
+
+    return on_rank0(comm, load_or_prepare)
 
 
 def _prepare_loads(cfg, pcfg, man, out):
@@ -719,15 +715,7 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
         if speak and rank == 0:
             print(f"[trigger-map {time.perf_counter() - t_start:7.1f} s] {msg}", flush=True)
 
-    err = None
-    if rank == 0:
-        try:
-            _check_out(cfg, out, resume)
-        except Exception as exc:  # noqa: BLE001 - re-raised on every rank
-            err = exc
-    err = comm.bcast(err, root=0)
-    if err is not None:
-        raise err
+    on_rank0(comm, _check_out, cfg, out, resume)
     pcfg, man = load_paper_job(cfg.paper)
     setup = prepare_loads(cfg, pcfg, man, out, comm)
     say(f"{len(setup['loads'])} loads, tau = "
