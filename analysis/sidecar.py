@@ -13,10 +13,19 @@ import os
 
 from .errors import InputError
 
-__all__ = ["MODEL_KEYS", "sidecar_path", "read_sidecar", "merge_model"]
+__all__ = ["MODEL_KEYS", "sidecar_path", "read_sidecar", "merge_model", "default_k_t"]
 
 #: parameters a stage or analysis takes from the start file's sidecar
 MODEL_KEYS = ("F_x", "F_y", "mu", "k_n", "k_t")
+
+def default_k_t(k_n):
+    """The model's default tangential stiffness, k_t = 2 k_n / 7 (docs/model.md).
+
+    The one place of this convention (LAMMPS' granular default ratio);
+    every configuration whose ``k_t`` is None takes it from here.
+    """
+    return 2.0 * float(k_n) / 7.0
+
 
 #: relative difference below which a given value agrees with the sidecar's
 #: (a ramp's loads are F_x0 + k dF_x, e.g. 0.009000000000000001 for 0.009)

@@ -57,6 +57,7 @@ import math
 import numpy as np
 
 from .errors import InputError
+from .sidecar import default_k_t
 
 __all__ = ["SAFETY_FACTOR", "TimestepError", "omega_max", "stability_limit",
            "stable_timestep", "hertz_limit", "check_timestep"]
@@ -207,7 +208,7 @@ def hertz_limit(k_n, force, k_t=None, mass=1.0, contacts=6):
         For non-positive k_n, force, mass or contacts, or negative k_t.
     """
     if k_t is None:
-        k_t = 2.0 * k_n / 7.0
+        k_t = default_k_t(k_n)
     for name, val in (("k_n", k_n), ("force", force), ("mass", mass), ("contacts", contacts)):
         if not (np.isfinite(val) and val > 0):
             raise ValueError(f"{name} must be finite and > 0, got {val!r}")

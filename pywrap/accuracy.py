@@ -52,6 +52,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
+from remote_trigger.analysis.sidecar import default_k_t
 
 __all__ = ["Row", "run_accuracy", "register", "write_table", "markdown_table"]
 
@@ -107,7 +108,7 @@ class Context:
 
     @property
     def k_t(self):
-        return 2.0 * self.k_n / 7.0
+        return default_k_t(self.k_n)
 
 
 def _say(msg):

@@ -15,6 +15,7 @@ import math
 import os
 
 from remote_trigger.analysis.errors import InputError
+from remote_trigger.analysis.sidecar import default_k_t
 
 
 #: relaxation protocols of :class:`RelaxConfig` (docs/driver.md)
@@ -29,22 +30,50 @@ class ConfigError(InputError):
     """
 
 
-def _num(name, val):
+def check_number(name, val, lo=None, lo_open=False, hi=None, allow_inf=False):
+    """The one numeric validator of every configuration; returns ``float(val)``.
+
+    Parameters
+    ----------
+    name : str
+        Field name, used in the message.
+    val : object
+        The value; ``bool`` is not a number here.
+    lo, hi : float, optional
+        Bounds: ``val >= lo`` (``> lo`` with ``lo_open``), ``val <= hi``.
+    allow_inf : bool
+        Accept +-inf (e.g. an infinite damping time); NaN is never accepted.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the field and the value: not a number, NaN, infinite
+        (unless allowed), or outside the bounds.
+    """
     if isinstance(val, bool) or not isinstance(val, (int, float)):
         raise ConfigError(f"{name} must be a number, got {name} = {val!r}")
-    if not math.isfinite(val):
+    val = float(val)
+    if math.isnan(val):
+        raise ConfigError(f"{name} must be a number, got {name} = {val!r}")
+    if math.isinf(val) and not allow_inf:
         raise ConfigError(f"{name} must be finite, got {name} = {val!r}")
-    return float(val)
+    if lo is not None and (val < lo or (lo_open and val == lo)):
+        op = ">" if lo_open else ">="
+        raise ConfigError(f"{name} must be {op} {lo:g}, got {name} = {val!r}")
+    if hi is not None and val > hi:
+        raise ConfigError(f"{name} must be <= {hi:g}, got {name} = {val!r}")
+    return val
+
+
+_num = check_number
 
 
 def _positive(name, val):
-    if _num(name, val) <= 0:
-        raise ConfigError(f"{name} must be > 0, got {name} = {val!r}")
+    return check_number(name, val, 0, lo_open=True)
 
 
 def _nonneg(name, val):
-    if _num(name, val) < 0:
-        raise ConfigError(f"{name} must be >= 0, got {name} = {val!r}")
+    return check_number(name, val, 0)
 
 
 def _int(name, val, lo):
@@ -94,7 +123,7 @@ class StageConfig:
             raise ConfigError(f"datafile does not exist: datafile = {self.datafile!r}")
         _positive("k_n", self.k_n)
         if self.k_t is None:
-            object.__setattr__(self, "k_t", 2.0 * float(self.k_n) / 7.0)
+            object.__setattr__(self, "k_t", default_k_t(self.k_n))
         _nonneg("k_t", self.k_t)
         _nonneg("mu", self.mu)
         _positive("F_y", self.F_y)

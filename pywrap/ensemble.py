@@ -62,6 +62,7 @@ import time
 
 import numpy as np
 
+from remote_trigger.analysis.sidecar import default_k_t
 from .config import ConfigError, RelaxConfig, _int
 from .paper_config import PaperConfig, PAPER, _num, read_toml
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
@@ -178,7 +179,7 @@ class EnsembleConfig:
             raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {self.phi!r}")
         _num("k_n", self.k_n, 0, lo_open=True)
         if self.k_t is None:
-            object.__setattr__(self, "k_t", 2.0 * float(self.k_n) / 7.0)
+            object.__setattr__(self, "k_t", default_k_t(self.k_n))
         _num("k_t", self.k_t, 0)
         for name in ("F_y", "dt", "mu", "dF_x", "tol", "F_x_max"):
             _num(name, getattr(self, name), 0, lo_open=True)

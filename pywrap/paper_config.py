@@ -17,7 +17,8 @@ from dataclasses import dataclass, field, fields, asdict
 import math
 import os
 
-from .config import ConfigError, DynamicsConfig, _int
+from remote_trigger.analysis.sidecar import default_k_t
+from .config import ConfigError, DynamicsConfig, _int, check_number as _num
 
 #: paper's reference values (Charan, Pomyalov & Procaccia), for the report only
 PAPER = {
@@ -37,20 +38,6 @@ PAPER = {
 #: midpoint of the paper's bracket 0.0091 < F_x^c(mu=1) < 0.012, used to define
 #: "the same relative distance" from F_x^c (docs/paper.md)
 PAPER_F_X_C_MID = 0.5 * (PAPER["F_x_c_mu1_low"] + PAPER["F_x_c_mu1_high"])
-
-
-def _num(name, val, lo=None, lo_open=False, hi=None):
-    if isinstance(val, bool) or not isinstance(val, (int, float)):
-        raise ConfigError(f"{name} must be a number, got {name} = {val!r}")
-    val = float(val)
-    if math.isnan(val):
-        raise ConfigError(f"{name} must be a number, got {name} = {val!r}")
-    if lo is not None and (val < lo or (lo_open and val == lo)):
-        op = ">" if lo_open else ">="
-        raise ConfigError(f"{name} must be {op} {lo:g}, got {name} = {val!r}")
-    if hi is not None and val > hi:
-        raise ConfigError(f"{name} must be <= {hi:g}, got {name} = {val!r}")
-    return val
 
 
 @dataclass(frozen=True)
@@ -223,7 +210,7 @@ class PaperConfig:
             raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {self.phi!r}")
         _num("k_n", self.k_n, 0, lo_open=True)
         if self.k_t is None:
-            object.__setattr__(self, "k_t", 2.0 * float(self.k_n) / 7.0)
+            object.__setattr__(self, "k_t", default_k_t(self.k_n))
         _num("k_t", self.k_t, 0)
         _num("F_y", self.F_y, 0, lo_open=True)
         _num("dt", self.dt, 0, lo_open=True)

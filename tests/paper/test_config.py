@@ -82,7 +82,8 @@ def test_toml_syntax_error_and_missing_file(tmp_path):
     ("mu_low", 0.7),
     ("record_every", 0), ("a", -1e-12), ("a_paper", -1e-12), ("nf_delta", 1.5),
     ("nf_eps", [0.1, 2.0]),
-    ("nf_tau", [-1.0]), ("np", 0), ("n", "100"), ("quick", "yes")])
+    ("nf_tau", [-1.0]), ("np", 0), ("n", "100"), ("quick", "yes"),
+    ("k_n", math.inf), ("t_perturb", math.inf), ("mu", math.nan)])
 def test_bad_values_name_the_key(key, val):
     with pytest.raises(ConfigError) as exc:
         PaperConfig.from_dict({key: val})
@@ -186,3 +187,19 @@ def test_fig5_load_above_the_threshold_is_refused():
     empty = [ramps[0], {"F_x_c_low": 0.07, "F_x_c_high": 0.0701, "status": "complete"}]
     with pytest.raises(ConfigError, match="no window for Fig. 5"):
         fig5_load(PaperConfig(), empty)
+
+
+def test_one_numeric_validator():
+    """Stage, paper, ensemble and trigger-map configurations share check_number."""
+    from remote_trigger.pywrap import config, ensemble, paper_config, trigger_map
+
+    assert paper_config._num is config.check_number is trigger_map._num is ensemble._num
+    assert config.check_number("x", 3) == 3.0
+    assert config.check_number("tau", math.inf, 0, lo_open=True, allow_inf=True) == math.inf
+    for val, words in ((True, "must be a number"), ("1", "must be a number"),
+                       (math.nan, "must be a number"), (math.inf, "must be finite"),
+                       (0.0, "must be > 0")):
+        with pytest.raises(ConfigError, match=words):
+            config.check_number("x", val, 0, lo_open=True)
+    with pytest.raises(ConfigError, match="x must be <= 1, got x = 2"):
+        config.check_number("x", 2, hi=1)
