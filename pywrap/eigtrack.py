@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import ramp_file
+
 
 @dataclass
 class PairTrack:
@@ -196,13 +198,15 @@ def ramp_points(h5path, extra=()):
 
     pts = []
     with h5py.File(h5path, "r") as fh:
-        for kind, prefix in (("steps", "step_"), ("bisection", "bisect_")):
-            F = fh[f"{kind}/F_x"][()]
-            if f"{kind}/decision" in fh:
-                C = [None if d < 0 else bool(d > 0) for d in fh[f"{kind}/decision"][()]]
+        for kind in (ramp_file.STEPS, ramp_file.BISECTION):
+            prefix = ramp_file.POINT_PREFIX[kind]
+            F = fh[ramp_file.column(kind, "F_x")][()]
+            if ramp_file.column(kind, "decision") in fh:
+                C = [None if d < 0 else bool(d > 0)
+                     for d in fh[ramp_file.column(kind, "decision")][()]]
             else:
-                C = [bool(c > 0) for c in fh[f"{kind}/complex"][()]]
-            grp = fh.get(f"eigenvalues/{kind}")
+                C = [bool(c > 0) for c in fh[ramp_file.column(kind, "complex")][()]]
+            grp = fh.get(f"{ramp_file.EIGENVALUES}/{kind}")
             if grp is None:
                 continue
             names = sorted(k for k in grp.keys() if k.startswith(prefix))

@@ -34,6 +34,7 @@ import time
 import numpy as np
 
 from .config import ConfigError
+from . import ramp_file
 
 #: the runs of Fig. 5, in order
 RUNS = ("a", "b", "c", "d", "e", "p")
@@ -120,13 +121,9 @@ def top_compliance(ramp_h5, F):
     -------
     float
     """
-    import h5py
     from remote_trigger.analysis.state import read_dump
 
-    with h5py.File(ramp_h5, "r") as fh:
-        Fs = fh["steps/F_x"][()]
-        files = [s.decode() if isinstance(s, bytes) else str(s)
-                 for s in fh["steps/datafile"][()]]
+    Fs, files = ramp_file.read_points(ramp_h5)
     k = int(np.clip(np.searchsorted(Fs, F) - 1, 0, len(Fs) - 2))
     xs = []
     for i in (k, k + 1):
@@ -134,16 +131,6 @@ def top_compliance(ramp_h5, F):
         top = st.external[:, 1] != 0
         xs.append(float(np.mean(st.positions[top, 0])))
     return (xs[1] - xs[0]) / (Fs[k + 1] - Fs[k])
-
-
-def _ramp_steps(h5):
-    import h5py
-
-    with h5py.File(h5, "r") as fh:
-        F = fh["steps/F_x"][()]
-        files = [s.decode() if isinstance(s, bytes) else str(s)
-                 for s in fh["steps/datafile"][()]]
-    return np.asarray(F, float), files
 
 
 def fig5_load(cfg, ramps):
@@ -197,7 +184,7 @@ def run_fig5(cfg, out, ramps, comm, clock):
     rank0 = comm.Get_rank() == 0
     F5, w_lo, w_hi = fig5_load(cfg, ramps)
     h5_0 = ramps[0]["h5"]
-    F_steps, files = _ramp_steps(h5_0) if rank0 else (None, None)
+    F_steps, files = ramp_file.read_points(h5_0) if rank0 else (None, None)
     F_steps, files = comm.bcast((F_steps, files), root=0)
     folder = os.path.join(out, "perturb")
     if rank0:

@@ -81,13 +81,17 @@ def spectrum_at_zero(h5path):
     """Decision and extreme eigenvalues of the first ramp step (F_x = 0)."""
     import h5py
 
+    from . import ramp_file as rf
+
+    def first(fh, name):
+        key = rf.column(rf.STEPS, name)
+        return fh[key][0] if key in fh else float("nan")
+
     with h5py.File(h5path, "r") as fh:
-        lam = fh["eigenvalues/steps/step_00000"][()]
-        cplx = float(fh["steps/complex"][0])
-        dec = float(fh["steps/decision"][0]) if "steps/decision" in fh else float("nan")
-        conf = float(fh["steps/confidence"][0]) if "steps/confidence" in fh else float("nan")
-        F0 = float(fh["steps/F_x"][0])
-        datafile = fh["steps/datafile"][0]
+        lam = fh[f"{rf.EIGENVALUES}/{rf.STEPS}/{rf.point_name(rf.STEPS, 0)}"][()]
+        cplx, dec, conf, F0 = (float(first(fh, c))
+                               for c in ("complex", "decision", "confidence", "F_x"))
+        datafile = first(fh, rf.DATAFILE)
     datafile = datafile.decode() if isinstance(datafile, bytes) else str(datafile)
     asym = float("nan")
     dump = datafile[:-len(".data")] + ".dump"

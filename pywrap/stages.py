@@ -32,6 +32,7 @@ from .engine import Engine, DUMP_COLUMNS
 from . import equilibrium as eq
 from .results import write_atomic, SeriesWriter, read_all
 from .parallel import on_rank0
+from . import ramp_file
 from remote_trigger.analysis.output import atomic_path
 
 RESULT_VERSION = 1
@@ -598,15 +599,14 @@ class RampResult:
 class _RampLog:
     """In-memory copy of ramp.h5, rewritten atomically after every row."""
 
-    COLS = ("F_x", "residual", "complex", "decision", "confidence", "growth_rate",
-            "max_imag", "n_rattlers", "wall_time", "damped_time", "newton_steps")
+    COLS = ramp_file.COLUMNS
 
     def __init__(self, cfg, path):
         self.cfg = cfg
         self.path = path
-        self.rows = {"steps": {c: [] for c in self.COLS}, "bisection": {c: [] for c in
-                                                                        self.COLS}}
-        self.files = {"steps": [], "bisection": []}
+        self.rows = {k: {c: [] for c in self.COLS} for k in (ramp_file.STEPS,
+                                                              ramp_file.BISECTION)}
+        self.files = {ramp_file.STEPS: [], ramp_file.BISECTION: []}
         self.eig = {}
         self.attrs = {}
 
@@ -642,15 +642,16 @@ class _RampLog:
             with h5py.File(tmp, mode) as fh:
                 for k, v in a.items():
                     fh.attrs[k] = v
-                for kind in ("steps", "bisection"):
+                for kind in (ramp_file.STEPS, ramp_file.BISECTION):
                     cols = {c: np.asarray(self.rows[kind][c], dtype=np.float64)
                             for c in self.COLS}
-                    cols["datafile"] = np.asarray([str(f) for f in self.files[kind]],
-                                                  dtype=object)
+                    cols[ramp_file.DATAFILE] = np.asarray([str(f) for f in self.files[kind]],
+                                                          dtype=object)
                     for c, arr in cols.items():
-                        name = f"{kind}/{c}"
+                        name = ramp_file.column(kind, c)
                         if name not in fh:
-                            kw = {"dtype": h5py.string_dtype()} if c == "datafile" else {}
+                            kw = ({"dtype": h5py.string_dtype()} if c == ramp_file.DATAFILE
+                                  else {})
                             fh.create_dataset(name, data=arr, maxshape=(None,),
                                               chunks=(256,), **kw)
                             continue
@@ -660,7 +661,7 @@ class _RampLog:
                             ds.resize((arr.shape[0],))
                             ds[old:] = arr[old:]
                 for k, v in self.eig.items():
-                    name = f"eigenvalues/{k}"
+                    name = f"{ramp_file.EIGENVALUES}/{k}"
                     if name not in fh:
                         fh.create_dataset(name, data=v)
                 fh.flush()
@@ -702,16 +703,18 @@ class _RampLog:
                 raise ConfigError(f"cannot resume {path}: its configuration has {k} = "
                                   f"{old!r}, this run has {k} = {v!r}")
         log = cls(cfg, path)
-        for kind in ("steps", "bisection"):
+        for kind in (ramp_file.STEPS, ramp_file.BISECTION):
             for c in cls.COLS:
-                key = f"{kind}/{c}"
+                key = ramp_file.column(kind, c)
                 if key not in data:
                     raise ConfigError(f"cannot resume: {path} lacks dataset {key}")
                 log.rows[kind][c] = [float(x) for x in data[key]]
-            log.files[kind] = [str(s) for s in data.get(f"{kind}/datafile", [])]
+            log.files[kind] = [str(s) for s in
+                               data.get(ramp_file.column(kind, ramp_file.DATAFILE), [])]
+        eig = ramp_file.EIGENVALUES + "/"
         for k, v in data.items():
-            if k.startswith("eigenvalues/"):
-                log.eig[k[len("eigenvalues/"):]] = v
+            if k.startswith(eig):
+                log.eig[k[len(eig):]] = v
         log.attrs = {k: v for k, v in attrs.items()
                      if k in ("F_x_c_low", "F_x_c_high", "F_x_c_width", "tol_reached",
                               "n_undecided", "message", "dt_used", "datafile_sha256")}
@@ -932,7 +935,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
                         rlog.write("no_complex_pair")
                     return _ramp_result(rlog, "no_complex_pair")
                 start = cfg.datafile if k == 0 else rlog.files["steps"][-1]
-                prefix = os.path.join(folder, f"step_{k:05d}")
+                prefix = os.path.join(folder, ramp_file.point_name(ramp_file.STEPS, k))
                 try:
                     vals, res = _ramp_point(eng, rcfg, start, F, prefix)
                 except eq.NoEquilibriumError as exc:
@@ -940,7 +943,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
                     if eng.rank == 0:
                         rlog.write("no_equilibrium")
                     return _ramp_result(rlog, "no_equilibrium")
-                rlog.add("steps", f"step_{k:05d}", prefix + ".data", vals, res.eigenvalues)
+                rlog.add(ramp_file.STEPS, ramp_file.point_name(ramp_file.STEPS, k), prefix + ".data", vals, res.eigenvalues)
                 if eng.rank == 0:
                     rlog.write("running")
                 bar.update(1)
@@ -967,14 +970,14 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
                 if mid is None:
                     break
                 j = len(bis["F_x"])
-                prefix = os.path.join(folder, f"bisect_{j:03d}")
+                prefix = os.path.join(folder, ramp_file.point_name(ramp_file.BISECTION, j))
                 try:
                     vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix)
                 except eq.NoEquilibriumError:
                     vals = {c: np.nan for c in _RampLog.COLS}
                     vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
                     res = None
-                rlog.add("bisection", f"bisect_{j:03d}", prefix + ".data", vals,
+                rlog.add(ramp_file.BISECTION, ramp_file.point_name(ramp_file.BISECTION, j), prefix + ".data", vals,
                          [] if res is None else res.eigenvalues)
                 lo, hi, _, _ = ramp_bracket(rlog)
                 rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))

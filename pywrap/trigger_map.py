@@ -51,6 +51,7 @@ import numpy as np
 from .config import ConfigError, _num, _int
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 from .parallel import on_rank0
+from . import ramp_file
 
 #: onsets of f(t)
 ONSETS = ("step", "smooth")
@@ -363,13 +364,9 @@ def ramp_kappa(ramp_h5, limit=None):
         return eigen.dense_eigen(Kr, mr, vectors=True)
 
     with h5py.File(ramp_h5, "r") as fh:
-        F = np.asarray(fh["steps/F_x"][()], float)
-        files = [x.decode() if isinstance(x, bytes) else str(x)
-                 for x in fh["steps/datafile"][()]]
         hi = float(fh.attrs["F_x_c_high"])
-        bF = np.asarray(fh["bisection/F_x"][()], float) if "bisection" in fh else np.zeros(0)
-        bfiles = ([x.decode() if isinstance(x, bytes) else str(x)
-                   for x in fh["bisection/datafile"][()]] if "bisection" in fh else [])
+    F, files = ramp_file.read_points(ramp_h5, ramp_file.STEPS)
+    bF, bfiles = ramp_file.read_points(ramp_h5, ramp_file.BISECTION)
     pts = sorted(zip(list(F) + list(bF), files + bfiles))
     top = [f for x, f in pts if x == hi]
     e = spec(top[0])
@@ -435,7 +432,7 @@ def _prepare_loads(cfg, pcfg, man, out):
     mu_ss = float(pcfg.mu_ss) * mu0
     lo = float(ramps[1]["F_x_c_high"])
     hi = float(ramps[0]["F_x_c_low"])
-    F_steps, files = fig5._ramp_steps(ramps[0]["h5"])
+    F_steps, files = ramp_file.read_points(ramps[0]["h5"])
     loads = [{"kind": f"window {f:g}", "fraction": float(f), "F_x": lo + f * (hi - lo)}
              for f in cfg.fractions]
     if cfg.below:

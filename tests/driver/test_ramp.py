@@ -125,3 +125,24 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
     assert np.all(np.abs(F[dec == -1] - F_c) < W) and np.all(np.abs(F[dec >= 0] - F_c) >= W)
     assert "bisection stopped at width" in attrs["message"]
     assert f"width {hi - lo:.3g}" in text and "could not be certified" in text
+
+
+def test_ramp_file_layout_and_reader(full_ramp):
+    """pywrap.ramp_file names what _RampLog writes; read_points returns its rows."""
+    from remote_trigger.pywrap import ramp_file as rf
+
+    _, res = full_ramp
+    attrs, data = read_all(res.h5)
+    for kind in (rf.STEPS, rf.BISECTION):
+        F, files = rf.read_points(res.h5, kind)
+        np.testing.assert_array_equal(F, data[rf.column(kind, "F_x")])
+        assert len(files) == F.size and all(os.path.isfile(f) for f in files)
+        assert all(os.path.basename(f) == rf.point_name(kind, k) + ".data"
+                   for k, f in enumerate(files))
+        for c in rf.COLUMNS:
+            assert data[rf.column(kind, c)].shape == F.shape, c
+        for k in range(F.size):
+            assert f"{rf.EIGENVALUES}/{kind}/{rf.point_name(kind, k)}" in data
+    np.testing.assert_array_equal(rf.read_points(res.h5)[0], res.F_x)
+    assert rf.point_name(rf.STEPS, 12) == "step_00012"
+    assert rf.point_name(rf.BISECTION, 3) == "bisect_003"
