@@ -978,7 +978,7 @@ def sqrt_law(F_x, lam_a, lam_b, F_lo, F_hi, rel_span=0.05, min_points=3):
         Loads of the tracked pair.
     lam_a, lam_b : array_like of complex, shape (n,)
         The pair (below F_c real, Re a < Re b; above, lam_b = conj(lam_a)
-        with Im lam_b > 0), e.g. a :class:`~remote_trigger.pywrap.eigtrack.PairTrack`.
+        with Im lam_b > 0), e.g. a :class:`~remote_trigger.analysis.eigtrack.PairTrack`.
     F_lo, F_hi : float
         Certified bracket of F_c (real at F_lo, complex at F_hi).
     rel_span : float

@@ -183,9 +183,9 @@ def analyze_on_root(comm, dump):
     StabilityResult
     """
     from .parallel import on_rank0
-    from .stability import analyze_dump
+    from remote_trigger.analysis.stability import stability_of_dump
 
-    return on_rank0(comm, analyze_dump, dump)
+    return on_rank0(comm, stability_of_dump, dump)
 
 
 def continue_ramp(rcfg, start_file, loads, folder, comm):

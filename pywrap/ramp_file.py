@@ -69,3 +69,45 @@ def read_points(h5, kind=STEPS):
         F = np.asarray(fh[column(kind, "F_x")][()], dtype=np.float64)
         files = [_text(x) for x in fh[column(kind, DATAFILE)][()]]
     return F, files
+
+
+def read_spectra(h5path, extra=()):
+    """(F_x, eigenvalues, decision) of every equilibrium of a ``ramp.h5`` plus ``extra``.
+
+    Parameters
+    ----------
+    h5path : str
+        A ramp file (docs/driver.md). The decision comes from its column
+        ``decision`` (1 complex, 0 real, -1 undecided -> None) or, in files
+        without it, from ``complex`` (> 0). Bisection points without an
+        equilibrium have no spectrum and are skipped.
+    extra : sequence of (float, ndarray, bool)
+        More points (e.g. the continuation above F_x^c).
+
+    Returns
+    -------
+    list of (float, ndarray, bool or None)
+        The input of :func:`remote_trigger.analysis.eigtrack.track_pair`.
+    """
+    import h5py
+
+    pts = []
+    with h5py.File(h5path, "r") as fh:
+        for kind in (STEPS, BISECTION):
+            prefix = POINT_PREFIX[kind]
+            F = fh[column(kind, "F_x")][()]
+            if column(kind, "decision") in fh:
+                C = [None if d < 0 else bool(d > 0)
+                     for d in fh[column(kind, "decision")][()]]
+            else:
+                C = [bool(c > 0) for c in fh[column(kind, "complex")][()]]
+            grp = fh.get(f"{EIGENVALUES}/{kind}")
+            if grp is None:
+                continue
+            names = sorted(k for k in grp.keys() if k.startswith(prefix))
+            for name in names:
+                idx = int(name[len(prefix):])
+                if idx < len(F):
+                    pts.append((float(F[idx]), grp[name][()], C[idx]))
+    pts.extend((float(F), np.asarray(lam, complex), c) for F, lam, c in extra)
+    return pts

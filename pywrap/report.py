@@ -54,9 +54,10 @@ def packing_fraction_of(state):
 
 
 def tracks(out, summary):
-    """:class:`~.eigtrack.PairTrack` per ramp index (0: mu, 1: mu_low), None if none."""
+    """:class:`~remote_trigger.analysis.eigtrack.PairTrack` per ramp index (0: mu, 1: mu_low), None if none."""
     import h5py
-    from .eigtrack import track_pair, ramp_points
+    from remote_trigger.analysis.eigtrack import track_pair
+    from .ramp_file import read_spectra
 
     res = {}
     for k, r in enumerate(summary.get("ramps", [])):
@@ -73,7 +74,7 @@ def tracks(out, summary):
                 for i in range(len(F)):
                     extra.append((float(F[i]), fh[f"eigenvalues/ext_{i:02d}"][()],
                                   bool(C[i] > 0)))
-        res[k] = track_pair(ramp_points(r["h5"], extra))
+        res[k] = track_pair(read_spectra(r["h5"], extra))
     return res
 
 

@@ -111,9 +111,9 @@ def packing_fraction(state):
 
 def _analyze(eng, dump):
     """Eigen-analysis of a dump on rank 0, broadcast to all ranks."""
-    from .stability import analyze_dump
+    from remote_trigger.analysis.stability import stability_of_dump
 
-    return on_rank0(eng.comm, analyze_dump, dump)
+    return on_rank0(eng.comm, stability_of_dump, dump)
 
 
 def _ensure_dir(eng, path):
@@ -845,7 +845,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     Step k has F_x = cfg.F_x + k dF_x (k = 0 re-equilibrates the data file at
     cfg.F_x). Each step starts from the previous equilibrium's data file,
     equilibrates (Newton first, damped dynamics if needed), writes
-    ``ramp/step_NNNNN.*`` and is analysed (:mod:`.stability`) until a step is
+    ``ramp/step_NNNNN.*`` and is analysed (:mod:`remote_trigger.analysis.stability`) until a step is
     certified complex.
 
     "Complex" and "real" are the analyzer's certified decisions; an

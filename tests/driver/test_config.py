@@ -57,18 +57,18 @@ def test_cli_reports_bad_value(packing_file, capsys):
 
 
 def test_corrupt_and_truncated_dump(relaxed, tmp_path):
-    from remote_trigger.pywrap.stability import analyze_dump
+    from remote_trigger.analysis.stability import stability_of_dump
 
     text = open(relaxed.dumpfile).read()
     bad = tmp_path / "trunc.dump"
     bad.write_text(text[: len(text) // 2])
     open(str(bad) + ".json", "w").write(open(relaxed.dumpfile + ".json").read())
     with pytest.raises(ValueError, match="trunc.dump"):
-        analyze_dump(str(bad))
+        stability_of_dump(str(bad))
     garbage = tmp_path / "garbage.dump"
     garbage.write_text("ITEM: TIMESTEP\nhello\n")
     with pytest.raises(ValueError, match="garbage.dump"):
-        analyze_dump(str(garbage))
+        stability_of_dump(str(garbage))
 
 
 def test_ramp_refuses_to_overwrite_and_bad_resume_file(relaxed, tmp_path):

@@ -19,7 +19,7 @@ from remote_trigger.analysis.state import read_dump
 from remote_trigger.pywrap.config import ConfigError, RelaxConfig
 from remote_trigger.pywrap import stages
 from remote_trigger.pywrap.packing import generate, write_data
-from remote_trigger.pywrap.stability import analyze_dump
+from remote_trigger.analysis.stability import stability_of_dump
 
 N = 40
 
@@ -51,7 +51,7 @@ def test_friction_on_with_zero_history(relaxed40):
 
 
 def test_spectrum_real_and_positive_at_zero_load(relaxed40):
-    res = analyze_dump(relaxed40.dumpfile)
+    res = stability_of_dump(relaxed40.dumpfile)
     assert res.decision == "real" and res.confidence > 1, (res.decision, res.confidence)
     assert not res.complex_pair and res.growth_rate == 0.0
     assert np.all(res.eigenvalues.imag == 0) and res.eigenvalues.real.min() > 0

@@ -90,12 +90,13 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
     import dataclasses
     import json
 
-    from remote_trigger.pywrap import cli, stability
+    from remote_trigger.analysis import stability
+    from remote_trigger.pywrap import cli
 
     cfg, full = full_ramp
     F_c = full.F_x_c
     W = 0.3 * min(F_c - full.F_x[-2], full.F_x[-1] - F_c)
-    real = stability.analyze_dump
+    real = stability.stability_of_dump
 
     def fuzzy(path):
         res = real(path)
@@ -106,7 +107,7 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
                                        confidence=0.5, max_imag=0.0)
         return res
 
-    monkeypatch.setattr(stability, "analyze_dump", fuzzy)
+    monkeypatch.setattr(stability, "stability_of_dump", fuzzy)
     out = str(tmp_path)
     start = os.path.join(os.path.dirname(full.h5), "ramp", f"step_{full.F_x.size - 2:05d}.data")
     F0 = float(full.F_x[-2])

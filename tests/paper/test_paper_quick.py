@@ -117,7 +117,8 @@ def test_report_structure(run):
 def test_spectrum_real_positive_at_zero_and_coalescence(run):
     """All eigenvalues real and positive at F_x = 0; a real pair becomes complex at F_x^c."""
     out, _ = run
-    from remote_trigger.pywrap.eigtrack import track_pair, ramp_points
+    from remote_trigger.analysis.eigtrack import track_pair
+    from remote_trigger.pywrap.ramp_file import read_spectra
 
     for mu in ("1", "0.8"):
         h5 = os.path.join(out, f"ramp_mu{mu}", "ramp.h5")
@@ -128,7 +129,7 @@ def test_spectrum_real_positive_at_zero_and_coalescence(run):
             assert np.all(lam0.real > 0)
             assert np.max(np.abs(lam0.imag)) <= 1e-10 * np.max(np.abs(lam0))
             lo, hi = fh.attrs["F_x_c_low"], fh.attrs["F_x_c_high"]
-        tr = track_pair(ramp_points(h5))
+        tr = track_pair(read_spectra(h5))
         k = int(np.argmax(tr.complex_pair))
         assert tr.F_x[k] == pytest.approx(hi) and tr.F_x[k - 1] == pytest.approx(lo)
         assert tr.lam_a[k - 1].imag == 0 and tr.lam_a[k - 1].real < tr.lam_b[k - 1].real

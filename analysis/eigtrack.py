@@ -2,7 +2,8 @@ r"""Follow the pair of eigenvalues that coalesces at F_x^c through a ramp (Fig. 
 
 The ramp (``ramp.h5``, docs/driver.md) stores the spectrum of M^-1 K at every
 equilibrium: ramp steps, bisection points and, in the paper job, a short
-continuation above F_x^c. :func:`track_pair` identifies the pair that is
+continuation above F_x^c (read by ``pywrap.ramp_file.read_spectra``).
+:func:`track_pair` identifies the pair that is
 born at F_x^c and follows it down and up the load:
 
 1. **Birth.** At the first unstable load of the bracket (the smallest F_x
@@ -31,8 +32,6 @@ near an exceptional point; the figure shows exactly these two branches.
 from dataclasses import dataclass
 
 import numpy as np
-
-from . import ramp_file
 
 
 @dataclass
@@ -175,44 +174,3 @@ def track_pair(points, rtol=1e-10):
     cp = np.array([out[F][2] for F in Fs], bool)
     return PairTrack(F_x=Fs, lam_a=la, lam_b=lb, complex_pair=cp, rank=rank,
                      n_modes=int(lam_lo.size), lam_c=float(born.real), ambiguity=float(amb))
-
-
-def ramp_points(h5path, extra=()):
-    """(F_x, eigenvalues, decision) of every equilibrium of a ``ramp.h5`` plus ``extra``.
-
-    Parameters
-    ----------
-    h5path : str
-        A ramp file (docs/driver.md). The decision comes from its column
-        ``decision`` (1 complex, 0 real, -1 undecided -> None) or, in files
-        without it, from ``complex`` (> 0). Bisection points without an
-        equilibrium have no spectrum and are skipped.
-    extra : sequence of (float, ndarray, bool)
-        More points (e.g. the continuation above F_x^c).
-
-    Returns
-    -------
-    list of (float, ndarray, bool or None)
-    """
-    import h5py
-
-    pts = []
-    with h5py.File(h5path, "r") as fh:
-        for kind in (ramp_file.STEPS, ramp_file.BISECTION):
-            prefix = ramp_file.POINT_PREFIX[kind]
-            F = fh[ramp_file.column(kind, "F_x")][()]
-            if ramp_file.column(kind, "decision") in fh:
-                C = [None if d < 0 else bool(d > 0)
-                     for d in fh[ramp_file.column(kind, "decision")][()]]
-            else:
-                C = [bool(c > 0) for c in fh[ramp_file.column(kind, "complex")][()]]
-            grp = fh.get(f"{ramp_file.EIGENVALUES}/{kind}")
-            if grp is None:
-                continue
-            names = sorted(k for k in grp.keys() if k.startswith(prefix))
-            for name in names:
-                idx = int(name[len(prefix):])
-                if idx < len(F):
-                    pts.append((float(F[idx]), grp[name][()], C[idx]))
-    pts.extend((float(F), np.asarray(lam, complex), c) for F, lam, c in extra)
-    return pts

@@ -1,7 +1,7 @@
-"""Linear stability of an equilibrium dump (driver side of the analyzer).
+"""The stability verdict of an equilibrium: certified decision, codes, growth rate.
 
-The ramp calls :func:`analyze_dump` on every equilibrium dump it writes. The
-work is done by the analyzer, :func:`remote_trigger.analysis.analyze.analyze`
+The ramp calls :func:`stability_of_dump` on every equilibrium dump it writes.
+The work is done by the analyzer, :func:`remote_trigger.analysis.analyze.analyze`
 (docs/analysis.md): K = -dG/dq (paper Appendix C), rattlers removed
 iteratively (frictional criterion: fewer than 2 contacts), eigenvalues of
 M^-1 K (Eq. 6: omega = +-sqrt(lambda)) and the **certified** complex-pair
@@ -16,7 +16,7 @@ margin (``confidence``, > 1 = certified).
 Ramp policy (docs/driver.md): only certified answers move the bracket of
 F_x^c. An ``'undecided'`` point is neither stable nor unstable; it is
 recorded (``decision`` = -1 with its margin) in ramp.h5, and the bisection
-works around it (``stages.ramp_bracket``, ``stages.next_bisection_point``).
+works around it (``pywrap.stages.ramp_bracket``, ``next_bisection_point``).
 """
 from dataclasses import dataclass
 
@@ -76,7 +76,7 @@ class StabilityResult:
         return DECISION_CODES[self.decision]
 
 
-def analyze_state(state):
+def stability_of(state):
     """Eigen-analysis of an analysis ``State`` with the analyzer (dense path).
 
     Parameters
@@ -87,8 +87,8 @@ def analyze_state(state):
     -------
     StabilityResult
     """
-    from remote_trigger.analysis.analyze import analyze
-    from remote_trigger.analysis import eigen, exceptional, jacobian
+    from .analyze import analyze
+    from . import eigen, exceptional, jacobian
 
     # K, rattlers and residual from analyze(); the dense spectrum and the
     # certified decision from one classify_spectrum call (its eigen-solve gives
@@ -115,8 +115,8 @@ def analyze_state(state):
                            float(dec.confidence), res.max_residual, dict(dec.timing))
 
 
-def analyze_dump(path):
-    """Read an equilibrium dump (+ sidecar JSON) and analyse it.
+def stability_of_dump(path):
+    """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
 
     Raises
     ------
@@ -124,10 +124,10 @@ def analyze_dump(path):
         If the dump or its sidecar is missing, corrupt or truncated (from
         ``read_dump``; the message names the file).
     """
-    from remote_trigger.analysis.state import read_dump
+    from .state import read_dump
 
     try:
         state = read_dump(path, require_contacts=False)
     except (OSError, KeyError, IndexError, ValueError) as exc:
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
-    return analyze_state(state)
+    return stability_of(state)
