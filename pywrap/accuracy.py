@@ -53,6 +53,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 from remote_trigger.analysis.sidecar import default_k_t
+from remote_trigger.analysis.series import exp_rate
 
 __all__ = ["Row", "run_accuracy", "register", "write_table", "markdown_table"]
 
@@ -200,11 +201,6 @@ def section_relaxation(ctx):
 
 
 # --------------------------------------------------------------------------- time step
-def _growth_fit(t, D, t_from):
-    from remote_trigger.analysis.series import exp_rate
-    return exp_rate(t, D, np.asarray(t) >= t_from)
-
-
 def verlet_growth(lam, dt):
     """Growth rate of the velocity-Verlet map for eigenvalue lambda at step dt.
 
@@ -280,7 +276,7 @@ def section_timestep(ctx):
         wall = time.perf_counter() - t0
         ts_, D = np.array(ts_), np.array(D)
         runs.append(dict(frac=f, dt=dt, t=ts_, D=D, xT=xT, x_eq=x_eq, wall=wall,
-                         g=_growth_fit(ts_, D, 0.5 * T)))
+                         g=exp_rate(ts_, D, np.asarray(ts_) >= 0.5 * T)))
     ref = runs[-1]
     scale = np.linalg.norm(ref["xT"] - ref["x_eq"])
     rows = []

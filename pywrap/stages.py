@@ -34,6 +34,7 @@ from .results import write_atomic, SeriesWriter, read_all
 from .parallel import on_rank0
 from . import ramp_file
 from remote_trigger.analysis.output import atomic_path
+from remote_trigger.analysis.series import growth_fit
 
 RESULT_VERSION = 1
 
@@ -1273,44 +1274,6 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
         for res in results.values():
             res.extra.update(residual=r, v0=v0, v_ss=vss, timestep=dict(dtinfo))
     return results
-
-
-def growth_fit(t, D, lo_decades=3.0, hi=None):
-    """Fit D ~ exp(2 g t) on the exponential stretch of an MSD series.
-
-    The stretch is the one the paper report uses
-    (:func:`remote_trigger.analysis.series.growth_window`): contiguous, from the
-    first record with D above 10^lo_decades times the initial noise level
-    (median of the first 5 % of positive D) to the first record above
-    min(``hi``, max(D)/1e3) -- the growth before the first nonlinear
-    saturation. (Before, every record between the two levels was used, which
-    let a saturated plateau below ``hi`` into the fit: 0.0117 instead of
-    0.0159 for a predicted 0.0162.)
-
-    Parameters
-    ----------
-    t, D : array_like, shape (n,)
-        Times and MSD (Eq. 8).
-    lo_decades : float
-        Start of the window above the noise level, in decades.
-    hi : float, optional
-        Absolute upper bound of the window (e.g. the stop level / 100).
-
-    Returns
-    -------
-    float
-        g (1/time); NaN with fewer than 5 records in the window or no noise
-        level (no positive D).
-    """
-    from remote_trigger.analysis.series import growth_window, noise_level
-
-    t, D = np.asarray(t, float), np.asarray(D, float)
-    Dmax = float(np.max(D)) if D.size else 0.0
-    if not Dmax > 0:
-        return float("nan")
-    top = 1e-3 if hi is None else min(1e-3, float(hi) / Dmax)
-    _, g = growth_window(t, D, noise_level(t, D), lo=10.0 ** lo_decades, hi=top)
-    return g
 
 
 def instability(cfg, out, comm=None, quiet=False, log="none", overwrite=False,

@@ -1,7 +1,7 @@
 """growth_fit (instability.h5 measured_growth_rate) fits only the exponential stretch."""
 import numpy as np
 
-from remote_trigger.pywrap.stages import growth_fit
+from remote_trigger.analysis.series import growth_fit
 
 
 def _series(g=0.016, noise=1e-27, sat=1e-8, t_max=3000.0, n=3001, seed=3):
