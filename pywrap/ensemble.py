@@ -1156,28 +1156,9 @@ def check_out(cfg, out, resume):
         ensemble and ``resume`` is False; or that ensemble's configuration
         differs (every differing key is named; ``np`` may differ).
     """
-    from .paper import write_json
+    from .jobfolder import check_job_folder
 
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise ConfigError(f"--out {out!r} is a file, not a folder")
-    cfgfile = os.path.join(out, "config.json")
-    if os.path.isdir(out) and os.listdir(out):
-        if not os.path.isfile(cfgfile):
-            raise ConfigError(f"--out {out!r} holds other files; choose an empty or new folder")
-        if not resume:
-            raise ConfigError(f"--out {out!r} holds an ensemble; add --resume to continue it "
-                              f"or choose another folder")
-        with open(cfgfile) as fh:
-            old = dict(json.load(fh), np=None)
-        new = dict(json.loads(json.dumps(cfg.to_dict())), np=None)
-        diff = [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
-        if diff:
-            raise ConfigError(f"cannot resume {out!r}: its configuration differs in "
-                              + ", ".join(f"{k} = {old.get(k)!r} (then) vs {new.get(k)!r} "
-                                          f"(now)" for k in diff))
-        return
-    os.makedirs(out, exist_ok=True)
-    write_json(cfgfile, cfg.to_dict())
+    check_job_folder(out, cfg.to_dict(), resume, "an ensemble")
 
 
 def _task_path(out, key):

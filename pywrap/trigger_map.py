@@ -782,29 +782,9 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
 
 def _check_out(cfg, out, resume):
     """Refuse an --out that is a file or holds other results; check --resume's config."""
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise ConfigError(f"--out {out!r} is a file, not a folder")
-    cfgfile = os.path.join(out, "config.json")
-    if os.path.isdir(out) and os.listdir(out):
-        if not os.path.isfile(cfgfile):
-            raise ConfigError(f"--out {out!r} holds other files; choose an empty or new "
-                              f"folder")
-        with open(cfgfile) as fh:
-            old = json.load(fh)
-        if not resume:
-            raise ConfigError(f"--out {out!r} holds a trigger map; add --resume to continue "
-                              f"it or choose another folder")
-        new = json.loads(json.dumps(dict(cfg.to_dict(), np=None)))
-        old = dict(old, np=None)
-        diff = [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
-        if diff:
-            raise ConfigError(f"cannot resume {out!r}: its configuration differs in "
-                              + ", ".join(f"{k} = {old.get(k)!r} (then) vs {new.get(k)!r} (now)"
-                                          for k in diff))
-        return
-    os.makedirs(out, exist_ok=True)
-    from .paper import write_json
-    write_json(cfgfile, cfg.to_dict())
+    from .jobfolder import check_job_folder
+
+    check_job_folder(out, cfg.to_dict(), resume, "a trigger map")
 
 
 # --------------------------------------------------------------------------- outputs

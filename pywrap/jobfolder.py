@@ -1,0 +1,64 @@
+"""The output folder of a resumable job (``trigger-map``, ``ensemble``).
+
+A job folder holds ``config.json`` (the job's configuration, written when
+the job starts) and the job's files. :func:`check_job_folder` is run on
+rank 0 before anything else is written.
+"""
+import json
+import os
+
+from .config import ConfigError
+
+#: the configuration file of a job folder
+CONFIG_FILE = "config.json"
+
+
+def check_job_folder(out, config, resume, kind):
+    """Refuse an ``--out`` that is a file or holds other results; check ``--resume``.
+
+    Parameters
+    ----------
+    out : str
+        The output folder (created, with ``config.json``, for a new job).
+    config : dict
+        The job's configuration (JSON-serialisable); ``np`` may differ on
+        ``--resume``.
+    resume : bool
+        Continue the job in ``out``.
+    kind : str
+        What the job is called in messages ("a trigger map", "an ensemble").
+
+    Raises
+    ------
+    ConfigError
+        ``out`` is a file; it holds files but no ``config.json``; it holds a
+        job and ``resume`` is False; or that job's configuration differs
+        (every differing key is named with both values). Nothing is written
+        then.
+    """
+    from .paper import write_json
+
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise ConfigError(f"--out {out!r} is a file, not a folder")
+    cfgfile = os.path.join(out, CONFIG_FILE)
+    if os.path.isdir(out) and os.listdir(out):
+        if not os.path.isfile(cfgfile):
+            raise ConfigError(f"--out {out!r} holds other files; choose an empty or new folder")
+        if not resume:
+            raise ConfigError(f"--out {out!r} holds {kind}; add --resume to continue it or "
+                              f"choose another folder")
+        with open(cfgfile) as fh:
+            old = dict(json.load(fh), np=None)
+        new = dict(json.loads(json.dumps(config)), np=None)
+        diff = [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+        if diff:
+            raise ConfigError(f"cannot resume {out!r}: its configuration differs in "
+                              + ", ".join(f"{k} = {old.get(k)!r} (then) vs {new.get(k)!r} "
+                                          f"(now)" for k in diff))
+        return
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {out!r}: cannot create the folder "
+                          f"({exc.strerror or exc})") from None
+    write_json(cfgfile, config)
