@@ -33,6 +33,7 @@ the side with the smaller id and checks that the mirror matches.
 from __future__ import annotations
 
 import json
+import math
 import os
 import warnings
 from dataclasses import dataclass, field
@@ -452,6 +453,44 @@ def load_sidecar(path):
                 raise ValueError(f"{side}: {key} must be a number, got {val!r}")
             out[key] = float(val)
     return out
+
+
+def write_sidecar(path, values):
+    """Write ``<dump>.json`` atomically: the model parameters of a dump.
+
+    The writer of the format :func:`load_sidecar` reads (docs/conventions.md
+    section 3); the driver writes every equilibrium's sidecar with it.
+
+    Parameters
+    ----------
+    path : str
+        The dump file (the sidecar is ``path + '.json'``).
+    values : dict
+        Exactly the keys ``PARAM_KEYS`` (``wall_y`` may be None: no wall);
+        numbers are stored as float64 (JSON numbers, exact round trip).
+
+    Raises
+    ------
+    ValueError
+        If a key is missing or unknown, or a value is not a finite number.
+    """
+    from .output import write_json_atomic
+
+    keys = set(values)
+    if keys != set(PARAM_KEYS):
+        raise ValueError(f"sidecar of {path}: keys must be {', '.join(PARAM_KEYS)}; missing "
+                         f"{sorted(set(PARAM_KEYS) - keys)}, unknown {sorted(keys - set(PARAM_KEYS))}")
+    out = {}
+    for key in PARAM_KEYS:
+        val = values[key]
+        if val is None and key == "wall_y":
+            out[key] = None
+            continue
+        if isinstance(val, bool) or not isinstance(val, (int, float, np.floating, np.integer)) \
+                or not math.isfinite(float(val)):
+            raise ValueError(f"sidecar of {path}: {key} must be a finite number, got {val!r}")
+        out[key] = float(val)
+    write_json_atomic(os.fspath(path) + ".json", out)
 
 
 def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=None,

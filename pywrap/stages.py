@@ -21,7 +21,6 @@ Files (fixed names under the output folder ``out``; docs/driver.md):
 ``X.dump`` and ``X.dump.json`` (docs/conventions.md section 3).
 """
 from dataclasses import dataclass, field
-import json
 import os
 import time
 
@@ -92,12 +91,11 @@ def save_equilibrium(eng, cfg, F_x, prefix):
     eng.command(f"write_data {prefix}.data.part nocoeff")
     eng.run(0)
     if rank0:
-        side = {"k_n": float(cfg.k_n), "k_t": float(cfg.k_t), "mu": float(cfg.mu),
-                "wall_y": 0.0, "F_x": float(F_x), "F_y": float(cfg.F_y),
-                "dt": float(cfg.dt)}
-        with open(f"{prefix}.dump.json.part", "w") as fh:
-            json.dump(side, fh)
-        os.replace(f"{prefix}.dump.json.part", f"{prefix}.dump.json")
+        from remote_trigger.analysis.state import write_sidecar
+
+        write_sidecar(f"{prefix}.dump", {"k_n": cfg.k_n, "k_t": cfg.k_t, "mu": cfg.mu,
+                                         "wall_y": 0.0, "F_x": F_x, "F_y": cfg.F_y,
+                                         "dt": cfg.dt})
         os.replace(f"{prefix}.dump.part", f"{prefix}.dump")
         os.replace(f"{prefix}.data.part", f"{prefix}.data")
     eng.comm.Barrier()

@@ -77,3 +77,21 @@ def test_savefig_takes_the_format_from_the_name(tmp_path):
     assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "f.pdf").read_bytes()[:4] == b"%PDF"
     assert _listing(tmp_path) == ["f.pdf", "f.png"]
+
+
+def test_sidecar_writer_is_the_readers_format(tmp_path):
+    """analysis.state.write_sidecar writes exactly what load_sidecar reads; bad input refused."""
+    from remote_trigger.analysis.state import PARAM_KEYS, load_sidecar, write_sidecar
+
+    vals = {"k_n": 2e5, "k_t": 2e5 * 2 / 7, "mu": 0.8, "wall_y": 0.0,
+            "F_x": 0.061690159999999994, "F_y": 3, "dt": np.float64(1e-3)}
+    dump = str(tmp_path / "eq.dump")
+    write_sidecar(dump, vals)
+    back = load_sidecar(dump)
+    assert back == {k: float(vals[k]) for k in PARAM_KEYS}     # exact round trip
+    assert _listing(tmp_path) == ["eq.dump.json"]
+    with pytest.raises(ValueError, match="missing \\['dt'\\]"):
+        write_sidecar(dump, {k: v for k, v in vals.items() if k != "dt"})
+    with pytest.raises(ValueError, match="F_x must be a finite number"):
+        write_sidecar(dump, dict(vals, F_x=float("nan")))
+    assert load_sidecar(dump) == back                           # nothing overwritten
