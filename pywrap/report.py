@@ -11,8 +11,9 @@ Definitions (docs/paper.md)
   of records (t > 0).
 * **Decades of MSD growth** (Fig. 4): log10(max D / noise level).
 * **Fit window** (Fig. 4): from the first record with D above 10^3 x noise
-  to the first record above max D / 10^3 (:func:`growth_window`); the
-  measured rate g is the slope of ln D / 2 there.
+  to the first record above max D / 10^3, cut at the first departure from
+  a constant rate (:func:`growth_window`); the measured rate g is the slope
+  of ln D / 2 there.
 * **Fig. 5 levels**: D_a = median D of run (a); decades of run X =
   log10(max D_X / D_a); velocity decades of (c) = log10(max |v_c| / min
   |v_c|) over the run (the velocity axis of the paper's panel b), and the

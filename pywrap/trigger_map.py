@@ -80,8 +80,9 @@ class MapConfig:
         Angular frequencies of f(t), each > 0, non-empty.
         Default [1e-3, 1e-2, 1e-1, 1].
     natural : bool
-        Add the packing's lowest natural frequency omega_1 = sqrt(lambda_1)
-        and half of it (measured at the load nearest the window's middle).
+        Add the packing's lowest natural frequency omega_1 = sqrt(lambda_1),
+        half and twice it (measured at the load nearest the window's middle):
+        with the default omega_p, 1e-3 ... 2 omega_1 spans 4 decades.
         Default True.
     tau_g : list of float
         Damping times in units of 1/g, g the growth rate after the friction
@@ -477,7 +478,7 @@ def _prepare_loads(cfg, pcfg, man, out):
         ld.update(spectrum_numbers(pre + ".dump", pre + "_drop.dump", taus))
     omegas = [float(w) for w in cfg.omega_p]
     if cfg.natural:
-        omegas += [0.5 * ref["omega_1"], ref["omega_1"]]
+        omegas += [0.5 * ref["omega_1"], ref["omega_1"], 2.0 * ref["omega_1"]]
     omegas = sorted(set(omegas))
     return {"loads": loads, "taus": taus, "omegas": omegas, "v0": float(fig["v0"]),
             "mu0": mu0, "mu_ss": mu_ss, "g_ref": float(g_ref), "window": [lo, hi],
@@ -611,6 +612,18 @@ def d_run_level(cfg, ld, a):
     return cfg.d_run_factor * max(ld["D_drop"], (ld["compliance"] * a) ** 2)
 
 
+def predicted_rate(setup, ld, tau):
+    """Growth rate of the load's state after the friction drop, damped by ``tau``.
+
+    max Re s of the (damped) quadratic eigenproblem after the drop to
+    mu_ss mu0 (``growth``, or ``growth_tau`` of this tau): <= 0 means no
+    runaway is predicted (no complex pair, or damping faster than its growth).
+    """
+    if tau is None:
+        return float(ld["growth"])
+    return float(ld["growth_tau"][list(setup["taus"]).index(tau)])
+
+
 def run_task(eng, cfg, setup, task, out):
     """Do one task (resumable); returns its log data."""
     ld = setup["loads"][task["load"]]
@@ -635,13 +648,26 @@ def run_task(eng, cfg, setup, task, out):
         r = run("control", 0.0, 1, d_run_level(cfg, ld, 0.0))
         log.finish(noise_triggered=r["triggered"], switched=r["t_switch"] is not None)
         return log.data
+    a_max = ld["a_max"]
+    if predicted_rate(setup, ld, task["tau"]) <= 0:
+        # no complex pair after the drop, or damping faster than its growth: no
+        # runaway is predicted. Ask a_max first (a smaller a switches mu(v) later
+        # or not at all): if it does not trigger, no a does -- one run, not three
+        r = run("mu(v)", a_max, 1, d_run_level(cfg, ld, a_max))
+        if not r["triggered"]:
+            res = {"a_lo": a_max, "a_hi": None, "a_lin": None, "a_probe": None,
+                   "a_max": a_max, "a_min": None, "bracket_status": "none up to a_max",
+                   "forced": None, "a_c": None, "shortcut": "decay predicted",
+                   "n_runs": len(log.data["runs"]),
+                   "wall": sum(x["wall"] for x in log.data["runs"])}
+            log.finish(**res)
+            return log.data
     v0 = setup["v0"]
     C = abs(ld["compliance"])
     w = task["omega_p"]
     a_probe = v0 / (w * C)
     probe = run("probe", a_probe, 0, None)
     a_lin = a_probe * v0 / probe["v_max"] if probe["v_max"] > 0 else math.inf
-    a_max = ld["a_max"]
     a_min = 1e-6 * min(a_lin, a_max)
     f = cfg.factor
     lo, hi = None, None
@@ -824,13 +850,13 @@ def collect(out, tasks, setup):
             "a_c": (d["a_c"] if not noise and d["a_c"] is not None else math.nan),
             "a_lo": d["a_lo"] if d["a_lo"] is not None else math.nan,
             "a_hi": d["a_hi"] if d["a_hi"] is not None else math.nan,
-            "a_lin": d["a_lin"], "a_max": d["a_max"], "n_runs": d["n_runs"],
+            "a_lin": math.nan if d["a_lin"] is None else d["a_lin"], "a_max": d["a_max"],
+            "n_runs": d["n_runs"],
             "wall": d["wall"], "control_switched": bool(ctrl.get("switched")),
             "t_switch": first["t_switch"] if first and first["t_switch"] is not None
             else math.nan,
             "t_run": first["t_run"] if first else math.nan,
-            "growth_tau": (ld["growth"] if t["tau"] is None else
-                           ld["growth_tau"][setup["taus"].index(t["tau"])]),
+            "growth_tau": predicted_rate(setup, ld, t["tau"]),
         })
     return rows
 

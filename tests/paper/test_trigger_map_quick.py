@@ -97,6 +97,15 @@ def test_no_trigger_where_the_drop_cannot_destabilise(tmap):
     none = (pts["load"] == 1) | np.isfinite(pts["tau"])
     assert none.sum() == 6
     assert set(pts["status"][none]) == {"none up to a_max"}
+    # decay predicted: the strongest forcing a_max is asked first, and it is measured
+    # not to run away (mu(v) switched on, D stayed below D_run): one run per point
+    out = tmap[0]
+    for key in pts["key"][none]:
+        log = _task(out, key)
+        assert log["shortcut"] == "decay predicted" and log["n_runs"] == 1, key
+        (r,) = log["runs"]
+        assert r["kind"] == "mu(v)" and r["a"] == log["a_max"] and not r["triggered"]
+        assert r["t_switch"] is not None and r["D_max"] < r["d_run"]
 
 
 def test_controls_untriggered(tmap):
