@@ -476,11 +476,8 @@ def _prepare_loads(cfg, pcfg, man, out):
     for k, ld in enumerate(loads):
         pre = os.path.join(folder, f"load{k}")
         ld.update(spectrum_numbers(pre + ".dump", pre + "_drop.dump", taus))
-    omegas = [float(w) for w in cfg.omega_p]
-    if cfg.natural:
-        omegas += [0.5 * ref["omega_1"], ref["omega_1"], 2.0 * ref["omega_1"]]
-    omegas = sorted(set(omegas))
-    return {"loads": loads, "taus": taus, "omegas": omegas, "v0": float(fig["v0"]),
+    return {"loads": loads, "taus": taus, "omegas": map_omegas(cfg, loads),
+            "v0": float(fig["v0"]),
             "mu0": mu0, "mu_ss": mu_ss, "g_ref": float(g_ref), "window": [lo, hi],
             "B": float(pcfg.B), "w": float(pcfg.w), "mu_ss_ratio": float(pcfg.mu_ss),
             "k_n": float(pcfg.k_n), "k_t": float(pcfg.k_t), "F_y": float(pcfg.F_y),
@@ -612,6 +609,20 @@ def d_run_level(cfg, ld, a):
     return cfg.d_run_factor * max(ld["D_drop"], (ld["compliance"] * a) ** 2)
 
 
+def map_omegas(cfg, loads):
+    """The map's omega_p: ``cfg.omega_p``, and with ``cfg.natural`` omega_1 / 2,
+    omega_1 and 2 omega_1 of the reference load (the inside load nearest the
+    window's middle), sorted. Recomputed from the loads on ``--resume``, so a
+    resumed map asks the current grid (new columns get new task keys).
+    """
+    omegas = [float(w) for w in cfg.omega_p]
+    if cfg.natural:
+        inside = [ld for ld in loads if ld["kind"] != "below"] or loads
+        ref = min(inside, key=lambda ld: abs(ld["fraction"] - 0.5))
+        omegas += [0.5 * ref["omega_1"], ref["omega_1"], 2.0 * ref["omega_1"]]
+    return sorted(set(omegas))
+
+
 def predicted_rate(setup, ld, tau):
     """Growth rate of the load's state after the friction drop, damped by ``tau``.
 
@@ -741,6 +752,7 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
     on_rank0(comm, _check_out, cfg, out, resume)
     pcfg, man = load_paper_job(cfg.paper)
     setup = prepare_loads(cfg, pcfg, man, out, comm)
+    setup["omegas"] = map_omegas(cfg, setup["loads"])     # the current grid (resume)
     say(f"{len(setup['loads'])} loads, tau = "
         + ", ".join(f"{t:.4g}" for t in setup["taus"])
         + " (and none), omega_p = " + ", ".join(f"{w:.4g}" for w in setup["omegas"])
