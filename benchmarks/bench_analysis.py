@@ -92,7 +92,7 @@ def bench_eigen(st, k):
 
 def bench_decision(loads, repeat=5):
     """Eigen-solve and decision times of classify_spectrum at N = 100 (default job, mu = 1)."""
-    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.ramp import _ramp_point
     from remote_trigger.pywrap.engine import Engine
     from remote_trigger.pywrap.paper import ramp_config
     from remote_trigger.pywrap.paper_config import PaperConfig
@@ -106,7 +106,7 @@ def bench_decision(loads, repeat=5):
         with Engine(log="none") as eng:
             for k, F in enumerate(loads):
                 prefix = os.path.join(d, f"eq{k}")
-                stages._ramp_point(eng, cfg, start, F, prefix)
+                _ramp_point(eng, cfg, start, F, prefix)
                 A = matrix(prefix + ".dump")
                 best = None
                 for _ in range(repeat):

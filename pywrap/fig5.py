@@ -66,7 +66,7 @@ def friction_drop(eng, rcfg, datafile, F_x, mu, prefix):
         ``growth_rate`` (max Im sqrt(lambda), 1/time), ``residual``,
         ``datafile``.
     """
-    from .stages import _ramp_point
+    from .ramp import _ramp_point
 
     vals, res = _ramp_point(eng, rcfg.replace(mu=float(mu)), datafile, float(F_x), prefix)
     return {"mu": float(mu), "decision": res.decision, "confidence": float(res.confidence),
@@ -178,7 +178,7 @@ def run_fig5(cfg, out, ramps, comm, clock):
     """
     from .engine import Engine
     from .paper import ramp_config, dynamics_config
-    from . import stages
+    from .runs import _undamped_run
 
     t_start = time.perf_counter()
     rank0 = comm.Get_rank() == 0
@@ -264,7 +264,7 @@ def run_fig5(cfg, out, ramps, comm, clock):
         def run(key, dc, datafile, variables, stop=True, **attrs):
             t0 = time.perf_counter()
             h5 = os.path.join(out, f"perturb_{key}.h5")
-            res = stages._undamped_run(
+            res = _undamped_run(
                 eng, dc, datafile, h5, variables, f"perturb ({key})", True,
                 stop=stop_rule if stop else None,
                 attrs=dict(base, run=key, d_run=cfg.fig5_d_run, sat_span=cfg.fig5_sat_span,

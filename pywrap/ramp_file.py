@@ -1,4 +1,4 @@
-"""The layout of ``ramp.h5`` (written by ``stages._RampLog``), and its reader.
+"""The layout of ``ramp.h5`` (written by ``ramp._RampLog``), and its reader.
 
 Root attributes: the ramp configuration, ``stage = 'ramp'``, ``status``,
 ``version``, the bracket ``F_x_c_low``/``F_x_c_high`` and its status

@@ -577,7 +577,7 @@ def _dyn_config(setup, ld, task, dt):
 
 def _one_run(eng, setup, ld, task, a, muv, h5, d_run):
     """One run from the load's equilibrium; returns its summary dict."""
-    from . import stages
+    from .runs import _undamped_run
 
     dt = task["dt_fraction"] * ld["dt_max"]
     dc = _dyn_config(setup, ld, task, dt)
@@ -591,7 +591,7 @@ def _one_run(eng, setup, ld, task, a, muv, h5, d_run):
         return d_run is not None and o["D"][-1] > d_run
 
     t0 = time.perf_counter()
-    r = stages._undamped_run(eng, dc, ld["equilibrium"], h5, v, h5, True, stop=stop,
+    r = _undamped_run(eng, dc, ld["equilibrium"], h5, v, h5, True, stop=stop,
                              attrs={"stage": "trigger-map", "d_run": d_run or 0.0})
     wall = time.perf_counter() - t0
     sw = np.flatnonzero(r.mu < mu0)

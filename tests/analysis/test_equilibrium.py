@@ -36,6 +36,7 @@ F_RAMP = tuple(round(0.01 * k, 2) for k in range(2, 41))
 @pytest.fixture(scope="module")
 def driver(tmp_path_factory):
     from remote_trigger.pywrap import config, engine, equilibrium, packing, stages
+    from remote_trigger.pywrap.stage_common import _deck_vars
 
     out = tmp_path_factory.mktemp("eq")
     datafile = str(out / "p.data")
@@ -44,7 +45,7 @@ def driver(tmp_path_factory):
     cfg = config.RelaxConfig(datafile=rel.datafile, mu=MU)
     eng = engine.Engine()
     # the scene only (no damping): the relaxed state is evaluated as it is
-    eng.load_deck("in.ramp_step", stages._deck_vars(cfg, rel.datafile, 0.0), ("scene",))
+    eng.load_deck("in.ramp_step", _deck_vars(cfg, rel.datafile, 0.0), ("scene",))
     _, _, r = equilibrium.exact_residual(eng)
 
     def dump(name, F_x):

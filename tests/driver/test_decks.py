@@ -50,14 +50,14 @@ def test_decks_have_sections():
 
 
 def test_driver_protocol_commands_come_from_the_deck():
-    """stages.py writes none of the protocol's LAMMPS commands itself: one source."""
+    """The stage modules write none of the protocol's LAMMPS commands: one source."""
     import ast
     import inspect
 
-    from remote_trigger.pywrap import equilibrium, stages
+    from remote_trigger.pywrap import equilibrium, ramp, relax, runs, stage_common
 
     strings = []                # string literals of the code, docstrings excluded
-    for mod in (stages, equilibrium):
+    for mod in (relax, stage_common, ramp, runs, equilibrium):
         tree = ast.parse(inspect.getsource(mod))
         docs = {id(n.body[0].value) for n in ast.walk(tree)
                 if isinstance(n, (ast.Module, ast.FunctionDef, ast.ClassDef)) and n.body

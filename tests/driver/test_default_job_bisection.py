@@ -65,10 +65,12 @@ def test_default_job_bisection_is_certified_and_agrees_with_arb(mu, name, F_lo, 
     start = unpack(name, tmp_path)
     cfg = ramp_config(PaperConfig(), start, mu)
     out = tmp_path / "ramp"
-    rlog = stages._RampLog(cfg, str(out / "ramp.h5"))
+    from remote_trigger.pywrap.ramp import _RampLog
+
+    rlog = _RampLog(cfg, str(out / "ramp.h5"))
     out.mkdir()
     for k, (F, c) in enumerate(((F_lo, 0), (F_hi, 1))):
-        vals = {col: 0.0 for col in stages._RampLog.COLS}
+        vals = {col: 0.0 for col in _RampLog.COLS}
         vals.update(F_x=F, complex=float(c), decision=float(c), confidence=10.0)
         rlog.add("steps", f"step_{k:05d}", start if c == 0 else str(out / "none.data"), vals,
                  [])

@@ -1,0 +1,499 @@
+"""The ramp stage: F_x steps, the certified bracket of F_x^c and its bisection.
+
+Part of :mod:`remote_trigger.pywrap.stages`; file layout in
+:mod:`remote_trigger.pywrap.ramp_file`.
+"""
+from dataclasses import dataclass, field
+import os
+import time
+
+import numpy as np
+
+from .config import ConfigError, RampConfig
+from .engine import Engine
+from . import equilibrium as eq
+from .results import read_all
+from .parallel import on_rank0
+from . import ramp_file
+from remote_trigger.analysis.output import atomic_path
+from .stage_common import (RESULT_VERSION, _analyze, _ensure_dir, _progress, file_sha256,
+                           load_relax_scene, save_equilibrium, start_timestep)
+
+
+@dataclass
+class RampResult:
+    """Outcome of :func:`ramp`.
+
+    Attributes
+    ----------
+    F_x : ndarray
+        Loads of the ramp steps.
+    residual : ndarray
+        Residual reached at each step.
+    complex_pair : ndarray of bool
+        Certified complex pair (analyzer decision ``'complex'``).
+    growth_rate : ndarray
+        max Im sqrt(lambda) at each step (0 when stable).
+    bisection_F_x, bisection_complex : ndarray
+    F_x_c_low, F_x_c_high : float
+        Certified bracket of F_x^c: the largest F_x certified real below the
+        smallest F_x certified complex (undecided points are neither); NaN
+        if not found.
+    status : str
+        ``'complete'``, ``'no_complex_pair'``, ``'no_equilibrium'`` or
+        ``'complex_at_start'``.
+    h5 : str
+    message : str
+        Set when the bracket stayed wider than ``tol`` (the points next to
+        F_x^c could not be certified) and for the other statuses.
+    decision, confidence : ndarray
+        Analyzer decision per ramp step (1 complex, 0 real, -1 undecided)
+        and its margin (> 1 certified).
+    bisection_decision : ndarray
+        Same for the bisection points (NaN where no equilibrium was found).
+    tol_reached : bool
+        The bracket is at most ``tol`` wide.
+    n_undecided : int
+        Equilibria (steps and bisection) the analyzer left undecided.
+    timestep : dict
+        The time-step decision at the start (``dt_used``, ``dt_max``,
+        ``dt_fraction``, ``dt_limit_source``, ``dt_auto``; also in ramp.h5).
+    """
+
+    F_x: np.ndarray
+    residual: np.ndarray
+    complex_pair: np.ndarray
+    growth_rate: np.ndarray
+    bisection_F_x: np.ndarray
+    bisection_complex: np.ndarray
+    F_x_c_low: float
+    F_x_c_high: float
+    status: str
+    h5: str
+    message: str = ""
+    decision: np.ndarray = None
+    confidence: np.ndarray = None
+    bisection_decision: np.ndarray = None
+    timestep: dict = field(default_factory=dict)
+    tol_reached: bool = False
+    n_undecided: int = 0
+
+    @property
+    def F_x_c(self):
+        """Midpoint of the bracket."""
+        return 0.5 * (self.F_x_c_low + self.F_x_c_high)
+
+    @property
+    def F_x_c_width(self):
+        """Width of the certified bracket, F_x_c_high - F_x_c_low (NaN if none)."""
+        return self.F_x_c_high - self.F_x_c_low
+
+
+class _RampLog:
+    """In-memory copy of ramp.h5, rewritten atomically after every row."""
+
+    COLS = ramp_file.COLUMNS
+
+    def __init__(self, cfg, path):
+        self.cfg = cfg
+        self.path = path
+        self.rows = {k: {c: [] for c in self.COLS} for k in (ramp_file.STEPS,
+                                                              ramp_file.BISECTION)}
+        self.files = {ramp_file.STEPS: [], ramp_file.BISECTION: []}
+        self.eig = {}
+        self.attrs = {}
+
+    def add(self, kind, name, datafile, values, eigenvalues):
+        for c in self.COLS:
+            self.rows[kind][c].append(values[c])
+        self.files[kind].append(datafile)
+        self.eig[f"{kind}/{name}"] = np.asarray(eigenvalues, complex)
+
+    def write(self, status, **attrs):
+        """Bring ramp.h5 up to date, atomically.
+
+        The previous file is copied to a temporary name, the new rows are
+        appended to its resizable datasets and the new eigenvalue datasets
+        added, and the copy is renamed over ramp.h5 (``os.replace``), so the
+        file on disk is always complete (old or new), even after ``kill -9``.
+        The cost per write no longer grows with the number of stored
+        eigenvalue sets (a full rewrite did: 57 s of a 650-step ramp).
+        """
+        import shutil
+        import h5py
+
+        self.attrs.update(attrs)
+        a = dict(self.cfg.to_attrs(), stage="ramp", status=status, version=RESULT_VERSION,
+                 **self.attrs)
+        fresh = not getattr(self, "_synced", False) or not os.path.exists(self.path)
+        with atomic_path(self.path) as tmp:
+            if fresh:
+                mode = "w"
+            else:
+                shutil.copyfile(self.path, tmp)
+                mode = "a"
+            with h5py.File(tmp, mode) as fh:
+                for k, v in a.items():
+                    fh.attrs[k] = v
+                for kind in (ramp_file.STEPS, ramp_file.BISECTION):
+                    cols = {c: np.asarray(self.rows[kind][c], dtype=np.float64)
+                            for c in self.COLS}
+                    cols[ramp_file.DATAFILE] = np.asarray([str(f) for f in self.files[kind]],
+                                                          dtype=object)
+                    for c, arr in cols.items():
+                        name = ramp_file.column(kind, c)
+                        if name not in fh:
+                            kw = ({"dtype": h5py.string_dtype()} if c == ramp_file.DATAFILE
+                                  else {})
+                            fh.create_dataset(name, data=arr, maxshape=(None,),
+                                              chunks=(256,), **kw)
+                            continue
+                        ds = fh[name]
+                        old = ds.shape[0]
+                        if arr.shape[0] != old:
+                            ds.resize((arr.shape[0],))
+                            ds[old:] = arr[old:]
+                for k, v in self.eig.items():
+                    name = f"{ramp_file.EIGENVALUES}/{k}"
+                    if name not in fh:
+                        fh.create_dataset(name, data=v)
+                fh.flush()
+        self._synced = True
+        if not getattr(self, "_cleaned", False):     # temp files of killed runs
+            from .results import clean_stale_tmp
+
+            clean_stale_tmp(self.path)
+            self._cleaned = True
+
+    @classmethod
+    def load(cls, cfg, path):
+        try:
+            attrs, data = read_all(path)
+        except OSError as exc:
+            raise ConfigError(f"cannot resume: {path} is not a readable HDF5 file "
+                              f"({exc})") from None
+        old_file = attrs.get("datafile")
+        if isinstance(old_file, bytes):
+            old_file = old_file.decode()
+        old_sha = attrs.get("datafile_sha256")
+        if isinstance(old_sha, bytes):
+            old_sha = old_sha.decode()
+        same = (file_sha256(cfg.datafile) == str(old_sha)) if old_sha is not None else (
+            old_file is not None and os.path.abspath(str(old_file))
+            == os.path.abspath(cfg.datafile))
+        if not same:
+            raise ConfigError(f"cannot resume {path}: it ramps from datafile = {old_file!r}, "
+                              f"this run gives datafile = {cfg.datafile!r} "
+                              f"{'with other contents ' if old_sha is not None else ''}"
+                              f"(nothing was changed)")
+        for k, v in cfg.to_attrs().items():
+            if k == "datafile":
+                continue
+            old = attrs.get(k)
+            if isinstance(old, bytes):
+                old = old.decode()
+            if old is None or str(old) != str(v):
+                raise ConfigError(f"cannot resume {path}: its configuration has {k} = "
+                                  f"{old!r}, this run has {k} = {v!r}")
+        log = cls(cfg, path)
+        for kind in (ramp_file.STEPS, ramp_file.BISECTION):
+            for c in cls.COLS:
+                key = ramp_file.column(kind, c)
+                if key not in data:
+                    raise ConfigError(f"cannot resume: {path} lacks dataset {key}")
+                log.rows[kind][c] = [float(x) for x in data[key]]
+            log.files[kind] = [str(s) for s in
+                               data.get(ramp_file.column(kind, ramp_file.DATAFILE), [])]
+        eig = ramp_file.EIGENVALUES + "/"
+        for k, v in data.items():
+            if k.startswith(eig):
+                log.eig[k[len(eig):]] = v
+        log.attrs = {k: v for k, v in attrs.items()
+                     if k in ("F_x_c_low", "F_x_c_high", "F_x_c_width", "tol_reached",
+                              "n_undecided", "message", "dt_used", "datafile_sha256")}
+        log.status = attrs.get("status", "running")
+        log._synced = False          # rewrite in full once (older files: fixed-size)
+        return log
+
+
+
+def ramp_bracket(rlog):
+    """The certified bracket of F_x^c from every row of a ramp (steps and bisection).
+
+    Only certified answers count: ``hi`` is the smallest F_x certified
+    complex (decision 1), ``lo`` the largest F_x certified real (decision 0)
+    below it. Undecided points (decision -1) and points without an
+    equilibrium (``complex`` = 2) are neither stable nor unstable.
+
+    Returns
+    -------
+    lo, hi : float
+        NaN where there is no such point.
+    lo_file : str or None
+        Data file of the ``lo`` equilibrium (start of the next bisection point).
+    unknown : list of float
+        Loads strictly inside (lo, hi) without a certified answer.
+    """
+    F, dec, files = [], [], []
+    for kind in ("steps", "bisection"):
+        rows = rlog.rows[kind]
+        F.extend(rows["F_x"])
+        dec.extend(rows["decision"])
+        files.extend(rlog.files[kind])
+    F, dec = np.asarray(F, float), np.asarray(dec, float)
+    cx = F[dec == 1]
+    hi = float(cx.min()) if cx.size else float("nan")
+    real = np.flatnonzero((dec == 0) & (F < hi)) if cx.size else np.flatnonzero(dec == 0)
+    if real.size:
+        k = int(real[np.argmax(F[real])])
+        lo, lo_file = float(F[k]), files[k]
+    else:
+        lo, lo_file = float("nan"), None
+    unknown = sorted(float(f) for f, d in zip(F, dec)
+                     if not (d == 0 or d == 1) and lo < f < hi)
+    return lo, hi, lo_file, unknown
+
+
+def next_bisection_point(lo, hi, unknown, tol):
+    """Next load to decide inside the certified bracket, or why there is none.
+
+    Without undecided points inside, the midpoint. With some, they are
+    taken to mark the exceptional point's neighbourhood: the larger of the
+    two uncertified gaps [lo, min(unknown)] and [max(unknown), hi] is
+    halved, until both are at most tol/2.
+
+    Returns
+    -------
+    F : float or None
+    why : str
+        ``''`` (F given), ``'tol'`` (hi - lo <= tol), ``'undecided'`` (no
+        gap wider than tol/2 is left beside the undecided points) or
+        ``'resolution'`` (no float64 number strictly inside the gap).
+    """
+    if hi - lo <= tol:
+        return None, "tol"
+    if unknown:
+        g_lo, g_hi = unknown[0] - lo, hi - unknown[-1]
+        if max(g_lo, g_hi) <= 0.5 * tol:
+            return None, "undecided"
+        a, b = (lo, unknown[0]) if g_lo >= g_hi else (unknown[-1], hi)
+    else:
+        a, b = lo, hi
+    mid = 0.5 * (a + b)
+    if not a < mid < b:
+        return None, "resolution"
+    return mid, ""
+
+
+def _bracket_attrs(rlog, lo, hi, tol, why=""):
+    """ramp.h5 attributes of the certified bracket; a message when it is wider than tol."""
+    n_und = int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == -1)
+                    for k in ("steps", "bisection")))
+    width = hi - lo
+    attrs = dict(F_x_c_low=lo, F_x_c_high=hi, F_x_c_width=width,
+                 tol_reached=bool(width <= tol), n_undecided=n_und)
+    if why in ("undecided", "resolution"):
+        _, _, _, unknown = ramp_bracket(rlog)
+        zone = (f"the loads in [{unknown[0]:.10g}, {unknown[-1]:.10g}] could not be "
+                f"certified (closer to the exceptional point than the float64 matrix "
+                f"resolves, or no equilibrium)" if unknown else
+                "no float64 load is left strictly inside the bracket")
+        attrs["message"] = (f"bisection stopped at width {width:.3g} > tol = {tol:.3g}: "
+                            f"{zone}; F_x^c is certified only to [{lo:.10g}, {hi:.10g}]")
+    return attrs
+
+
+def _ramp_point(eng, cfg, start_file, F_x, prefix):
+    """Equilibrate at F_x from ``start_file``, save ``prefix.*``, analyse.
+
+    Returns (values dict, eigenvalues, StabilityResult).
+    """
+    t0 = time.perf_counter()
+    load_relax_scene(eng, cfg, start_file, F_x, deck="in.ramp_step")
+    r, t_sim, rec = eq.equilibrate(eng, cfg, F_x, newton_first=True)
+    save_equilibrium(eng, cfg, F_x, prefix)
+    res = _analyze(eng, prefix + ".dump")
+    vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
+            "decision": float(res.decision_code), "confidence": float(res.confidence),
+            "growth_rate": res.growth_rate, "max_imag": res.max_imag,
+            "n_rattlers": float(res.n_rattlers), "wall_time": time.perf_counter() - t0,
+            "damped_time": t_sim,
+            "newton_steps": float(max(0, sum(p == "newton" for p in rec.phase) - 1))}
+    return vals, res
+
+
+def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=None):
+    """Ramp F_x until a complex eigenvalue pair appears, then bisect F_x^c.
+
+    Step k has F_x = cfg.F_x + k dF_x (k = 0 re-equilibrates the data file at
+    cfg.F_x). Each step starts from the previous equilibrium's data file,
+    equilibrates (Newton first, damped dynamics if needed), writes
+    ``ramp/step_NNNNN.*`` and is analysed (:mod:`remote_trigger.analysis.stability`) until a step is
+    certified complex.
+
+    "Complex" and "real" are the analyzer's certified decisions; an
+    ``'undecided'`` point is neither (recorded with ``decision`` = -1 and its
+    margin). The bracket of F_x^c is [largest load certified real, smallest
+    load certified complex] (:func:`ramp_bracket`); bisection works inside
+    it, each point starting from the ``lo`` equilibrium
+    (:func:`next_bisection_point`), until it is at most ``cfg.tol`` wide or
+    no further point can be certified next to the undecided ones. Then the
+    ramp is ``'complete'`` with ``tol_reached`` False and a message giving the
+    width reached; nothing narrower than what was certified is reported.
+    A bisection point without an equilibrium is no answer either.
+
+    Parameters
+    ----------
+    cfg : RampConfig
+    out : str
+        Output folder (``ramp.h5``, ``ramp/``).
+    comm : mpi4py communicator, optional
+    quiet : bool
+    resume : bool
+        Continue an interrupted ramp from its last completed equilibrium; the
+        configuration must be the same. Without ``resume`` an existing
+        ``ramp.h5`` is an error (nothing is overwritten).
+    log : str
+        LAMMPS log file.
+    stop_after : int, optional
+        Testing aid: return (status ``'interrupted'``) after this many new
+        equilibria, as if killed.
+
+    Returns
+    -------
+    RampResult
+
+    Raises
+    ------
+    ConfigError
+        Bad configuration, ``ramp.h5`` exists without ``resume``, or the file
+        to resume is unreadable or from another configuration.
+    """
+    if not isinstance(cfg, RampConfig):
+        raise ConfigError(f"ramp needs a RampConfig, got {type(cfg).__name__}")
+    h5 = os.path.join(out, "ramp.h5")
+    folder = os.path.join(out, "ramp")
+    with Engine(comm=comm, log=log) as eng:
+        exists = eng.comm.bcast(os.path.exists(h5) if eng.rank == 0 else None, root=0)
+        if exists and not resume:
+            raise ConfigError(f"{h5} exists: use resume (--resume) to continue it, or "
+                              f"another output folder (nothing was overwritten)")
+        def open_log():
+            from remote_trigger.analysis.output import output_dir
+            from .datafile import check_datafile
+
+            try:
+                check_datafile(cfg.datafile)
+                output_dir(out, "--out")
+                log_ = _RampLog.load(cfg, h5) if (resume and exists) else _RampLog(cfg, h5)
+            except ValueError as exc:
+                raise ConfigError(str(exc)) from None
+            log_.attrs.setdefault("datafile_sha256", file_sha256(cfg.datafile))
+            return log_
+
+        rlog = on_rank0(eng.comm, open_log)
+        _ensure_dir(eng, folder)
+        rcfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "ramp")
+        if "dt_used" in rlog.attrs and cfg.dt == "auto":   # resume: the same step
+            rcfg = cfg.replace(dt=float(rlog.attrs["dt_used"]))
+            dtinfo.update(dt_used=rcfg.dt, dt_fraction=rcfg.dt / dtinfo["dt_max"])
+        rlog.attrs.update(dtinfo)
+        status = getattr(rlog, "status", "running")
+        if status in ("complete", "no_complex_pair", "no_equilibrium", "complex_at_start"):
+            return _ramp_result(rlog, status)
+        new = 0
+        steps = rlog.rows["steps"]
+        bar = _progress(None, "ramp", quiet, eng.rank, unit="step")
+        try:
+            # ---- ramp
+            while not (steps["complex"] and steps["complex"][-1] > 0):
+                k = len(steps["F_x"])
+                F = cfg.F_x + k * cfg.dF_x
+                if F > cfg.F_x_max:
+                    n_und = int(np.count_nonzero(np.asarray(steps["decision"], float) == -1))
+                    rlog.attrs["message"] = (f"no complex pair certified up to F_x_max = "
+                                             f"{cfg.F_x_max}" + (f" ({n_und} steps undecided)"
+                                                                 if n_und else ""))
+                    if eng.rank == 0:
+                        rlog.write("no_complex_pair")
+                    return _ramp_result(rlog, "no_complex_pair")
+                start = cfg.datafile if k == 0 else rlog.files["steps"][-1]
+                prefix = os.path.join(folder, ramp_file.point_name(ramp_file.STEPS, k))
+                try:
+                    vals, res = _ramp_point(eng, rcfg, start, F, prefix)
+                except eq.NoEquilibriumError as exc:
+                    rlog.attrs["message"] = str(exc)
+                    if eng.rank == 0:
+                        rlog.write("no_equilibrium")
+                    return _ramp_result(rlog, "no_equilibrium")
+                rlog.add(ramp_file.STEPS, ramp_file.point_name(ramp_file.STEPS, k), prefix + ".data", vals, res.eigenvalues)
+                if eng.rank == 0:
+                    rlog.write("running")
+                bar.update(1)
+                bar.set_postfix_str(f"F_x {F:.6g} r {vals['residual']:.1e} "
+                                    f"complex {bool(vals['complex'])}")
+                new += 1
+                if stop_after is not None and new >= stop_after:
+                    return _ramp_result(rlog, "interrupted")
+            lo, hi, lo_file, unknown = ramp_bracket(rlog)
+            if lo_file is None:
+                rlog.attrs["message"] = (
+                    "complex pair already at the start value of F_x" if len(steps["F_x"]) == 1
+                    else f"no equilibrium certified real below the first certified complex "
+                         f"one (F_x = {hi:.10g}); the steps before it are undecided")
+                rlog.attrs.update(F_x_c_high=hi)
+                if eng.rank == 0:
+                    rlog.write("complex_at_start")
+                return _ramp_result(rlog, "complex_at_start")
+            # ---- bisection, on certified answers only (docs/driver.md)
+            bis = rlog.rows["bisection"]
+            while True:
+                lo, hi, lo_file, unknown = ramp_bracket(rlog)
+                mid, why = next_bisection_point(lo, hi, unknown, cfg.tol)
+                if mid is None:
+                    break
+                j = len(bis["F_x"])
+                prefix = os.path.join(folder, ramp_file.point_name(ramp_file.BISECTION, j))
+                try:
+                    vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix)
+                except eq.NoEquilibriumError:
+                    vals = {c: np.nan for c in _RampLog.COLS}
+                    vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
+                    res = None
+                rlog.add(ramp_file.BISECTION, ramp_file.point_name(ramp_file.BISECTION, j), prefix + ".data", vals,
+                         [] if res is None else res.eigenvalues)
+                lo, hi, _, _ = ramp_bracket(rlog)
+                rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
+                if eng.rank == 0:
+                    rlog.write("running")
+                bar.update(1)
+                bar.set_postfix_str(f"F_x^c in [{lo:.9g}, {hi:.9g}]")
+                new += 1
+                if stop_after is not None and new >= stop_after:
+                    return _ramp_result(rlog, "interrupted")
+            rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol, why))
+            if eng.rank == 0:
+                rlog.write("complete")
+            return _ramp_result(rlog, "complete")
+        finally:
+            bar.close()
+
+
+def _ramp_result(rlog, status):
+    s, b = rlog.rows["steps"], rlog.rows["bisection"]
+    return RampResult(
+        F_x=np.asarray(s["F_x"]), residual=np.asarray(s["residual"]),
+        complex_pair=np.asarray(s["complex"]) > 0, growth_rate=np.asarray(s["growth_rate"]),
+        bisection_F_x=np.asarray(b["F_x"]), bisection_complex=np.asarray(b["complex"]) == 1,
+        F_x_c_low=float(rlog.attrs.get("F_x_c_low", np.nan)),
+        F_x_c_high=float(rlog.attrs.get("F_x_c_high", np.nan)), status=status,
+        h5=rlog.path, message=str(rlog.attrs.get("message", "")),
+        decision=np.asarray(s["decision"]), confidence=np.asarray(s["confidence"]),
+        bisection_decision=np.asarray(b["decision"]),
+        timestep={k: v for k, v in rlog.attrs.items() if k.startswith("dt_")},
+        tol_reached=bool(rlog.attrs.get("tol_reached", False)),
+        n_undecided=int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == -1)
+                            for k in ("steps", "bisection"))))
+
+
+# --------------------------------------------------------------------------- undamped
