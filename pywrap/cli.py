@@ -40,7 +40,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 #: modules that each add one or more subcommands
 SUBCOMMANDS = [
     "remote_trigger.pywrap.demo",
-    "remote_trigger.pywrap.stages_cli",
+    "remote_trigger.pywrap.cli_stages",
     "remote_trigger.pywrap.paper",
     "remote_trigger.pywrap.trigger_map",
     "remote_trigger.pywrap.ensemble",
