@@ -55,6 +55,9 @@ from . import ramp_file
 
 #: onsets of f(t)
 ONSETS = ("step", "smooth")
+#: a bracketed point whose triggering run reached D_run after this fraction of
+#: t_max is flagged ``marginal`` (its a_c is t_max-limited)
+MARGINAL = 0.95
 #: name of the job's manifest
 MANIFEST = "trigger_map.json"
 #: file of the table
@@ -868,6 +871,11 @@ def collect(out, tasks, setup):
             "t_switch": first["t_switch"] if first and first["t_switch"] is not None
             else math.nan,
             "t_run": first["t_run"] if first else math.nan,
+            # the triggering run reached D_run in the last 5 % of t_max: whether the
+            # bracket's lower end would trigger a little later is not resolved
+            # (measured: such a point does not survive dt / 2)
+            "marginal": float(bool(first and first["t_run"] is not None
+                                   and first["t_run"] > MARGINAL * t.get("t_max", math.inf))),
             "growth_tau": predicted_rate(setup, ld, t["tau"]),
         })
     return rows
@@ -986,6 +994,10 @@ def write_summary(path, rows, setup, cfg, wall, size):
                  f" {_fmt(r['a_c'])} | [{_fmt(r['a_lo'])}, {_fmt(r['a_hi'])}] | "
                  f"{_fmt(r['a_lin'])} | {r['status']} | {_fmt(r['t_switch'], '.4g')} | "
                  f"{_fmt(r['t_run'], '.4g')} | {r['n_runs']} | {r['wall']:.0f} |")
+    marg = [r["key"] for r in rows if r["marginal"] and r["status"] == "bracketed"]
+    L += ["", f"t_max-marginal points (the triggering run reached D_run after "
+              f"{MARGINAL:g} t_max; their a_c is limited by t_max, not resolved): "
+              f"{len(marg)}" + (": " + ", ".join(marg) if marg else "")]
     checks = [r for r in rows if r["check_of"]]
     if checks:
         L += ["", "## Time step check (dt / 2)", "",

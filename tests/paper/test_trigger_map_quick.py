@@ -58,6 +58,11 @@ def test_outputs(tmap):
     assert list(loads["kind"].astype(str)) == ["window 0.6", "below"]
     md = open(os.path.join(out, "trigger_map.md")).read()
     assert "## Map" in md and "## Time step check" in md and "## Condition number" in md
+    # t_max-marginal flag: set exactly where the triggering run ended after 0.95 t_max
+    assert "t_max-marginal points" in md
+    t_max = json.load(open(os.path.join(out, "config.json")))["t_max"]
+    late = np.nan_to_num(pts["t_run"], nan=0.0) > 0.95 * t_max
+    np.testing.assert_array_equal(pts["marginal"].astype(bool), late)
 
 
 def test_window_load_triggers_at_the_predicted_amplitude(tmap):
