@@ -16,8 +16,9 @@ from .results import read_all
 from .parallel import on_rank0
 from . import ramp_file
 from remote_trigger.analysis.output import atomic_path
-from .stage_common import (RESULT_VERSION, _analyze, _ensure_dir, _progress, file_sha256,
-                           load_relax_scene, save_equilibrium, start_timestep)
+from .stage_common import (RESULT_VERSION, _analyze, _ensure_dir, _progress,
+                           check_resume_config, file_sha256, load_relax_scene,
+                           save_equilibrium, start_timestep)
 
 
 @dataclass
@@ -186,15 +187,7 @@ class _RampLog:
                               f"this run gives datafile = {cfg.datafile!r} "
                               f"{'with other contents ' if old_sha is not None else ''}"
                               f"(nothing was changed)")
-        for k, v in cfg.to_attrs().items():
-            if k == "datafile":
-                continue
-            old = attrs.get(k)
-            if isinstance(old, bytes):
-                old = old.decode()
-            if old is None or str(old) != str(v):
-                raise ConfigError(f"cannot resume {path}: its configuration has {k} = "
-                                  f"{old!r}, this run has {k} = {v!r}")
+        check_resume_config(path, cfg, attrs)
         log = cls(cfg, path)
         for kind in (ramp_file.STEPS, ramp_file.BISECTION):
             for c in cls.COLS:

@@ -15,8 +15,8 @@ from .parallel import on_rank0
 from remote_trigger.analysis.series import growth_fit
 from .stage_common import (RESULT_VERSION, StableStartError, _DECK_FIELDS, _analyze,
                            _deck_vars, _ensure_dir, _equilibrium_files, _progress, _relax_cfg,
-                           file_sha256, load_relax_scene, prepare_out, save_equilibrium,
-                           start_timestep)
+                           check_resume_config, file_sha256, load_relax_scene, prepare_out,
+                           save_equilibrium, start_timestep)
 
 
 @dataclass
@@ -162,15 +162,10 @@ def _perturb_resume_state(cfg, out, sha):
             raise ConfigError(f"cannot resume {path}: it ran from a data file with other "
                               f"contents than datafile = {cfg.datafile!r} (nothing was "
                               f"changed)")
-        for k, v in cfg.to_attrs().items():
-            if k == "datafile" or (run == "c" and k in ("v0", "v_ss") and v == "None"):
-                continue
-            old = attrs.get(k)
-            if isinstance(old, bytes):
-                old = old.decode()
-            if old is None or str(old) != str(v):
-                raise ConfigError(f"cannot resume {path}: its configuration has {k} = "
-                                  f"{old!r}, this run has {k} = {v!r} (nothing was changed)")
+        # run (c) stores the v0 it measured where the configuration says None
+        unset = {k for k, v in cfg.to_attrs().items() if v == "None"} if run == "c" else set()
+        check_resume_config(path, cfg, attrs, skip=unset & {"v0", "v_ss"},
+                            suffix=" (nothing was changed)")
         residual = float(attrs["equilibrium_residual"])
         if attrs.get("status") == "complete":
             complete[run] = SeriesResult(

@@ -166,6 +166,39 @@ def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
 
 # --------------------------------------------------------------------------- relax
 
+def check_resume_config(path, cfg, attrs, skip=(), suffix=""):
+    """Refuse to resume ``path`` unless its stored configuration is ``cfg``'s.
+
+    Parameters
+    ----------
+    path : str
+        The result file (named in the message).
+    cfg : StageConfig
+        This run's configuration (``to_attrs()``; ``datafile`` is compared
+        by its contents elsewhere and skipped here).
+    attrs : dict
+        The file's root attributes.
+    skip : container of str
+        More keys not to compare.
+    suffix : str
+        Appended to the message.
+
+    Raises
+    ------
+    ConfigError
+        Naming the first differing key with both values.
+    """
+    for k, v in cfg.to_attrs().items():
+        if k == "datafile" or k in skip:
+            continue
+        old = attrs.get(k)
+        if isinstance(old, bytes):
+            old = old.decode()
+        if old is None or str(old) != str(v):
+            raise ConfigError(f"cannot resume {path}: its configuration has {k} = "
+                              f"{old!r}, this run has {k} = {v!r}{suffix}")
+
+
 def file_sha256(path):
     """SHA-256 (hex) of a file's contents: identifies a ramp's start file on resume."""
     import hashlib
