@@ -36,12 +36,16 @@ def check_job_folder(out, config, resume, kind):
         (every differing key is named with both values). Nothing is written
         then.
     """
+    from remote_trigger.analysis.errors import InputError
+    from remote_trigger.analysis.output import output_dir
     from .paper import write_json
 
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise ConfigError(f"--out {out!r} is a file, not a folder")
+    try:
+        output_dir(out, "--out")      # a file, or a folder that cannot be created
+    except InputError as exc:
+        raise ConfigError(str(exc)) from None
     cfgfile = os.path.join(out, CONFIG_FILE)
-    if os.path.isdir(out) and os.listdir(out):
+    if os.listdir(out):
         if not os.path.isfile(cfgfile):
             raise ConfigError(f"--out {out!r} holds other files; choose an empty or new folder")
         if not resume:
@@ -56,9 +60,4 @@ def check_job_folder(out, config, resume, kind):
                               + ", ".join(f"{k} = {old.get(k)!r} (then) vs {new.get(k)!r} "
                                           f"(now)" for k in diff))
         return
-    try:
-        os.makedirs(out, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"--out {out!r}: cannot create the folder "
-                          f"({exc.strerror or exc})") from None
     write_json(cfgfile, config)

@@ -78,13 +78,13 @@ def prepare_out(out):
         If ``out`` is a file, cannot be created, or is a non-empty folder
         not written by this job.
     """
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise ConfigError(f"--out must be a folder, got a file: out = {out!r}")
+    from remote_trigger.analysis.errors import InputError
+    from remote_trigger.analysis.output import output_dir
+
     try:
-        os.makedirs(out, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(f"--out {out!r}: cannot create the folder "
-                          f"({exc.strerror or exc})") from None
+        output_dir(out, "--out")
+    except InputError as exc:
+        raise ConfigError(str(exc)) from None
     entries = os.listdir(out)
     if not entries:
         return
