@@ -373,3 +373,82 @@ def growth_fit(t, D, lo_decades=3.0, hi=None):
     top = 1e-3 if hi is None else min(1e-3, float(hi) / Dmax)
     _, g = growth_window(t, D, noise_level(t, D), lo=10.0 ** lo_decades, hi=top)
     return g
+
+
+#: a triggered run's rise to the runaway level must match the predicted growth
+#: rate within this factor (docs/trigger_map.md, "Growth check")
+RUNAWAY_RATE_TOL = 2.0
+#: and be fitted on at least this many records
+RUNAWAY_MIN_RECORDS = 5
+
+
+def runaway_rate(t, D, d_run, decades=1.0):
+    """Growth rate of a run's last rise to the runaway level D_run.
+
+    The records from the first one after the last record below
+    D_run x 10^-``decades`` (before D first passes D_run) up to that first
+    passage are fitted by :func:`exp_rate` (least squares of ln D / 2 over
+    t). One decade of D is 1.15 e-foldings of the amplitude; fitted by least
+    squares over all its records, not from two crossing times (D of a
+    complex pair oscillates at the pair's frequency, far faster than the
+    records: the time between two single crossings is biased short).
+
+    Parameters
+    ----------
+    t, D : array_like, shape (n,)
+        Times and MSD (Eq. 8) of one run.
+    d_run : float
+        Runaway level (> 0).
+    decades : float
+        Depth of the fitted rise below D_run.
+
+    Returns
+    -------
+    (float, int)
+        g (1/time, D ~ e^{2 g t}) and the number of records fitted; (NaN, 0)
+        if D never passes D_run, (NaN, n) with n < 5 records.
+    """
+    t, D = np.asarray(t, float), np.asarray(D, float)
+    hit = np.flatnonzero(D > d_run)
+    if hit.size == 0:
+        return float("nan"), 0
+    i1 = int(hit[0])
+    low = np.flatnonzero(D[:i1] < d_run * 10.0 ** -decades)
+    i0 = int(low[-1]) + 1 if low.size else 0
+    idx = np.arange(D.size)
+    n = i1 - i0 + 1
+    return exp_rate(t, D, (idx >= i0) & (idx <= i1)), n
+
+
+def runaway_consistent(rate, n_records, predicted, tol=RUNAWAY_RATE_TOL,
+                       min_records=RUNAWAY_MIN_RECORDS):
+    """Is a measured rise to D_run the predicted instability?
+
+    True when the predicted growth rate is positive, the rise was fitted on
+    at least ``min_records`` records (a rise in fewer records is a forced
+    jump, not an exponential), and the measured rate lies within a factor
+    ``tol`` of the prediction. A response that passes D_run while no growth
+    is predicted (a resonance enlarged by the lower friction, measured below
+    the window) or far faster than predicted (a resonance building up over a
+    few periods) is not the instability.
+
+    Parameters
+    ----------
+    rate : float
+        Measured rate (:func:`runaway_rate`).
+    n_records : int
+        Records of its fit.
+    predicted : float
+        Growth rate after the friction drop from the eigenvalues (with the
+        run's damping), 1/time.
+    tol : float
+        Allowed factor (> 1).
+    min_records : int
+
+    Returns
+    -------
+    bool
+    """
+    if not (predicted > 0 and n_records >= min_records and math.isfinite(rate)):
+        return False
+    return bool(predicted / tol <= rate <= tol * predicted)

@@ -22,10 +22,19 @@ design; in short:
   bisection. The bracket [a_lo, a_hi] (a_lo not triggered, a_hi triggered)
   is then narrowed in log a to a factor <= ``factor``. A run stops as soon
   as D > D_run (triggered) or at t_max (not triggered).
+* **Growth check.** A bracketed point's run at a_hi must rise to D_run as the
+  instability does: the least-squares rate of its last decade of D below
+  D_run (:func:`.series.runaway_rate`, >= 5 records) within a factor 2 of the
+  predicted growth rate after the drop (with the run's damping, > 0;
+  :func:`.series.runaway_consistent`). Otherwise the point is a ``forced
+  response`` (``forced_by = 'growth'``): a resonance enlarged by the lower
+  friction passes D_run too (measured below the window at omega_1), in a
+  few records or with no growth predicted.
 * **Forced twin.** For a bracketed point, the run at a_hi is repeated with
   mu0 throughout (no mu(v)). If that run also passes D_run, the forcing
   alone moves the packing that far (at a natural frequency, for instance):
-  the point is a ``forced response``, not a trigger, and gets no a_c.
+  the point is a ``forced response`` (``forced_by = 'twin'``), not a
+  trigger, and gets no a_c.
 * **Controls.** For each load and tau, the run with mu(v) and no forcing (the
   same run for every omega_p and onset: it has no forcing). If it triggers,
   every point of that load and tau is ``noise-triggered`` and gets no a_c.
@@ -49,6 +58,8 @@ import time
 import numpy as np
 
 from .config import ConfigError, _num, _int
+from remote_trigger.analysis.series import (runaway_rate, runaway_consistent,
+                                             RUNAWAY_RATE_TOL, RUNAWAY_MIN_RECORDS)
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 from .parallel import on_rank0
 from . import ramp_file
@@ -549,8 +560,13 @@ class _TaskLog:
         write_json(self.path, self.data)
 
     def finish(self, **result):
+        """Record the result; the file is rewritten only if it changes (a resumed
+        map re-walks finished tasks: their files stay untouched)."""
         from .paper import write_json
-        self.data.update(result, status="complete")
+        new = dict(self.data, **result, status="complete")
+        if new == self.data:
+            return
+        self.data = new
         write_json(self.path, self.data)
 
     def fail(self, error):
@@ -599,7 +615,9 @@ def _one_run(eng, setup, ld, task, a, muv, h5, d_run):
     wall = time.perf_counter() - t0
     sw = np.flatnonzero(r.mu < mu0)
     hit = np.flatnonzero(r.D > d_run) if d_run is not None else np.zeros(0, int)
+    rise, n_rise = (runaway_rate(r.t, r.D, d_run) if hit.size else (math.nan, 0))
     return {"a": float(a), "muv": int(muv), "triggered": bool(hit.size),
+            "rise_rate": rise if math.isfinite(rise) else None, "rise_records": int(n_rise),
             "t_switch": float(r.t[sw[0]]) if sw.size else None,
             "t_run": float(r.t[hit[0]]) if hit.size else None,
             "D_max": float(np.max(r.D)), "v_max": float(r.extra["v_top_max"]),
@@ -610,6 +628,24 @@ def _one_run(eng, setup, ld, task, a, muv, h5, d_run):
 def d_run_level(cfg, ld, a):
     """Runaway level of a run at amplitude a: d_run_factor x max(D_drop, (C a)^2)."""
     return cfg.d_run_factor * max(ld["D_drop"], (ld["compliance"] * a) ** 2)
+
+
+def rise_of(run):
+    """(rate, records) of a run's last rise to D_run (:func:`.series.runaway_rate`).
+
+    Read from the run's log; a log written before the growth check existed
+    is measured from the run's HDF5 records (``t``, ``D``), so a map resumed
+    with ``--resume`` is re-classified without redoing a run.
+    """
+    if "rise_records" in run:
+        r = run["rise_rate"]
+        return (math.nan if r is None else float(r)), int(run["rise_records"])
+    if not run.get("triggered"):
+        return math.nan, 0
+    import h5py
+    with h5py.File(run["h5"], "r") as fh:
+        t, D = fh["t"][()], fh["D"][()]
+    return runaway_rate(t, D, run["d_run"])
 
 
 def map_omegas(cfg, loads):
@@ -644,9 +680,9 @@ def run_task(eng, cfg, setup, task, out):
     folder = os.path.join(out, "runs", task["key"])
     os.makedirs(folder, exist_ok=True)
     log = _TaskLog(os.path.join(out, "tasks", task["key"] + ".json"), task)
-    if log.done and (task["kind"] == "control" or "forced" in log.data
-                     or log.data.get("bracket_status") != "bracketed"):
-        return log.data
+    # a finished task is walked again: every run is found in its log (the same
+    # amplitudes, bitwise), only the classification is redone (--resume after a
+    # change of the criterion re-classifies without redoing a run)
 
     def run(kind, a, muv, d_run):
         old = log.find(kind, a)
@@ -713,17 +749,29 @@ def run_task(eng, cfg, setup, task, out):
                 break
             a = max(hi / step, a_min)
         step = step * step
-    # the forced twin: the same forcing at a_hi with mu0 throughout (no mu(v)). If it
+    # the growth check: the run at a_hi rose to D_run at the predicted (damped)
+    # rate (within RUNAWAY_RATE_TOL, >= RUNAWAY_MIN_RECORDS records). A rise in a
+    # few records, far faster than predicted, or with no growth predicted at all
+    # is the forcing's response (enlarged by the lower friction), not the
+    # instability: a forced response.
+    # The forced twin: the same forcing at a_hi with mu0 throughout (no mu(v)). If it
     # also passes D_run, the forcing alone moves the packing that far (e.g. at a
     # natural frequency): a forced response, not a triggered instability.
-    forced = None
+    forced, forced_by, rise, n_rise = None, None, None, 0
     if status == "bracketed":
-        tw = run("twin", hi, 0, d_run_level(cfg, ld, hi))
-        forced = bool(tw["triggered"])
+        rise, n_rise = rise_of(log.find("mu(v)", hi))
+        if not runaway_consistent(rise, n_rise, predicted_rate(setup, ld, task["tau"])):
+            forced, forced_by = True, "growth"
+        else:
+            tw = run("twin", hi, 0, d_run_level(cfg, ld, hi))
+            forced = bool(tw["triggered"])
+            forced_by = "twin" if forced else None
         if forced:
             status = "forced response"
     res = {"a_lo": lo, "a_hi": hi, "a_lin": a_lin, "a_probe": a_probe, "a_max": a_max,
            "a_min": a_min, "bracket_status": status, "forced": forced,
+           "forced_by": forced_by, "rise_rate": rise if rise is None or math.isfinite(rise)
+           else None, "rise_records": n_rise,
            "a_c": math.sqrt(lo * hi) if status == "bracketed" else None,
            "n_runs": len(log.data["runs"]),
            "wall": sum(r["wall"] for r in log.data["runs"])}
@@ -877,11 +925,16 @@ def collect(out, tasks, setup):
             "marginal": float(bool(first and first["t_run"] is not None
                                    and first["t_run"] > MARGINAL * t.get("t_max", math.inf))),
             "growth_tau": predicted_rate(setup, ld, t["tau"]),
+            # the a_hi run's rise to D_run (growth check) and why a point is forced
+            "rise_rate": (d.get("rise_rate") if d.get("rise_rate") is not None
+                          else math.nan),
+            "rise_records": d.get("rise_records") or 0,
+            "forced_by": d.get("forced_by") or "",
         })
     return rows
 
 
-_STR_COLS = ("key", "kind", "onset", "check_of", "status")
+_STR_COLS = ("key", "kind", "onset", "check_of", "status", "forced_by")
 
 
 def write_table(path, rows, setup, cfg):
@@ -963,6 +1016,14 @@ def _fmt(x, f=".3g"):
     return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, f)
 
 
+def _rise_ratio(r):
+    """Measured rise rate / predicted rate of a point's a_hi run, as text."""
+    if not math.isfinite(r["rise_rate"]):
+        return f"- ({r['rise_records']} rec.)" if r["rise_records"] else "-"
+    g = r["growth_tau"]
+    return f"{r['rise_rate'] / g:.2f}" if g > 0 else f"{r['rise_rate']:.3g} (g <= 0)"
+
+
 def write_summary(path, rows, setup, cfg, wall, size):
     """``trigger_map.md``: loads, the map table, dt check, costs."""
     L = ["# Trigger map", "",
@@ -970,7 +1031,10 @@ def write_summary(path, rows, setup, cfg, wall, size):
          f"{setup['mu0']:g}, mu_ss mu0 = {setup['mu_ss']:g}; window "
          f"[{setup['window'][0]:.7g}, {setup['window'][1]:.7g}]. Runaway level D_run = "
          f"{cfg.d_run_factor:g} x max(D_drop, (C a)^2); t_max = {cfg.t_max:g}; bisection "
-         f"to a_hi/a_lo <= {cfg.factor:g}.", "",
+         f"to a_hi/a_lo <= {cfg.factor:g}. Growth check: the a_hi run's last decade of D "
+         f"below D_run rose at {1 / RUNAWAY_RATE_TOL:g}-{RUNAWAY_RATE_TOL:g} x the predicted "
+         f"rate g (> 0; least squares over >= {RUNAWAY_MIN_RECORDS} records), else forced "
+         f"response (growth); rise / g in the table.", "",
          "## Loads", "",
          "| F_x | kind | mu0 | after drop | g | g with tau | D_drop | kappa (mu0) | "
          "gap (mu0) | kappa (drop) | omega_1 |",
@@ -985,14 +1049,16 @@ def write_summary(path, rows, setup, cfg, wall, size):
           + f" (tau_g / g_ref, g_ref = {setup['g_ref']:.4g}).", "",
           "## Map", "",
           "| F_x | tau | omega_p | onset | a_c | [a_lo, a_hi] | a_lin | status | "
-          "t_switch | t_run | runs | s |",
-          "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+          "rise / g | t_switch | t_run | runs | s |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if r["check_of"]:
             continue
         L.append(f"| {r['F_x']:.6g} | {_fmt(r['tau'])} | {r['omega_p']:.4g} | {r['onset']} |"
                  f" {_fmt(r['a_c'])} | [{_fmt(r['a_lo'])}, {_fmt(r['a_hi'])}] | "
-                 f"{_fmt(r['a_lin'])} | {r['status']} | {_fmt(r['t_switch'], '.4g')} | "
+                 f"{_fmt(r['a_lin'])} | {r['status']}"
+                 + (f" ({r['forced_by']})" if r["forced_by"] else "")
+                 + f" | {_rise_ratio(r)} | {_fmt(r['t_switch'], '.4g')} | "
                  f"{_fmt(r['t_run'], '.4g')} | {r['n_runs']} | {r['wall']:.0f} |")
     marg = [r["key"] for r in rows if r["marginal"] and r["status"] == "bracketed"]
     L += ["", f"t_max-marginal points (the triggering run reached D_run after "

@@ -98,3 +98,43 @@ def test_settled_growth_composes_the_window():
     res = ser.settled_growth(t, D, mu, 1.0, 0.8, 0.01)
     assert res["mu_fit"] == pytest.approx(0.8) and abs(res["growth_rate"] / 0.013 - 1) < 0.05
     assert ser.settled_growth(t, D, np.ones_like(t), 1.0, 0.8, 0.01) is None
+
+
+def _pair_series(g, t_end=1200.0, dt=1.0, freq=115.7, seed=3):
+    """D of a complex pair growing at rate g: e^{2gt} times an oscillation (a factor
+    4.3 deep) at a frequency far above the record rate (records at random phases, as
+    in the trigger map's runs: D sums every disk's motion, so its oscillation is
+    shallower than a decade)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, t_end, dt)
+    phase = rng.uniform(0, 2 * np.pi)
+    return t, 1e-13 * np.exp(2 * g * t) * (0.3 + np.cos(freq * t + phase) ** 2)
+
+
+def test_runaway_rate_least_squares_on_the_last_decade():
+    g = 0.0123
+    t, D = _pair_series(g)
+    d_run = 1e-13 * math.exp(2 * g * 900)
+    rate, n = ser.runaway_rate(t, D, d_run)
+    # one decade at rate g spans ln(10) / (2 g) ~ 94 records of dt = 1; the dips of
+    # the oscillation end it earlier (38 records here), the fit is unbiased
+    assert n > 25 and abs(rate / g - 1) < 0.1
+    # a rise that does not start before the last record below D_run / 10 is not fitted
+    assert ser.runaway_rate(t, D, 1e3)[1] == 0 and math.isnan(ser.runaway_rate(t, D, 1e3)[0])
+
+
+def test_runaway_consistent_needs_the_predicted_growth():
+    g = 0.0123
+    t, D = _pair_series(g)
+    d_run = 1e-13 * math.exp(2 * g * 900)
+    rate, n = ser.runaway_rate(t, D, d_run)
+    assert ser.runaway_consistent(rate, n, g)
+    # the same rise where no growth is predicted (below the window, damped): not it
+    assert not ser.runaway_consistent(rate, n, 0.0)
+    assert not ser.runaway_consistent(rate, n, -0.002)
+    # three times faster than predicted (a resonance building up): not it
+    assert not ser.runaway_consistent(rate, n, g / 3)
+    # a forced jump: D passes D_run within one record of being 10x below it
+    jump = np.where(t < 500, 1e-13, 1e-9)
+    r1, n1 = ser.runaway_rate(t, jump, 1e-10)
+    assert n1 == 1 and not ser.runaway_consistent(r1, n1, g)

@@ -3,7 +3,8 @@
 What must hold (each can fail): at the load inside the window the bisected
 a_c brackets the linear-response prediction a_lin of the probe run; below the
 window, and with damping tau = 0.25 / g (predicted decay after the drop),
-nothing runs away up to a_max; no control (mu(v), no forcing) triggers; the
+nothing runs away up to a_max; the bracketed runaway rose at the predicted
+rate (growth check, re-measured from the run file); no control (mu(v), no forcing) triggers; the
 bracket at dt / 2 overlaps the one at dt. The run files are re-read here.
 """
 import json
@@ -15,6 +16,9 @@ import sys
 import h5py
 import numpy as np
 import pytest
+
+from remote_trigger.analysis.series import runaway_rate
+from remote_trigger.pywrap.trigger_map import rise_of
 
 CLI = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
 
@@ -36,7 +40,7 @@ def tmap(paper_quick, tmp_path_factory):
         loads = {k: fh["loads/" + k][()] for k in fh["loads"]}
         attrs = dict(fh.attrs)
         kap = {k: fh["ramp_kappa/" + k][()] for k in fh["ramp_kappa"]}
-    for k in ("key", "kind", "onset", "check_of", "status"):
+    for k in ("key", "kind", "onset", "check_of", "status", "forced_by"):
         pts[k] = np.array([x.decode() if isinstance(x, bytes) else str(x) for x in pts[k]])
     return out, proc, pts, loads, attrs, kap
 
@@ -77,6 +81,18 @@ def test_window_load_triggers_at_the_predicted_amplitude(tmap):
         assert lo / 1.5 <= pts["a_lin"][i] <= hi * 1.5, (lo, hi, pts["a_lin"][i])
         # re-read the runs: a_hi ran away after mu left mu0, a_lo never passed D_run
         log = _task(out, pts["key"][i])
+        # growth check: the a_hi run rose through its last decade below D_run at the
+        # predicted rate (the table's number re-measured from the run's records)
+        g = pts["growth_tau"][i]
+        assert g > 0 and pts["forced_by"][i] == ""
+        a_hi_run = next(r for r in log["runs"] if r["kind"] == "mu(v)" and r["a"] == hi)
+        with h5py.File(a_hi_run["h5"], "r") as fh:
+            rate, n = runaway_rate(fh["t"][()], fh["D"][()], a_hi_run["d_run"])
+        assert rate == pts["rise_rate"][i] and n == pts["rise_records"][i] >= 5
+        assert 0.5 <= rate / g <= 2.0, (rate, g)
+        # a log written before the check existed is measured from the run file
+        old = {k: v for k, v in a_hi_run.items() if not k.startswith("rise_")}
+        assert rise_of(old) == (rate, n)
         # the forced twin (a_hi, mu0 throughout) stays below D_run: the friction drop did it
         twin = [r for r in log["runs"] if r["kind"] == "twin"]
         assert log["forced"] is False and len(twin) == 1 and twin[0]["a"] == hi
