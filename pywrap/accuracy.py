@@ -260,8 +260,8 @@ def section_timestep(ctx):
                 "mu": ctx.mu, "Fx": 0.0, "Fy": ctx.F_y, "dt": dt, "a": 0.0, "muv": 0},
                 ("scene", "dynamics"))
             s0 = eng.gather_state()
-            x_eq = s0.unwrapped_x()
-            eng.scatter("x", s0.x + dq[:, :2])
+            x_eq = s0.unwrapped_positions()
+            eng.scatter("x", s0.positions + dq[:, :2])
             eng.scatter("omega", np.zeros(s0.n))
             # phi: a rotation is a history change, applied as one integrator-free step
             # would be; the perturbation here moves positions only (dq[:, 2] is dropped)
@@ -269,10 +269,10 @@ def section_timestep(ctx):
             for j in range(nrec):
                 eng.run(per, pre=(j == 0))
                 s = eng.gather_state()
-                d = s.unwrapped_x() - x_eq
+                d = s.unwrapped_positions() - x_eq
                 D.append(float(np.mean(np.sum(d * d, axis=1))))
                 ts_.append((j + 1) * per * dt)
-            xT = s.unwrapped_x().copy()
+            xT = s.unwrapped_positions().copy()
         wall = time.perf_counter() - t0
         ts_, D = np.array(ts_), np.array(D)
         runs.append(dict(frac=f, dt=dt, t=ts_, D=D, xT=xT, x_eq=x_eq, wall=wall,

@@ -98,17 +98,17 @@ class AtomState:
     ----------
     ids : ndarray of int64, shape (N,)
     types : ndarray of int64, shape (N,)
-    radius, mass : ndarray, shape (N,)
-    x : ndarray, shape (N, 2)
-        Positions (wrapped into the periodic box as LAMMPS holds them).
+    radii, masses : ndarray, shape (N,)
+    positions : ndarray, shape (N, 2)
+        Wrapped into the periodic box as LAMMPS holds them.
     image : ndarray of int64, shape (N,)
         Periodic image count along x (unwrapped x = x + image L).
-    v : ndarray, shape (N, 2)
+    velocities : ndarray, shape (N, 2)
     omega : ndarray, shape (N,)
         Angular velocity about z.
-    f : ndarray, shape (N, 2)
+    forces : ndarray, shape (N, 2)
         Forces of the last force evaluation (all fixes included).
-    torque : ndarray, shape (N,)
+    torques : ndarray, shape (N,)
     partner : ndarray of int64, shape (N, 8)
         ``i2_mindlin_partner`` (0 = empty slot).
     xi : ndarray, shape (N, 8)
@@ -121,14 +121,14 @@ class AtomState:
 
     ids: np.ndarray
     types: np.ndarray
-    radius: np.ndarray
-    mass: np.ndarray
-    x: np.ndarray
+    radii: np.ndarray
+    masses: np.ndarray
+    positions: np.ndarray
     image: np.ndarray
-    v: np.ndarray
+    velocities: np.ndarray
     omega: np.ndarray
-    f: np.ndarray
-    torque: np.ndarray
+    forces: np.ndarray
+    torques: np.ndarray
     partner: np.ndarray
     xi: np.ndarray
     wall_xi: np.ndarray
@@ -141,9 +141,9 @@ class AtomState:
         """Number of atoms."""
         return int(self.ids.size)
 
-    def unwrapped_x(self):
+    def unwrapped_positions(self):
         """Unwrapped centres, shape (N, 2)."""
-        out = self.x.copy()
+        out = self.positions.copy()
         out[:, 0] += self.image * (self.box_hi[0] - self.box_lo[0])
         return out
 
@@ -405,10 +405,10 @@ class Engine:
         imgx = (img & 1023) - 512
         return AtomState(
             ids=self.gather("id"), types=self.gather("type"),
-            radius=self.gather("radius"), mass=self.gather("rmass"),
-            x=self.gather("x")[:, :2], image=imgx,
-            v=self.gather("v")[:, :2], omega=self.gather("omega")[:, 2],
-            f=self.gather("f")[:, :2], torque=self.gather("torque")[:, 2],
+            radii=self.gather("radius"), masses=self.gather("rmass"),
+            positions=self.gather("x")[:, :2], image=imgx,
+            velocities=self.gather("v")[:, :2], omega=self.gather("omega")[:, 2],
+            forces=self.gather("f")[:, :2], torques=self.gather("torque")[:, 2],
             partner=self.gather("i2_mindlin_partner"), xi=self.gather("d2_mindlin_t"),
             wall_xi=self.gather("d_mindlin_wall_t"), top=self.gather("i_top") > 0,
             box_lo=lo, box_hi=hi)
@@ -419,8 +419,8 @@ class Engine:
         Used to undo a rejected Newton step; the next ``run`` rebuilds ghosts
         and neighbor lists.
         """
-        self.scatter("x", state.x)
-        self.scatter("v", state.v)
+        self.scatter("x", state.positions)
+        self.scatter("v", state.velocities)
         self.scatter("omega", state.omega)
         self.scatter("i2_mindlin_partner", state.partner.astype(np.int32))
         self.scatter("d2_mindlin_t", state.xi)

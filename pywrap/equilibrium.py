@@ -100,12 +100,12 @@ def residual_of(state, damping=None):
     G : ndarray, shape (N, 3)
     r : float
     """
-    f = state.f.copy()
-    tq = state.torque.copy()
+    f = state.forces.copy()
+    tq = state.torques.copy()
     if damping is not None:
-        f += damping[0] * state.v
+        f += damping[0] * state.velocities
         tq += damping[1] * state.omega
-    G = np.column_stack([f, tq / state.radius])
+    G = np.column_stack([f, tq / state.radii])
     r = max(float(np.max(np.hypot(G[:, 0], G[:, 1]))), float(np.max(np.abs(G[:, 2]))))
     return G, r
 
@@ -118,11 +118,11 @@ def analysis_state(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0):
     ext[state.top, 0] = F_x
     ext[state.top, 1] = -F_y
     return build_state(
-        ids=state.ids, positions=state.x, radii=state.radius, masses=state.mass,
+        ids=state.ids, positions=state.positions, radii=state.radii, masses=state.masses,
         box_lo=state.box_lo, box_hi=state.box_hi,
         params=ContactParams(float(k_n), float(k_t), float(mu)), wall_y=wall_y,
         partners=state.partner, partner_xi=state.xi, wall_t=state.wall_xi, external=ext,
-        velocities=state.v, omega=state.omega, types=state.types, F_x=F_x, F_y=F_y,
+        velocities=state.velocities, omega=state.omega, types=state.types, F_x=F_x, F_y=F_y,
         require_contacts=False)
 
 
@@ -205,7 +205,7 @@ def accept_level(cfg, state):
     """
     if cfg.f_accept is not None:
         return float(cfg.f_accept)
-    X = max(float(np.max(np.abs(state.x))), float(np.max(state.box_hi - state.box_lo)))
+    X = max(float(np.max(np.abs(state.positions))), float(np.max(state.box_hi - state.box_lo)))
     F = max(float(cfg.F_y), abs(float(getattr(cfg, "F_x", 0.0))))
     keff = 1.5 * float(cfg.k_n) ** (2.0 / 3.0) * F ** (1.0 / 3.0)
     return max(F_ACCEPT_MIN, ROUNDOFF_FACTOR * np.finfo(float).eps * X * keff,
@@ -264,9 +264,9 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None):
         big = float(np.max(np.abs(dq)))
         if big > MAX_NEWTON_STEP:      # far from the basin: shorten the step
             dq *= MAX_NEWTON_STEP / big
-        eng.scatter("x", state.x + dq[:, :2])
+        eng.scatter("x", state.positions + dq[:, :2])
         eng.scatter("v", dq[:, :2] / cfg.dt)
-        eng.scatter("omega", dq[:, 2] / (state.radius * cfg.dt))
+        eng.scatter("omega", dq[:, 2] / (state.radii * cfg.dt))
         eng.run(1, pre=True)
         eng.scatter("v", np.zeros((state.n, 2)))
         eng.scatter("omega", np.zeros(state.n))
@@ -322,7 +322,7 @@ def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
     record = RelaxRecord() if record is None else record
     eng.command(f"variable load_x equal {F_x!r}")
     st0 = eng.gather_state()
-    x0 = float(np.mean(st0.unwrapped_x()[st0.top, 0]))
+    x0 = float(np.mean(st0.unwrapped_positions()[st0.top, 0]))
     accept = accept_level(cfg, st0)
     t_sim = 0.0
     steps = 0
@@ -348,7 +348,7 @@ def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
         record.add(t_sim, r, "damped", t0)
         if progress is not None:
             progress(r)
-        dx = float(np.mean(st.unwrapped_x()[st.top, 0])) - x0
+        dx = float(np.mean(st.unwrapped_positions()[st.top, 0])) - x0
         if abs(dx) > cfg.slide:
             raise NoEquilibriumError(
                 f"no equilibrium at F_x = {F_x!r}: the top layer slid {dx:.3g} "

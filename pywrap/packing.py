@@ -46,11 +46,11 @@ class Packing:
 
     Attributes
     ----------
-    x, y : ndarray, shape (N,)
-        Disk centres (length units, 2 R1 = 1).
-    radius : ndarray, shape (N,)
-        Radii, 0.5 or 0.7.
-    type : ndarray of int, shape (N,)
+    positions : ndarray, shape (N, 2)
+        Disk centres x, y (length units, 2 R1 = 1).
+    radii : ndarray, shape (N,)
+        0.5 or 0.7.
+    types : ndarray of int, shape (N,)
         LAMMPS atom types, 1 = small, 2 = large.
     top : ndarray of bool, shape (N,)
         True for the disks of the upper boundary line.
@@ -62,10 +62,9 @@ class Packing:
         Seed used.
     """
 
-    x: np.ndarray
-    y: np.ndarray
-    radius: np.ndarray
-    type: np.ndarray
+    positions: np.ndarray
+    radii: np.ndarray
+    types: np.ndarray
     top: np.ndarray
     width: float
     ylo: float
@@ -75,7 +74,7 @@ class Packing:
     @property
     def n(self):
         """Number of disks N."""
-        return int(self.x.size)
+        return int(self.radii.size)
 
     @property
     def n_top(self):
@@ -191,7 +190,8 @@ def generate(n, seed=0, phi=0.82, phi_loose=0.55, max_tries=200000, radii=RADII)
     radius = np.concatenate([br, top_r])
     typ = np.where(radius == r1, 1, 2).astype(np.int64)
     top = np.concatenate([np.zeros(bx.size, bool), np.ones(n_top, bool)])
-    return Packing(x=x, y=y, radius=radius, type=typ, top=top, width=float(width),
+    return Packing(positions=np.column_stack([x, y]), radii=radius, types=typ, top=top,
+                   width=float(width),
                    ylo=-1.0, yhi=float(y_line + r2 + width), seed=int(seed))
 
 
@@ -228,8 +228,8 @@ def write_data(packing, path):
         "",
     ]
     for k in range(p.n):
-        lines.append(f"{k + 1} {int(p.type[k])} {float(2.0 * p.radius[k])!r} 1 "
-                     f"{float(p.x[k])!r} {float(p.y[k])!r} 0")
+        lines.append(f"{k + 1} {int(p.types[k])} {float(2.0 * p.radii[k])!r} 1 "
+                     f"{float(p.positions[k, 0])!r} {float(p.positions[k, 1])!r} 0")
     zeros = " ".join(["0"] * (2 * HISTORY_SLOTS + 1))
     lines += ["", "hist # i_mindlin_partner d_mindlin_t d_mindlin_wall_t", ""]
     lines += [f"{k + 1} {zeros}" for k in range(p.n)]

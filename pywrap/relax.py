@@ -127,7 +127,7 @@ def place_top(eng, gap):
         raise ValueError(f"place_top needs top and bulk disks, got {int(top.sum())} top "
                          f"disks of {st.n}")
     # the deck's lower_measure section, on the gathered positions (no run 0)
-    y, R = st.x[:, 1], st.radius
+    y, R = st.positions[:, 1], st.radii
     dy = float(np.max(y[~top] + R[~top]) + gap - np.min(y[top] - R[top]))
     if np.max(y[top] + R[top]) + dy >= st.box_hi[1]:
         raise ValueError(f"the top line does not fit below the box top ylo/yhi = "
@@ -177,7 +177,7 @@ def press_top(eng, F_x):
 
 def top_clearance(state):
     """min over top disks of y minus max over bulk disks of y (centres)."""
-    y = state.x[:, 1]
+    y = state.positions[:, 1]
     return float(np.min(y[state.top]) - np.max(y[~state.top]))
 
 

@@ -80,8 +80,8 @@ def save_equilibrium(eng, cfg, F_x, prefix):
 def packing_fraction(state):
     """phi = sum pi R^2 / (L h), h = max(y + R) above the wall at y = 0."""
     L = state.box_hi[0] - state.box_lo[0]
-    h = float(np.max(state.x[:, 1] + state.radius))
-    return float(np.sum(np.pi * state.radius ** 2) / (L * h))
+    h = float(np.max(state.positions[:, 1] + state.radii))
+    return float(np.sum(np.pi * state.radii ** 2) / (L * h))
 
 
 def _analyze(eng, dump):

@@ -71,7 +71,7 @@ def relax_force_estimate(cfg, state):
     """
     n_top = max(1, int(np.count_nonzero(state.top)))
     n_bulk = state.n - n_top
-    weight = float(getattr(cfg, "g_settle", 0.0)) * float(np.max(state.mass)) * n_bulk / n_top
+    weight = float(getattr(cfg, "g_settle", 0.0)) * float(np.max(state.masses)) * n_bulk / n_top
     load = math.hypot(float(getattr(cfg, "F_x", 0.0)), float(cfg.F_y))
     return FORCE_FACTOR * max(load, weight)
 
@@ -107,7 +107,7 @@ def limit_of(state, cfg, F_x, a_priori=False):
     if a_priori:
         kt = float(cfg.k_t) if mu > 0 else 0.0
         bound = ts.hertz_limit(float(cfg.k_n), relax_force_estimate(cfg, state), k_t=kt,
-                               mass=float(np.min(state.mass)))
+                               mass=float(np.min(state.masses)))
         if bound < lim:
             lim, src = bound, "hertz a priori"
     return lim, src

@@ -7,9 +7,9 @@ from remote_trigger.pywrap.packing import generate, write_data, box_width, RADII
 
 def test_same_seed_same_packing_other_seed_differs():
     a, b, c = generate(40, seed=7), generate(40, seed=7), generate(40, seed=8)
-    for name in ("x", "y", "radius", "type", "top"):
+    for name in ("positions", "radii", "types", "top"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-    assert not np.array_equal(a.x, c.x)
+    assert not np.array_equal(a.positions, c.positions)
 
 
 @pytest.mark.parametrize("n", [20, 100])
@@ -17,22 +17,22 @@ def test_geometry(n):
     p = generate(n, seed=3)
     assert p.n == n
     # equal numbers of both radii, types 1 = small, 2 = large
-    assert np.count_nonzero(p.radius == RADII[0]) == n // 2
-    np.testing.assert_array_equal(p.type, np.where(p.radius == RADII[0], 1, 2))
+    assert np.count_nonzero(p.radii == RADII[0]) == n // 2
+    np.testing.assert_array_equal(p.types, np.where(p.radii == RADII[0], 1, 2))
     # width gives an L x L box at phi = 0.82
-    assert p.width == pytest.approx(np.sqrt(np.sum(np.pi * p.radius ** 2) / 0.82))
+    assert p.width == pytest.approx(np.sqrt(np.sum(np.pi * p.radii ** 2) / 0.82))
     # no overlaps (periodic in x), nothing below the wall
-    dx = p.x[:, None] - p.x[None, :]
+    dx = p.positions[:, 0][:, None] - p.positions[:, 0][None, :]
     dx -= p.width * np.round(dx / p.width)
-    dy = p.y[:, None] - p.y[None, :]
-    gap = np.hypot(dx, dy) - (p.radius[:, None] + p.radius[None, :])
+    dy = p.positions[:, 1][:, None] - p.positions[:, 1][None, :]
+    gap = np.hypot(dx, dy) - (p.radii[:, None] + p.radii[None, :])
     np.fill_diagonal(gap, 1.0)
     assert gap.min() > 0
-    assert np.all(p.y - p.radius >= 0)
+    assert np.all(p.positions[:, 1] - p.radii >= 0)
     # the top line is above every bulk disk, even in number, evenly spaced
     assert p.n_top >= 2 and p.n_top % 2 == 0
-    assert p.y[p.top].min() > p.y[~p.top].max()
-    assert np.allclose(np.diff(np.sort(p.x[p.top])), p.width / p.n_top)
+    assert p.positions[:, 1][p.top].min() > p.positions[:, 1][~p.top].max()
+    assert np.allclose(np.diff(np.sort(p.positions[:, 0][p.top])), p.width / p.n_top)
 
 
 def test_data_file_read_by_lammps(tmp_path):
@@ -47,9 +47,9 @@ def test_data_file_read_by_lammps(tmp_path):
         st = eng.gather_state()
         assert eng.natoms == 30
         np.testing.assert_array_equal(st.top, p.top)
-        np.testing.assert_array_equal(st.x[:, 0], p.x)      # exact round trip
-        np.testing.assert_array_equal(st.radius, p.radius)
-        np.testing.assert_array_equal(st.mass, np.ones(30))  # set mass 1, not density
+        np.testing.assert_array_equal(st.positions[:, 0], p.positions[:, 0])      # exact round trip
+        np.testing.assert_array_equal(st.radii, p.radii)
+        np.testing.assert_array_equal(st.masses, np.ones(30))  # set mass 1, not density
         assert int(eng.lmp.extract_global("natoms")) == 30
 
 

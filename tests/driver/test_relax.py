@@ -13,7 +13,7 @@ def _lammps_residual(datafile, F_x, F_y=3.0, k_n=2e5, mu=1.0):
                                    "kn": k_n, "mu": mu}, ("scene",))
         eng.command("run 0")
         st = eng.gather_state()
-    G = np.column_stack([st.f, st.torque / st.radius])
+    G = np.column_stack([st.forces, st.torques / st.radii])
     return G, st
 
 
@@ -21,7 +21,7 @@ def _floor(st, k_n=2e5, F=3.0):
     """Round-off floor k_eff eps max|x| of the force evaluation (docs/driver.md)."""
     delta = (F / k_n) ** (2.0 / 3.0)
     k_eff = 1.5 * k_n * np.sqrt(delta)
-    return k_eff * np.finfo(float).eps * float(np.max(np.abs(st.x)))
+    return k_eff * np.finfo(float).eps * float(np.max(np.abs(st.positions)))
 
 
 def test_relax_reaches_round_off_floor(relaxed):
@@ -32,7 +32,7 @@ def test_relax_reaches_round_off_floor(relaxed):
     # within a few times the double-precision floor of the force evaluation
     assert r < 10 * _floor(st), (r, _floor(st))
     assert r < 1e-10
-    assert np.all(st.v == 0) and np.all(st.omega == 0)
+    assert np.all(st.velocities == 0) and np.all(st.omega == 0)
 
 
 def test_independent_python_force_law(relaxed):

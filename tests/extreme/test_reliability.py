@@ -93,10 +93,10 @@ def test_data_file_with_overlapping_centres(tmp_path):
     from remote_trigger.pywrap.packing import generate, write_data
 
     p = generate(20, seed=3)
-    x, y = p.x.copy(), p.y.copy()
-    x[5], y[5] = x[4] + 0.01, y[4]
+    pos = p.positions.copy()
+    pos[5] = pos[4] + [0.01, 0.0]
     import dataclasses
-    bad = dataclasses.replace(p, x=x, y=y)
+    bad = dataclasses.replace(p, positions=pos)
     path = str(tmp_path / "bad.data")
     write_data(bad, path)
     cfg = RelaxConfig(datafile=path)
