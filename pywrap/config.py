@@ -84,6 +84,57 @@ def _int(name, val, lo):
 
 
 @dataclass(frozen=True)
+class ContactModel:
+    """The model's parameters: one type and one validator for every configuration.
+
+    Every stage configuration (:class:`StageConfig`), the paper's
+    (:class:`~remote_trigger.pywrap.paper_config.PaperConfig`) and the
+    ensemble's carry these four fields under the same names, validate them
+    with this class and get the same defaults from it (docs/model.md).
+
+    Attributes
+    ----------
+    k_n : float
+        Normal stiffness (Eq. 1), > 0. Default 2e5.
+    k_t : float or None
+        Tangential stiffness (Eq. 3), >= 0; None means 2 k_n / 7
+        (:func:`~remote_trigger.analysis.sidecar.default_k_t`), filled in.
+    mu : float
+        Friction coefficient (Eq. 2, static mu_0), >= 0. Default 1.
+    F_y : float
+        Downward load on each ``top`` disk, > 0. Default 3.
+
+    Raises
+    ------
+    ConfigError
+        A value out of range, named with its value.
+    """
+
+    k_n: float = 2e5
+    k_t: float = None
+    mu: float = 1.0
+    F_y: float = 3.0
+
+    def __post_init__(self):
+        _positive("k_n", self.k_n)
+        if self.k_t is None:
+            object.__setattr__(self, "k_t", default_k_t(self.k_n))
+        _nonneg("k_t", self.k_t)
+        _nonneg("mu", self.mu)
+        _positive("F_y", self.F_y)
+
+    @classmethod
+    def of(cls, cfg):
+        """The model of any configuration object with these four fields."""
+        return cls(k_n=cfg.k_n, k_t=cfg.k_t, mu=cfg.mu, F_y=cfg.F_y)
+
+    def as_dict(self):
+        """``{'k_n', 'k_t', 'mu', 'F_y'}`` as floats."""
+        return {"k_n": float(self.k_n), "k_t": float(self.k_t), "mu": float(self.mu),
+                "F_y": float(self.F_y)}
+
+
+@dataclass(frozen=True)
 class StageConfig:
     """Model parameters shared by every stage.
 
@@ -109,10 +160,10 @@ class StageConfig:
     """
 
     datafile: str = ""
-    k_n: float = 2e5
+    k_n: float = ContactModel.k_n
     k_t: float = None
-    mu: float = 1.0
-    F_y: float = 3.0
+    mu: float = ContactModel.mu
+    F_y: float = ContactModel.F_y
     dt: float | str = 1e-3
 
     def __post_init__(self):
@@ -121,18 +172,18 @@ class StageConfig:
         object.__setattr__(self, "datafile", os.fspath(self.datafile))
         if not os.path.isfile(self.datafile):
             raise ConfigError(f"datafile does not exist: datafile = {self.datafile!r}")
-        _positive("k_n", self.k_n)
-        if self.k_t is None:
-            object.__setattr__(self, "k_t", default_k_t(self.k_n))
-        _nonneg("k_t", self.k_t)
-        _nonneg("mu", self.mu)
-        _positive("F_y", self.F_y)
+        object.__setattr__(self, "k_t", self.model.k_t)
         if isinstance(self.dt, str):
             if self.dt != "auto":
                 raise ConfigError(f"dt must be a number > 0 or 'auto', got dt = {self.dt!r}")
         else:
             _positive("dt", self.dt)
         self.validate()
+
+    @property
+    def model(self):
+        """The :class:`ContactModel` of this configuration (validated)."""
+        return ContactModel.of(self)
 
     def validate(self):
         """Stage-specific checks (overridden)."""

@@ -62,8 +62,7 @@ import time
 
 import numpy as np
 
-from remote_trigger.analysis.sidecar import default_k_t
-from .config import ConfigError, RelaxConfig, _int
+from .config import ConfigError, ContactModel, RelaxConfig, _int
 from .paper_config import PaperConfig, PAPER, _num, read_toml
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 from .parallel import on_rank0
@@ -177,11 +176,9 @@ class EnsembleConfig:
         object.__setattr__(self, "seeds", self._seeds(self.seeds, len(n)))
         if not 0.1 < _num("phi", self.phi) < 0.91:
             raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {self.phi!r}")
-        _num("k_n", self.k_n, 0, lo_open=True)
-        if self.k_t is None:
-            object.__setattr__(self, "k_t", default_k_t(self.k_n))
-        _num("k_t", self.k_t, 0)
-        for name in ("F_y", "dt", "mu", "dF_x", "tol", "F_x_max"):
+        _num("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
+        object.__setattr__(self, "k_t", ContactModel.of(self).k_t)
+        for name in ("dt", "dF_x", "tol", "F_x_max"):
             _num(name, getattr(self, name), 0, lo_open=True)
         if not 0.0 < _num("mu_ss", self.mu_ss) <= 1.0:
             raise ConfigError(f"mu_ss must be in (0, 1] (a fraction of mu), got "

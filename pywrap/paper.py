@@ -136,9 +136,13 @@ class _Clock:
 
 # --------------------------------------------------------------------------- stages
 def model_fields(cfg):
-    """The model parameters every stage configuration shares."""
-    return {"k_n": float(cfg.k_n), "k_t": float(cfg.k_t), "F_y": float(cfg.F_y),
-            "dt": float(cfg.dt)}
+    """The model parameters every stage configuration shares but mu (each stage
+    sets its own friction), and the time step."""
+    from .config import ContactModel
+
+    d = ContactModel.of(cfg).as_dict()
+    del d["mu"]
+    return dict(d, dt=float(cfg.dt))
 
 
 def relax_config(cfg, datafile):

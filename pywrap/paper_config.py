@@ -17,8 +17,7 @@ from dataclasses import dataclass, field, fields, asdict
 import math
 import os
 
-from remote_trigger.analysis.sidecar import default_k_t
-from .config import ConfigError, DynamicsConfig, _int, check_number as _num
+from .config import ConfigError, ContactModel, DynamicsConfig, _int, check_number as _num
 
 #: paper's reference values (Charan, Pomyalov & Procaccia), for the report only
 PAPER = {
@@ -160,11 +159,11 @@ class PaperConfig:
     n: int = 100
     seed: int = 1
     phi: float = 0.82
-    k_n: float = 2e5
+    k_n: float = ContactModel.k_n
     k_t: float = None
-    F_y: float = 3.0
+    F_y: float = ContactModel.F_y
     dt: float = 1e-3
-    mu: float = 1.0
+    mu: float = ContactModel.mu
     mu_low: float = 0.8
     dF_x: float = 2.5e-4
     tol: float = 1e-7
@@ -208,13 +207,9 @@ class PaperConfig:
         _int("seed", self.seed, 0)
         if not 0.1 < _num("phi", self.phi) < 0.91:
             raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {self.phi!r}")
-        _num("k_n", self.k_n, 0, lo_open=True)
-        if self.k_t is None:
-            object.__setattr__(self, "k_t", default_k_t(self.k_n))
-        _num("k_t", self.k_t, 0)
-        _num("F_y", self.F_y, 0, lo_open=True)
+        _num("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
+        object.__setattr__(self, "k_t", ContactModel.of(self).k_t)
         _num("dt", self.dt, 0, lo_open=True)
-        _num("mu", self.mu, 0, lo_open=True)
         _num("mu_low", self.mu_low, 0, lo_open=True)
         if self.mu_low == self.mu:
             raise ConfigError(f"mu_low must differ from mu = {self.mu!r}, got "

@@ -86,3 +86,25 @@ def test_ramp_refuses_to_overwrite_and_bad_resume_file(relaxed, tmp_path):
         stages.ramp(cfg, str(out), quiet=True, resume=True)
     assert h5.read_bytes() == before          # nothing lost
     assert not os.path.exists(out / "ramp" / "step_00000.data")
+
+
+def test_one_model_type_for_every_configuration(packing_file):
+    """k_n, k_t, mu, F_y: one type (ContactModel) gives the defaults and the checks of
+    the stage, paper and ensemble configurations alike."""
+    from remote_trigger.pywrap.config import ContactModel, DynamicsConfig
+    from remote_trigger.pywrap.paper_config import PaperConfig
+    from remote_trigger.pywrap.ensemble import EnsembleConfig
+
+    ref = ContactModel()
+    assert ref.k_t == pytest.approx(2 * ref.k_n / 7)
+    for cfg in (RelaxConfig(datafile=packing_file), DynamicsConfig(datafile=packing_file),
+                PaperConfig(), EnsembleConfig()):
+        assert ContactModel.of(cfg) == ref, type(cfg).__name__
+    assert RelaxConfig(datafile=packing_file, k_n=1e4).model == ContactModel(k_n=1e4)
+    # the same message from every configuration
+    for make in (lambda **kw: RelaxConfig(datafile=packing_file, **kw), PaperConfig,
+                 EnsembleConfig, ContactModel):
+        with pytest.raises(ConfigError, match=r"^k_t must be >= 0, got k_t = -1\.0$"):
+            make(k_t=-1.0)
+        with pytest.raises(ConfigError, match=r"^F_y must be > 0, got F_y = 0(\.0)?$"):
+            make(F_y=0)
