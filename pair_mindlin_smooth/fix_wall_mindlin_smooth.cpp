@@ -180,6 +180,98 @@ void FixWallMindlinSmooth::setup(int vflag)
 
 /* ---------------------------------------------------------------------- */
 
+/* ----------------------------------------------------------------------
+   forces of one wall on every atom of the group, for one kind of wall
+   (KIND = 1: yplane, 0: xplane, -1: zcylinder); the same contact step as
+   pair mindlin/smooth (MindlinSmooth::step)
+------------------------------------------------------------------------- */
+
+namespace {
+struct WallArrays {
+  double **x, **v, **f, **omega, **torque, **out;
+  const double *radius;
+  const int *mask;
+  int groupbit, nlocal, update_history, stride;
+  double dt;
+  double *stored;
+  MindlinSmooth::Params p;
+};
+
+template <int KIND>
+void wall_pass(const WallArrays &a, const FixWallMindlinSmooth::Wall &wall, double *local,
+               Error *error = nullptr, const tagint *tag = nullptr)
+{
+  for (int i = 0; i < a.nlocal; i++) {
+    if (!(a.mask[i] & a.groupbit)) continue;
+    const double radi = a.radius[i];
+    double &stored = a.stored[(bigint) i * a.stride];
+    double delta, nx, ny;
+    if (KIND >= 0) {
+      // plane: n = sign e_axis
+      delta = radi - wall.sign * (a.x[i][KIND] - wall.pos);
+      nx = (KIND == 0) ? wall.sign : 0.0;
+      ny = (KIND == 1) ? wall.sign : 0.0;
+    } else {
+      // inside of a circle of radius pos about the origin: n points inward
+      const double d = sqrt(a.x[i][0] * a.x[i][0] + a.x[i][1] * a.x[i][1]);
+      delta = radi + d - wall.pos;
+      if (delta > 0.0 && d == 0.0)
+        error->one(FLERR,
+                   "Fix wall/mindlin/smooth: atom {} (radius {}) at the centre of zcylinder "
+                   "R = {} has no contact normal",
+                   tag[i], radi, wall.pos);
+      nx = (delta > 0.0) ? -a.x[i][0] / d : 0.0;
+      ny = (delta > 0.0) ? -a.x[i][1] / d : 0.0;
+    }
+    if (delta <= 0.0) {
+      if (a.update_history) stored = 0.0;
+      continue;
+    }
+
+    // tangent s = (ny, -nx); for a plane one component, taken exactly
+    double slip;
+    if (KIND == 1)
+      slip = ny * a.v[i][0];
+    else if (KIND == 0)
+      slip = -nx * a.v[i][1];
+    else
+      slip = ny * a.v[i][0] - nx * a.v[i][1];
+    slip += radi * a.omega[i][2];
+    const MindlinSmooth::Response res =
+        MindlinSmooth::step(a.p, delta, stored, slip, a.dt, a.update_history);
+    if (a.update_history) stored = res.xi;
+
+    // F = fn n + ft s
+    double fx, fy;
+    if (KIND == 1) {
+      fx = ny * res.ft;
+      fy = ny * res.fn;
+    } else if (KIND == 0) {
+      fx = nx * res.fn;
+      fy = -nx * res.ft;
+    } else {
+      fx = res.fn * nx + res.ft * ny;
+      fy = res.fn * ny - res.ft * nx;
+    }
+    a.f[i][0] += fx;
+    a.f[i][1] += fy;
+    a.torque[i][2] += radi * res.ft;
+
+    double *out = a.out[i];
+    out[0] += fx;
+    out[1] += fy;
+    out[2] = res.u;
+    out[3] = res.xi;
+    out[4] = delta;
+    local[0] += 0.4 * res.fn * delta;
+    local[1] += fx;
+    local[2] += fy;
+  }
+}
+}    // namespace
+
+/* ---------------------------------------------------------------------- */
+
 void FixWallMindlinSmooth::post_force(int /*vflag*/)
 {
   if (mu_ivar >= 0) {
@@ -195,93 +287,46 @@ void FixWallMindlinSmooth::post_force(int /*vflag*/)
     memory->create(array_atom, nmax, NCOLS, "wall/mindlin/smooth:array_atom");
   }
 
-  double *legacy = (idx_legacy >= 0) ? atom->dvector[idx_legacy] : nullptr;
-  double **x = atom->x;
-  double **v = atom->v;
-  double **f = atom->f;
-  double **omega = atom->omega;
-  double **torque = atom->torque;
-  const double *radius = atom->radius;
-  const tagint *tag = atom->tag;
-  const int *mask = atom->mask;
   const int nlocal = atom->nlocal;
-  const int update_history = (update->setupflag == 0);
-  const double dt = update->dt;
-  const MindlinSmooth::Params p = {kn, kt, mu};
+  WallArrays a;
+  a.x = atom->x;
+  a.v = atom->v;
+  a.f = atom->f;
+  a.omega = atom->omega;
+  a.torque = atom->torque;
+  a.radius = atom->radius;
+  a.mask = atom->mask;
+  a.groupbit = groupbit;
+  a.nlocal = nlocal;
+  a.update_history = (update->setupflag == 0);
+  a.dt = update->dt;
+  a.p = {kn, kt, mu};
+  a.out = array_atom;
 
   for (int k = 0; k < 3; k++) local[k] = 0.0;
   reduced = 0;
+  if (nlocal > 0) memset(array_atom[0], 0, sizeof(double) * nlocal * NCOLS);
 
-  for (int i = 0; i < nlocal; i++) {
-    double *out = array_atom[i];
-    for (int k = 0; k < NCOLS; k++) out[k] = 0.0;
-    if (!(mask[i] & groupbit)) continue;
-    const double radi = radius[i];
-
-    for (int w = 0; w < nwall; w++) {
-      const Wall &wall = walls[w];
-      double &stored = legacy ? legacy[i] : hist[i][w];
-      double delta, nx, ny;
-      if (wall.axis >= 0) {
-        // plane: n = sign e_axis
-        delta = radi - wall.sign * (x[i][wall.axis] - wall.pos);
-        nx = (wall.axis == 0) ? wall.sign : 0.0;
-        ny = (wall.axis == 1) ? wall.sign : 0.0;
-      } else {
-        // inside of a circle of radius pos about the origin: n points inward
-        const double d = sqrt(x[i][0] * x[i][0] + x[i][1] * x[i][1]);
-        delta = radi + d - wall.pos;
-        if (delta > 0.0 && d == 0.0)
-          error->one(FLERR,
-                     "Fix wall/mindlin/smooth: atom {} (radius {}) at the centre of zcylinder "
-                     "R = {} has no contact normal",
-                     tag[i], radi, wall.pos);
-        nx = (delta > 0.0) ? -x[i][0] / d : 0.0;
-        ny = (delta > 0.0) ? -x[i][1] / d : 0.0;
-      }
-      if (delta <= 0.0) {
-        if (update_history) stored = 0.0;
-        continue;
-      }
-
-      // tangent s = (ny, -nx); for a plane one component, taken exactly
-      double slip;
-      if (wall.axis == 1)
-        slip = ny * v[i][0];
-      else if (wall.axis == 0)
-        slip = -nx * v[i][1];
-      else
-        slip = ny * v[i][0] - nx * v[i][1];
-      slip += radi * omega[i][2];
-      const MindlinSmooth::Response res =
-          MindlinSmooth::step(p, delta, stored, slip, dt, update_history);
-      if (update_history) stored = res.xi;
-
-      // F = fn n + ft s
-      double fx, fy;
-      if (wall.axis == 1) {
-        fx = ny * res.ft;
-        fy = ny * res.fn;
-      } else if (wall.axis == 0) {
-        fx = nx * res.fn;
-        fy = -nx * res.ft;
-      } else {
-        fx = res.fn * nx + res.ft * ny;
-        fy = res.fn * ny - res.ft * nx;
-      }
-      f[i][0] += fx;
-      f[i][1] += fy;
-      torque[i][2] += radi * res.ft;
-
-      out[0] += fx;
-      out[1] += fy;
-      out[2] = res.u;
-      out[3] = res.xi;
-      out[4] = delta;
-      local[0] += 0.4 * res.fn * delta;
-      local[1] += fx;
-      local[2] += fy;
+  // one pass over the atoms per wall, specialised to the wall's kind (the
+  // per-atom loop stays as short as the one-floor loop of older versions);
+  // per atom the walls add their forces in the same order as before
+  for (int w = 0; w < nwall; w++) {
+    const Wall &wall = walls[w];
+    // history of this wall: d_mindlin_wall_t (legacy form), or column w
+    // of the fix's own contiguous nmax x nwall array
+    if (idx_legacy >= 0) {
+      a.stored = atom->dvector[idx_legacy];
+      a.stride = 1;
+    } else {
+      a.stored = (nlocal > 0) ? hist[0] + w : nullptr;
+      a.stride = nwall;
     }
+    if (wall.axis == 1)
+      wall_pass<1>(a, wall, local);
+    else if (wall.axis == 0)
+      wall_pass<0>(a, wall, local);
+    else
+      wall_pass<-1>(a, wall, local, error, atom->tag);
   }
 }
 

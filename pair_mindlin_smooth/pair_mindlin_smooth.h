@@ -62,7 +62,8 @@ class PairMindlinSmooth : public Pair {
   void find_history();
   void setup_history();
   void insertion_radii();
-  int more_contacts(tagint);
+  int grow_scratch(int);
+  [[noreturn]] void too_many_contacts(tagint);
 };
 
 }    // namespace LAMMPS_NS
