@@ -615,6 +615,144 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
         inertia_factor=inertia_factor)
 
 
+def _check_atoms(ids, pos, radii, masses):
+    """Finite positions, radii > 0, masses > 0, unique ids; returns the id order.
+
+    Raises
+    ------
+    ValueError
+        Naming the atom id and the bad value.
+    """
+    for name, arr in (("positions", pos), ("radius", radii), ("mass", masses)):
+        if not np.all(np.isfinite(arr)):
+            k = int(np.argwhere(~np.isfinite(arr))[0][0])
+            raise ValueError(f"{name} of atom id {ids[k]} is not finite: {float(arr[k])!r}")
+    if np.any(radii <= 0):
+        k = int(np.argmax(radii <= 0))
+        raise ValueError(f"radius of atom id {ids[k]} must be > 0, got {float(radii[k])!r}")
+    if np.any(masses <= 0):
+        k = int(np.argmax(masses <= 0))
+        raise ValueError(f"mass of atom id {ids[k]} must be > 0, got {float(masses[k])!r}")
+    order = np.argsort(ids, kind="stable")
+    if np.any(np.diff(ids[order]) == 0):
+        raise ValueError(f"atom id {ids[order][np.argmax(np.diff(ids[order]) == 0)]} "
+                         f"appears twice")
+    return order
+
+
+def _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol):
+    """Disk-disk history (sorted by id) -> contacts (i < j, xi), mirror-checked.
+
+    Parameters
+    ----------
+    P, X : ndarray, shape (N, K)
+        Partner ids (0 = empty slot) and tangential displacements per slot.
+    ids, pos, radii : ndarray
+        Sorted by id.
+    L : ndarray, shape (2,)
+    periodic : tuple of bool
+    params : ContactParams
+    mirror_rtol : float
+
+    Returns
+    -------
+    (ndarray, ndarray, ndarray)
+        Indices i < j and xi (mean of the two sides).
+
+    Raises
+    ------
+    ValueError
+        Non-integer or negative ids, unknown partner, self contact, a partner
+        listed twice, a one-sided entry, or two sides that disagree.
+    """
+    n = ids.size
+    if np.any(P != np.round(P)) or np.any(P < 0):
+        raise ValueError(f"{PARTNER} must hold non-negative integer atom ids")
+    P = P.astype(np.int64)
+    rows, slots = np.nonzero(P > 0)
+    pid = P[rows, slots]
+    pxi = X[rows, slots]
+    cidx = np.searchsorted(ids, pid)
+    cidx = np.minimum(cidx, n - 1)
+    unknown = ids[cidx] != pid
+    if np.any(unknown):
+        k = int(np.argmax(unknown))
+        raise ValueError(f"history of atom id {ids[rows[k]]} names partner id {pid[k]}, "
+                         f"which is not in the snapshot")
+    self_c = cidx == rows
+    if np.any(self_c):
+        raise ValueError(f"atom id {ids[rows[np.argmax(self_c)]]} lists itself as a "
+                         f"contact partner")
+    keys = rows * n + cidx
+    ks = np.argsort(keys)
+    keys, rows, cidx, pxi = keys[ks], rows[ks], cidx[ks], pxi[ks]
+    if np.any(np.diff(keys) == 0):
+        k = int(np.argmax(np.diff(keys) == 0))
+        raise ValueError(f"atom id {ids[rows[k]]} lists partner id {ids[cidx[k]]} twice")
+    # every entry must have its mirror (j lists i)
+    mkeys_all = cidx * n + rows
+    mpos_all = np.minimum(np.searchsorted(keys, mkeys_all), keys.size - 1)
+    lone = keys[mpos_all] != mkeys_all
+    if np.any(lone):
+        k = int(np.argmax(lone))
+        raise ValueError(f"contact {ids[rows[k]]}-{ids[cidx[k]]} is in the history of "
+                         f"atom id {ids[rows[k]]} but not in that of atom id "
+                         f"{ids[cidx[k]]} (the two sides must mirror each other)")
+    prim = rows < cidx
+    hi_, hj, hxi = rows[prim], cidx[prim], pxi[prim]
+    mxi = pxi[mpos_all[prim]]
+    # scale of the check: t* of the contact (or |xi| without friction)
+    d = minimum_image(pos[hi_] - pos[hj], L, periodic)
+    delta_h = radii[hi_] + radii[hj] - np.hypot(d[:, 0], d[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ts = (params.mu * params.k_n * np.maximum(delta_h, 0.0) / params.k_t
+              if params.k_t > 0 else np.full(delta_h.shape, np.inf))
+    scale = np.maximum(np.abs(hxi), np.where(np.isfinite(ts), ts, 0.0))
+    mism = np.abs(hxi - mxi) > mirror_rtol * scale
+    if np.any(mism):
+        k = int(np.argmax(mism))
+        raise ValueError(f"contact {ids[hi_[k]]}-{ids[hj[k]]}: the two sides of the "
+                         f"history disagree, xi = {float(hxi[k])!r} on atom id "
+                         f"{ids[hi_[k]]} and {float(mxi[k])!r} on atom id {ids[hj[k]]} "
+                         f"(must be equal)")
+    hxi = 0.5 * (hxi + mxi)
+    return hi_, hj, hxi
+
+
+def _wall_contacts(ids, pos, radii, wall_y, wt, wall_t):
+    """Disks touching the floor y = wall_y: (indices, xi, overlap, stale entries).
+
+    ``wt`` is the wall history sorted by id (None: zero); ``wall_t`` the
+    history as given (to refuse a nonzero one without a wall).
+
+    Raises
+    ------
+    ValueError
+        A centre at or below the wall; wall history without a wall.
+    """
+    n = ids.size
+    stale_w = 0
+    if wall_y is not None:
+        wdelta_all = radii - (pos[:, 1] - wall_y)
+        widx = np.nonzero(wdelta_all > 0.0)[0].astype(np.int64)
+        wt = np.zeros(n) if wt is None else wt
+        wxi = wt[widx].copy()
+        stale_w = int(np.count_nonzero((wdelta_all <= 0.0) & (wt != 0.0)))
+        wdelta = wdelta_all[widx]
+        if np.any(wdelta >= radii[widx]):
+            k = widx[np.argmax(wdelta >= radii[widx])]
+            raise ValueError(f"the centre of atom id {ids[k]} (y = {float(pos[k, 1])!r}) is at or "
+                             f"below the wall y = {wall_y!r}")
+    else:
+        widx = np.zeros(0, np.int64)
+        wxi = np.zeros(0)
+        wdelta = np.zeros(0)
+        if wall_t is not None and np.any(np.asarray(wall_t) != 0.0):
+            raise ValueError("wall history d_mindlin_wall_t is nonzero but no wall is given "
+                             "(wall_y is None)")
+    return widx, wxi, wdelta, stale_w
+
+
 def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y,
                 partners=None, partner_xi=None, wall_t=None, periodic=(True, False),
                 external=None, contact_forces=None, velocities=None, omega=None, types=None,
@@ -663,20 +801,7 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     radii = np.asarray(radii, dtype=np.float64).reshape(n)
     masses = np.asarray(masses, dtype=np.float64).reshape(n)
     _check_params(params, wall_y)
-    for name, arr in (("positions", pos), ("radius", radii), ("mass", masses)):
-        if not np.all(np.isfinite(arr)):
-            k = int(np.argwhere(~np.isfinite(arr))[0][0])
-            raise ValueError(f"{name} of atom id {ids[k]} is not finite: {float(arr[k])!r}")
-    if np.any(radii <= 0):
-        k = int(np.argmax(radii <= 0))
-        raise ValueError(f"radius of atom id {ids[k]} must be > 0, got {float(radii[k])!r}")
-    if np.any(masses <= 0):
-        k = int(np.argmax(masses <= 0))
-        raise ValueError(f"mass of atom id {ids[k]} must be > 0, got {float(masses[k])!r}")
-    order = np.argsort(ids, kind="stable")
-    if np.any(np.diff(ids[order]) == 0):
-        raise ValueError(f"atom id {ids[order][np.argmax(np.diff(ids[order]) == 0)]} "
-                         f"appears twice")
+    order = _check_atoms(ids, pos, radii, masses)
 
     def srt(a, shape=None, dtype=np.float64):
         if a is None:
@@ -701,56 +826,7 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     if partners is not None:
         P = srt(partners, (n, -1), np.float64)
         X = srt(partner_xi, P.shape, np.float64)
-        if np.any(P != np.round(P)) or np.any(P < 0):
-            raise ValueError(f"{PARTNER} must hold non-negative integer atom ids")
-        P = P.astype(np.int64)
-        rows, slots = np.nonzero(P > 0)
-        pid = P[rows, slots]
-        pxi = X[rows, slots]
-        cidx = np.searchsorted(ids, pid)
-        cidx = np.minimum(cidx, n - 1)
-        unknown = ids[cidx] != pid
-        if np.any(unknown):
-            k = int(np.argmax(unknown))
-            raise ValueError(f"history of atom id {ids[rows[k]]} names partner id {pid[k]}, "
-                             f"which is not in the snapshot")
-        self_c = cidx == rows
-        if np.any(self_c):
-            raise ValueError(f"atom id {ids[rows[np.argmax(self_c)]]} lists itself as a "
-                             f"contact partner")
-        keys = rows * n + cidx
-        ks = np.argsort(keys)
-        keys, rows, cidx, pxi = keys[ks], rows[ks], cidx[ks], pxi[ks]
-        if np.any(np.diff(keys) == 0):
-            k = int(np.argmax(np.diff(keys) == 0))
-            raise ValueError(f"atom id {ids[rows[k]]} lists partner id {ids[cidx[k]]} twice")
-        # every entry must have its mirror (j lists i)
-        mkeys_all = cidx * n + rows
-        mpos_all = np.minimum(np.searchsorted(keys, mkeys_all), keys.size - 1)
-        lone = keys[mpos_all] != mkeys_all
-        if np.any(lone):
-            k = int(np.argmax(lone))
-            raise ValueError(f"contact {ids[rows[k]]}-{ids[cidx[k]]} is in the history of "
-                             f"atom id {ids[rows[k]]} but not in that of atom id "
-                             f"{ids[cidx[k]]} (the two sides must mirror each other)")
-        prim = rows < cidx
-        hi_, hj, hxi = rows[prim], cidx[prim], pxi[prim]
-        mxi = pxi[mpos_all[prim]]
-        # scale of the check: t* of the contact (or |xi| without friction)
-        d = minimum_image(pos[hi_] - pos[hj], L, periodic)
-        delta_h = radii[hi_] + radii[hj] - np.hypot(d[:, 0], d[:, 1])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ts = (params.mu * params.k_n * np.maximum(delta_h, 0.0) / params.k_t
-                  if params.k_t > 0 else np.full(delta_h.shape, np.inf))
-        scale = np.maximum(np.abs(hxi), np.where(np.isfinite(ts), ts, 0.0))
-        mism = np.abs(hxi - mxi) > mirror_rtol * scale
-        if np.any(mism):
-            k = int(np.argmax(mism))
-            raise ValueError(f"contact {ids[hi_[k]]}-{ids[hj[k]]}: the two sides of the "
-                             f"history disagree, xi = {float(hxi[k])!r} on atom id "
-                             f"{ids[hi_[k]]} and {float(mxi[k])!r} on atom id {ids[hj[k]]} "
-                             f"(must be equal)")
-        hxi = 0.5 * (hxi + mxi)
+        hi_, hj, hxi = _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol)
     else:
         hi_ = hj = np.zeros(0, np.int64)
         hxi = np.zeros(0)
@@ -770,25 +846,9 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     ci, cj, cxi = ci[srt_c], cj[srt_c], cxi[srt_c]
 
     # ---- wall
-    if wall_y is not None:
-        wdelta_all = radii - (pos[:, 1] - wall_y)
-        widx = np.nonzero(wdelta_all > 0.0)[0].astype(np.int64)
-        wt = np.zeros(n) if wall_t is None else srt(wall_t, (n,))
-        wxi = wt[widx].copy()
-        stale_w = int(np.count_nonzero((wdelta_all <= 0.0) & (wt != 0.0)))
-        notes["stale_wall_history"] = stale_w
-        wdelta = wdelta_all[widx]
-        if np.any(wdelta >= radii[widx]):
-            k = widx[np.argmax(wdelta >= radii[widx])]
-            raise ValueError(f"the centre of atom id {ids[k]} (y = {float(pos[k, 1])!r}) is at or "
-                             f"below the wall y = {wall_y!r}")
-    else:
-        widx = np.zeros(0, np.int64)
-        wxi = np.zeros(0)
-        wdelta = np.zeros(0)
-        if wall_t is not None and np.any(np.asarray(wall_t) != 0.0):
-            raise ValueError("wall history d_mindlin_wall_t is nonzero but no wall is given "
-                             "(wall_y is None)")
+    wt = None if (wall_t is None or wall_y is None) else srt(wall_t, (n,))
+    widx, wxi, wdelta, notes["stale_wall_history"] = _wall_contacts(ids, pos, radii, wall_y,
+                                                                     wt, wall_t)
 
     if partners is not None and (notes["stale_history"] or notes["unrecorded_contacts"]
                                  or notes["stale_wall_history"]):

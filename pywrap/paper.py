@@ -620,87 +620,125 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
     (one JSON round trip), so that a resumed job and an uninterrupted one
     feed them the same numbers.
     """
-    from mpi4py import MPI
+    job = _PaperJob(cfg, out, comm, speak, resume)
+    if job.start():
+        return job.path
+    job.relax()
+    job.split()
+    job.merge(_guarded(job.ramps))
+    job.sync_checkpoint()
+    job.merge(_guarded(job.dynamics))
+    job.sync_checkpoint()
+    return job.finish()
 
-    comm = MPI.COMM_WORLD if comm is None else comm
-    rank, size = comm.Get_rank(), comm.Get_size()
-    out = os.path.abspath(out)
-    mpath = os.path.join(out, MANIFEST)
-    path = os.path.join(out, "report.md")
-    t_job = time.perf_counter()
-    wclock = _Clock(speak and rank == 0)
 
-    # 0. a new job (prepare_out), or the manifest of the job to resume
-    summary, complete, err = None, False, None
-    if rank == 0:
-        try:
-            man = load_manifest(out, cfg) if resume and os.path.isfile(mpath) else None
-            if man is None:
-                prepare_out(out)
-                done, sessions, phases = {}, [], {}
-            else:
-                done = finished_phases(man, out)
-                complete = (_report_done(out, man) and
-                            len(done) == len(finished_phases(man, out, False)))
-                sessions = list(man.get("sessions") or [])
-                names = {"relax": "relax", "ramp0": f"ramp_mu{cfg.mu:g}",
-                         "ramp1": f"ramp_mu{cfg.mu_low:g}", "instability": "instability",
-                         "perturb": "perturb", "normal_form": "normal_form"}
-                keep = {names[k] for k in done}
-                phases = {k: v for k, v in (man.get("phases") or {}).items() if k in keep}
-            summary = {"job": "remote-trigger paper", "status": "running", "out": out,
-                       "config": cfg.to_dict(), "n_ranks": size, "paper": PAPER,
-                       "task_parallel": size >= 2, "argv": sys.argv, "phases": phases,
-                       "sessions": sessions + [{"started": _utc_now(),
-                                                "resume": man is not None, "n_ranks": size,
-                                                "elapsed": 0.0, "reused": sorted(done)}],
-                       "ramps": [done.get("ramp0"), done.get("ramp1")]}
-            for k in ("relax", "instability", "perturb", "normal_form"):
-                if k in done:
-                    summary[k] = done[k]
-            if complete:
-                wclock.say(f"--resume: the job in {out} is complete; nothing to do")
-            else:
-                if man is not None:
-                    wclock.say("--resume: reusing " + (", ".join(sorted(done)) or "nothing")
-                               + f" from {MANIFEST}")
-                write_json(mpath, summary)
-        except (ConfigError, OSError) as exc:
-            err = str(exc)
-    summary, complete, err = comm.bcast((summary, complete, err), root=0)
-    if err:
-        raise ConfigError(err)
-    if complete:
-        comm.Barrier()
-        return path
+class _PaperJob:
+    """The phases of one ``paper`` job on the ranks of ``comm`` (:func:`run_paper`).
 
-    def checkpoint():
-        """Rewrite the manifest (rank 0 only; others do nothing)."""
+    State shared by the phases: the manifest ``summary`` (rank 0 writes it),
+    the rank groups (two when task-parallel) and the clocks.
+    """
+
+    def __init__(self, cfg, out, comm, speak, resume):
+        from mpi4py import MPI
+
+        self.cfg, self.speak, self.resume = cfg, speak, resume
+        self.comm = MPI.COMM_WORLD if comm is None else comm
+        self.rank, self.size = self.comm.Get_rank(), self.comm.Get_size()
+        self.out = os.path.abspath(out)
+        self.mpath = os.path.join(self.out, MANIFEST)
+        self.path = os.path.join(self.out, "report.md")
+        self.t_job = time.perf_counter()
+        self.wclock = _Clock(speak and self.rank == 0)
+        self.summary = None
+        self.color, self.group, self.leader, self.clock = 0, self.comm, True, self.wclock
+
+    # ------------------------------------------------------------ manifest
+    def start(self):
+        """0. A new job (prepare_out), or the manifest of the job to resume.
+
+        Returns True if the job to resume is complete (nothing to do).
+        """
+        cfg, out, rank, size = self.cfg, self.out, self.rank, self.size
+        summary, complete, err = None, False, None
         if rank == 0:
-            summary["sessions"][-1]["elapsed"] = time.perf_counter() - t_job
-            write_json(mpath, summary)
+            try:
+                man = (load_manifest(out, cfg) if self.resume and os.path.isfile(self.mpath)
+                       else None)
+                if man is None:
+                    prepare_out(out)
+                    done, sessions, phases = {}, [], {}
+                else:
+                    done = finished_phases(man, out)
+                    complete = (_report_done(out, man) and
+                                len(done) == len(finished_phases(man, out, False)))
+                    sessions = list(man.get("sessions") or [])
+                    names = {"relax": "relax", "ramp0": f"ramp_mu{cfg.mu:g}",
+                             "ramp1": f"ramp_mu{cfg.mu_low:g}", "instability": "instability",
+                             "perturb": "perturb", "normal_form": "normal_form"}
+                    keep = {names[k] for k in done}
+                    phases = {k: v for k, v in (man.get("phases") or {}).items() if k in keep}
+                summary = {"job": "remote-trigger paper", "status": "running", "out": out,
+                           "config": cfg.to_dict(), "n_ranks": size, "paper": PAPER,
+                           "task_parallel": size >= 2, "argv": sys.argv, "phases": phases,
+                           "sessions": sessions + [{"started": _utc_now(),
+                                                    "resume": man is not None,
+                                                    "n_ranks": size, "elapsed": 0.0,
+                                                    "reused": sorted(done)}],
+                           "ramps": [done.get("ramp0"), done.get("ramp1")]}
+                for k in ("relax", "instability", "perturb", "normal_form"):
+                    if k in done:
+                        summary[k] = done[k]
+                if complete:
+                    self.wclock.say(f"--resume: the job in {out} is complete; nothing to do")
+                else:
+                    if man is not None:
+                        self.wclock.say("--resume: reusing " + (", ".join(sorted(done))
+                                                                 or "nothing")
+                                        + f" from {MANIFEST}")
+                    write_json(self.mpath, summary)
+            except (ConfigError, OSError) as exc:
+                err = str(exc)
+        summary, complete, err = self.comm.bcast((summary, complete, err), root=0)
+        if err:
+            raise ConfigError(err)
+        self.summary = summary
+        if complete:
+            self.comm.Barrier()
+        return complete
 
-    def sync_checkpoint():
+    def checkpoint(self):
+        """Rewrite the manifest (rank 0 only; others do nothing)."""
+        if self.rank == 0:
+            self.summary["sessions"][-1]["elapsed"] = time.perf_counter() - self.t_job
+            write_json(self.mpath, self.summary)
+
+    def sync_checkpoint(self):
         """Checkpoint on rank 0; an error there is raised on every rank."""
-        errs = comm.allgather(_guarded(checkpoint))
+        errs = self.comm.allgather(_guarded(self.checkpoint))
         _raise_first(errs)
 
-    # 1. packing + relaxation: on world rank 0 alone, so that the packing does not
-    #    depend on the number of ranks (a domain-decomposed compaction is not
-    #    bitwise equal to a serial one, and the compaction amplifies round-off)
-    from .packing import generate, write_data
-    from . import stages
+    # ------------------------------------------------------------ phases
+    def relax(self):
+        """1. Packing + relaxation: on world rank 0 alone, so that the packing does
+        not depend on the number of ranks (a domain-decomposed compaction is not
+        bitwise equal to a serial one, and the compaction amplifies round-off)."""
+        from mpi4py import MPI
+        from .packing import generate, write_data
+        from . import stages
 
-    datafile = os.path.join(out, "packing.data")
-    if summary.get("relax"):
-        r = summary["relax"]
-        wclock.say(f"relax: done earlier ({MANIFEST}): phi = {r['packing_fraction']:.4f}, "
-                   f"residual {r['residual']:.2e}")
-    else:
+        cfg, out, comm, rank, size = self.cfg, self.out, self.comm, self.rank, self.size
+        summary = self.summary
+        datafile = os.path.join(out, "packing.data")
+        if summary.get("relax"):
+            r = summary["relax"]
+            self.wclock.say(f"relax: done earlier ({MANIFEST}): phi = "
+                            f"{r['packing_fraction']:.4f}, residual {r['residual']:.2e}")
+            return
         t0 = time.perf_counter()
         err = None
         if rank == 0:
-            wclock.say(f"relax: N = {cfg.n}, seed {cfg.seed}")
+            self.wclock.say(f"relax: N = {cfg.n}, seed {cfg.seed}")
             solo = comm.Split(0, 0) if size > 1 else comm
             try:
                 write_data(generate(cfg.n, seed=cfg.seed, phi=cfg.phi), datafile)
@@ -712,7 +750,7 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
                                     "datafile": rel.datafile,
                                     "protocol": getattr(rel, "protocol", "")}
                 summary["phases"]["relax"] = time.perf_counter() - t0
-                checkpoint()
+                self.checkpoint()
             except Exception as exc:  # noqa: BLE001 - re-raised on every rank below
                 err = exc
             finally:
@@ -726,24 +764,24 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
         if err is not None:
             raise err
         r = summary["relax"]
-        wclock.say(f"relax: phi = {r['packing_fraction']:.4f}, residual {r['residual']:.2e} "
-                   f"({time.perf_counter() - t0:.0f} s)")
-    relaxed = summary["relax"]["datafile"]
+        self.wclock.say(f"relax: phi = {r['packing_fraction']:.4f}, residual "
+                        f"{r['residual']:.2e} ({time.perf_counter() - t0:.0f} s)")
 
-    if size >= 2:
-        color = rank % 2
-        group = comm.Split(color, rank)
-    else:
-        color, group = 0, comm
-    leader = group.Get_rank() == 0
-    clock = _Clock(speak and leader, t0=wclock.t0)
+    def split(self):
+        """Two rank groups when task-parallel (>= 2 ranks), else one."""
+        if self.size >= 2:
+            self.color = self.rank % 2
+            self.group = self.comm.Split(self.color, self.rank)
+        self.leader = self.group.Get_rank() == 0
+        self.clock = _Clock(self.speak and self.leader, t0=self.wclock.t0)
 
-    def merge(err):
+    def merge(self, err):
         """Bring the group leaders' new summaries to every rank; raise the first error."""
-        if size < 2:
+        summary = self.summary
+        if self.size < 2:
             _raise_first([err])
             return
-        parts = comm.allgather((summary if leader else None, err))
+        parts = self.comm.allgather((summary if self.leader else None, err))
         for part, _ in parts:
             if part is None:
                 continue
@@ -756,12 +794,12 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
             summary["phases"].update(part["phases"])
         _raise_first([e for _, e in parts])
 
-    # 2. ramps (one per group when task-parallel)
-    mus = (cfg.mu, cfg.mu_low)
-
-    def do_ramps():
-        for k, mu in enumerate(mus):
-            if size >= 2 and k % 2 != color:
+    def ramps(self):
+        """2. The ramps at mu and mu_low (one per group when task-parallel)."""
+        cfg, summary, clock = self.cfg, self.summary, self.clock
+        relaxed = summary["relax"]["datafile"]
+        for k, mu in enumerate((cfg.mu, cfg.mu_low)):
+            if self.size >= 2 and k % 2 != self.color:
                 continue
             if summary["ramps"][k] is not None:
                 rr = summary["ramps"][k]
@@ -770,67 +808,66 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
                            if rr["status"] == "complete" else rr["status"]))
                 continue
             t0 = time.perf_counter()
-            summ = run_ramp(cfg, out, mu, relaxed, group, clock, main=(k == 0), resume=resume)
+            summ = run_ramp(cfg, self.out, mu, relaxed, self.group, clock, main=(k == 0),
+                            resume=self.resume)
             summary["ramps"][k] = summ
             summary["phases"][f"ramp_mu{mu:g}"] = time.perf_counter() - t0
-            checkpoint()
+            self.checkpoint()
 
-    merge(_guarded(do_ramps))
-    sync_checkpoint()
-    main = summary["ramps"][0]
-    F_c = (0.5 * (main["F_x_c_low"] + main["F_x_c_high"])
-           if main["status"] == "complete" else None)
-
-    # 3.-5. dynamics and normal form
-    if F_c is None:
-        wclock.say(f"no F_x^c for mu = {cfg.mu:g} ({main['status']}): Figs. 4 and 5 skipped")
-
-    def run_phase(name, fn):
-        if summary.get(name):
-            clock.say(f"{name}: done earlier ({MANIFEST})")
+    def _phase(self, name, fn):
+        if self.summary.get(name):
+            self.clock.say(f"{name}: done earlier ({MANIFEST})")
             return
         t0 = time.perf_counter()
-        summary[name] = fn()
-        summary["phases"][name] = time.perf_counter() - t0
-        checkpoint()
+        self.summary[name] = fn()
+        self.summary["phases"][name] = time.perf_counter() - t0
+        self.checkpoint()
 
-    def do_jobs():
-        if F_c is not None:
-            if color == 0:
-                run_phase("instability", lambda: run_instability(
+    def dynamics(self):
+        """3.-5. Fig. 4 run and normal form (group 0) against the Fig. 5 runs
+        (group 1; both in one group on one rank)."""
+        cfg, out, summary, group, clock = (self.cfg, self.out, self.summary, self.group,
+                                           self.clock)
+        main = summary["ramps"][0]
+        F_c = (0.5 * (main["F_x_c_low"] + main["F_x_c_high"])
+               if main["status"] == "complete" else None)
+        if F_c is None:
+            self.wclock.say(f"no F_x^c for mu = {cfg.mu:g} ({main['status']}): Figs. 4 "
+                            f"and 5 skipped")
+        else:
+            if self.color == 0:
+                self._phase("instability", lambda: run_instability(
                     cfg, out, F_c, main["extension"], main, group, clock))
-            if color == (1 if size >= 2 else 0):
-                run_phase("perturb", lambda: run_perturb(cfg, out, summary["ramps"], group,
-                                                         clock))
-        if color == 0 and leader:
-            run_phase("normal_form", lambda: run_normal_form(cfg, out, clock))
+            if self.color == (1 if self.size >= 2 else 0):
+                self._phase("perturb", lambda: run_perturb(cfg, out, summary["ramps"], group,
+                                                           clock))
+        if self.color == 0 and self.leader:
+            self._phase("normal_form", lambda: run_normal_form(cfg, out, clock))
 
-    merge(_guarded(do_jobs))
-    sync_checkpoint()
+    def finish(self):
+        """6. Figures and report (rank 0), from the manifest as written."""
+        summary, err = self.summary, None
+        if self.rank == 0:
+            from . import figures, report
 
-    # 6. figures and report (rank 0), from the manifest as written
-    err = None
-    if rank == 0:
-        from . import figures, report
-
-        try:
-            t0 = time.perf_counter()
-            summary["figures"] = figures.make_all(out, _normalised(summary))
-            summary["phases"]["figures"] = time.perf_counter() - t0
-            summary["phases"]["total"] = time.perf_counter() - t_job
-            summary["phases"] = _ordered_phases(summary["phases"], cfg)
-            summary["status"] = "complete"
-            checkpoint()
-            report.write_report(out, _normalised(summary))
-            wclock.say(f"done in {summary['phases']['total']:.0f} s")
-        except Exception as exc:  # noqa: BLE001 - re-raised on every rank below
-            err = exc
-    if size >= 2:
-        group.Free()
-        err = comm.bcast(err, root=0)
-    if err is not None:
-        raise err
-    return path
+            try:
+                t0 = time.perf_counter()
+                summary["figures"] = figures.make_all(self.out, _normalised(summary))
+                summary["phases"]["figures"] = time.perf_counter() - t0
+                summary["phases"]["total"] = time.perf_counter() - self.t_job
+                summary["phases"] = _ordered_phases(summary["phases"], self.cfg)
+                summary["status"] = "complete"
+                self.checkpoint()
+                report.write_report(self.out, _normalised(summary))
+                self.wclock.say(f"done in {summary['phases']['total']:.0f} s")
+            except Exception as exc:  # noqa: BLE001 - re-raised on every rank below
+                err = exc
+        if self.size >= 2:
+            self.group.Free()
+            err = self.comm.bcast(err, root=0)
+        if err is not None:
+            raise err
+        return self.path
 
 
 # --------------------------------------------------------------------------- command line

@@ -261,12 +261,10 @@ def _check(rows, cid, quantity, measured, paper, ok, reason="", note=""):
                  "reason": note if ok else (reason or "see text")})
 
 
-def collect(out, summary):
-    """All checks and informational numbers: ``(checks, info, extra)``."""
+def _relax_rows(out, summary, checks, info, extra):
+    """Rows of the relaxation (appended to ``checks``, ``info``, ``extra``)."""
     cfg = summary["config"]
-    checks, info, extra = [], [], {}
     P = PAPER
-    # ---- relaxation
     rel = summary["relax"]
     phi = rel["packing_fraction"]
     _check(checks, "packing_fraction", "packing fraction phi of the relaxed packing", phi,
@@ -282,7 +280,12 @@ def collect(out, summary):
            reason=("double precision cannot resolve forces below ~k_eff eps |x| ~ 1e-11 "
                    "for this packing (docs/driver.md); the paper's f_min = 1e-15 is below "
                    "round-off. This residual sets the noise of the undamped runs"))
-    # ---- eigenvalues, F_x^c
+
+
+def _ramp_rows(out, summary, checks, info, extra):
+    """Rows of the two ramps: eigenvalues and F_x^c (appended to ``checks``, ``info``, ``extra``)."""
+    cfg = summary["config"]
+    P = PAPER
     ramps = summary["ramps"]
     mus = (cfg["mu"], cfg["mu_low"])
     tr = tracks(out, summary)
@@ -341,7 +344,8 @@ def collect(out, summary):
                "certified bracket)",
                Fc[0], f"{lo:g} < F_x^c < {hi:g}", lo < Fc[0] < hi,
                reason=(f"F_x^c is a property of the individual packing; ours (N = "
-                       f"{cfg['n']}, seed {cfg['seed']}, phi = {phi:.4f}, zero tangential "
+                       f"{cfg['n']}, seed {cfg['seed']}, phi = "
+                       f"{summary['relax']['packing_fraction']:.4f}, zero tangential "
                        f"history at F_x = 0) is {Fc[0] / (0.5 * (lo + hi)):.3g} x the "
                        f"midpoint of the paper's bracket; certified bracket "
                        f"[{cb0['real']:.9g}, {cb0['complex']:.9g}], width "
@@ -381,7 +385,11 @@ def collect(out, summary):
     for k, rr in enumerate(ramps):
         info.append((f"ramp_steps_mu{mus[k]:g}", f"mu = {mus[k]:g}: ramp steps + bisection "
                      "points", rr["n_steps"] + rr["n_bisection"]))
-    # ---- Fig. 4
+
+
+def _fig4_rows(out, summary, checks, info, extra):
+    """Rows of Fig. 4 (the instability run) (appended to ``checks``, ``info``, ``extra``)."""
+    P = PAPER
     if summary.get("instability"):
         m = instability_metrics(out, summary)
         extra["instability"] = m
@@ -411,7 +419,12 @@ def collect(out, summary):
                      f"D_max = {m['D_max']:.3g}"))
         info.append(("F_x_fig4", "Fig. 4: F_x of the run (fig4_ratio x F_x^c)",
                      summary["instability"]["F_x"]))
-    # ---- Fig. 5 (docs/paper.md, "Fig. 5: criteria")
+
+
+def _fig5_rows(out, summary, checks, info, extra):
+    """Rows of Fig. 5 (docs/paper.md, "Fig. 5: criteria") (appended to ``checks``, ``info``, ``extra``)."""
+    cfg = summary["config"]
+    P = PAPER
     if summary.get("perturb"):
         pz = summary["perturb"]
         pm = perturb_metrics(out, summary)
@@ -573,7 +586,10 @@ def collect(out, summary):
         if rc is not None:
             info.append(("trigger_time", "Fig. 5 (c): first time with mu < mu0 [tau]",
                          rc["switch_time"]))
-    # ---- normal form
+
+
+def _normal_form_rows(out, summary, checks, info, extra):
+    """Rows of the normal form (appended to ``checks``, ``info``, ``extra``)."""
     if os.path.exists(os.path.join(out, "normal_form.h5")):
         nf = normal_form_metrics(out)
         extra["normal_form"] = nf
@@ -591,6 +607,18 @@ def collect(out, summary):
                    f"estimate at eps = {nf['eps_min']:g}", ratio,
                    "1 (damped estimate, Section IV, with decay e^{-t/2tau})", abs(ratio - 1) < 0.1,
                    reason="the damped amplitude departs from the estimate")
+
+
+def collect(out, summary):
+    """All checks and informational numbers: ``(checks, info, extra)``.
+
+    One function per part of the job (:func:`_relax_rows`, :func:`_ramp_rows`,
+    :func:`_fig4_rows`, :func:`_fig5_rows`, :func:`_normal_form_rows`), in the
+    report's order; a part the summary does not hold adds nothing.
+    """
+    checks, info, extra = [], [], {}
+    for rows in (_relax_rows, _ramp_rows, _fig4_rows, _fig5_rows, _normal_form_rows):
+        rows(out, summary, checks, info, extra)
     return checks, info, extra
 
 
