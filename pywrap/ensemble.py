@@ -53,7 +53,7 @@ Rank 0 writes ``ensemble.h5``, ``ensemble.png`` and ``ensemble.md``.
    The I0 = 1 rows are an analysis convention, not a simulation: their
    eigenvalues do not predict the simulated motion (docs/model.md section 1).
 """
-from dataclasses import dataclass, field, asdict, fields
+from dataclasses import dataclass, field, asdict
 import json
 import math
 import os
@@ -63,9 +63,10 @@ import time
 import numpy as np
 
 from .config import ConfigError, ContactModel, RelaxConfig, _int
-from .paper_config import PaperConfig, PAPER, _num, read_toml
+from .paper_config import JobConfig, PaperConfig, PAPER, _num, layered_config
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 from .parallel import on_rank0
+from .jobfolder import add_job_arguments, job_overrides
 
 #: manifest of the job
 MANIFEST = "ensemble.json"
@@ -81,7 +82,7 @@ _DEFAULT_SEEDS = (tuple(range(1, 21)), tuple(range(1, 6)))
 
 # --------------------------------------------------------------------------- configuration
 @dataclass(frozen=True)
-class EnsembleConfig:
+class EnsembleConfig(JobConfig):
     """Configuration of ``remote-trigger ensemble``.
 
     Attributes
@@ -240,20 +241,6 @@ class EnsembleConfig:
         # the data file, which is made later)
         RelaxConfig.from_dict(dict(extra, datafile=__file__))
 
-    @classmethod
-    def names(cls):
-        """Names of all fields."""
-        return [f.name for f in fields(cls)]
-
-    @classmethod
-    def from_dict(cls, data):
-        """Build from a mapping; unknown keys raise :class:`ConfigError` naming them."""
-        unknown = sorted(set(data) - set(cls.names()))
-        if unknown:
-            raise ConfigError(f"unknown configuration key {unknown[0]!r}; known keys: "
-                              f"{', '.join(sorted(cls.names()))}")
-        return cls(**dict(data))
-
     def to_dict(self):
         """Plain dict (lists for tuples)."""
         d = asdict(self)
@@ -289,22 +276,8 @@ def build_config(toml=None, overrides=None, quick=False):
     ConfigError
         Unknown key (named), bad value (named), unreadable file.
     """
-    from_file = read_toml(toml) if toml else {}
-    overrides = dict(overrides or {})
-    quick = bool(quick or overrides.get("quick") or from_file.get("quick") is True)
-    d = {}
-    if quick:
-        d.update({k: (dict(v) if isinstance(v, dict) else v) for k, v in QUICK.items()})
-    for src in (from_file, overrides):
-        for k, v in src.items():
-            if k in ("relax", "frictional_relax") and isinstance(v, dict) \
-                    and isinstance(d.get(k), dict):
-                d[k] = dict(d[k], **v)
-            else:
-                d[k] = v
-    if quick:
-        d["quick"] = True
-    return EnsembleConfig.from_dict(d)
+    return EnsembleConfig.from_dict(layered_config(toml, overrides, quick, QUICK,
+                                                    ("relax", "frictional_relax")))
 
 
 # --------------------------------------------------------------------------- spectra
@@ -1307,29 +1280,16 @@ def register(subparsers):
                     "slope, the frictional relax protocol at F_x = 0 and the I0 = 1 "
                     "analysis convention; ensemble.h5, ensemble.png and ensemble.md under "
                     "--out. docs/ensemble.md.")
-    p.add_argument("--out", default="ensemble", help="output folder (default ensemble)")
-    p.add_argument("--config", metavar="TOML", help="TOML file with any EnsembleConfig key")
-    p.add_argument("--quick", action="store_true", default=None,
-                   help="small test variant (3 packings of N = 16 and 20, coarse ramps)")
-    p.add_argument("--resume", action="store_true",
-                   help="continue an interrupted ensemble in --out (same configuration; "
-                        "finished packings are kept)")
-    p.add_argument("--np", type=int, default=None, help="MPI ranks: re-launch under mpirun")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="any configuration key (repeatable), e.g. --set n=[100] "
-                        "--set seeds=[1,2,3]")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    add_job_arguments(p, "ensemble", "EnsembleConfig",
+                      "small test variant (3 packings of N = 16 and 20, coarse ramps)",
+                      "continue an interrupted ensemble in --out (same configuration; "
+                      "finished packings are kept)", "--set n=[100] --set seeds=[1,2,3]")
     p.set_defaults(func=main)
 
 
 def config_from_args(args):
     """EnsembleConfig from parsed arguments."""
-    from .paper import _parse_set
-
-    over = _parse_set(args.set)
-    if args.np is not None:
-        over["np"] = args.np
-    return build_config(args.config, over, quick=bool(args.quick))
+    return build_config(args.config, job_overrides(args), quick=bool(args.quick))
 
 
 def main(args):

@@ -61,3 +61,33 @@ def check_job_folder(out, config, resume, kind):
                                           f"(now)" for k in diff))
         return
     write_json(cfgfile, config)
+
+
+def add_job_arguments(p, out, config_class, quick_help, resume_help, set_example):
+    """The options every job subcommand (``trigger-map``, ``ensemble``) shares.
+
+    ``--out`` (default ``out``), ``--config TOML``, ``--quick``, ``--resume``,
+    ``--np``, ``--set KEY=VALUE`` (repeatable) and ``--quiet``; read back by
+    :func:`job_overrides`.
+    """
+    p.add_argument("--out", default=out, help=f"output folder (default {out})")
+    p.add_argument("--config", metavar="TOML", help=f"TOML file with any {config_class} key")
+    p.add_argument("--quick", action="store_true", default=None, help=quick_help)
+    p.add_argument("--resume", action="store_true", help=resume_help)
+    p.add_argument("--np", type=int, default=None, help="MPI ranks: re-launch under mpirun")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help=f"any configuration key (repeatable), e.g. {set_example}")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+
+
+def job_overrides(args, **more):
+    """Configuration overrides from :func:`add_job_arguments`'s options: every
+    ``--set``, ``--np`` and the keyword arguments that are not None."""
+    from .paper import _parse_set
+
+    over = _parse_set(args.set)
+    for key, val in dict(more, np=args.np).items():
+        if val is not None:
+            over[key] = val
+    return over
+

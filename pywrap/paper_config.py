@@ -39,8 +39,58 @@ PAPER = {
 PAPER_F_X_C_MID = 0.5 * (PAPER["F_x_c_mu1_low"] + PAPER["F_x_c_mu1_high"])
 
 
+class JobConfig:
+    """What the job configurations (``paper``, ``trigger-map``, ``ensemble``)
+    share: their field names and :meth:`from_dict`, which names unknown keys."""
+
+    @classmethod
+    def names(cls):
+        """Names of all fields."""
+        return [f.name for f in fields(cls)]
+
+    @classmethod
+    def from_dict(cls, data):
+        """Build from a mapping; unknown keys raise :class:`ConfigError` naming them."""
+        names = set(cls.names())
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ConfigError(f"unknown configuration key {unknown[0]!r}"
+                              + (f" (and {', '.join(map(repr, unknown[1:]))})"
+                                 if len(unknown) > 1 else "")
+                              + f"; known keys: {', '.join(sorted(names))}")
+        return cls(**dict(data))
+
+
+def layered_config(toml, overrides, quick, preset, tables=()):
+    """Defaults < ``preset`` (with ``quick``) < TOML file < ``overrides``, as one dict.
+
+    ``quick`` is also taken from the overrides or the file; the keys in
+    ``tables`` (TOML tables such as ``relax``) are merged key by key.
+
+    Raises
+    ------
+    ConfigError
+        Unreadable or malformed TOML file.
+    """
+    from_file = read_toml(toml) if toml else {}
+    overrides = dict(overrides or {})
+    quick = bool(quick or overrides.get("quick") or from_file.get("quick") is True)
+    d = {}
+    if quick:
+        d.update({k: (dict(v) if isinstance(v, dict) else v) for k, v in preset.items()})
+    for src in (from_file, overrides):
+        for k, v in src.items():
+            if k in tables and isinstance(v, dict) and isinstance(d.get(k), dict):
+                d[k] = dict(d[k], **v)
+            else:
+                d[k] = v
+    if quick:
+        d["quick"] = True
+    return d
+
+
 @dataclass(frozen=True)
-class PaperConfig:
+class PaperConfig(JobConfig):
     """Everything ``remote-trigger paper`` needs.
 
     Attributes
@@ -291,23 +341,6 @@ class PaperConfig:
         return tuple(out)
 
     # ------------------------------------------------------------------ building
-    @classmethod
-    def names(cls):
-        """Names of all fields."""
-        return [f.name for f in fields(cls)]
-
-    @classmethod
-    def from_dict(cls, data):
-        """Build from a mapping; unknown keys raise :class:`ConfigError` naming them."""
-        names = set(cls.names())
-        unknown = sorted(set(data) - names)
-        if unknown:
-            raise ConfigError(f"unknown configuration key {unknown[0]!r}"
-                              + (f" (and {', '.join(map(repr, unknown[1:]))})"
-                                 if len(unknown) > 1 else "")
-                              + f"; known keys: {', '.join(sorted(names))}")
-        return cls(**dict(data))
-
     def to_dict(self):
         """Plain dict of all fields (tuples as lists)."""
         d = asdict(self)
@@ -403,19 +436,4 @@ def build_config(toml=None, overrides=None, quick=False):
     ConfigError
         Unknown key (named), bad value (named), unreadable file.
     """
-    from_file = read_toml(toml) if toml else {}
-    overrides = dict(overrides or {})
-    quick = bool(quick or overrides.get("quick") or from_file.get("quick") is True)
-    d = {}
-    if quick:
-        d.update({k: (dict(v) if isinstance(v, dict) else v) for k, v in QUICK.items()})
-        d["quick"] = True
-    for src in (from_file, overrides):
-        for k, v in src.items():
-            if k == "relax" and isinstance(v, dict) and isinstance(d.get("relax"), dict):
-                d["relax"] = dict(d["relax"], **v)
-            else:
-                d[k] = v
-    if quick:
-        d["quick"] = True
-    return PaperConfig.from_dict(d)
+    return PaperConfig.from_dict(layered_config(toml, overrides, quick, QUICK, ("relax",)))

@@ -49,7 +49,7 @@ again with ``--resume`` keeps every finished run. Rank 0 writes
 ``trigger_map.h5`` (one row per map point), ``trigger_map.png`` and
 ``trigger_map.md``.
 """
-from dataclasses import dataclass, asdict, fields
+from dataclasses import dataclass, asdict
 import json
 import math
 import os
@@ -62,6 +62,8 @@ from remote_trigger.analysis.series import (runaway_rate, runaway_consistent,
                                              RUNAWAY_RATE_TOL, RUNAWAY_MIN_RECORDS)
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 from .parallel import on_rank0
+from .jobfolder import add_job_arguments, job_overrides
+from .paper_config import JobConfig, layered_config
 from . import ramp_file
 
 #: onsets of f(t)
@@ -76,7 +78,7 @@ TABLE = "trigger_map.h5"
 
 
 @dataclass(frozen=True)
-class MapConfig:
+class MapConfig(JobConfig):
     """Configuration of the trigger map.
 
     Attributes
@@ -208,20 +210,6 @@ class MapConfig:
             _int("kappa_steps", self.kappa_steps, 1)
         _int("np", self.np, 1)
 
-    @classmethod
-    def names(cls):
-        """Names of all fields."""
-        return [f.name for f in fields(cls)]
-
-    @classmethod
-    def from_dict(cls, data):
-        """Build from a mapping; unknown keys raise :class:`ConfigError` naming them."""
-        unknown = sorted(set(data) - set(cls.names()))
-        if unknown:
-            raise ConfigError(f"unknown configuration key {unknown[0]!r}; known keys: "
-                              f"{', '.join(sorted(cls.names()))}")
-        return cls(**dict(data))
-
     def to_dict(self):
         """Plain dict (lists for tuples)."""
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
@@ -235,17 +223,7 @@ QUICK = {"fractions": [0.6], "below": True, "omega_p": [1.0], "natural": False,
 
 def build_config(toml=None, overrides=None, quick=False):
     """Defaults < quick preset < TOML file < overrides; returns :class:`MapConfig`."""
-    from .paper_config import read_toml
-
-    from_file = read_toml(toml) if toml else {}
-    overrides = dict(overrides or {})
-    quick = bool(quick or overrides.get("quick") or from_file.get("quick") is True)
-    d = dict(QUICK, quick=True) if quick else {}
-    d.update(from_file)
-    d.update(overrides)
-    if quick:
-        d["quick"] = True
-    return MapConfig.from_dict(d)
+    return MapConfig.from_dict(layered_config(toml, overrides, quick, QUICK))
 
 
 # --------------------------------------------------------------------------- the paper job
@@ -1108,29 +1086,16 @@ def register(subparsers):
                     "trigger_map.png and trigger_map.md under --out. docs/trigger_map.md.")
     p.add_argument("--paper", help="output folder of the paper job (required unless in "
                                    "--config)")
-    p.add_argument("--out", default="trigger-map", help="output folder (default trigger-map)")
-    p.add_argument("--config", metavar="TOML", help="TOML file with any MapConfig key")
-    p.add_argument("--quick", action="store_true", default=None,
-                   help="small test variant (2 loads, 2 frequencies, 1 damping time)")
-    p.add_argument("--resume", action="store_true",
-                   help="continue an interrupted map in --out (same configuration; "
-                        "finished runs are kept)")
-    p.add_argument("--np", type=int, default=None, help="MPI ranks: re-launch under mpirun")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="any configuration key (repeatable), e.g. --set omega_p=[0.01,1]")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    add_job_arguments(p, "trigger-map", "MapConfig",
+                      "small test variant (2 loads, 2 frequencies, 1 damping time)",
+                      "continue an interrupted map in --out (same configuration; finished "
+                      "runs are kept)", "--set omega_p=[0.01,1]")
     p.set_defaults(func=main)
 
 
 def config_from_args(args):
     """MapConfig from parsed arguments."""
-    from .paper import _parse_set
-
-    over = _parse_set(args.set)
-    if args.paper is not None:
-        over["paper"] = args.paper
-    if args.np is not None:
-        over["np"] = args.np
+    over = job_overrides(args, paper=args.paper)
     return build_config(args.config, over, quick=bool(args.quick))
 
 
