@@ -123,15 +123,31 @@ def _json_default(obj):
 
 
 class _Clock:
-    """Brief progress lines with the elapsed time (printed by a group leader)."""
+    """Brief progress lines with the elapsed time.
 
-    def __init__(self, speak, t0=None):
+    Printed at once on world rank 0; a clock with ``buffer`` (the leader of
+    the second rank group) keeps its lines in ``lines`` until the groups meet,
+    where rank 0 prints them (under MPI only rank 0 prints).
+    """
+
+    def __init__(self, speak, t0=None, buffer=False):
         self.t0 = time.perf_counter() if t0 is None else t0
         self.speak = speak
+        self.buffer = buffer
+        self.lines = []
 
     def say(self, msg):
         if self.speak:
-            print(f"[paper {time.perf_counter() - self.t0:7.1f} s] {msg}", flush=True)
+            line = f"[paper {time.perf_counter() - self.t0:7.1f} s] {msg}"
+            if self.buffer:
+                self.lines.append(line)
+            else:
+                print(line, flush=True)
+
+    def take(self):
+        """The buffered lines (emptied)."""
+        lines, self.lines = self.lines, []
+        return lines
 
 
 # --------------------------------------------------------------------------- stages
@@ -773,7 +789,8 @@ class _PaperJob:
             self.color = self.rank % 2
             self.group = self.comm.Split(self.color, self.rank)
         self.leader = self.group.Get_rank() == 0
-        self.clock = _Clock(self.speak and self.leader, t0=self.wclock.t0)
+        self.clock = _Clock(self.speak and self.leader, t0=self.wclock.t0,
+                            buffer=self.rank != 0)
 
     def merge(self, err):
         """Bring the group leaders' new summaries to every rank; raise the first error."""
@@ -781,8 +798,12 @@ class _PaperJob:
         if self.size < 2:
             _raise_first([err])
             return
-        parts = self.comm.allgather((summary if self.leader else None, err))
-        for part, _ in parts:
+        parts = self.comm.allgather((summary if self.leader else None, err,
+                                     self.clock.take()))
+        if self.rank == 0:                  # the other group's progress lines
+            for line in (ln for _, _, lines in parts for ln in lines):
+                print(line, flush=True)
+        for part, _, _ in parts:
             if part is None:
                 continue
             for k, rr in enumerate(part["ramps"]):
@@ -792,7 +813,7 @@ class _PaperJob:
                 if part.get(k) and not summary.get(k):
                     summary[k] = part[k]
             summary["phases"].update(part["phases"])
-        _raise_first([e for _, e in parts])
+        _raise_first([e for _, e, _ in parts])
 
     def ramps(self):
         """2. The ramps at mu and mu_low (one per group when task-parallel)."""

@@ -72,6 +72,10 @@ def test_progress_and_final_line(run):
     lines = proc.stdout.strip().splitlines()
     assert lines[-1] == f"report: {os.path.join(out, 'report.md')}"
     assert any("ramp mu = 0.8" in s for s in lines) and len(lines) < 40
+    # two ranks (as make demo runs it): only rank 0 prints; the second rank group's
+    # lines (the mu = 0.8 ramp, Fig. 5) reach the output through rank 0
+    assert {r for r, _ in proc.rank_lines} == {0}, proc.rank_lines
+    assert any("Fig. 5: done" in s for s in lines)
 
 
 def test_files(run):
