@@ -191,9 +191,11 @@ def test_fig5_load_above_the_threshold_is_refused():
 
 def test_one_numeric_validator():
     """Stage, paper, ensemble and trigger-map configurations share check_number."""
-    from remote_trigger.pywrap import config, ensemble, paper_config, trigger_map
+    from remote_trigger.pywrap import (config, ensemble_config, paper_config,
+                                       trigger_map_config)
 
-    assert paper_config._num is config.check_number is trigger_map._num is ensemble._num
+    assert paper_config._num is config.check_number is trigger_map_config._num \
+        is ensemble_config._num
     assert config.check_number("x", 3) == 3.0
     assert config.check_number("tau", math.inf, 0, lo_open=True, allow_inf=True) == math.inf
     for val, words in ((True, "must be a number"), ("1", "must be a number"),
