@@ -64,3 +64,62 @@ def test_mdanalysis_cannot_resolve_the_noise_level(tmp_path, relaxed):
     D32, E = res.results.D[1:], res.results.floor
     assert np.all(D32 <= E)                       # within the rounding bound ...
     assert np.all((D32 == 0) | (D32 > 1e5 * np.maximum(D64[1:], 1e-300)))  # ... not D
+
+
+def _read_data(path):
+    """float64 (ids, positions (N, 2), radii, top) of a LAMMPS data file (atom_style
+    sphere, with the topflag section), in id order; box x length and y span."""
+    lines = open(path).read().splitlines()
+    lx = next(float(s.split()[1]) - float(s.split()[0]) for s in lines if s.endswith("xlo xhi"))
+    n = next(int(s.split()[0]) for s in lines if s.endswith(" atoms"))
+    a = lines.index(next(s for s in lines if s.startswith("Atoms"))) + 2
+    rows = np.array([[float(w) for w in s.split()[:7]] for s in lines[a:a + n]])
+    order = np.argsort(rows[:, 0])
+    rows = rows[order]
+    t = lines.index(next(s for s in lines if s.startswith("topflag"))) + 2
+    flags = dict((int(s.split()[0]), int(s.split()[1])) for s in lines[t:t + n])
+    ids = rows[:, 0].astype(int)
+    top = np.array([flags[i] > 0 for i in ids])
+    return ids, rows[:, 4:6], 0.5 * rows[:, 2], top, lx
+
+
+def test_contact_search_agrees_with_the_float64_one(tmp_path):
+    """MDAnalysis' capped_distance (float32 coordinates) finds exactly the contacts
+    of the float64 search that feeds the Jacobian (analysis.state.find_contacts), on
+    the default job's packing; the smallest overlap is far above float32 round-off."""
+    from remote_trigger.analysis.state import find_contacts
+    from remote_trigger.analysis.trajectory import touching_pairs
+    from tests.data import unpack
+
+    for name in ("default_job_mu1_step_00258", "default_job_mu0.8_step_00234"):
+        ids, pos, radii, _, lx = _read_data(unpack(name, tmp_path))
+        gi, gj, _ = find_contacts(pos, radii, np.array([0.0, -1.0]), np.array([lx, 100.0]),
+                                  (True, False), ids=ids)
+        ref = {(int(i), int(j)) for i, j in zip(gi, gj)}
+        pairs, overlap = touching_pairs(pos, radii, lx, float(np.max(pos[:, 1] + radii)))
+        assert {(int(i), int(j)) for i, j in pairs} == ref and len(ref) > 150, name
+        # float32 spacing at |x| ~ 12 is 9.5e-7; the smallest overlap is 9.2e-5 (mu = 1):
+        # every contact is decided ~100 spacings above the reader's round-off
+        assert overlap.min() > 50 * np.spacing(np.float32(lx)), overlap.min()
+
+
+def test_contact_numbers_over_a_run(tmp_path, relaxed):
+    """ContactNumbers (an MDAnalysis AnalysisBase) on a dump trajectory: frame 0 has
+    the contacts of the float64 data file, the top line's mean height is that of the
+    data file to float32 precision, and a relaxed packing at rest keeps its contacts."""
+    from remote_trigger.analysis.state import find_contacts
+    from remote_trigger.analysis.trajectory import ContactNumbers
+
+    traj, _, _ = _run(tmp_path, relaxed.datafile, 0.0, "contacts")
+    ids, pos, radii, top, lx = _read_data(relaxed.datafile)
+    gi, _, _ = find_contacts(pos, radii, np.array([0.0, -1.0]), np.array([lx, 100.0]),
+                             (True, False), ids=ids)
+    u = open_dump(traj)
+    assert np.array_equal(u.atoms.ids, ids)
+    res = ContactNumbers(u.atoms, radii, top=top).run().results
+    assert res.n_contacts[0] == len(gi) and np.all(res.n_contacts == len(gi))
+    assert np.allclose(res.coordination, 2 * len(gi) / len(ids))
+    # MDAnalysis shifts the dump's y by the box's lower corner (an integer here):
+    # compare the height up to that shift, and between frames
+    dy = res.top_y[0] - np.mean(pos[top, 1])
+    assert abs(res.top_y[-1] - res.top_y[0]) < 1e-5 and abs(dy - round(dy)) < 1e-5
