@@ -367,24 +367,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     h5 = os.path.join(out, "ramp.h5")
     folder = os.path.join(out, "ramp")
     with Engine(comm=comm, log=log) as eng:
-        exists = eng.comm.bcast(os.path.exists(h5) if eng.rank == 0 else None, root=0)
-        if exists and not resume:
-            raise ConfigError(f"{h5} exists: use resume (--resume) to continue it, or "
-                              f"another output folder (nothing was overwritten)")
-        def open_log():
-            from remote_trigger.analysis.output import output_dir
-            from .datafile import check_datafile
-
-            try:
-                check_datafile(cfg.datafile)
-                output_dir(out, "--out")
-                log_ = _RampLog.load(cfg, h5) if (resume and exists) else _RampLog(cfg, h5)
-            except ValueError as exc:
-                raise ConfigError(str(exc)) from None
-            log_.attrs.setdefault("datafile_sha256", file_sha256(cfg.datafile))
-            return log_
-
-        rlog = on_rank0(eng.comm, open_log)
+        rlog = _open_ramp_log(eng, cfg, out, h5, resume)
         _ensure_dir(eng, folder)
         rcfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "ramp")
         if "dt_used" in rlog.attrs and cfg.dt == "auto":   # resume: the same step
@@ -394,82 +377,134 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         status = getattr(rlog, "status", "running")
         if status in ("complete", "no_complex_pair", "no_equilibrium", "complex_at_start"):
             return _ramp_result(rlog, status)
-        new = 0
-        steps = rlog.rows["steps"]
+        budget = _Budget(stop_after)
         bar = _progress(None, "ramp", quiet, eng.rank, unit="step")
         try:
-            # ---- ramp
-            while not (steps["complex"] and steps["complex"][-1] > 0):
-                k = len(steps["F_x"])
-                F = cfg.F_x + k * cfg.dF_x
-                if F > cfg.F_x_max:
-                    n_und = int(np.count_nonzero(np.asarray(steps["decision"], float) == -1))
-                    rlog.attrs["message"] = (f"no complex pair certified up to F_x_max = "
-                                             f"{cfg.F_x_max}" + (f" ({n_und} steps undecided)"
-                                                                 if n_und else ""))
-                    if eng.rank == 0:
-                        rlog.write("no_complex_pair")
-                    return _ramp_result(rlog, "no_complex_pair")
-                start = cfg.datafile if k == 0 else rlog.files["steps"][-1]
-                prefix = os.path.join(folder, ramp_file.point_name(ramp_file.STEPS, k))
-                try:
-                    vals, res = _ramp_point(eng, rcfg, start, F, prefix)
-                except eq.NoEquilibriumError as exc:
-                    rlog.attrs["message"] = str(exc)
-                    if eng.rank == 0:
-                        rlog.write("no_equilibrium")
-                    return _ramp_result(rlog, "no_equilibrium")
-                rlog.add(ramp_file.STEPS, ramp_file.point_name(ramp_file.STEPS, k), prefix + ".data", vals, res.eigenvalues)
-                if eng.rank == 0:
-                    rlog.write("running")
-                bar.update(1)
-                bar.set_postfix_str(f"F_x {F:.6g} r {vals['residual']:.1e} "
-                                    f"complex {bool(vals['complex'])}")
-                new += 1
-                if stop_after is not None and new >= stop_after:
-                    return _ramp_result(rlog, "interrupted")
-            lo, hi, lo_file, unknown = ramp_bracket(rlog)
-            if lo_file is None:
-                rlog.attrs["message"] = (
-                    "complex pair already at the start value of F_x" if len(steps["F_x"]) == 1
-                    else f"no equilibrium certified real below the first certified complex "
-                         f"one (F_x = {hi:.10g}); the steps before it are undecided")
-                rlog.attrs.update(F_x_c_high=hi)
-                if eng.rank == 0:
-                    rlog.write("complex_at_start")
-                return _ramp_result(rlog, "complex_at_start")
-            # ---- bisection, on certified answers only (docs/driver.md)
-            bis = rlog.rows["bisection"]
-            while True:
-                lo, hi, lo_file, unknown = ramp_bracket(rlog)
-                mid, why = next_bisection_point(lo, hi, unknown, cfg.tol)
-                if mid is None:
-                    break
-                j = len(bis["F_x"])
-                prefix = os.path.join(folder, ramp_file.point_name(ramp_file.BISECTION, j))
-                try:
-                    vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix)
-                except eq.NoEquilibriumError:
-                    vals = {c: np.nan for c in _RampLog.COLS}
-                    vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
-                    res = None
-                rlog.add(ramp_file.BISECTION, ramp_file.point_name(ramp_file.BISECTION, j), prefix + ".data", vals,
-                         [] if res is None else res.eigenvalues)
-                lo, hi, _, _ = ramp_bracket(rlog)
-                rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
-                if eng.rank == 0:
-                    rlog.write("running")
-                bar.update(1)
-                bar.set_postfix_str(f"F_x^c in [{lo:.9g}, {hi:.9g}]")
-                new += 1
-                if stop_after is not None and new >= stop_after:
-                    return _ramp_result(rlog, "interrupted")
-            rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol, why))
-            if eng.rank == 0:
-                rlog.write("complete")
-            return _ramp_result(rlog, "complete")
+            ended = _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget)
+            if ended is not None:
+                return ended
+            return _bisect(eng, cfg, rcfg, rlog, folder, bar, budget)
         finally:
             bar.close()
+
+
+class _Budget:
+    """New equilibria of this call, against ``stop_after`` (testing aid)."""
+
+    def __init__(self, stop_after):
+        self.stop_after, self.new = stop_after, 0
+
+    def spend(self):
+        """Count one equilibrium; True when the budget is used up."""
+        self.new += 1
+        return self.stop_after is not None and self.new >= self.stop_after
+
+
+def _open_ramp_log(eng, cfg, out, h5, resume):
+    """The ramp's log: new, or ``ramp.h5`` to resume (refused without ``resume``)."""
+    exists = eng.comm.bcast(os.path.exists(h5) if eng.rank == 0 else None, root=0)
+    if exists and not resume:
+        raise ConfigError(f"{h5} exists: use resume (--resume) to continue it, or "
+                          f"another output folder (nothing was overwritten)")
+
+    def open_log():
+        from remote_trigger.analysis.output import output_dir
+        from .datafile import check_datafile
+
+        try:
+            check_datafile(cfg.datafile)
+            output_dir(out, "--out")
+            log_ = _RampLog.load(cfg, h5) if (resume and exists) else _RampLog(cfg, h5)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+        log_.attrs.setdefault("datafile_sha256", file_sha256(cfg.datafile))
+        return log_
+
+    return on_rank0(eng.comm, open_log)
+
+
+def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
+    """The ramp: steps of dF_x until one is certified complex.
+
+    Returns the :class:`RampResult` of a ramp that ends here (no complex pair
+    up to F_x_max, no equilibrium, complex at the start, interrupted), or None
+    when bisection follows.
+    """
+    steps = rlog.rows["steps"]
+    while not (steps["complex"] and steps["complex"][-1] > 0):
+        k = len(steps["F_x"])
+        F = cfg.F_x + k * cfg.dF_x
+        if F > cfg.F_x_max:
+            n_und = int(np.count_nonzero(np.asarray(steps["decision"], float) == -1))
+            rlog.attrs["message"] = (f"no complex pair certified up to F_x_max = "
+                                     f"{cfg.F_x_max}" + (f" ({n_und} steps undecided)"
+                                                         if n_und else ""))
+            if eng.rank == 0:
+                rlog.write("no_complex_pair")
+            return _ramp_result(rlog, "no_complex_pair")
+        start = cfg.datafile if k == 0 else rlog.files["steps"][-1]
+        name = ramp_file.point_name(ramp_file.STEPS, k)
+        prefix = os.path.join(folder, name)
+        try:
+            vals, res = _ramp_point(eng, rcfg, start, F, prefix)
+        except eq.NoEquilibriumError as exc:
+            rlog.attrs["message"] = str(exc)
+            if eng.rank == 0:
+                rlog.write("no_equilibrium")
+            return _ramp_result(rlog, "no_equilibrium")
+        rlog.add(ramp_file.STEPS, name, prefix + ".data", vals, res.eigenvalues)
+        if eng.rank == 0:
+            rlog.write("running")
+        bar.update(1)
+        bar.set_postfix_str(f"F_x {F:.6g} r {vals['residual']:.1e} "
+                            f"complex {bool(vals['complex'])}")
+        if budget.spend():
+            return _ramp_result(rlog, "interrupted")
+    lo, hi, lo_file, unknown = ramp_bracket(rlog)
+    if lo_file is None:
+        rlog.attrs["message"] = (
+            "complex pair already at the start value of F_x" if len(steps["F_x"]) == 1
+            else f"no equilibrium certified real below the first certified complex "
+                 f"one (F_x = {hi:.10g}); the steps before it are undecided")
+        rlog.attrs.update(F_x_c_high=hi)
+        if eng.rank == 0:
+            rlog.write("complex_at_start")
+        return _ramp_result(rlog, "complex_at_start")
+    return None
+
+
+def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget):
+    """Bisection of F_x^c on certified answers only (docs/driver.md); returns the
+    :class:`RampResult` (``'complete'``, or ``'interrupted'``)."""
+    bis = rlog.rows["bisection"]
+    while True:
+        lo, hi, lo_file, unknown = ramp_bracket(rlog)
+        mid, why = next_bisection_point(lo, hi, unknown, cfg.tol)
+        if mid is None:
+            break
+        j = len(bis["F_x"])
+        name = ramp_file.point_name(ramp_file.BISECTION, j)
+        prefix = os.path.join(folder, name)
+        try:
+            vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix)
+        except eq.NoEquilibriumError:
+            vals = {c: np.nan for c in _RampLog.COLS}
+            vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
+            res = None
+        rlog.add(ramp_file.BISECTION, name, prefix + ".data", vals,
+                 [] if res is None else res.eigenvalues)
+        lo, hi, _, _ = ramp_bracket(rlog)
+        rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
+        if eng.rank == 0:
+            rlog.write("running")
+        bar.update(1)
+        bar.set_postfix_str(f"F_x^c in [{lo:.9g}, {hi:.9g}]")
+        if budget.spend():
+            return _ramp_result(rlog, "interrupted")
+    rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol, why))
+    if eng.rank == 0:
+        rlog.write("complete")
+    return _ramp_result(rlog, "complete")
 
 
 def _ramp_result(rlog, status):
