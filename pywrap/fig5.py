@@ -167,6 +167,61 @@ def fig5_load(cfg, ramps):
     return lo + cfg.fig5_window * (hi - lo), lo, hi
 
 
+def _load_analysis(eng, cfg, rcfg, start, F5, mu0, mu_ss, folder, clock):
+    """The equilibrium at F5 with mu0, the friction drop to mu_ss and mu*.
+
+    Returns
+    -------
+    (dict, dict, dict)
+        :func:`friction_drop` at mu0 (``datafile`` is the equilibrium) and at
+        mu_ss, and the :func:`mu_star` bracket (NaN unless real -> complex).
+    """
+    eq5 = friction_drop(eng, rcfg, start, F5, mu0, os.path.join(folder, "equilibrium"))
+    data5 = eq5["datafile"]
+    drop = friction_drop(eng, rcfg, data5, F5, mu_ss, os.path.join(folder, "drop"))
+    ms = {"low": float("nan"), "high": float("nan"), "points": [], "message": ""}
+    if eq5["decision"] == "real" and drop["decision"] == "complex":
+        ms = mu_star(eng, rcfg, data5, F5, mu_ss, mu0, cfg.mu_star_tol,
+                     os.path.join(folder, "mu_star"))
+    clock.say(f"Fig. 5: at F_x = {F5:.7g}: mu = {mu0:g} {eq5['decision']} (margin "
+              f"{eq5['confidence']:.3g}); after a drop to mu = {mu_ss:g}: {drop['decision']}"
+              f" (growth rate {drop['growth_rate']:.4g}); mu* in "
+              f"[{ms['low']:.5g}, {ms['high']:.5g}]")
+    return eq5, drop, ms
+
+
+def _control_load(eng, rcfg, F_steps, files, w_lo, F5, mu_ss, folder, clock):
+    """A ramp step below the window certified real after the drop to mu_ss.
+
+    The step nearest F_m = w_lo - (F5 - w_lo) from below, then every 4th step
+    further down (at most 6 tried).
+
+    Returns
+    -------
+    (dict or None, list of dict)
+        ``F_x``, ``datafile``, ``drop`` of the control (None if none), and
+        every step tried.
+    """
+    F_m = w_lo - (F5 - w_lo)
+    cand = np.flatnonzero(F_steps <= F_m)
+    control = None
+    tried = []
+    for k in list(cand[::-1])[:1] + list(cand[::-1][4::4])[:5]:
+        d = friction_drop(eng, rcfg, files[int(k)], float(F_steps[k]), mu_ss,
+                          os.path.join(folder, f"control_drop_{int(k):05d}"))
+        d["F_x"] = float(F_steps[k])
+        tried.append(d)
+        if d["decision"] == "real":
+            control = {"F_x": float(F_steps[k]), "datafile": files[int(k)], "drop": d}
+            break
+    clock.say("Fig. 5 (d): control load " + (
+        f"F_x = {control['F_x']:.7g}: certified real after the drop to mu = {mu_ss:g} "
+        f"(margin {control['drop']['confidence']:.3g})" if control else
+        "not found: no ramp step below the window certified real after the drop "
+        "(tried " + ", ".join(f"{d['F_x']:.5g}" for d in tried) + ")"))
+    return control, tried
+
+
 def run_fig5(cfg, out, ramps, comm, clock):
     """The whole Fig. 5 phase; all ranks of ``comm`` call it.
 
@@ -203,38 +258,14 @@ def run_fig5(cfg, out, ramps, comm, clock):
     with Engine(comm=comm) as eng:
         # ---- the equilibrium at F5 (mu0), its spectrum, the friction drop, mu*
         prefix = os.path.join(folder, "equilibrium")
-        eq5 = friction_drop(eng, rcfg, start, F5, mu0, prefix)
+        eq5, drop, ms = _load_analysis(eng, cfg, rcfg, start, F5, mu0, mu_ss, folder, clock)
         data5 = eq5["datafile"]
-        drop = friction_drop(eng, rcfg, data5, F5, mu_ss, os.path.join(folder, "drop"))
-        ms = {"low": float("nan"), "high": float("nan"), "points": [], "message": ""}
-        if eq5["decision"] == "real" and drop["decision"] == "complex":
-            ms = mu_star(eng, rcfg, data5, F5, mu_ss, mu0, cfg.mu_star_tol,
-                         os.path.join(folder, "mu_star"))
         summ.update(equilibrium=eq5, drop=drop, mu_star=ms)
-        clock.say(f"Fig. 5: at F_x = {F5:.7g}: mu = {mu0:g} {eq5['decision']} (margin "
-                  f"{eq5['confidence']:.3g}); after a drop to mu = {mu_ss:g}: {drop['decision']}"
-                  f" (growth rate {drop['growth_rate']:.4g}); mu* in "
-                  f"[{ms['low']:.5g}, {ms['high']:.5g}]")
         # ---- the control load: certified real after the friction drop
-        F_m = w_lo - (F5 - w_lo)
-        cand = np.flatnonzero(F_steps <= F_m)
-        control = None
-        tried = []
-        for k in list(cand[::-1])[:1] + list(cand[::-1][4::4])[:5]:
-            d = friction_drop(eng, rcfg, files[int(k)], float(F_steps[k]), mu_ss,
-                              os.path.join(folder, f"control_drop_{int(k):05d}"))
-            d["F_x"] = float(F_steps[k])
-            tried.append(d)
-            if d["decision"] == "real":
-                control = {"F_x": float(F_steps[k]), "datafile": files[int(k)], "drop": d}
-                break
+        control, tried = _control_load(eng, rcfg, F_steps, files, w_lo, F5, mu_ss, folder,
+                                       clock)
         summ["control"] = control
         summ["control_tried"] = tried
-        clock.say("Fig. 5 (d): control load " + (
-            f"F_x = {control['F_x']:.7g}: certified real after the drop to mu = {mu_ss:g} "
-            f"(margin {control['drop']['confidence']:.3g})" if control else
-            "not found: no ramp step below the window certified real after the drop "
-            "(tried " + ", ".join(f"{d['F_x']:.5g}" for d in tried) + ")"))
         # ---- time step of the runs: fig5_dt_fraction x the stability limit at F5
         from remote_trigger.analysis.timestep import stability_limit
         from remote_trigger.analysis.state import read_dump
