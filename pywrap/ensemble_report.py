@@ -288,18 +288,13 @@ def plot(path, rows, cfg):
         for I0, ls, fill in ((I0_DYNAMICS, "-", True), (cfg.inertia_I0, "--", False)):
             if I0 is None:
                 continue
-            x = [r["F_x_c"] for r in select(rows, ft, float(I0), n)]
-            x = [v for v in x if math.isfinite(v)]
-            if x:
-                ax[0].hist(x, bins=bins, histtype="stepfilled" if fill else "step",
-                           alpha=0.35 if fill else 1.0, ls=ls, color=colors[k % len(colors)],
-                           label=f"N = {n}, I0 = {I0:g}")
-            y = [r["ratio"] for r in select(rows, ft, float(I0), n)]
-            y = [v for v in y if math.isfinite(v)]
-            if y:
-                ax[1].hist(y, bins=rbins, histtype="stepfilled" if fill else "step",
-                           alpha=0.35 if fill else 1.0, ls=ls, color=colors[k % len(colors)],
-                           label=f"N = {n}, I0 = {I0:g}")
+            sel = select(rows, ft, float(I0), n)
+            for a_, col, b_ in ((ax[0], "F_x_c", bins), (ax[1], "ratio", rbins)):
+                x = [r[col] for r in sel if math.isfinite(r[col])]
+                if x:
+                    a_.hist(x, bins=b_, histtype="stepfilled" if fill else "step",
+                            alpha=0.35 if fill else 1.0, ls=ls, color=colors[k % len(colors)],
+                            label=f"N = {n}, I0 = {I0:g}")
     ax[0].axvspan(*PAPER_BRACKET, color="k", alpha=0.15, label="paper (N = 100)")
     ax[0].set_xscale("log")
     ax[0].set_xlabel("F_x^c(mu0) (bracket midpoint)")

@@ -8,6 +8,7 @@ import json
 import os
 
 from .config import ConfigError
+from .paper_config import parse_set
 
 #: the configuration file of a job folder
 CONFIG_FILE = "config.json"
@@ -83,9 +84,7 @@ def add_job_arguments(p, out, config_class, quick_help, resume_help, set_example
 def job_overrides(args, **more):
     """Configuration overrides from :func:`add_job_arguments`'s options: every
     ``--set``, ``--np`` and the keyword arguments that are not None."""
-    from .paper import _parse_set
-
-    over = _parse_set(args.set)
+    over = parse_set(args.set)
     for key, val in dict(more, np=args.np).items():
         if val is not None:
             over[key] = val

@@ -41,7 +41,7 @@ import time
 import numpy as np
 
 from .config import ConfigError
-from .paper_config import PaperConfig, PAPER, build_config
+from .paper_config import PaperConfig, PAPER, build_config, parse_set
 # the output folder and the manifest live in paper_manifest; their names are
 # importable from here as before
 from .paper_manifest import (OUTPUTS, OUTPUT_GLOBS, MANIFEST, ramp_dir, prepare_out,
@@ -720,21 +720,6 @@ def register(subparsers):
         "continues the job"))
 
 
-def _parse_set(items):
-    out = {}
-    for item in items:
-        if "=" not in item:
-            raise ConfigError(f"--set expects KEY=VALUE, got {item!r}")
-        k, v = item.split("=", 1)
-        k = k.strip()
-        try:
-            out[k] = json.loads(v)
-        except json.JSONDecodeError:
-            low = v.strip().lower()
-            out[k] = {"true": True, "false": False, "inf": math.inf}.get(low, v)
-    return out
-
-
 def config_from_args(args):
     """PaperConfig from parsed arguments (defaults < quick < TOML < flags)."""
     if args.resolved_config:
@@ -742,7 +727,7 @@ def config_from_args(args):
             d = json.load(fh)
         d["nf_tau"] = [math.inf if v is None else v for v in d.get("nf_tau", [])]
         return PaperConfig.from_dict(d)
-    over = _parse_set(args.set)
+    over = parse_set(args.set)
     for f in PaperConfig.names():
         v = getattr(args, f"opt_{f}", None)
         if v is not None:

@@ -14,6 +14,7 @@ The optional TOML table ``[relax]`` passes extra fields to the relaxation
 Units are LAMMPS ``lj`` units (m = 1, 2 R1 = 1, time from k_n).
 """
 from dataclasses import dataclass, field, fields, asdict
+import json
 import math
 import os
 
@@ -59,6 +60,29 @@ class JobConfig:
                                  if len(unknown) > 1 else "")
                               + f"; known keys: {', '.join(sorted(names))}")
         return cls(**dict(data))
+
+
+def parse_set(items):
+    """``--set KEY=VALUE`` items as overrides: VALUE as JSON, else ``true``,
+    ``false``, ``inf`` or the text itself.
+
+    Raises
+    ------
+    ConfigError
+        An item without ``=``.
+    """
+    out = {}
+    for item in items:
+        if "=" not in item:
+            raise ConfigError(f"--set expects KEY=VALUE, got {item!r}")
+        k, v = item.split("=", 1)
+        k = k.strip()
+        try:
+            out[k] = json.loads(v)
+        except json.JSONDecodeError:
+            low = v.strip().lower()
+            out[k] = {"true": True, "false": False, "inf": math.inf}.get(low, v)
+    return out
 
 
 def layered_config(toml, overrides, quick, preset, tables=()):
