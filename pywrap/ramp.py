@@ -90,8 +90,22 @@ class RampResult:
         return self.F_x_c_high - self.F_x_c_low
 
 
+#: seconds between two checkpoints of ramp.h5 while a ramp runs (a write costs
+#: ~30 ms, a ramp step at N = 100 ~0.1 s); results and status changes are
+#: always written at once
+CHECKPOINT_SECONDS = 5.0
+
+
 class _RampLog:
-    """In-memory copy of ramp.h5, rewritten atomically after every row."""
+    """In-memory copy of ramp.h5, written atomically at checkpoints.
+
+    Rows are added in memory; :meth:`write` brings the file up to date when the
+    status is final, when ``force`` is given, or while running when
+    :data:`CHECKPOINT_SECONDS` have passed since the last write. A job killed
+    between checkpoints loses the equilibria since the last one: ``resume``
+    redoes them from the last recorded equilibrium (each point is a function
+    of its start file and load only, so the redone points are the same).
+    """
 
     COLS = ramp_file.COLUMNS
 
@@ -109,9 +123,10 @@ class _RampLog:
             self.rows[kind][c].append(values[c])
         self.files[kind].append(datafile)
         self.eig[f"{kind}/{name}"] = np.asarray(eigenvalues, complex)
+        self.dirty = True
 
-    def write(self, status, **attrs):
-        """Bring ramp.h5 up to date, atomically.
+    def write(self, status, force=False, **attrs):
+        """Bring ramp.h5 up to date, atomically (at a checkpoint, see the class).
 
         The previous file is copied to a temporary name, the new rows are
         appended to its resizable datasets and the new eigenvalue datasets
@@ -124,6 +139,11 @@ class _RampLog:
         import h5py
 
         self.attrs.update(attrs)
+        now = time.monotonic()
+        if (status == "running" and not force and getattr(self, "_synced", False)
+                and now - self._written < CHECKPOINT_SECONDS):
+            return
+        self._written = now
         a = dict(self.cfg.to_attrs(), stage="ramp", status=status, version=RESULT_VERSION,
                  **self.attrs)
         fresh = not getattr(self, "_synced", False) or not os.path.exists(self.path)
@@ -160,6 +180,7 @@ class _RampLog:
                         fh.create_dataset(name, data=v)
                 fh.flush()
         self._synced = True
+        self.dirty = False
         if not getattr(self, "_cleaned", False):     # temp files of killed runs
             from .results import clean_stale_tmp
 
@@ -386,6 +407,9 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
             return _bisect(eng, cfg, rcfg, rlog, folder, bar, budget)
         finally:
             bar.close()
+            if eng.rank == 0 and getattr(rlog, "dirty", False):
+                # rows since the last checkpoint (interrupted, or an error)
+                rlog.write("running", force=True)
 
 
 class _Budget:
