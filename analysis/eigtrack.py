@@ -30,6 +30,7 @@ born at F_x^c and follows it down and up the load:
 near an exceptional point; the figure shows exactly these two branches.
 """
 from dataclasses import dataclass
+import math
 
 import numpy as np
 
@@ -174,3 +175,63 @@ def track_pair(points, rtol=1e-10):
     cp = np.array([out[F][2] for F in Fs], bool)
     return PairTrack(F_x=Fs, lam_a=la, lam_b=lb, complex_pair=cp, rank=rank,
                      n_modes=int(lam_lo.size), lam_c=float(born.real), ambiguity=float(amb))
+
+
+def predict_coalescence(F_prev, lam_prev, F, lam):
+    r"""Load distance to the nearest coalescence of two neighbouring real eigenvalues.
+
+    Near an exceptional point the gap of the coalescing pair closes like
+    :math:`g \propto \sqrt{F_x^c - F_x}`, so :math:`g^2` is linear in F_x.
+    For every pair of neighbouring eigenvalues (sorted by real part) whose
+    gap shrinks from ``F_prev`` to ``F``, :math:`g^2` is extrapolated
+    linearly to zero,
+
+    .. math::
+
+        d = g^2(F) \, \frac{F - F_\mathrm{prev}}{g^2(F_\mathrm{prev}) - g^2(F)},
+
+    and the smallest d is returned. The extrapolation is exact for the
+    square-root law and underestimates the distance for a gap closing like
+    :math:`(F_x^c - F_x)^p` with p > 1/2 (d = (F_x^c - F_x) / (2p)); it cannot
+    foresee a coalescence caused by a contact event between the two loads.
+    Used by the adaptive ramp (``pywrap.ramp``) to choose its next step.
+
+    Parameters
+    ----------
+    F_prev, F : float
+        Two loads, ``F > F_prev``.
+    lam_prev, lam : array_like of complex, shape (n,)
+        Eigenvalues of M^-1 K at the two loads (any order).
+
+    Returns
+    -------
+    distance : float
+        Predicted F_x^c - F, >= 0; 0 if a computed eigenvalue is already
+        complex (its real-part gap is 0), ``inf`` if no gap is closing.
+    index : int
+        Position of the closing pair's lower eigenvalue in the sorted
+        spectrum at ``F`` (-1 if none).
+
+    Raises
+    ------
+    ValueError
+        If ``F <= F_prev`` or the two spectra have different sizes (a
+        contact or rattler change: the neighbours cannot be matched).
+    """
+    if not F > F_prev:
+        raise ValueError(f"need F > F_prev, got F = {F!r}, F_prev = {F_prev!r}")
+    e0 = np.sort(np.asarray(lam_prev, complex).real)
+    e1 = np.sort(np.asarray(lam, complex).real)
+    if e0.size != e1.size:
+        raise ValueError(f"spectra of different sizes ({e0.size} and {e1.size}): the "
+                         f"neighbours cannot be matched")
+    if e1.size < 2:
+        return math.inf, -1
+    g0, g1 = np.diff(e0) ** 2, np.diff(e1) ** 2
+    closing = g1 < g0
+    if not np.any(closing):
+        return math.inf, -1
+    d = np.full(g1.size, np.inf)
+    d[closing] = g1[closing] * (F - F_prev) / (g0[closing] - g1[closing])
+    i = int(np.argmin(d))
+    return float(d[i]), i

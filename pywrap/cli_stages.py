@@ -147,6 +147,8 @@ def register(subparsers):
     _add_model(m)
     m.add_argument("--dF-x", dest="dF_x", type=float, help="ramp step (1e-4)")
     m.add_argument("--tol", type=float, help="bisection tolerance (1e-7)")
+    m.add_argument("--dF-x-max", dest="dF_x_max", type=float,
+                   help="adaptive ramp: largest step (default: every step is dF_x)")
     m.add_argument("--resume", action="store_true",
                    help="continue an interrupted ramp from its last equilibrium")
     m.set_defaults(func=run_ramp, resume_hint=INTERRUPT_HINTS["ramp"])
@@ -220,7 +222,7 @@ def run_ramp(args):
     from .config import RampConfig
     from . import stages
 
-    cfg = _config(RampConfig, args, ("dF_x", "tol"))
+    cfg = _config(RampConfig, args, ("dF_x", "tol", "dF_x_max"))
     _note_model(args, cfg)
     res = stages.ramp(cfg, args.out, quiet=args.quiet, resume=args.resume, log=args.log)
     if _rank() == 0:

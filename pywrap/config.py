@@ -357,15 +357,25 @@ class RampConfig(RelaxConfig):
         Stop (no complex pair found) beyond this value, > F_x. Default 1.
     tol : float
         Bisection tolerance on F_x^c, > 0. Default 1e-7.
+    dF_x_max : float or None
+        None (default): every step is dF_x. A number > dF_x: adaptive ramp,
+        steps between dF_x and dF_x_max chosen from the predicted distance to
+        the nearest coalescence (``pywrap.ramp.next_step``, docs/driver.md).
     """
 
     dF_x: float = 1e-4
     F_x_max: float = 1.0
     tol: float = 1e-7
+    dF_x_max: float = None
 
     def validate(self):
         super().validate()
         _positive("dF_x", self.dF_x)
+        if self.dF_x_max is not None:
+            _num("dF_x_max", self.dF_x_max)
+            if not self.dF_x_max > self.dF_x:
+                raise ConfigError(f"dF_x_max must be > dF_x = {self.dF_x!r} (or None: "
+                                  f"fixed steps), got dF_x_max = {self.dF_x_max!r}")
         _num("F_x_max", self.F_x_max)
         if self.F_x_max <= self.F_x:
             raise ConfigError(f"F_x_max must be > F_x = {self.F_x!r}, got "

@@ -340,7 +340,8 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     """Ramp F_x until a complex eigenvalue pair appears, then bisect F_x^c.
 
     Step k has F_x = cfg.F_x + k dF_x (k = 0 re-equilibrates the data file at
-    cfg.F_x). Each step starts from the previous equilibrium's data file,
+    cfg.F_x), or, with ``cfg.dF_x_max`` set, an adaptive step
+    (:func:`next_step`). Each step starts from the previous equilibrium's data file,
     equilibrates (Newton first, damped dynamics if needed), writes
     ``ramp/step_NNNNN.*`` and is analysed (:mod:`remote_trigger.analysis.stability`) until a step is
     certified complex.
@@ -447,6 +448,51 @@ def _open_ramp_log(eng, cfg, out, h5, resume):
     return on_rank0(eng.comm, open_log)
 
 
+#: the adaptive ramp steps by this fraction of the predicted distance to the
+#: nearest coalescence (the prediction is exact for the square-root law and
+#: an underestimate for gaps closing faster, see analysis.eigtrack)
+ADAPTIVE_SAFETY = 0.5
+
+
+def next_step(cfg, rlog):
+    """Load of the next ramp step, from the steps recorded so far.
+
+    Fixed steps (``cfg.dF_x_max`` None): F_x + k dF_x for step k. Adaptive
+    ramp: steps 0 and 1 as fixed; then, if the last two steps were certified
+    real and have spectra of the same size, the step is
+    ``ADAPTIVE_SAFETY`` x the distance to the nearest coalescence predicted
+    from their spectra (:func:`remote_trigger.analysis.eigtrack.predict_coalescence`),
+    clipped to [dF_x, dF_x_max]; otherwise dF_x. The choice depends only on
+    recorded rows, so a resumed ramp takes the same loads.
+
+    Parameters
+    ----------
+    cfg : RampConfig
+    rlog : _RampLog
+
+    Returns
+    -------
+    float
+    """
+    from remote_trigger.analysis.eigtrack import predict_coalescence
+
+    steps = rlog.rows[ramp_file.STEPS]
+    k = len(steps["F_x"])
+    if cfg.dF_x_max is None or k < 2:
+        return cfg.F_x + k * cfg.dF_x
+    F0, F1 = steps["F_x"][k - 2], steps["F_x"][k - 1]
+    h = cfg.dF_x
+    if steps["decision"][k - 2] == 0 and steps["decision"][k - 1] == 0:
+        lam0, lam1 = (rlog.eig[f"{ramp_file.STEPS}/{ramp_file.point_name(ramp_file.STEPS, j)}"]
+                      for j in (k - 2, k - 1))
+        try:
+            d, _ = predict_coalescence(F0, lam0, F1, lam1)
+        except ValueError:          # rattlers changed: no matching of neighbours
+            d = 0.0
+        h = min(max(ADAPTIVE_SAFETY * d, cfg.dF_x), cfg.dF_x_max)
+    return F1 + h
+
+
 def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
     """The ramp: steps of dF_x until one is certified complex.
 
@@ -457,7 +503,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
     steps = rlog.rows["steps"]
     while not (steps["complex"] and steps["complex"][-1] > 0):
         k = len(steps["F_x"])
-        F = cfg.F_x + k * cfg.dF_x
+        F = next_step(cfg, rlog)
         if F > cfg.F_x_max:
             n_und = int(np.count_nonzero(np.asarray(steps["decision"], float) == -1))
             rlog.attrs["message"] = (f"no complex pair certified up to F_x_max = "

@@ -194,6 +194,8 @@ def check_resume_config(path, cfg, attrs, skip=(), suffix=""):
         old = attrs.get(k)
         if isinstance(old, bytes):
             old = old.decode()
+        if old is None and v == "None":
+            continue     # a key added later whose default (None) is the old behaviour
         if old is None or str(old) != str(v):
             raise ConfigError(f"cannot resume {path}: its configuration has {k} = "
                               f"{old!r}, this run has {k} = {v!r}{suffix}")

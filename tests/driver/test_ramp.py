@@ -147,3 +147,52 @@ def test_ramp_file_layout_and_reader(full_ramp):
     np.testing.assert_array_equal(rf.read_points(res.h5)[0], res.F_x)
     assert rf.point_name(rf.STEPS, 12) == "step_00012"
     assert rf.point_name(rf.BISECTION, 3) == "bisect_003"
+
+
+# --------------------------------------------------------------------------- adaptive ramp
+DF_FINE, DF_MAX = 1e-3, 0.05
+
+
+@pytest.fixture(scope="module")
+def adaptive_ramp(relaxed, tmp_path_factory):
+    out = tmp_path_factory.mktemp("ramp_adaptive")
+    cfg = RampConfig(datafile=relaxed.datafile, dF_x=DF_FINE, dF_x_max=DF_MAX, tol=TOL)
+    return cfg, stages.ramp(cfg, str(out), quiet=True)
+
+
+def test_adaptive_ramp_brackets_the_same_onset_with_fewer_steps(adaptive_ramp, full_ramp):
+    """The adaptive ramp's certified bracket overlaps the fixed ramp's.
+
+    A fixed ramp at the adaptive ramp's smallest step (1e-3) would need
+    ~F_x^c / 1e-3 ~ 200 steps to get there; the adaptive one may take at most
+    a quarter of them, with steps between dF_x and dF_x_max.
+    """
+    cfg, res = adaptive_ramp
+    _, fixed = full_ramp
+    assert res.status == "complete" and res.tol_reached, res.message
+    assert res.F_x_c_low < fixed.F_x_c_high and fixed.F_x_c_low < res.F_x_c_high, (
+        res.F_x_c_low, res.F_x_c_high, fixed.F_x_c_low, fixed.F_x_c_high)
+    assert res.F_x.size <= 0.25 * res.F_x_c_high / DF_FINE, res.F_x.size
+    h = np.diff(res.F_x)
+    assert np.all(h >= DF_FINE * (1 - 1e-12)) and np.all(h <= DF_MAX * (1 + 1e-12))
+    assert h.max() > 5 * DF_FINE          # it did take large steps
+    assert res.complex_pair[-1] and not np.any(res.complex_pair[:-1])
+
+
+def test_adaptive_ramp_resume_takes_the_same_loads(adaptive_ramp, tmp_path):
+    cfg, full = adaptive_ramp
+    k = max(3, full.F_x.size // 2)            # interrupted among the adaptive steps
+    part = stages.ramp(cfg, str(tmp_path), quiet=True, stop_after=k)
+    assert part.status == "interrupted" and part.F_x.size == k
+    res = stages.ramp(cfg, str(tmp_path), quiet=True, resume=True)
+    np.testing.assert_array_equal(res.F_x, full.F_x)
+    np.testing.assert_array_equal(res.bisection_F_x, full.bisection_F_x)
+    assert (res.F_x_c_low, res.F_x_c_high) == (full.F_x_c_low, full.F_x_c_high)
+
+
+@pytest.mark.parametrize("dmax", [1e-3, 5e-4, float("nan")])
+def test_adaptive_ramp_needs_dF_x_max_above_dF_x(relaxed, dmax):
+    from remote_trigger.pywrap.config import ConfigError
+
+    with pytest.raises(ConfigError, match="dF_x_max"):
+        RampConfig(datafile=relaxed.datafile, dF_x=1e-3, dF_x_max=dmax)
