@@ -475,18 +475,18 @@ def _units(lam, V):
         reals.append(j)
         j += 1
     reals.sort(key=lambda i: lam[i].real)
+    # |cos| of the angle between the eigenvectors of sorted neighbours (one
+    # array operation; only compared with _PARALLEL)
+    Vr = V[:, reals].real
+    nrm = np.sqrt(np.einsum("ij,ij->j", Vr, Vr))
+    cos = np.abs(np.einsum("ij,ij->j", Vr[:, :-1], Vr[:, 1:])) / (nrm[:-1] * nrm[1:])
     k = 0
     while k < len(reals):
-        i = reals[k]
-        if k + 1 < len(reals):
-            i2 = reals[k + 1]
-            v1, v2 = V[:, i].real, V[:, i2].real
-            c = abs(v1 @ v2) / (np.linalg.norm(v1) * np.linalg.norm(v2))
-            if c > _PARALLEL:
-                units.append(_Unit((i, i2), merged=True))
-                k += 2
-                continue
-        units.append(_Unit((i,)))
+        if k + 1 < len(reals) and cos[k] > _PARALLEL:
+            units.append(_Unit((reals[k], reals[k + 1]), merged=True))
+            k += 2
+            continue
+        units.append(_Unit((reals[k],)))
         k += 1
     return units
 
@@ -678,24 +678,29 @@ def _analyse(A, lam, V, units, rel_error, input_error):
     """One verification pass over the given units. Returns (entries, summary data)."""
     n = A.shape[0]
     # column layout: units sorted by the real part of their eigenvalues
-    order = sorted(range(len(units)), key=lambda k: float(np.mean(lam[list(units[k].idx)].real)))
+    lr = lam.real
+    key = [lr[un.idx[0]] if len(un.idx) == 1 else (lr[un.idx[0]] + lr[un.idx[1]]) / 2
+           for un in units]
+    order = sorted(range(len(units)), key=key.__getitem__)
     units = [units[k] for k in order]
-    cols, blocks, refined = [], [], []
+    blocks, refined, single = [], [], []
     s = 0
     for un in units:
-        if len(un.idx) == 1:
-            v = V[:, un.idx[0]].real
-            cols.append((v / np.linalg.norm(v))[:, None])
-            blocks.append((s, 1))
-            refined.append(False)
-            s += 1
-        else:
-            Q, ref = _pair_basis(A, lam, V, un)
-            cols.append(Q)
-            blocks.append((s, 2))
-            refined.append(ref)
-            s += 2
-    X = np.hstack(cols)
+        k = len(un.idx)
+        blocks.append((s, k))
+        if k == 1:
+            single.append((s, un.idx[0]))
+        s += k
+    X = np.empty((n, s))
+    if single:
+        at, idx = (np.array(c) for c in zip(*single))
+        Vs = np.ascontiguousarray(V[:, idx].real.T)
+        # norms as np.linalg.norm computes them: sqrt(v . v), v contiguous
+        X[:, at] = (Vs / np.sqrt([v @ v for v in Vs])[:, None]).T
+    for un, (s, k) in zip(units, blocks):
+        if k == 2:
+            X[:, s:s + 2], ref = _pair_basis(A, lam, V, un)
+        refined.append(k == 2 and ref)
     ver = _Verified(A, X, blocks, rel_error, input_error)
     if not ver.ok:
         return None, ver
