@@ -323,8 +323,9 @@ def inertia_points(cfg, points, mu, I0, folder):
 
     The ramp stops at its own first complex point (I0 = 1/2). Under another
     I0 the onset may lie above it: then the ramp is continued with the same
-    step dF_x (new equilibria, each from the previous one, exactly as ramp
-    steps) for at most ``inertia_extra_steps`` steps (default 0.5 F_x_max / dF_x),
+    step dF_x, or the adaptive step under I0 if ``cfg.dF_x_max`` is set
+    (:func:`.ramp.adaptive_step`; new equilibria, each from the previous one,
+    exactly as ramp steps) for at most ``inertia_extra_steps`` steps (default 0.5 F_x_max / dF_x),
     until a point is certified complex under I0. Inside the bracket the
     certified decision under I0 drives a bisection to ``tol``
     (:func:`.stages.next_bisection_point`, each point from the ``lo``
@@ -350,6 +351,7 @@ def inertia_points(cfg, points, mu, I0, folder):
     from mpi4py import MPI
     from .engine import Engine
     from .paper import ramp_config
+    from .ramp import adaptive_step
     from .stages import next_bisection_point
 
     pts = reanalyse(points, I0)
@@ -368,7 +370,17 @@ def inertia_points(cfg, points, mu, I0, folder):
                  else int(0.5 * cfg.F_x_max / cfg.dF_x))
         while not math.isfinite(hi) and k < k_max:
             k += 1
-            F = last["F_x"] + cfg.dF_x
+            h = cfg.dF_x
+            if cfg.dF_x_max is not None:
+                # the predictor's second load at least half a step below (not a
+                # bisection point next to the ramp's end)
+                prev = max((p for p in pts if p["F_x"] < last["F_x"] - 0.5 * cfg.dF_x),
+                           key=lambda p: p["F_x"], default=None)
+                if prev is not None:
+                    h = adaptive_step(cfg.dF_x, cfg.dF_x_max,
+                                      *((p["F_x"], p["decision"], p["eigenvalues"])
+                                        for p in (prev, last)))
+            F = last["F_x"] + h
             p = _new_point(eng, rcfg, last["dump"], F, os.path.join(folder, f"ext_{k:04d}"),
                            I0)
             if p is None:

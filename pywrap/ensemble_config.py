@@ -37,6 +37,10 @@ class EnsembleConfig(JobConfig):
     dF_x, tol, F_x_max : float
         Ramp step, bisection tolerance on F_x^c and largest F_x, > 0
         (``paper``'s defaults: 2.5e-4, 1e-7, 0.5).
+    dF_x_max : float or None
+        None (default): fine ramps, every step dF_x. A number > dF_x:
+        adaptive ramps (``ramp --dF-x-max``, docs/driver.md) and adaptive
+        steps for the I0 continuation above a ramp's end.
     relax : dict
         Extra :class:`~remote_trigger.pywrap.config.RelaxConfig` fields for
         both relaxations (e.g. ``settle_steps``).
@@ -82,6 +86,7 @@ class EnsembleConfig(JobConfig):
     dF_x: float = PaperConfig.dF_x
     tol: float = PaperConfig.tol
     F_x_max: float = PaperConfig.F_x_max
+    dF_x_max: float = None
     relax: dict = field(default_factory=dict)
     frictional: bool = True
     frictional_relax: dict = field(default_factory=dict)
@@ -119,6 +124,9 @@ class EnsembleConfig(JobConfig):
         if self.dF_x >= self.F_x_max:
             raise ConfigError(f"dF_x must be < F_x_max = {self.F_x_max!r}, got "
                               f"dF_x = {self.dF_x!r}")
+        if self.dF_x_max is not None and not _num("dF_x_max", self.dF_x_max) > self.dF_x:
+            raise ConfigError(f"dF_x_max must be > dF_x = {self.dF_x!r} (or null: fine "
+                              f"ramps), got dF_x_max = {self.dF_x_max!r}")
         for name in ("frictional", "keep_equilibria", "quick"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be true or false, got "

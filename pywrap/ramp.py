@@ -458,12 +458,9 @@ def next_step(cfg, rlog):
     """Load of the next ramp step, from the steps recorded so far.
 
     Fixed steps (``cfg.dF_x_max`` None): F_x + k dF_x for step k. Adaptive
-    ramp: steps 0 and 1 as fixed; then, if the last two steps were certified
-    real and have spectra of the same size, the step is
-    ``ADAPTIVE_SAFETY`` x the distance to the nearest coalescence predicted
-    from their spectra (:func:`remote_trigger.analysis.eigtrack.predict_coalescence`),
-    clipped to [dF_x, dF_x_max]; otherwise dF_x. The choice depends only on
-    recorded rows, so a resumed ramp takes the same loads.
+    ramp: steps 0 and 1 as fixed, then :func:`adaptive_step` from the last
+    two steps. The choice depends only on recorded rows, so a resumed ramp
+    takes the same loads.
 
     Parameters
     ----------
@@ -474,23 +471,45 @@ def next_step(cfg, rlog):
     -------
     float
     """
-    from remote_trigger.analysis.eigtrack import predict_coalescence
-
     steps = rlog.rows[ramp_file.STEPS]
     k = len(steps["F_x"])
     if cfg.dF_x_max is None or k < 2:
         return cfg.F_x + k * cfg.dF_x
-    F0, F1 = steps["F_x"][k - 2], steps["F_x"][k - 1]
-    h = cfg.dF_x
-    if steps["decision"][k - 2] == 0 and steps["decision"][k - 1] == 0:
-        lam0, lam1 = (rlog.eig[f"{ramp_file.STEPS}/{ramp_file.point_name(ramp_file.STEPS, j)}"]
-                      for j in (k - 2, k - 1))
-        try:
-            d, _ = predict_coalescence(F0, lam0, F1, lam1)
-        except ValueError:          # rattlers changed: no matching of neighbours
-            d = 0.0
-        h = min(max(ADAPTIVE_SAFETY * d, cfg.dF_x), cfg.dF_x_max)
-    return F1 + h
+    prev, last = ((steps["F_x"][j], steps["decision"][j],
+                   rlog.eig[f"{ramp_file.STEPS}/{ramp_file.point_name(ramp_file.STEPS, j)}"])
+                  for j in (k - 2, k - 1))
+    return last[0] + adaptive_step(cfg.dF_x, cfg.dF_x_max, prev, last)
+
+
+def adaptive_step(dF_x, dF_x_max, prev, last):
+    """Step of the adaptive ramp after two analysed loads.
+
+    If both loads were certified real (decision 0) and their spectra have the
+    same size, ``ADAPTIVE_SAFETY`` x the distance to the nearest coalescence
+    predicted from them
+    (:func:`remote_trigger.analysis.eigtrack.predict_coalescence`), clipped
+    to [dF_x, dF_x_max]; otherwise dF_x.
+
+    Parameters
+    ----------
+    dF_x, dF_x_max : float
+        Smallest and largest step.
+    prev, last : tuple (F_x, decision, eigenvalues)
+        The two loads, ``prev[0] < last[0]``.
+
+    Returns
+    -------
+    float
+    """
+    from remote_trigger.analysis.eigtrack import predict_coalescence
+
+    if not (prev[1] == 0 and last[1] == 0):
+        return dF_x
+    try:
+        d, _ = predict_coalescence(prev[0], prev[2], last[0], last[2])
+    except ValueError:          # rattlers changed: no matching of neighbours
+        return dF_x
+    return min(max(ADAPTIVE_SAFETY * d, dF_x), dF_x_max)
 
 
 def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):

@@ -196,3 +196,21 @@ def test_adaptive_ramp_needs_dF_x_max_above_dF_x(relaxed, dmax):
 
     with pytest.raises(ConfigError, match="dF_x_max"):
         RampConfig(datafile=relaxed.datafile, dF_x=1e-3, dF_x_max=dmax)
+
+
+def test_adaptive_step_rules():
+    """Half the predicted distance, clipped; dF_x unless both loads are certified real."""
+    from remote_trigger.pywrap.ramp import ADAPTIVE_SAFETY, adaptive_step
+
+    def spec(F, F_c=0.5):                   # a pair closing like sqrt(F_c - F)
+        g = 0.2 * np.sqrt(F_c - F)
+        return np.array([1.0 - g, 1.0 + g, 3.0], complex)
+
+    prev, last = (0.40, 0, spec(0.40)), (0.42, 0, spec(0.42))
+    assert adaptive_step(1e-3, 1.0, prev, last) == pytest.approx(ADAPTIVE_SAFETY * 0.08)
+    assert adaptive_step(1e-3, 0.01, prev, last) == 0.01                 # clipped above
+    near = (0.4999, 0, spec(0.4999))
+    assert adaptive_step(1e-3, 1.0, last, near) == 1e-3                  # clipped below
+    for dec in (-1, 1):
+        assert adaptive_step(1e-3, 1.0, prev, (0.42, dec, spec(0.42))) == 1e-3
+    assert adaptive_step(1e-3, 1.0, prev, (0.42, 0, spec(0.42)[:2])) == 1e-3   # rattlers

@@ -19,6 +19,8 @@ from remote_trigger.pywrap.config import ConfigError
     ("mu_ss", 1.2, "mu_ss = 1.2"),
     ("mu", -1.0, "mu = -1.0"),
     ("dF_x", 0.0, "dF_x = 0.0"),
+    ("dF_x_max", 2.5e-4, "dF_x_max = 0.00025"),
+    ("dF_x_max", -1.0, "dF_x_max = -1.0"),
     ("tol", -1e-7, "tol = -1e-07"),
     ("phi", 0.95, "phi = 0.95"),
     ("inertia_I0", 0.5, "inertia_I0 = 0.5"),
