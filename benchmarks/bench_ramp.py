@@ -1,14 +1,23 @@
-"""Benchmark: the full default ramp (N = 100, dF_x = 1e-4, bisection to 1e-7).
+"""Benchmark: fine and adaptive ramps side by side (N = 100, dF_x = 2.5e-4, tol 1e-7).
 
-For each seed: generate the default packing, relax it with the default
-protocol, then ramp F_x for each mu (default 1 and 0.8) from the *same*
-relaxed equilibrium, up to the first certified complex pair and bisection
-to ``tol``. Prints a table: relax time, ramp time, steps, bisections,
-certified F_x^c bracket and its width, undecided equilibria, growth rate
-just above F_x^c, Newton steps per ramp step.
-Goal: the mu = 1 ramp in <= 2 minutes on a 2-core machine.
+For each seed: generate the packing, relax it with the default protocol,
+then for each mu (default 1 and 0.8) ramp F_x from the *same* relaxed
+equilibrium twice: the fine ramp (every step dF_x, the default job's) and
+the adaptive ramp (steps up to ``--adaptive``, docs/driver.md), each up to
+the first certified complex pair and bisection to ``tol``. Prints per ramp:
+relax time, ramp wall time, steps, bisections, the certified F_x^c bracket
+and its width, undecided equilibria, growth rate just above F_x^c, Newton
+steps per ramp step, the median wall and CPU time of one point
+(re-equilibration + files + certified decision, from ramp.h5's per-point
+``wall_time``; CPU from the process clock over the whole ramp), and for
+the adaptive ramp whether its bracket overlaps the fine one's. Seeds 1..5
+are the ``ensemble`` job's first five packings at N = 100 (same generator
+and relaxation).
+Goals: one ramp point <= 0.06 s at N = 100 (issue 15); the adaptive
+ramp's bracket overlaps the fine ramp's.
 
-    python benchmarks/bench_ramp.py [--seeds 1] [--mu 1 0.8] [--n 100]
+    python benchmarks/bench_ramp.py [--seeds 1 2 3] [--mu 1 0.8] [--n 100]
+                                    [--dF-x 2.5e-4] [--adaptive 0.01 | --adaptive 0]
     mpirun -np 2 python benchmarks/bench_ramp.py     # LAMMPS on 2 ranks
 """
 import os
@@ -26,12 +35,17 @@ import time
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=100)
-    ap.add_argument("--seeds", type=int, nargs="+", default=[1])
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
     ap.add_argument("--mu", type=float, nargs="+", default=[1.0, 0.8])
-    ap.add_argument("--dF-x", dest="dF_x", type=float, default=1e-4)
+    ap.add_argument("--dF-x", dest="dF_x", type=float, default=2.5e-4)
     ap.add_argument("--tol", type=float, default=1e-7)
+    ap.add_argument("--adaptive", type=float, default=0.01,
+                    help="dF_x_max of the adaptive ramp (0: fine ramps only)")
+    ap.add_argument("--quick", action="store_true", help="one seed, mu = 1 (smoke run)")
     ap.add_argument("--out", default=None, help="keep outputs here (default: temp dir)")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.seeds, args.mu = args.seeds[:1], args.mu[:1]
 
     from mpi4py import MPI
     import numpy as np
@@ -44,6 +58,7 @@ def main(argv=None):
     rank = comm.Get_rank()
     base = args.out or (tempfile.mkdtemp(prefix="bench_ramp_") if rank == 0 else None)
     base = comm.bcast(base, root=0)
+    kinds = [("fine", None)] + ([("adaptive", args.adaptive)] if args.adaptive > 0 else [])
     rows = []
     for seed in args.seeds:
         out = os.path.join(base, f"seed{seed}")
@@ -54,31 +69,59 @@ def main(argv=None):
         comm.Barrier()
         rel = stages.relax(RelaxConfig(datafile=data), out, quiet=True)
         for mu in args.mu:
-            cfg = RampConfig(datafile=rel.datafile, mu=mu, dF_x=args.dF_x, tol=args.tol)
-            rout = os.path.join(out, f"mu{mu:g}")
-            t0 = time.perf_counter()
-            res = stages.ramp(cfg, rout, quiet=True)
-            wall = time.perf_counter() - t0
-            nst = 0.0
-            if rank == 0:
-                _, d = read_all(res.h5)
-                nst = float(np.mean(d["steps/newton_steps"]))
-            g = float(res.growth_rate[-1]) if res.growth_rate.size else float("nan")
-            rows.append((seed, mu, rel.wall_time, rel.packing_fraction, wall, res.F_x.size,
-                         res.bisection_F_x.size, res.F_x_c_low, res.F_x_c_high, g, nst,
-                         res.status, res.n_undecided, res.F_x_c_width))
+            fine = None
+            for kind, dmax in kinds:
+                cfg = RampConfig(datafile=rel.datafile, mu=mu, dF_x=args.dF_x, tol=args.tol,
+                                 dF_x_max=dmax)
+                rout = os.path.join(out, f"mu{mu:g}_{kind}")
+                t0, c0 = time.perf_counter(), time.process_time()
+                res = stages.ramp(cfg, rout, quiet=True)
+                wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+                nst = t_point = 0.0
+                if rank == 0:
+                    _, d = read_all(res.h5)
+                    nst = float(np.mean(d["steps/newton_steps"]))
+                    t_point = float(np.median(np.concatenate([d["steps/wall_time"],
+                                                              d["bisection/wall_time"]])))
+                npts = res.F_x.size + res.bisection_F_x.size
+                g = float(res.growth_rate[-1]) if res.growth_rate.size else float("nan")
+                overlap = "-"
+                if kind == "fine":
+                    fine = res
+                else:
+                    overlap = ("yes" if res.F_x_c_low < fine.F_x_c_high
+                               and fine.F_x_c_low < res.F_x_c_high else "NO")
+                rows.append((seed, mu, kind, rel.wall_time, rel.packing_fraction, wall,
+                             res.F_x.size, res.bisection_F_x.size, res.F_x_c_low,
+                             res.F_x_c_high, res.F_x_c_width, res.n_undecided, g, nst,
+                             t_point, cpu / npts, overlap, res.status))
     if rank == 0:
-        print(f"N = {args.n}, dF_x = {args.dF_x:g}, tol = {args.tol:g}, "
-              f"{comm.Get_size()} MPI rank(s)")
-        print(f"{'seed':>4} {'mu':>4} {'relax[s]':>8} {'phi':>6} {'ramp[s]':>8} "
-              f"{'steps':>6} {'bisect':>6} {'F_x^c low':>12} {'F_x^c high':>12} "
-              f"{'width':>8} {'undec':>5} {'growth':>9} {'newton/step':>11} status")
+        print(f"N = {args.n}, dF_x = {args.dF_x:g}, tol = {args.tol:g}, adaptive dF_x_max = "
+              f"{args.adaptive:g}, {comm.Get_size()} MPI rank(s)")
+        print(f"{'seed':>4} {'mu':>4} {'ramp':>8} {'relax[s]':>8} {'phi':>6} {'ramp[s]':>7} "
+              f"{'steps':>5} {'bisect':>6} {'F_x^c low':>12} {'F_x^c high':>12} {'width':>7} "
+              f"{'undec':>5} {'growth':>8} {'newton':>6} {'pt[ms]':>6} {'cpu[ms]':>7} "
+              f"{'overlap':>7} status")
         for r in rows:
-            print(f"{r[0]:4d} {r[1]:4g} {r[2]:8.2f} {r[3]:6.4f} {r[4]:8.1f} {r[5]:6d} "
-                  f"{r[6]:6d} {r[7]:12.9f} {r[8]:12.9f} {r[13]:8.2g} {r[12]:5d} {r[9]:9.2e} "
-                  f"{r[10]:11.2f} {r[11]}")
+            print(f"{r[0]:4d} {r[1]:4g} {r[2]:>8} {r[3]:8.2f} {r[4]:6.4f} {r[5]:7.1f} "
+                  f"{r[6]:5d} {r[7]:6d} {r[8]:12.9f} {r[9]:12.9f} {r[10]:7.2g} {r[11]:5d} "
+                  f"{r[12]:8.2e} {r[13]:6.2f} {r[14] * 1e3:6.1f} {r[15] * 1e3:7.1f} "
+                  f"{r[16]:>7} {r[17]}")
+        fine_pt = [r[14] for r in rows if r[2] == "fine"]
+        print(f"one ramp point (fine ramps, median of per-point wall times): "
+              f"{np.median(fine_pt) * 1e3:.1f} ms (goal <= 60 ms at N = 100)")
+        ad = [r for r in rows if r[2] == "adaptive"]
+        if ad:
+            fr = {(r[0], r[1]): r for r in rows if r[2] == "fine"}
+            pts = [(fr[r[0], r[1]][6] + fr[r[0], r[1]][7], r[6] + r[7]) for r in ad]
+            print(f"adaptive vs fine: brackets overlap in {sum(r[16] == 'yes' for r in ad)} "
+                  f"of {len(ad)} ramps; equilibria {sum(p[1] for p in pts)} vs "
+                  f"{sum(p[0] for p in pts)}, ramp time {sum(r[5] for r in ad):.1f} s vs "
+                  f"{sum(fr[r[0], r[1]][5] for r in ad):.1f} s")
         print("F_x^c low/high: the certified bracket (largest load certified real, smallest "
-              "certified complex); undec: equilibria the analyzer left undecided")
+              "certified complex); undec: equilibria the analyzer left undecided; newton: "
+              "Newton steps per ramp step; pt: median wall time of one point; cpu: process "
+              "CPU time per point (with start-up)")
     return 0
 
 

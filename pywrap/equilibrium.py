@@ -126,12 +126,40 @@ def analysis_state(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0):
         require_contacts=False)
 
 
+#: largest number of degrees of freedom (3N) that Newton solves with a dense
+#: LU (N = 400 disks); above it K stays sparse and is factorised by SuperLU
+#: (a dense K at N = 1e4 would need 7.2 GB)
+DENSE_NEWTON_MAX = 1200
+
+
 def stiffness_dense(state, k_n, k_t, mu, F_x, F_y):
     """Dense K = -dG/dq (3N x 3N) of a gathered state (analysis Jacobian)."""
+    K = stiffness(state, k_n, k_t, mu, F_x, F_y, sparse=True)
+    return K.toarray() if hasattr(K, "toarray") else np.asarray(K)
+
+
+def stiffness(state, k_n, k_t, mu, F_x, F_y, sparse=None):
+    """K = -dG/dq (3N x 3N) of a gathered state (analysis Jacobian).
+
+    Parameters
+    ----------
+    state : AtomState
+    k_n, k_t, mu, F_x, F_y : float
+    sparse : bool, optional
+        Return a ``scipy.sparse`` matrix; default: sparse above
+        :data:`DENSE_NEWTON_MAX` degrees of freedom, dense ndarray below.
+
+    Returns
+    -------
+    ndarray or scipy.sparse matrix, shape (3N, 3N)
+    """
     from remote_trigger.analysis import jacobian
 
-    st = analysis_state(state, k_n, k_t, mu, F_x, F_y)
-    K = jacobian.stiffness_matrix(st)
+    if sparse is None:
+        sparse = 3 * state.n > DENSE_NEWTON_MAX
+    K = jacobian.stiffness_matrix(analysis_state(state, k_n, k_t, mu, F_x, F_y))
+    if sparse:
+        return K
     return K.toarray() if hasattr(K, "toarray") else np.asarray(K)
 
 
@@ -140,10 +168,13 @@ def newton_step(K, G):
 
     Rows and columns that are entirely zero (contactless disks) are dropped;
     the rest is solved by LU, or by least squares if K is singular (a disk
-    held by one contact has a zero rolling mode).
+    held by one contact has a zero rolling mode). A sparse K goes to
+    :func:`_sparse_newton_step`.
     """
     import scipy.linalg as sla
 
+    if hasattr(K, "tocsc"):
+        return _sparse_newton_step(K, G)
     g = G.reshape(-1)
     live = np.any(K != 0.0, axis=1) | np.any(K != 0.0, axis=0)
     idx = np.nonzero(live)[0]
@@ -165,6 +196,40 @@ def newton_step(K, G):
         sol = None
     if sol is None or not np.all(np.isfinite(sol)):
         sol = sla.lstsq(Kr, gr, cond=1e-14)[0]
+    dq[idx] = sol
+    return dq.reshape(-1, 3)
+
+
+def _sparse_newton_step(K, G):
+    """:func:`newton_step` for a sparse K: SuperLU, or LSMR if K is singular."""
+    import warnings
+
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    g = G.reshape(-1)
+    K = sp.csr_matrix(K)
+    K.eliminate_zeros()
+    live = (np.diff(K.indptr) > 0) | (np.bincount(K.indices, minlength=K.shape[1]) > 0)
+    idx = np.nonzero(live)[0]
+    dq = np.zeros_like(g)
+    if idx.size == 0:
+        return dq.reshape(-1, 3)
+    Kr = K[idx][:, idx].tocsc()
+    gr = g[idx]
+    sol = None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            lu = spla.splu(Kr)
+        d = np.abs(lu.U.diagonal())
+        if np.all(np.isfinite(d)) and d.min() > 1e-13 * d.max():
+            sol = lu.solve(gr)
+    except RuntimeError:            # exactly singular
+        sol = None
+    if sol is None or not np.all(np.isfinite(sol)):
+        sol = spla.lsmr(Kr, gr, atol=1e-15, btol=1e-15, conlim=1e14,
+                        maxiter=10 * idx.size)[0]
     dq[idx] = sol
     return dq.reshape(-1, 3)
 
@@ -255,7 +320,7 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None):
             break
         dq = None
         if eng.rank == 0:   # one solve, broadcast: every rank applies the same step
-            K = stiffness_dense(state, cfg.k_n, cfg.k_t, cfg.mu, F_x, cfg.F_y)
+            K = stiffness(state, cfg.k_n, cfg.k_t, cfg.mu, F_x, cfg.F_y)
             dq = newton_step(K, G)
         dq = eng.comm.bcast(dq, root=0)
         if not np.all(np.isfinite(dq)):
