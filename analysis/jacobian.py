@@ -414,8 +414,51 @@ class RattlerResult:
     min_contacts: int
 
 
+def rattler_rule(n, ci, cj, wall_contacts, min_contacts=2):
+    """The rattler rule on a contact list: drop disks with fewer than
+    ``min_contacts`` contacts among the kept ones, until none is dropped.
+
+    Parameters
+    ----------
+    n : int
+        Number of disks.
+    ci, cj : array_like of int, shape (M,)
+        Disk indices of each disk-disk contact.
+    wall_contacts : array_like of int, shape (n,)
+        Wall contacts per disk (counted, never dropped).
+    min_contacts : int, optional
+
+    Returns
+    -------
+    kept : ndarray of bool, shape (n,)
+    rounds : int
+        Passes that dropped disks.
+
+    Raises
+    ------
+    ValueError
+        If ``min_contacts`` < 0.
+    """
+    if min_contacts < 0:
+        raise ValueError(f"min_contacts must be >= 0, got {min_contacts}")
+    ci, cj = np.asarray(ci, np.int64), np.asarray(cj, np.int64)
+    wz = np.asarray(wall_contacts, np.int64)
+    alive = np.ones(n, bool)
+    rounds = 0
+    while True:
+        live = alive[ci] & alive[cj]
+        z = (np.bincount(ci[live], minlength=n) + np.bincount(cj[live], minlength=n) + wz)
+        drop = alive & (z < min_contacts)
+        if not np.any(drop):
+            break
+        alive &= ~drop
+        rounds += 1
+    return alive, rounds
+
+
 def find_rattlers(state, min_contacts=2, count_wall=True):
-    """Remove, iteratively, disks with fewer than ``min_contacts`` contacts.
+    """Remove, iteratively, disks with fewer than ``min_contacts`` contacts
+    (:func:`rattler_rule` on the state's contacts).
 
     Parameters
     ----------
@@ -435,22 +478,10 @@ def find_rattlers(state, min_contacts=2, count_wall=True):
     ValueError
         If ``min_contacts`` < 0.
     """
-    if min_contacts < 0:
-        raise ValueError(f"min_contacts must be >= 0, got {min_contacts}")
     n = state.n
-    alive = np.ones(n, bool)
-    ci, cj = state.contact_i, state.contact_j
     wz = (np.bincount(state.wall_index, minlength=n) if count_wall
           else np.zeros(n, np.int64))
-    rounds = 0
-    while True:
-        live = alive[ci] & alive[cj]
-        z = (np.bincount(ci[live], minlength=n) + np.bincount(cj[live], minlength=n) + wz)
-        drop = alive & (z < min_contacts)
-        if not np.any(drop):
-            break
-        alive &= ~drop
-        rounds += 1
+    alive, rounds = rattler_rule(n, state.contact_i, state.contact_j, wz, min_contacts)
     idx = np.nonzero(~alive)[0].astype(np.int64)
     keep = np.nonzero(alive)[0]
     keep_dofs = (3 * keep[:, None] + np.arange(3)).reshape(-1).astype(np.int64)

@@ -23,8 +23,8 @@ import warnings
 import numpy as np
 from MDAnalysis.analysis.base import AnalysisBase
 
-__all__ = ["open_dump", "DisplacementFromStart", "float32_floor", "touching_pairs",
-           "ContactNumbers"]
+__all__ = ["open_dump", "open_universe", "DisplacementFromStart", "float32_floor",
+           "touching_pairs", "ContactNumbers"]
 
 
 def open_dump(path, unwrap=True, dt=None):
@@ -60,6 +60,121 @@ def open_dump(path, unwrap=True, dt=None):
         warnings.filterwarnings("ignore", message="Guessed all Masses")
         return mda.Universe(path, topology_format="LAMMPSDUMP", format="LAMMPSDUMP",
                             unwrap_images=unwrap, dt=1.0 if dt is None else float(dt))
+
+
+def _topology(path):
+    """(ids, types, radii, masses, top, positions (N, 2), box_lo, box_hi) in id order."""
+    from .datafile import read_data
+    from .state import read_dump
+
+    if _is_equilibrium_dump(path):
+        st = read_dump(path, require_contacts=False)
+        top = st.external[:, 1] != 0.0          # -F_y on the top line
+        return (st.ids, st.types, st.radii, st.masses, top, st.positions,
+                np.append(st.box_lo, -0.5), np.append(st.box_hi, 0.5))
+    d = read_data(path)
+    if d.positions is None:
+        raise ValueError(f"{path!r} is not a data file of atom_style sphere (its Atoms "
+                         f"section is {d.style!r}): no radii")
+    top = np.zeros(d.n, bool) if d.top is None else d.top
+    return d.ids, d.types, d.radii, d.masses, top, d.positions, d.box_lo, d.box_hi
+
+
+def _is_equilibrium_dump(path):
+    """True for an equilibrium dump of the driver (its ``.json`` sidecar exists)."""
+    import os
+
+    return os.path.exists(os.fspath(path) + ".json")
+
+
+def open_universe(topology, trajectory=None, dt=None, unwrap=True):
+    """Any output of the project as one MDAnalysis ``Universe``.
+
+    Parameters
+    ----------
+    topology : str
+        A data file written by the driver (``relax/equilibrium.data``,
+        ``ramp/step_*.data``, ``packing.data``; ``atom_style sphere``) or an
+        equilibrium dump with its ``.json`` sidecar (``*.dump``). Gives the
+        disks (ids, types, radii, masses), the top line and the first frame.
+    trajectory : str or list of str, optional
+        Frames: equilibrium dumps of a ramp (``ramp/step_*.dump``, each read
+        in float64 by :func:`remote_trigger.analysis.state.read_dump`, then
+        held by MDAnalysis' ``MemoryReader``), or ``dump custom`` trajectories
+        of a dynamics run with columns ``id type x y z`` (+ ``ix iy iz``),
+        read by MDAnalysis' ``LAMMPSDUMP`` reader (several files are
+        chained). Default: the topology's own positions, one frame.
+    dt : float, optional
+        Time step of a dynamics trajectory (``ts.time`` = step x dt).
+    unwrap : bool
+        Unwrap a dynamics trajectory with its image flags.
+
+    Returns
+    -------
+    MDAnalysis.Universe
+        One residue per disk; segments ``bulk`` and ``top``
+        (``u.select_atoms("segid top")`` is the top line); ``radii``,
+        ``masses``, ``types``, ``ids`` (atoms in id order). Positions are
+        float32 (MDAnalysis), z = 0, shifted by the box's lower corner as
+        MDAnalysis does for LAMMPS dumps (here y + 1 for the driver's box);
+        ``dimensions`` = box lengths. float32 resolves positions to ~1e-6 of
+        the box: enough for contacts and displacements above
+        :func:`float32_floor`, not for forces or K (docs/analysis.md).
+
+    Raises
+    ------
+    ValueError
+        An unreadable or unchecked data file or dump (one line naming it),
+        frames with other atom ids than the topology, or a list mixing
+        equilibrium dumps and dynamics trajectories.
+    """
+    import MDAnalysis as mda
+    from MDAnalysis.coordinates.memory import MemoryReader
+
+    ids, types, radii, masses, top, pos, lo, hi = _topology(topology)
+    n = ids.size
+    u = mda.Universe.empty(n, n_residues=n, n_segments=2, atom_resindex=np.arange(n),
+                           residue_segindex=top.astype(np.int64), trajectory=False)
+    u.add_TopologyAttr("ids", ids)
+    u.add_TopologyAttr("types", [str(t) for t in types])
+    u.add_TopologyAttr("radii", radii)
+    u.add_TopologyAttr("masses", masses)
+    u.add_TopologyAttr("resids", ids)
+    u.add_TopologyAttr("segids", ["bulk", "top"])
+    lengths = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
+    box = np.concatenate([lengths, [90.0, 90.0, 90.0]])
+    paths = [] if trajectory is None else (
+        [trajectory] if isinstance(trajectory, (str, bytes)) or not hasattr(
+            trajectory, "__iter__") else list(trajectory))
+    kinds = {_is_equilibrium_dump(p) for p in paths}
+    if len(kinds) > 1:
+        raise ValueError("trajectory mixes equilibrium dumps (with a .json sidecar) and "
+                         "dynamics trajectories; open them separately")
+    if not paths or kinds == {True}:
+        frames = [(pos, lo, hi)]
+        if paths:
+            from .state import read_dump
+
+            frames = []
+            for p in paths:
+                st = read_dump(p, require_contacts=False)
+                if not np.array_equal(st.ids, ids):
+                    raise ValueError(f"{p!r} holds other atoms than {topology!r}")
+                frames.append((st.positions, np.append(st.box_lo, lo[2]),
+                               np.append(st.box_hi, hi[2])))
+        coords = np.zeros((len(frames), n, 3), np.float32)
+        dims = np.zeros((len(frames), 6), np.float32)
+        for k, (x, flo, fhi) in enumerate(frames):
+            coords[k, :, :2] = x - flo[:2]
+            dims[k] = np.concatenate([np.where(np.isfinite(fhi - flo), fhi - flo, 1.0),
+                                      [90.0, 90.0, 90.0]])
+        u.load_new(coords, format=MemoryReader, dimensions=dims if len(frames) > 1 else box)
+        return u
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Reader has no dt information")
+        u.load_new(paths if len(paths) > 1 else paths[0], format="LAMMPSDUMP",
+                   unwrap_images=unwrap, dt=1.0 if dt is None else float(dt))
+    return u
 
 
 def float32_floor(positions):

@@ -123,3 +123,112 @@ def test_contact_numbers_over_a_run(tmp_path, relaxed):
     # compare the height up to that shift, and between frames
     dy = res.top_y[0] - np.mean(pos[top, 1])
     assert abs(res.top_y[-1] - res.top_y[0]) < 1e-5 and abs(dy - round(dy)) < 1e-5
+
+
+# --------------------------------------------------------------------------- open_universe
+def test_universe_of_a_data_file(tmp_path):
+    """Data file -> Universe: ids, radii, masses, the top line as a segment, float32
+    positions shifted by the box's lower corner, box lengths."""
+    from remote_trigger.analysis.trajectory import open_universe
+    from tests.data import unpack
+
+    path = unpack("default_job_mu1_step_00258", tmp_path)
+    ids, pos, radii, top, lx = _read_data(path)
+    u = open_universe(path)
+    assert u.atoms.n_atoms == 100 and np.array_equal(u.atoms.ids, ids)
+    np.testing.assert_allclose(u.atoms.radii, radii, rtol=1e-7)
+    np.testing.assert_allclose(u.atoms.masses, 1.0, rtol=1e-12)     # set group all mass 1.0
+    assert 5 < top.sum() < 20
+    assert np.array_equal(u.select_atoms("segid top").ids, ids[top])
+    assert u.select_atoms("segid bulk").n_atoms == 100 - top.sum()
+    assert u.atoms.positions.dtype == np.float32 and u.trajectory.n_frames == 1
+    np.testing.assert_allclose(u.atoms.positions[:, :2], pos + [0.0, 1.0], rtol=0, atol=4e-6)
+    assert u.dimensions[0] == pytest.approx(lx, rel=1e-6)
+
+
+def test_universe_of_ramp_dumps_and_of_a_dynamics_run(tmp_path, relaxed):
+    """Equilibrium dumps of a ramp become frames (float64 reader, then MDAnalysis'
+    memory); a dump trajectory of a dynamics run is read by MDAnalysis; both carry the
+    data file's disks, and ContactNumbers runs on them with the Universe's radii."""
+    from remote_trigger.analysis.state import read_dump
+    from remote_trigger.analysis.trajectory import ContactNumbers, open_universe
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.config import RampConfig
+
+    ramp = stages.ramp(RampConfig(datafile=relaxed.datafile, dF_x=0.01, F_x_max=0.025),
+                       str(tmp_path / "ramp"), quiet=True)
+    dumps = sorted(str(p) for p in (tmp_path / "ramp" / "ramp").glob("step_*.dump"))
+    assert ramp.status == "no_complex_pair" and len(dumps) == 3
+    u = open_universe(relaxed.datafile, dumps)
+    ids, _, radii, top, _ = _read_data(relaxed.datafile)
+    assert u.trajectory.n_frames == 3 and np.array_equal(u.atoms.ids, ids)
+    assert np.array_equal(u.select_atoms("segid top").ids, ids[top])
+    for ts, path in zip(u.trajectory, dumps):
+        st = read_dump(path, require_contacts=False)
+        np.testing.assert_allclose(u.atoms.positions[:, :2], st.positions - st.box_lo,
+                                   rtol=0, atol=4e-6)
+    # the dump as topology: the same disks and top line (its external load -F_y)
+    v = open_universe(dumps[0])
+    assert np.array_equal(v.select_atoms("segid top").ids, ids[top])
+    np.testing.assert_allclose(v.atoms.radii, radii, rtol=1e-7)
+
+    traj, steps, _ = _run(tmp_path, relaxed.datafile, 0.0, "universe")
+    w = open_universe(relaxed.datafile, traj)
+    assert w.trajectory.n_frames == steps.size
+    np.testing.assert_array_equal(w.atoms.positions, open_dump(traj).atoms.positions)
+    res = ContactNumbers(w.atoms, w.atoms.radii, top=w.atoms.segids == "top").run().results
+    assert np.all(res.n_contacts == res.n_contacts[0]) and res.n_contacts[0] > 20
+    with pytest.raises(ValueError, match="mixes"):
+        open_universe(relaxed.datafile, [dumps[0], traj])
+
+
+def test_rattlers_from_mdanalysis_contacts_agree_with_the_float64_ones(tmp_path, relaxed):
+    """Rattlers (fewer than 2 contacts, iterated; the wall counts) from the contacts
+    MDAnalysis finds (capped_distance, float32) are those of the analysis path:
+    find_rattlers on the float64 State of an equilibrium dump, and the float64 search
+    on the default job's two packings."""
+    from remote_trigger.analysis.jacobian import find_rattlers, rattler_rule
+    from remote_trigger.analysis.state import find_contacts, read_dump
+    from remote_trigger.analysis.trajectory import touching_pairs
+    from tests.data import unpack
+
+    dump = relaxed.datafile[:-len(".data")] + ".dump"
+    st = read_dump(dump, require_contacts=False)
+    pairs, _ = touching_pairs(st.positions, st.radii, st.box_hi[0] - st.box_lo[0],
+                              float(np.max(st.positions[:, 1] + st.radii)))
+    wall = np.bincount(st.wall_index, minlength=st.n)
+    kept, _ = rattler_rule(st.n, pairs[:, 0], pairs[:, 1], wall)
+    ref = find_rattlers(st)
+    assert np.array_equal(np.nonzero(~kept)[0], ref.indices)
+
+    counts = []
+    for name in ("default_job_mu1_step_00258", "default_job_mu0.8_step_00234"):
+        ids, pos, radii, _, lx = _read_data(unpack(name, tmp_path))
+        wall = (pos[:, 1] - radii < 0.0).astype(np.int64)        # the wall at y = 0
+        gi, gj, _ = find_contacts(pos, radii, np.array([0.0, -1.0]), np.array([lx, 100.0]),
+                                  (True, False), ids=ids)
+        k64, _ = rattler_rule(len(ids), gi, gj, wall)
+        pairs, _ = touching_pairs(pos, radii, lx, float(np.max(pos[:, 1] + radii)))
+        k32, _ = rattler_rule(len(ids), pairs[:, 0], pairs[:, 1], wall)
+        assert np.array_equal(k32, k64), name
+        counts.append(int((~k64).sum()))
+    # the default job's ramps analyse 279 and 279 dof: 7 rattlers each
+    assert counts == [7, 7], counts
+
+
+def test_float32_positions_cannot_carry_an_equilibrium(relaxed):
+    """Why the float64 reader stays: contact forces from the positions rounded to
+    float32 (what MDAnalysis holds) miss the equilibrium by many decades more than
+    the float64 residual (default packing, docs/analysis.md: 0.016 vs 2.3e-11)."""
+    from remote_trigger.analysis.analyze import analyze
+    from remote_trigger.analysis.forcelaw_ref import ReferenceSystem, reference_forces
+    from remote_trigger.analysis.state import read_dump
+
+    st = read_dump(relaxed.datafile[:-len(".data")] + ".dump", require_contacts=False)
+    s64 = ReferenceSystem.from_state(st)
+    s32 = ReferenceSystem(st.positions.astype(np.float32).astype(np.float64), st.radii,
+                          s64.pairs, s64.xi0, s64.k_n, s64.k_t, s64.mu, box_x=s64.box_x,
+                          wall_y=s64.wall_y, wall_disks=s64.wall_disks, wall_xi0=s64.wall_xi0)
+    err = np.max(np.abs(reference_forces(s32, s32.q0) - reference_forces(s64, s64.q0)))
+    residual = analyze(st, eigenvalues=False, decide=False).max_residual
+    assert residual < 1e-10 and err > 1e6 * residual, (err, residual)

@@ -1,0 +1,212 @@
+"""LAMMPS data files as the project writes them, read in float64 (no LAMMPS).
+
+``write_data`` of the driver (``atom_style sphere``) gives a header (atom
+count, box bounds), an ``Atoms # sphere`` section (``id type diameter
+density x y z ix iy iz``), ``Velocities``, and the sections of the per-atom
+fixes (``hist``: contact history, ``topflag # i_top``: the top line).
+:func:`read_data` checks the file the way the driver must before LAMMPS
+reads it (LAMMPS reports a truncated or corrupt file with a long message,
+and NaN coordinates or coincident disks not at all) and returns the atoms
+in id order. ``pywrap.datafile.check_datafile`` is this check with the
+driver's error type.
+"""
+from dataclasses import dataclass
+import math
+import os
+
+import numpy as np
+
+__all__ = ["DataFile", "read_data", "COINCIDENT"]
+
+#: sections with one line per atom type (or type pair), not per atom
+_PER_TYPE = ("Masses", "Pair Coeffs", "PairIJ Coeffs", "Bond Coeffs", "Angle Coeffs",
+             "Dihedral Coeffs", "Improper Coeffs")
+
+#: centres closer than this (length units) are coincident
+COINCIDENT = 1e-9
+
+
+@dataclass
+class DataFile:
+    """A data file's atoms, in id order.
+
+    Attributes
+    ----------
+    path : str
+    n : int
+        Number of atoms.
+    box_lo, box_hi : ndarray, shape (3,)
+        Box bounds (NaN where the header has none).
+    style : str
+        Atom style named in the ``Atoms`` header (``sphere`` if none).
+    ids, types : ndarray of int64, shape (n,)
+    positions : ndarray, shape (n, 2) or None
+        x, y (``sphere`` style; float64, as written).
+    radii, masses : ndarray, shape (n,) or None
+        ``sphere`` style: R = diameter / 2, m = density 4/3 pi R^3 (how
+        LAMMPS turns the density column into a mass, in 2d too).
+    images : ndarray of int64, shape (n, 3) or None
+    top : ndarray of bool, shape (n,) or None
+        The ``topflag`` section (``i_top`` > 0); None without it.
+    """
+
+    path: str
+    n: int
+    box_lo: np.ndarray
+    box_hi: np.ndarray
+    style: str
+    ids: np.ndarray
+    types: np.ndarray
+    positions: np.ndarray = None
+    radii: np.ndarray = None
+    masses: np.ndarray = None
+    images: np.ndarray = None
+    top: np.ndarray = None
+
+
+def _is_number(word):
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
+
+
+def _lines(path):
+    try:
+        with open(path) as fh:
+            lines = fh.read().splitlines()
+    except OSError as exc:
+        raise ValueError(f"cannot read the data file {path!r}: {exc.strerror or exc}") \
+            from None
+    except UnicodeDecodeError:
+        raise ValueError(f"data file {path!r} is not a text file") from None
+    if not any(line.strip() for line in lines):
+        raise ValueError(f"data file {path!r} is empty")
+    return lines
+
+
+def _header(path, lines):
+    """(natoms, bounds {axis: (lo, hi)}, [(section header, line index)])."""
+    natoms = None
+    bounds = {}
+    sections = []
+    for k, raw in enumerate(lines[1:], start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        words = line.split()
+        if not _is_number(words[0]):
+            sections.append((raw.strip(), k))
+            continue
+        if sections:
+            continue
+        if len(words) == 2 and words[1] == "atoms":
+            natoms = int(float(words[0]))
+        for ax in ("x", "y", "z"):
+            if len(words) == 4 and words[2:] == [f"{ax}lo", f"{ax}hi"]:
+                bounds[ax] = (float(words[0]), float(words[1]))
+    if natoms is None:
+        raise ValueError(f"data file {path!r} has no 'N atoms' line in its header "
+                         f"(not a LAMMPS data file, or truncated)")
+    for ax, (lo, hi) in bounds.items():
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ValueError(f"data file {path!r}: box bounds {ax}lo {ax}hi = {lo!r} {hi!r} "
+                             f"must be finite with lo < hi")
+    if not any(name.split()[0] == "Atoms" for name, _ in sections):
+        raise ValueError(f"data file {path!r} has no Atoms section (truncated?)")
+    return natoms, bounds, sections
+
+
+def _atoms_values(path, body):
+    """The Atoms lines as floats, every value finite."""
+    rows = []
+    for words in body:
+        row = []
+        for w in words:
+            try:
+                v = float(w)
+            except ValueError:
+                raise ValueError(f"data file {path!r}: non-numeric value {w!r} in the Atoms "
+                                 f"line of atom {words[0]}") from None
+            if not math.isfinite(v):
+                raise ValueError(f"data file {path!r}: non-finite value {w!r} in the Atoms "
+                                 f"line of atom {words[0]}")
+            row.append(v)
+        rows.append(row)
+    return rows
+
+
+def _check_coincident(path, xy, ids):
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(xy).query_pairs(COINCIDENT, output_type="ndarray")
+    if len(pairs):
+        i, j = (int(v) for v in pairs[0])
+        raise ValueError(f"data file {path!r}: atoms {ids[i]} and {ids[j]} are at the same "
+                         f"place (x, y) = ({float(xy[i, 0])!r}, {float(xy[i, 1])!r}); their "
+                         f"contact has no normal")
+
+
+def read_data(path):
+    """Read and check a LAMMPS data file.
+
+    Checks: the file exists and is not empty; the header gives the atom count
+    and finite box bounds; every per-atom section has one line per atom; every
+    number in the ``Atoms`` section is finite; no two centres coincide
+    (closer than :data:`COINCIDENT`, for ``atom_style sphere``: the contact
+    normal is undefined).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    DataFile
+
+    Raises
+    ------
+    ValueError
+        Naming the file and what is wrong with it (one line).
+    """
+    path = os.fspath(path)
+    lines = _lines(path)
+    natoms, bounds, sections = _header(path, lines)
+    atoms, per_atom = None, {}
+    for s, (name, start) in enumerate(sections):
+        end = sections[s + 1][1] if s + 1 < len(sections) else len(lines)
+        body = [ln.split("#", 1)[0].split() for ln in lines[start + 1:end]]
+        body = [w for w in body if w]
+        if name.startswith(_PER_TYPE):
+            continue
+        if len(body) < natoms:
+            raise ValueError(f"data file {path!r} is truncated: section {name.split()[0]!r} "
+                             f"has {len(body)} of {natoms} atom lines")
+        if name.split()[0] == "Atoms":
+            atoms = (name, body[:natoms])
+        else:
+            per_atom[name.split()[0]] = body[:natoms]
+    name, body = atoms
+    rows = _atoms_values(path, body)
+    style = name.split("#", 1)[1].strip() if "#" in name else "sphere"
+    lo = np.array([bounds.get(ax, (math.nan, math.nan))[0] for ax in "xyz"])
+    hi = np.array([bounds.get(ax, (math.nan, math.nan))[1] for ax in "xyz"])
+    ids = np.array([int(r[0]) for r in rows], np.int64)
+    order = np.argsort(ids, kind="stable")
+    out = DataFile(path, natoms, lo, hi, style, ids[order],
+                   np.array([int(r[1]) for r in rows], np.int64)[order])
+    if style == "sphere" and natoms > 0 and all(len(r) >= 7 for r in rows):
+        a = np.array([r[:7] for r in rows])
+        if natoms > 1:
+            _check_coincident(path, a[:, 4:6], [w[0] for w in body])
+        a = a[order]
+        out.positions = a[:, 4:6].copy()
+        out.radii = 0.5 * a[:, 2]
+        out.masses = a[:, 3] * (4.0 / 3.0) * np.pi * out.radii ** 3
+        if all(len(r) >= 10 for r in rows):
+            out.images = np.array([r[7:10] for r in rows], np.int64)[order]
+    if "topflag" in per_atom:
+        flags = {int(w[0]): int(float(w[1])) for w in per_atom["topflag"]}
+        out.top = np.array([flags.get(int(i), 0) > 0 for i in out.ids])
+    return out
