@@ -422,15 +422,40 @@ def _fig4_rows(out, summary, checks, info, extra):
 
 
 def _fig5_rows(out, summary, checks, info, extra):
-    """Rows of Fig. 5 (docs/paper.md, "Fig. 5: criteria") (appended to ``checks``, ``info``, ``extra``)."""
-    cfg = summary["config"]
-    P = PAPER
-    if summary.get("perturb"):
-        pz = summary["perturb"]
-        pm = perturb_metrics(out, summary)
-        extra["perturb"] = pm
-        mu0, mu_ss = pm["mu0"], float(pz["mu_ss"])
-        eq5, drop, ms = pz["equilibrium"], pz["drop"], pz["mu_star"]
+    """Rows of Fig. 5 (docs/paper.md, "Fig. 5: criteria") (appended to ``checks``, ``info``, ``extra``).
+
+    One method of :class:`_Fig5` per part: the equilibrium and the friction
+    drop, runs (a), (b), (c), the controls (d) and (e), the paper's
+    amplitude (p), and the informational rows.
+    """
+    if not summary.get("perturb"):
+        return
+    pz = summary["perturb"]
+    pm = perturb_metrics(out, summary)
+    extra["perturb"] = pm
+    f = _Fig5(summary, pz, pm, checks, info, extra)
+    f.equilibrium_rows()
+    f.run_a_rows()
+    f.run_b_rows()
+    f.run_c_rows()
+    f.control_d_rows()
+    f.control_e_rows()
+    f.paper_amplitude_rows()
+    f.info_rows()
+
+
+class _Fig5:
+    """The Fig. 5 part of the report: its inputs, and one method per group of rows."""
+
+    def __init__(self, summary, pz, pm, checks, info, extra):
+        self.summary, self.cfg, self.pz, self.pm = summary, summary["config"], pz, pm
+        self.checks, self.info, self.extra = checks, info, extra
+        self.mu0, self.mu_ss = pm["mu0"], float(pz["mu_ss"])
+        self.ms = pz["mu_star"]
+
+    def equilibrium_rows(self):
+        pz, checks, mu0, mu_ss, ms = self.pz, self.checks, self.mu0, self.mu_ss, self.ms
+        eq5, drop = pz["equilibrium"], pz["drop"]
         _check(checks, "stable_fig5", f"Fig. 5: the equilibrium at F_x = {pz['F_x']:.7g} "
                f"(window fraction {pz.get('window_fraction')}) is certified linearly stable "
                f"with mu0 = {mu0:g} (all eigenvalues real)", eq5["decision"] == "real", "yes",
@@ -446,7 +471,10 @@ def _fig5_rows(out, summary, checks, info, extra):
                reason=(f"decision {drop['decision']} (margin {drop['confidence']:.3g}): the "
                        "load is not inside the window for this history"),
                note=f"growth rate {drop['growth_rate']:.4g}; {mus}")
-        ra, rb, rc = pm["a"], pm.get("b"), pm.get("c")
+
+    def run_a_rows(self):
+        pm, checks, P = self.pm, self.checks, PAPER
+        ra = pm["a"]
         _check(checks, "msd_growth_fig5a", "Fig. 5 (a): growth of D over the run "
                "(log10 max D_a / median D_a)", ra["decades"], "~0 (stays at ~1e-20)",
                ra["decades"] < 2.0, reason="D grows in the unperturbed run")
@@ -456,7 +484,11 @@ def _fig5_rows(out, summary, checks, info, extra):
                reason=("the noise comes from the residual force of the equilibrium and "
                        "round-off; positions move by ~sqrt(D) = "
                        f"{math.sqrt(pm['level_a']):.2g}, consistent with residual "
-                       f"{summary['relax']['residual']:.2g} / contact stiffness ~1e3-1e4"))
+                       f"{self.summary['relax']['residual']:.2g} / contact stiffness ~1e3-1e4"))
+
+    def run_b_rows(self):
+        cfg, pm, checks, extra = self.cfg, self.pm, self.checks, self.extra
+        rb = pm.get("b")
         ratio_f = cfg["omega_p"] * abs(pm["compliance"]) * pm["a_forcing"] / pm["v0"]
         extra["forced_over_noise"] = ratio_f
         _check(checks, "forcing_fig5b", "Fig. 5 (b): quasi-static velocity of the top line "
@@ -473,6 +505,11 @@ def _fig5_rows(out, summary, checks, info, extra):
                    np.isfinite(rb["late_growth"]) and rb["late_growth"] < 1.0,
                    reason=f"D grows with f(t) alone (max {rb['max_D']:.3g})",
                    note=f"max D_b = {rb['max_D']:.3g}, {rb['decades']:.3g} decades above D_a")
+
+    def run_c_rows(self):
+        pz, pm, checks, extra, P = self.pz, self.pm, self.checks, self.extra, PAPER
+        mu_ss = self.mu_ss
+        rc = pm.get("c")
         if rc is not None:
             reached = pz.get("reached") or {}
             fit = reached.get("analysis") or {}
@@ -523,6 +560,10 @@ def _fig5_rows(out, summary, checks, info, extra):
                            not np.isfinite(rc["switch_time"]) else
                            f"mu fell only to {rc['min_mu']:.4g}"),
                    note=f"switched on at t = {rc['switch_time']:.4g} by {cause}")
+
+    def control_d_rows(self):
+        pz, pm, checks, extra = self.pz, self.pm, self.checks, self.extra
+        mu_ss = self.mu_ss
         if "d" in pm:
             rd = pm["d"]
             ctl = pz["control"]
@@ -546,6 +587,9 @@ def _fig5_rows(out, summary, checks, info, extra):
                    "no exponential growth", False,
                    reason="no ramp step below the window is certified real after the drop "
                           "(see paper.json perturb.control_tried)")
+
+    def control_e_rows(self):
+        cfg, pm, checks, mu0 = self.cfg, self.pm, self.checks, self.mu0
         if "e" in pm:
             re_ = pm["e"]
             ok = not np.isfinite(re_["switch_time"]) and not re_["triggered"]
@@ -557,6 +601,9 @@ def _fig5_rows(out, summary, checks, info, extra):
                    note=(f"max |v_top| {re_['max_v']:.3g} < v0 = {pm['v0']:.3g} over "
                          f"t = {re_['t_end']:.4g} (v0 was set from the first half of (a); "
                          "while |v| <= v0, (e) is step by step the same run as (a))"))
+
+    def paper_amplitude_rows(self):
+        cfg, pm, checks, P = self.cfg, self.pm, self.checks, PAPER
         if "p" in pm:
             rp = pm["p"]
             qs_p = cfg["omega_p"] * abs(pm["compliance"]) * cfg["a_paper"] / pm["v0"]
@@ -571,6 +618,10 @@ def _fig5_rows(out, summary, checks, info, extra):
                            f"mu switched at t = {rp['switch_time']:.4g} but D grew only "
                            f"{rp['decades']:.3g} decades"),
                    note=f"switched on at t = {rp['switch_time']:.4g}")
+
+    def info_rows(self):
+        pz, pm, info, ms = self.pz, self.pm, self.info, self.ms
+        rc = pm.get("c")
         info.append(("F_x_fig5", "Fig. 5: F_x of the runs", pz["F_x"]))
         info.append(("fig5_window", "Fig. 5: the window [F_x^c(mu_ss mu0), F_x^c(mu0)] "
                      f"= [{pz['window'][0]:.8g}, {pz['window'][1]:.8g}]; fraction",
