@@ -285,57 +285,66 @@ def _relax_rows(out, summary, checks, info, extra):
 def _ramp_rows(out, summary, checks, info, extra):
     """Rows of the two ramps: eigenvalues and F_x^c (appended to ``checks``, ``info``, ``extra``)."""
     cfg = summary["config"]
-    P = PAPER
     ramps = summary["ramps"]
     mus = (cfg["mu"], cfg["mu_low"])
     tr = tracks(out, summary)
     extra["tracks"] = tr
     Fc = {}
     for k, (mu, rr) in enumerate(zip(mus, ramps)):
-        sp = spectrum_at_zero(rr["h5"])
-        extra[f"spectrum0_{k}"] = sp
-        _check(checks, f"real_at_zero_mu{mu:g}",
-               f"mu = {mu:g}: all eigenvalues real and positive at F_x = {sp['F_x']:g}",
-               sp["real_positive"], "yes", sp["real_positive"],
-               reason=(f"certified complex pair at F_x = 0 (min Re lambda = "
-                       f"{sp['min_re']:.4g}); ||K - K^T||_F / ||K||_F = "
-                       f"{sp['asymmetry']:.3g}"),
-               note=(f"min lambda = {sp['min_re']:.4g}, max = {sp['max_re']:.4g}; "
-                     f"||K - K^T||_F / ||K||_F = {sp['asymmetry']:.3g}: the protocol "
-                     f"(friction switched on with zero tangential history) makes K "
-                     f"symmetric at F_x = 0, so this row checks the protocol, not the "
-                     f"physics"))
+        _one_ramp_rows(k, mu, rr, tr.get(k), checks, extra)
         if rr["status"] == "complete":
             Fc[k] = 0.5 * (rr["F_x_c_low"] + rr["F_x_c_high"])
-        t = tr.get(k)
-        coal = t is not None and bool(np.any(t.complex_pair)) and \
-            t.lam_a[np.argmax(t.complex_pair) - 1].real < t.lam_b[np.argmax(t.complex_pair)
-                                                                  - 1].real
-        _check(checks, f"coalescence_mu{mu:g}",
-               f"mu = {mu:g}: two real eigenvalues coalesce into a complex pair at F_x^c",
-               coal, "yes", coal,
-               reason=f"ramp status {rr['status']}: {rr.get('message', '')}",
-               note=(f"lambda_c = {t.lam_c:.6g} (mode {t.rank + 1} of {t.n_modes} from "
-                     f"the softest; tracking ambiguity {t.ambiguity:.2f})") if t else "")
-        if t is not None and rr["status"] == "complete":
-            from remote_trigger.analysis.exceptional import sqrt_law
+    _F_x_c_rows(summary, mus, Fc, tr, checks, info)
 
-            sq = sqrt_law(t.F_x, t.lam_a, t.lam_b, rr["F_x_c_low"], rr["F_x_c_high"])
-            extra[f"sqrt_law_{k}"] = sq
-            ok = all(math.isfinite(sq[s_]) and abs(sq[s_] - 0.5) <= 0.1
-                     for s_ in ("below", "above"))
-            _check(checks, f"sqrt_law_mu{mu:g}",
-                   f"mu = {mu:g}: exponent p of the pair's gap lambda_b - lambda_a ~ "
-                   f"(F_x^c - F_x)^p below F_x^c (Im lambda ~ (F_x - F_x^c)^q above)",
-                   sq["below"], "p = q = 1/2 (generic exceptional point)", ok,
-                   reason=(f"p = {sq['below']:.3g} from {sq['n_below']} points, q = "
-                           f"{sq['above']:.3g} from {sq['n_above']} points (needs >= 3 "
-                           f"each, within 5 % of F_x^c and 10 bracket widths from it; "
-                           f"pass if both within 0.1 of 1/2)"),
-                   note=(f"q = {sq['above']:.3g}; |F_x - F_x^c| in "
-                         f"[{sq['range_below'][0]:.2g}, {sq['range_below'][1]:.2g}] below "
-                         f"({sq['n_below']} points), [{sq['range_above'][0]:.2g}, "
-                         f"{sq['range_above'][1]:.2g}] above ({sq['n_above']})"))
+
+def _one_ramp_rows(k, mu, rr, t, checks, extra):
+    """Spectrum at F_x = 0, coalescence and square-root law of ramp ``k`` (friction mu)."""
+    sp = spectrum_at_zero(rr["h5"])
+    extra[f"spectrum0_{k}"] = sp
+    _check(checks, f"real_at_zero_mu{mu:g}",
+           f"mu = {mu:g}: all eigenvalues real and positive at F_x = {sp['F_x']:g}",
+           sp["real_positive"], "yes", sp["real_positive"],
+           reason=(f"certified complex pair at F_x = 0 (min Re lambda = "
+                   f"{sp['min_re']:.4g}); ||K - K^T||_F / ||K||_F = "
+                   f"{sp['asymmetry']:.3g}"),
+           note=(f"min lambda = {sp['min_re']:.4g}, max = {sp['max_re']:.4g}; "
+                 f"||K - K^T||_F / ||K||_F = {sp['asymmetry']:.3g}: the protocol "
+                 f"(friction switched on with zero tangential history) makes K "
+                 f"symmetric at F_x = 0, so this row checks the protocol, not the "
+                 f"physics"))
+    coal = t is not None and bool(np.any(t.complex_pair)) and \
+        t.lam_a[np.argmax(t.complex_pair) - 1].real < t.lam_b[np.argmax(t.complex_pair)
+                                                              - 1].real
+    _check(checks, f"coalescence_mu{mu:g}",
+           f"mu = {mu:g}: two real eigenvalues coalesce into a complex pair at F_x^c",
+           coal, "yes", coal,
+           reason=f"ramp status {rr['status']}: {rr.get('message', '')}",
+           note=(f"lambda_c = {t.lam_c:.6g} (mode {t.rank + 1} of {t.n_modes} from "
+                 f"the softest; tracking ambiguity {t.ambiguity:.2f})") if t else "")
+    if t is not None and rr["status"] == "complete":
+        from remote_trigger.analysis.exceptional import sqrt_law
+
+        sq = sqrt_law(t.F_x, t.lam_a, t.lam_b, rr["F_x_c_low"], rr["F_x_c_high"])
+        extra[f"sqrt_law_{k}"] = sq
+        ok = all(math.isfinite(sq[s_]) and abs(sq[s_] - 0.5) <= 0.1
+                 for s_ in ("below", "above"))
+        _check(checks, f"sqrt_law_mu{mu:g}",
+               f"mu = {mu:g}: exponent p of the pair's gap lambda_b - lambda_a ~ "
+               f"(F_x^c - F_x)^p below F_x^c (Im lambda ~ (F_x - F_x^c)^q above)",
+               sq["below"], "p = q = 1/2 (generic exceptional point)", ok,
+               reason=(f"p = {sq['below']:.3g} from {sq['n_below']} points, q = "
+                       f"{sq['above']:.3g} from {sq['n_above']} points (needs >= 3 "
+                       f"each, within 5 % of F_x^c and 10 bracket widths from it; "
+                       f"pass if both within 0.1 of 1/2)"),
+               note=(f"q = {sq['above']:.3g}; |F_x - F_x^c| in "
+                     f"[{sq['range_below'][0]:.2g}, {sq['range_below'][1]:.2g}] below "
+                     f"({sq['n_below']} points), [{sq['range_above'][0]:.2g}, "
+                     f"{sq['range_above'][1]:.2g}] above ({sq['n_above']})"))
+
+
+def _F_x_c_rows(summary, mus, Fc, tr, checks, info):
+    """F_x^c of both ramps against the paper, their ratio, the pair at birth, ramp sizes."""
+    cfg, ramps, P = summary["config"], summary["ramps"], PAPER
     if 0 in Fc:
         lo, hi = P["F_x_c_mu1_low"], P["F_x_c_mu1_high"]
         rr = ramps[0]
