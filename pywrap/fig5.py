@@ -232,8 +232,7 @@ def run_fig5(cfg, out, ramps, comm, clock):
         and wall times; the report reads the series from the files.
     """
     from .engine import Engine
-    from .paper import ramp_config, dynamics_config
-    from .runs import _undamped_run
+    from .paper import ramp_config
 
     t_start = time.perf_counter()
     rank0 = comm.Get_rank() == 0
@@ -257,54 +256,87 @@ def run_fig5(cfg, out, ramps, comm, clock):
               f"F_x^c(mu = {mu_ss:g}) and F_x^c(mu = {mu0:g})")
     with Engine(comm=comm) as eng:
         # ---- the equilibrium at F5 (mu0), its spectrum, the friction drop, mu*
-        prefix = os.path.join(folder, "equilibrium")
         eq5, drop, ms = _load_analysis(eng, cfg, rcfg, start, F5, mu0, mu_ss, folder, clock)
-        data5 = eq5["datafile"]
         summ.update(equilibrium=eq5, drop=drop, mu_star=ms)
         # ---- the control load: certified real after the friction drop
         control, tried = _control_load(eng, rcfg, F_steps, files, w_lo, F5, mu_ss, folder,
                                        clock)
         summ["control"] = control
         summ["control_tried"] = tried
-        # ---- time step of the runs: fig5_dt_fraction x the stability limit at F5
-        from remote_trigger.analysis.timestep import stability_limit
-        from remote_trigger.analysis.state import read_dump
+        # ---- the undamped runs, then the friction reached in (c): its spectrum
+        #      (predicted growth rate); (c)'s records are on every rank, so every
+        #      rank gets the same window
+        runs = _Fig5Runs(eng, cfg, out, summ, eq5, F5, mu0,
+                         os.path.join(folder, "equilibrium.dump"))
+        rc = runs.all_runs(h5_0, F5, control, clock)
+        from remote_trigger.analysis import series as ser
 
+        pred = ser.settled_growth(rc.t, rc.D, rc.mu, mu0, mu_ss, cfg.fig5_settle_tol)
+        if pred is not None and math.isfinite(pred["mu_fit"]):
+            fit = friction_drop(eng, rcfg, eq5["datafile"], F5, pred["mu_fit"],
+                                os.path.join(folder, "drop_fit"))
+            pred["analysis"] = fit
+        summ["reached"] = pred
+    summ["wall"] = time.perf_counter() - t_start
+    return summ
+
+
+class _Fig5Runs:
+    """The undamped runs (a)-(e) and (p) of Fig. 5 from the equilibrium at F5.
+
+    Sets the time step (``fig5_dt_fraction`` x the stability limit at F5),
+    runs (a), derives v0 and the forcing amplitude a from it, then the
+    forced and control runs; their results go into ``summ`` in this order.
+    """
+
+    def __init__(self, eng, cfg, out, summ, eq5, F5, mu0, dump):
+        from remote_trigger.analysis.state import read_dump
+        from remote_trigger.analysis.timestep import stability_limit
+        from .paper import dynamics_config
+
+        self.eng, self.cfg, self.out, self.summ, self.mu0 = eng, cfg, out, summ, mu0
+        self.data5 = eq5["datafile"]
         lim = None
-        if rank0:
-            lim = float(stability_limit(read_dump(prefix + ".dump", require_contacts=False)))
-        lim = comm.bcast(lim, root=0)
+        if eng.comm.Get_rank() == 0:
+            lim = float(stability_limit(read_dump(dump, require_contacts=False)))
+        lim = eng.comm.bcast(lim, root=0)
         dt = cfg.fig5_dt_fraction * lim
         summ.update(dt=dt, dt_max=lim)
         t_on = cfg.t_on if cfg.t_on is not None else 0.5 * math.pi / cfg.omega_p
         summ["t_on"] = t_on
-        dcfg = dynamics_config(cfg, data5, F5, cfg.t_perturb, dt=dt, t_on=t_on)
-        base = {"stage": "perturb", "equilibrium": data5,
-                "equilibrium_residual": eq5["residual"], "dt_used": dt, "dt_max": lim,
-                "dt_fraction": cfg.fig5_dt_fraction}
-        walls = {}
-        run_files = {}
+        self.dcfg = dynamics_config(cfg, self.data5, F5, cfg.t_perturb, dt=dt, t_on=t_on)
+        self.base = {"stage": "perturb", "equilibrium": self.data5,
+                     "equilibrium_residual": eq5["residual"], "dt_used": dt, "dt_max": lim,
+                     "dt_fraction": cfg.fig5_dt_fraction}
+        self.walls, self.files = {}, {}
 
+    def _stop(self, o):
         from remote_trigger.analysis import series as ser
 
-        def stop_rule(o):
-            return o["D"][-1] > cfg.fig5_d_run or (
-                o["mu"][-1] < mu0 and ser.saturated(o["t"], o["D"], o["mu"], mu0,
-                                                    span=cfg.fig5_sat_span))
+        cfg = self.cfg
+        return o["D"][-1] > cfg.fig5_d_run or (
+            o["mu"][-1] < self.mu0 and ser.saturated(o["t"], o["D"], o["mu"], self.mu0,
+                                                     span=cfg.fig5_sat_span))
 
-        def run(key, dc, datafile, variables, stop=True, **attrs):
-            t0 = time.perf_counter()
-            h5 = os.path.join(out, f"perturb_{key}.h5")
-            res = _undamped_run(
-                eng, dc, datafile, h5, variables, f"perturb ({key})", True,
-                stop=stop_rule if stop else None,
-                attrs=dict(base, run=key, d_run=cfg.fig5_d_run, sat_span=cfg.fig5_sat_span,
-                           **attrs))
-            walls[key] = time.perf_counter() - t0
-            run_files[key] = h5
-            return res
+    def run(self, key, dc, datafile, variables, stop=True, **attrs):
+        """One undamped run ``perturb_<key>.h5`` (stopped at fig5_d_run or saturation)."""
+        from .runs import _undamped_run
 
-        ra = run("a", dcfg, data5, {"a": 0.0, "muv": 0}, stop=False)
+        cfg = self.cfg
+        t0 = time.perf_counter()
+        h5 = os.path.join(self.out, f"perturb_{key}.h5")
+        res = _undamped_run(
+            self.eng, dc, datafile, h5, variables, f"perturb ({key})", True,
+            stop=self._stop if stop else None,
+            attrs=dict(self.base, run=key, d_run=cfg.fig5_d_run, sat_span=cfg.fig5_sat_span,
+                       **attrs))
+        self.walls[key] = time.perf_counter() - t0
+        self.files[key] = h5
+        return res
+
+    def _amplitude(self, ra, h5_0, F5, clock):
+        """v0 from the noise of (a), the top line's compliance C, the forcing a."""
+        cfg, comm = self.cfg, self.eng.comm
         rm = ra.extra["v_top_running_max"]
         half = int(np.searchsorted(ra.t, 0.5 * ra.t[-1], side="right")) - 1
         noise_v = float(rm[max(half, 1)])
@@ -312,35 +344,34 @@ def run_fig5(cfg, out, ramps, comm, clock):
         if not v0 > 0:
             v0 = float(np.finfo(float).tiny)
         C = None
-        if rank0:
+        if comm.Get_rank() == 0:
             C = top_compliance(h5_0, F5)
         C = comm.bcast(C, root=0)
         a = cfg.a if cfg.a is not None else cfg.fig5_forcing_margin * v0 / (cfg.omega_p * abs(C))
-        summ.update(v0=v0, v_ss=v0, noise_v_half=noise_v, noise_v_full=float(ra.extra["v_top_max"]),
-                    compliance=C, a=a)
+        self.summ.update(v0=v0, v_ss=v0, noise_v_half=noise_v,
+                         noise_v_full=float(ra.extra["v_top_max"]), compliance=C, a=a)
         clock.say(f"Fig. 5 (a): max |v_top| {noise_v:.3g} (first half), "
                   f"{ra.extra['v_top_max']:.3g} (whole run); v0 = {v0:.3g}; "
                   f"C = {C:.4g}; a = {a:.3g} (omega_p C a = {cfg.omega_p * abs(C) * a / v0:.3g} v0)")
+        return v0, a
+
+    def all_runs(self, h5_0, F5, control, clock):
+        """Runs (a), (b), (c), (d) (if a control load exists), (e), (p); returns (c)."""
+        cfg, dcfg, data5 = self.cfg, self.dcfg, self.data5
+        ra = self.run("a", dcfg, data5, {"a": 0.0, "muv": 0}, stop=False)
+        v0, a = self._amplitude(ra, h5_0, F5, clock)
         muv = {"muv": 1, "v0": v0, "vss": v0, "B": float(cfg.B), "w": float(cfg.w),
                "muss": float(cfg.mu_ss)}
         force = {"a": float(a), "wp": float(cfg.omega_p)}
-        run("b", dcfg, data5, dict(force, muv=0), a_forcing=a)
-        rc = run("c", dcfg, data5, dict(force, **muv), a_forcing=a, v0=v0, v_ss=v0)
+        self.run("b", dcfg, data5, dict(force, muv=0), a_forcing=a)
+        rc = self.run("c", dcfg, data5, dict(force, **muv), a_forcing=a, v0=v0, v_ss=v0)
         if control is not None:
             ccfg = dcfg.replace(datafile=control["datafile"], F_x=control["F_x"])
-            run("d", ccfg, control["datafile"], dict(force, **muv), a_forcing=a, v0=v0,
-                v_ss=v0, control_F_x=control["F_x"])
-        run("e", dcfg, data5, dict({"a": 0.0}, **muv), v0=v0, v_ss=v0)
-        run("p", dcfg, data5, dict({"a": float(cfg.a_paper), "wp": float(cfg.omega_p)}, **muv),
-            a_forcing=float(cfg.a_paper), v0=v0, v_ss=v0)
-        summ.update(walls=walls, files=run_files)
-        # ---- the friction reached in (c): its spectrum (predicted growth rate);
-        #      (c)'s records are on every rank, so every rank gets the same window
-        pred = ser.settled_growth(rc.t, rc.D, rc.mu, mu0, mu_ss, cfg.fig5_settle_tol)
-        if pred is not None and math.isfinite(pred["mu_fit"]):
-            fit = friction_drop(eng, rcfg, data5, F5, pred["mu_fit"],
-                                os.path.join(folder, "drop_fit"))
-            pred["analysis"] = fit
-        summ["reached"] = pred
-    summ["wall"] = time.perf_counter() - t_start
-    return summ
+            self.run("d", ccfg, control["datafile"], dict(force, **muv), a_forcing=a, v0=v0,
+                     v_ss=v0, control_F_x=control["F_x"])
+        self.run("e", dcfg, data5, dict({"a": 0.0}, **muv), v0=v0, v_ss=v0)
+        self.run("p", dcfg, data5,
+                 dict({"a": float(cfg.a_paper), "wp": float(cfg.omega_p)}, **muv),
+                 a_forcing=float(cfg.a_paper), v0=v0, v_ss=v0)
+        self.summ.update(walls=self.walls, files=self.files)
+        return rc
