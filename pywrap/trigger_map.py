@@ -548,6 +548,31 @@ def run_task(eng, cfg, setup, task, out):
     probe = run("probe", a_probe, 0, None)
     a_lin = a_probe * v0 / probe["v_max"] if probe["v_max"] > 0 else math.inf
     a_min = 1e-6 * min(a_lin, a_max)
+    lo, hi, status = _bracket(cfg, ld, run, a_lin, a_max, a_min)
+    forced, forced_by, rise, n_rise = None, None, None, 0
+    if status == "bracketed":
+        forced, forced_by, rise, n_rise = _forced_check(cfg, setup, ld, task, log, run, hi)
+        if forced:
+            status = "forced response"
+    res = {"a_lo": lo, "a_hi": hi, "a_lin": a_lin, "a_probe": a_probe, "a_max": a_max,
+           "a_min": a_min, "bracket_status": status, "forced": forced,
+           "forced_by": forced_by, "rise_rate": rise if rise is None or math.isfinite(rise)
+           else None, "rise_records": n_rise,
+           "a_c": math.sqrt(lo * hi) if status == "bracketed" else None,
+           "n_runs": len(log.data["runs"]),
+           "wall": sum(r["wall"] for r in log.data["runs"])}
+    log.finish(**res)
+    return log.data
+
+
+def _bracket(cfg, ld, run, a_lin, a_max, a_min):
+    """Bracket the triggering amplitude: (a_lo, a_hi, status).
+
+    Starts at sqrt(factor) a_lin (capped at a_max), walks up or down with
+    steps that square each time until one run triggers and one does not,
+    then bisects geometrically to the ratio ``cfg.factor``. ``run(kind, a,
+    muv, d_run)`` makes (or finds in the task's log) one run.
+    """
     f = cfg.factor
     lo, hi = None, None
     a = min(a_lin * math.sqrt(f), a_max)
@@ -578,6 +603,11 @@ def run_task(eng, cfg, setup, task, out):
                 break
             a = max(hi / step, a_min)
         step = step * step
+    return lo, hi, status
+
+
+def _forced_check(cfg, setup, ld, task, log, run, hi):
+    """Is the bracketed point a forced response? (forced, forced_by, rise, n_rise)."""
     # the growth check: the run at a_hi rose to D_run at the predicted (damped)
     # rate (within RUNAWAY_RATE_TOL, >= RUNAWAY_MIN_RECORDS records). A rise in a
     # few records, far faster than predicted, or with no growth predicted at all
@@ -586,26 +616,12 @@ def run_task(eng, cfg, setup, task, out):
     # The forced twin: the same forcing at a_hi with mu0 throughout (no mu(v)). If it
     # also passes D_run, the forcing alone moves the packing that far (e.g. at a
     # natural frequency): a forced response, not a triggered instability.
-    forced, forced_by, rise, n_rise = None, None, None, 0
-    if status == "bracketed":
-        rise, n_rise = rise_of(log.find("mu(v)", hi))
-        if not runaway_consistent(rise, n_rise, predicted_rate(setup, ld, task["tau"])):
-            forced, forced_by = True, "growth"
-        else:
-            tw = run("twin", hi, 0, d_run_level(cfg, ld, hi))
-            forced = bool(tw["triggered"])
-            forced_by = "twin" if forced else None
-        if forced:
-            status = "forced response"
-    res = {"a_lo": lo, "a_hi": hi, "a_lin": a_lin, "a_probe": a_probe, "a_max": a_max,
-           "a_min": a_min, "bracket_status": status, "forced": forced,
-           "forced_by": forced_by, "rise_rate": rise if rise is None or math.isfinite(rise)
-           else None, "rise_records": n_rise,
-           "a_c": math.sqrt(lo * hi) if status == "bracketed" else None,
-           "n_runs": len(log.data["runs"]),
-           "wall": sum(r["wall"] for r in log.data["runs"])}
-    log.finish(**res)
-    return log.data
+    rise, n_rise = rise_of(log.find("mu(v)", hi))
+    if not runaway_consistent(rise, n_rise, predicted_rate(setup, ld, task["tau"])):
+        return True, "growth", rise, n_rise
+    tw = run("twin", hi, 0, d_run_level(cfg, ld, hi))
+    forced = bool(tw["triggered"])
+    return forced, "twin" if forced else None, rise, n_rise
 
 
 # --------------------------------------------------------------------------- job
