@@ -67,91 +67,99 @@ def rows_of(task, result, cfg):
         bound, or the second ramp missing: ``reason`` says which) or
         ``'failed'`` (``reason``).
     """
-    rows = []
-    d = result["default"]
     convs = [I0_DYNAMICS] + ([float(cfg.inertia_I0)] if cfg.inertia_I0 is not None else [])
-    for I0 in convs:
-        row = _empty_row(task, "frictionless-then-friction", I0)
-        row["wall"] = result["wall"]
-        for k in ("phi", "residual", "antisymmetry"):
-            row[k] = d.get(k, math.nan)
-        ck = f"I0_{I0:g}"
-        r0, r1 = d["ramps"].get("mu0"), d["ramps"].get("mu_ss")
-        why = []
-        if d.get("error"):
-            why.append(d["error"])
-        for name, r in (("mu0", r0), ("mu_ss", r1)):
-            if r is None:
-                continue
-            row[f"ramp_status_{name}"] = r["ramp_status"]
-            if r["ramp_status"] != "complete":
-                why.append(f"ramp {name} (mu = {r['mu']:g}): {r['ramp_status']}"
-                           + (f" ({r['message']})" if r["message"] else ""))
-            elif not r["tol_reached"]:
-                why.append(f"ramp {name}: {r['message']}")
-        if r0 is not None and ck in r0:
-            o = r0[ck]
-            row.update(F_x_c_low=o["F_x_c_low"], F_x_c_high=o["F_x_c_high"],
-                       F_x_c=_mid(o["F_x_c_low"], o["F_x_c_high"]),
-                       pair_re_rel=o["pair_re_rel"], pair_index=o["pair_index"],
-                       n_dof=o["n_dof"], lambda_c_re=o["lambda_c"][0],
-                       lambda_c_im=o["lambda_c"][1], growth_slope=o["slope"],
-                       F_x_onset_fit=o["F_x_onset_fit"], slope_points=o["n_points"],
-                       n_undecided=o["n_undecided"], n_steps=r0["n_steps"],
-                       n_bisection=r0["n_bisection"])
-            if r0.get("at_zero") and I0 == I0_DYNAMICS:
-                row.update(decision_at_zero=r0["at_zero"]["decision"], n_pairs_at_zero=math.nan,
-                           growth_at_zero=r0["at_zero"]["growth"])
-            if I0 != I0_DYNAMICS:
-                row["n_extra"] = o["n_new"] + r1.get(ck, {}).get("n_new", 0) if r1 else \
-                    o["n_new"]
-                if r0["ramp_status"] == "complete" and not math.isfinite(o["F_x_c_high"]):
-                    why.append(f"I0 = {I0:g}: no pair certified complex up to F_x = "
-                               f"{o['F_x_last']:.6g} at mu0 (F_x^c above it)")
-                elif not o["tol_reached"] and r0["tol_reached"]:
-                    why.append(f"I0 = {I0:g}: mu0 bracket wider than tol")
-        if r1 is not None and ck in r1:
-            o1 = r1[ck]
-            row.update(F_x_c_ss_low=o1["F_x_c_low"], F_x_c_ss_high=o1["F_x_c_high"],
-                       F_x_c_ss=_mid(o1["F_x_c_low"], o1["F_x_c_high"]))
-            if I0 != I0_DYNAMICS and r1["ramp_status"] == "complete":
-                if not math.isfinite(o1["F_x_c_high"]):
-                    why.append(f"I0 = {I0:g}: no pair certified complex up to F_x = "
-                               f"{o1['F_x_last']:.6g} at mu_ss mu0 (F_x^c above it)")
-                elif not o1["tol_reached"] and r1["tol_reached"]:
-                    why.append(f"I0 = {I0:g}: mu_ss mu0 bracket wider than tol")
-        row["ratio"] = row["F_x_c_ss"] / row["F_x_c"] if row["F_x_c"] else math.nan
-        if row["F_x_c_low"] > 0 and row["F_x_c_high"] > 0:
-            row["ratio_low"] = row["F_x_c_ss_low"] / row["F_x_c_high"]
-            row["ratio_high"] = row["F_x_c_ss_high"] / row["F_x_c_low"]
-        row["order"] = order_code(row["F_x_c_low"], row["F_x_c_high"], row["F_x_c_ss_low"],
-                                  row["F_x_c_ss_high"])
-        if I0 != I0_DYNAMICS:
-            why.append(f"analysis only: I0 = {I0:g} is inconsistent with the dynamics "
-                       f"(I0 = {I0_DYNAMICS})")
-        if not (math.isfinite(row["F_x_c_low"]) or math.isfinite(row["F_x_c_high"])):
-            row["status"] = "failed"
-        elif math.isfinite(row["F_x_c"]) and math.isfinite(row["F_x_c_ss"]) and \
-                not d.get("error") and all(r is not None and r["tol_reached"]
-                                           and r.get(ck, {}).get("tol_reached", False)
-                                           for r in (r0, r1)):
-            row["status"] = "ok"
-        else:
-            row["status"] = "incomplete"
-        row["reason"] = "; ".join(why)
-        rows.append(row)
+    rows = [_default_row(task, result, I0) for I0 in convs]
     f = result.get("frictional")
     if f is not None:
-        row = _empty_row(task, "frictional", I0_DYNAMICS)
-        row["wall"] = result["wall"]
-        if f.get("error"):
-            row["reason"] = f["error"]
-        else:
-            row.update(status="ok", phi=f["phi"], residual=f["residual"],
-                       antisymmetry=f["antisymmetry"], decision_at_zero=f["decision"],
-                       n_pairs_at_zero=f["n_pairs"], growth_at_zero=f["growth"])
-        rows.append(row)
+        rows.append(_frictional_row(task, result, f))
     return rows
+
+
+def _default_row(task, result, I0):
+    """The row of the default protocol's ramps analysed with inertia I0."""
+    d = result["default"]
+    row = _empty_row(task, "frictionless-then-friction", I0)
+    row["wall"] = result["wall"]
+    for k in ("phi", "residual", "antisymmetry"):
+        row[k] = d.get(k, math.nan)
+    ck = f"I0_{I0:g}"
+    r0, r1 = d["ramps"].get("mu0"), d["ramps"].get("mu_ss")
+    why = []
+    if d.get("error"):
+        why.append(d["error"])
+    for name, r in (("mu0", r0), ("mu_ss", r1)):
+        if r is None:
+            continue
+        row[f"ramp_status_{name}"] = r["ramp_status"]
+        if r["ramp_status"] != "complete":
+            why.append(f"ramp {name} (mu = {r['mu']:g}): {r['ramp_status']}"
+                       + (f" ({r['message']})" if r["message"] else ""))
+        elif not r["tol_reached"]:
+            why.append(f"ramp {name}: {r['message']}")
+    if r0 is not None and ck in r0:
+        o = r0[ck]
+        row.update(F_x_c_low=o["F_x_c_low"], F_x_c_high=o["F_x_c_high"],
+                   F_x_c=_mid(o["F_x_c_low"], o["F_x_c_high"]),
+                   pair_re_rel=o["pair_re_rel"], pair_index=o["pair_index"],
+                   n_dof=o["n_dof"], lambda_c_re=o["lambda_c"][0],
+                   lambda_c_im=o["lambda_c"][1], growth_slope=o["slope"],
+                   F_x_onset_fit=o["F_x_onset_fit"], slope_points=o["n_points"],
+                   n_undecided=o["n_undecided"], n_steps=r0["n_steps"],
+                   n_bisection=r0["n_bisection"])
+        if r0.get("at_zero") and I0 == I0_DYNAMICS:
+            row.update(decision_at_zero=r0["at_zero"]["decision"], n_pairs_at_zero=math.nan,
+                       growth_at_zero=r0["at_zero"]["growth"])
+        if I0 != I0_DYNAMICS:
+            row["n_extra"] = o["n_new"] + r1.get(ck, {}).get("n_new", 0) if r1 else \
+                o["n_new"]
+            if r0["ramp_status"] == "complete" and not math.isfinite(o["F_x_c_high"]):
+                why.append(f"I0 = {I0:g}: no pair certified complex up to F_x = "
+                           f"{o['F_x_last']:.6g} at mu0 (F_x^c above it)")
+            elif not o["tol_reached"] and r0["tol_reached"]:
+                why.append(f"I0 = {I0:g}: mu0 bracket wider than tol")
+    if r1 is not None and ck in r1:
+        o1 = r1[ck]
+        row.update(F_x_c_ss_low=o1["F_x_c_low"], F_x_c_ss_high=o1["F_x_c_high"],
+                   F_x_c_ss=_mid(o1["F_x_c_low"], o1["F_x_c_high"]))
+        if I0 != I0_DYNAMICS and r1["ramp_status"] == "complete":
+            if not math.isfinite(o1["F_x_c_high"]):
+                why.append(f"I0 = {I0:g}: no pair certified complex up to F_x = "
+                           f"{o1['F_x_last']:.6g} at mu_ss mu0 (F_x^c above it)")
+            elif not o1["tol_reached"] and r1["tol_reached"]:
+                why.append(f"I0 = {I0:g}: mu_ss mu0 bracket wider than tol")
+    row["ratio"] = row["F_x_c_ss"] / row["F_x_c"] if row["F_x_c"] else math.nan
+    if row["F_x_c_low"] > 0 and row["F_x_c_high"] > 0:
+        row["ratio_low"] = row["F_x_c_ss_low"] / row["F_x_c_high"]
+        row["ratio_high"] = row["F_x_c_ss_high"] / row["F_x_c_low"]
+    row["order"] = order_code(row["F_x_c_low"], row["F_x_c_high"], row["F_x_c_ss_low"],
+                              row["F_x_c_ss_high"])
+    if I0 != I0_DYNAMICS:
+        why.append(f"analysis only: I0 = {I0:g} is inconsistent with the dynamics "
+                   f"(I0 = {I0_DYNAMICS})")
+    if not (math.isfinite(row["F_x_c_low"]) or math.isfinite(row["F_x_c_high"])):
+        row["status"] = "failed"
+    elif math.isfinite(row["F_x_c"]) and math.isfinite(row["F_x_c_ss"]) and \
+            not d.get("error") and all(r is not None and r["tol_reached"]
+                                       and r.get(ck, {}).get("tol_reached", False)
+                                       for r in (r0, r1)):
+        row["status"] = "ok"
+    else:
+        row["status"] = "incomplete"
+    row["reason"] = "; ".join(why)
+    return row
+
+
+def _frictional_row(task, result, f):
+    """The row of the frictional protocol at F_x = 0."""
+    row = _empty_row(task, "frictional", I0_DYNAMICS)
+    row["wall"] = result["wall"]
+    if f.get("error"):
+        row["reason"] = f["error"]
+    else:
+        row.update(status="ok", phi=f["phi"], residual=f["residual"],
+                   antisymmetry=f["antisymmetry"], decision_at_zero=f["decision"],
+                   n_pairs_at_zero=f["n_pairs"], growth_at_zero=f["growth"])
+    return row
 
 
 # --------------------------------------------------------------------------- statistics
