@@ -214,11 +214,42 @@ def verlet_growth(lam, dt):
 
 def section_timestep(ctx):
     """dt sweep of the undamped dynamics from the equilibrium (see module docstring)."""
+    limit, g_eig, lam_c, dq = _timestep_mode(ctx)
+    if ctx.quick:
+        fracs = 0.8 / 2.0 ** np.arange(5)
+        T = 2.0
+    else:
+        fracs = 0.8 / 2.0 ** np.arange(8)
+        T = min(12.0, 5.0 / g_eig) if g_eig > 0 else 12.0
+    dt0 = float(fracs[0] * limit)
+    nrec = 40
+    per0 = max(1, int(round(T / nrec / dt0)))       # steps of dt0 between records
+    T = per0 * nrec * dt0
+    runs = [_timestep_run(ctx, dq, f, float(f * limit), per0 * 2 ** k, nrec, T)
+            for k, f in enumerate(fracs)]
+    rows = _timestep_rows(runs, g_eig, lam_c)
+    # recommended: the largest dt meeting the target
+    key = "growth rate vs dt->0" if g_eig > 0 else "final state"
+    ok = [x for x in rows if x.method == key and x.error < TARGETS["timestep"]]
+    if ok:
+        max(ok, key=lambda x: x.value).recommended = True
+    ctx.extra["timestep"] = dict(limit=limit, g_eig=g_eig, T=T, runs=runs,
+                                 orders=[r.get("order", np.nan) for r in runs[:-1]])
+    _say(f"  timestep: limit {limit:.4g}, growth rate (eigen) {g_eig:.5g}, T = {T:.3g}, "
+         f"orders {[round(r.get('order', np.nan), 2) for r in runs[:-2]]}")
+    return rows
+
+
+def _timestep_mode(ctx):
+    """(stability limit, growth rate, lambda_c or None, perturbation dq (N, 3)).
+
+    The perturbation is the growing mode (largest Im sqrt(lambda)) if there
+    is one, else the softest mode, scaled to 1e-8.
+    """
     from remote_trigger.analysis import eigen, jacobian
     from remote_trigger.analysis.analyze import analyze
     from remote_trigger.analysis.state import read_dump
     from remote_trigger.analysis.timestep import stability_limit
-    from remote_trigger.pywrap.engine import Engine
 
     st = read_dump(ctx.equilibrium + ".dump")
     res = analyze(st, decide=False)
@@ -239,44 +270,41 @@ def section_timestep(ctx):
         dq[res.rattlers.keep_dofs] = de.right[:, k].real
     amp = 1e-8
     dq = amp * dq.reshape(-1, 3) / np.max(np.abs(dq))
-    if ctx.quick:
-        fracs = 0.8 / 2.0 ** np.arange(5)
-        T = 2.0
-    else:
-        fracs = 0.8 / 2.0 ** np.arange(8)
-        T = min(12.0, 5.0 / g_eig) if g_eig > 0 else 12.0
-    dt0 = float(fracs[0] * limit)
-    nrec = 40
-    per0 = max(1, int(round(T / nrec / dt0)))       # steps of dt0 between records
-    T = per0 * nrec * dt0
-    runs = []
-    for k, f in enumerate(fracs):
-        dt = float(f * limit)
-        per = per0 * 2 ** k
-        t0 = time.perf_counter()
-        with Engine() as eng:
-            eng.load_deck("in.perturb", {
-                "datafile": ctx.equilibrium + ".data", "kn": ctx.k_n, "kt": ctx.k_t,
-                "mu": ctx.mu, "Fx": 0.0, "Fy": ctx.F_y, "dt": dt, "a": 0.0, "muv": 0},
-                ("scene", "dynamics"))
-            s0 = eng.gather_state()
-            x_eq = s0.unwrapped_positions()
-            eng.scatter("x", s0.positions + dq[:, :2])
-            eng.scatter("omega", np.zeros(s0.n))
-            # phi: a rotation is a history change, applied as one integrator-free step
-            # would be; the perturbation here moves positions only (dq[:, 2] is dropped)
-            ts_, D = [], []
-            for j in range(nrec):
-                eng.run(per, pre=(j == 0))
-                s = eng.gather_state()
-                d = s.unwrapped_positions() - x_eq
-                D.append(float(np.mean(np.sum(d * d, axis=1))))
-                ts_.append((j + 1) * per * dt)
-            xT = s.unwrapped_positions().copy()
-        wall = time.perf_counter() - t0
-        ts_, D = np.array(ts_), np.array(D)
-        runs.append(dict(frac=f, dt=dt, t=ts_, D=D, xT=xT, x_eq=x_eq, wall=wall,
-                         g=exp_rate(ts_, D, np.asarray(ts_) >= 0.5 * T)))
+    return limit, g_eig, lam_c, dq
+
+
+def _timestep_run(ctx, dq, frac, dt, per, nrec, T):
+    """One undamped run at time step dt from the perturbed equilibrium: D(t), x(T)."""
+    from remote_trigger.pywrap.engine import Engine
+
+    t0 = time.perf_counter()
+    with Engine() as eng:
+        eng.load_deck("in.perturb", {
+            "datafile": ctx.equilibrium + ".data", "kn": ctx.k_n, "kt": ctx.k_t,
+            "mu": ctx.mu, "Fx": 0.0, "Fy": ctx.F_y, "dt": dt, "a": 0.0, "muv": 0},
+            ("scene", "dynamics"))
+        s0 = eng.gather_state()
+        x_eq = s0.unwrapped_positions()
+        eng.scatter("x", s0.positions + dq[:, :2])
+        eng.scatter("omega", np.zeros(s0.n))
+        # phi: a rotation is a history change, applied as one integrator-free step
+        # would be; the perturbation here moves positions only (dq[:, 2] is dropped)
+        ts_, D = [], []
+        for j in range(nrec):
+            eng.run(per, pre=(j == 0))
+            s = eng.gather_state()
+            d = s.unwrapped_positions() - x_eq
+            D.append(float(np.mean(np.sum(d * d, axis=1))))
+            ts_.append((j + 1) * per * dt)
+        xT = s.unwrapped_positions().copy()
+    wall = time.perf_counter() - t0
+    ts_, D = np.array(ts_), np.array(D)
+    return dict(frac=frac, dt=dt, t=ts_, D=D, xT=xT, x_eq=x_eq, wall=wall,
+                g=exp_rate(ts_, D, np.asarray(ts_) >= 0.5 * T))
+
+
+def _timestep_rows(runs, g_eig, lam_c):
+    """Rows of the dt sweep against the smallest dt (and the eigenvalue's rate)."""
     ref = runs[-1]
     scale = np.linalg.norm(ref["xT"] - ref["x_eq"])
     rows = []
@@ -304,15 +332,6 @@ def section_timestep(ctx):
         rows.append(Row("timestep", "growth rate vs eigenvalue", f"{ref['frac']:.4g} dt_max "
                         "(reference)", abs(ref["g"] - g_eig) / g_eig, ref["wall"],
                         note=f"g = {ref['g']:.6g}, eigenvalue {g_eig:.6g}", value=ref["dt"]))
-    # recommended: the largest dt meeting the target
-    key = "growth rate vs dt->0" if g_eig > 0 else "final state"
-    ok = [x for x in rows if x.method == key and x.error < TARGETS["timestep"]]
-    if ok:
-        max(ok, key=lambda x: x.value).recommended = True
-    ctx.extra["timestep"] = dict(limit=limit, g_eig=g_eig, T=T, runs=runs,
-                                 orders=[r.get("order", np.nan) for r in runs[:-1]])
-    _say(f"  timestep: limit {limit:.4g}, growth rate (eigen) {g_eig:.5g}, T = {T:.3g}, "
-         f"orders {[round(r.get('order', np.nan), 2) for r in runs[:-2]]}")
     return rows
 
 
