@@ -745,8 +745,17 @@ def _analyse(A, lam, V, units, rel_error, input_error):
         centre = float((S[0][0] + S[1][1]) / 2)
         discs.append((centre, cover + U * abs(centre), b))
         pair_out.append(dec)
-    # isolation of neighbouring discs (all centred on the real axis)
-    discs.sort(key=lambda d: d[0])
+    iso, ver.conflicts = _isolation(discs, blocks, units)
+    return pair_out + iso, ver
+
+
+def _isolation(discs, blocks, units):
+    """Isolation of neighbouring discs (all centred on the real axis).
+
+    Returns the PairDecision of each neighbouring pair of discs and the
+    eigenvalue index pairs of two real units whose discs overlap.
+    """
+    discs = sorted(discs, key=lambda d: d[0])
     iso = []
     for (c1, r1, b1), (c2, r2, b2) in zip(discs[:-1], discs[1:]):
         gap = (c2 - c1) * (1 - 2 * U)
@@ -759,8 +768,7 @@ def _analyse(A, lam, V, units, rel_error, input_error):
     for (c1, r1, b1), (c2, r2, b2), e in zip(discs[:-1], discs[1:], iso):
         if not e.certified and blocks[b1][1] == 1 and blocks[b2][1] == 1:
             conflicts.append((units[b1].idx[0], units[b2].idx[0]))
-    ver.conflicts = conflicts
-    return pair_out + iso, ver
+    return iso, conflicts
 
 
 def _validate(A, input_error, rel_error):
