@@ -13,7 +13,7 @@ Two writers, both used on MPI rank 0 only:
 
 * :func:`write_atomic` writes a whole (small) file in one go. Used for
   ``relax.h5`` and the paper's summary files. (``ramp.h5`` is written by
-  ``ramp._RampLog`` with the same temporary-name-and-rename scheme, on a
+  ``ramp_file.RampLog`` with the same temporary-name-and-rename scheme, on a
   copy of the previous file.)
 * :class:`SeriesWriter` records time series (the undamped runs,
   ``perturb_[abc].h5``, ``instability.h5``): rows are kept in memory and the

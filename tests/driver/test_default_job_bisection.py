@@ -65,7 +65,7 @@ def test_default_job_bisection_is_certified_and_agrees_with_arb(mu, name, F_lo, 
     start = unpack(name, tmp_path)
     cfg = ramp_config(PaperConfig(), start, mu)
     out = tmp_path / "ramp"
-    from remote_trigger.pywrap.ramp import _RampLog
+    from remote_trigger.pywrap.ramp_file import RampLog as _RampLog
 
     rlog = _RampLog(cfg, str(out / "ramp.h5"))
     out.mkdir()
