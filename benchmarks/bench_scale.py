@@ -16,6 +16,17 @@ sparse LU above), write the equilibrium files, and the certified decision:
   lambda_max, with lambda_max from ARPACK). The dense path's eigen-solve
   is timed too up to N = 400 and extrapolated as n^3 above.
 
+Above ``--relax-max`` (default 1600) a relaxation takes too long here
+(N = 1600: ~30 min on one loaded core); there the point is assembled from
+measured parts instead: a generated, unrelaxed packing of N disks in
+LAMMPS (scene load, one Newton iteration's engine part: scatter, ``run
+1``, gather; the equilibrium files), and a jittered-lattice State of the
+same N (the analyzer's test packing, contacts at and near the Coulomb
+limit) for K, the sparse LU factorisation and solve of a Newton step (of K
++ 1e-8 max|K_ii| I: the lattice is no equilibrium and its K is singular)
+and the certified decision; the
+Newton iterations per point are those measured at the largest relaxed N.
+
 Prints per N: dof, relax time, Newton steps and time, files, decision
 (dense or sparse), total per point, and the point cost multiplied into a
 fine ramp (F_x^c / dF_x + 12 points with the N = 100 ensemble's median
@@ -107,7 +118,7 @@ def _point(cfg, start, F_x, prefix):
         t1, c1 = time.perf_counter(), time.process_time()
         lam_max = float(abs(spla.eigs(A, k=1, which="LM", return_eigenvectors=False)[0]))
         t2, c2 = time.perf_counter(), time.process_time()
-        dec = exceptional.classify_projected(A, PAIR_RE_REL * lam_max, k=12)
+        dec, _ = exceptional.classify_projected(A, PAIR_RE_REL * lam_max, k=12)
         t3 = time.perf_counter()
         verdict = {True: "complex", False: "real", None: "undecided"}[dec.complex_present]
         row.update(decision=(t1 - t0) + (t3 - t2), eigen=dec.timing.get("eigen", np.nan),
@@ -118,12 +129,91 @@ def _point(cfg, start, F_x, prefix):
     return row
 
 
+def synthetic_point(n, seed, base, newton_steps):
+    """Measured parts of one ramp point at N = n without a relaxed packing (see above)."""
+    import sys
+
+    import numpy as np
+    import scipy.sparse.linalg as spla
+    from mpi4py import MPI
+
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    from tests.analysis.builders import random_packing
+
+    from remote_trigger.analysis import eigen, exceptional
+    from remote_trigger.analysis.jacobian import find_rattlers, remove_dofs, stiffness_matrix
+    from remote_trigger.pywrap import equilibrium as eq
+    from remote_trigger.pywrap.config import RampConfig
+    from remote_trigger.pywrap.engine import Engine
+    from remote_trigger.pywrap.packing import generate, write_data
+    from remote_trigger.pywrap.stage_common import load_relax_scene, save_equilibrium
+
+    out = os.path.join(base, f"N{n}")
+    os.makedirs(out, exist_ok=True)
+    data = os.path.join(out, "p.data")
+    write_data(generate(n, seed=seed), data)
+    cfg = RampConfig(datafile=data, F_x=0.0)
+    with Engine(comm=MPI.COMM_SELF) as eng:
+        t0 = time.perf_counter()
+        load_relax_scene(eng, cfg, data, 0.0, deck="in.ramp_step")
+        eng.unfix(*eq.DAMPING_FIXES, *eq.INTEGRATOR_FIXES)
+        st0 = eng.gather_state()
+        t1 = time.perf_counter()
+        for _ in range(2):                      # the second is timed
+            t2 = time.perf_counter()
+            eng.scatter("x", st0.positions)
+            eng.scatter("v", np.zeros((st0.n, 2)))
+            eng.scatter("omega", np.zeros(st0.n))
+            eng.run(1, pre=True)
+            eng.scatter("v", np.zeros((st0.n, 2)))
+            eng.scatter("omega", np.zeros(st0.n))
+            eq.residual_of(eng.gather_state())
+            t3 = time.perf_counter()
+        save_equilibrium(eng, cfg, 0.0, os.path.join(out, "point"))
+        t4 = time.perf_counter()
+    side = int(round(np.sqrt(n)))
+    st = random_packing(seed, nx=side, ny=side)
+    t5 = time.perf_counter()
+    K = stiffness_matrix(st)
+    t6 = time.perf_counter()
+    # the regular Newton solve: SuperLU of K on its live dofs and one solve. The
+    # jittered lattice (capped and beyond-cap contacts, not an equilibrium) makes K
+    # singular; a near-equilibrium K is not, so K + 1e-8 max|K_ii| I is factorised
+    import scipy.sparse as sp
+
+    live = np.flatnonzero(np.diff(K.tocsr().indptr) > 0)
+    Kl = K.tocsr()[live][:, live].tocsc()
+    Kl = (Kl + 1e-8 * float(np.max(np.abs(Kl.diagonal()))) * sp.identity(live.size,
+                                                                        format="csc")).tocsc()
+    spla.splu(Kl).solve(np.random.default_rng(seed).normal(size=live.size))
+    t7 = time.perf_counter()
+    rat = find_rattlers(st)
+    Kr, mr = remove_dofs(K, st.mass_diagonal(), rat.keep_dofs)
+    A = eigen.dynamical_matrix(Kr, mr)
+    lam_max = float(abs(spla.eigs(A, k=1, which="LM", return_eigenvectors=False)[0]))
+    t8 = time.perf_counter()
+    dec, _ = exceptional.classify_projected(A, PAIR_RE_REL * lam_max, k=12)
+    t9 = time.perf_counter()
+    verdict = {True: "complex", False: "real", None: "undecided"}[dec.complex_present]
+    iteration = (t3 - t2) + (t6 - t5) + (t7 - t6)
+    row = dict(n=st.n, dof=3 * st.n, relax=float("nan"), phi=float("nan"), scene=t1 - t0,
+               newton=newton_steps * iteration, newton_steps=newton_steps,
+               files=t4 - t3, decision=t9 - t8, lam_max_time=t8 - t7, path="sparse",
+               verdict=verdict + " (12 nearest the shift; synthetic packing)",
+               parts=dict(engine_iteration=t3 - t2, K=t6 - t5, solve=t7 - t6))
+    row["point"] = row["scene"] + row["newton"] + row["files"] + row["decision"]
+    row["point_cpu"] = float("nan")
+    return row
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[100, 400, 1600, 10000])
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--dF-x", dest="dF_x", type=float, default=2.5e-4)
     ap.add_argument("--quick", action="store_true", help="N = 100 and 400 only")
+    ap.add_argument("--relax-max", dest="relax_max", type=int, default=1600,
+                    help="largest N relaxed; above it the point is assembled from parts")
     ap.add_argument("--out", default=None, help="keep outputs here (default: temp dir)")
     args = ap.parse_args(argv)
     sizes = [n for n in args.sizes if n <= 400] if args.quick else args.sizes
@@ -131,7 +221,11 @@ def main(argv=None):
     fine_points = 0.0095 / args.dF_x + 12      # N = 100 ensemble median F_x^c
     rows = []
     for n in sizes:
-        rows.append(one_point(n, args.seed, args.dF_x, base))
+        if n <= args.relax_max:
+            rows.append(one_point(n, args.seed, args.dF_x, base))
+        else:
+            steps = max((r["newton_steps"] for r in rows), default=4)
+            rows.append(synthetic_point(n, args.seed, base, steps))
         r = rows[-1]
         print(f"N = {n}: relax {r['relax']:.1f} s, point {r['point']:.3f} s "
               f"({r['path']} Newton, {r['verdict']})", flush=True)
@@ -149,6 +243,11 @@ def main(argv=None):
               f"{r['newton']:8.3f} {r['scene'] + r['files']:11.3f} {r['decision']:9.3f} "
               f"{r['point']:8.3f} {r['point_cpu']:8.3f} {r['point'] * fine_points:10.0f} "
               f"{r['point'] * ADAPTIVE_POINTS:9.0f}  {what}")
+        if "parts" in r:
+            p = r["parts"]
+            print(f"{'':6} assembled: {r['newton_steps']} Newton iterations x (engine "
+                  f"{p['engine_iteration']:.3f} + K {p['K']:.3f} + sparse LU solve "
+                  f"{p['solve']:.3f}); relax not run (relax-max {args.relax_max})")
         if r["path"] == "sparse" and e100:
             dense = e100 * (r["dof"] / 300.0) ** 3
             print(f"{'':6} dense eigen-solve at this size, extrapolated as n^3 from N = 100: "

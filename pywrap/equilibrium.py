@@ -201,7 +201,8 @@ def newton_step(K, G):
 
 
 def _sparse_newton_step(K, G):
-    """:func:`newton_step` for a sparse K: SuperLU, or LSMR if K is singular."""
+    """:func:`newton_step` for a sparse K: SuperLU, or preconditioned LSMR if K is
+    singular (:func:`_singular_sparse_solve`)."""
     import warnings
 
     import scipy.sparse as sp
@@ -228,10 +229,35 @@ def _sparse_newton_step(K, G):
     except RuntimeError:            # exactly singular
         sol = None
     if sol is None or not np.all(np.isfinite(sol)):
-        sol = spla.lsmr(Kr, gr, atol=1e-15, btol=1e-15, conlim=1e14,
-                        maxiter=10 * idx.size)[0]
+        sol = _singular_sparse_solve(Kr, gr)
     dq[idx] = sol
     return dq.reshape(-1, 3)
+
+
+def _singular_sparse_solve(Kr, gr):
+    """Least-squares step for a singular sparse K (zero modes of weakly held disks).
+
+    LSMR on K M y = g, x = M y, with M = (K + delta I)^-1 (SuperLU, delta =
+    1e-8 max |K_ii|) as right preconditioner: K M is the identity but for the
+    near-null directions, which least squares leaves out (as the dense path's
+    ``lstsq`` does), so a few tens of iterations suffice where unpreconditioned
+    LSMR needed thousands (measured: 31 s at 4800 dof).
+    """
+    import warnings
+
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    n = Kr.shape[0]
+    delta = 1e-8 * float(np.max(np.abs(Kr.diagonal())))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lu = spla.splu((Kr + delta * sp.identity(n, format="csc")).tocsc())
+    KrT = Kr.T.tocsr()
+    op = spla.LinearOperator((n, n), matvec=lambda y: Kr @ lu.solve(y),
+                             rmatvec=lambda z: lu.solve(KrT @ z, trans="T"), dtype=float)
+    y = spla.lsmr(op, gr, atol=1e-15, btol=1e-15, conlim=1e14, maxiter=200)[0]
+    return lu.solve(y)
 
 
 #: smallest acceptance level of a stagnating Newton iteration (``f_accept = None``)
