@@ -235,3 +235,55 @@ def predict_coalescence(F_prev, lam_prev, F, lam):
     d[closing] = g1[closing] * (F - F_prev) / (g0[closing] - g1[closing])
     i = int(np.argmin(d))
     return float(d[i]), i
+
+
+def sqrt_law(F_x, lam_a, lam_b, F_lo, F_hi, rel_span=0.05, min_points=3):
+    """Exponents of the gap closing and of Im lambda opening at an exceptional point.
+
+    Near a generic exceptional point at F_c the two coalescing eigenvalues
+    obey lambda_b - lambda_a ~ sqrt(F_c - F) below F_c (real, a gap that
+    closes) and Im lambda ~ sqrt(F - F_c) above it (paper Sec. III.C.2, the
+    normal form's A ~ eps^-1/2). This fits both exponents by least squares
+    in log-log, with F_c the midpoint of the certified bracket [F_lo, F_hi].
+
+    Parameters
+    ----------
+    F_x : array_like, shape (n,)
+        Loads of the tracked pair.
+    lam_a, lam_b : array_like of complex, shape (n,)
+        The pair (below F_c real, Re a < Re b; above, lam_b = conj(lam_a)
+        with Im lam_b > 0), e.g. a :class:`PairTrack`.
+    F_lo, F_hi : float
+        Certified bracket of F_c (real at F_lo, complex at F_hi).
+    rel_span : float
+        Points with 10 (F_hi - F_lo) <= |F - F_c| <= rel_span F_c are used
+        (distances comparable to the bracket's width are not resolved).
+    min_points : int
+        Fewer points on a side give NaN for that side.
+
+    Returns
+    -------
+    dict
+        ``below`` and ``above``: exponent (NaN if too few points),
+        ``n_below``, ``n_above``, ``range_below``, ``range_above``
+        ((min, max) of |F - F_c| used).
+    """
+    F = np.asarray(F_x, float)
+    a = np.asarray(lam_a, complex)
+    b = np.asarray(lam_b, complex)
+    Fc = 0.5 * (F_lo + F_hi)
+    dmin, dmax = 10.0 * (F_hi - F_lo), rel_span * abs(Fc)
+    out = {}
+    for side, sel, y in (("below", F <= F_lo, np.abs(b - a)),
+                         ("above", F >= F_hi, np.abs(b.imag))):
+        d = np.abs(F - Fc)
+        m = sel & (d >= dmin) & (d <= dmax) & (y > 0)
+        out[f"n_{side}"] = int(m.sum())
+        if m.sum() < min_points:
+            out[side] = float("nan")
+            out[f"range_{side}"] = (float("nan"), float("nan"))
+            continue
+        p = np.polyfit(np.log(d[m]), np.log(y[m]), 1)
+        out[side] = float(p[0])
+        out[f"range_{side}"] = (float(d[m].min()), float(d[m].max()))
+    return out

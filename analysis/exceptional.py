@@ -94,10 +94,13 @@ d^2 eps (2 - eps), so the sign of D is that of eps; complex iff eps < 0.
    (:func:`classify_projected`) decides for the projected matrix of the
    window searched; eigenvalues outside that window are not bounded.
 """
+# Module size (~800 lines, ~95 of them this docstring): one algorithm, the
+# certified decision, kept in one module so that the code of each step sits
+# with the step of the proof above; its float64 error bounds are in
+# analysis.enclosure and the pair's exponents (sqrt_law) in analysis.eigtrack.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from fractions import Fraction
 import math
 import time
 import warnings
@@ -108,13 +111,10 @@ import scipy.linalg as sla
 __all__ = ["PairDecision", "SpectrumDecision", "block_discriminant", "exact_residual",
            "classify_spectrum", "classify_projected", "normal_form", "UNIT_ROUNDOFF"]
 
-#: unit roundoff of float64 (half an ulp of 1): the default entrywise relative
-#: uncertainty of the matrix (every real within half an ulp rounds to it)
-UNIT_ROUNDOFF = 2.0 ** -53
-U = UNIT_ROUNDOFF
-EPS = np.finfo(np.float64).eps
-TINY = np.finfo(np.float64).tiny
-_SPLIT = 134217729.0            # 2^27 + 1, Veltkamp splitting constant
+# unit roundoff and the rigorous floating-point bounds: analysis.enclosure
+from .enclosure import (EPS, TINY, UNIT_ROUNDOFF, U, _cover_radius, _disc_test,  # noqa: E402
+                        _frac, _gamma, _margin, _pair_eigs, _sigma_min_2x2_lower,
+                        _sigma_min_lower, _up, exact_residual)
 _PARALLEL = 1.0 - 1e-4          # |cos| of two real eigenvectors above which they form a pair
 _ILL = 100.0                    # pair basis condition above which the subspace is refined
 _SHARP_BELOW = 1e4              # crude margin below which a pair is also computed sharply
@@ -162,97 +162,6 @@ def block_discriminant(B):
     g = float(np.sqrt(2.0 * p * p + B[0, 1] ** 2 + B[1, 0] ** 2))
     rnd = 4.0 * EPS * (p * p + abs(B[0, 1] * B[1, 0]))
     return float(D), g, float(rnd)
-
-
-def _gamma(k):
-    return k * U / (1.0 - k * U)
-
-
-def _up(x, k):
-    """Upper bound of a nonnegative quantity computed in float64 with depth-k sums."""
-    return x * (1.0 + 8.0 * _gamma(k + 4)) + (k + 4) * TINY
-
-
-# --------------------------------------------------------------------------- exact residual
-def _two_prod(a, b):
-    """p = fl(a b) and e with a b = p + e exactly (Dekker; no FMA, arrays)."""
-    p = a * b
-    c = _SPLIT * a
-    ah = c - (c - a)
-    al = a - ah
-    c = _SPLIT * b
-    bh = c - (c - b)
-    bl = b - bh
-    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl
-    return p, e
-
-
-def exact_residual(A, Q, M):
-    """R = A Q - Q M rounded once per entry, with a rigorous bound of its error.
-
-    Every product is split error-free (Dekker's TwoProduct, exact in binary64
-    barring underflow) and each entry's terms are summed by ``math.fsum``
-    (exact partials, one final rounding), so |R_exact - R| <= 2u |R| (+ a
-    tiny term for products near underflow).
-
-    Parameters
-    ----------
-    A : ndarray, shape (n, n)
-        Real, finite; zeros are skipped (sparse structure).
-    Q : ndarray, shape (n, k)
-    M : ndarray, shape (k, k)
-
-    Returns
-    -------
-    R : ndarray, shape (n, k)
-    err : ndarray, shape (n, k)
-        Entrywise bound on |A Q - Q M - R| (exact arithmetic).
-
-    Raises
-    ------
-    ValueError
-        If an entry is too large to be split exactly (|x| >= 2^995) or not
-        finite.
-    """
-    A = np.asarray(A, np.float64)
-    Q = np.asarray(Q, np.float64)
-    M = np.asarray(M, np.float64)
-    n, k = Q.shape
-    for name, X in (("A", A), ("Q", Q), ("M", M)):
-        if not np.all(np.isfinite(X)):
-            raise ValueError(f"exact_residual: {name} has non-finite entries")
-        if X.size and np.max(np.abs(X)) >= 2.0 ** 995:
-            raise ValueError(f"exact_residual: |{name}| too large to split exactly "
-                             f"({np.max(np.abs(X)):.3g} >= 2^995)")
-    rows, cols = np.nonzero(A)
-    a = A[rows, cols]
-    bounds = np.searchsorted(rows, np.arange(n + 1))
-    out = np.empty((n, k))
-    err = np.empty((n, k))
-    for col in range(k):
-        p, e = _two_prod(a, Q[cols, col])
-        pm, em = [], []
-        slack = np.zeros(n)
-        for l in range(k):
-            p2, e2 = _two_prod(-Q[:, l], np.full(n, M[l, col]))
-            pm.append(p2.tolist())
-            em.append(e2.tolist())
-            small = (p2 != 0) & (np.abs(p2) < 2.0 ** -960)
-            slack += np.where(small, 2.0 * U * np.abs(p2) + 2.0 ** -1070, 0.0)
-        small = (p != 0) & (np.abs(p) < 2.0 ** -960)
-        if np.any(small):
-            slack += np.bincount(rows[small], weights=2.0 * U * np.abs(p[small]) + 2.0 ** -1070,
-                                 minlength=n)
-        pl, el = p.tolist(), e.tolist()
-        for i in range(n):
-            b0, b1 = bounds[i], bounds[i + 1]
-            terms = pl[b0:b1] + el[b0:b1]
-            for l in range(k):
-                terms.append(pm[l][i])
-                terms.append(em[l][i])
-            out[i, col] = math.fsum(terms)
-        err[:, col] = 2.0 * U * np.abs(out[:, col]) + slack + 2.0 ** -1070
-    return out, err
 
 
 # --------------------------------------------------------------------------- results
@@ -362,93 +271,6 @@ class SpectrumDecision:
             return max((p for p in cands if p.is_complex and p.certified),
                        key=lambda p: p.margin)
         return min(cands, key=lambda p: p.margin)
-
-
-# --------------------------------------------------------------------------- 2 x 2 algebra
-def _frac(M):
-    return [[Fraction(float(M[0, 0])), Fraction(float(M[0, 1]))],
-            [Fraction(float(M[1, 0])), Fraction(float(M[1, 1]))]]
-
-
-def _disc_test(S, rad):
-    """Exact D of the centre S (Fractions) and a rigorous bound of its change.
-
-    Parameters
-    ----------
-    S : list of list of Fraction, 2 x 2
-    rad : ndarray, shape (2, 2)
-        Entrywise radius (>= 0).
-
-    Returns
-    -------
-    D : Fraction
-    bound : Fraction
-    """
-    r = [[Fraction(float(rad[i, j])) for j in range(2)] for i in range(2)]
-    p = (S[0][0] - S[1][1]) / 2
-    D = p * p + S[0][1] * S[1][0]
-    dp = (r[0][0] + r[1][1]) / 2
-    bound = 2 * abs(p) * dp + dp * dp + abs(S[0][1]) * r[1][0] + abs(S[1][0]) * r[0][1] \
-        + r[0][1] * r[1][0]
-    return D, bound
-
-
-def _pair_eigs(S):
-    tr = 0.5 * float(S[0][0] + S[1][1])
-    D = float(((S[0][0] - S[1][1]) / 2) ** 2 + S[0][1] * S[1][0])
-    r = np.sqrt(complex(D))
-    return np.array([tr - r, tr + r])
-
-
-def _margin(D, bound):
-    if bound == 0:
-        return math.inf if D != 0 else 0.0
-    return float(abs(D) / bound)
-
-
-def _cover_radius(S, r):
-    """Radius of a disc about tr(S)/2 containing {z : sigma_min(S - z I) <= r}.
-
-    S is the 2 x 2 centre (Fractions, exact); r >= 0 (float). With w = z -
-    tr/2, det(S - z I) = w^2 - D and ||S - z I||_F <= ||N||_F + sqrt2 |w|,
-    so sigma_min >= (|w|^2 - |D|) / (||N||_F + sqrt2 |w|), increasing in |w|.
-    """
-    p = (S[0][0] - S[1][1]) / 2
-    D = abs(float(p * p + S[0][1] * S[1][0])) * (1 + 4 * U)
-    nf = math.sqrt(float(2 * p * p + S[0][1] ** 2 + S[1][0] ** 2)) * (1 + 8 * U)
-    s2 = math.sqrt(2.0) * (1 + 2 * U)
-    rho = 0.5 * (s2 * r + math.sqrt(2.0 * r * r + 4.0 * (D + r * nf)))
-    return rho * (1 + 32 * U) + TINY
-
-
-def _sigma_min_2x2_lower(a, b, c, d):
-    """Vectorised rigorous lower bound of sigma_min([[a, b], [c, d]]) = |det| / sigma_max."""
-    det = a * d - b * c
-    err = _gamma(4) * (np.abs(a * d) + np.abs(b * c)) * (1 + 4 * U) + TINY
-    fro = np.sqrt(a * a + b * b + c * c + d * d) * (1 + _gamma(8))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out = np.maximum(np.abs(det) - err, 0.0) / fro
-    return np.where(fro > 0, out * (1 - 4 * U), 0.0)
-
-
-def _sigma_min_lower(K):
-    """Rigorous lower bound of sigma_min(K) for a small square float matrix.
-
-    Z ~ K^{-1}; with E = I - Z K bounded (gamma_p |Z||K| for the product),
-    ||E||_F = e < 1 gives ||K^{-1}||_2 <= ||Z||_F / (1 - e).
-    """
-    p = K.shape[0]
-    try:
-        Z = np.linalg.inv(K)
-    except np.linalg.LinAlgError:
-        return 0.0
-    if not np.all(np.isfinite(Z)):
-        return 0.0
-    E = np.abs(np.eye(p) - Z @ K) * (1 + 2 * U) + _gamma(p + 2) * (np.abs(Z) @ np.abs(K))
-    e = _up(float(np.linalg.norm(E)), p * p)
-    if not e < 1.0:
-        return 0.0
-    return (1.0 - e) / _up(float(np.linalg.norm(Z)), p * p) * (1 - 4 * U)
 
 
 # --------------------------------------------------------------------------- units and bases
@@ -976,53 +798,5 @@ def classify_projected(A, sigma, k=12, enrich=2, input_error=0.0, tol=0.0, v0=No
     return dec, res
 
 
-def sqrt_law(F_x, lam_a, lam_b, F_lo, F_hi, rel_span=0.05, min_points=3):
-    """Exponents of the gap closing and of Im lambda opening at an exceptional point.
-
-    Near a generic exceptional point at F_c the two coalescing eigenvalues
-    obey lambda_b - lambda_a ~ sqrt(F_c - F) below F_c (real, a gap that
-    closes) and Im lambda ~ sqrt(F - F_c) above it (paper Sec. III.C.2, the
-    normal form's A ~ eps^-1/2). This fits both exponents by least squares
-    in log-log, with F_c the midpoint of the certified bracket [F_lo, F_hi].
-
-    Parameters
-    ----------
-    F_x : array_like, shape (n,)
-        Loads of the tracked pair.
-    lam_a, lam_b : array_like of complex, shape (n,)
-        The pair (below F_c real, Re a < Re b; above, lam_b = conj(lam_a)
-        with Im lam_b > 0), e.g. a :class:`~remote_trigger.analysis.eigtrack.PairTrack`.
-    F_lo, F_hi : float
-        Certified bracket of F_c (real at F_lo, complex at F_hi).
-    rel_span : float
-        Points with 10 (F_hi - F_lo) <= |F - F_c| <= rel_span F_c are used
-        (distances comparable to the bracket's width are not resolved).
-    min_points : int
-        Fewer points on a side give NaN for that side.
-
-    Returns
-    -------
-    dict
-        ``below`` and ``above``: exponent (NaN if too few points),
-        ``n_below``, ``n_above``, ``range_below``, ``range_above``
-        ((min, max) of |F - F_c| used).
-    """
-    F = np.asarray(F_x, float)
-    a = np.asarray(lam_a, complex)
-    b = np.asarray(lam_b, complex)
-    Fc = 0.5 * (F_lo + F_hi)
-    dmin, dmax = 10.0 * (F_hi - F_lo), rel_span * abs(Fc)
-    out = {}
-    for side, sel, y in (("below", F <= F_lo, np.abs(b - a)),
-                         ("above", F >= F_hi, np.abs(b.imag))):
-        d = np.abs(F - Fc)
-        m = sel & (d >= dmin) & (d <= dmax) & (y > 0)
-        out[f"n_{side}"] = int(m.sum())
-        if m.sum() < min_points:
-            out[side] = float("nan")
-            out[f"range_{side}"] = (float("nan"), float("nan"))
-            continue
-        p = np.polyfit(np.log(d[m]), np.log(y[m]), 1)
-        out[side] = float(p[0])
-        out[f"range_{side}"] = (float(d[m].min()), float(d[m].max()))
-    return out
+# the exponents of the tracked pair live with the track (analysis.eigtrack)
+from .eigtrack import sqrt_law  # noqa: E402,F401

@@ -119,7 +119,7 @@ def _one_ramp_rows(k, mu, rr, t, checks, extra):
            note=(f"lambda_c = {t.lam_c:.6g} (mode {t.rank + 1} of {t.n_modes} from "
                  f"the softest; tracking ambiguity {t.ambiguity:.2f})") if t else "")
     if t is not None and rr["status"] == "complete":
-        from remote_trigger.analysis.exceptional import sqrt_law
+        from remote_trigger.analysis.eigtrack import sqrt_law
 
         sq = sqrt_law(t.F_x, t.lam_a, t.lam_b, rr["F_x_c_low"], rr["F_x_c_high"])
         extra[f"sqrt_law_{k}"] = sq

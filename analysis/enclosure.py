@@ -1,0 +1,204 @@
+"""Rigorous floating-point bounds used by the certified decision (:mod:`.exceptional`).
+
+Error-free products (Dekker's TwoProduct) and an exactly summed residual
+R = A Q - Q M with an entrywise error bound (:func:`exact_residual`);
+upper bounds of float64 sums (:func:`_up`, the gamma_k of Higham, "Accuracy
+and Stability of Numerical Algorithms", 2nd ed., section 3.1); the exact
+discriminant test of a 2 x 2 block with Fractions and the bound of its
+change (:func:`_disc_test`); rigorous lower bounds of the smallest singular
+value (:func:`_sigma_min_2x2_lower`, :func:`_sigma_min_lower`) and the
+radius of a pseudospectral disc (:func:`_cover_radius`). Steps 2-4 of
+:mod:`.exceptional`'s docstring are built from these.
+"""
+from fractions import Fraction
+import math
+
+import numpy as np
+
+__all__ = ["UNIT_ROUNDOFF", "exact_residual"]
+
+#: unit roundoff of float64 (half an ulp of 1): the default entrywise relative
+#: uncertainty of the matrix (every real within half an ulp rounds to it)
+UNIT_ROUNDOFF = 2.0 ** -53
+U = UNIT_ROUNDOFF
+EPS = np.finfo(np.float64).eps
+TINY = np.finfo(np.float64).tiny
+_SPLIT = 134217729.0            # 2^27 + 1, Veltkamp splitting constant
+
+
+def _gamma(k):
+    return k * U / (1.0 - k * U)
+
+
+def _up(x, k):
+    """Upper bound of a nonnegative quantity computed in float64 with depth-k sums."""
+    return x * (1.0 + 8.0 * _gamma(k + 4)) + (k + 4) * TINY
+
+
+# --------------------------------------------------------------------------- exact residual
+def _two_prod(a, b):
+    """p = fl(a b) and e with a b = p + e exactly (Dekker; no FMA, arrays)."""
+    p = a * b
+    c = _SPLIT * a
+    ah = c - (c - a)
+    al = a - ah
+    c = _SPLIT * b
+    bh = c - (c - b)
+    bl = b - bh
+    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl
+    return p, e
+
+
+def exact_residual(A, Q, M):
+    """R = A Q - Q M rounded once per entry, with a rigorous bound of its error.
+
+    Every product is split error-free (Dekker's TwoProduct, exact in binary64
+    barring underflow) and each entry's terms are summed by ``math.fsum``
+    (exact partials, one final rounding), so |R_exact - R| <= 2u |R| (+ a
+    tiny term for products near underflow).
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        Real, finite; zeros are skipped (sparse structure).
+    Q : ndarray, shape (n, k)
+    M : ndarray, shape (k, k)
+
+    Returns
+    -------
+    R : ndarray, shape (n, k)
+    err : ndarray, shape (n, k)
+        Entrywise bound on |A Q - Q M - R| (exact arithmetic).
+
+    Raises
+    ------
+    ValueError
+        If an entry is too large to be split exactly (|x| >= 2^995) or not
+        finite.
+    """
+    A = np.asarray(A, np.float64)
+    Q = np.asarray(Q, np.float64)
+    M = np.asarray(M, np.float64)
+    n, k = Q.shape
+    for name, X in (("A", A), ("Q", Q), ("M", M)):
+        if not np.all(np.isfinite(X)):
+            raise ValueError(f"exact_residual: {name} has non-finite entries")
+        if X.size and np.max(np.abs(X)) >= 2.0 ** 995:
+            raise ValueError(f"exact_residual: |{name}| too large to split exactly "
+                             f"({np.max(np.abs(X)):.3g} >= 2^995)")
+    rows, cols = np.nonzero(A)
+    a = A[rows, cols]
+    bounds = np.searchsorted(rows, np.arange(n + 1))
+    out = np.empty((n, k))
+    err = np.empty((n, k))
+    for col in range(k):
+        p, e = _two_prod(a, Q[cols, col])
+        pm, em = [], []
+        slack = np.zeros(n)
+        for l in range(k):
+            p2, e2 = _two_prod(-Q[:, l], np.full(n, M[l, col]))
+            pm.append(p2.tolist())
+            em.append(e2.tolist())
+            small = (p2 != 0) & (np.abs(p2) < 2.0 ** -960)
+            slack += np.where(small, 2.0 * U * np.abs(p2) + 2.0 ** -1070, 0.0)
+        small = (p != 0) & (np.abs(p) < 2.0 ** -960)
+        if np.any(small):
+            slack += np.bincount(rows[small], weights=2.0 * U * np.abs(p[small]) + 2.0 ** -1070,
+                                 minlength=n)
+        pl, el = p.tolist(), e.tolist()
+        for i in range(n):
+            b0, b1 = bounds[i], bounds[i + 1]
+            terms = pl[b0:b1] + el[b0:b1]
+            for l in range(k):
+                terms.append(pm[l][i])
+                terms.append(em[l][i])
+            out[i, col] = math.fsum(terms)
+        err[:, col] = 2.0 * U * np.abs(out[:, col]) + slack + 2.0 ** -1070
+    return out, err
+
+
+# --------------------------------------------------------------------------- 2 x 2 algebra
+def _frac(M):
+    return [[Fraction(float(M[0, 0])), Fraction(float(M[0, 1]))],
+            [Fraction(float(M[1, 0])), Fraction(float(M[1, 1]))]]
+
+
+def _disc_test(S, rad):
+    """Exact D of the centre S (Fractions) and a rigorous bound of its change.
+
+    Parameters
+    ----------
+    S : list of list of Fraction, 2 x 2
+    rad : ndarray, shape (2, 2)
+        Entrywise radius (>= 0).
+
+    Returns
+    -------
+    D : Fraction
+    bound : Fraction
+    """
+    r = [[Fraction(float(rad[i, j])) for j in range(2)] for i in range(2)]
+    p = (S[0][0] - S[1][1]) / 2
+    D = p * p + S[0][1] * S[1][0]
+    dp = (r[0][0] + r[1][1]) / 2
+    bound = 2 * abs(p) * dp + dp * dp + abs(S[0][1]) * r[1][0] + abs(S[1][0]) * r[0][1] \
+        + r[0][1] * r[1][0]
+    return D, bound
+
+
+def _pair_eigs(S):
+    tr = 0.5 * float(S[0][0] + S[1][1])
+    D = float(((S[0][0] - S[1][1]) / 2) ** 2 + S[0][1] * S[1][0])
+    r = np.sqrt(complex(D))
+    return np.array([tr - r, tr + r])
+
+
+def _margin(D, bound):
+    if bound == 0:
+        return math.inf if D != 0 else 0.0
+    return float(abs(D) / bound)
+
+
+def _cover_radius(S, r):
+    """Radius of a disc about tr(S)/2 containing {z : sigma_min(S - z I) <= r}.
+
+    S is the 2 x 2 centre (Fractions, exact); r >= 0 (float). With w = z -
+    tr/2, det(S - z I) = w^2 - D and ||S - z I||_F <= ||N||_F + sqrt2 |w|,
+    so sigma_min >= (|w|^2 - |D|) / (||N||_F + sqrt2 |w|), increasing in |w|.
+    """
+    p = (S[0][0] - S[1][1]) / 2
+    D = abs(float(p * p + S[0][1] * S[1][0])) * (1 + 4 * U)
+    nf = math.sqrt(float(2 * p * p + S[0][1] ** 2 + S[1][0] ** 2)) * (1 + 8 * U)
+    s2 = math.sqrt(2.0) * (1 + 2 * U)
+    rho = 0.5 * (s2 * r + math.sqrt(2.0 * r * r + 4.0 * (D + r * nf)))
+    return rho * (1 + 32 * U) + TINY
+
+
+def _sigma_min_2x2_lower(a, b, c, d):
+    """Vectorised rigorous lower bound of sigma_min([[a, b], [c, d]]) = |det| / sigma_max."""
+    det = a * d - b * c
+    err = _gamma(4) * (np.abs(a * d) + np.abs(b * c)) * (1 + 4 * U) + TINY
+    fro = np.sqrt(a * a + b * b + c * c + d * d) * (1 + _gamma(8))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.maximum(np.abs(det) - err, 0.0) / fro
+    return np.where(fro > 0, out * (1 - 4 * U), 0.0)
+
+
+def _sigma_min_lower(K):
+    """Rigorous lower bound of sigma_min(K) for a small square float matrix.
+
+    Z ~ K^{-1}; with E = I - Z K bounded (gamma_p |Z||K| for the product),
+    ||E||_F = e < 1 gives ||K^{-1}||_2 <= ||Z||_F / (1 - e).
+    """
+    p = K.shape[0]
+    try:
+        Z = np.linalg.inv(K)
+    except np.linalg.LinAlgError:
+        return 0.0
+    if not np.all(np.isfinite(Z)):
+        return 0.0
+    E = np.abs(np.eye(p) - Z @ K) * (1 + 2 * U) + _gamma(p + 2) * (np.abs(Z) @ np.abs(K))
+    e = _up(float(np.linalg.norm(E)), p * p)
+    if not e < 1.0:
+        return 0.0
+    return (1.0 - e) / _up(float(np.linalg.norm(Z)), p * p) * (1 - 4 * U)
