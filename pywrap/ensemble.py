@@ -483,8 +483,24 @@ def run_packing(cfg, n, seed, folder):
     dict
         ``default`` (relaxation summary and ``ramps``: one part per friction,
         see :func:`_ramp_part`), ``frictional`` (:func:`_frictional_part`),
-        each with ``error`` (None or the reason), and ``wall`` (s).
+        each with ``error`` (None or the reason), ``wall`` (s) and
+        ``warnings`` (the distinct warnings raised meanwhile, recorded, not
+        printed).
     """
+    import warnings
+
+    # the analysis warns per equilibrium (e.g. a history entry without overlap);
+    # on a rank other than 0 that would print, so every rank records them in the
+    # packing's result (tasks/<key>.json) instead
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = _run_packing(cfg, n, seed, folder)
+    result["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+    return result
+
+
+def _run_packing(cfg, n, seed, folder):
+    """:func:`run_packing` without the warning capture."""
     from .packing import generate, write_data
 
     t0 = time.perf_counter()
@@ -640,7 +656,9 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
             say(f"rank 0: {t['key']}: F_x^c(mu0) in [{r0.get('F_x_c_low', math.nan):.6g}, "
                 f"{r0.get('F_x_c_high', math.nan):.6g}]"
                 + (f"; error: {d['error']}" if d["error"] else "")
-                + f" ({res['wall']:.0f} s)")
+                + f" ({res['wall']:.0f} s"
+                + (f"; {len(res['warnings'])} distinct warning(s) in tasks/{t['key']}.json"
+                   if res["warnings"] else "") + ")")
     computed = comm.gather(computed, root=0)
     path = os.path.join(out, "ensemble.md")
     err = None

@@ -96,6 +96,11 @@ def test_two_ranks_same_table(serial, tmp_path):
     with open(os.path.join(out, en.MANIFEST)) as fh:
         assert json.load(fh)["sessions"][-1]["n_ranks"] == 2
     _same(t1, en.read_table(os.path.join(out, en.TABLE)))
+    # warnings of the analysis are recorded per packing, not printed by any rank
+    assert "Warning" not in proc.stderr, proc.stderr[-2000:]
+    for name in os.listdir(os.path.join(out, "tasks")):
+        with open(os.path.join(out, "tasks", name)) as fh:
+            assert isinstance(json.load(fh)["result"]["warnings"], list), name
 
 
 def test_resume_redoes_only_the_missing_packing(serial, tmp_path):
