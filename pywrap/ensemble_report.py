@@ -12,6 +12,11 @@ from .ensemble_config import I0_DYNAMICS
 
 #: the paper's bracket of F_x^c(mu = 1) for its N = 100 packing
 PAPER_BRACKET = (PAPER["F_x_c_mu1_low"], PAPER["F_x_c_mu1_high"])
+#: a coalescing pair with |Re lambda_c| below this fraction of lambda_max is a
+#: soft (near-floppy) mode pair, not two stiff modes: measured on the default
+#: ensemble, stiff onsets have Re lambda_c / lambda_max >= 0.013 and soft ones
+#: <= 1.2e-5 (both a factor >= 100 from this threshold)
+SOFT_MODE_REL = 1e-4
 
 
 # --------------------------------------------------------------------------- rows
@@ -24,7 +29,7 @@ COLUMNS = ("key", "n", "seed", "protocol", "I0", "dynamics_consistent", "status"
            "ratio", "ratio_low", "ratio_high", "order", "pair_re_rel", "pair_index", "n_dof",
            "lambda_c_re", "lambda_c_im", "growth_slope", "F_x_onset_fit", "slope_points",
            "n_undecided", "n_steps", "n_bisection", "n_extra", "ramp_status_mu0", "ramp_status_mu_ss",
-           "decision_at_zero", "n_pairs_at_zero", "growth_at_zero", "wall")
+           "decision_at_zero", "n_pairs_at_zero", "growth_at_zero", "soft_onset", "wall")
 
 
 def _mid(lo, hi):
@@ -52,8 +57,17 @@ def _empty_row(task, protocol, I0):
     row.update(key=task["key"], n=task["n"], seed=task["seed"], protocol=protocol, I0=I0,
                dynamics_consistent=float(I0 == I0_DYNAMICS), status="failed", reason="",
                ramp_status_mu0="", ramp_status_mu_ss="", pair_index=-1, n_dof=-1,
-               slope_points=0, order=-1, decision_at_zero=math.nan, n_extra=0)
+               slope_points=0, order=-1, decision_at_zero=math.nan, n_extra=0,
+               soft_onset=-1)
     return row
+
+
+def soft_onset(pair_re_rel):
+    """1 if the coalescing pair is a soft-mode pair (|Re lambda_c| < SOFT_MODE_REL
+    lambda_max), 0 if two stiff modes, -1 if unknown (no complex point)."""
+    if not math.isfinite(pair_re_rel):
+        return -1
+    return int(abs(pair_re_rel) < SOFT_MODE_REL)
 
 
 def rows_of(task, result, cfg):
@@ -127,6 +141,7 @@ def _default_row(task, result, I0):
                            f"{o1['F_x_last']:.6g} at mu_ss mu0 (F_x^c above it)")
             elif not o1["tol_reached"] and r1["tol_reached"]:
                 why.append(f"I0 = {I0:g}: mu_ss mu0 bracket wider than tol")
+    row["soft_onset"] = soft_onset(row["pair_re_rel"])
     row["ratio"] = row["F_x_c_ss"] / row["F_x_c"] if row["F_x_c"] else math.nan
     if row["F_x_c_low"] > 0 and row["F_x_c_high"] > 0:
         row["ratio_low"] = row["F_x_c_ss_low"] / row["F_x_c_high"]
@@ -217,7 +232,9 @@ def statistics(rows, cfg):
                 "phi": quartiles([r["phi"] for r in sel]),
                 "slope": quartiles([r["growth_slope"] for r in sel]),
                 "pair_re_rel": quartiles([r["pair_re_rel"] for r in sel]),
-                "pair_index": quartiles([r["pair_index"] for r in sel if r["pair_index"] > 0])})
+                "pair_index": quartiles([r["pair_index"] for r in sel if r["pair_index"] > 0]),
+                "n_soft": sum(1 for r in sel if r["soft_onset"] == 1),
+                "F_x_c_stiff": quartiles([r["F_x_c"] for r in sel if r["soft_onset"] == 0])})
         codes = [r["order"] for r in select(rows, ft, I0, usable=False)]
         st["order"][I0] = {"holds": codes.count(1), "reversed": codes.count(0),
                            "undecided": codes.count(-1), "total": len(codes)}
@@ -231,6 +248,11 @@ def statistics(rows, cfg):
         if len(meds) >= 2 and meds[0][0] != meds[-1][0]:
             (n1, m1), (n2, m2) = meds[0], meds[-1]
             st["n_exponent"][I0] = math.log(m2 / m1) / math.log(n2 / n1)
+        meds = [(p["n"], p["F_x_c_stiff"][2]) for p in st["per_n"] if p["I0"] == I0
+                and math.isfinite(p["F_x_c_stiff"][2]) and p["F_x_c_stiff"][2] > 0]
+        if len(meds) >= 2 and meds[0][0] != meds[-1][0]:
+            (n1, m1), (n2, m2) = meds[0], meds[-1]
+            st.setdefault("n_exponent_stiff", {})[I0] = math.log(m2 / m1) / math.log(n2 / n1)
     for n in cfg.n:
         fr = [r for r in rows if r["protocol"] == "frictional" and r["n"] == n]
         ok = [r for r in fr if r["status"] == "ok"]
@@ -318,6 +340,11 @@ def plot(path, rows, cfg):
                 continue
             shift = 1.0 + 0.04 * j
             ax[2].plot([n * shift] * len(x), x, ".", color=colors[j], alpha=0.5)
+            soft = [r["F_x_c"] for r in select(rows, ft, I0, n)
+                    if math.isfinite(r["F_x_c"]) and r["soft_onset"] == 1]
+            if soft:
+                ax[2].plot([n * shift] * len(soft), soft, "x", color=colors[j], ms=7,
+                           label="soft-mode onset" if j == 0 else None)
             c, q1, m, q3 = quartiles(x)
             ax[2].errorbar([n * shift], [m], yerr=[[m - q1], [q3 - m]], fmt="o",
                            color=colors[j], capsize=4,
@@ -363,18 +390,26 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
               f"simulated motion.", ""]
     L += ["## F_x^c by size and convention", "",
           "| N | I0 | packings (usable) | F_x^c(mu0) | F_x^c(mu_ss mu0) | ratio | phi | "
-          "slope s | Re lambda_c / lambda_max | pair index |",
-          "|---|---|---|---|---|---|---|---|---|---|"]
+          "slope s | Re lambda_c / lambda_max | pair index | soft-mode onsets | "
+          "F_x^c(mu0), stiff onsets only (count) |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for p in st["per_n"]:
         L.append(f"| {p['n']} | {p['I0']:g} | {p['n_packings']} ({p['n_usable']}) | "
                  f"{_q(p['F_x_c'])} | {_q(p['F_x_c_ss'])} | {_q(p['ratio'])} | "
                  f"{_q(p['phi'])} | {_q(p['slope'])} | {_q(p['pair_re_rel'], '.3g')} | "
-                 f"{_q(p['pair_index'], '.3g')} |")
+                 f"{_q(p['pair_index'], '.3g')} | {p['n_soft']} | "
+                 f"{_q(p['F_x_c_stiff'])} ({p['F_x_c_stiff'][0]}) |")
     L += ["", "slope s: g = s sqrt(F_x - F_x^c) just above onset (g = max Im sqrt(lambda)).",
+          f"Soft-mode onset: the first certified complex pair has |Re lambda_c| < "
+          f"{SOFT_MODE_REL:g} lambda_max -- two near-floppy modes, not two stiff ones (its "
+          f"F_x^c is that of the soft pair; the ramp stops there, so the stiff pairs' onset "
+          f"is not measured for that packing).",
           "", "## N dependence", ""]
     for I0, e in st["n_exponent"].items():
         L.append(f"- I0 = {I0:g}: median F_x^c(mu0) ~ N^{e:.3g} between N = {min(cfg.n)} "
                  f"and N = {max(cfg.n)} (two medians).")
+    for I0, e in st.get("n_exponent_stiff", {}).items():
+        L.append(f"- I0 = {I0:g}, stiff onsets only: median F_x^c(mu0) ~ N^{e:.3g}.")
     if not st["n_exponent"]:
         L.append("- one size only (or no usable median): no N dependence measured.")
     L += ["", "## Does F_x^c(mu_ss mu0) < F_x^c(mu0) hold for every packing?", "",

@@ -111,3 +111,28 @@ def test_pair_position():
     assert p["pair_index"] == 3 and p["n_dof"] == 6
     assert p["pair_re_rel"] == pytest.approx(0.5)
     assert p["lambda_c"] == [5.0, 0.5]
+
+
+def test_soft_mode_onsets_are_flagged_and_kept_out_of_the_stiff_statistics():
+    """A first complex pair at |Re lambda_c| < SOFT_MODE_REL lambda_max is a soft-mode
+    onset: counted, and left out of the 'stiff onsets only' median and exponent."""
+    import math
+
+    from remote_trigger.pywrap import ensemble_report as er
+
+    assert er.soft_onset(1.1e-7) == 1 and er.soft_onset(-8e-7) == 1
+    assert er.soft_onset(0.013) == 0 and er.soft_onset(math.nan) == -1
+    cfg = en.EnsembleConfig.from_dict({"n": [100, 400], "seeds": [[1, 2], [1, 2]],
+                                       "inertia_I0": None, "frictional": False})
+    rows = []
+    for n, seed, fc, rel in ((100, 1, 0.02, 0.2), (100, 2, 0.04, 0.1),
+                             (400, 1, 0.005, 0.09), (400, 2, 0.0005, 1e-6)):
+        row = er._empty_row({"key": f"N{n}_s{seed}", "n": n, "seed": seed},
+                            "frictionless-then-friction", 0.5)
+        row.update(status="ok", F_x_c=fc, pair_re_rel=rel, soft_onset=er.soft_onset(rel))
+        rows.append(row)
+    st = er.statistics(rows, cfg)
+    p400 = next(p for p in st["per_n"] if p["n"] == 400)
+    assert p400["n_soft"] == 1 and p400["F_x_c_stiff"][0] == 1
+    assert p400["F_x_c_stiff"][2] == 0.005 and p400["F_x_c"][2] == 0.00275
+    assert st["n_exponent_stiff"][0.5] == math.log(0.005 / 0.03) / math.log(4)
