@@ -16,7 +16,7 @@ sparse LU above), write the equilibrium files, and the certified decision:
   lambda_max, with lambda_max from ARPACK). The dense path's eigen-solve
   is timed too up to N = 400 and extrapolated as n^3 above.
 
-Above ``--relax-max`` (default 1600) a relaxation takes too long here
+Above ``--relax-max`` (default 400) a relaxation takes too long here
 (N = 1600: ~30 min on one loaded core); there the point is assembled from
 measured parts instead: a generated, unrelaxed packing of N disks in
 LAMMPS (scene load, one Newton iteration's engine part: scatter, ``run
@@ -212,7 +212,7 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--dF-x", dest="dF_x", type=float, default=2.5e-4)
     ap.add_argument("--quick", action="store_true", help="N = 100 and 400 only")
-    ap.add_argument("--relax-max", dest="relax_max", type=int, default=1600,
+    ap.add_argument("--relax-max", dest="relax_max", type=int, default=400,
                     help="largest N relaxed; above it the point is assembled from parts")
     ap.add_argument("--out", default=None, help="keep outputs here (default: temp dir)")
     args = ap.parse_args(argv)

@@ -59,6 +59,26 @@ def write_atomic(path, text):
     os.replace(tmp, path)
 
 
+def _merge(path, parts, names, note):
+    """Blocks of the previous results.md, those of ``names`` replaced by ``parts``.
+
+    The previous introduction (machine and date of the last full run) is
+    kept and ``note`` (what was re-run, when, where) is added after it.
+    """
+    import re
+
+    try:
+        text = open(path).read()
+    except OSError:
+        return parts
+    body = text.split("\n\n", 1)[1] if text.startswith("# Benchmark results") else text
+    pieces = re.split(r"(?m)^(?=\*\*bench_\w+\*\* \()", body)
+    blocks = {re.match(r"\*\*(bench_\w+)\*\*", p).group(1): p.strip() for p in pieces[1:]}
+    for p in parts[2:]:
+        blocks[re.match(r"\*\*(bench_\w+)\*\*", p).group(1)] = p
+    return [pieces[0].strip(), note] + [blocks[k] for k in sorted(blocks)]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description="run all benchmarks")
     ap.add_argument("--quick", action="store_true", help="pass --quick to every benchmark")
@@ -90,6 +110,11 @@ def main(argv=None):
             print(res.stderr[-3000:], file=sys.stderr)
         status = "" if res.returncode == 0 else f" (FAILED, exit {res.returncode})"
         parts.append(f"**{name}** ({wall:.0f} s){status}\n\n```\n{res.stdout.strip()}\n```")
+    if args.only:
+        # a partial run replaces only its own blocks; the others (and their
+        # machine line) are kept from the previous full run
+        stamp_note = f"{', '.join(names)} re-run {stamp} on {machine()}."
+        parts = _merge(os.path.join(HERE, "results.md"), parts, names, stamp_note)
     body = "\n\n".join(parts) + "\n"
     write_atomic(os.path.join(HERE, "results.md"), "# Benchmark results\n\n" + body)
 
