@@ -269,7 +269,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
             return _bisect(eng, cfg, rcfg, rlog, folder, bar, budget)
         finally:
             bar.close()
-            if eng.rank == 0 and getattr(rlog, "dirty", False):
+            if eng.rank == 0 and rlog.dirty:
                 # rows since the last checkpoint (interrupted, or an error)
                 rlog.write("running", force=True)
 

@@ -144,11 +144,11 @@ class RampLog:
     def __init__(self, cfg, path):
         self.cfg = cfg
         self.path = path
-        self.rows = {k: {c: [] for c in self.COLS} for k in (STEPS,
-                                                              BISECTION)}
+        self.rows = {k: {c: [] for c in self.COLS} for k in (STEPS, BISECTION)}
         self.files = {STEPS: [], BISECTION: []}
         self.eig = {}
         self.attrs = {}
+        self.dirty = False          # rows added since the last write
 
     def add(self, kind, name, datafile, values, eigenvalues):
         for c in self.COLS:
@@ -192,12 +192,11 @@ class RampLog:
                     cols = {c: np.asarray(self.rows[kind][c], dtype=np.float64)
                             for c in self.COLS}
                     cols[DATAFILE] = np.asarray([str(f) for f in self.files[kind]],
-                                                          dtype=object)
+                                                dtype=object)
                     for c, arr in cols.items():
                         name = column(kind, c)
                         if name not in fh:
-                            kw = ({"dtype": h5py.string_dtype()} if c == DATAFILE
-                                  else {})
+                            kw = {"dtype": h5py.string_dtype()} if c == DATAFILE else {}
                             fh.create_dataset(name, data=arr, maxshape=(None,),
                                               chunks=(256,), **kw)
                             continue
