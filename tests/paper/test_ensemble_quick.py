@@ -149,3 +149,34 @@ def test_failure_is_recorded_and_others_finish(tmp_path, monkeypatch):
     assert t["status"][fr][0] == "ok"
     md = open(os.path.join(out, "ensemble.md")).read()
     assert "top layer slid away" in md
+
+
+def test_adaptive_ramps_and_continuation(tmp_path):
+    """``dF_x_max``: the ramps take adaptive steps (some larger than dF_x, none
+    outside [dF_x, dF_x_max]) and the I0 = 1 continuation above the ramp's end (it
+    is needed for this packing: its I0 = 1 onset lies above the I0 = 1/2 one) runs
+    with the same rule and brackets the onset."""
+    from remote_trigger.pywrap.results import read_all
+
+    out = str(tmp_path / "adaptive")
+    proc = _run(["--quick", "--out", out, "--set", "n=[16]", "--set", "seeds=[4]",
+                 "--set", "dF_x_max=0.05", "--set", "keep_equilibria=true", "--quiet"])
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    t = en.read_table(os.path.join(out, en.TABLE))
+    rows = {(t["protocol"][i], float(t["I0"][i])): i for i in range(len(t["key"]))}
+    half, one = rows["frictionless-then-friction", 0.5], rows["frictionless-then-friction", 1.0]
+    assert t["status"][half] == "ok" and t["status"][one] == "ok", list(t["reason"])
+    folder = os.path.join(out, "packings", "N16_s4", "ramp_mu0")
+    _, d = read_all(os.path.join(folder, "ramp.h5"))
+    h = np.diff(d["steps/F_x"])
+    assert np.all(h >= 1e-2 * (1 - 1e-12)) and np.all(h <= 0.05 * (1 + 1e-12))
+    assert h.max() > 1e-2 * (1 + 1e-6)
+    ext = sorted(f for f in os.listdir(os.path.join(folder, "I0_1"))
+                 if f.startswith("ext_") and f.endswith(".dump.json"))
+    assert ext and t["F_x_c_low"][one] > d["steps/F_x"][-1]
+    loads = [d["steps/F_x"][-1]]
+    for f in ext:
+        with open(os.path.join(folder, "I0_1", f)) as fh:
+            loads.append(json.load(fh)["F_x"])
+    step = np.diff(loads)
+    assert np.all(step >= 1e-2 * (1 - 1e-12)) and np.all(step <= 0.05 * (1 + 1e-12))
