@@ -172,6 +172,11 @@ def open_universe(topology, trajectory=None, dt=None, unwrap=True):
         return u
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Reader has no dt information")
+        warnings.filterwarnings("ignore", message="Guessed all Masses")
+        for p in paths:          # the reader orders atoms by id: they must be these ids
+            other = mda.Universe(p, topology_format="LAMMPSDUMP", format="LAMMPSDUMP")
+            if not np.array_equal(np.sort(other.atoms.ids), ids):
+                raise ValueError(f"{p!r} holds other atoms than {topology!r}")
         u.load_new(paths if len(paths) > 1 else paths[0], format="LAMMPSDUMP",
                    unwrap_images=unwrap, dt=1.0 if dt is None else float(dt))
     return u

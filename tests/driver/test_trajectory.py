@@ -180,6 +180,12 @@ def test_universe_of_ramp_dumps_and_of_a_dynamics_run(tmp_path, relaxed):
     assert np.all(res.n_contacts == res.n_contacts[0]) and res.n_contacts[0] > 20
     with pytest.raises(ValueError, match="mixes"):
         open_universe(relaxed.datafile, [dumps[0], traj])
+    # a trajectory of other atoms is refused, naming it
+    from tests.data import unpack
+
+    other = unpack("default_job_mu1_step_00258", tmp_path)       # N = 100, not 20
+    with pytest.raises(ValueError, match="other atoms"):
+        open_universe(other, traj)
 
 
 def test_rattlers_from_mdanalysis_contacts_agree_with_the_float64_ones(tmp_path, relaxed):
