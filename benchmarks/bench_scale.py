@@ -29,8 +29,9 @@ Newton iterations per point are those measured at the largest relaxed N.
 
 Prints per N: dof, relax time, Newton steps and time, files, decision
 (dense or sparse), total per point, and the point cost multiplied into a
-fine ramp (F_x^c / dF_x + 12 points with the N = 100 ensemble's median
-F_x^c) and an adaptive one (38 points, docs/driver.md).
+fine ramp (F_x^c / dF_x + 12 points with the default ensemble's median
+F_x^c at that N, extrapolated above N = 400) and an adaptive one (38
+points, docs/driver.md).
 
     python benchmarks/bench_scale.py [--sizes 100 400 1600 10000] [--quick]
 """
@@ -48,6 +49,16 @@ import time
 PAIR_RE_REL = 0.094
 #: points of an adaptive ramp of the default job (26 steps + 12 bisections)
 ADAPTIVE_POINTS = 38
+#: median F_x^c(mu0) of the default ensemble (docs/ensemble.md) at N = 100 and
+#: 400, and the exponent of their ratio, used to extrapolate to larger N
+FC_MEDIAN = {100: 0.0256, 400: 0.0049}
+FC_EXPONENT = -1.19
+
+
+def fine_points(n, dF_x):
+    """Points of a fine ramp to the median F_x^c at N = n (+ 12 bisections)."""
+    fc = FC_MEDIAN.get(n, FC_MEDIAN[100] * (n / 100.0) ** FC_EXPONENT)
+    return fc / dF_x + 12
 
 
 def one_point(n, seed, dF_x, base):
@@ -218,7 +229,6 @@ def main(argv=None):
     args = ap.parse_args(argv)
     sizes = [n for n in args.sizes if n <= 400] if args.quick else args.sizes
     base = args.out or tempfile.mkdtemp(prefix="bench_scale_")
-    fine_points = 0.0095 / args.dF_x + 12      # N = 100 ensemble median F_x^c
     rows = []
     for n in sizes:
         if n <= args.relax_max:
@@ -241,7 +251,8 @@ def main(argv=None):
                 f"(lambda_max by ARPACK {r['lam_max_time']:.2f} s, not counted)")
         print(f"{r['n']:6d} {r['dof']:6d} {r['relax']:8.1f} {r['newton_steps']:6d} "
               f"{r['newton']:8.3f} {r['scene'] + r['files']:11.3f} {r['decision']:9.3f} "
-              f"{r['point']:8.3f} {r['point_cpu']:8.3f} {r['point'] * fine_points:10.0f} "
+              f"{r['point']:8.3f} {r['point_cpu']:8.3f} "
+              f"{r['point'] * fine_points(r['n'], args.dF_x):10.0f} "
               f"{r['point'] * ADAPTIVE_POINTS:9.0f}  {what}")
         if "parts" in r:
             p = r["parts"]
@@ -252,8 +263,9 @@ def main(argv=None):
             dense = e100 * (r["dof"] / 300.0) ** 3
             print(f"{'':6} dense eigen-solve at this size, extrapolated as n^3 from N = 100: "
                   f"{dense:.0f} s per point")
-    print(f"fine ramp: {fine_points:.0f} points (F_x^c = 0.0095, the N = 100 ensemble median, "
-          f"at dF_x = {args.dF_x:g}, + 12 bisections); adaptive: {ADAPTIVE_POINTS} points "
+    print(f"fine ramp: F_x^c / dF_x + 12 points, F_x^c the default ensemble's median "
+          f"({FC_MEDIAN[100]:g} at N = 100, {FC_MEDIAN[400]:g} at 400, extrapolated as "
+          f"N^{FC_EXPONENT:g} above); adaptive: {ADAPTIVE_POINTS} points "
           f"(default job); both in s on one core (wall). cpu: process CPU time of the point "
           f"(equals its wall time on an idle core; the measure to trust on a loaded machine)")
     return 0
