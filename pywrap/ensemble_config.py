@@ -4,7 +4,7 @@
 from dataclasses import dataclass, field, asdict
 
 from .config import ConfigError, ContactModel, RelaxConfig, _int
-from .paper_config import JobConfig, PaperConfig, _num, layered_config
+from .paper.config import JobConfig, PaperConfig, _num, layered_config
 
 #: moment of inertia factor of the dynamics (``fix nve/sphere ... disc``)
 I0_DYNAMICS = 0.5

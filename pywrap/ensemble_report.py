@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
-from .paper_config import PAPER
+from .paper.config import PAPER
 from .ensemble_config import I0_DYNAMICS
 
 #: the paper's bracket of F_x^c(mu = 1) for its N = 100 packing

@@ -8,7 +8,7 @@ import json
 import os
 
 from .config import ConfigError
-from .paper_config import parse_set
+from .paper.config import parse_set
 
 #: the configuration file of a job folder
 CONFIG_FILE = "config.json"

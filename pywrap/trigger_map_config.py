@@ -4,7 +4,7 @@
 from dataclasses import dataclass, asdict
 
 from .config import ConfigError, _num, _int
-from .paper_config import JobConfig, layered_config
+from .paper.config import JobConfig, layered_config
 
 #: onsets of f(t)
 ONSETS = ("step", "smooth")

@@ -27,7 +27,7 @@ def load_paper_job(folder):
         If ``folder/paper.json`` is missing, unreadable, not complete, or
         lacks the Fig. 5 phase.
     """
-    from .paper_config import PaperConfig
+    from .paper.config import PaperConfig
 
     path = os.path.join(folder, "paper.json")
     try:
@@ -202,7 +202,7 @@ def _prepare_loads(cfg, pcfg, man, out):
     from mpi4py import MPI
     from .engine import Engine
     from .paper import ramp_config
-    from . import fig5
+    from .paper import fig5
     from remote_trigger.analysis.timestep import stability_limit
     from remote_trigger.analysis.state import read_dump
 

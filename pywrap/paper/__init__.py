@@ -32,13 +32,15 @@ Checkpoints: the manifest ``paper.json`` is rewritten (atomically, by rank
 the ramps from their ``ramp.h5`` and reruns any other unfinished phase from
 its start, so that the report equals that of an uninterrupted run.
 """
-# The package: phases (stage configurations, the runs of each phase), job
-# (phase order, rank groups, checkpoints), cli (the subcommand); the
-# configuration (paper_config), the output folder and manifest
-# (paper_manifest), the report (report, report_metrics, report_fig5), Fig. 5
-# (fig5) and the figures (figures) are modules of remote_trigger.pywrap.
-from ..paper_config import PaperConfig, PAPER, build_config, parse_set  # noqa: F401
-from ..paper_manifest import (OUTPUTS, OUTPUT_GLOBS, MANIFEST, ramp_dir, prepare_out,  # noqa: F401
+# The package: config (PaperConfig, the paper's reference values), manifest
+# (output folder, paper.json, resume), phases (stage configurations, the runs
+# of each phase), fig5 (the Fig. 5 phase), job (phase order, rank groups,
+# checkpoints), report + report_metrics + report_fig5 (report.md), figures
+# (the PNGs) and cli (the subcommand). The old flat names
+# (remote_trigger.pywrap.paper_config, .paper_manifest, .report, ...) are the
+# same module objects.
+from .config import PaperConfig, PAPER, build_config, parse_set  # noqa: F401
+from .manifest import (OUTPUTS, OUTPUT_GLOBS, MANIFEST, ramp_dir, prepare_out,  # noqa: F401
                               write_json, config_difference, load_manifest, finished_phases)
 from .phases import (model_fields, relax_config, ramp_config, dynamics_config,  # noqa: F401
                      analyze_on_root, continue_ramp, extension_loads, run_ramp,

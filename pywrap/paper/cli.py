@@ -4,8 +4,8 @@ import math
 import os
 import sys
 
-from ..paper_config import PaperConfig, build_config, parse_set
-from ..paper_manifest import MANIFEST, load_manifest
+from .config import PaperConfig, build_config, parse_set
+from .manifest import MANIFEST, load_manifest
 from .job import run_paper  # noqa: F401
 
 

@@ -4,8 +4,8 @@ import sys
 import time
 
 from ..config import ConfigError
-from ..paper_config import PAPER
-from ..paper_manifest import (MANIFEST, prepare_out, write_json, load_manifest,
+from .config import PAPER
+from .manifest import (MANIFEST, prepare_out, write_json, load_manifest,
                               finished_phases, _normalised, _report_done, _utc_now,
                               _ordered_phases)
 from .phases import (_Clock, relax_config, run_instability, run_normal_form, run_perturb,
@@ -303,7 +303,7 @@ class _PaperJob:
         """6. Figures and report (rank 0), from the manifest as written."""
         summary, err = self.summary, None
         if self.rank == 0:
-            from .. import figures, report
+            from . import figures, report
 
             try:
                 t0 = time.perf_counter()

@@ -5,7 +5,7 @@ import time
 
 import numpy as np
 
-from ..paper_manifest import ramp_dir
+from .manifest import ramp_dir
 
 
 class _Clock:
@@ -274,7 +274,7 @@ def run_perturb(cfg, out, ramps, comm, clock):
 
     See :mod:`.fig5`; returns its summary.
     """
-    from ..fig5 import run_fig5
+    from .fig5 import run_fig5
 
     summ = run_fig5(cfg, out, ramps, comm, clock)
     clock.say(f"Fig. 5: done ({summ['wall']:.0f} s: " +
