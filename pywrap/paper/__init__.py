@@ -41,7 +41,7 @@ its start, so that the report equals that of an uninterrupted run.
 # same module objects.
 from .config import PaperConfig, PAPER, build_config, parse_set  # noqa: F401
 from .manifest import (OUTPUTS, OUTPUT_GLOBS, MANIFEST, ramp_dir, prepare_out,  # noqa: F401
-                              write_json, config_difference, load_manifest, finished_phases)
+                       write_json, config_difference, load_manifest, finished_phases)
 from .phases import (model_fields, relax_config, ramp_config, dynamics_config,  # noqa: F401
                      analyze_on_root, continue_ramp, extension_loads, run_ramp,
                      run_instability, run_perturb, run_normal_form, _Clock)
