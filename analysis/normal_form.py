@@ -283,10 +283,10 @@ def register(subparsers):
     p.add_argument("--force", type=float, default=0.0, help="forcing amplitude F (default 0)")
     p.add_argument("--omega", type=float, default=0.01, help="forcing frequency (default 0.01)")
     p.add_argument("-o", "--out", default="normal-form", help="output folder")
-    p.set_defaults(func=_main, serial=True)
+    p.set_defaults(func=main, serial=True)
 
 
-def _main(args):
+def main(args):
     import os
 
     from .output import output_dir, write_h5_atomic

@@ -628,10 +628,10 @@ def register(subparsers):
     p.add_argument("--seed", type=int, default=1, help="packing seed (default 1)")
     p.add_argument("--sections", default=",".join(SECTIONS),
                    help=f"comma-separated subset of {','.join(SECTIONS)}")
-    p.set_defaults(func=_main)
+    p.set_defaults(func=main)
 
 
-def _main(args):
+def main(args):
     from mpi4py import MPI
 
     from .errors import InputError
