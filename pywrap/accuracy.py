@@ -138,15 +138,15 @@ def prepare_start(ctx):
     ctx.start = raw
     cfg = _relax_cfg(ctx)
     steps = 8000 if ctx.quick else 20000
+    from remote_trigger.pywrap.relax import set_friction
+
     with Engine() as eng:
         stages.load_relax_scene(eng, cfg, raw, 0.0)
-        eng.commands(f"pair_coeff * * {ctx.k_n!r} {ctx.k_t!r} 0.0\n"
-                     "variable mu_now equal 0.0\n"
-                     "fix grav all gravity 0.5 vector 0 -1 0\n"
-                     f"run {steps}\nunfix grav\n"
-                     f"pair_coeff * * {ctx.k_n!r} {ctx.k_t!r} {ctx.mu!r}\n"
-                     f"variable mu_now equal {ctx.mu!r}\n"
-                     "velocity all set 0.0 0.0 0.0\nset group all omega 0.0 0.0 0.0\n")
+        set_friction(eng, 0.0)              # the deck's friction lines, as the driver
+        eng.commands("fix grav all gravity 0.5 vector 0 -1 0\n"
+                     f"run {steps}\nunfix grav\n")
+        set_friction(eng, ctx.mu)
+        eng.commands("velocity all set 0.0 0.0 0.0\nset group all omega 0.0 0.0 0.0\n")
         ctx.start = os.path.join(work, "start.data")
         eng.command(f"write_data {ctx.start} nocoeff")
 
