@@ -87,11 +87,6 @@ class RampResult:
         return self.F_x_c_high - self.F_x_c_low
 
 
-# the writer of ramp.h5 lives with its layout (ramp_file); the old names stay
-_RampLog = ramp_file.RampLog
-CHECKPOINT_SECONDS = ramp_file.CHECKPOINT_SECONDS
-
-
 def ramp_bracket(rlog):
     """The certified bracket of F_x^c from every row of a ramp (steps and bisection).
 

@@ -129,7 +129,7 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
 
 
 def test_ramp_file_layout_and_reader(full_ramp):
-    """pywrap.ramp_file names what _RampLog writes; read_points returns its rows."""
+    """pywrap.ramp_file names what RampLog writes; read_points returns its rows."""
     from remote_trigger.pywrap import ramp_file as rf
 
     _, res = full_ramp
