@@ -59,11 +59,12 @@ def write_atomic(path, text):
     os.replace(tmp, path)
 
 
-def _merge(path, parts, names, note):
-    """Blocks of the previous results.md, those of ``names`` replaced by ``parts``.
+def _merge(path, parts, note):
+    """Blocks of the previous results.md, those re-run here replaced by ``parts``.
 
     The previous introduction (machine and date of the last full run) is
-    kept and ``note`` (what was re-run, when, where) is added after it.
+    kept; each re-run block says in its header when and where it was run
+    (``note``), so a later partial run replaces that too.
     """
     import re
 
@@ -75,8 +76,10 @@ def _merge(path, parts, names, note):
     pieces = re.split(r"(?m)^(?=\*\*bench_\w+\*\* \()", body)
     blocks = {re.match(r"\*\*(bench_\w+)\*\*", p).group(1): p.strip() for p in pieces[1:]}
     for p in parts[2:]:
-        blocks[re.match(r"\*\*(bench_\w+)\*\*", p).group(1)] = p
-    return [pieces[0].strip(), note] + [blocks[k] for k in sorted(blocks)]
+        name = re.match(r"\*\*(bench_\w+)\*\*", p).group(1)
+        blocks[name] = re.sub(r"^(\*\*bench_\w+\*\* \([^)]*)\)", rf"\1; {note})", p, count=1)
+    intro = [line for line in pieces[0].strip().split("\n\n") if " re-run " not in line]
+    return intro + [blocks[k] for k in sorted(blocks)]
 
 
 def main(argv=None):
@@ -113,8 +116,8 @@ def main(argv=None):
     if args.only:
         # a partial run replaces only its own blocks; the others (and their
         # machine line) are kept from the previous full run
-        stamp_note = f"{', '.join(names)} re-run {stamp} on {machine()}."
-        parts = _merge(os.path.join(HERE, "results.md"), parts, names, stamp_note)
+        parts = _merge(os.path.join(HERE, "results.md"), parts,
+                       f"re-run {stamp} on {machine()}")
     body = "\n\n".join(parts) + "\n"
     write_atomic(os.path.join(HERE, "results.md"), "# Benchmark results\n\n" + body)
 
