@@ -80,6 +80,22 @@ def _topology(path):
     return d.ids, d.types, d.radii, d.masses, top, d.positions, d.box_lo, d.box_hi
 
 
+def _first_frame_ids(path):
+    """Atom ids of a dump's first snapshot, read up to its last atom line only."""
+    with open(path) as fh:
+        n = col = None
+        for line in fh:
+            if line.startswith("ITEM: NUMBER OF ATOMS"):
+                n = int(next(fh).split()[0])
+            elif line.startswith("ITEM: ATOMS"):
+                names = line.split()[2:]
+                if "id" not in names or n is None:
+                    raise ValueError(f"{path!r}: no id column in its first snapshot")
+                col = names.index("id")
+                return np.array([int(next(fh).split()[col]) for _ in range(n)], np.int64)
+    raise ValueError(f"{path!r}: no snapshot found")
+
+
 def _is_equilibrium_dump(path):
     """True for an equilibrium dump of the driver (its ``.json`` sidecar exists)."""
     import os
@@ -174,8 +190,7 @@ def open_universe(topology, trajectory=None, dt=None, unwrap=True):
         warnings.filterwarnings("ignore", message="Reader has no dt information")
         warnings.filterwarnings("ignore", message="Guessed all Masses")
         for p in paths:          # the reader orders atoms by id: they must be these ids
-            other = mda.Universe(p, topology_format="LAMMPSDUMP", format="LAMMPSDUMP")
-            if not np.array_equal(np.sort(other.atoms.ids), ids):
+            if not np.array_equal(np.sort(_first_frame_ids(p)), ids):
                 raise ValueError(f"{p!r} holds other atoms than {topology!r}")
         u.load_new(paths if len(paths) > 1 else paths[0], format="LAMMPSDUMP",
                    unwrap_images=unwrap, dt=1.0 if dt is None else float(dt))
