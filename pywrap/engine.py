@@ -357,19 +357,31 @@ class Engine:
         ndarray, shape (N,) or (N, k)
             float64 for real data, int64 for integer data (a copy).
         """
+        return self.gather_many((name,))[name]
+
+    def gather_many(self, names):
+        """:meth:`gather` of several quantities with one id exchange and one sort.
+
+        Parameters
+        ----------
+        names : sequence of str
+
+        Returns
+        -------
+        dict
+            name -> ndarray ordered by id (as :meth:`gather`).
+        """
         ids = np.asarray(self._local("id"), dtype=np.int64).copy()
-        loc = np.array(self._local(name))
-        if loc.dtype.kind in "iu":
-            loc = loc.astype(np.int64)
-        else:
-            loc = loc.astype(np.float64)
+        loc = {}
+        for name in names:
+            a = np.array(self._local(name))
+            loc[name] = a.astype(np.int64) if a.dtype.kind in "iu" else a.astype(np.float64)
         if self.size > 1:
-            all_ids = self.comm.allgather(ids)
-            all_loc = self.comm.allgather(loc)
-            ids = np.concatenate(all_ids)
-            loc = np.concatenate(all_loc, axis=0)
+            ids = np.concatenate(self.comm.allgather(ids))
+            parts = self.comm.allgather(loc)
+            loc = {name: np.concatenate([p[name] for p in parts], axis=0) for name in names}
         order = np.argsort(ids, kind="stable")
-        return loc[order]
+        return {name: a[order] for name, a in loc.items()}
 
     def scatter(self, name, values):
         """Set a per-atom quantity of every atom from an array ordered by id.
@@ -404,18 +416,17 @@ class Engine:
     def gather_state(self):
         """Gather the full per-atom state (:class:`AtomState`), ordered by id."""
         lo, hi = self.box()
-        img = self.gather("image")
+        g = self.gather_many(("id", "type", "radius", "rmass", "x", "image", "v", "omega",
+                              "f", "torque", "i2_mindlin_partner", "d2_mindlin_t",
+                              "d_mindlin_wall_t", "i_top"))
         # image flags are packed: x image in the lowest IMGBITS bits (10 by default)
-        imgx = (img & 1023) - 512
+        imgx = (g["image"] & 1023) - 512
         return AtomState(
-            ids=self.gather("id"), types=self.gather("type"),
-            radii=self.gather("radius"), masses=self.gather("rmass"),
-            positions=self.gather("x")[:, :2], image=imgx,
-            velocities=self.gather("v")[:, :2], omega=self.gather("omega")[:, 2],
-            forces=self.gather("f")[:, :2], torques=self.gather("torque")[:, 2],
-            partner=self.gather("i2_mindlin_partner"), xi=self.gather("d2_mindlin_t"),
-            wall_xi=self.gather("d_mindlin_wall_t"), top=self.gather("i_top") > 0,
-            box_lo=lo, box_hi=hi)
+            ids=g["id"], types=g["type"], radii=g["radius"], masses=g["rmass"],
+            positions=g["x"][:, :2], image=imgx, velocities=g["v"][:, :2],
+            omega=g["omega"][:, 2], forces=g["f"][:, :2], torques=g["torque"][:, 2],
+            partner=g["i2_mindlin_partner"], xi=g["d2_mindlin_t"],
+            wall_xi=g["d_mindlin_wall_t"], top=g["i_top"] > 0, box_lo=lo, box_hi=hi)
 
     def restore(self, state):
         """Put positions, velocities and contact history of ``state`` back.
