@@ -166,72 +166,103 @@ def stiffness(state, k_n, k_t, mu, F_x, F_y, sparse=None):
 def newton_step(K, G):
     """Solve K dq = G for dq (shape (N, 3)), ignoring disks without contacts.
 
-    Rows and columns that are entirely zero (contactless disks) are dropped;
-    the rest is solved by LU, or by least squares if K is singular (a disk
-    held by one contact has a zero rolling mode). A sparse K goes to
-    :func:`_sparse_newton_step`.
+    ``newton_solver(K)(G)``: see :func:`newton_solver`.
     """
+    return newton_solver(K)(G)
+
+
+def newton_solver(K):
+    """Factorise K once for Newton steps K dq = G.
+
+    Rows and columns that are entirely zero (contactless disks) are dropped;
+    the rest is factorised by LU (dense, or SuperLU for a sparse K), or, if K
+    is singular (a disk held by one contact has a zero rolling mode), solved
+    by least squares (``lstsq``; sparse: :func:`_singular_sparse_solve`).
+
+    Parameters
+    ----------
+    K : ndarray or scipy.sparse matrix, shape (3N, 3N)
+
+    Returns
+    -------
+    callable
+        ``solve(G)``: G of shape (N, 3) (or 3N) -> dq of shape (N, 3); dq = 0
+        on the dropped rows. The factorisation is reused by every call (the
+        chord steps of :func:`polish`).
+    """
+    if hasattr(K, "tocsc"):
+        return _sparse_newton_solver(K)
     import scipy.linalg as sla
 
-    if hasattr(K, "tocsc"):
-        return _sparse_newton_step(K, G)
-    g = G.reshape(-1)
     live = np.any(K != 0.0, axis=1) | np.any(K != 0.0, axis=0)
     idx = np.nonzero(live)[0]
-    dq = np.zeros_like(g)
-    if idx.size == 0:
-        return dq.reshape(-1, 3)
     Kr = K[np.ix_(idx, idx)]
-    gr = g[idx]
-    sol = None
+    lu = None
     import warnings
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", sla.LinAlgWarning)
-            lu = sla.lu_factor(Kr, check_finite=True)
-        if np.all(np.isfinite(lu[0])) and np.min(np.abs(np.diag(lu[0]))) > \
-                1e-13 * np.max(np.abs(np.diag(lu[0]))):
-            sol = sla.lu_solve(lu, gr)
-    except (sla.LinAlgError, ValueError):
-        sol = None
-    if sol is None or not np.all(np.isfinite(sol)):
-        sol = sla.lstsq(Kr, gr, cond=1e-14)[0]
-    dq[idx] = sol
-    return dq.reshape(-1, 3)
+    if idx.size:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", sla.LinAlgWarning)
+                lu = sla.lu_factor(Kr, check_finite=True)
+            d = np.abs(np.diag(lu[0]))
+            if not (np.all(np.isfinite(lu[0])) and np.min(d) > 1e-13 * np.max(d)):
+                lu = None
+        except (sla.LinAlgError, ValueError):
+            lu = None
+
+    def solve(G):
+        g = np.asarray(G, np.float64).reshape(-1)
+        dq = np.zeros_like(g)
+        if idx.size == 0:
+            return dq.reshape(-1, 3)
+        gr = g[idx]
+        sol = sla.lu_solve(lu, gr) if lu is not None else None
+        if sol is None or not np.all(np.isfinite(sol)):
+            sol = sla.lstsq(Kr, gr, cond=1e-14)[0]
+        dq[idx] = sol
+        return dq.reshape(-1, 3)
+
+    return solve
 
 
-def _sparse_newton_step(K, G):
-    """:func:`newton_step` for a sparse K: SuperLU, or preconditioned LSMR if K is
+def _sparse_newton_solver(K):
+    """:func:`newton_solver` for a sparse K: SuperLU, or preconditioned LSMR if K is
     singular (:func:`_singular_sparse_solve`)."""
     import warnings
 
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
-    g = G.reshape(-1)
     K = sp.csr_matrix(K)
     K.eliminate_zeros()
     live = (np.diff(K.indptr) > 0) | (np.bincount(K.indices, minlength=K.shape[1]) > 0)
     idx = np.nonzero(live)[0]
-    dq = np.zeros_like(g)
-    if idx.size == 0:
-        return dq.reshape(-1, 3)
     Kr = K[idx][:, idx].tocsc()
-    gr = g[idx]
-    sol = None
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            lu = spla.splu(Kr)
-        d = np.abs(lu.U.diagonal())
-        if np.all(np.isfinite(d)) and d.min() > 1e-13 * d.max():
-            sol = lu.solve(gr)
-    except RuntimeError:            # exactly singular
-        sol = None
-    if sol is None or not np.all(np.isfinite(sol)):
-        sol = _singular_sparse_solve(Kr, gr)
-    dq[idx] = sol
-    return dq.reshape(-1, 3)
+    lu = None
+    if idx.size:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                lu = spla.splu(Kr)
+            d = np.abs(lu.U.diagonal())
+            if not (np.all(np.isfinite(d)) and d.min() > 1e-13 * d.max()):
+                lu = None
+        except RuntimeError:            # exactly singular
+            lu = None
+
+    def solve(G):
+        g = np.asarray(G, np.float64).reshape(-1)
+        dq = np.zeros_like(g)
+        if idx.size == 0:
+            return dq.reshape(-1, 3)
+        gr = g[idx]
+        sol = lu.solve(gr) if lu is not None else None
+        if sol is None or not np.all(np.isfinite(sol)):
+            sol = _singular_sparse_solve(Kr, gr)
+        dq[idx] = sol
+        return dq.reshape(-1, 3)
+
+    return solve
 
 
 def _singular_sparse_solve(Kr, gr):
