@@ -21,6 +21,11 @@ style and the wall fix add dt (s.(v_i - v_j) + R_i w_i + R_j w_j) = d xi to
 the history; nothing moves the atoms), then zeroes the velocities. A step is
 accepted only if it lowers r; otherwise the previous state is restored and
 polishing stops, so the residual history is monotone once polishing starts.
+The iteration is a modified Newton method (:func:`polish`): a factorised K
+is reused while it contracts the residual by 1e-2 or more, or once r is below
+the acceptance level; a reused K that fails above that level is replaced and
+the step repeated. From a neighbouring equilibrium (a ramp step) one
+factorisation reaches the round-off floor.
 
 .. warning::
 
@@ -342,8 +347,25 @@ def exact_residual(eng):
     return st, G, r
 
 
-def polish(eng, cfg, F_x, record, t0, t_sim, target=None):
+#: a factorised K is reused for the next Newton step while the last step
+#: contracted the residual at least this much (modified Newton, see :func:`polish`)
+REUSE_CONTRACTION = 1e-2
+
+
+def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
     """Newton iterations on the live LAMMPS state (see module docstring).
+
+    With ``chord_below`` set the iteration is a modified Newton method: the
+    factorised K is reused (a chord step) while the last step contracted the
+    residual by at least :data:`REUSE_CONTRACTION` or the residual is below
+    ``chord_below``. From a nearby equilibrium (a ramp step) K changes
+    between iterates by a relative ~1e-4 (displacement / overlap), so a
+    chord step contracts about as much as a Newton step and one
+    factorisation reaches the round-off floor; at the floor K changes by
+    ~1e-9 and a new one buys nothing. A chord step that does not lower a
+    residual above ``chord_below`` is undone and repeated with a new K;
+    the iteration stops (stagnation) only when a step with a new K, or any
+    step below ``chord_below``, does not lower it.
 
     Parameters
     ----------
@@ -360,6 +382,9 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None):
         Simulated damped time so far (for the record).
     target : float, optional
         Stop below this residual (default ``cfg.f_min``).
+    chord_below : float, optional
+        The acceptance level (:func:`accept_level`); None: a new K at every
+        step (Newton's method).
 
     Returns
     -------
@@ -372,15 +397,23 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None):
     state, G, r = exact_residual(eng)
     record.add(t_sim, r, "newton", t0)
     stagnated = False
+    solve = None
+    reuse = False           # same on every rank: whether the next step may reuse K
     for _ in range(cfg.newton_iter):
         if r < target:
             break
+        fresh = not reuse
         dq = None
         if eng.rank == 0:   # one solve, broadcast: every rank applies the same step
-            K = stiffness(state, cfg.k_n, cfg.k_t, cfg.mu, F_x, cfg.F_y)
-            dq = newton_step(K, G)
+            if fresh:
+                solve = newton_solver(stiffness(state, cfg.k_n, cfg.k_t, cfg.mu, F_x,
+                                                cfg.F_y))
+            dq = solve(G)
         dq = eng.comm.bcast(dq, root=0)
         if not np.all(np.isfinite(dq)):
+            if not fresh:
+                reuse = False
+                continue
             stagnated = True
             break
         big = float(np.max(np.abs(dq)))
@@ -394,11 +427,17 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None):
         eng.scatter("omega", np.zeros(state.n))
         new = eng.gather_state()
         G_new, r_new = residual_of(new)
+        below = chord_below is not None and r < chord_below
         if not r_new < r:
             eng.restore(state)
+            if not fresh and not below:     # a stale K failed: a new one, same state
+                reuse = False
+                continue
             state, G, r = exact_residual(eng)
             stagnated = True
             break
+        reuse = chord_below is not None and (below or r_new <= REUSE_CONTRACTION * r
+                                             or r_new < chord_below)
         state, G, r = new, G_new, r_new
         record.add(t_sim, r, "newton", t0)
     return r, stagnated
@@ -453,7 +492,7 @@ def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
         eng.unfix(*DAMPING_FIXES, *INTEGRATOR_FIXES)
         eng.command("velocity all set 0.0 0.0 0.0")
         eng.command("set group all omega 0.0 0.0 0.0")
-        return polish(eng, cfg, F_x, record, t0, t_sim)
+        return polish(eng, cfg, F_x, record, t0, t_sim, chord_below=accept)
 
     if newton_first and cfg.newton:
         r, stagnated = newton()

@@ -13,9 +13,10 @@ Newton re-equilibration.
   (certified by the analyzer's test) and positive.
 * At F_x = 0.40 (far above F_x^c = 0.0646 of this packing, where max Im
   omega ~ 0.3; just above F_x^c it is ~0.002 - 0.02, too slow to measure in
-  a test) the certified test finds complex pairs; an undamped LAMMPS run from that equilibrium shows
-  the mean-square displacement (Eq. 8) growing from round-off as
-  exp(2 max Im omega t) within 5 %.
+  a test) the certified test finds complex pairs; an undamped LAMMPS run from
+  that equilibrium, started with a small velocity along the fastest mode,
+  shows the mean-square displacement (Eq. 8) growing as exp(2 max Im omega t)
+  within 5 % (measured 0.07 %; along the next pair, 0.88 gamma, it fails).
 
 Notes (docs/analysis.md): packings relaxed *with* friction from the start
 carry tangential displacements up to u ~ 0.5 and already have complex pairs
@@ -75,6 +76,22 @@ def test_spectrum_at_zero_load_is_real_and_positive(driver):
     assert res.growth_rate == 0.0
 
 
+def _fastest_mode(st, res):
+    """Real part of the eigenvector (N, 3: x, y, R phi) of the fastest growing mode."""
+    import scipy.linalg as sla
+
+    from remote_trigger.analysis import eigen, jacobian
+
+    keep = res.rattlers.keep_dofs
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)
+    lam, V = sla.eig(eigen.dynamical_matrix(Kr, mr).toarray())
+    g = np.abs(np.sqrt(lam.astype(complex)).imag)
+    k = int(np.argmax(g))
+    v = np.zeros(3 * st.n)
+    v[keep] = V[:, k].real
+    return v.reshape(-1, 3), float(g[k])
+
+
 def test_msd_growth_rate_matches_linear_prediction(driver):
     eng, cfg, equilibrium, dump, r = driver
     for F_x in F_RAMP:
@@ -85,7 +102,17 @@ def test_msd_growth_rate_matches_linear_prediction(driver):
     assert res.decision.complex_present is True and res.decision.confidence > 100
     gamma = res.growth_rate
     assert gamma > 0.1
-    # undamped dynamics with the loads, from the equilibrium (noise = round-off)
+    # undamped dynamics with the loads, from the equilibrium with a small
+    # velocity along the fastest mode (its eigenvector, real part). From
+    # round-off alone the slope depends on which of the unstable modes the
+    # noise happens to feed most: the next pair here grows at 0.88 gamma and
+    # can dominate the whole linear range (measured: slope 0.56 = 2 x 0.28
+    # on one equilibrium, 0.636 = 2 gamma on another equal to ~1e-11)
+    mode, g_mode = _fastest_mode(st, res)
+    np.testing.assert_allclose(g_mode, gamma, rtol=1e-12)
+    mode *= 1e-8 / np.max(np.abs(mode))
+    eng.scatter("v", mode[:, :2])
+    eng.scatter("omega", mode[:, 2] / st.radii)
     eng.commands("fix integ all nve/sphere disc")
     x0 = eng.gather("x")[:, :2].copy()
     L = st.box_length[0]
@@ -102,15 +129,14 @@ def test_msd_growth_rate_matches_linear_prediction(driver):
     eng.command("unfix integ")
     t, D = np.array(t), np.array(D)
     # block means over 1 time unit (many oscillation periods), then a straight
-    # line through ln D from 4 decades above its start to 3 decades below its
+    # line through ln D from 2 decades above its start to 3 decades below its
     # largest value (nonlinearity saturates D near 1e-11 -- 1e-10 here: contacts
     # with the smallest overlaps open)
     per = int(round(1.0 / (chunk * cfg.dt)))
     nb = t.size // per
     tb = t[:nb * per].reshape(nb, per).mean(axis=1)
     Db = D[:nb * per].reshape(nb, per).mean(axis=1)
-    floor = np.median(Db[:3])
-    sel = (Db > 1e4 * floor) & (Db < 1e-3 * D.max())
-    assert sel.sum() >= 8, (floor, Db)
+    sel = (Db > 1e2 * Db[0]) & (Db < 1e-3 * D.max())
+    assert sel.sum() >= 8, Db
     slope = np.polyfit(tb[sel], np.log(Db[sel]), 1)[0]
     assert abs(slope / (2.0 * gamma) - 1.0) < 0.05, (slope, 2 * gamma)

@@ -84,3 +84,40 @@ def test_no_equilibrium_is_detected(relaxed):
         load_relax_scene(eng, cfg, cfg.datafile, cfg.F_x)
         with pytest.raises(eq.NoEquilibriumError, match="slid"):
             eq.equilibrate(eng, cfg, cfg.F_x)
+
+
+def test_modified_newton_reuses_one_factorisation(relaxed, monkeypatch):
+    """A ramp step (F_x 0 -> 2.5e-4 from the relaxed equilibrium): the modified
+    Newton iteration (K reused while it contracts, equilibrium.polish) reaches
+    the acceptance level with one K, Newton's method with one per step; both
+    end at the round-off floor."""
+    import time
+
+    from remote_trigger.pywrap.config import RelaxConfig
+    from remote_trigger.pywrap.stages import load_relax_scene
+
+    calls = []
+    real = eq.stiffness
+    monkeypatch.setattr(eq, "stiffness", lambda *a, **k: calls.append(1) or real(*a, **k))
+    out = {}
+    for mode in ("newton", "modified"):
+        cfg = RelaxConfig(datafile=relaxed.datafile, F_x=2.5e-4)
+        with Engine() as eng:
+            load_relax_scene(eng, cfg, cfg.datafile, cfg.F_x)
+            eng.command(f"variable load_x equal {cfg.F_x!r}")
+            eng.unfix(*eq.DAMPING_FIXES, *eq.INTEGRATOR_FIXES)
+            eng.command("velocity all set 0.0 0.0 0.0")
+            accept = eq.accept_level(cfg, eng.gather_state())
+            calls.clear()
+            rec = eq.RelaxRecord()
+            r, _ = eq.polish(eng, cfg, cfg.F_x, rec, time.perf_counter(), 0.0,
+                             chord_below=accept if mode == "modified" else None)
+            out[mode] = (r, len(calls), np.asarray(rec.residual))
+    (r_n, k_n, res_n), (r_m, k_m, res_m) = out["newton"], out["modified"]
+    floor = _floor(_lammps_residual(relaxed.datafile, 0.0)[1])
+    assert r_n < accept and r_m < accept and r_m < 10 * floor
+    # Newton: one K per accepted step and one for the step that found the floor
+    assert k_m == 1 and k_n == res_n.size and k_n >= 3, (k_m, k_n, res_n)
+    # the chord step contracts like the Newton step: both reach the floor in two
+    assert res_m[2] < accept and res_n[2] < accept, (res_m, res_n)
+    assert np.all(np.diff(res_m) < 0) and np.all(np.diff(res_n) < 0)
