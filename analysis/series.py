@@ -124,6 +124,37 @@ def growth_window(t, D, noise, lo=1e3, hi=1e-3, start=0, chunks=8, rtol=0.05):
     return (i0, i1), g
 
 
+def below_exponential(t, D, window, g, tail=0.1):
+    """Decades by which D over the end of a run stays below the window's exponential.
+
+    The exponential of the growth window (:func:`growth_window`), D[i1]
+    e^{2 g (t - t[i1])} from its last record i1, extrapolated to the last
+    record, over the largest D in the last ``tail`` fraction of the records:
+    ~0 while D still grows at the rate g, large once the growth has
+    saturated, whatever D does inside the tail (a late slip event).
+
+    Parameters
+    ----------
+    t, D : array_like, shape (n,)
+    window : tuple (i0, i1) or None
+    g : float
+        Growth rate of the window (D ~ e^{2 g t}).
+    tail : float
+
+    Returns
+    -------
+    float
+        log10(extrapolated D / max D of the tail); NaN without a window.
+    """
+    t, D = np.asarray(t, float), np.asarray(D, float)
+    if window is None or not np.isfinite(g) or D.size == 0:
+        return float("nan")
+    i1 = window[1]
+    ext = np.log10(D[i1]) + 2.0 * g * (t[-1] - t[i1]) / np.log(10.0)
+    last = D[int((1.0 - tail) * D.size):]
+    return float(ext - np.log10(np.max(last)))
+
+
 def _constant_rate_end(t, D, i0, i1, chunks, rtol):
     """Last index of the constant-rate part of [i0, i1] (see :func:`growth_window`)."""
     if not (D[i0] > 0 and np.log10(D[i1] / D[i0]) >= chunks):

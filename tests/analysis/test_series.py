@@ -138,3 +138,27 @@ def test_runaway_consistent_needs_the_predicted_growth():
     jump = np.where(t < 500, 1e-13, 1e-9)
     r1, n1 = ser.runaway_rate(t, jump, 1e-10)
     assert n1 == 1 and not ser.runaway_consistent(r1, n1, g)
+
+
+def test_below_exponential_sees_saturation_despite_a_late_jump():
+    """Fig. 4's saturation row: growth at g from noise, a plateau at 1e-8 from
+    t ~ 1600, a slip to 2e-5 at t = 2050 inside the last 10 % (the default
+    job's shape); the tail's own rate reads ~g there, the extrapolation does
+    not. Still growing at the end: ~0 decades."""
+    g = 0.0162
+    t = np.linspace(0.0, 2164.0, 4329)
+    grow = 1e-26 * np.exp(2 * g * t) * (1.0 + 0.5 * np.sin(0.3 * t))
+    D = np.minimum(grow, 1e-8)
+    D = np.where(t > 2050.0, 2e-5, D)
+    win, gm = ser.growth_window(t, D, ser.noise_level(t, D))
+    assert win is not None and abs(gm / g - 1) < 0.02
+    below = ser.below_exponential(t, D, win, gm)
+    assert below > 3 and below == pytest.approx(
+        math.log10(D[win[1]]) + 2 * gm * (t[-1] - t[win[1]]) / math.log(10) - math.log10(2e-5))
+    tail = slice(int(0.9 * t.size), t.size)
+    assert ser.exp_rate(t[tail], D[tail], min_records=1) > 0.5 * g       # the old criterion
+    # a run that ends while D still grows at g
+    D2 = grow
+    win2, g2 = ser.growth_window(t, D2, ser.noise_level(t, D2))
+    assert abs(ser.below_exponential(t, D2, win2, g2)) < 0.5
+    assert math.isnan(ser.below_exponential(t, D2, None, g2))
