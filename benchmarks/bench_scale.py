@@ -17,8 +17,16 @@ sparse LU above), write the equilibrium files, and the certified decision:
   is timed too up to N = 400 and extrapolated as n^3 above.
 
 Above ``--relax-max`` (default 400) a relaxation takes too long here
-(N = 1600: ~30 min on one loaded core); there the point is assembled from
-measured parts instead: a generated, unrelaxed packing of N disks in
+(N = 1600: ~30 min on one core). A packing relaxed once beforehand is used
+where there is one (``--relaxed N=DATAFILE``; by default the N = 1600
+packing kept in ``benchmarks/data/``, relaxed with the default protocol from
+the ensemble generator's seed 1): its two points are measured like the
+relaxed ones. Larger N (default 1e4) are made of copies of the largest
+stored packing side by side (``tiled_packing``: 6 copies of N = 1600 =
+9600 disks; an exact equilibrium of the wider box but for a 1e-6 jitter of
+the diameters that lifts the copies' degenerate spectrum), re-equilibrated
+at F_x = 0 and measured the same way. Without a stored packing the point is
+assembled from measured parts: a generated, unrelaxed packing of N disks in
 LAMMPS (scene load, one Newton iteration's engine part: scatter, ``run
 1``, gather; the equilibrium files), and a jittered-lattice State of the
 same N (the analyzer's test packing, contacts at and near the Coulomb
@@ -34,6 +42,7 @@ F_x^c at that N, extrapolated above N = 400) and an adaptive one (38
 points, docs/driver.md).
 
     python benchmarks/bench_scale.py [--sizes 100 400 1600 10000] [--quick]
+                                     [--relaxed 1600=path/equilibrium.data]
 """
 import os
 
@@ -55,6 +64,14 @@ FC_MEDIAN = {100: 0.0256, 400: 0.0049}
 FC_EXPONENT = -1.19
 
 
+#: packings relaxed once with the default protocol (ensemble generator, seed 1)
+#: and kept, so that a point is measured where a relaxation takes too long here
+STORED = {n: os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", name)
+          for n, name in ((1600, "relaxed_N1600_seed1.data"),)
+          if os.path.exists(os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                         "data", name))}
+
+
 def fine_points(n, dF_x):
     """Points of a fine ramp to the median F_x^c at N = n (+ 12 bisections)."""
     fc = FC_MEDIAN.get(n, FC_MEDIAN[100] * (n / 100.0) ** FC_EXPONENT)
@@ -66,7 +83,7 @@ def one_point(n, seed, dF_x, base):
     from mpi4py import MPI
 
     from remote_trigger.pywrap import stages
-    from remote_trigger.pywrap.config import RampConfig, RelaxConfig
+    from remote_trigger.pywrap.config import RelaxConfig
     from remote_trigger.pywrap.packing import generate, write_data
 
     out = os.path.join(base, f"N{n}")
@@ -76,13 +93,127 @@ def one_point(n, seed, dF_x, base):
     t0 = time.perf_counter()
     rel = stages.relax(RelaxConfig(datafile=data), out, comm=MPI.COMM_SELF, quiet=True)
     row = {"n": n, "dof": 3 * n, "relax": time.perf_counter() - t0, "phi": rel.packing_fraction}
-    cfg = RampConfig(datafile=rel.datafile, dF_x=dF_x, F_x=0.0)
-    start = rel.datafile
+    return two_points(rel.datafile, dF_x, out, row)
+
+
+def stored_point(n, datafile, dF_x, base):
+    """Two ramp points from a packing relaxed beforehand (``--relaxed``)."""
+    from remote_trigger.analysis.datafile import read_data
+    from remote_trigger.pywrap.stage_common import packing_fraction
+
+    out = os.path.join(base, f"N{n}")
+    os.makedirs(out, exist_ok=True)
+    d = read_data(datafile)
+    if d.positions.shape[0] != n:
+        raise SystemExit(f"bench_scale: {datafile} has {d.positions.shape[0]} atoms, not {n}")
+    row = {"n": n, "dof": 3 * n, "relax": float("nan"), "phi": packing_fraction(d),
+           "stored": datafile}
+    return two_points(datafile, dF_x, out, row)
+
+
+def tiled_packing(src, copies, path, seed=1, jitter=1e-6):
+    """Write ``copies`` side-by-side copies of a relaxed packing (periodic in x).
+
+    Copy m is the source shifted by m L_x, atom ids + m N; a contact's history
+    follows its partner into the copy across the periodic boundary, so the
+    tiled state is an equilibrium of the wider box, force for force. Its
+    spectrum is the source's Bloch spectrum, degenerate in pairs; every
+    diameter is scaled by 1 + jitter xi (xi normal, seed) to lift that, so
+    the file is *near* an equilibrium (forces ~ k_eff jitter R). Image flags
+    are reset to 0. A benchmark construction: a packing of copies N at the
+    cost of the source's relaxation, not a packing of the ensemble's law.
+    """
+    import numpy as np
+
+    with open(src) as fh:
+        lines = fh.read().splitlines()
+    heads = [k for k, ln in enumerate(lines) if ln and ln[0].isalpha() and k > 0]
+    sections = {}
+    for a, b in zip(heads, heads[1:] + [len(lines)]):
+        sections[lines[a].split()[0]] = [ln for ln in lines[a + 1:b] if ln.strip()]
+    header = lines[:heads[0]]
+    n = len(sections["Atoms"])
+    atoms = {int(ln.split()[0]): ln.split() for ln in sections["Atoms"]}
+    x = {i: float(w[4]) for i, w in atoms.items()}
+    xlo, xhi = next([float(v) for v in ln.split()[:2]] for ln in header if "xlo xhi" in ln)
+    L = xhi - xlo
+    rng = np.random.default_rng(seed)
+    out = []
+    for ln in header:
+        if ln.endswith(" atoms"):
+            ln = f"{n * copies} atoms"
+        elif ln.endswith("xlo xhi"):
+            ln = f"{xlo!r} {xlo + copies * L!r} xlo xhi"
+        out.append(ln)
+    out += ["Atoms # sphere", ""]
+    for m in range(copies):
+        for i, w in atoms.items():
+            d = float(w[2]) * (1.0 + jitter * rng.standard_normal())
+            out.append(f"{i + m * n} {w[1]} {d!r} {w[3]} {x[i] + m * L!r} {w[5]} {w[6]} 0 0 0")
+    out += ["", "Velocities", ""]
+    out += [f"{i + m * n} 0 0 0 0 0 0" for m in range(copies) for i in atoms]
+    hist = [ln.split() for ln in sections["hist"]]
+    K = (len(hist[0]) - 2) // 2
+    out += ["", "hist # i_mindlin_partner d_mindlin_t d_mindlin_wall_t", ""]
+    for m in range(copies):
+        for w in hist:
+            i = int(w[0])
+            partners = []
+            for p in (int(v) for v in w[1:1 + K]):
+                if p == 0:
+                    partners.append(0)
+                    continue
+                dx = x[p] - x[i]          # the partner's copy: across the boundary or not
+                shift = 0 if abs(dx) <= 0.5 * L else (1 if dx < 0 else -1)
+                partners.append(p + ((m + shift) % copies) * n)
+            out.append(" ".join([str(i + m * n)] + [str(p) for p in partners] + w[1 + K:]))
+    out += ["", "topflag # i_top", ""]
+    out += [f"{int(w.split()[0]) + m * n} {w.split()[1]}" for m in range(copies)
+            for w in sections["topflag"]]
+    with open(path, "w") as fh:
+        fh.write("\n".join(out) + "\n")
+    return n * copies
+
+
+def tiled_point(src, copies, dF_x, base, seed):
+    """Tile the stored packing, re-equilibrate it at F_x = 0, then two ramp points."""
+    from mpi4py import MPI
+
+    from remote_trigger.pywrap import equilibrium as eq
+    from remote_trigger.pywrap.config import RampConfig
+    from remote_trigger.pywrap.engine import Engine
+    from remote_trigger.pywrap.stage_common import load_relax_scene, save_equilibrium
+
+    out = os.path.join(base, f"tiled{copies}")
+    os.makedirs(out, exist_ok=True)
+    data = os.path.join(out, "tiled.data")
+    n = tiled_packing(src, copies, data, seed=seed)
+    cfg = RampConfig(datafile=data, dF_x=dF_x, F_x=0.0)
+    t0 = time.perf_counter()
+    with Engine(comm=MPI.COMM_SELF) as eng:
+        load_relax_scene(eng, cfg, data, 0.0, deck="in.ramp_step")
+        r, _, rec = eq.equilibrate(eng, cfg, 0.0, newton_first=True)
+        save_equilibrium(eng, cfg, 0.0, os.path.join(out, "equilibrium"))
+    row = {"n": n, "dof": 3 * n, "relax": float("nan"), "phi": float("nan"),
+           "tiled": (copies, src, time.perf_counter() - t0, r,
+                     max(0, sum(p == "newton" for p in rec.phase) - 1),
+                     sum(p == "damped" for p in rec.phase))}
+    return two_points(os.path.join(out, "equilibrium.data"), dF_x, out, row)
+
+
+def two_points(start, dF_x, out, row):
+    """The ramp points F_x = dF_x and 2 dF_x from the equilibrium ``start``."""
+    from remote_trigger.pywrap.config import RampConfig
+
+    cfg = RampConfig(datafile=start, dF_x=dF_x, F_x=0.0)
     # two ramp steps, F_x = dF_x then 2 dF_x, each from the previous
     # equilibrium; the first warms up (imports, first LAMMPS instance), the
     # second is reported
     for k in (1, 2):
-        row.update(_point(cfg, start, k * dF_x, os.path.join(out, f"step{k}")))
+        pt = _point(cfg, start, k * dF_x, os.path.join(out, f"step{k}"))
+        if k == 1:
+            row["first"] = pt
+        row.update(pt)
         start = os.path.join(out, f"step{k}.data")
     return row
 
@@ -114,6 +245,7 @@ def _point(cfg, start, F_x, prefix):
         t3 = time.perf_counter()
     row = dict(scene=t1 - t0, newton=t2 - t1, files=t3 - t2, residual=r,
                newton_steps=max(0, sum(p == "newton" for p in rec.phase) - 1),
+               damped=sum(p == "damped" for p in rec.phase),
                path="sparse" if 3 * n > eq.DENSE_NEWTON_MAX else "dense")
     if 3 * n <= eq.DENSE_NEWTON_MAX:
         t0 = time.perf_counter()
@@ -217,6 +349,14 @@ def synthetic_point(n, seed, base, newton_steps):
     return row
 
 
+def _per_point(r):
+    """Cost per point of a ramp: above N = 400 the mean of the two points measured
+    (one of them may be a point where Newton stalls, see the note printed)."""
+    if r["n"] > 400 and "first" in r:
+        return 0.5 * (r["point"] + r["first"]["point"])
+    return r["point"]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="+", default=[100, 400, 1600, 10000])
@@ -224,20 +364,41 @@ def main(argv=None):
     ap.add_argument("--dF-x", dest="dF_x", type=float, default=2.5e-4)
     ap.add_argument("--quick", action="store_true", help="N = 100 and 400 only")
     ap.add_argument("--relax-max", dest="relax_max", type=int, default=400,
-                    help="largest N relaxed; above it the point is assembled from parts")
+                    help="largest N relaxed here; above it a stored packing (--relaxed), "
+                         "copies of the largest stored one side by side, or parts")
+    ap.add_argument("--relaxed", nargs="*", default=None, metavar="N=DATAFILE",
+                    help="packings relaxed beforehand: their points are measured without "
+                         "relaxing (default: " + ", ".join(f"{n}={p}" for n, p in
+                                                           STORED.items()) + ")")
     ap.add_argument("--out", default=None, help="keep outputs here (default: temp dir)")
     args = ap.parse_args(argv)
     sizes = [n for n in args.sizes if n <= 400] if args.quick else args.sizes
+    stored = dict(STORED) if args.relaxed is None else {}
+    for item in args.relaxed or ():
+        n, sep, path = item.partition("=")
+        if not (sep and n.isdigit() and os.path.exists(path)):
+            raise SystemExit(f"bench_scale: --relaxed needs N=DATAFILE of an existing file, "
+                             f"got {item!r}")
+        stored[int(n)] = path
     base = args.out or tempfile.mkdtemp(prefix="bench_scale_")
     rows = []
     for n in sizes:
-        if n <= args.relax_max:
+        src = max((m for m in stored if m <= n), default=None)
+        if n in stored and n > args.relax_max:
+            rows.append(stored_point(n, stored[n], args.dF_x, base))
+        elif n <= args.relax_max:
             rows.append(one_point(n, args.seed, args.dF_x, base))
+        elif src is not None:
+            rows.append(tiled_point(stored[src], max(1, round(n / src)), args.dF_x, base,
+                                    args.seed))
         else:
             steps = max((r["newton_steps"] for r in rows), default=4)
             rows.append(synthetic_point(n, args.seed, base, steps))
         r = rows[-1]
-        print(f"N = {n}: relax {r['relax']:.1f} s, point {r['point']:.3f} s "
+        relax = ("relaxed beforehand" if "stored" in r else
+                 f"{r['tiled'][0]} copies of a stored packing" if "tiled" in r else
+                 f"relax {r['relax']:.1f} s")
+        print(f"N = {r['n']}: {relax}, point {r['point']:.3f} s "
               f"({r['path']} Newton, {r['verdict']})", flush=True)
     e100 = next((r["eigen"] for r in rows if r["n"] == 100), None)
     print(f"\none ramp point vs N (seed {args.seed}, the step F_x = {args.dF_x:g} -> "
@@ -249,11 +410,26 @@ def main(argv=None):
         what = ("dense: all eigenvalues, certified" if r["path"] == "dense" else
                 f"sparse: 12 nearest sigma = {PAIR_RE_REL} lambda_max, certified "
                 f"(lambda_max by ARPACK {r['lam_max_time']:.2f} s, not counted)")
-        print(f"{r['n']:6d} {r['dof']:6d} {r['relax']:8.1f} {r['newton_steps']:6d} "
+        relax = "stored" if "stored" in r else "tiled" if "tiled" in r else f"{r['relax']:.1f}"
+        print(f"{r['n']:6d} {r['dof']:6d} {relax:>8} {r['newton_steps']:6d} "
               f"{r['newton']:8.3f} {r['scene'] + r['files']:11.3f} {r['decision']:9.3f} "
               f"{r['point']:8.3f} {r['point_cpu']:8.3f} "
-              f"{r['point'] * fine_points(r['n'], args.dF_x):10.0f} "
-              f"{r['point'] * ADAPTIVE_POINTS:9.0f}  {what}")
+              f"{_per_point(r) * fine_points(r['n'], args.dF_x):10.0f} "
+              f"{_per_point(r) * ADAPTIVE_POINTS:9.0f}  {what}")
+        if "tiled" in r:
+            c, src, t_eq, r_eq, n_newton, n_damped = r["tiled"]
+            print(f"{'':6} N = {r['n']}: {c} copies side by side of the stored N = "
+                  f"{r['n'] // c} packing, diameters x (1 + 1e-6 xi), re-equilibrated at "
+                  f"F_x = 0 in {t_eq:.1f} s ({n_newton} Newton steps, {n_damped} damped "
+                  f"chunks, residual {r_eq:.2g})")
+        if r.get("damped"):
+            print(f"{'':6} Newton stalled: {r['damped']} chunks of damped dynamics between "
+                  f"its {r['newton_steps']} steps")
+        if "first" in r and r["n"] > 400:
+            f = r["first"]
+            print(f"{'':6} the first point (F_x = 0 -> {args.dF_x:g} from the equilibrium): "
+                  f"{f['point']:.3f} s, {f['newton_steps']} Newton steps"
+                  + (f", {f['damped']} damped chunks" if f.get("damped") else ""))
         if "parts" in r:
             p = r["parts"]
             print(f"{'':6} assembled: {r['newton_steps']} Newton iterations x (engine "
@@ -263,6 +439,8 @@ def main(argv=None):
             dense = e100 * (r["dof"] / 300.0) ** 3
             print(f"{'':6} dense eigen-solve at this size, extrapolated as n^3 from N = 100: "
                   f"{dense:.0f} s per point")
+    print("point, cpu: the second point; fine ramp, adaptive: points x the mean of the two "
+          "points above N = 400, x the second below")
     print(f"fine ramp: F_x^c / dF_x + 12 points, F_x^c the default ensemble's median "
           f"({FC_MEDIAN[100]:g} at N = 100, {FC_MEDIAN[400]:g} at 400, extrapolated as "
           f"N^{FC_EXPONENT:g} above); adaptive: {ADAPTIVE_POINTS} points "
