@@ -258,6 +258,36 @@ def _check_params(params, wall_y):
         raise ValueError(f"wall_y must be finite or None, got {wall_y!r}")
 
 
+#: half-width of the touching band in ulps of the largest coordinate (the
+#: pair style's TOUCH_ULPS, pair_mindlin_smooth.cpp)
+TOUCH_ULPS = 64.0
+
+
+def touch_band(box_lo, box_hi, radsum):
+    """Half-width tau of the touching band of a pair (docs/model.md, "Touching band").
+
+    Within |delta| <= tau the pair style keeps the contact state its history
+    records, with no force and xi = 0: across a periodic boundary the two
+    disks' overlap tests use each other's image x +- L, rounded, and can
+    disagree by a few ulps there. tau = 64 eps (max |box bound| + max box
+    length + R_i + R_j), the same on both sides of a pair.
+
+    Parameters
+    ----------
+    box_lo, box_hi : array_like, shape (2,) or (3,)
+        Box bounds (x, y used).
+    radsum : float or ndarray
+        R_i + R_j.
+
+    Returns
+    -------
+    float or ndarray (length)
+    """
+    lo, hi = np.asarray(box_lo, float)[:2], np.asarray(box_hi, float)[:2]
+    base = max(float(np.max(np.abs(lo))), float(np.max(np.abs(hi)))) + float(np.max(hi - lo))
+    return TOUCH_ULPS * np.finfo(float).eps * (base + np.asarray(radsum, float))
+
+
 def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=None):
     """All overlapping disk pairs (geometric contacts), O(N log N).
 
@@ -273,7 +303,9 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
     Returns
     -------
     i, j : ndarray of int64, shape (P,)
-        Index pairs with i < j and delta = R_i + R_j - |r_i - r_j| > 0.
+        Index pairs with i < j and delta = R_i + R_j - |r_i - r_j| > tau, the
+        touching band (:func:`touch_band`; ~1e-12: within it the pair style
+        exerts no force and the history decides).
     rho : ndarray, shape (P,)
         Centre distances.
 
@@ -322,7 +354,7 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
         raise ValueError(f"overlapping centres: {who} are "
                          f"{float(rho[k])!r} apart, closer than the larger radius "
                          f"{float(max(radii[i[k]], radii[j[k]]))!r}")
-    touch = radii[i] + radii[j] - rho > 0.0
+    touch = radii[i] + radii[j] - rho > touch_band(box_lo, box_hi, radii[i] + radii[j])
     order = np.lexsort((j[touch], i[touch]))
     return i[touch][order], j[touch][order], rho[touch][order]
 
@@ -532,7 +564,8 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     periodic = tuple(bool(p) for p in periodic)
 
     gi, gj, rho = find_contacts(pos, radii, box_lo, box_hi, periodic, ids=ids)
-    notes = {"unrecorded_contacts": 0, "stale_history": 0, "stale_wall_history": 0}
+    notes = {"unrecorded_contacts": 0, "stale_history": 0, "stale_wall_history": 0,
+             "touching_history": 0}
 
     # ---- disk-disk history -> (i, j, xi) with the mirror check
     if partners is not None:
@@ -547,7 +580,13 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     gkeys = gi * n + gj
     hkeys = hi_ * n + hj
     in_geo = np.isin(hkeys, gkeys)
-    stale = int((~in_geo).sum())
+    # history of pairs inside the touching band is the pair style's zero-force
+    # contacts (no force, xi = 0), not stale
+    d = minimum_image(pos[hi_] - pos[hj], L, periodic)
+    rs = radii[hi_] + radii[hj]
+    touching = ~in_geo & (rs - np.hypot(d[:, 0], d[:, 1]) >= -touch_band(box_lo, box_hi, rs))
+    notes["touching_history"] = int(touching.sum())
+    stale = int((~in_geo & ~touching).sum())
     unrec = ~np.isin(gkeys, hkeys)
     notes["stale_history"] = stale
     notes["unrecorded_contacts"] = int(unrec.sum()) if partners is not None else 0

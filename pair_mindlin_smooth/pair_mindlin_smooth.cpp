@@ -16,6 +16,7 @@
 
 #include "atom.h"
 #include "comm.h"
+#include "domain.h"
 #include "error.h"
 #include "force.h"
 #include "memory.h"
@@ -24,6 +25,7 @@
 #include "neighbor.h"
 #include "update.h"
 
+#include <cfloat>
 #include <cmath>
 #include <cstring>
 
@@ -257,6 +259,45 @@ static inline int find_slot(const int *partner, int ncol, tagint jtag)
   return -1;
 }
 
+/* ----------------------------------------------------------------------
+   touching band.  Each disk of a pair decides the contact from its own
+   copy of the geometry, and across a periodic boundary each sees the
+   other's image x +- L, rounded: at an overlap within a few ulps of the
+   coordinates the two tests can disagree (measured: 31 of 81 positions
+   one ulp apart around delta = 0 in a box 47.6 wide), and one side would
+   keep a history entry that the other drops.  A disk held by a single
+   contact is drawn to exactly that place (its force-free position is
+   delta = 0).  Within |delta| <= tau the contact therefore keeps the state
+   that its history records -- the same on both sides -- with no force and
+   xi = 0 (evaluated at delta = 0, so that the two sides' xi agree too), and
+   outside it the geometry decides.  tau depends only on the box and the
+   two radii, so both sides use the same tau; it is 64 ulps of the largest
+   coordinate a ghost can have, ~1e-12 for a box of 50, where the Hertz
+   force would be below k_n tau^(3/2) ~ 1e-13.
+------------------------------------------------------------------------- */
+
+static const double TOUCH_ULPS = 64.0;
+
+static double touch_base(const Domain *domain)
+{
+  double ext = 0.0;
+  for (int d = 0; d < 2; d++) {
+    ext = MAX(ext, fabs(domain->boxlo[d]));
+    ext = MAX(ext, fabs(domain->boxhi[d]));
+  }
+  return ext + MAX(domain->prd[0], domain->prd[1]);
+}
+
+static inline double touch_band(double base, double radsum)
+{
+  return TOUCH_ULPS * DBL_EPSILON * (base + radsum);
+}
+
+static inline bool in_contact(double delta, double tau, bool has_history)
+{
+  return delta > tau || (delta >= -tau && has_history);
+}
+
 /* ---------------------------------------------------------------------- */
 
 void PairMindlinSmooth::compute(int eflag, int vflag)
@@ -279,6 +320,7 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
 
   const int update_history = (update->setupflag == 0);
   const double dt = update->dt;
+  const double tbase = touch_base(domain);
 
   const int inum = list->inum;
   // The scratch space holds at least as many contacts as the atom has
@@ -313,7 +355,9 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
       const double dely = yi0 - x[j][1];
       const double rsq = delx * delx + dely * dely;
       const double radsum = radi + radius[j];
-      if (rsq >= radsum * radsum) continue;
+      const double tau = touch_band(tbase, radsum);
+      const double rmax = radsum + tau;
+      if (rsq >= rmax * rmax) continue;
 
       if (rsq == 0.0)
         error->one(FLERR,
@@ -323,9 +367,12 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
       const int jtype = type[j];
       const double r = sqrt(rsq);
       const double nx = delx / r, ny = dely / r;
-      const double delta = radsum - r;
-
       const int slot = find_slot(ipartner, nslot, tag[j]);
+      const double gap_delta = radsum - r;
+      if (!in_contact(gap_delta, tau, slot >= 0)) continue;
+      // inside the band a kept contact carries no force and xi = 0 on both
+      // sides (evaluated at delta = 0); its Hertz force would be < k_n tau^1.5
+      const double delta = (gap_delta > tau) ? gap_delta : 0.0;
       double xi = (slot >= 0) ? itdisp[slot] : 0.0;
       if (update_history) {
         // MindlinSmooth::step written out, the slip computed only when the
@@ -432,18 +479,21 @@ double PairMindlinSmooth::single(int i, int j, int itype, int jtype, double rsq,
   for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
   fforce = 0.0;
   const double radsum = atom->radius[i] + atom->radius[j];
-  if (rsq >= radsum * radsum || rsq == 0.0) return 0.0;    // compute() rejects rsq == 0
+  const double tau = touch_band(touch_base(domain), radsum);
+  const double rmax = radsum + tau;
+  if (rsq >= rmax * rmax || rsq == 0.0) return 0.0;    // compute() rejects rsq == 0
 
   if (idx_t < 0) find_history();
   const int slot = find_slot(atom->iarray[idx_partner][i], atom->icols[idx_partner], atom->tag[j]);
+  const double r = sqrt(rsq);
+  if (!in_contact(radsum - r, tau, slot >= 0)) return 0.0;    // as compute()
   const double xi = (slot >= 0) ? atom->darray[idx_t][i][slot] : 0.0;
 
   double **x = atom->x;
   const double delx = x[i][0] - x[j][0];
   const double dely = x[i][1] - x[j][1];
-  const double r = sqrt(rsq);
   const double nx = delx / r, ny = dely / r;
-  const double delta = radsum - r;
+  const double delta = (radsum - r > tau) ? radsum - r : 0.0;
   const MindlinSmooth::Params p = {kn[itype][jtype], kt[itype][jtype], mu[itype][jtype]};
   const MindlinSmooth::Response res = MindlinSmooth::evaluate(p, delta, xi);
 
