@@ -266,10 +266,11 @@ TOUCH_ULPS = 64.0
 def touch_band(box_lo, box_hi, radsum):
     """Half-width tau of the touching band of a pair (docs/model.md, "Touching band").
 
-    Within |delta| <= tau the pair style keeps the contact state its history
-    records, with no force and xi = 0: across a periodic boundary the two
-    disks' overlap tests use each other's image x +- L, rounded, and can
-    disagree by a few ulps there. tau = 64 eps (max |box bound| + max box
+    Within |delta| <= tau the pair style keeps a pair listed in the history,
+    or unlisted, as its history records, with xi = 0 and no tangential
+    force (the normal force is k_n delta^(3/2) for delta > 0 as everywhere):
+    across a periodic boundary the two disks' overlap tests use each other's
+    image x +- L, rounded, and can disagree by a few ulps there. tau = 64 eps (max |box bound| + max box
     length + R_i + R_j), the same on both sides of a pair.
 
     Parameters
@@ -303,9 +304,7 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
     Returns
     -------
     i, j : ndarray of int64, shape (P,)
-        Index pairs with i < j and delta = R_i + R_j - |r_i - r_j| > tau, the
-        touching band (:func:`touch_band`; ~1e-12: within it the pair style
-        exerts no force and the history decides).
+        Index pairs with i < j and delta = R_i + R_j - |r_i - r_j| > 0.
     rho : ndarray, shape (P,)
         Centre distances.
 
@@ -354,7 +353,7 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
         raise ValueError(f"overlapping centres: {who} are "
                          f"{float(rho[k])!r} apart, closer than the larger radius "
                          f"{float(max(radii[i[k]], radii[j[k]]))!r}")
-    touch = radii[i] + radii[j] - rho > touch_band(box_lo, box_hi, radii[i] + radii[j])
+    touch = radii[i] + radii[j] - rho > 0.0
     order = np.lexsort((j[touch], i[touch]))
     return i[touch][order], j[touch][order], rho[touch][order]
 
@@ -565,7 +564,7 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
 
     gi, gj, rho = find_contacts(pos, radii, box_lo, box_hi, periodic, ids=ids)
     notes = {"unrecorded_contacts": 0, "stale_history": 0, "stale_wall_history": 0,
-             "touching_history": 0}
+             "touching_pairs": 0}
 
     # ---- disk-disk history -> (i, j, xi) with the mirror check
     if partners is not None:
@@ -580,16 +579,21 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     gkeys = gi * n + gj
     hkeys = hi_ * n + hj
     in_geo = np.isin(hkeys, gkeys)
-    # history of pairs inside the touching band is the pair style's zero-force
-    # contacts (no force, xi = 0), not stale
+    # inside the touching band the pair style lists a pair or not as its
+    # history says (touch_band): history without overlap and overlap without
+    # history are then neither stale nor unrecorded
     d = minimum_image(pos[hi_] - pos[hj], L, periodic)
     rs = radii[hi_] + radii[hj]
     touching = ~in_geo & (rs - np.hypot(d[:, 0], d[:, 1]) >= -touch_band(box_lo, box_hi, rs))
-    notes["touching_history"] = int(touching.sum())
     stale = int((~in_geo & ~touching).sum())
     unrec = ~np.isin(gkeys, hkeys)
+    grs = radii[gi] + radii[gj]
+    unrec_touching = unrec & (grs - rho <= touch_band(box_lo, box_hi, grs))
+    notes["touching_pairs"] = (int(touching.sum()) + int(unrec_touching.sum())
+                               if partners is not None else 0)
     notes["stale_history"] = stale
-    notes["unrecorded_contacts"] = int(unrec.sum()) if partners is not None else 0
+    notes["unrecorded_contacts"] = (int((unrec & ~unrec_touching).sum())
+                                    if partners is not None else 0)
     ci = np.concatenate([hi_[in_geo], gi[unrec]])
     cj = np.concatenate([hj[in_geo], gj[unrec]])
     cxi = np.concatenate([hxi[in_geo], np.zeros(int(unrec.sum()))])

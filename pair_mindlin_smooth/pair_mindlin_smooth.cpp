@@ -267,13 +267,14 @@ static inline int find_slot(const int *partner, int ncol, tagint jtag)
    one ulp apart around delta = 0 in a box 47.6 wide), and one side would
    keep a history entry that the other drops.  A disk held by a single
    contact is drawn to exactly that place (its force-free position is
-   delta = 0).  Within |delta| <= tau the contact therefore keeps the state
-   that its history records -- the same on both sides -- with no force and
-   xi = 0 (evaluated at delta = 0, so that the two sides' xi agree too), and
-   outside it the geometry decides.  tau depends only on the box and the
-   two radii, so both sides use the same tau; it is 64 ulps of the largest
-   coordinate a ghost can have, ~1e-12 for a box of 50, where the Hertz
-   force would be below k_n tau^(3/2) ~ 1e-13.
+   delta = 0).  Within |delta| <= tau a pair therefore stays listed in the
+   history, or unlisted, as its history records -- the same on both sides --
+   with xi = 0 and no tangential force (so that the two sides' xi agree
+   too); the normal force is each side's own k_n delta^(3/2) for delta > 0,
+   as everywhere.  Outside the band the overlap decides.  tau depends only
+   on the box and the two radii, so both sides use the same tau; it is 64
+   ulps of the largest coordinate a ghost can have, ~1e-12 for a box of 50,
+   where the tangential force left out is below mu k_n tau^(3/2) ~ 1e-13.
 ------------------------------------------------------------------------- */
 
 static const double TOUCH_ULPS = 64.0;
@@ -291,11 +292,6 @@ static double touch_base(const Domain *domain)
 static inline double touch_band(double base, double radsum)
 {
   return TOUCH_ULPS * DBL_EPSILON * (base + radsum);
-}
-
-static inline bool in_contact(double delta, double tau, bool has_history)
-{
-  return delta > tau || (delta >= -tau && has_history);
 }
 
 /* ---------------------------------------------------------------------- */
@@ -368,13 +364,15 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
       const double r = sqrt(rsq);
       const double nx = delx / r, ny = dely / r;
       const int slot = find_slot(ipartner, nslot, tag[j]);
-      const double gap_delta = radsum - r;
-      if (!in_contact(gap_delta, tau, slot >= 0)) continue;
-      // inside the band a kept contact carries no force and xi = 0 on both
-      // sides (evaluated at delta = 0); its Hertz force would be < k_n tau^1.5
-      const double delta = (gap_delta > tau) ? gap_delta : 0.0;
-      double xi = (slot >= 0) ? itdisp[slot] : 0.0;
-      if (update_history) {
+      const double gap = radsum - r;
+      const bool band = (gap <= tau && gap >= -tau);
+      const bool listed = band ? (slot >= 0) : (gap > 0.0);
+      if (!listed && !(gap > 0.0)) continue;
+      // the normal force of this side's own overlap, always; inside the band
+      // no tangential force and xi = 0, so that the two sides' histories agree
+      const double delta = MAX(gap, 0.0);
+      double xi = (slot >= 0 && !band) ? itdisp[slot] : 0.0;
+      if (update_history && !band) {
         // MindlinSmooth::step written out, the slip computed only when the
         // history advances (measured: 8 % less pair time than calling step)
         // slip of the contact point of i relative to j along s = (ny, -nx)
@@ -393,6 +391,7 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
       c.en = 0.4 * res.fn * delta;    // Hertz elastic energy (2/5) k_n delta^{5/2}
       c.delx = delx;
       c.dely = dely;
+      c.listed = listed;
     }
 
     if (nc > nslot && !history) too_many_contacts(tag[i]);
@@ -430,11 +429,14 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
         tdisp = atom->darray[idx_t];
         nslot = ncol;
       }
+      int nl = 0;
       for (int a = 0; a < nc; a++) {
-        partner[i][a] = cs[a].tag;
-        tdisp[i][a] = cs[a].xi;
+        if (!cs[a].listed) continue;
+        partner[i][nl] = cs[a].tag;
+        tdisp[i][nl] = cs[a].xi;
+        nl++;
       }
-      for (int a = nc; a < nslot; a++) {
+      for (int a = nl; a < nslot; a++) {
         partner[i][a] = 0;
         tdisp[i][a] = 0.0;
       }
@@ -486,14 +488,15 @@ double PairMindlinSmooth::single(int i, int j, int itype, int jtype, double rsq,
   if (idx_t < 0) find_history();
   const int slot = find_slot(atom->iarray[idx_partner][i], atom->icols[idx_partner], atom->tag[j]);
   const double r = sqrt(rsq);
-  if (!in_contact(radsum - r, tau, slot >= 0)) return 0.0;    // as compute()
-  const double xi = (slot >= 0) ? atom->darray[idx_t][i][slot] : 0.0;
+  const double gap = radsum - r;
+  if (!(gap > 0.0)) return 0.0;    // as compute(): no force
+  const double xi = (slot >= 0 && gap > tau) ? atom->darray[idx_t][i][slot] : 0.0;
 
   double **x = atom->x;
   const double delx = x[i][0] - x[j][0];
   const double dely = x[i][1] - x[j][1];
   const double nx = delx / r, ny = dely / r;
-  const double delta = (radsum - r > tau) ? radsum - r : 0.0;
+  const double delta = gap;
   const MindlinSmooth::Params p = {kn[itype][jtype], kt[itype][jtype], mu[itype][jtype]};
   const MindlinSmooth::Response res = MindlinSmooth::evaluate(p, delta, xi);
 

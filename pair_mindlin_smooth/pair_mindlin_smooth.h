@@ -47,6 +47,7 @@ class PairMindlinSmooth : public Pair {
     double xi;     // tangential displacement after the Coulomb cap
     double fx, fy, tz, en;
     double delx, dely;
+    bool listed;    // kept in the history (false: a touching pair without one)
   };
 
  protected:

@@ -211,8 +211,9 @@ def test_new_contact_forms_with_finite_force():
 
 
 def test_exactly_touching_is_no_contact():
-    """delta = 0 exactly: zero force, no contact in the analyzer; a stale history
-    entry is dropped by LAMMPS and gives no NaN."""
+    """delta = 0 exactly: zero force, no contact in the analyzer; a history entry
+    there is inside the touching band (docs/model.md section 2): LAMMPS keeps it
+    on both sides with xi = 0, the analyzer counts it as touching, no NaN."""
     lmp = pair(0.0)
     a = H.arrays(lmp)
     assert abs(a["x"][1, 0] - a["x"][0, 0]) == 1.0
@@ -224,9 +225,11 @@ def test_exactly_touching_is_no_contact():
     a = H.arrays(lmp)
     np.testing.assert_array_equal(a["f"], 0.0)
     assert np.all(np.isfinite(a["xi"]))
-    assert np.all(a["partner"] == 0)
+    assert a["partner"][0, 0] == 2 and a["partner"][1, 0] == 1
+    np.testing.assert_array_equal(a["xi"], 0.0)
     st = H.to_state(lmp, KN, KT, 1.0, wall_y=None)
-    assert st.n_contacts == 0
+    assert st.n_contacts == 0 and st.notes["touching_pairs"] == 1
+    assert st.notes["stale_history"] == 0
     assert np.all(stiffness_matrix(st).toarray() == 0.0)
     lmp.close()
 
