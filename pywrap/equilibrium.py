@@ -182,7 +182,7 @@ def newton_solver(K):
     Rows and columns that are entirely zero (contactless disks) are dropped;
     the rest is factorised by LU (dense, or SuperLU for a sparse K), or, if K
     is singular (a disk held by one contact has a zero rolling mode), solved
-    by least squares (``lstsq``; sparse: :func:`_singular_sparse_solve`).
+    by least squares (``lstsq``; sparse: :func:`_singular_sparse_solver`).
 
     Parameters
     ----------
@@ -232,7 +232,7 @@ def newton_solver(K):
 
 def _sparse_newton_solver(K):
     """:func:`newton_solver` for a sparse K: SuperLU, or preconditioned LSMR if K is
-    singular (:func:`_singular_sparse_solve`)."""
+    singular (:func:`_singular_sparse_solver`)."""
     import warnings
 
     import scipy.sparse as sp
@@ -254,6 +254,7 @@ def _sparse_newton_solver(K):
                 lu = None
         except RuntimeError:            # exactly singular
             lu = None
+    singular = []                       # its solver, built at the first need
 
     def solve(G):
         g = np.asarray(G, np.float64).reshape(-1)
@@ -263,21 +264,24 @@ def _sparse_newton_solver(K):
         gr = g[idx]
         sol = lu.solve(gr) if lu is not None else None
         if sol is None or not np.all(np.isfinite(sol)):
-            sol = _singular_sparse_solve(Kr, gr)
+            if not singular:
+                singular.append(_singular_sparse_solver(Kr))
+            sol = singular[0](gr)
         dq[idx] = sol
         return dq.reshape(-1, 3)
 
     return solve
 
 
-def _singular_sparse_solve(Kr, gr):
-    """Least-squares step for a singular sparse K (zero modes of weakly held disks).
+def _singular_sparse_solver(Kr):
+    """Least-squares steps for a singular sparse K (zero modes of weakly held disks).
 
     LSMR on K M y = g, x = M y, with M = (K + delta I)^-1 (SuperLU, delta =
     1e-8 max |K_ii|) as right preconditioner: K M is the identity but for the
     near-null directions, which least squares leaves out (as the dense path's
     ``lstsq`` does), so a few tens of iterations suffice where unpreconditioned
-    LSMR needed thousands (measured: 31 s at 4800 dof).
+    LSMR needed thousands (measured: 31 s at 4800 dof). The preconditioner is
+    factorised once; returns ``solve(gr)``.
     """
     import warnings
 
@@ -292,8 +296,12 @@ def _singular_sparse_solve(Kr, gr):
     KrT = Kr.T.tocsr()
     op = spla.LinearOperator((n, n), matvec=lambda y: Kr @ lu.solve(y),
                              rmatvec=lambda z: lu.solve(KrT @ z, trans="T"), dtype=float)
-    y = spla.lsmr(op, gr, atol=1e-15, btol=1e-15, conlim=1e14, maxiter=200)[0]
-    return lu.solve(y)
+
+    def solve(gr):
+        y = spla.lsmr(op, gr, atol=1e-15, btol=1e-15, conlim=1e14, maxiter=200)[0]
+        return lu.solve(y)
+
+    return solve
 
 
 #: smallest acceptance level of a stagnating Newton iteration (``f_accept = None``)
