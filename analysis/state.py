@@ -21,7 +21,10 @@ the side with the smaller id and checks that the mirror matches.
    history at every step). A pair that overlaps but has no history entry is
    kept with :math:`\xi = 0` (a contact that forms starts from zero), and a
    history entry whose disks no longer overlap is dropped; both are counted in
-   :attr:`State.notes` and reported with a :class:`UserWarning`.
+   :attr:`State.notes` and reported with a :class:`UserWarning` -- except
+   inside the touching band (:func:`touch_band`, |delta| <= ~1e-12), where
+   the pair style lists a pair as its history says: those are counted as
+   ``touching_pairs`` without a warning.
 """
 # Module size (~600 lines): the State (its fields documented, ~150 lines) and
 # its one builder with the checks that keep history and geometry consistent;
@@ -129,7 +132,8 @@ class State:
         File read.
     notes : dict
         Counts of repaired inconsistencies (``unrecorded_contacts``,
-        ``stale_history``, ``stale_wall_history``).
+        ``stale_history``, ``stale_wall_history``) and of pairs inside the
+        touching band whose listing the history decides (``touching_pairs``).
     """
 
     ids: np.ndarray
@@ -270,8 +274,9 @@ def touch_band(box_lo, box_hi, radsum):
     or unlisted, as its history records, with xi = 0 and no tangential
     force (the normal force is k_n delta^(3/2) for delta > 0 as everywhere):
     across a periodic boundary the two disks' overlap tests use each other's
-    image x +- L, rounded, and can disagree by a few ulps there. tau = 64 eps (max |box bound| + max box
-    length + R_i + R_j), the same on both sides of a pair.
+    image x +- L, rounded, and can disagree by a few ulps there.
+    tau = 64 eps (max |box bound| + max box length + R_i + R_j), the same on
+    both sides of a pair.
 
     Parameters
     ----------
