@@ -215,16 +215,22 @@ def newton_solver(K):
         except (sla.LinAlgError, ValueError):
             lu = None
 
-    def solve(G):
-        g = np.asarray(G, np.float64).reshape(-1)
-        dq = np.zeros_like(g)
-        if idx.size == 0:
-            return dq.reshape(-1, 3)
-        gr = g[idx]
+    def reduced(gr):
         sol = sla.lu_solve(lu, gr) if lu is not None else None
         if sol is None or not np.all(np.isfinite(sol)):
             sol = sla.lstsq(Kr, gr, cond=1e-14)[0]
-        dq[idx] = sol
+        return sol
+
+    return _on_live_dofs(idx, reduced)
+
+
+def _on_live_dofs(idx, reduced):
+    """``solve(G)``: dq = 0 but on the live dofs ``idx``, where ``reduced(G[idx])``."""
+    def solve(G):
+        g = np.asarray(G, np.float64).reshape(-1)
+        dq = np.zeros_like(g)
+        if idx.size:
+            dq[idx] = reduced(g[idx])
         return dq.reshape(-1, 3)
 
     return solve
@@ -256,21 +262,15 @@ def _sparse_newton_solver(K):
             lu = None
     singular = []                       # its solver, built at the first need
 
-    def solve(G):
-        g = np.asarray(G, np.float64).reshape(-1)
-        dq = np.zeros_like(g)
-        if idx.size == 0:
-            return dq.reshape(-1, 3)
-        gr = g[idx]
+    def reduced(gr):
         sol = lu.solve(gr) if lu is not None else None
         if sol is None or not np.all(np.isfinite(sol)):
             if not singular:
                 singular.append(_singular_sparse_solver(Kr))
             sol = singular[0](gr)
-        dq[idx] = sol
-        return dq.reshape(-1, 3)
+        return sol
 
-    return solve
+    return _on_live_dofs(idx, reduced)
 
 
 def _singular_sparse_solver(Kr):
