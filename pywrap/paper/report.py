@@ -216,8 +216,10 @@ def _fig4_rows(out, summary, checks, info, extra):
                        f"{m['predicted_growth_rate']:.4g}"),
                note=(f"measured {m['measured_growth_rate']:.4g}, predicted "
                      f"{m['predicted_growth_rate']:.4g} [1/tau]"))
-        _check(checks, "saturation_fig4", "Fig. 4: growth saturates (nonlinear) by the end "
-               "of the run", m["saturated"], "yes", m["saturated"],
+        _check(checks, "saturation_fig4", "Fig. 4: the exponential growth has stopped "
+               "(nonlinear saturation) by the end of the run: D over its last 10 % more "
+               f"than {SATURATION_DECADES:g} decades below the exponential",
+               m["saturated"], "yes", m["saturated"],
                reason=(f"at t = {m['t_end']:.4g} D is only {m['below_exponential']:.3g} "
                        f"decades below the growth window's exponential (saturated: more "
                        f"than {SATURATION_DECADES:g}); a longer run (t_instability, "
