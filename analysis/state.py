@@ -404,8 +404,9 @@ def _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol):
 
     Returns
     -------
-    (ndarray, ndarray, ndarray)
-        Indices i < j and xi (mean of the two sides).
+    (ndarray, ndarray, ndarray, ndarray)
+        Indices i < j, xi (mean of the two sides) and the pairs' overlaps
+        delta (negative: apart).
 
     Raises
     ------
@@ -464,7 +465,7 @@ def _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol):
                          f"{ids[hi_[k]]} and {float(mxi[k])!r} on atom id {ids[hj[k]]} "
                          f"(must be equal)")
     hxi = 0.5 * (hxi + mxi)
-    return hi_, hj, hxi
+    return hi_, hj, hxi, delta_h
 
 
 def _wall_contacts(ids, pos, radii, wall_y, wt, wall_t):
@@ -575,10 +576,11 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     if partners is not None:
         P = srt(partners, (n, -1), np.float64)
         X = srt(partner_xi, P.shape, np.float64)
-        hi_, hj, hxi = _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol)
+        hi_, hj, hxi, hdelta = _history_pairs(P, X, ids, pos, radii, L, periodic, params,
+                                              mirror_rtol)
     else:
         hi_ = hj = np.zeros(0, np.int64)
-        hxi = np.zeros(0)
+        hxi = hdelta = np.zeros(0)
 
     # ---- merge with the geometric contacts
     gkeys = gi * n + gj
@@ -587,9 +589,7 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     # inside the touching band the pair style lists a pair or not as its
     # history says (touch_band): history without overlap and overlap without
     # history are then neither stale nor unrecorded
-    d = minimum_image(pos[hi_] - pos[hj], L, periodic)
-    rs = radii[hi_] + radii[hj]
-    touching = ~in_geo & (rs - np.hypot(d[:, 0], d[:, 1]) >= -touch_band(box_lo, box_hi, rs))
+    touching = ~in_geo & (hdelta >= -touch_band(box_lo, box_hi, radii[hi_] + radii[hj]))
     stale = int((~in_geo & ~touching).sum())
     unrec = ~np.isin(gkeys, hkeys)
     grs = radii[gi] + radii[gj]
