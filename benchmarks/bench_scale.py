@@ -66,10 +66,9 @@ FC_EXPONENT = -1.19
 
 #: packings relaxed once with the default protocol (ensemble generator, seed 1)
 #: and kept, so that a point is measured where a relaxation takes too long here
-STORED = {n: os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", name)
-          for n, name in ((1600, "relaxed_N1600_seed1.data"),)
-          if os.path.exists(os.path.join(os.path.dirname(os.path.abspath(__file__)),
-                                         "data", name))}
+DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+STORED = {n: os.path.join(DATA, name) for n, name in ((1600, "relaxed_N1600_seed1.data"),)
+          if os.path.exists(os.path.join(DATA, name))}
 
 
 def fine_points(n, dF_x):
