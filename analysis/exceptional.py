@@ -285,26 +285,27 @@ def _units(lam, V):
     """Split the spectrum into real units and pairs (complex pairs, parallel real pairs)."""
     n = lam.size
     units = []
-    reals = []
-    j = 0
-    while j < n:
-        if lam[j].imag != 0.0 and j + 1 < n and lam[j + 1] == np.conj(lam[j]):
+    nonreal = np.flatnonzero(lam.imag != 0.0).tolist()
+    k = 0
+    while k < len(nonreal):             # LAPACK stores a complex pair as neighbours
+        j = nonreal[k]
+        if j + 1 < n and lam[j + 1] == np.conj(lam[j]):
             units.append(_Unit((j, j + 1), complex_pair=True))
-            j += 2
+            k += 2
             continue
-        if lam[j].imag != 0.0:           # unpaired complex value: not from a real matrix
-            raise ValueError("eigenvalue solver returned an unpaired complex eigenvalue")
-        reals.append(j)
-        j += 1
-    reals.sort(key=lambda i: lam[i].real)
+        raise ValueError("eigenvalue solver returned an unpaired complex eigenvalue")
+    reals = np.flatnonzero(lam.imag == 0.0)
+    reals = reals[np.argsort(lam.real[reals], kind="stable")]
     # |cos| of the angle between the eigenvectors of sorted neighbours (one
     # array operation; only compared with _PARALLEL)
     Vr = V[:, reals].real
     nrm = np.sqrt(np.einsum("ij,ij->j", Vr, Vr))
-    cos = np.abs(np.einsum("ij,ij->j", Vr[:, :-1], Vr[:, 1:])) / (nrm[:-1] * nrm[1:])
+    parallel = (np.abs(np.einsum("ij,ij->j", Vr[:, :-1], Vr[:, 1:]))
+                / (nrm[:-1] * nrm[1:]) > _PARALLEL).tolist()
+    reals = reals.tolist()
     k = 0
     while k < len(reals):
-        if k + 1 < len(reals) and cos[k] > _PARALLEL:
+        if k + 1 < len(reals) and parallel[k]:
             units.append(_Unit((reals[k], reals[k + 1]), merged=True))
             k += 2
             continue
@@ -406,8 +407,11 @@ class _Verified:
             Yn = Rn + f * (float(Rn.max()) / (1.0 - fmax))
             dev = dev + Yn * input_error * float(np.linalg.norm(X, axis=0).sum())
         self.dev = _up(dev, n)
+        one = [s for s, k in blocks if k == 1]
+        absC[one, one] = 0.0
         for s, k in blocks:
-            absC[s:s + k, s:s + k] = 0.0
+            if k > 1:
+                absC[s:s + k, s:s + k] = 0.0
         self.off = _up(absC.sum(axis=1), n)       # row sums outside the own block
         self.absC = absC
         self.C, self.R, self.f, self.fmax = C, R, f, fmax
@@ -500,7 +504,7 @@ def _analyse(A, lam, V, units, rel_error, input_error):
     """One verification pass over the given units. Returns (entries, summary data)."""
     n = A.shape[0]
     # column layout: units sorted by the real part of their eigenvalues
-    lr = lam.real
+    lr = lam.real.tolist()
     key = [lr[un.idx[0]] if len(un.idx) == 1 else (lr[un.idx[0]] + lr[un.idx[1]]) / 2
            for un in units]
     order = sorted(range(len(units)), key=key.__getitem__)
@@ -516,9 +520,8 @@ def _analyse(A, lam, V, units, rel_error, input_error):
     X = np.empty((n, s))
     if single:
         at, idx = (np.array(c) for c in zip(*single))
-        Vs = np.ascontiguousarray(V[:, idx].real.T)
-        # norms as np.linalg.norm computes them: sqrt(v . v), v contiguous
-        X[:, at] = (Vs / np.sqrt([v @ v for v in Vs])[:, None]).T
+        Vs = V[:, idx].real
+        X[:, at] = Vs / np.sqrt(np.einsum("ij,ij->j", Vs, Vs))
     for un, (s, k) in zip(units, blocks):
         if k == 2:
             X[:, s:s + 2], ref = _pair_basis(A, lam, V, un)
@@ -527,14 +530,16 @@ def _analyse(A, lam, V, units, rel_error, input_error):
     if not ver.ok:
         return None, ver
     dev, off, C = ver.dev, ver.off, ver.C
-    lam1 = np.array([C[s, s] for s, k in blocks if k == 1])
+    one = np.array([b for b, (s, k) in enumerate(blocks) if k == 1], dtype=np.intp)
+    s_one = np.array([blocks[b][0] for b in one.tolist()], dtype=np.intp)
+    lam1 = C[s_one, s_one]
     offdev = off + dev
-    discs = []                       # (centre, radius, block index)
+    # discs (centre, radius, block index): the real units', then the pairs'
+    discs = [lam1.tolist(), offdev[s_one].tolist(), one.tolist()]
     pending = []                     # (block, start, _Block, crude decision, cover, centre)
     pair_out = []
     for b, (s, k) in enumerate(blocks):
         if k == 1:
-            discs.append((float(C[s, s]), float(offdev[s]), b))
             continue
         c = [s, s + 1]
         rest = np.ones(n, bool)
@@ -565,7 +570,8 @@ def _analyse(A, lam, V, units, rel_error, input_error):
                 if dec2.certified or not dec.certified:
                     dec, cover, S = dec2, cover2, Sx
         centre = float((S[0][0] + S[1][1]) / 2)
-        discs.append((centre, cover + U * abs(centre), b))
+        for lst, v in zip(discs, (centre, cover + U * abs(centre), b)):
+            lst.append(v)
         pair_out.append(dec)
     iso, ver.conflicts = _isolation(discs, blocks, units)
     return pair_out + iso, ver
@@ -574,22 +580,26 @@ def _analyse(A, lam, V, units, rel_error, input_error):
 def _isolation(discs, blocks, units):
     """Isolation of neighbouring discs (all centred on the real axis).
 
-    Returns the PairDecision of each neighbouring pair of discs and the
-    eigenvalue index pairs of two real units whose discs overlap.
+    ``discs`` holds three lists: centres, radii and block indices. Returns
+    the PairDecision of each neighbouring pair of discs and the eigenvalue
+    index pairs of two real units whose discs overlap.
     """
-    discs = sorted(discs, key=lambda d: d[0])
-    iso = []
-    for (c1, r1, b1), (c2, r2, b2) in zip(discs[:-1], discs[1:]):
-        gap = (c2 - c1) * (1 - 2 * U)
-        rr = (r1 + r2) * (1 + 2 * U)
-        m = gap / rr if rr > 0 else math.inf
-        iso.append(PairDecision(np.array([c1, c2], complex), False, bool(gap > rr), float(m),
-                                method="gershgorin",
-                                reason="" if gap > rr else "discs overlap", bound=rr))
-    conflicts = []
-    for (c1, r1, b1), (c2, r2, b2), e in zip(discs[:-1], discs[1:], iso):
-        if not e.certified and blocks[b1][1] == 1 and blocks[b2][1] == 1:
-            conflicts.append((units[b1].idx[0], units[b2].idx[0]))
+    c, r, b = (np.asarray(v) for v in discs)
+    order = np.argsort(c, kind="stable")
+    c, r, b = c[order], r[order], b[order].tolist()
+    gap = (c[1:] - c[:-1]) * (1 - 2 * U)
+    rr = (r[:-1] + r[1:]) * (1 + 2 * U)
+    pos = rr > 0
+    m = np.full(gap.shape, math.inf)
+    m[pos] = gap[pos] / rr[pos]
+    ok = (gap > rr).tolist()
+    c, m, rr = c.tolist(), m.tolist(), rr.tolist()
+    iso = [PairDecision(np.array([c[k], c[k + 1]], complex), False, ok[k], m[k],
+                        method="gershgorin", reason="" if ok[k] else "discs overlap",
+                        bound=rr[k])
+           for k in range(len(ok))]
+    conflicts = [(units[b[k]].idx[0], units[b[k + 1]].idx[0]) for k in range(len(ok))
+                 if not ok[k] and blocks[b[k]][1] == 1 and blocks[b[k + 1]][1] == 1]
     return iso, conflicts
 
 
