@@ -294,7 +294,8 @@ def touch_band(box_lo, box_hi, radsum):
     return TOUCH_ULPS * np.finfo(float).eps * (base + np.asarray(radsum, float))
 
 
-def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=None):
+def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=None,
+                  gap=0.0):
     """All overlapping disk pairs (geometric contacts), O(N log N).
 
     Parameters
@@ -305,11 +306,14 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
     periodic : sequence of bool
     ids : array_like, shape (N,), optional
         Atom ids, only to name disks in error messages.
+    gap : float, optional
+        Also return the pairs whose surfaces are less than ``gap`` apart
+        (delta > -gap; default 0: overlapping pairs only).
 
     Returns
     -------
     i, j : ndarray of int64, shape (P,)
-        Index pairs with i < j and delta = R_i + R_j - |r_i - r_j| > 0.
+        Index pairs with i < j and delta = R_i + R_j - |r_i - r_j| > -gap.
     rho : ndarray, shape (P,)
         Centre distances.
 
@@ -340,7 +344,7 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
             span = shifted[:, a].max() - shifted[:, a].min()
             shifted[:, a] -= shifted[:, a].min()
             boxsize[a] = 4.0 * (span + 4.0 * radii.max()) + 1.0
-    cut = 2.0 * float(np.max(radii))
+    cut = 2.0 * float(np.max(radii)) + max(float(gap), 0.0)
     tree = cKDTree(shifted, boxsize=boxsize)
     pairs = tree.query_pairs(cut, output_type="ndarray").astype(np.int64)
     if pairs.size == 0:
@@ -358,7 +362,7 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
         raise ValueError(f"overlapping centres: {who} are "
                          f"{float(rho[k])!r} apart, closer than the larger radius "
                          f"{float(max(radii[i[k]], radii[j[k]]))!r}")
-    touch = radii[i] + radii[j] - rho > 0.0
+    touch = radii[i] + radii[j] - rho > -max(float(gap), 0.0)
     order = np.lexsort((j[touch], i[touch]))
     return i[touch][order], j[touch][order], rho[touch][order]
 

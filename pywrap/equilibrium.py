@@ -38,6 +38,7 @@ factorisation reaches the round-off floor.
    Newton iteration below ``f_accept``.
 """
 from dataclasses import dataclass, field
+import math
 import time
 
 import numpy as np
@@ -273,6 +274,11 @@ def _sparse_newton_solver(K):
     return _on_live_dofs(idx, reduced)
 
 
+#: relative residual at which the least-squares Newton step of a singular
+#: sparse K stops (:func:`_singular_sparse_solver`)
+LSMR_TOL = 1e-10
+
+
 def _singular_sparse_solver(Kr):
     """Least-squares steps for a singular sparse K (zero modes of weakly held disks).
 
@@ -281,7 +287,10 @@ def _singular_sparse_solver(Kr):
     near-null directions, which least squares leaves out (as the dense path's
     ``lstsq`` does), so a few tens of iterations suffice where unpreconditioned
     LSMR needed thousands (measured: 31 s at 4800 dof). The preconditioner is
-    factorised once; returns ``solve(gr)``.
+    factorised once; returns ``solve(gr)``. LSMR stops at a relative
+    residual of :data:`LSMR_TOL` (an inexact Newton step: far below the
+    contraction of any Newton step, >= 1e-3; at 1e-15 it ran to its 200
+    iterations, ~5 s per step at N = 9600, without a better step).
     """
     import warnings
 
@@ -298,7 +307,7 @@ def _singular_sparse_solver(Kr):
                              rmatvec=lambda z: lu.solve(KrT @ z, trans="T"), dtype=float)
 
     def solve(gr):
-        y = spla.lsmr(op, gr, atol=1e-15, btol=1e-15, conlim=1e14, maxiter=200)[0]
+        y = spla.lsmr(op, gr, atol=LSMR_TOL, btol=LSMR_TOL, conlim=1e14, maxiter=200)[0]
         return lu.solve(y)
 
     return solve
@@ -355,6 +364,67 @@ def exact_residual(eng):
     return st, G, r
 
 
+#: a Newton step that closes a gap is shortened until the Hertz force of the
+#: new contact, k_n delta^(3/2), is at most this fraction of the residual
+#: (:func:`closing_fraction`)
+CLOSING_FORCE = 0.5
+
+
+def closing_fraction(state, dq, k_n, r, wall_y=0.0):
+    """Fraction alpha <= 1 of a Newton step for which no gap closes too far.
+
+    K contains only the contacts of the current state; a gap it does not
+    know about closes under the step dq and, if the step overshoots, the new
+    contact's force k_n delta^(3/2) exceeds the residual the step was meant
+    to remove (measured at N = 1600: gaps of 1e-7 closed to overlaps of
+    3e-6, force 1e-3 against r = 5e-5; the step is then rejected). With
+    g(alpha) = g0 + alpha (g1 - g0) the gap along the step (disk-disk and
+    disk-wall), alpha is the largest fraction at which every closing gap
+    has overlap at most delta* = (CLOSING_FORCE r / k_n)^(2/3); 1 if no gap
+    closes beyond delta*.
+
+    Parameters
+    ----------
+    state : AtomState
+    dq : ndarray, shape (N, 3)
+        The step (x, y, rotation R theta); only x, y matter.
+    k_n : float
+        Normal stiffness (Hertz force k_n delta^(3/2)).
+    r : float
+        Current residual (force).
+    wall_y : float, optional
+        Height of the flat bottom wall.
+
+    Returns
+    -------
+    float in (0, 1]
+    """
+    from remote_trigger.analysis.state import find_contacts, minimum_image
+
+    d_star = (CLOSING_FORCE * r / k_n) ** (2.0 / 3.0)
+    move = float(np.max(np.abs(dq[:, :2]))) if dq.size else 0.0
+    if not move > d_star:
+        return 1.0
+    R = state.radii
+    pos = state.positions
+    i, j, rho = find_contacts(pos, R, state.box_lo, state.box_hi, gap=2.0 * move)
+    g0 = np.concatenate([rho - R[i] - R[j], pos[:, 1] - R - wall_y])
+    L = state.box_hi[:2] - state.box_lo[:2]
+    d1 = minimum_image(pos[i] + dq[i, :2] - pos[j] - dq[j, :2], L, (True, False))
+    g1 = np.concatenate([np.hypot(d1[:, 0], d1[:, 1]) - R[i] - R[j],
+                         pos[:, 1] + dq[:, 1] - R - wall_y])
+    bad = (g0 > 0.0) & (g1 < -d_star)
+    if not np.any(bad):
+        return 1.0
+    return float(np.min((g0[bad] + d_star) / (g0[bad] - g1[bad])))
+
+
+#: Newton gives way to damped dynamics after this many accepted steps in a row
+#: that each lowered a residual above the acceptance level by less than
+#: SLOW_CONTRACTION (see :func:`polish`)
+SLOW_STEPS = 3
+SLOW_CONTRACTION = 0.5
+
 #: a factorised K is reused for the next Newton step while the last step
 #: contracted the residual at least this much (modified Newton, see :func:`polish`)
 REUSE_CONTRACTION = 1e-2
@@ -374,6 +444,21 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
     residual above ``chord_below`` is undone and repeated with a new K;
     the iteration stops (stagnation) only when a step with a new K, or any
     step below ``chord_below``, does not lower it.
+
+    Two guards for steps that leave the contact set K was built on (both
+    measured on the N = 1600 packing of ``make bench``; neither changes the
+    default packing's relaxation or ramps, bitwise):
+
+    * a step that would close a gap K does not contain into an overlap
+      whose Hertz force exceeds :data:`CLOSING_FORCE` times the residual is
+      shortened to the fraction that does not (:func:`closing_fraction`);
+      without it such steps were rejected and damped dynamics had to let
+      the contact form (4 chunks, 4.5 s instead of 1.3-1.5 s per point);
+    * with ``chord_below`` set, :data:`SLOW_STEPS` accepted steps in a row
+      that each lower a residual above ``chord_below`` by less than
+      :data:`SLOW_CONTRACTION` end the iteration (``'slow'``; the caller
+      goes back to damped dynamics), instead of crawling with shortened
+      steps or a singular K (N = 9600: 30 steps of ~5 s for a factor 1.5).
 
     Parameters
     ----------
@@ -398,15 +483,18 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
     -------
     r : float
         Residual reached (the state in LAMMPS is the best one found).
-    stagnated : bool
-        True if the last step did not lower the residual.
+    stop : str
+        Why the iteration ended: ``''`` (below ``target``, or
+        ``cfg.newton_iter`` steps), ``'stagnated'`` (the last step did not
+        lower the residual) or ``'slow'`` (see above).
     """
     target = cfg.f_min if target is None else target
     state, G, r = exact_residual(eng)
     record.add(t_sim, r, "newton", t0)
-    stagnated = False
+    stop = ""
     solve = None
     reuse = False           # same on every rank: whether the next step may reuse K
+    slow = 0                # accepted steps in a row that contracted by < SLOW_CONTRACTION
     for _ in range(cfg.newton_iter):
         if r < target:
             break
@@ -417,12 +505,17 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
                 solve = newton_solver(stiffness(state, cfg.k_n, cfg.k_t, cfg.mu, F_x,
                                                 cfg.F_y))
             dq = solve(G)
+            if CLOSING_FORCE and np.all(np.isfinite(dq)):
+                big = float(np.max(np.abs(dq)))
+                if big > MAX_NEWTON_STEP:
+                    dq *= MAX_NEWTON_STEP / big
+                dq *= closing_fraction(state, dq, cfg.k_n, r)
         dq = eng.comm.bcast(dq, root=0)
         if not np.all(np.isfinite(dq)):
             if not fresh:
                 reuse = False
                 continue
-            stagnated = True
+            stop = "stagnated"
             break
         big = float(np.max(np.abs(dq)))
         if big > MAX_NEWTON_STEP:      # far from the basin: shorten the step
@@ -442,13 +535,18 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
                 reuse = False
                 continue
             state, G, r = exact_residual(eng)
-            stagnated = True
+            stop = "stagnated"
             break
         reuse = chord_below is not None and (below or r_new <= REUSE_CONTRACTION * r
                                              or r_new < chord_below)
+        slow = slow + 1 if (chord_below is not None and not below
+                            and r_new > SLOW_CONTRACTION * r) else 0
         state, G, r = new, G_new, r_new
         record.add(t_sim, r, "newton", t0)
-    return r, stagnated
+        if slow >= SLOW_STEPS:      # crawling (steps cut short by closing gaps, or
+            stop = "slow"           # a singular K): damped dynamics do better
+            break
+    return r, stop
 
 
 def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
@@ -495,16 +593,26 @@ def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
     accept = accept_level(cfg, st0)
     t_sim = 0.0
     steps = 0
+    # a Newton phase that accepted steps but ended above the acceptance level
+    # at r_end is tried again only once the damped dynamics are below r_end:
+    # Newton phases pulling the state back towards an unstable equilibrium,
+    # alternating with damped chunks that leave it, made a livelock
+    # (measured: N = 16, F_x = 0.08, mu = 0.8, r cycling 2.5e-3 -> 1.8e-3)
+    newton_below = math.inf
 
     def newton():
+        nonlocal newton_below
         eng.unfix(*DAMPING_FIXES, *INTEGRATOR_FIXES)
         eng.command("velocity all set 0.0 0.0 0.0")
         eng.command("set group all omega 0.0 0.0 0.0")
-        return polish(eng, cfg, F_x, record, t0, t_sim, chord_below=accept)
+        n0 = len(record.residual)
+        r, stop = polish(eng, cfg, F_x, record, t0, t_sim, chord_below=accept)
+        newton_below = r if len(record.residual) > n0 + 1 else math.inf
+        return r, stop
 
     if newton_first and cfg.newton:
-        r, stagnated = newton()
-        if r < cfg.f_min or (stagnated and r < accept):
+        r, stop = newton()
+        if r < cfg.f_min or (stop and r < accept):
             return r, t_sim, record
     while True:
         if not eng.has_fix("integ"):
@@ -522,9 +630,9 @@ def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
             raise NoEquilibriumError(
                 f"no equilibrium at F_x = {F_x!r}: the top layer slid {dx:.3g} "
                 f"(> slide = {cfg.slide}) in t = {t_sim:.4g}")
-        if cfg.newton and r < cfg.newton_start * cfg.F_y:
-            r, stagnated = newton()
-            if r < cfg.f_min or (stagnated and r < accept):
+        if cfg.newton and r < cfg.newton_start * cfg.F_y and r < newton_below:
+            r, stop = newton()
+            if r < cfg.f_min or (stop and r < accept):
                 return r, t_sim, record
         elif not cfg.newton and r < cfg.f_min:
             eng.unfix(*DAMPING_FIXES, *INTEGRATOR_FIXES)
