@@ -41,7 +41,8 @@ frictional                 0.5          stability at F_x = 0
 =========================  ===========  =====================================
 
 Work is spread over MPI ranks: each rank runs its own LAMMPS instances on
-``MPI.COMM_SELF``; packings are dealt round robin (largest N first). A
+``MPI.COMM_SELF``; a free rank takes the next packing no rank has taken
+(one queue, largest N first; ``tasks/<key>.claim`` files). A
 packing's result is written atomically to ``tasks/<key>.json`` when it is
 finished; a job killed (also ``kill -9``) and run again with ``--resume``
 keeps every finished packing and redoes the others from their start. One
@@ -62,7 +63,7 @@ import time
 import numpy as np
 
 from .parallel import on_rank0
-from .jobfolder import add_job_arguments, job_overrides
+from .jobfolder import add_job_arguments, claim_task, clear_claims, job_overrides
 # the configuration and the table/statistics/outputs live in their own modules;
 # their names are importable from here as before
 from .ensemble_config import EnsembleConfig, QUICK, I0_DYNAMICS, build_config
@@ -389,8 +390,10 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
     out : str
         Output folder (see :func:`check_out`).
     comm : mpi4py communicator, optional
-        Default ``MPI.COMM_WORLD``; packings are dealt round robin over its
-        ranks (largest N first), each rank runs LAMMPS on ``MPI.COMM_SELF``.
+        Default ``MPI.COMM_WORLD``; its ranks take packings from one queue
+        (largest N first; a rank that is free takes the next packing no rank
+        has claimed, ``jobfolder.claim_task``), each rank runs LAMMPS on
+        ``MPI.COMM_SELF``.
     speak : bool
         Progress lines (rank 0 only).
     resume : bool
@@ -424,15 +427,16 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
         check_out(cfg, out, resume)
         os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
         os.makedirs(os.path.join(out, "packings"), exist_ok=True)
+        clear_claims(os.path.join(out, "tasks"))   # a killed session's (--resume)
 
     on_rank0(comm, prepare)
     tasks = cfg.packings()
     order = sorted(range(len(tasks)), key=lambda i: (-tasks[i]["n"], i))
-    mine = [tasks[i] for i in order[rank::size]]
     say(f"{len(tasks)} packings on {size} rank(s)")
     computed = []
-    for t in mine:
-        if load_task(out, t) is not None:
+    for t in (tasks[i] for i in order):
+        if (load_task(out, t) is not None
+                or not claim_task(os.path.join(out, "tasks"), t["key"])):
             continue
         res = run_packing(cfg, t["n"], t["seed"], os.path.join(out, "packings", t["key"]))
         write_json(_task_path(out, t["key"]), {"task": t, "status": "complete",
@@ -448,6 +452,8 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
                 + (f"; {len(res['warnings'])} distinct warning(s) in tasks/{t['key']}.json"
                    if res["warnings"] else "") + ")")
     computed = comm.gather(computed, root=0)
+    if rank == 0:
+        clear_claims(os.path.join(out, "tasks"))
     path = os.path.join(out, "ensemble.md")
     err = None
     if rank == 0:

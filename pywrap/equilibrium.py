@@ -505,14 +505,14 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
                 solve = newton_solver(stiffness(state, cfg.k_n, cfg.k_t, cfg.mu, F_x,
                                                 cfg.F_y))
             dq = solve(G)
-            # (below the acceptance level gaps closing by round-off-sized steps
-            # carry no force worth a neighbour search: 0.5 ms per step at N = 100)
-            if CLOSING_FORCE and np.all(np.isfinite(dq)) and not (
-                    chord_below is not None and r < chord_below):
+            if np.all(np.isfinite(dq)):
                 big = float(np.max(np.abs(dq)))
-                if big > MAX_NEWTON_STEP:
+                if big > MAX_NEWTON_STEP:      # far from the basin: shorten the step
                     dq *= MAX_NEWTON_STEP / big
-                dq *= closing_fraction(state, dq, cfg.k_n, r)
+                # (below the acceptance level, gaps closed by round-off-sized
+                # steps carry no force worth a neighbour search: 0.5 ms at N = 100)
+                if CLOSING_FORCE and not (chord_below is not None and r < chord_below):
+                    dq *= closing_fraction(state, dq, cfg.k_n, r)
         dq = eng.comm.bcast(dq, root=0)
         if not np.all(np.isfinite(dq)):
             if not fresh:
@@ -520,9 +520,6 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
                 continue
             stop = "stagnated"
             break
-        big = float(np.max(np.abs(dq)))
-        if big > MAX_NEWTON_STEP:      # far from the basin: shorten the step
-            dq *= MAX_NEWTON_STEP / big
         eng.scatter("x", state.positions + dq[:, :2])
         eng.scatter("v", dq[:, :2] / cfg.dt)
         eng.scatter("omega", dq[:, 2] / (state.radii * cfg.dt))
@@ -557,8 +554,12 @@ def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
 
     Over-damped dynamics in chunks of ``cfg.check_every`` steps; once the
     residual estimate is below ``cfg.newton_start``, Newton polishing; if
-    polishing stagnates above the acceptance level (:func:`accept_level`),
-    back to dynamics.
+    polishing stops above the acceptance level (:func:`accept_level`),
+    back to dynamics. A Newton phase that accepted steps and stopped above
+    that level at r_end is tried again only once the dynamics are below
+    r_end (otherwise Newton phases and damped chunks can cycle near an
+    unstable equilibrium: measured on ``ensemble --quick``'s N = 16
+    packing, see :func:`polish`).
 
     Parameters
     ----------

@@ -14,6 +14,42 @@ from .paper.config import parse_set
 CONFIG_FILE = "config.json"
 
 
+def claim_task(folder, key):
+    """Take task ``key`` for this rank: create ``folder/<key>.claim`` exclusively.
+
+    The task queue of a job's MPI ranks: every rank walks the same task list
+    and runs a task only if its claim succeeds, so a rank that is free takes
+    the next task no rank has taken (dynamic load balance, no messages).
+
+    Parameters
+    ----------
+    folder : str
+        The job's ``tasks`` folder (shared by every rank).
+    key : str
+        The task's key.
+
+    Returns
+    -------
+    bool
+        False if another rank has claimed it (``O_CREAT | O_EXCL`` is atomic
+        on a local file system and on NFS v3 and later).
+    """
+    try:
+        fd = os.open(os.path.join(folder, key + ".claim"), os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        return False
+    os.close(fd)
+    return True
+
+
+def clear_claims(folder):
+    """Remove every ``*.claim`` of ``folder`` (rank 0: before the ranks start
+    -- a killed session's claims on ``--resume`` -- and when all have ended)."""
+    for name in os.listdir(folder):
+        if name.endswith(".claim"):
+            os.remove(os.path.join(folder, name))
+
+
 def check_job_folder(out, config, resume, kind):
     """Refuse an ``--out`` that is a file or holds other results; check ``--resume``.
 

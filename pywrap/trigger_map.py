@@ -43,7 +43,8 @@ design; in short:
   (:func:`remote_trigger.analysis.eigen.damped_growth_rate`).
 
 Work is spread over MPI ranks (each rank its own LAMMPS instance on
-``MPI.COMM_SELF``; tasks round robin); each task's runs are logged to
+``MPI.COMM_SELF``; a free rank takes the next task no rank has taken:
+``jobfolder.claim_task``); each task's runs are logged to
 ``tasks/<key>.json`` (atomic), so a job killed (also ``kill -9``) and run
 again with ``--resume`` keeps every finished run. Rank 0 writes
 ``trigger_map.h5`` (one row per map point), ``trigger_map.png`` and
@@ -58,7 +59,7 @@ import numpy as np
 
 from remote_trigger.analysis.series import runaway_rate, runaway_consistent
 from .parallel import on_rank0
-from .jobfolder import add_job_arguments, job_overrides
+from .jobfolder import add_job_arguments, claim_task, clear_claims, job_overrides
 # the configuration and the outputs live in their own modules; their names are
 # importable from here as before
 from .trigger_map_config import ONSETS, MapConfig, QUICK, build_config
@@ -404,15 +405,18 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
         t["t_max"] = float(cfg.t_max)
         t["record_every"] = int(rec if rec is not None else
                                 max(1, round(1.0 / (t["dt_fraction"] * ld["dt_max"]))))
+    tdir = os.path.join(out, "tasks")
     if rank == 0:
-        os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
+        os.makedirs(tdir, exist_ok=True)
         os.makedirs(os.path.join(out, "runs"), exist_ok=True)
+        clear_claims(tdir)            # a killed session's (--resume)
     comm.Barrier()
-    mine = tasks[rank::size]
     from .paper import write_json
     done = 0
     with Engine(comm=MPI.COMM_SELF) as eng:
-        for t in mine:
+        for t in tasks:               # one queue: a free rank takes the next unclaimed task
+            if not claim_task(tdir, t["key"]):
+                continue
             try:
                 d = run_task(eng, cfg, setup, t, out)
             except Exception as exc:  # noqa: BLE001 - one failed point must not stop the map
@@ -424,8 +428,10 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
                 txt = (f"a_c in [{res.get('a_lo') or 0:.3g}, {res.get('a_hi') or math.inf:.3g}]"
                        f" ({res.get('bracket_status')})" if t["kind"] == "threshold" else
                        f"noise-triggered: {res.get('noise_triggered')}")
-                say(f"rank 0: {done}/{len(mine)} {t['key']}: {txt}")
+                say(f"rank 0: {t['key']} ({done} on this rank, {len(tasks)} in all): {txt}")
     comm.Barrier()
+    if rank == 0:
+        clear_claims(tdir)
     path = os.path.join(out, "trigger_map.md")
     err = None
     if rank == 0:
