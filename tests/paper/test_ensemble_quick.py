@@ -108,6 +108,8 @@ def test_resume_redoes_only_the_missing_packing(serial, tmp_path):
     out = str(tmp_path / "resumed")
     shutil.copytree(src, out)
     os.remove(os.path.join(out, "tasks", "N20_s1.json"))
+    # a killed job leaves the claim of the packing it was running
+    open(os.path.join(out, "tasks", "N20_s1.claim"), "w").close()
     proc = _run(["--quick", "--out", out])                       # no --resume: refused
     assert proc.returncode == 2 and "--resume" in proc.stderr
     proc = _run(["--quick", "--out", out, "--set", "tol=0.001", "--resume"])
@@ -118,6 +120,7 @@ def test_resume_redoes_only_the_missing_packing(serial, tmp_path):
         man = json.load(fh)
     assert man["sessions"][-1]["computed"] == ["N20_s1"]
     assert man["sessions"][-1]["resume"] is True
+    assert not [n for n in os.listdir(os.path.join(out, "tasks")) if n.endswith(".claim")]
     _same(t1, en.read_table(os.path.join(out, en.TABLE)))
 
 
