@@ -453,7 +453,7 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
       whose Hertz force exceeds :data:`CLOSING_FORCE` times the residual is
       shortened to the fraction that does not (:func:`closing_fraction`);
       without it such steps were rejected and damped dynamics had to let
-      the contact form (4 chunks, 4.5 s instead of 1.3-1.5 s per point);
+      the contact form (4 chunks, 3.3-4.7 s instead of 1.1-1.9 s per point);
     * with ``chord_below`` set, :data:`SLOW_STEPS` accepted steps in a row
       that each lower a residual above ``chord_below`` by less than
       :data:`SLOW_CONTRACTION` end the iteration (``'slow'``; the caller

@@ -4,8 +4,8 @@ Unit checks of the step fraction against the Hertz force it is meant to
 cap (head-on, across the periodic boundary, against the wall), and the case
 that made it necessary: the N = 1600 packing kept for make bench, whose
 ramp step F_x = 2.5e-4 -> 5e-4 needed 4 chunks of damped dynamics between
-rejected Newton steps (4.5 s) before the cap and converges by Newton alone
-with it (1.3 s).
+rejected Newton steps (3.3-4.7 s) before the cap and converges by Newton alone
+with it (1.1-1.9 s).
 """
 import os
 from types import SimpleNamespace
