@@ -8,6 +8,7 @@ rejected Newton steps (3.3-4.7 s) before the cap and converges by Newton alone
 with it (1.1-1.9 s).
 """
 import os
+import sys
 from types import SimpleNamespace
 
 import numpy as np
@@ -76,8 +77,10 @@ def test_wall_gap_is_capped_too():
     np.testing.assert_allclose(K_N * delta ** 1.5, eq.CLOSING_FORCE * R_RES, rtol=1e-6)
 
 
-STORED = os.path.join(os.path.dirname(__file__), "..", "..", "benchmarks", "data",
-                      "relaxed_N1600_seed1.data")
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "benchmarks"))
+from bench_scale import STORED as _BENCH_PACKINGS  # noqa: E402  (make bench's stored packings)
+
+STORED = _BENCH_PACKINGS[1600]
 
 
 @pytest.mark.skipif(not os.path.exists(STORED), reason="stored N = 1600 packing not present")
