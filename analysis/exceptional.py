@@ -77,6 +77,12 @@ FMA (OpenBLAS, MKL, reference BLAS), not a Strassen-type algorithm.
 A 2 x 2 matrix (the normal form) is decided directly: S_cc = A, radius
 rel_error |A| (+ input_error), no similarity.
 
+**From a previous basis** (``classify_spectrum(A, basis=)``, a ramp's next
+step). Steps 2-5 hold for any nonsingular X, so step 1 can be replaced by
+the verified basis of a nearby matrix, corrected without an eigen-solve
+(:func:`_from_basis`). Its answer is kept only if certified; otherwise the
+decision starts from dgeev. Either answer certifies the same thing.
+
 The spectrum decision is *complex* if some pair is certified complex (no
 isolation needed: the Riccati argument alone proves M_c's eigenvalues are
 eigenvalues of every matrix of the set), *real* if every pair is certified
@@ -108,7 +114,7 @@ import warnings
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["PairDecision", "SpectrumDecision", "block_discriminant", "exact_residual",
+__all__ = ["PairDecision", "SpectrumBasis", "SpectrumDecision", "block_discriminant", "exact_residual",
            "classify_spectrum", "classify_projected", "normal_form", "UNIT_ROUNDOFF"]
 
 # unit roundoff and the rigorous floating-point bounds: analysis.enclosure
@@ -118,6 +124,9 @@ from .enclosure import (EPS, TINY, UNIT_ROUNDOFF, U, _cover_radius, _disc_test, 
 _PARALLEL = 1.0 - 1e-4          # |cos| of two real eigenvectors above which they form a pair
 _ILL = 100.0                    # pair basis condition above which the subspace is refined
 _SHARP_BELOW = 1e4              # crude margin below which a pair is also computed sharply
+_BASIS_CORRECTED = 0.1          # a previous basis is verified once its last correction |W| <= this
+_BASIS_ITERATIONS = 3           # ... after at most this many corrections
+_BASIS_DIVERGED = 1.0           # a correction |W| above this: give up, start from dgeev
 
 
 def normal_form(d, eps):
@@ -245,12 +254,21 @@ class SpectrumDecision:
     backward_error : float
         Largest row deviation bound dev_i of the similarity (units of A).
     eigenvalues : ndarray, complex
-        All eigenvalues (LAPACK), sorted by real part.
+        All eigenvalues, sorted by real part: LAPACK's (``start`` 'dgeev'),
+        or the verified basis's block centres with their second-order
+        coupling term (``start`` 'basis').
     timing : dict
-        Wall times in seconds: ``eigen`` (eigenvalues and vectors) and
-        ``decision`` (everything else).
+        Wall times in seconds: ``eigen`` (eigenvalues and vectors; 0 for a
+        decision from a previous basis) and ``decision`` (everything else).
     reason : str
         For an undecided spectrum, why.
+    basis : SpectrumBasis or None
+        The verified basis, to start the decision of a nearby matrix from
+        (``classify_spectrum(..., basis=)``); None if verification failed.
+    start : str
+        ``'dgeev'`` (eigenvectors computed for this matrix) or ``'basis'``
+        (the basis of a previous decision, corrected; see
+        :func:`classify_spectrum`).
     """
 
     complex_present: bool | None
@@ -260,6 +278,8 @@ class SpectrumDecision:
     eigenvalues: np.ndarray | None = None
     timing: dict = field(default_factory=dict)
     reason: str = ""
+    basis: "SpectrumBasis | None" = None
+    start: str = "dgeev"
 
     @property
     def critical_pair(self):
@@ -271,6 +291,60 @@ class SpectrumDecision:
             return max((p for p in cands if p.is_complex and p.certified),
                        key=lambda p: p.margin)
         return min(cands, key=lambda p: p.margin)
+
+
+@dataclass
+class SpectrumBasis:
+    """A verified basis of a decision: the start of the next one.
+
+    Attributes
+    ----------
+    X : ndarray, shape (n, n)
+        Columns: the units' bases (a real eigenvector, or two columns
+        spanning a pair's invariant subspace), unit ``b`` in columns
+        ``blocks[b][0] : blocks[b][0] + blocks[b][1]``.
+    R : ndarray, shape (n, n)
+        The float64 inverse of X used in the verification.
+    blocks : list of (int, int)
+        (first column, size 1 or 2) of each unit.
+    pairs : ndarray of bool, shape (len(blocks),)
+        The unit is a pair (a complex pair or two near-parallel real
+        eigenvectors).
+    """
+
+    X: np.ndarray
+    R: np.ndarray
+    blocks: list
+    pairs: np.ndarray
+
+    def save(self, path):
+        """Write X and the block layout to ``path`` (``.npz``; R is recomputed on load)."""
+        b = np.asarray(self.blocks, np.int64).reshape(-1, 2)
+        with open(path, "wb") as fh:
+            np.savez(fh, X=self.X, blocks=b, pairs=np.asarray(self.pairs, bool))
+
+    @classmethod
+    def load(cls, path):
+        """Read a basis written by :meth:`save` (R = inv(X), as the verification computes it).
+
+        Raises
+        ------
+        ValueError
+            If the file is not a saved basis (the message names it).
+        """
+        try:
+            with np.load(path) as z:
+                X, b, pairs = z["X"], z["blocks"], z["pairs"]
+        except (OSError, KeyError, ValueError) as exc:
+            raise ValueError(f"cannot read spectrum basis {path!r}: {exc}") from exc
+        n = X.shape[0]
+        if (X.ndim != 2 or X.shape != (n, n) or b.ndim != 2 or b.shape[1] != 2
+                or pairs.shape != (b.shape[0],) or int(b[:, 1].sum()) != n):
+            raise ValueError(f"cannot read spectrum basis {path!r}: inconsistent shapes")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            R = np.linalg.inv(X)
+        return cls(X, R, [(int(s), int(k)) for s, k in b], pairs)
 
 
 # --------------------------------------------------------------------------- units and bases
@@ -526,9 +600,16 @@ def _analyse(A, lam, V, units, rel_error, input_error):
         if k == 2:
             X[:, s:s + 2], ref = _pair_basis(A, lam, V, un)
         refined.append(k == 2 and ref)
+    return _verify(A, X, blocks, units, refined, rel_error, input_error)
+
+
+def _verify(A, X, blocks, units, refined, rel_error, input_error):
+    """Steps 2-5 for the basis X (units' columns at ``blocks``): (entries, _Verified)."""
+    n = A.shape[0]
     ver = _Verified(A, X, blocks, rel_error, input_error)
     if not ver.ok:
         return None, ver
+    ver.basis = SpectrumBasis(X, ver.R, blocks, np.array([k == 2 for _, k in blocks]))
     dev, off, C = ver.dev, ver.off, ver.C
     one = np.array([b for b, (s, k) in enumerate(blocks) if k == 1], dtype=np.intp)
     s_one = np.array([blocks[b][0] for b in one.tolist()], dtype=np.intp)
@@ -575,6 +656,65 @@ def _analyse(A, lam, V, units, rel_error, input_error):
         pair_out.append(dec)
     iso, ver.conflicts = _isolation(discs, blocks, units)
     return pair_out + iso, ver
+
+
+def _from_basis(A, basis, rel_error, input_error):
+    """Steps 2-5 from a previous decision's basis, corrected (no eigen-solve).
+
+    With C = R A X (block diagonal up to the change of A since X was
+    verified), X <- X (I + W), W_ij = C_ij / (C_jj - C_ii) for i, j in
+    different units, removes the off-block part of C to first order; the
+    correction is repeated (R = X^{-1} anew, a Newton-type iteration whose
+    |W| fell quadratically on the ramps tried) until
+    max |W| <= ``_BASIS_CORRECTED``, at most ``_BASIS_ITERATIONS`` times. The
+    verification of X is the same rigorous one as for dgeev's vectors (it
+    holds for any nonsingular X). Returns (entries, _Verified, eigenvalues)
+    or None if the basis does not fit (size) or the correction diverges.
+    """
+    X, R, blocks = basis.X, basis.R, basis.blocks
+    n = A.shape[0]
+    if X.shape != (n, n):
+        return None
+    unit = np.repeat(np.arange(len(blocks)), [k for _, k in blocks])
+    same = unit[:, None] == unit[None, :]
+    for it in range(_BASIS_ITERATIONS):
+        if it:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                R = np.linalg.inv(X)
+        C0 = R @ (A @ X)
+        d = C0.diagonal()
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            W = C0 / (d[None, :] - d[:, None])
+        W[same] = 0.0
+        wmax = float(np.abs(W).max()) if W.size else 0.0
+        if not wmax <= _BASIS_DIVERGED:          # also NaN / inf
+            return None
+        X = X + X @ W
+        X /= np.sqrt(np.einsum("ij,ij->j", X, X))
+        if wmax <= _BASIS_CORRECTED:
+            break
+    units = [_Unit(tuple(range(s0, s0 + k)), merged=k == 2) for s0, k in blocks]
+    entries, ver = _verify(A, X, blocks, units, [False] * len(blocks), rel_error,
+                           input_error)
+    if entries is None or ver.conflicts:
+        return None
+    # eigenvalues: a unit's diagonal entry of C, plus the second-order
+    # coupling sum_j C_ij C_ji / (C_ii - C_jj) (measured on ramps, relative to
+    # max |lambda|: dgeev's to 2e-14-4e-11; 1e-13-4e-8 without the coupling
+    # term); a pair's 2 x 2 block
+    C = ver.C
+    d = C.diagonal()
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        T = C * C.T / (d[:, None] - d[None, :])
+    T[same] = 0.0
+    lam = (d + T.sum(axis=1)).astype(complex)
+    if not np.all(np.isfinite(lam)):
+        lam = d.astype(complex)
+    for s0, k in blocks:
+        if k == 2:
+            lam[s0:s0 + 2] = np.linalg.eigvals(C[s0:s0 + 2, s0:s0 + 2])
+    return entries, ver, lam[np.lexsort((lam.imag, lam.real))]
 
 
 def _isolation(discs, blocks, units):
@@ -631,7 +771,7 @@ def _decide_2x2(A, input_error, rel_error):
                         "" if cert else "discriminant within its error bound", True)
 
 
-def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF):
+def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF, basis=None):
     """Decide soundly whether the real matrix A has a complex pair of eigenvalues.
 
     Parameters
@@ -645,11 +785,19 @@ def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF):
     rel_error : float, optional
         Entrywise relative uncertainty of A (default u = 2^-53: every real
         matrix that rounds to A; 0 decides for A exactly as stored).
+    basis : SpectrumBasis, optional
+        The ``basis`` of the decision of a nearby matrix (the previous step
+        of a ramp). Tried first: corrected to first order (no eigen-solve)
+        and verified rigorously like dgeev's vectors; its answer is used
+        only if it is certified (*complex* or *real*), else the decision
+        starts from dgeev. Either way the answer certifies the same thing;
+        the margins differ (the corrected basis leaves more coupling).
 
     Returns
     -------
     SpectrumDecision
-        See the module docstring for what each answer certifies.
+        See the module docstring for what each answer certifies;
+        ``start`` says which basis it came from.
 
     Raises
     ------
@@ -670,6 +818,16 @@ def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF):
         lam = lam[np.lexsort((lam.imag, lam.real))]
         return _summarize([p], 0.0, lam, {"eigen": t1 - t0,
                                           "decision": time.perf_counter() - t1}, "")
+    if basis is not None:
+        warm = _from_basis(A, basis, rel_error, input_error)
+        if warm is not None:
+            entries, ver, lam = warm
+            dec = _summarize(entries, float(np.max(ver.dev)), lam,
+                             {"eigen": 0.0, "decision": time.perf_counter() - t0}, "")
+            if dec.complex_present is not None:
+                dec.basis, dec.start = ver.basis, "basis"
+                return dec
+    t0e = time.perf_counter()
     lam, V = sla.eig(A, check_finite=False)
     t1 = time.perf_counter()
     lam_sorted = lam[np.lexsort((lam.imag, lam.real))]
@@ -691,10 +849,12 @@ def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF):
         entries2, ver2 = _analyse(A, lam, V, new, rel_error, input_error)
         if entries2 is not None:
             entries, ver = entries2, ver2
-    timing = {"eigen": t1 - t0, "decision": time.perf_counter() - t1}
+    timing = {"eigen": t1 - t0e, "decision": time.perf_counter() - t1 + t0e - t0}
     if entries is None:
         return SpectrumDecision(None, 0.0, [], math.inf, lam_sorted, timing, ver.reason)
-    return _summarize(entries, float(np.max(ver.dev)), lam_sorted, timing, "")
+    dec = _summarize(entries, float(np.max(ver.dev)), lam_sorted, timing, "")
+    dec.basis = ver.basis
+    return dec
 
 
 def _summarize(pairs, e, lam, timing, reason):

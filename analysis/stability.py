@@ -57,6 +57,10 @@ class StabilityResult:
     timing : dict
         Wall times (s) of the eigen-solve (``eigen``) and of the certified
         decision (``decision``).
+    basis : remote_trigger.analysis.exceptional.SpectrumBasis or None
+        The decision's verified basis (start of the next point's decision).
+    start : str
+        ``'dgeev'`` or ``'basis'`` (decided from a previous point's basis).
     """
 
     eigenvalues: np.ndarray
@@ -69,6 +73,8 @@ class StabilityResult:
     confidence: float = float("inf")
     residual: float = float("nan")
     timing: dict = None
+    basis: object = None
+    start: str = "dgeev"
 
     @property
     def decision_code(self):
@@ -76,12 +82,15 @@ class StabilityResult:
         return DECISION_CODES[self.decision]
 
 
-def stability_of(state):
+def stability_of(state, basis=None):
     """Eigen-analysis of an analysis ``State`` with the analyzer (dense path).
 
     Parameters
     ----------
     state : remote_trigger.analysis.state.State
+    basis : remote_trigger.analysis.exceptional.SpectrumBasis, optional
+        The previous point's ``basis``: tried first
+        (:func:`remote_trigger.analysis.exceptional.classify_spectrum`).
 
     Returns
     -------
@@ -101,7 +110,8 @@ def stability_of(state):
                                np.asarray(rat.ids, np.int64), "real", float("inf"),
                                res.max_residual)
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
-    dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray())
+    dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
+                                        basis=basis)
     if dec.complex_present is None:
         decision = "undecided"
     else:
@@ -112,11 +122,14 @@ def stability_of(state):
     max_imag = float(np.max(np.abs(lam.imag))) if (cplx and lam.size) else 0.0
     return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
                            int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
-                           float(dec.confidence), res.max_residual, dict(dec.timing))
+                           float(dec.confidence), res.max_residual, dict(dec.timing),
+                           dec.basis, dec.start)
 
 
-def stability_of_dump(path):
+def stability_of_dump(path, basis=None):
     """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
+
+    ``basis``: as in :func:`stability_of`.
 
     Raises
     ------
@@ -130,4 +143,4 @@ def stability_of_dump(path):
         state = read_dump(path, require_contacts=False)
     except (OSError, KeyError, IndexError, ValueError) as exc:
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
-    return stability_of(state)
+    return stability_of(state, basis)

@@ -173,17 +173,19 @@ def _bracket_attrs(rlog, lo, hi, tol, why=""):
     return attrs
 
 
-def _ramp_point(eng, cfg, start_file, F_x, prefix):
+def _ramp_point(eng, cfg, start_file, F_x, prefix, basis=None):
     """Equilibrate at F_x from ``start_file``, save ``prefix.*``, analyse.
 
-    Returns (values dict, eigenvalues, StabilityResult).
+    ``basis``: the previous point's verified spectrum basis (rank 0), tried
+    first by the certified decision. Returns (values dict, StabilityResult).
     """
     t0 = time.perf_counter()
     load_relax_scene(eng, cfg, start_file, F_x, deck="in.ramp_step")
     r, t_sim, rec = eq.equilibrate(eng, cfg, F_x, newton_first=True)
     save_equilibrium(eng, cfg, F_x, prefix)
-    res = _analyze(eng, prefix + ".dump")
+    res = _analyze(eng, prefix + ".dump", basis)
     vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
+            "from_basis": float(res.start == "basis"),
             "decision": float(res.decision_code), "confidence": float(res.confidence),
             "growth_rate": res.growth_rate, "max_imag": res.max_imag,
             "n_rattlers": float(res.n_rattlers), "wall_time": time.perf_counter() - t0,
@@ -376,6 +378,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
     when bisection follows.
     """
     steps = rlog.rows["steps"]
+    basis = _load_basis(eng, folder, len(steps["F_x"]) - 1)
     while not (steps["complex"] and steps["complex"][-1] > 0):
         k = len(steps["F_x"])
         F = next_step(cfg, rlog)
@@ -391,15 +394,20 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
         name = ramp_file.point_name(ramp_file.STEPS, k)
         prefix = os.path.join(folder, name)
         try:
-            vals, res = _ramp_point(eng, rcfg, start, F, prefix)
+            vals, res = _ramp_point(eng, rcfg, start, F, prefix, basis)
         except eq.NoEquilibriumError as exc:
             rlog.attrs["message"] = str(exc)
             if eng.rank == 0:
                 rlog.write("no_equilibrium")
             return _ramp_result(rlog, "no_equilibrium")
+        basis = res.basis
+        if eng.rank == 0:
+            _save_basis(folder, k, basis)
         rlog.add(ramp_file.STEPS, name, prefix + ".data", vals, res.eigenvalues)
         if eng.rank == 0:
             rlog.write("running")
+            if not rlog.dirty:          # step k is on disk: older bases are not needed
+                _prune_bases(folder, keep=k)
         bar.update(1)
         bar.set_postfix_str(f"F_x {F:.6g} r {vals['residual']:.1e} "
                             f"complex {bool(vals['complex'])}")
@@ -449,7 +457,54 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget):
     rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol, why))
     if eng.rank == 0:
         rlog.write("complete")
+        _prune_bases(folder, keep=None)
     return _ramp_result(rlog, "complete")
+
+
+# --------------------------------------------------------------------------- spectrum bases
+# Each ramp step's certified decision starts from the previous step's verified
+# basis (analysis.exceptional.classify_spectrum(basis=)); which one it started
+# from changes its margins and the last bits of its eigenvalues (which the
+# adaptive ramp's next load depends on). So that a resumed ramp takes the
+# same loads and stores the same numbers, the basis of each step is saved
+# beside its equilibrium (``step_NNNNN.basis.npz``, rank 0, atomically) and
+# kept until a later step is recorded in ramp.h5; --resume starts from the
+# basis of the last recorded step. A missing basis (a ramp.h5 of an older
+# version) only means the next decision starts from dgeev.
+def _basis_path(folder, k):
+    return os.path.join(folder, ramp_file.point_name(ramp_file.STEPS, k) + ".basis.npz")
+
+
+def _save_basis(folder, k, basis):
+    from remote_trigger.analysis.output import atomic_path
+
+    if basis is None:
+        return
+    with atomic_path(_basis_path(folder, k)) as tmp:
+        basis.save(tmp)
+
+
+def _prune_bases(folder, keep):
+    """Remove the saved bases of every step but ``keep`` (None: all)."""
+    import glob
+
+    mine = None if keep is None else _basis_path(folder, keep)
+    for path in glob.glob(os.path.join(folder, ramp_file.POINT_PREFIX[ramp_file.STEPS]
+                                       + "*.basis.npz")):
+        if path != mine:
+            os.remove(path)
+
+
+def _load_basis(eng, folder, k):
+    """Rank 0: the saved basis of step k (None if k < 0, absent or unreadable)."""
+    from remote_trigger.analysis.exceptional import SpectrumBasis
+
+    if eng.rank != 0 or k < 0 or not os.path.exists(_basis_path(folder, k)):
+        return None
+    try:
+        return SpectrumBasis.load(_basis_path(folder, k))
+    except ValueError:
+        return None
 
 
 def _ramp_result(rlog, status):

@@ -33,7 +33,11 @@ BISECTION = "bisection"
 EIGENVALUES = "eigenvalues"
 #: float64 columns of every row group (plus ``datafile``)
 COLUMNS = ("F_x", "residual", "complex", "decision", "confidence", "growth_rate",
-           "max_imag", "n_rattlers", "wall_time", "damped_time", "newton_steps")
+           "max_imag", "n_rattlers", "wall_time", "damped_time", "newton_steps",
+           "from_basis")
+#: columns added after version 1 files were written, with the value a
+#: resumed older file gets for its existing rows
+LATER_COLUMNS = {"from_basis": 0.0}
 DATAFILE = "datafile"
 #: name prefix of a point's eigenvalue dataset (and of its equilibrium files)
 POINT_PREFIX = {STEPS: "step_", BISECTION: "bisect_"}
@@ -244,6 +248,10 @@ class RampLog:
         for kind in (STEPS, BISECTION):
             for c in cls.COLS:
                 key = column(kind, c)
+                if key not in data and c in LATER_COLUMNS:
+                    n_rows = len(data.get(column(kind, "F_x"), []))
+                    log.rows[kind][c] = [LATER_COLUMNS[c]] * n_rows
+                    continue
                 if key not in data:
                     raise ConfigError(f"cannot resume: {path} lacks dataset {key}")
                 log.rows[kind][c] = [float(x) for x in data[key]]

@@ -84,11 +84,25 @@ def packing_fraction(state):
     return float(np.sum(np.pi * state.radii ** 2) / (L * h))
 
 
-def _analyze(eng, dump):
-    """Eigen-analysis of a dump on rank 0, broadcast to all ranks."""
+def _analyze(eng, dump, basis=None):
+    """Eigen-analysis of a dump on rank 0, broadcast to all ranks.
+
+    ``basis``: the previous point's ``StabilityResult.basis`` (rank 0's;
+    ignored elsewhere). The result's ``basis`` is kept on rank 0 only (None
+    on the others: it is an n x n pair of matrices, not broadcast).
+    """
     from remote_trigger.analysis.stability import stability_of_dump
 
-    return on_rank0(eng.comm, stability_of_dump, dump)
+    kept = {}
+
+    def run():
+        res = stability_of_dump(dump, basis)
+        kept["basis"], res.basis = res.basis, None
+        return res
+
+    res = on_rank0(eng.comm, run)
+    res.basis = kept.get("basis")
+    return res
 
 
 def _ensure_dir(eng, path):

@@ -73,6 +73,69 @@ def test_resume_after_interruption_reproduces(full_ramp, relaxed, tmp_path):
     assert res.F_x_c_low == full.F_x_c_low and res.F_x_c_high == full.F_x_c_high, k
     np.testing.assert_array_equal(res.residual, full.residual)
     np.testing.assert_array_equal(res.bisection_F_x, full.bisection_F_x)
+    # the same numbers, the decisions' margins included (the saved spectrum basis)
+    _, a = read_all(res.h5)
+    _, b = read_all(full.h5)
+    for key in ("steps/confidence", "steps/from_basis", "bisection/confidence"):
+        np.testing.assert_array_equal(a[key], b[key], err_msg=f"{key}, k = {k}")
+
+
+def _dump(datafile):
+    s = datafile.decode() if isinstance(datafile, bytes) else str(datafile)
+    return s[:-len(".data")] + ".dump"
+
+
+def test_decisions_from_the_previous_basis_are_dgeev_s(full_ramp):
+    """A step decided from the previous step's basis: the same answer as dgeev's.
+
+    The independent check is the analyzer run afresh on each step's dump
+    (dgeev's eigenvectors, no basis); both answers are certified, so they
+    must agree, and the eigenvalues must agree to the basis's accuracy.
+    """
+    from remote_trigger.analysis.stability import stability_of_dump
+
+    cfg, res = full_ramp
+    _, data = read_all(res.h5)
+    fb = data["steps/from_basis"]
+    assert fb[0] == 0 and fb.sum() >= (fb.size - 1) // 2, fb     # the path is taken
+    assert np.all(data["bisection/from_basis"] == 0)            # bisection: dgeev
+    for k, f in enumerate(data["steps/datafile"]):
+        cold = stability_of_dump(_dump(f))
+        assert cold.start == "dgeev" and cold.decision_code == data["steps/decision"][k], k
+        lam = data[f"eigenvalues/steps/step_{k:05d}"]
+        np.testing.assert_allclose(np.sort_complex(lam), np.sort_complex(cold.eigenvalues),
+                                   rtol=0, atol=1e-10 * np.abs(cold.eigenvalues).max())
+    assert not [f for f in os.listdir(os.path.dirname(_dump(f))) if f.endswith(".basis.npz")]
+
+
+def test_resume_starts_from_the_saved_basis(full_ramp, tmp_path):
+    """Interrupted among the steps and resumed: the next step starts from the basis
+    saved with the last recorded step. Without that file (deleted here) the
+    step is decided from dgeev: the same answer with another margin, so the
+    resumed ramp would not store the same numbers."""
+    import glob
+    import shutil
+
+    cfg, full = full_ramp
+    _, ref = read_all(full.h5)
+    k = max(2, full.F_x.size // 2)
+    first = tmp_path / "a"
+    part = stages.ramp(cfg, str(first), quiet=True, stop_after=k)
+    assert part.status == "interrupted" and part.F_x.size == k
+    assert os.path.exists(first / "ramp" / f"step_{k - 1:05d}.basis.npz")
+    second = tmp_path / "b"
+    shutil.copytree(first, second)
+    for f in glob.glob(str(second / "ramp" / "*.basis.npz")):
+        os.remove(f)
+    out = {}
+    for name, folder in (("kept", first), ("deleted", second)):
+        res = stages.ramp(cfg, str(folder), quiet=True, resume=True)
+        assert res.status == "complete"
+        out[name] = read_all(res.h5)[1]
+    np.testing.assert_array_equal(out["kept"]["steps/confidence"], ref["steps/confidence"])
+    np.testing.assert_array_equal(out["deleted"]["steps/decision"], ref["steps/decision"])
+    assert ref["steps/from_basis"][k] == 1 and out["deleted"]["steps/from_basis"][k] == 0
+    assert out["deleted"]["steps/confidence"][k] != ref["steps/confidence"][k]
 
 
 # kill -9 at random moments, then --resume: tests/driver/test_kill.py
@@ -98,8 +161,8 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
     W = 0.3 * min(F_c - full.F_x[-2], full.F_x[-1] - F_c)
     real = stability.stability_of_dump
 
-    def fuzzy(path):
-        res = real(path)
+    def fuzzy(path, basis=None):
+        res = real(path, basis)
         with open(path + ".json") as fh:
             F = json.load(fh)["F_x"]
         if abs(F - F_c) < W:
