@@ -124,7 +124,7 @@ from .enclosure import (EPS, TINY, UNIT_ROUNDOFF, U, _cover_radius, _disc_test, 
 _PARALLEL = 1.0 - 1e-4          # |cos| of two real eigenvectors above which they form a pair
 _ILL = 100.0                    # pair basis condition above which the subspace is refined
 _SHARP_BELOW = 1e4              # crude margin below which a pair is also computed sharply
-_BASIS_CORRECTED = 0.1          # a previous basis is verified once its last correction |W| <= this
+_BASIS_CORRECTED = 0.03          # a previous basis is verified once its last correction |W| <= this
 _BASIS_ITERATIONS = 3           # ... after at most this many corrections
 _BASIS_DIVERGED = 1.0           # a correction |W| above this: give up, start from dgeev
 
@@ -708,12 +708,46 @@ def _from_basis(A, basis, rel_error, input_error):
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         T = C * C.T / (d[:, None] - d[None, :])
     T[same] = 0.0
+    for s0, k in blocks:            # a pair's coupling through its 2 x 2 resolvent
+        if k == 2:
+            p, q, r, t = C[s0, s0], C[s0, s0 + 1], C[s0 + 1, s0], C[s0 + 1, s0 + 1]
+            a, b = C[:, s0], C[:, s0 + 1]            # C_ic
+            e, f = C[s0, :], C[s0 + 1, :]            # C_ci
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                det = (d - p) * (d - t) - q * r
+                T[:, s0] = (a * ((d - t) * e + q * f) + b * (r * e + (d - p) * f)) / det
+            T[:, s0 + 1] = 0.0
+            T[s0:s0 + 2, s0] = 0.0
     lam = (d + T.sum(axis=1)).astype(complex)
     if not np.all(np.isfinite(lam)):
         lam = d.astype(complex)
     for s0, k in blocks:
         if k == 2:
-            lam[s0:s0 + 2] = np.linalg.eigvals(C[s0:s0 + 2, s0:s0 + 2])
+            # the pair's eigenvalues mu with the same second-order coupling:
+            # those of C_cc + C_cr (mu I - D_r)^-1 C_rc (two fixed-point sweeps
+            # from the block's own eigenvalues); a complex pair stays an exact
+            # conjugate pair, a real one real (else the block's own are kept)
+            c = slice(s0, s0 + 2)
+            own = np.linalg.eigvals(C[c, c]).astype(complex)
+            mus = own.copy()
+            for h in range(2):
+                mu = mus[h]
+                for _ in range(2):
+                    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                        w = 1.0 / (mu - d)
+                    w[c] = 0.0
+                    M = C[c, c] + (C[c, :] * w) @ C[:, c]
+                    if not np.all(np.isfinite(M)):
+                        break
+                    ev = np.linalg.eigvals(M)
+                    mu = ev[np.argmin(np.abs(ev - mu))]
+                mus[h] = mu
+            if own.imag.any():
+                z = mus[int(np.argmax(mus.imag))]
+                mus = np.array([z.conjugate(), z]) if z.imag > 0 else own
+            elif mus.imag.any():
+                mus = own
+            lam[c] = mus
     return entries, ver, lam[np.lexsort((lam.imag, lam.real))]
 
 

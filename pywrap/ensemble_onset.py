@@ -8,13 +8,17 @@ import math
 
 import numpy as np
 
-def spectrum(state):
+def spectrum(state, basis=None):
     """Certified spectrum of one state (the ramp's dense path).
 
     Parameters
     ----------
     state : remote_trigger.analysis.state.State
         Its ``inertia`` sets the mass matrix M = diag(m, m, I / R^2).
+    basis : remote_trigger.analysis.exceptional.SpectrumBasis, optional
+        The previous point's ``basis``: the decision starts from it where it
+        certifies (``classify_spectrum(basis=)``, the same answer as from
+        dgeev).
 
     Returns
     -------
@@ -22,7 +26,9 @@ def spectrum(state):
         ``decision`` (1 complex, 0 real, -1 undecided), ``confidence``,
         ``eigenvalues`` (complex, shape (M,), eigenvalues of M^-1 K after
         rattler removal, 1/time^2, sorted by real part), ``n_pairs`` (pairs
-        certified complex), ``growth`` (max |Im sqrt(lambda)|, 1/time).
+        certified complex), ``growth`` (max |Im sqrt(lambda)|, 1/time),
+        ``basis`` (the decision's verified basis, for the next point; None
+        if there is none).
     """
     from remote_trigger.analysis.analyze import analyze
     from remote_trigger.analysis import eigen, exceptional, jacobian
@@ -31,16 +37,18 @@ def spectrum(state):
     keep = res.rattlers.keep_dofs
     if keep.size == 0:
         return {"decision": 0, "confidence": math.inf, "eigenvalues": np.zeros(0, complex),
-                "n_pairs": 0, "growth": 0.0}
+                "n_pairs": 0, "growth": 0.0, "basis": None}
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)
-    dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray())
+    dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
+                                        basis=basis)
     lam = np.asarray(dec.eigenvalues, np.complex128)
     lam = lam[np.lexsort((lam.imag, lam.real))]
     code = -1 if dec.complex_present is None else int(bool(dec.complex_present))
     n_pairs = sum(1 for p in dec.pairs
                   if p.method != "gershgorin" and p.is_complex and p.certified)
     return {"decision": code, "confidence": float(dec.confidence), "eigenvalues": lam,
-            "n_pairs": int(n_pairs), "growth": float(eigen.growth_rate(lam))}
+            "n_pairs": int(n_pairs), "growth": float(eigen.growth_rate(lam)),
+            "basis": dec.basis}
 
 
 def read_ramp(h5):
@@ -201,7 +209,8 @@ def reanalyse(points, I0):
     """The same equilibria with the moment of inertia I = I0 m R^2 in M.
 
     Only the mass matrix changes (K does not depend on the inertia); the
-    certified decision is recomputed at every point.
+    certified decision is recomputed at every point, in the order given
+    (increasing F_x), each starting from the previous point's basis.
 
     Parameters
     ----------
@@ -217,9 +226,10 @@ def reanalyse(points, I0):
     """
     from remote_trigger.analysis.state import read_dump
 
-    out = []
+    out, basis = [], None
     for p in points:
-        s = spectrum(read_dump(p["dump"], require_contacts=False, inertia_factor=I0))
+        s = spectrum(read_dump(p["dump"], require_contacts=False, inertia_factor=I0), basis)
+        basis = s.pop("basis")
         out.append(dict(p, decision=s["decision"], growth=s["growth"],
                         eigenvalues=s["eigenvalues"]))
     return out

@@ -277,3 +277,34 @@ def test_adaptive_step_rules():
     for dec in (-1, 1):
         assert adaptive_step(1e-3, 1.0, prev, (0.42, dec, spec(0.42))) == 1e-3
     assert adaptive_step(1e-3, 1.0, prev, (0.42, 0, spec(0.42)[:2])) == 1e-3   # rattlers
+
+
+def test_inertia_reanalysis_from_bases_gives_dgeev_s_decisions(full_ramp, monkeypatch):
+    """The ensemble's I0 = 1 re-analysis chains each point's basis to the next: the
+    same decisions as each point decided alone from dgeev (the independent
+    check), and the chain is used."""
+    from remote_trigger.analysis import exceptional
+    from remote_trigger.analysis.state import read_dump
+    from remote_trigger.pywrap.ensemble_onset import read_ramp, reanalyse, spectrum
+
+    cfg, res = full_ramp
+    pts = read_ramp(res.h5)
+    starts = []
+    real = exceptional.classify_spectrum
+
+    def spy(A, *a, **kw):
+        dec = real(A, *a, **kw)
+        starts.append(dec.start)
+        return dec
+
+    monkeypatch.setattr(exceptional, "classify_spectrum", spy)
+    chained = reanalyse(pts, 1.0)
+    assert starts.count("basis") >= len(pts) // 3, starts
+    monkeypatch.setattr(exceptional, "classify_spectrum", real)
+    alone = [spectrum(read_dump(p["dump"], require_contacts=False, inertia_factor=1.0))
+             for p in pts]
+    assert [p["decision"] for p in chained] == [s["decision"] for s in alone]
+    for p, s in zip(chained, alone):
+        np.testing.assert_allclose(np.sort_complex(p["eigenvalues"]),
+                                   np.sort_complex(s["eigenvalues"]), rtol=0,
+                                   atol=1e-10 * np.abs(s["eigenvalues"]).max())

@@ -183,3 +183,4 @@ def test_adaptive_ramps_and_continuation(tmp_path):
             loads.append(json.load(fh)["F_x"])
     step = np.diff(loads)
     assert np.all(step >= 1e-2 * (1 - 1e-12)) and np.all(step <= 0.05 * (1 + 1e-12))
+
