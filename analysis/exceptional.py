@@ -127,6 +127,7 @@ _SHARP_BELOW = 1e4              # crude margin below which a pair is also comput
 _BASIS_CORRECTED = 0.03          # a previous basis is verified once its last correction |W| <= this
 _BASIS_ITERATIONS = 3           # ... after at most this many corrections
 _BASIS_DIVERGED = 1.0           # a correction |W| above this: give up, start from dgeev
+_SPARSE_PRODUCT = 0.25          # nonzero fraction of A below which A X is a sparse product
 
 
 def normal_form(d, eps):
@@ -436,7 +437,7 @@ def _pair_basis(A, lam, V, unit):
 class _Verified:
     """Enclosure of S = X^{-1} A~ X, row by row (step 2 of the module docstring)."""
 
-    def __init__(self, A, X, blocks, rel_error, input_error):
+    def __init__(self, A, X, blocks, rel_error, input_error, Ap=None):
         n = A.shape[0]
         self.n = n
         self.ok = False
@@ -453,7 +454,7 @@ class _Verified:
             self.reason = "eigenvector basis is singular"
             return
         aA, aX, aR = np.abs(A), np.abs(X), np.abs(R)
-        G = A @ X
+        G = (A if Ap is None else Ap) @ X
         C = R @ G
         H = R @ X
         xs = aX.sum(axis=1)
@@ -574,7 +575,7 @@ class _Block:
         return dec, cover
 
 
-def _analyse(A, lam, V, units, rel_error, input_error):
+def _analyse(A, lam, V, units, rel_error, input_error, Ap=None):
     """One verification pass over the given units. Returns (entries, summary data)."""
     n = A.shape[0]
     # column layout: units sorted by the real part of their eigenvalues
@@ -600,13 +601,15 @@ def _analyse(A, lam, V, units, rel_error, input_error):
         if k == 2:
             X[:, s:s + 2], ref = _pair_basis(A, lam, V, un)
         refined.append(k == 2 and ref)
-    return _verify(A, X, blocks, units, refined, rel_error, input_error)
+    return _verify(A, X, blocks, units, refined, rel_error, input_error, Ap)
 
 
-def _verify(A, X, blocks, units, refined, rel_error, input_error):
-    """Steps 2-5 for the basis X (units' columns at ``blocks``): (entries, _Verified)."""
+def _verify(A, X, blocks, units, refined, rel_error, input_error, Ap=None):
+    """Steps 2-5 for the basis X (units' columns at ``blocks``): (entries, _Verified).
+
+    ``Ap``: A in a form for the product A X (a sparse copy; None: A)."""
     n = A.shape[0]
-    ver = _Verified(A, X, blocks, rel_error, input_error)
+    ver = _Verified(A, X, blocks, rel_error, input_error, Ap)
     if not ver.ok:
         return None, ver
     ver.basis = SpectrumBasis(X, ver.R, blocks, np.array([k == 2 for _, k in blocks]))
@@ -658,7 +661,7 @@ def _verify(A, X, blocks, units, refined, rel_error, input_error):
     return pair_out + iso, ver
 
 
-def _from_basis(A, basis, rel_error, input_error):
+def _from_basis(A, basis, rel_error, input_error, Ap=None):
     """Steps 2-5 from a previous decision's basis, corrected (no eigen-solve).
 
     With C = R A X (block diagonal up to the change of A since X was
@@ -682,7 +685,7 @@ def _from_basis(A, basis, rel_error, input_error):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 R = np.linalg.inv(X)
-        C0 = R @ (A @ X)
+        C0 = R @ ((A if Ap is None else Ap) @ X)
         d = C0.diagonal()
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             W = C0 / (d[None, :] - d[:, None])
@@ -696,7 +699,7 @@ def _from_basis(A, basis, rel_error, input_error):
             break
     units = [_Unit(tuple(range(s0, s0 + k)), merged=k == 2) for s0, k in blocks]
     entries, ver = _verify(A, X, blocks, units, [False] * len(blocks), rel_error,
-                           input_error)
+                           input_error, Ap)
     if entries is None or ver.conflicts:
         return None
     # eigenvalues: a unit's diagonal entry of C, plus the second-order
@@ -805,6 +808,18 @@ def _decide_2x2(A, input_error, rel_error):
                         "" if cert else "discriminant within its error bound", True)
 
 
+def _sparse_copy(A):
+    """CSR copy of A (the same float64 entries) for the products A X, if at most
+    ``_SPARSE_PRODUCT`` of its entries are nonzero (an M^-1 K: ~4 %); else None.
+    A sparse product is a sum of fewer products, so the a-priori bound gamma_n
+    of step 2 holds for it too."""
+    import scipy.sparse as sp
+
+    if np.count_nonzero(A) > _SPARSE_PRODUCT * A.size:
+        return None
+    return sp.csr_matrix(A)
+
+
 def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF, basis=None):
     """Decide soundly whether the real matrix A has a complex pair of eigenvalues.
 
@@ -852,8 +867,9 @@ def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF, basis=None):
         lam = lam[np.lexsort((lam.imag, lam.real))]
         return _summarize([p], 0.0, lam, {"eigen": t1 - t0,
                                           "decision": time.perf_counter() - t1}, "")
+    Ap = _sparse_copy(A)
     if basis is not None:
-        warm = _from_basis(A, basis, rel_error, input_error)
+        warm = _from_basis(A, basis, rel_error, input_error, Ap)
         if warm is not None:
             entries, ver, lam = warm
             dec = _summarize(entries, float(np.max(ver.dev)), lam,
@@ -871,7 +887,7 @@ def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF, basis=None):
         return SpectrumDecision(None, 0.0, [], math.inf, lam_sorted,
                                 {"eigen": t1 - t0, "decision": time.perf_counter() - t1},
                                 str(exc))
-    entries, ver = _analyse(A, lam, V, units, rel_error, input_error)
+    entries, ver = _analyse(A, lam, V, units, rel_error, input_error, Ap)
     if entries is not None and ver.conflicts:
         # neighbouring real eigenvalues whose discs touch: decide them as a pair
         taken, pairs = set(), []
@@ -880,7 +896,7 @@ def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF, basis=None):
                 pairs.append(_Unit((i, j), merged=True))
                 taken.update((i, j))
         new = [un for un in units if not (len(un.idx) == 1 and un.idx[0] in taken)] + pairs
-        entries2, ver2 = _analyse(A, lam, V, new, rel_error, input_error)
+        entries2, ver2 = _analyse(A, lam, V, new, rel_error, input_error, Ap)
         if entries2 is not None:
             entries, ver = entries2, ver2
     timing = {"eigen": t1 - t0e, "decision": time.perf_counter() - t1 + t0e - t0}
