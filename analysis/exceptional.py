@@ -128,6 +128,7 @@ _BASIS_CORRECTED = 0.03          # a previous basis is verified once its last co
 _BASIS_ITERATIONS = 3           # ... after at most this many corrections
 _BASIS_DIVERGED = 1.0           # a correction |W| above this: give up, start from dgeev
 _SPARSE_PRODUCT = 0.25          # nonzero fraction of A below which A X is a sparse product
+_BASIS_MERGE = 0.5              # |W_ij| above which two real units of a basis become a pair
 
 
 def normal_form(d, eps):
@@ -672,24 +673,42 @@ def _from_basis(A, basis, rel_error, input_error, Ap=None):
     max |W| <= ``_BASIS_CORRECTED``, at most ``_BASIS_ITERATIONS`` times. The
     verification of X is the same rigorous one as for dgeev's vectors (it
     holds for any nonsingular X). Returns (entries, _Verified, eigenvalues)
-    or None if the basis does not fit (size) or the correction diverges.
+    or None if the basis does not fit (size), the correction diverges or it
+    has not converged after ``_BASIS_ITERATIONS`` corrections.
     """
     X, R, blocks = basis.X, basis.R, basis.blocks
     n = A.shape[0]
     if X.shape != (n, n):
         return None
-    unit = np.repeat(np.arange(len(blocks)), [k for _, k in blocks])
-    same = unit[:, None] == unit[None, :]
+    def layout(blocks):
+        unit = np.repeat(np.arange(len(blocks)), [k for _, k in blocks])
+        return unit[:, None] == unit[None, :]
+
+    def correction(C0, same):
+        d = C0.diagonal()
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            W = C0 / (d[None, :] - d[:, None])
+        W[same] = 0.0
+        return W
+
+    same = layout(blocks)
     for it in range(_BASIS_ITERATIONS):
         if it:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 R = np.linalg.inv(X)
         C0 = R @ ((A if Ap is None else Ap) @ X)
-        d = C0.diagonal()
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            W = C0 / (d[None, :] - d[:, None])
-        W[same] = 0.0
+        W = correction(C0, same)
+        if it == 0:
+            new = _merge_coupled(W, blocks)
+            if new is None:
+                return None
+            if new is not blocks:       # strongly coupled real units become pairs
+                perm = np.concatenate([np.arange(s0, s0 + k) for s0, k in new[1]])
+                X, R, C0 = X[:, perm], R[perm], C0[np.ix_(perm, perm)]
+                blocks = new[0]
+                same = layout(blocks)
+                W = correction(C0, same)
         wmax = float(np.abs(W).max()) if W.size else 0.0
         if not wmax <= _BASIS_DIVERGED:          # also NaN / inf
             return None
@@ -697,6 +716,8 @@ def _from_basis(A, basis, rel_error, input_error, Ap=None):
         X /= np.sqrt(np.einsum("ij,ij->j", X, X))
         if wmax <= _BASIS_CORRECTED:
             break
+    else:           # not converged: the eigenvalue estimates below would be poor
+        return None
     units = [_Unit(tuple(range(s0, s0 + k)), merged=k == 2) for s0, k in blocks]
     entries, ver = _verify(A, X, blocks, units, [False] * len(blocks), rel_error,
                            input_error, Ap)
@@ -752,6 +773,47 @@ def _from_basis(A, basis, rel_error, input_error, Ap=None):
                 mus = own
             lam[c] = mus
     return entries, ver, lam[np.lexsort((lam.imag, lam.real))]
+
+
+def _merge_coupled(W, blocks):
+    """Pair up the real units that a first-order correction cannot separate.
+
+    Two single units i, j with max(|W_ij|, |W_ji|) > ``_BASIS_MERGE`` (their
+    eigenvalues close compared with their coupling: the two sides of an
+    exceptional point) become one 2 x 2 unit, decided by step 4. Returns
+    ``blocks`` itself if nothing is merged, else (new blocks, the old blocks
+    in the new column order); None if a unit is strongly coupled to more than
+    one other, or a pair to anything (no 2 x 2 layout separates them).
+    """
+    strong = np.argwhere(np.maximum(np.abs(W), np.abs(W.T)) > _BASIS_MERGE)
+    strong = strong[strong[:, 0] < strong[:, 1]]
+    if strong.size == 0:
+        return blocks
+    start = {s0: b for b, (s0, k) in enumerate(blocks)}
+    partner = {}
+    for i, j in strong.tolist():
+        if i not in start or j not in start or blocks[start[i]][1] != 1 \
+                or blocks[start[j]][1] != 1 or i in partner or j in partner:
+            return None
+        partner[i], partner[j] = j, i
+    order, done = [], set()
+    for s0, k in blocks:
+        if s0 in done:
+            continue
+        order.append((s0, k))
+        if s0 in partner:
+            order.append((partner[s0], 1))
+            done.add(partner[s0])
+    new, col, b = [], 0, 0
+    while b < len(order):
+        s0, k = order[b]
+        if k == 1 and s0 in partner:
+            new.append((col, 2))
+            col, b = col + 2, b + 2
+        else:
+            new.append((col, k))
+            col, b = col + k, b + 1
+    return new, order
 
 
 def _isolation(discs, blocks, units):

@@ -378,7 +378,8 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
     when bisection follows.
     """
     steps = rlog.rows["steps"]
-    basis = _load_basis(eng, folder, len(steps["F_x"]) - 1)
+    k0 = len(steps["F_x"]) - 1
+    basis = _load_basis(eng, rlog.files["steps"][k0] if k0 >= 0 else None)
     while not (steps["complex"] and steps["complex"][-1] > 0):
         k = len(steps["F_x"])
         F = next_step(cfg, rlog)
@@ -402,12 +403,12 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
             return _ramp_result(rlog, "no_equilibrium")
         basis = res.basis
         if eng.rank == 0:
-            _save_basis(folder, k, basis)
+            _save_basis(prefix + ".data", basis)
         rlog.add(ramp_file.STEPS, name, prefix + ".data", vals, res.eigenvalues)
         if eng.rank == 0:
             rlog.write("running")
             if not rlog.dirty:          # step k is on disk: older bases are not needed
-                _prune_bases(folder, keep=k)
+                _prune_bases(folder, rlog)
         bar.update(1)
         bar.set_postfix_str(f"F_x {F:.6g} r {vals['residual']:.1e} "
                             f"complex {bool(vals['complex'])}")
@@ -439,17 +440,22 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget):
         name = ramp_file.point_name(ramp_file.BISECTION, j)
         prefix = os.path.join(folder, name)
         try:
-            vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix)
+            vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix,
+                                    _load_basis(eng, lo_file))
         except eq.NoEquilibriumError:
             vals = {c: np.nan for c in ramp_file.COLUMNS}
             vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
             res = None
+        if eng.rank == 0 and res is not None:
+            _save_basis(prefix + ".data", res.basis)
         rlog.add(ramp_file.BISECTION, name, prefix + ".data", vals,
                  [] if res is None else res.eigenvalues)
         lo, hi, _, _ = ramp_bracket(rlog)
         rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
         if eng.rank == 0:
             rlog.write("running")
+            if not rlog.dirty:
+                _prune_bases(folder, rlog)
         bar.update(1)
         bar.set_postfix_str(f"F_x^c in [{lo:.9g}, {hi:.9g}]")
         if budget.spend():
@@ -457,54 +463,78 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget):
     rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol, why))
     if eng.rank == 0:
         rlog.write("complete")
-        _prune_bases(folder, keep=None)
+        _prune_bases(folder, None)
     return _ramp_result(rlog, "complete")
 
 
 # --------------------------------------------------------------------------- spectrum bases
 # Each ramp step's certified decision starts from the previous step's verified
-# basis (analysis.exceptional.classify_spectrum(basis=)); which one it started
-# from changes its margins and the last bits of its eigenvalues (which the
-# adaptive ramp's next load depends on). So that a resumed ramp takes the
-# same loads and stores the same numbers, the basis of each step is saved
-# beside its equilibrium (``step_NNNNN.basis.npz``, rank 0, atomically) and
-# kept until a later step is recorded in ramp.h5; --resume starts from the
-# basis of the last recorded step. A missing basis (a ramp.h5 of an older
-# version) only means the next decision starts from dgeev.
-def _basis_path(folder, k):
-    return os.path.join(folder, ramp_file.point_name(ramp_file.STEPS, k) + ".basis.npz")
+# basis, each bisection point's from the basis of its start (the bracket's
+# lower end) (analysis.exceptional.classify_spectrum(basis=)); which basis it
+# started from changes its margins and the last bits of its eigenvalues
+# (which the adaptive ramp's next load depends on). So that a resumed ramp
+# takes the same loads and stores the same numbers, the basis of each point
+# is saved beside its equilibrium (``<point>.basis.npz``, rank 0, atomically,
+# before the point is recorded) and kept while it can still be a start: the
+# last step's and the bracket's lower end's, once a later point is recorded
+# in ramp.h5; all are removed when the ramp completes. A point always takes
+# its start's basis from that file (a missing one -- a ramp.h5 of an older
+# version -- only means the decision starts from dgeev), never from memory
+# alone, so an uninterrupted and a resumed ramp start every decision alike.
+def _basis_path(datafile):
+    return datafile[:-len(".data")] + ".basis.npz"
 
 
-def _save_basis(folder, k, basis):
+def _save_basis(datafile, basis):
     from remote_trigger.analysis.output import atomic_path
 
+    _BASES.pop(_basis_path(datafile), None)     # a cached copy of an older file
     if basis is None:
         return
-    with atomic_path(_basis_path(folder, k)) as tmp:
+    with atomic_path(_basis_path(datafile)) as tmp:
         basis.save(tmp)
 
 
-def _prune_bases(folder, keep):
-    """Remove the saved bases of every step but ``keep`` (None: all)."""
+#: rank 0's copy of the last basis loaded (path -> basis; a bisection's lower
+#: end starts several points), used only while its file exists
+_BASES = {}
+
+
+def _prune_bases(folder, rlog):
+    """Remove the saved bases that can no longer start a point (every one if
+    ``rlog`` is None: the ramp is complete)."""
     import glob
 
-    mine = None if keep is None else _basis_path(folder, keep)
-    for path in glob.glob(os.path.join(folder, ramp_file.POINT_PREFIX[ramp_file.STEPS]
-                                       + "*.basis.npz")):
-        if path != mine:
+    keep = set()
+    if rlog is not None:
+        files = rlog.files[ramp_file.STEPS]
+        lo_file = ramp_bracket(rlog)[2]
+        keep = {_basis_path(f) for f in ([files[-1]] if files else []) + [lo_file] if f}
+    for path in glob.glob(os.path.join(folder, "*.basis.npz")):
+        if path not in keep:
             os.remove(path)
+            _BASES.pop(path, None)
 
 
-def _load_basis(eng, folder, k):
-    """Rank 0: the saved basis of step k (None if k < 0, absent or unreadable)."""
+def _load_basis(eng, datafile):
+    """Rank 0: the saved basis of the point of ``datafile`` (None if there is no
+    such file or it is unreadable; None on the other ranks)."""
     from remote_trigger.analysis.exceptional import SpectrumBasis
 
-    if eng.rank != 0 or k < 0 or not os.path.exists(_basis_path(folder, k)):
+    if eng.rank != 0 or datafile is None:
         return None
-    try:
-        return SpectrumBasis.load(_basis_path(folder, k))
-    except ValueError:
+    path = _basis_path(datafile)
+    if not os.path.exists(path):
+        _BASES.pop(path, None)
         return None
+    if path not in _BASES:
+        try:
+            basis = SpectrumBasis.load(path)
+        except ValueError:
+            return None
+        _BASES.clear()
+        _BASES[path] = basis
+    return _BASES[path]
 
 
 def _ramp_result(rlog, status):

@@ -85,10 +85,11 @@ def _dump(datafile):
     return s[:-len(".data")] + ".dump"
 
 
-def test_decisions_from_the_previous_basis_are_dgeev_s(full_ramp):
-    """A step decided from the previous step's basis: the same answer as dgeev's.
+def test_decisions_from_a_previous_basis_are_dgeev_s(full_ramp):
+    """A point decided from a previous basis (a step from the previous step's, a
+    bisection point from its start's): the same answer as dgeev's.
 
-    The independent check is the analyzer run afresh on each step's dump
+    The independent check is the analyzer run afresh on each point's dump
     (dgeev's eigenvectors, no basis); both answers are certified, so they
     must agree, and the eigenvalues must agree to the basis's accuracy.
     """
@@ -98,13 +99,18 @@ def test_decisions_from_the_previous_basis_are_dgeev_s(full_ramp):
     _, data = read_all(res.h5)
     fb = data["steps/from_basis"]
     assert fb[0] == 0 and fb.sum() >= (fb.size - 1) // 2, fb     # the path is taken
-    assert np.all(data["bisection/from_basis"] == 0)            # bisection: dgeev
-    for k, f in enumerate(data["steps/datafile"]):
-        cold = stability_of_dump(_dump(f))
-        assert cold.start == "dgeev" and cold.decision_code == data["steps/decision"][k], k
-        lam = data[f"eigenvalues/steps/step_{k:05d}"]
-        np.testing.assert_allclose(np.sort_complex(lam), np.sort_complex(cold.eigenvalues),
-                                   rtol=0, atol=1e-10 * np.abs(cold.eigenvalues).max())
+    fbb = data["bisection/from_basis"]
+    assert fbb.sum() >= fbb.size // 2, fbb
+    for kind, stem in (("steps", "step_{:05d}"), ("bisection", "bisect_{:03d}")):
+        for k, f in enumerate(data[f"{kind}/datafile"]):
+            cold = stability_of_dump(_dump(f))
+            assert cold.start == "dgeev", (kind, k)
+            assert cold.decision_code == data[f"{kind}/decision"][k], (kind, k)
+            lam = data[f"eigenvalues/{kind}/{stem.format(k)}"]
+            np.testing.assert_allclose(np.sort_complex(lam),
+                                       np.sort_complex(cold.eigenvalues), rtol=0,
+                                       atol=1e-10 * np.abs(cold.eigenvalues).max(),
+                                       err_msg=f"{kind} {k} {f}")
     assert not [f for f in os.listdir(os.path.dirname(_dump(f))) if f.endswith(".basis.npz")]
 
 
