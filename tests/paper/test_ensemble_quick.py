@@ -1,17 +1,19 @@
 """``remote-trigger ensemble --quick``: serial and two ranks, resume, recorded failures.
 
 What must hold (each can fail): serial and ``--np 2`` give the same table
-(every column but the wall times); removing one finished packing's task file
-and resuming recomputes that packing only and gives the same table again; a
+(every column but the wall times); killed with SIGKILL after its first
+packing and resumed, it keeps that packing, recomputes the others and gives
+the same table again; a
 packing whose relaxation fails is recorded with its reason while the others
 finish; the I0 = 1 rows are flagged as inconsistent with the dynamics.
 """
 import json
 import math
 import os
-import shutil
+import signal
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -103,24 +105,45 @@ def test_two_ranks_same_table(serial, tmp_path):
             assert isinstance(json.load(fh)["result"]["warnings"], list), name
 
 
-def test_resume_redoes_only_the_missing_packing(serial, tmp_path):
-    src, _, t1 = serial
-    out = str(tmp_path / "resumed")
-    shutil.copytree(src, out)
-    os.remove(os.path.join(out, "tasks", "N20_s1.json"))
-    # a killed job leaves the claim of the packing it was running
-    open(os.path.join(out, "tasks", "N20_s1.claim"), "w").close()
-    proc = _run(["--quick", "--out", out])                       # no --resume: refused
-    assert proc.returncode == 2 and "--resume" in proc.stderr
-    proc = _run(["--quick", "--out", out, "--set", "tol=0.001", "--resume"])
-    assert proc.returncode == 2 and "tol = 0.002 (then) vs 0.001 (now)" in proc.stderr
-    proc = _run(["--quick", "--out", out, "--resume"])
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
+    """kill -9 after the first packing is finished: --resume keeps it, redoes the
+    others (the killed one from its start: its claim is cleared) and gives the
+    serial run's table."""
+    _, _, t1 = serial
+    out = str(tmp_path / "killed")
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    proc = subprocess.Popen([CLI, "ensemble", "--quick", "--out", out], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    tasks = os.path.join(out, "tasks")
+    t0 = time.monotonic()
+    try:
+        while True:
+            done = [n for n in os.listdir(tasks) if n.endswith(".json")] \
+                if os.path.isdir(tasks) else []
+            assert proc.poll() is None, "finished before it could be killed"
+            assert time.monotonic() - t0 < 600, "no packing finished in 600 s"
+            if done:
+                break
+            time.sleep(0.05)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    kept = sorted(n[:-len(".json")] for n in os.listdir(tasks) if n.endswith(".json"))
+    assert 0 < len(kept) < len(set(t1["key"])), kept            # killed mid-way
+    assert [n for n in os.listdir(tasks) if n.endswith(".claim")], "no claim left by the kill"
+    r = _run(["--quick", "--out", out])                         # no --resume: refused
+    assert r.returncode == 2 and "--resume" in r.stderr
+    r = _run(["--quick", "--out", out, "--set", "tol=0.001", "--resume"])
+    assert r.returncode == 2 and "tol = 0.002 (then) vs 0.001 (now)" in r.stderr
+    r = _run(["--quick", "--out", out, "--resume"])
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     with open(os.path.join(out, en.MANIFEST)) as fh:
         man = json.load(fh)
-    assert man["sessions"][-1]["computed"] == ["N20_s1"]
+    everything = sorted(set(t1["key"]))
+    assert man["sessions"][-1]["computed"] == [k for k in everything if k not in kept]
     assert man["sessions"][-1]["resume"] is True
-    assert not [n for n in os.listdir(os.path.join(out, "tasks")) if n.endswith(".claim")]
+    assert not [n for n in os.listdir(tasks) if n.endswith(".claim")]
     _same(t1, en.read_table(os.path.join(out, en.TABLE)))
 
 
