@@ -50,6 +50,25 @@ def test_basis_answer_agrees_with_arb(e):
     assert full_spectrum(A) == ("complex" if dec.complex_present else "real")
 
 
+def test_complex_side_decided_from_the_real_sides_basis(monkeypatch):
+    """Across the exceptional point: the basis of a real spectrum (the two
+    coalescing modes as two real units) decides the complex matrix beyond it
+    by merging the two units into a pair (a bisection point above F_x^c
+    started from its lower end); Arb checks the answer. Without the merge
+    the correction diverges and the decision starts from dgeev."""
+    import remote_trigger.analysis.exceptional as ex
+
+    A0, A = _path([1e-2, -1e-3])
+    basis = classify_spectrum(A0).basis
+    assert not basis.pairs.any()
+    dec = classify_spectrum(A, basis=basis)
+    assert dec.start == "basis" and dec.complex_present is True and dec.confidence > 1
+    assert dec.basis.pairs.sum() == 1
+    assert full_spectrum(A) == "complex"
+    monkeypatch.setattr(ex, "_BASIS_MERGE", np.inf)
+    assert classify_spectrum(A, basis=basis).start == "dgeev"
+
+
 def test_basis_that_does_not_fit_falls_back_to_dgeev():
     A, B = _path([1e-2, -1e-2])
     other = classify_spectrum(embedded(0.5, 1e-2, n=30, seed=2)).basis     # n = 30, not 40
