@@ -45,7 +45,9 @@ Work is spread over MPI ranks: each rank runs its own LAMMPS instances on
 (one queue, largest N first; ``tasks/<key>.claim`` files). A
 packing's result is written atomically to ``tasks/<key>.json`` when it is
 finished; a job killed (also ``kill -9``) and run again with ``--resume``
-keeps every finished packing and redoes the others from their start. One
+keeps every finished packing, and of a packing it had started every
+finished stage (relaxation, ramp part, frictional part; an interrupted
+ramp continues from its ``ramp.h5``). One
 packing's failure (no equilibrium, no certified bracket, any exception) is
 recorded in its rows (``status``, ``reason``) and does not stop the others.
 Rank 0 writes ``ensemble.h5``, ``ensemble.png`` and ``ensemble.md``.
@@ -208,21 +210,26 @@ def _relax(cfg, datafile, folder, protocol):
     if protocol == "frictional":
         extra = dict({"mu_settle": float(cfg.mu)}, **cfg.frictional_relax)
         rcfg = rcfg.replace(protocol="frictional", **extra)
-    return stages.relax(rcfg, folder, comm=MPI.COMM_SELF, quiet=True)
+    # the folder is the packing's own: a relaxation killed in an earlier
+    # session (--resume) left its files there
+    return stages.relax(rcfg, folder, comm=MPI.COMM_SELF, quiet=True, overwrite=True)
 
 
-def _ramp(cfg, datafile, mu, folder):
-    """Ramp at friction ``mu`` from ``datafile``; returns the RampResult."""
+def _ramp(cfg, datafile, mu, folder, resume=False):
+    """Ramp at friction ``mu`` from ``datafile`` (``resume``: continue the
+    ramp.h5 a killed session left, bitwise as uninterrupted); returns the
+    RampResult."""
     from mpi4py import MPI
     from . import stages
     from .paper import ramp_config
 
-    return stages.ramp(ramp_config(cfg, datafile, mu), folder, comm=MPI.COMM_SELF, quiet=True)
+    return stages.ramp(ramp_config(cfg, datafile, mu), folder, comm=MPI.COMM_SELF, quiet=True,
+                       resume=resume)
 
 
-def _ramp_part(cfg, relaxed, mu, folder):
+def _ramp_part(cfg, relaxed, mu, folder, resume=False):
     """One ramp and the onset numbers under both conventions (dict, JSON-ready)."""
-    res = _ramp(cfg, relaxed, mu, folder)
+    res = _ramp(cfg, relaxed, mu, folder, resume)
     part = {"mu": float(mu), "ramp_status": res.status, "message": res.message,
             "n_steps": int(len(res.F_x)), "n_bisection": int(len(res.bisection_F_x)),
             "tol_reached": bool(res.tol_reached), "h5": res.h5}
@@ -233,7 +240,9 @@ def _ramp_part(cfg, relaxed, mu, folder):
                           tol_reached=bool(res.tol_reached))
     if cfg.inertia_I0 is not None and pts:
         I0 = float(cfg.inertia_I0)
-        ipts = inertia_points(cfg, pts, mu, I0, os.path.join(folder, f"I0_{I0:g}"))
+        ifolder = os.path.join(folder, f"I0_{I0:g}")
+        shutil.rmtree(ifolder, ignore_errors=True)     # a killed session's points
+        ipts = inertia_points(cfg, pts, mu, I0, ifolder)
         o = onset_numbers(ipts, cfg.dF_x)
         o.update(n_new=sum(1 for p in ipts if p.get("new")),
                  tol_reached=bool(o["F_x_c_high"] - o["F_x_c_low"] <= cfg.tol))
@@ -258,15 +267,26 @@ def _failure(exc):
     return f"{type(exc).__name__}: {exc}"
 
 
-def run_packing(cfg, n, seed, folder):
+def run_packing(cfg, n, seed, folder, resume=False):
     """Everything measured on one packing; failures are recorded, not raised.
+
+    Each finished stage (the default relaxation, each friction's ramp part,
+    the frictional part) is recorded in ``folder/progress.json`` (atomically)
+    as soon as it is done.
 
     Parameters
     ----------
     cfg : EnsembleConfig
     n, seed : int
     folder : str
-        Work folder (created; its previous content is removed).
+        Work folder (created; its previous content is removed unless
+        ``resume``).
+    resume : bool
+        Continue the packing a killed session left in ``folder``: the stages
+        recorded in its ``progress.json`` are kept, an interrupted ramp
+        continues from its ``ramp.h5`` (bitwise as uninterrupted), any other
+        interrupted stage is redone. Without a ``progress.json`` the packing
+        starts afresh.
 
     Returns
     -------
@@ -275,7 +295,8 @@ def run_packing(cfg, n, seed, folder):
         see :func:`_ramp_part`), ``frictional`` (:func:`_frictional_part`),
         each with ``error`` (None or the reason), ``wall`` (s) and
         ``warnings`` (the distinct warnings raised meanwhile, recorded, not
-        printed).
+        printed; for a resumed packing also those its kept stages recorded).
+        ``wall`` is this session's time for the packing.
     """
     import warnings
 
@@ -284,39 +305,79 @@ def run_packing(cfg, n, seed, folder):
     # packing's result (tasks/<key>.json) instead
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = _run_packing(cfg, n, seed, folder)
-    result["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+        result = _run_packing(cfg, n, seed, folder, resume, caught)
+    result["warnings"] = _warning_lines(caught, result.pop("earlier_warnings"))
     return result
 
 
-def _run_packing(cfg, n, seed, folder):
+PROGRESS = "progress.json"
+
+
+def _warning_lines(caught, earlier=()):
+    return sorted(set(earlier) | {f"{w.category.__name__}: {w.message}" for w in caught})
+
+
+def _load_progress(folder):
+    """The stages a killed session finished (``progress.json``), or None."""
+    try:
+        with open(os.path.join(folder, PROGRESS)) as fh:
+            return json.load(fh)
+    except (OSError, ValueError):
+        return None
+
+
+def _run_packing(cfg, n, seed, folder, resume=False, caught=()):
     """:func:`run_packing` without the warning capture."""
     from .packing import generate, write_data
+    from .paper import write_json
 
     t0 = time.perf_counter()
-    if os.path.isdir(folder):
-        shutil.rmtree(folder)
-    os.makedirs(folder)
+    done = _load_progress(folder) if resume else None
+    if done is None:
+        if os.path.isdir(folder):
+            shutil.rmtree(folder)
+        os.makedirs(folder)
+        done = {"relax": None, "ramps": {}, "frictional": None, "warnings": []}
+    earlier = list(done["warnings"])
+
+    def record(stage, key, value):
+        """A finished stage, on disk before the next one starts."""
+        if key is None:
+            done[stage] = _jsonable(value)
+        else:
+            done[stage][key] = _jsonable(value)
+        done["warnings"] = _warning_lines(caught, earlier)
+        write_json(os.path.join(folder, PROGRESS), done)
+
     datafile = os.path.join(folder, "packing.data")
     result = {"n": n, "seed": seed, "default": {"error": None, "ramps": {}},
-              "frictional": None}
+              "frictional": None, "earlier_warnings": earlier}
     d = result["default"]
     try:
-        write_data(generate(n, seed=seed, phi=cfg.phi), datafile)
-        rel = _relax(cfg, datafile, os.path.join(folder, "default"), "frictionless-then-friction")
-        d.update(phi=rel.packing_fraction, residual=rel.residual,
-                 antisymmetry=rel.antisymmetry)
+        if not os.path.isfile(datafile):    # written atomically: complete if present
+            write_data(generate(n, seed=seed, phi=cfg.phi), datafile)
+        if done["relax"] is None:
+            rel = _relax(cfg, datafile, os.path.join(folder, "default"),
+                         "frictionless-then-friction")
+            record("relax", None, {"phi": rel.packing_fraction, "residual": rel.residual,
+                                   "antisymmetry": rel.antisymmetry,
+                                   "datafile": rel.datafile})
+        d.update({k: v for k, v in done["relax"].items() if k != "datafile"})
         for key, mu in (("mu0", cfg.mu), ("mu_ss", cfg.mu * cfg.mu_ss)):
-            d["ramps"][key] = _ramp_part(cfg, rel.datafile, mu,
-                                         os.path.join(folder, f"ramp_{key}"))
+            if key not in done["ramps"]:
+                record("ramps", key, _ramp_part(cfg, done["relax"]["datafile"], mu,
+                                                os.path.join(folder, f"ramp_{key}"), resume))
+            d["ramps"][key] = done["ramps"][key]
     except Exception as exc:  # noqa: BLE001 - recorded: one packing does not stop the others
         d["error"] = _failure(exc)
     if cfg.frictional:
         try:
             if not os.path.isfile(datafile):
                 raise RuntimeError("no generated packing (see the default protocol's error)")
-            result["frictional"] = dict(_frictional_part(
-                cfg, datafile, os.path.join(folder, "frictional")), error=None)
+            if done["frictional"] is None:
+                record("frictional", None, dict(_frictional_part(
+                    cfg, datafile, os.path.join(folder, "frictional")), error=None))
+            result["frictional"] = done["frictional"]
         except Exception as exc:  # noqa: BLE001 - recorded
             result["frictional"] = {"error": _failure(exc)}
     if not cfg.keep_equilibria:
@@ -399,8 +460,9 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
         Progress lines (rank 0 only).
     resume : bool
         Continue the ensemble in ``out``: finished packings
-        (``tasks/<key>.json``) are kept, the others are redone from their
-        start.
+        (``tasks/<key>.json``) are kept; a packing a killed session had
+        started keeps its finished stages (:func:`run_packing`), the others
+        run from their start.
 
     Returns
     -------
@@ -439,7 +501,8 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
         if (load_task(out, t) is not None
                 or not claim_task(os.path.join(out, "tasks"), t["key"])):
             continue
-        res = run_packing(cfg, t["n"], t["seed"], os.path.join(out, "packings", t["key"]))
+        res = run_packing(cfg, t["n"], t["seed"], os.path.join(out, "packings", t["key"]),
+                          resume=resume)
         write_json(_task_path(out, t["key"]), {"task": t, "status": "complete",
                                                "result": _jsonable(res)})
         computed.append(t["key"])
@@ -506,7 +569,7 @@ def register(subparsers):
     add_job_arguments(p, "ensemble", "EnsembleConfig",
                       "small test variant (3 packings of N = 16 and 20, coarse ramps)",
                       "continue an interrupted ensemble in --out (same configuration; "
-                      "finished packings are kept)", "--set n=[100] --set seeds=[1,2,3]")
+                      "finished packings and the finished stages of a started one are kept)", "--set n=[100] --set seeds=[1,2,3]")
     p.set_defaults(func=main)
 
 

@@ -2,8 +2,8 @@
 
 What must hold (each can fail): serial and ``--np 2`` give the same table
 (every column but the wall times); killed with SIGKILL after its first
-packing and resumed, it keeps that packing, recomputes the others and gives
-the same table again; a
+packing, while another is half done, and resumed, it keeps the finished
+packing and the other's finished stages and gives the same table again; a
 packing whose relaxation fails is recorded with its reason while the others
 finish; the I0 = 1 rows are flagged as inconsistent with the dynamics.
 """
@@ -105,33 +105,51 @@ def test_two_ranks_same_table(serial, tmp_path):
             assert isinstance(json.load(fh)["result"]["warnings"], list), name
 
 
+def _started(out):
+    """(finished packings, packings with a recorded ramp part but no result)."""
+    tasks, packs = os.path.join(out, "tasks"), os.path.join(out, "packings")
+    done = sorted(n[:-len(".json")] for n in os.listdir(tasks) if n.endswith(".json")) \
+        if os.path.isdir(tasks) else []
+    mid = []
+    for key in (os.listdir(packs) if os.path.isdir(packs) else []):
+        try:
+            with open(os.path.join(packs, key, en.PROGRESS)) as fh:
+                if "mu0" in json.load(fh)["ramps"] and key not in done:
+                    mid.append(key)
+        except OSError:
+            pass
+    return done, mid
+
+
 def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
-    """kill -9 after the first packing is finished: --resume keeps it, redoes the
-    others (the killed one from its start: its claim is cleared) and gives the
-    serial run's table."""
+    """kill -9 once a packing is finished and another has recorded its first
+    ramp part: --resume keeps the finished packing, continues the other from
+    its recorded stages (its relaxation is not redone), runs the rest and
+    gives the serial run's table."""
     _, _, t1 = serial
     out = str(tmp_path / "killed")
     env = dict(os.environ, OMP_NUM_THREADS="1")
     proc = subprocess.Popen([CLI, "ensemble", "--quick", "--out", out], env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
-    tasks = os.path.join(out, "tasks")
     t0 = time.monotonic()
     try:
         while True:
-            done = [n for n in os.listdir(tasks) if n.endswith(".json")] \
-                if os.path.isdir(tasks) else []
+            kept, mid = _started(out)
             assert proc.poll() is None, "finished before it could be killed"
             assert time.monotonic() - t0 < 600, "no packing finished in 600 s"
-            if done:
+            if kept and mid:
                 break
-            time.sleep(0.05)
+            time.sleep(0.02)
     finally:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
-    kept = sorted(n[:-len(".json")] for n in os.listdir(tasks) if n.endswith(".json"))
-    assert 0 < len(kept) < len(set(t1["key"])), kept            # killed mid-way
+    tasks = os.path.join(out, "tasks")
+    kept, mid = _started(out)
+    assert 0 < len(kept) < len(set(t1["key"])) and mid, (kept, mid)
     assert [n for n in os.listdir(tasks) if n.endswith(".claim")], "no claim left by the kill"
+    relaxed = os.path.join(out, "packings", mid[0], "default", "relax.h5")
+    stamp = os.stat(relaxed).st_mtime_ns
     r = _run(["--quick", "--out", out])                         # no --resume: refused
     assert r.returncode == 2 and "--resume" in r.stderr
     r = _run(["--quick", "--out", out, "--set", "tol=0.001", "--resume"])
@@ -144,6 +162,7 @@ def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
     assert man["sessions"][-1]["computed"] == [k for k in everything if k not in kept]
     assert man["sessions"][-1]["resume"] is True
     assert not [n for n in os.listdir(tasks) if n.endswith(".claim")]
+    assert os.stat(relaxed).st_mtime_ns == stamp, "the recorded relaxation was redone"
     _same(t1, en.read_table(os.path.join(out, en.TABLE)))
 
 
