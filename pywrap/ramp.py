@@ -248,6 +248,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     folder = os.path.join(out, "ramp")
     with Engine(comm=comm, log=log) as eng:
         rlog = _open_ramp_log(eng, cfg, out, h5, resume)
+        _BASES.clear()
         _ensure_dir(eng, folder)
         rcfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "ramp")
         if "dt_used" in rlog.attrs and cfg.dt == "auto":   # resume: the same step
@@ -266,9 +267,9 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
             return _bisect(eng, cfg, rcfg, rlog, folder, bar, budget)
         finally:
             bar.close()
-            if eng.rank == 0 and rlog.dirty:
+            if rlog.dirty:
                 # rows since the last checkpoint (interrupted, or an error)
-                rlog.write("running", force=True)
+                _checkpoint(eng, rlog, folder, "running", force=True)
 
 
 class _Budget:
@@ -388,8 +389,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
             rlog.attrs["message"] = (f"no complex pair certified up to F_x_max = "
                                      f"{cfg.F_x_max}" + (f" ({n_und} steps undecided)"
                                                          if n_und else ""))
-            if eng.rank == 0:
-                rlog.write("no_complex_pair")
+            _checkpoint(eng, rlog, folder, "no_complex_pair")
             return _ramp_result(rlog, "no_complex_pair")
         start = cfg.datafile if k == 0 else rlog.files["steps"][-1]
         name = ramp_file.point_name(ramp_file.STEPS, k)
@@ -398,17 +398,12 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
             vals, res = _ramp_point(eng, rcfg, start, F, prefix, basis)
         except eq.NoEquilibriumError as exc:
             rlog.attrs["message"] = str(exc)
-            if eng.rank == 0:
-                rlog.write("no_equilibrium")
+            _checkpoint(eng, rlog, folder, "no_equilibrium")
             return _ramp_result(rlog, "no_equilibrium")
         basis = res.basis
-        if eng.rank == 0:
-            _save_basis(prefix + ".data", basis)
         rlog.add(ramp_file.STEPS, name, prefix + ".data", vals, res.eigenvalues)
-        if eng.rank == 0:
-            rlog.write("running")
-            if not rlog.dirty:          # step k is on disk: older bases are not needed
-                _prune_bases(folder, rlog)
+        _remember(eng, rlog, prefix + ".data", basis)
+        _checkpoint(eng, rlog, folder, "running")
         bar.update(1)
         bar.set_postfix_str(f"F_x {F:.6g} r {vals['residual']:.1e} "
                             f"complex {bool(vals['complex'])}")
@@ -421,8 +416,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
             else f"no equilibrium certified real below the first certified complex "
                  f"one (F_x = {hi:.10g}); the steps before it are undecided")
         rlog.attrs.update(F_x_c_high=hi)
-        if eng.rank == 0:
-            rlog.write("complex_at_start")
+        _checkpoint(eng, rlog, folder, "complex_at_start")
         return _ramp_result(rlog, "complex_at_start")
     return None
 
@@ -446,95 +440,105 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget):
             vals = {c: np.nan for c in ramp_file.COLUMNS}
             vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
             res = None
-        if eng.rank == 0 and res is not None:
-            _save_basis(prefix + ".data", res.basis)
         rlog.add(ramp_file.BISECTION, name, prefix + ".data", vals,
                  [] if res is None else res.eigenvalues)
+        _remember(eng, rlog, prefix + ".data", None if res is None else res.basis)
         lo, hi, _, _ = ramp_bracket(rlog)
         rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
-        if eng.rank == 0:
-            rlog.write("running")
-            if not rlog.dirty:
-                _prune_bases(folder, rlog)
+        _checkpoint(eng, rlog, folder, "running")
         bar.update(1)
         bar.set_postfix_str(f"F_x^c in [{lo:.9g}, {hi:.9g}]")
         if budget.spend():
             return _ramp_result(rlog, "interrupted")
     rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol, why))
-    if eng.rank == 0:
-        rlog.write("complete")
-        _prune_bases(folder, None)
+    _checkpoint(eng, rlog, folder, "complete")
     return _ramp_result(rlog, "complete")
 
 
 # --------------------------------------------------------------------------- spectrum bases
-# Each ramp step's certified decision starts from the previous step's verified
-# basis, each bisection point's from the basis of its start (the bracket's
-# lower end) (analysis.exceptional.classify_spectrum(basis=)); which basis it
-# started from changes its margins and the last bits of its eigenvalues
-# (which the adaptive ramp's next load depends on). So that a resumed ramp
-# takes the same loads and stores the same numbers, the basis of each point
-# is saved beside its equilibrium (``<point>.basis.npz``, rank 0, atomically,
-# before the point is recorded) and kept while it can still be a start: the
-# last step's and the bracket's lower end's, once a later point is recorded
-# in ramp.h5; all are removed when the ramp completes. A point always takes
-# its start's basis from that file (a missing one -- a ramp.h5 of an older
-# version -- only means the decision starts from dgeev), never from memory
-# alone, so an uninterrupted and a resumed ramp start every decision alike.
+# Each ramp step's certified decision starts from the previous step's
+# verified basis, each bisection point's from the basis of its start (the
+# bracket's lower end) (analysis.exceptional.classify_spectrum(basis=));
+# which basis it started from changes its margins and the last bits of its
+# eigenvalues (which the adaptive ramp's next load depends on). Rank 0 keeps
+# in memory the bases of the points a later point can start from (the last
+# step's and the lower end's). So that a resumed ramp takes the same loads
+# and stores the same numbers, at each checkpoint the bases of the starts of
+# the rows about to be written are saved beside their equilibria
+# (``<point>.basis.npz``, atomically) before ramp.h5 is, and every other
+# saved basis is removed after it; all are removed when the ramp ends.
+# --resume reads its starts' bases from those files: X as saved and R
+# recomputed by the same inversion the verification made, so the numbers
+# are those of the uninterrupted run (a missing file -- a ramp.h5 of an
+# older version -- only means that decision starts from dgeev). Between
+# checkpoints nothing is written: a basis at N = 100 is 0.6 MB, one per
+# point would be ~20 MB/s.
+#: rank 0: datafile -> verified basis of the points that can start a later one
+_BASES = {}
+
+
 def _basis_path(datafile):
     return datafile[:-len(".data")] + ".basis.npz"
 
 
-def _save_basis(datafile, basis):
+def _starts(rlog):
+    """Data files of the recorded points a later point can start from."""
+    files = rlog.files[ramp_file.STEPS]
+    lo_file = ramp_bracket(rlog)[2]
+    return {f for f in ([files[-1]] if files else []) + [lo_file] if f}
+
+
+def _remember(eng, rlog, datafile, basis):
+    """Rank 0, once the point of ``datafile`` is recorded: keep its basis if it
+    can start a later point, forget those that no longer can."""
+    if eng.rank != 0:
+        return
+    if basis is not None:
+        _BASES[datafile] = basis
+    keep = _starts(rlog)
+    for f in [f for f in _BASES if f not in keep]:
+        del _BASES[f]
+
+
+def _checkpoint(eng, rlog, folder, status, force=False):
+    """Rank 0: ramp.h5 brought up to date (``rlog.write``: at a checkpoint, or
+    ``force``), the bases of its start points saved just before it, the other
+    saved bases removed after it (all of them for a final status)."""
+    import glob
     from remote_trigger.analysis.output import atomic_path
 
-    _BASES.pop(_basis_path(datafile), None)     # a cached copy of an older file
-    if basis is None:
+    if eng.rank != 0:
         return
-    with atomic_path(_basis_path(datafile)) as tmp:
-        basis.save(tmp)
+    final = status != "running"
+    keep = set() if final else {_basis_path(f) for f in _starts(rlog)}
 
+    def save():
+        for f in _starts(rlog):
+            if f in _BASES:
+                with atomic_path(_basis_path(f)) as tmp:
+                    _BASES[f].save(tmp)
 
-#: rank 0's copy of the last basis loaded (path -> basis; a bisection's lower
-#: end starts several points), used only while its file exists
-_BASES = {}
-
-
-def _prune_bases(folder, rlog):
-    """Remove the saved bases that can no longer start a point (every one if
-    ``rlog`` is None: the ramp is complete)."""
-    import glob
-
-    keep = set()
-    if rlog is not None:
-        files = rlog.files[ramp_file.STEPS]
-        lo_file = ramp_bracket(rlog)[2]
-        keep = {_basis_path(f) for f in ([files[-1]] if files else []) + [lo_file] if f}
-    for path in glob.glob(os.path.join(folder, "*.basis.npz")):
-        if path not in keep:
-            os.remove(path)
-            _BASES.pop(path, None)
+    rlog.write(status, force=force, before=None if final else save)
+    if final or not rlog.dirty:         # the file on disk names only these starts
+        for path in glob.glob(os.path.join(folder, "*.basis.npz")):
+            if path not in keep:
+                os.remove(path)
 
 
 def _load_basis(eng, datafile):
-    """Rank 0: the saved basis of the point of ``datafile`` (None if there is no
-    such file or it is unreadable; None on the other ranks)."""
+    """Rank 0: the basis of the point of ``datafile`` -- from memory, or (after
+    --resume) from its saved file; None if neither has it, the file is
+    unreadable, or on the other ranks."""
     from remote_trigger.analysis.exceptional import SpectrumBasis
 
     if eng.rank != 0 or datafile is None:
         return None
-    path = _basis_path(datafile)
-    if not os.path.exists(path):
-        _BASES.pop(path, None)
-        return None
-    if path not in _BASES:
+    if datafile not in _BASES:
         try:
-            basis = SpectrumBasis.load(path)
-        except ValueError:
+            _BASES[datafile] = SpectrumBasis.load(_basis_path(datafile))
+        except (OSError, ValueError):
             return None
-        _BASES.clear()
-        _BASES[path] = basis
-    return _BASES[path]
+    return _BASES[datafile]
 
 
 def _ramp_result(rlog, status):

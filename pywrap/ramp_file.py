@@ -161,8 +161,11 @@ class RampLog:
         self.eig[f"{kind}/{name}"] = np.asarray(eigenvalues, complex)
         self.dirty = True
 
-    def write(self, status, force=False, **attrs):
+    def write(self, status, force=False, before=None, **attrs):
         """Bring ramp.h5 up to date, atomically (at a checkpoint, see the class).
+
+        ``before``: called (no arguments) just before the file is written,
+        not when the checkpoint interval skips the write.
 
         The previous file is copied to a temporary name, the new rows are
         appended to its resizable datasets and the new eigenvalue datasets
@@ -180,6 +183,8 @@ class RampLog:
                 and now - self._written < CHECKPOINT_SECONDS):
             return
         self._written = now
+        if before is not None:
+            before()
         a = dict(self.cfg.to_attrs(), stage="ramp", status=status, version=RESULT_VERSION,
                  **self.attrs)
         fresh = not getattr(self, "_synced", False) or not os.path.exists(self.path)
