@@ -39,7 +39,7 @@ Newton iterations per point are those measured at the largest relaxed N.
 
 Prints per N: dof, relax time, Newton steps and time, files, decision
 (dense or sparse), total per point, and the point cost multiplied into a
-fine ramp (F_x^c / dF_x + 12 points with the default ensemble's median
+fine ramp (F_x^c / dF_x + 12 points with the ensemble's median
 F_x^c at that N, extrapolated above N = 400) and an adaptive one (38
 points, docs/driver.md).
 
@@ -60,10 +60,11 @@ import time
 PAIR_RE_REL = 0.094
 #: points of an adaptive ramp of the default job (26 steps + 12 bisections)
 ADAPTIVE_POINTS = 38
-#: median F_x^c(mu0) of the default ensemble (docs/ensemble.md) at N = 100 and
-#: 400, and the exponent of their ratio, used to extrapolate to larger N
-FC_MEDIAN = {100: 0.0256, 400: 0.0049}
-FC_EXPONENT = -1.19
+#: median F_x^c(mu0) of the ensemble (docs/ensemble.md: 20 packings at N = 100,
+#: 11 at N = 400, session 11) and the exponent of their ratio, used to
+#: extrapolate to larger N
+FC_MEDIAN = {100: 0.0256, 400: 0.0037}
+FC_EXPONENT = -1.39
 
 
 #: packings relaxed once with the default protocol (ensemble generator, seed 1)
@@ -454,7 +455,7 @@ def main(argv=None):
                   f"{dense:.0f} s per point")
     print("point, cpu: the second point; fine ramp, adaptive: points x the mean of the two "
           "points above N = 400, x the second below")
-    print(f"fine ramp: F_x^c / dF_x + 12 points, F_x^c the default ensemble's median "
+    print(f"fine ramp: F_x^c / dF_x + 12 points, F_x^c the ensemble's median "
           f"({FC_MEDIAN[100]:g} at N = 100, {FC_MEDIAN[400]:g} at 400, extrapolated as "
           f"N^{FC_EXPONENT:g} above); adaptive: {ADAPTIVE_POINTS} points "
           f"(default job); both in s on one core (wall). cpu: process CPU time of the point "
