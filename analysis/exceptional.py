@@ -309,21 +309,23 @@ class SpectrumBasis:
         The float64 inverse of X used in the verification.
     blocks : list of (int, int)
         (first column, size 1 or 2) of each unit.
-    pairs : ndarray of bool, shape (len(blocks),)
-        The unit is a pair (a complex pair or two near-parallel real
-        eigenvectors).
     """
 
     X: np.ndarray
     R: np.ndarray
     blocks: list
-    pairs: np.ndarray
+
+    @property
+    def pairs(self):
+        """ndarray of bool, shape (len(blocks),): the unit is a pair (a complex
+        pair or two near-parallel real eigenvectors), i.e. has two columns."""
+        return np.array([k == 2 for _, k in self.blocks], dtype=bool)
 
     def save(self, path):
         """Write X and the block layout to ``path`` (``.npz``; R is recomputed on load)."""
         b = np.asarray(self.blocks, np.int64).reshape(-1, 2)
         with open(path, "wb") as fh:
-            np.savez(fh, X=self.X, blocks=b, pairs=np.asarray(self.pairs, bool))
+            np.savez(fh, X=self.X, blocks=b)
 
     @classmethod
     def load(cls, path):
@@ -336,17 +338,17 @@ class SpectrumBasis:
         """
         try:
             with np.load(path) as z:
-                X, b, pairs = z["X"], z["blocks"], z["pairs"]
+                X, b = z["X"], z["blocks"]
         except (OSError, KeyError, ValueError) as exc:
             raise ValueError(f"cannot read spectrum basis {path!r}: {exc}") from exc
         n = X.shape[0]
         if (X.ndim != 2 or X.shape != (n, n) or b.ndim != 2 or b.shape[1] != 2
-                or pairs.shape != (b.shape[0],) or int(b[:, 1].sum()) != n):
+                or int(b[:, 1].sum()) != n):
             raise ValueError(f"cannot read spectrum basis {path!r}: inconsistent shapes")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             R = np.linalg.inv(X)
-        return cls(X, R, [(int(s), int(k)) for s, k in b], pairs)
+        return cls(X, R, [(int(s), int(k)) for s, k in b])
 
 
 # --------------------------------------------------------------------------- units and bases
@@ -615,7 +617,7 @@ def _verify(A, X, blocks, units, refined, rel_error, input_error, Ap=None, ver=N
         ver = _Verified(A, X, blocks, rel_error, input_error, Ap)
     if not ver.ok:
         return None, ver
-    ver.basis = SpectrumBasis(X, ver.R, blocks, np.array([k == 2 for _, k in blocks]))
+    ver.basis = SpectrumBasis(X, ver.R, blocks)
     dev, off, C = ver.dev, ver.off, ver.C
     one = np.array([b for b, (s, k) in enumerate(blocks) if k == 1], dtype=np.intp)
     s_one = np.array([blocks[b][0] for b in one.tolist()], dtype=np.intp)

@@ -536,7 +536,7 @@ def _load_basis(eng, datafile):
     if datafile not in _BASES:
         try:
             _BASES[datafile] = SpectrumBasis.load(_basis_path(datafile))
-        except (OSError, ValueError):
+        except ValueError:          # absent or unreadable (named in the message)
             return None
     return _BASES[datafile]
 
