@@ -357,6 +357,17 @@ double FixWallMindlinSmooth::compute_vector(int n)
 }
 
 /* ----------------------------------------------------------------------
+   mu (dim 0) for fix mu/velocity, unless a variable gives it
+------------------------------------------------------------------------- */
+
+void *FixWallMindlinSmooth::extract(const char *str, int &dim)
+{
+  dim = 0;
+  if (strcmp(str, "mu") == 0 && mu_var.empty()) return (void *) &mu;
+  return nullptr;
+}
+
+/* ----------------------------------------------------------------------
    own history rows: nwall values per atom, moved with the atom
 ------------------------------------------------------------------------- */
 

