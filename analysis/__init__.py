@@ -1,19 +1,35 @@
 """remote_trigger.analysis: equilibria, Jacobians and eigenvalues of frictional packings.
 
-Modules (docs/analysis.md):
+Subpackages and modules (docs/analysis.md):
 
-``state``         read an equilibrium dump (with contact history) into a float64 State
-``jacobian``      K = -dG/dq (paper Appendix C), residual G, rattler removal
-``eigen``         eigenvalues of M^-1 K: dense LAPACK, ARPACK shift-invert, omega, growth
-``exceptional``   certified complex-pair decision near exceptional points
-``analyze``       the whole pipeline for one state or dump
-``forcelaw_ref``  independent complex-step-capable force law (tests)
-``stability``     the ramp's verdict: certified decision, its codes, growth rate
-``eigtrack``      the coalescing eigenvalue pair through a ramp (Fig. 3)
-``series``        D(t) series: noise level, growth window and rate, saturation
-``trajectory``    LAMMPS dump trajectories with MDAnalysis; D(t) and its float32 floor
-``output``        atomic writers (text, JSON, HDF5, npz, figures) and output checks
-``cli_jacobian``  ``remote-trigger jacobian DUMP -o OUT.npz``
+=================================  ==============================================================
+``state``                          a packing's State and its file formats
+``state.state``                    :class:`~remote_trigger.analysis.state.state.State`, ``build_state``
+``state.contacts``                 contact finding: geometric contacts, touching band, history, wall
+``state.dumpfile``                 the equilibrium dump + sidecar format (read, write)
+``state.sidecar``                  the sidecar's model parameters
+``state.datafile``                 LAMMPS data files read and checked in float64
+``state.trajectory``               LAMMPS dump trajectories with MDAnalysis; D(t), float32 floor
+``stability``                      the linear algebra of the stability verdict
+``stability.jacobian``             K = -dG/dq (paper Appendix C), residual G, rattler removal
+``stability.eigen``                eigenvalues of M^-1 K: dense LAPACK, ARPACK shift-invert
+``stability.exceptional``          certified complex-pair decision near exceptional points
+``stability.decision``             its results (PairDecision, SpectrumDecision, SpectrumBasis)
+``stability.verification``         its steps for one basis
+``stability.basis``                its start from a previous decision's basis
+``stability.projected``            a partial decision: the k eigenvalues nearest a shift
+``stability.enclosure``            its rigorous float64 bounds
+``stability.verdict``              the ramp's verdict: ``Decision``, certified decision, growth
+``stability.eigtrack``             the coalescing eigenvalue pair through a ramp (Fig. 3)
+``stability.analyze``              the whole pipeline for one state or dump
+``stability.timestep``             the stable time step from the spectrum
+``dynamics``                       time series and the normal form
+``dynamics.series``                D(t) series: noise level, growth window and rate, saturation
+``dynamics.normal_form``           the paper's 2x2 normal form
+``forcelaw_ref``                   independent complex-step-capable force law (tests)
+``output``                         atomic writers (text, JSON, HDF5, npz, figures), output checks
+``errors``                         the exception hierarchy
+=================================  ==============================================================
 
 Imports are lazy: importing this package loads nothing heavy.
 """

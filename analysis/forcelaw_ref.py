@@ -106,7 +106,7 @@ class ReferenceSystem:
 
     @classmethod
     def from_state(cls, state):
-        """Build from a :class:`~remote_trigger.analysis.state.State` (its arrays only)."""
+        """Build from a :class:`~remote_trigger.analysis.state.state.State` (its arrays only)."""
         p = state.params
         return cls(state.positions, state.radii,
                    np.column_stack([state.contact_i, state.contact_j]), state.contact_xi,

@@ -8,11 +8,11 @@ rename never crosses file systems) and renamed over ``<path>`` with
 moment the writer was killed at (also ``kill -9``). If writing fails, the
 temporary file is removed and the exception propagates; a process killed in
 the middle leaves its ``<path>.tmp<pid>``, never read as a result (removed by
-the next write through :func:`remote_trigger.pywrap.results.clean_stale_tmp`).
+the next write through :func:`remote_trigger.pywrap.runtime.results.clean_stale_tmp`).
 
 :func:`atomic_path` is the one implementation; the writers below (text,
 JSON, HDF5, ``.npz``, matplotlib figures) and the driver's
-(:mod:`remote_trigger.pywrap.results`) use it. :func:`output_file` and
+(:mod:`remote_trigger.pywrap.runtime.results`) use it. :func:`output_file` and
 :func:`output_dir` check an output name before any work.
 """
 import contextlib
@@ -131,7 +131,7 @@ def output_file(path, option="-o", suffix=None):
         If ``path`` is a folder (or ends with a path separator), its folder
         does not exist or is not a folder, or it lacks ``suffix``.
     """
-    from .errors import InputError
+    from remote_trigger.analysis.errors import InputError
 
     text = os.fspath(path)
     if not text or text.endswith(os.sep) or os.path.isdir(text):
@@ -154,7 +154,7 @@ def output_dir(path, option="--out"):
         If ``path`` names an existing file, or the folder cannot be created
         or written (the message names the path and the reason).
     """
-    from .errors import InputError
+    from remote_trigger.analysis.errors import InputError
 
     text = os.fspath(path)
     if not text:

@@ -38,11 +38,11 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from remote_trigger.analysis import eigen, exceptional  # noqa: E402
-from remote_trigger.analysis.analyze import analyze  # noqa: E402
-from remote_trigger.analysis.jacobian import find_rattlers, remove_dofs  # noqa: E402
-from remote_trigger.analysis.jacobian import stiffness_matrix  # noqa: E402
-from remote_trigger.analysis.state import read_dump  # noqa: E402
+from remote_trigger.analysis.stability import eigen, exceptional  # noqa: E402
+from remote_trigger.analysis.stability.analyze import analyze  # noqa: E402
+from remote_trigger.analysis.stability.jacobian import find_rattlers, remove_dofs  # noqa: E402
+from remote_trigger.analysis.stability.jacobian import stiffness_matrix  # noqa: E402
+from remote_trigger.analysis.state.dumpfile import read_dump  # noqa: E402
 from tests.analysis.builders import random_packing  # noqa: E402
 from tests.analysis.lammps_fd import LammpsFD, sheared_packing  # noqa: E402
 from tests.analysis.lammps_fd import write_equilibrium_dump  # noqa: E402
@@ -92,10 +92,10 @@ def bench_eigen(st, k):
 
 def bench_decision(loads, repeat=5):
     """Eigen-solve and decision times of classify_spectrum at N = 100 (default job, mu = 1)."""
-    from remote_trigger.pywrap.ramp import _ramp_point
-    from remote_trigger.pywrap.engine import Engine
-    from remote_trigger.pywrap.paper import ramp_config
-    from remote_trigger.pywrap.paper_config import PaperConfig
+    from remote_trigger.pywrap.stages.ramp import _ramp_point
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.jobs.paper import ramp_config
+    from remote_trigger.pywrap.jobs.paper.config import PaperConfig
     from tests.data import unpack
     from tests.driver.test_default_job_bisection import matrix
 

@@ -83,7 +83,7 @@ def _rows(writer, n):
 
 
 def bench_writer(folder, n, n_old, repeat=3):
-    from remote_trigger.pywrap.results import SeriesWriter, read_all
+    from remote_trigger.pywrap.runtime.results import SeriesWriter, read_all
 
     cols = ["t", "D", "v_top", "mu"]
     path = os.path.join(folder, "series.h5")
@@ -132,7 +132,7 @@ def main(argv=None):
     sys.path.insert(0, ROOT)
     import numpy as np
     from tests.driver import test_kill as K
-    from remote_trigger.pywrap.results import read_all
+    from remote_trigger.pywrap.runtime.results import read_all
 
     t_all = time.perf_counter()
     base = args.out or tempfile.mkdtemp(prefix="bench_kill_")

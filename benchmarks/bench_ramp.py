@@ -45,9 +45,9 @@ def eigen_solve_time(dump0, dump1):
     import numpy as np
     import scipy.linalg as sla
 
-    from remote_trigger.analysis import eigen, exceptional, jacobian
-    from remote_trigger.analysis.analyze import analyze
-    from remote_trigger.analysis.state import read_dump
+    from remote_trigger.analysis.stability import eigen, exceptional, jacobian
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.state.dumpfile import read_dump
 
     def matrix(dump):
         res = analyze(read_dump(dump, require_contacts=False), eigenvalues=False, decide=False)
@@ -92,9 +92,9 @@ def main(argv=None):
     from mpi4py import MPI
     import numpy as np
     from remote_trigger.pywrap import stages
-    from remote_trigger.pywrap.config import RelaxConfig, RampConfig
-    from remote_trigger.pywrap.packing import generate, write_data
-    from remote_trigger.pywrap.results import read_all
+    from remote_trigger.pywrap.stages.config import RelaxConfig, RampConfig
+    from remote_trigger.pywrap.stages.packing import generate, write_data
+    from remote_trigger.pywrap.runtime.results import read_all
 
     comm = MPI.COMM_WORLD
     rank = comm.Get_rank()

@@ -44,11 +44,11 @@ def main(argv=None):
 
     from mpi4py import MPI  # noqa: F401  (libmpi before liblammps)
     import numpy as np
-    from remote_trigger.pywrap import equilibrium as eq
+    from remote_trigger.pywrap.stages import equilibrium as eq
     from remote_trigger.pywrap import stages
-    from remote_trigger.pywrap.config import RelaxConfig
-    from remote_trigger.pywrap.engine import Engine
-    from remote_trigger.pywrap.packing import generate, write_data
+    from remote_trigger.pywrap.stages.config import RelaxConfig
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages.packing import generate, write_data
 
     work = tempfile.mkdtemp(prefix="bench_relax_")
     data = os.path.join(work, "p.data")

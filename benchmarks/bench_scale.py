@@ -11,7 +11,9 @@ sparse LU above), write the equilibrium files, and the certified decision:
   all 3N eigenvalues and the certified decision on the whole spectrum,
   started from the first point's basis as the ramp does; the decision from
   dgeev on the same dump is timed beside it);
-* N > 400: the sparse path, ``analysis.exceptional.classify_projected`` on
+* N > 400: the sparse path, a PARTIAL decision (not a stability verdict: a
+  pair elsewhere in the spectrum is not seen),
+  ``analysis.stability.projected.classify_projected`` on
   the k = 12 eigenvalues of M^-1 K nearest a shift sigma (the shift at
   which the ramp last saw the pair; here the coalescing pair's median
   position measured on the N = 100 ensemble, Re lambda_c = 0.094
@@ -60,9 +62,9 @@ import time
 PAIR_RE_REL = 0.094
 #: points of an adaptive ramp of the default job (26 steps + 12 bisections)
 ADAPTIVE_POINTS = 38
-#: median F_x^c(mu0) of the ensemble (docs/ensemble.md: 20 packings at N = 100,
-#: 11 at N = 400, session 11) and the exponent of their ratio, used to
-#: extrapolate to larger N
+#: median F_x^c(mu0) of the ensemble (docs/results/ensemble.md: 20 packings at
+#: N = 100, 11 at N = 400, measured 2026-11-22, commit cfcaa45) and the exponent
+#: of their ratio, used to extrapolate to larger N
 FC_MEDIAN = {100: 0.0256, 400: 0.0037}
 FC_EXPONENT = -1.39
 
@@ -85,8 +87,8 @@ def one_point(n, seed, dF_x, base):
     from mpi4py import MPI
 
     from remote_trigger.pywrap import stages
-    from remote_trigger.pywrap.config import RelaxConfig
-    from remote_trigger.pywrap.packing import generate, write_data
+    from remote_trigger.pywrap.stages.config import RelaxConfig
+    from remote_trigger.pywrap.stages.packing import generate, write_data
 
     out = os.path.join(base, f"N{n}")
     os.makedirs(out, exist_ok=True)
@@ -100,8 +102,8 @@ def one_point(n, seed, dF_x, base):
 
 def stored_point(n, datafile, dF_x, base):
     """Two ramp points from a packing relaxed beforehand (``--relaxed``)."""
-    from remote_trigger.analysis.datafile import read_data
-    from remote_trigger.pywrap.stage_common import packing_fraction
+    from remote_trigger.analysis.state.datafile import read_data
+    from remote_trigger.pywrap.stages.common import packing_fraction
 
     out = os.path.join(base, f"N{n}")
     os.makedirs(out, exist_ok=True)
@@ -181,10 +183,10 @@ def tiled_point(src, copies, dF_x, base, seed):
     """Tile the stored packing, re-equilibrate it at F_x = 0, then two ramp points."""
     from mpi4py import MPI
 
-    from remote_trigger.pywrap import equilibrium as eq
-    from remote_trigger.pywrap.config import RampConfig
-    from remote_trigger.pywrap.engine import Engine
-    from remote_trigger.pywrap.stage_common import load_relax_scene, save_equilibrium
+    from remote_trigger.pywrap.stages import equilibrium as eq
+    from remote_trigger.pywrap.stages.config import RampConfig
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages.common import load_relax_scene, save_equilibrium
 
     out = os.path.join(base, f"tiled{copies}")
     os.makedirs(out, exist_ok=True)
@@ -205,7 +207,7 @@ def tiled_point(src, copies, dF_x, base, seed):
 
 def two_points(start, dF_x, out, row):
     """The ramp points F_x = dF_x and 2 dF_x from the equilibrium ``start``."""
-    from remote_trigger.pywrap.config import RampConfig
+    from remote_trigger.pywrap.stages.config import RampConfig
 
     cfg = RampConfig(datafile=start, dF_x=dF_x, F_x=0.0)
     # two ramp steps, F_x = dF_x then 2 dF_x, each from the previous
@@ -232,14 +234,15 @@ def _point(cfg, start, F_x, prefix, basis=None):
     import scipy.sparse.linalg as spla
     from mpi4py import MPI
 
-    from remote_trigger.analysis import eigen, exceptional
-    from remote_trigger.analysis.analyze import analyze
-    from remote_trigger.analysis.jacobian import remove_dofs
-    from remote_trigger.analysis.stability import stability_of_dump
-    from remote_trigger.analysis.state import read_dump
-    from remote_trigger.pywrap import equilibrium as eq
-    from remote_trigger.pywrap.engine import Engine
-    from remote_trigger.pywrap.stage_common import load_relax_scene, save_equilibrium
+    from remote_trigger.analysis.stability import eigen, projected
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability.jacobian import remove_dofs
+    from remote_trigger.analysis.stability.verdict import stability_of_dump
+    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.pywrap.stages import equilibrium as eq
+    from remote_trigger.pywrap.stages.newton_solve import DENSE_NEWTON_MAX
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages.common import load_relax_scene, save_equilibrium
 
     c0 = time.process_time()
     with Engine(comm=MPI.COMM_SELF) as eng:
@@ -254,8 +257,8 @@ def _point(cfg, start, F_x, prefix, basis=None):
     row = dict(scene=t1 - t0, newton=t2 - t1, files=t3 - t2, residual=r,
                newton_steps=max(0, sum(p == "newton" for p in rec.phase) - 1),
                damped=sum(p == "damped" for p in rec.phase),
-               path="sparse" if 3 * n > eq.DENSE_NEWTON_MAX else "dense")
-    if 3 * n <= eq.DENSE_NEWTON_MAX:
+               path="sparse" if 3 * n > DENSE_NEWTON_MAX else "dense")
+    if 3 * n <= DENSE_NEWTON_MAX:
         t0 = time.perf_counter()
         res = stability_of_dump(prefix + ".dump", basis)
         t1 = time.perf_counter()
@@ -273,11 +276,11 @@ def _point(cfg, start, F_x, prefix, basis=None):
         t1, c1 = time.perf_counter(), time.process_time()
         lam_max = float(abs(spla.eigs(A, k=1, which="LM", return_eigenvectors=False)[0]))
         t2, c2 = time.perf_counter(), time.process_time()
-        dec, _ = exceptional.classify_projected(A, PAIR_RE_REL * lam_max, k=12)
+        dec, _ = projected.classify_projected(A, PAIR_RE_REL * lam_max, k=12)
         t3 = time.perf_counter()
         verdict = {True: "complex", False: "real", None: "undecided"}[dec.complex_present]
         row.update(decision=(t1 - t0) + (t3 - t2), eigen=dec.timing.get("eigen", np.nan),
-                   lam_max_time=t2 - t1, lam_max_cpu=c2 - c1, verdict=verdict + " (12 nearest the shift)",
+                   lam_max_time=t2 - t1, lam_max_cpu=c2 - c1, verdict="partial, not a verdict: " + verdict + " among the 12 nearest the shift",
                    n_eig=12)
     row["point"] = row["scene"] + row["newton"] + row["files"] + row["decision"]
     row["point_cpu"] = time.process_time() - c0 - row.get("lam_max_cpu", 0.0)
@@ -295,13 +298,14 @@ def synthetic_point(n, seed, base, newton_steps):
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     from tests.analysis.builders import random_packing
 
-    from remote_trigger.analysis import eigen, exceptional
-    from remote_trigger.analysis.jacobian import find_rattlers, remove_dofs, stiffness_matrix
-    from remote_trigger.pywrap import equilibrium as eq
-    from remote_trigger.pywrap.config import RampConfig
-    from remote_trigger.pywrap.engine import Engine
-    from remote_trigger.pywrap.packing import generate, write_data
-    from remote_trigger.pywrap.stage_common import load_relax_scene, save_equilibrium
+    from remote_trigger.analysis.stability import eigen, projected
+    from remote_trigger.analysis.stability.jacobian import (
+        find_rattlers, remove_dofs, stiffness_matrix)
+    from remote_trigger.pywrap.stages import equilibrium as eq
+    from remote_trigger.pywrap.stages.config import RampConfig
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages.packing import generate, write_data
+    from remote_trigger.pywrap.stages.common import load_relax_scene, save_equilibrium
 
     out = os.path.join(base, f"N{n}")
     os.makedirs(out, exist_ok=True)
@@ -347,14 +351,14 @@ def synthetic_point(n, seed, base, newton_steps):
     A = eigen.dynamical_matrix(Kr, mr)
     lam_max = float(abs(spla.eigs(A, k=1, which="LM", return_eigenvectors=False)[0]))
     t8 = time.perf_counter()
-    dec, _ = exceptional.classify_projected(A, PAIR_RE_REL * lam_max, k=12)
+    dec, _ = projected.classify_projected(A, PAIR_RE_REL * lam_max, k=12)
     t9 = time.perf_counter()
     verdict = {True: "complex", False: "real", None: "undecided"}[dec.complex_present]
     iteration = (t3 - t2) + (t6 - t5) + (t7 - t6)
     row = dict(n=st.n, dof=3 * st.n, relax=float("nan"), phi=float("nan"), scene=t1 - t0,
                newton=newton_steps * iteration, newton_steps=newton_steps,
                files=t4 - t3, decision=t9 - t8, lam_max_time=t8 - t7, path="sparse",
-               verdict=verdict + " (12 nearest the shift; synthetic packing)",
+               verdict="partial, not a verdict: " + verdict + " among the 12 nearest the shift; synthetic packing",
                parts=dict(engine_iteration=t3 - t2, K=t6 - t5, solve=t7 - t6))
     row["point"] = row["scene"] + row["newton"] + row["files"] + row["decision"]
     row["point_cpu"] = float("nan")
@@ -422,8 +426,9 @@ def main(argv=None):
         what = (f"dense: all eigenvalues, certified, from {r['start']} (from dgeev: "
                 f"{r['decision_dgeev']:.3f} s, its eigen-solve {r['eigen']:.3f} s)"
                 if r["path"] == "dense" else
-                f"sparse: 12 nearest sigma = {PAIR_RE_REL} lambda_max, certified "
-                f"(lambda_max by ARPACK {r['lam_max_time']:.2f} s, not counted)")
+                f"sparse, PARTIAL (not a stability verdict): 12 of {r['dof']} eigenvalues, "
+                f"nearest sigma = {PAIR_RE_REL} lambda_max (lambda_max by ARPACK "
+                f"{r['lam_max_time']:.2f} s, not counted)")
         relax = "stored" if "stored" in r else "tiled" if "tiled" in r else f"{r['relax']:.1f}"
         print(f"{r['n']:6d} {r['dof']:6d} {relax:>8} {r['newton_steps']:6d} "
               f"{r['newton']:8.3f} {r['scene'] + r['files']:11.3f} {r['decision']:9.3f} "

@@ -10,10 +10,11 @@ step, F_x and the certified decision; the ramp's files are under --out.
 import argparse
 import os
 
-from remote_trigger.pywrap import packing, stages
-from remote_trigger.pywrap.config import RelaxConfig, RampConfig
-from remote_trigger.analysis.analyze import analyze
-from remote_trigger.analysis.state import read_dump
+from remote_trigger.pywrap.stages import packing
+from remote_trigger.pywrap import stages
+from remote_trigger.pywrap.stages.config import RelaxConfig, RampConfig
+from remote_trigger.analysis.stability.analyze import analyze
+from remote_trigger.analysis.state.dumpfile import read_dump
 
 
 def main(argv=None):
@@ -35,9 +36,8 @@ def main(argv=None):
     ramp = stages.ramp(RampConfig(datafile=rel.datafile, dF_x=a.dF_x,
                                   F_x_max=a.steps * a.dF_x),
                        os.path.join(a.out, "ramp"), quiet=True)
-    for F, d, g in zip(ramp.F_x, ramp.decision, ramp.growth_rate):
-        verdict = {1: "complex", 0: "real", -1: "undecided"}[int(d)]
-        print(f"F_x = {F:.4g}: {verdict} (growth rate {g:.3g})")
+    for F, d, g in zip(ramp.F_x, ramp.decisions, ramp.growth_rate):
+        print(f"F_x = {F:.4g}: {d.label} (growth rate {g:.3g})")
     print(f"ramp: {ramp.status}; F_x^c in [{ramp.F_x_c_low:.6g}, {ramp.F_x_c_high:.6g}]")
     return 0
 

@@ -11,7 +11,7 @@ set -e
 N=${1:-40}
 SEED=${2:-1}
 DECKS=${3:-$(dirname "$0")/../../lammps_inputs}
-remote-trigger generate --n "$N" --seed "$SEED" --output packing.data
+remote-trigger generate --n "$N" --seed "$SEED" --output packing.data --overwrite
 # (i)-(iv) of the driver's relax protocol; stops with status 3 if fmin is not reached
 lmp -in "$DECKS/in.relax" -log relax.log -var datafile packing.data -var out relaxed
 # one ramp step: the relaxed state at F_x = 0.001 (damped to fmin)

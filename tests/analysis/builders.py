@@ -1,7 +1,7 @@
 """Synthetic packings for the analyzer tests (no LAMMPS needed)."""
 import numpy as np
 
-from remote_trigger.analysis.state import ContactParams, build_state
+from remote_trigger.analysis.state.state import ContactParams, build_state
 
 KN = 2.0e5
 KT = 2.0 * KN / 7.0
@@ -82,7 +82,7 @@ def write_dump(path, state, slots=8, sidecar=True, drop=(), forces=None, step=10
     """
     import json
 
-    from remote_trigger.analysis.jacobian import generalized_forces
+    from remote_trigger.analysis.stability.jacobian import generalized_forces
 
     part, xi, wall = history_arrays(state, slots)
     if forces is None:

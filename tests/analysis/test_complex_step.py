@@ -7,11 +7,11 @@ Im G(q0 + i h e_k) / h is dG/dq_k to rounding (h = 1e-30, no cancellation).
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.forcelaw_ref import (ReferenceSystem, complex_step_jacobian,
-                                                   reference_forces)
-from remote_trigger.analysis.jacobian import (contact_terms, displaced_state, find_rattlers,
-                                              generalized_forces, stiffness_matrix)
-from remote_trigger.analysis.state import ContactParams, build_state
+from remote_trigger.analysis.forcelaw_ref import (
+    ReferenceSystem, complex_step_jacobian, reference_forces)
+from remote_trigger.analysis.stability.jacobian import (
+    contact_terms, displaced_state, find_rattlers, generalized_forces, stiffness_matrix)
+from remote_trigger.analysis.state.state import ContactParams, build_state
 
 from .builders import KN, KT, random_packing
 

@@ -3,10 +3,10 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from remote_trigger.analysis.analyze import analyze, analyze_dump
-from remote_trigger.analysis.eigen import (dense_eigen, dynamical_matrix, eigenvalues,
-                                           frequencies, growth_rate, sparse_eigen)
-from remote_trigger.analysis.jacobian import find_rattlers, remove_dofs, stiffness_matrix
+from remote_trigger.analysis.stability.analyze import analyze, analyze_dump
+from remote_trigger.analysis.stability.eigen import (
+    dense_eigen, dynamical_matrix, eigenvalues, frequencies, growth_rate, sparse_eigen)
+from remote_trigger.analysis.stability.jacobian import find_rattlers, remove_dofs, stiffness_matrix
 from remote_trigger.pywrap.cli import main
 
 from .builders import random_packing, write_dump
@@ -127,7 +127,7 @@ def test_cli_bad_input_exit_code(tmp_path, capsys):
 
 
 def test_band_scan_finds_dense_eigenvalues(system):
-    from remote_trigger.analysis.eigen import band_scan, default_shift
+    from remote_trigger.analysis.stability.eigen import band_scan, default_shift
 
     _, Kr, mr = system
     dense = dense_eigen(Kr, mr, vectors=False).eigenvalues

@@ -25,8 +25,8 @@ at F_x = 0, so the first check needs the frictionless protocol.
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.analyze import analyze
-from remote_trigger.analysis.state import read_dump
+from remote_trigger.analysis.stability.analyze import analyze
+from remote_trigger.analysis.state.dumpfile import read_dump
 
 N, SEED, MU = 100, 1, 1.0
 # ramp path to F_x = 0.40 in steps of 0.01 (equilibria with friction are path
@@ -36,8 +36,11 @@ F_RAMP = tuple(round(0.01 * k, 2) for k in range(2, 41))
 
 @pytest.fixture(scope="module")
 def driver(tmp_path_factory):
-    from remote_trigger.pywrap import config, engine, equilibrium, packing, stages
-    from remote_trigger.pywrap.stage_common import _deck_vars
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.stages import config
+    from remote_trigger.pywrap.bindings import engine
+    from remote_trigger.pywrap.stages import equilibrium, packing
+    from remote_trigger.pywrap.stages.common import _deck_vars
 
     out = tmp_path_factory.mktemp("eq")
     datafile = str(out / "p.data")
@@ -80,7 +83,7 @@ def _fastest_mode(st, res):
     """Real part of the eigenvector (N, 3: x, y, R phi) of the fastest growing mode."""
     import scipy.linalg as sla
 
-    from remote_trigger.analysis import eigen, jacobian
+    from remote_trigger.analysis.stability import eigen, jacobian
 
     keep = res.rattlers.keep_dofs
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)

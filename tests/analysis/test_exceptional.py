@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from remote_trigger.analysis.eigen import condition_numbers
-from remote_trigger.analysis.exceptional import (block_discriminant, classify_projected,
-                                                 classify_spectrum, exact_residual,
-                                                 normal_form)
+from remote_trigger.analysis.stability.eigen import condition_numbers
+from remote_trigger.analysis.stability.enclosure import exact_residual
+from remote_trigger.analysis.stability.exceptional import (
+    block_discriminant, classify_spectrum, normal_form)
+from remote_trigger.analysis.stability.projected import classify_projected
 
 from .arb_oracle import discriminant_2x2, full_spectrum, pair_is
 
@@ -248,7 +249,7 @@ def test_arb_oracle_can_fail():
 
 def test_sqrt_law_exponents_can_fail():
     """A generic exceptional point gives 1/2 on both sides; a linear approach gives 1."""
-    from remote_trigger.analysis.exceptional import sqrt_law
+    from remote_trigger.analysis.stability.eigtrack import sqrt_law
 
     Fc, w = 0.05, 1e-8
     F = np.concatenate([Fc - np.geomspace(1e-6, 2e-3, 12), Fc + np.geomspace(1e-6, 2e-3, 8)])

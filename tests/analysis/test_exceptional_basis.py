@@ -9,7 +9,8 @@ to dgeev where the basis does not fit.
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.exceptional import SpectrumBasis, classify_spectrum
+from remote_trigger.analysis.stability.decision import SpectrumBasis
+from remote_trigger.analysis.stability.exceptional import classify_spectrum
 
 from .arb_oracle import full_spectrum
 from .test_exceptional import embedded
@@ -56,7 +57,7 @@ def test_complex_side_decided_from_the_real_sides_basis(monkeypatch):
     by merging the two units into a pair (a bisection point above F_x^c
     started from its lower end); Arb checks the answer. Without the merge
     the correction diverges and the decision starts from dgeev."""
-    import remote_trigger.analysis.exceptional as ex
+    import remote_trigger.analysis.stability.basis as basis_module
 
     A0, A = _path([1e-2, -1e-3])
     basis = classify_spectrum(A0).basis
@@ -65,7 +66,7 @@ def test_complex_side_decided_from_the_real_sides_basis(monkeypatch):
     assert dec.start == "basis" and dec.complex_present is True and dec.confidence > 1
     assert dec.basis.pairs.sum() == 1
     assert full_spectrum(A) == "complex"
-    monkeypatch.setattr(ex, "_BASIS_MERGE", np.inf)
+    monkeypatch.setattr(basis_module, "_BASIS_MERGE", np.inf)
     assert classify_spectrum(A, basis=basis).start == "dgeev"
 
 

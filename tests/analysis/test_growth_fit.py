@@ -1,7 +1,7 @@
 """growth_fit (instability.h5 measured_growth_rate) fits only the exponential stretch."""
 import numpy as np
 
-from remote_trigger.analysis.series import growth_fit
+from remote_trigger.analysis.dynamics.series import growth_fit
 
 
 def _series(g=0.016, noise=1e-27, sat=1e-8, t_max=3000.0, n=3001, seed=3):
@@ -47,7 +47,7 @@ def _bent(g=0.016, g2=0.008, t_bend=1300.0, t_max=2600.0, n=5201, wiggle=0.3):
 
 
 def test_window_ends_at_the_first_departure_from_a_constant_rate():
-    from remote_trigger.analysis.series import growth_window
+    from remote_trigger.analysis.dynamics.series import growth_window
 
     t, D = _bent()
     (i0, i1), g = growth_window(t, D, noise=1e-26)
@@ -65,7 +65,7 @@ def test_window_ends_at_the_first_departure_from_a_constant_rate():
 
 def test_short_windows_are_not_cut():
     """Fewer than one decade per piece (Fig. 5 (c) windows): the rates are not compared."""
-    from remote_trigger.analysis.series import growth_window
+    from remote_trigger.analysis.dynamics.series import growth_window
 
     t, D = _bent(g=0.016, g2=0.004, t_bend=100.0, t_max=200.0, n=201, wiggle=0.0)
     (i0, i1), g = growth_window(t, D, noise=1e-30, hi=0.999)    # 1.7 decades in all

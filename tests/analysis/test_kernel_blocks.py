@@ -1,9 +1,9 @@
 """Per-contact blocks of the vectorized K against the C++ kernel the plugin runs."""
 import numpy as np
 
-from remote_trigger.analysis.jacobian import (contact_blocks, contact_terms, wall_blocks,
-                                              wall_terms)
-from remote_trigger.pywrap import kernel
+from remote_trigger.analysis.stability.jacobian import (
+    contact_blocks, contact_terms, wall_blocks, wall_terms)
+from remote_trigger.pywrap.bindings import kernel
 
 from .builders import random_packing
 

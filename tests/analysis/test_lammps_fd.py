@@ -17,9 +17,9 @@ O(h), not O(h^2). Columns away from those points show the O(h^2) law.
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.jacobian import (contact_terms, generalized_forces,
-                                              stiffness_matrix, wall_terms)
-from remote_trigger.analysis.state import read_dump
+from remote_trigger.analysis.stability.jacobian import (
+    contact_terms, generalized_forces, stiffness_matrix, wall_terms)
+from remote_trigger.analysis.state.dumpfile import read_dump
 
 from .lammps_fd import LammpsFD, sheared_packing, write_equilibrium_dump
 

@@ -81,7 +81,7 @@ def test_savefig_takes_the_format_from_the_name(tmp_path):
 
 def test_sidecar_writer_is_the_readers_format(tmp_path):
     """analysis.state.write_sidecar writes exactly what load_sidecar reads; bad input refused."""
-    from remote_trigger.analysis.state import PARAM_KEYS, load_sidecar, write_sidecar
+    from remote_trigger.analysis.state.dumpfile import PARAM_KEYS, load_sidecar, write_sidecar
 
     vals = {"k_n": 2e5, "k_t": 2e5 * 2 / 7, "mu": 0.8, "wall_y": 0.0,
             "F_x": 0.061690159999999994, "F_y": 3, "dt": np.float64(1e-3)}

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.eigtrack import predict_coalescence
+from remote_trigger.analysis.stability.eigtrack import predict_coalescence
 
 
 def _spectrum(F, F_c, p=0.5, c=3.0, centre=2.0):

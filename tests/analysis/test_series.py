@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from remote_trigger.analysis import series as ser
+from remote_trigger.analysis.dynamics import series as ser
 
 
 def triggered_series(g=0.013, jump=1e-12, t_switch=5.0, t_grow=500.0, sat=1e-7, n=2401,

@@ -4,7 +4,8 @@ import json
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.state import ContactParams, build_state, read_dump
+from remote_trigger.analysis.state.dumpfile import read_dump
+from remote_trigger.analysis.state.state import ContactParams, build_state
 
 from .builders import random_packing, write_dump
 
@@ -229,7 +230,7 @@ def test_touching_band_across_the_periodic_boundary(delta, history, contact, tou
     overlap of 1e-9 without). A contact is an overlap, delta > 0, as always."""
     import warnings
 
-    from remote_trigger.analysis.state import touch_band
+    from remote_trigger.analysis.state.contacts import touch_band
 
     W = 47.62432831515532
     pos = np.array([[W - 0.3, 5.0], [0.7 - delta, 5.0]])

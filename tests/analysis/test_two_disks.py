@@ -12,8 +12,8 @@ T = diag(Q, 1, Q, 1). A capped contact has f_t = -sign(xi) mu k_n d^{3/2}.
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.jacobian import stiffness_matrix
-from remote_trigger.analysis.state import ContactParams, build_state
+from remote_trigger.analysis.stability.jacobian import stiffness_matrix
+from remote_trigger.analysis.state.state import ContactParams, build_state
 
 KN, KT, MU = 2.0e5, 2.0e5 * 2 / 7, 0.8
 

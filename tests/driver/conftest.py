@@ -26,7 +26,7 @@ def cli_env():
 
 @pytest.fixture(scope="session")
 def packing_file(tmp_path_factory):
-    from remote_trigger.pywrap.packing import generate, write_data
+    from remote_trigger.pywrap.stages.packing import generate, write_data
 
     path = tmp_path_factory.mktemp("packing") / "p20.data"
     write_data(generate(N_SMALL, seed=SEED), path)
@@ -36,7 +36,7 @@ def packing_file(tmp_path_factory):
 @pytest.fixture(scope="session")
 def relaxed(tmp_path_factory, packing_file):
     """Relax result of the small packing (settled, Newton-polished)."""
-    from remote_trigger.pywrap.config import RelaxConfig
+    from remote_trigger.pywrap.stages.config import RelaxConfig
     from remote_trigger.pywrap import stages
 
     out = tmp_path_factory.mktemp("relax")

@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 
-from remote_trigger.pywrap.engine import Engine
+from remote_trigger.pywrap.bindings.engine import Engine
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "benchmarks"))
 
@@ -22,7 +22,7 @@ def _forces(datafile):
 def test_copies_are_an_equilibrium_force_for_force(relaxed, tmp_path):
     from bench_scale import tiled_packing
 
-    from remote_trigger.pywrap.equilibrium import analysis_state
+    from remote_trigger.pywrap.stages.newton_solve import analysis_state
 
     copies = 3
     path = str(tmp_path / "tiled.data")

@@ -41,7 +41,7 @@ def assert_one_line_error(err, *needles, status=None):
 def ramp_run(relaxed, tmp_path_factory):
     """A coarse ramp of the small packing: a stable and an unstable start state."""
     from remote_trigger.pywrap import stages
-    from remote_trigger.pywrap.config import RampConfig
+    from remote_trigger.pywrap.stages.config import RampConfig
 
     out = tmp_path_factory.mktemp("ramp")
     res = stages.ramp(RampConfig(datafile=relaxed.datafile, dF_x=0.02, tol=1e-3), str(out),
@@ -82,11 +82,11 @@ def bad_files(packing_file, tmp_path):
 # --------------------------------------------------------------------------- the error layer
 def test_one_exception_base_keeps_builtin_bases():
     from remote_trigger.analysis.errors import RemoteTriggerError
-    from remote_trigger.analysis.timestep import TimestepError
+    from remote_trigger.analysis.stability.timestep import TimestepError
     from remote_trigger.pywrap import errors
     from remote_trigger.pywrap.config import ConfigError
-    from remote_trigger.pywrap.engine import EngineError
-    from remote_trigger.pywrap.equilibrium import NoEquilibriumError
+    from remote_trigger.pywrap.bindings.engine import EngineError
+    from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
 
     assert errors.RemoteTriggerError is RemoteTriggerError
     for cls, base, status in ((ConfigError, ValueError, 2), (TimestepError, ValueError, 2),
@@ -97,7 +97,7 @@ def test_one_exception_base_keeps_builtin_bases():
 
 
 def test_classify_statuses():
-    from remote_trigger.pywrap.equilibrium import NoEquilibriumError
+    from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
 
     assert cli.classify(NoEquilibriumError("no equilibrium at F_x = 1"))[:2] == (
         3, "no equilibrium at F_x = 1")
@@ -195,7 +195,7 @@ def test_generate_onto_a_folder_leaves_nothing(capsys, tmp_path):
     assert status == 2
     assert_one_line_error(err, "--output must name a file, got a folder")
     # the writer itself removes its temporary file when the rename fails
-    from remote_trigger.pywrap.packing import generate, write_data
+    from remote_trigger.pywrap.stages.packing import generate, write_data
 
     with pytest.raises(IsADirectoryError):
         write_data(generate(20, seed=1), tmp_path / "d")
@@ -205,7 +205,7 @@ def test_generate_onto_a_folder_leaves_nothing(capsys, tmp_path):
 def test_full_disk_is_one_line_status_1(capsys, tmp_path, monkeypatch):
     import errno
 
-    from remote_trigger.pywrap import packing
+    from remote_trigger.pywrap.stages import packing
 
     def full(p, path):
         raise OSError(errno.ENOSPC, "No space left on device", str(path) + ".tmp1")
@@ -250,7 +250,7 @@ def test_ramp_resume_refuses_another_datafile(capsys, ramp_run, tmp_path):
 
 def test_perturb_resume_keeps_finished_runs_and_is_bitwise(capsys, relaxed, tmp_path):
     """An interrupted perturb (run (b) cut short, (c) not started) resumed == uninterrupted."""
-    from remote_trigger.pywrap.results import read_all
+    from remote_trigger.pywrap.runtime.results import read_all
 
     argv = ["perturb", "--datafile", relaxed.datafile, "--t-max", 2, "--quiet"]
     ref, cut = tmp_path / "ref", tmp_path / "cut"
@@ -406,3 +406,26 @@ def test_mpi_only_rank_0_prints_global_numbers(ramp_run, tmp_path):
     assert nf.returncode == 0 and nf.stdout.count("normal form, delta") == 1, nf.stdout
     acc = run("accuracy", "--quick", "-o", tmp_path / "acc", np_=2)
     assert acc.returncode == 2 and acc.stderr.count("run it without mpirun") == 1, acc.stderr
+
+
+def test_generate_refuses_to_overwrite(capsys, tmp_path):
+    out = tmp_path / "p.data"
+    assert run_cli(capsys, "generate", "--n", 20, "--seed", 1, "--output", out)[0] == 0
+    before = out.read_bytes()
+    status, _, err = run_cli(capsys, "generate", "--n", 20, "--seed", 2, "--output", out)
+    assert status == 2 and out.read_bytes() == before
+    assert_one_line_error(err, "exists", "--overwrite", "nothing was written")
+    assert run_cli(capsys, "generate", "--n", 20, "--seed", 2, "--output", out,
+                   "--overwrite")[0] == 0
+    assert out.read_bytes() != before
+
+
+def test_jacobian_refuses_to_overwrite(capsys, ramp_run, tmp_path):
+    dump = ramp_run["stable"] + ".dump"
+    out = tmp_path / "K.npz"
+    assert run_cli(capsys, "jacobian", dump, "-o", out)[0] == 0
+    before = out.read_bytes()
+    status, _, err = run_cli(capsys, "jacobian", dump, "-o", out)
+    assert status == 2 and out.read_bytes() == before
+    assert_one_line_error(err, "exists", "--overwrite", "nothing was written")
+    assert run_cli(capsys, "jacobian", dump, "-o", out, "--overwrite")[0] == 0

@@ -5,8 +5,9 @@ import h5py
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap.config import (ConfigError, RelaxConfig, RampConfig,
-                                          DynamicsConfig, check_packing_args)
+from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.stages.config import (
+    RelaxConfig, RampConfig, DynamicsConfig, check_packing_args)
 
 
 @pytest.mark.parametrize("key, val", [
@@ -57,7 +58,7 @@ def test_cli_reports_bad_value(packing_file, capsys):
 
 
 def test_corrupt_and_truncated_dump(relaxed, tmp_path):
-    from remote_trigger.analysis.stability import stability_of_dump
+    from remote_trigger.analysis.stability.verdict import stability_of_dump
 
     text = open(relaxed.dumpfile).read()
     bad = tmp_path / "trunc.dump"
@@ -91,9 +92,10 @@ def test_ramp_refuses_to_overwrite_and_bad_resume_file(relaxed, tmp_path):
 def test_one_model_type_for_every_configuration(packing_file):
     """k_n, k_t, mu, F_y: one type (ContactModel) gives the defaults and the checks of
     the stage, paper and ensemble configurations alike."""
-    from remote_trigger.pywrap.config import ContactModel, DynamicsConfig
-    from remote_trigger.pywrap.paper_config import PaperConfig
-    from remote_trigger.pywrap.ensemble import EnsembleConfig
+    from remote_trigger.pywrap.config import ContactModel
+    from remote_trigger.pywrap.stages.config import DynamicsConfig
+    from remote_trigger.pywrap.jobs.paper.config import PaperConfig
+    from remote_trigger.pywrap.jobs.ensemble.job import EnsembleConfig
 
     ref = ContactModel()
     assert ref.k_t == pytest.approx(2 * ref.k_n / 7)

@@ -6,7 +6,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap.engine import DECK_DIR, DUMP_COLUMNS, deck_sections
+from remote_trigger.pywrap.bindings.engine import DECK_DIR, DUMP_COLUMNS, deck_sections
 
 from .conftest import LMP, cli_env
 
@@ -22,7 +22,7 @@ def _lmp(tmp_path, deck, **var):
 
 
 def _check_dump(path):
-    from remote_trigger.analysis.state import read_dump
+    from remote_trigger.analysis.state.dumpfile import read_dump
 
     with open(path) as fh:
         lines = fh.read().splitlines()
@@ -31,7 +31,7 @@ def _check_dump(path):
     assert [c for c in header if "[" not in c] == base
     assert sum(c.startswith("i2_mindlin_partner[") for c in header) == 8
     side = json.load(open(path + ".json"))
-    from remote_trigger.analysis.state import PARAM_KEYS
+    from remote_trigger.analysis.state.dumpfile import PARAM_KEYS
 
     assert set(side) == set(PARAM_KEYS)             # the deck prints what write_sidecar writes
     return read_dump(path, require_contacts=False), side
@@ -54,7 +54,7 @@ def test_driver_protocol_commands_come_from_the_deck():
     import ast
     import inspect
 
-    from remote_trigger.pywrap import equilibrium, ramp, relax, runs, stage_common
+    from remote_trigger.pywrap.stages import equilibrium, ramp, relax, runs, common as stage_common
 
     strings = []                # string literals of the code, docstrings excluded
     for mod in (relax, stage_common, ramp, runs, equilibrium):
@@ -76,7 +76,7 @@ def test_driver_protocol_commands_come_from_the_deck():
 
 def test_relax_deck(tmp_path, packing_file, relaxed):
     """The deck runs the driver's protocol: same packing fraction, certified real at F_x = 0."""
-    from remote_trigger.analysis.analyze import analyze
+    from remote_trigger.analysis.stability.analyze import analyze
 
     _lmp(tmp_path, "in.relax", datafile=packing_file, settle_steps=20000, out="r")
     st, side = _check_dump(str(tmp_path / "r.dump"))
@@ -90,7 +90,7 @@ def test_relax_deck(tmp_path, packing_file, relaxed):
     def phi(s):
         L = s.box_hi[0] - s.box_lo[0]
         return np.sum(np.pi * s.radii ** 2) / (L * np.max(s.positions[:, 1] + s.radii))
-    from remote_trigger.analysis.state import read_dump
+    from remote_trigger.analysis.state.dumpfile import read_dump
     drv = read_dump(relaxed.datafile[:-len(".data")] + ".dump")
     # the same compaction, line placement and piston (the driver runs these
     # sections of the deck, in the same chunks); then damped vs damped + Newton
@@ -129,7 +129,7 @@ def test_perturb_deck(tmp_path, relaxed):
 
 
 def test_scenes_contain_only_what_they_need(relaxed):
-    from remote_trigger.pywrap.engine import Engine
+    from remote_trigger.pywrap.bindings.engine import Engine
 
     def scene(**var):
         eng = Engine()

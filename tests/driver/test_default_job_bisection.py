@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from remote_trigger.pywrap import stages
-from remote_trigger.pywrap.paper import ramp_config
-from remote_trigger.pywrap.paper_config import PaperConfig
+from remote_trigger.pywrap.jobs.paper import ramp_config
+from remote_trigger.pywrap.jobs.paper.config import PaperConfig
 
 from tests.analysis.arb_oracle import pair_is
 from tests.data import unpack
@@ -29,9 +29,9 @@ JOBS = [(1.0, "default_job_mu1_step_00258", 0.0645, 0.06475),
 
 def matrix(dump):
     """M^-1 K after rattler removal, as the ramp's analysis forms it."""
-    from remote_trigger.analysis import eigen, jacobian
-    from remote_trigger.analysis.analyze import analyze
-    from remote_trigger.analysis.state import read_dump
+    from remote_trigger.analysis.stability import eigen, jacobian
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.state.dumpfile import read_dump
 
     res = analyze(read_dump(dump, require_contacts=False), eigenvalues=False, decide=False)
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
@@ -60,12 +60,12 @@ def ep_pair(A):
 @pytest.mark.parametrize("mu, name, F_lo, F_hi", JOBS)
 def test_default_job_bisection_is_certified_and_agrees_with_arb(mu, name, F_lo, F_hi,
                                                                 tmp_path):
-    from remote_trigger.analysis import exceptional
+    from remote_trigger.analysis.stability import exceptional
 
     start = unpack(name, tmp_path)
     cfg = ramp_config(PaperConfig(), start, mu)
     out = tmp_path / "ramp"
-    from remote_trigger.pywrap.ramp_file import RampLog as _RampLog
+    from remote_trigger.pywrap.stages.ramp_file import RampLog as _RampLog
 
     rlog = _RampLog(cfg, str(out / "ramp.h5"))
     out.mkdir()

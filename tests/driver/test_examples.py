@@ -19,9 +19,9 @@ def _env():
 
 
 def test_stage_decks_script(tmp_path):
-    from remote_trigger.pywrap.engine import DECK_DIR
-    from remote_trigger.analysis.analyze import analyze
-    from remote_trigger.analysis.state import read_dump
+    from remote_trigger.pywrap.bindings.engine import DECK_DIR
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.state.dumpfile import read_dump
 
     script = os.path.join(ROOT, "examples", "stages", "run_stages.sh")
     p = subprocess.run(["sh", script, "20", "1", DECK_DIR], cwd=tmp_path, env=_env(),

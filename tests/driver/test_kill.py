@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap.results import SeriesWriter, read_all, write_atomic
+from remote_trigger.pywrap.runtime.results import SeriesWriter, read_all, write_atomic
 
 BIN = os.path.dirname(sys.executable)
 CLI = os.path.join(BIN, "remote-trigger")
@@ -330,7 +330,7 @@ def test_perturb_killed_leaves_readable_series(relaxed, tmp_path):
 # --------------------------------------------------------------------------- the writer
 WRITER = textwrap.dedent("""
     import sys
-    from remote_trigger.pywrap.results import SeriesWriter
+    from remote_trigger.pywrap.runtime.results import SeriesWriter
     path, every = sys.argv[1], float(sys.argv[2])
     print("ready", flush=True)
     while True:                  # writers open, append and close, over and over

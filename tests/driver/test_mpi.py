@@ -4,7 +4,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap.results import read_all
+from remote_trigger.pywrap.runtime.results import read_all
 
 from .conftest import CLI, MPIRUN, cli_env
 

@@ -14,7 +14,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap import equilibrium as eq
+from remote_trigger.pywrap.stages import equilibrium as eq
 
 K_N = 2e5
 R_RES = 5e-5          # residual the step is meant to remove
@@ -87,9 +87,9 @@ STORED = _BENCH_PACKINGS[1600]
 def test_n1600_ramp_step_converges_by_newton_alone(tmp_path):
     """Two ramp steps of the stored N = 1600 packing as the ramp makes them
     (scene from the previous equilibrium's data file, Newton first)."""
-    from remote_trigger.pywrap.config import RampConfig
-    from remote_trigger.pywrap.engine import Engine
-    from remote_trigger.pywrap.stage_common import load_relax_scene, save_equilibrium
+    from remote_trigger.pywrap.stages.config import RampConfig
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages.common import load_relax_scene, save_equilibrium
 
     start = STORED
     for k, F_x in enumerate((2.5e-4, 5e-4)):
@@ -117,10 +117,10 @@ def test_no_livelock_between_newton_and_damped_chunks():
     the state back (r cycling 2.5e-3 -> 1.8e-3 -> 2.5e-3) until max_steps;
     a Newton phase that ends above the acceptance level is now retried only
     once the dynamics are below where it ended."""
-    from remote_trigger.pywrap.engine import Engine
-    from remote_trigger.pywrap.ensemble_config import build_config
-    from remote_trigger.pywrap.paper import ramp_config
-    from remote_trigger.pywrap.stage_common import load_relax_scene
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.jobs.ensemble.config import build_config
+    from remote_trigger.pywrap.jobs.paper import ramp_config
+    from remote_trigger.pywrap.stages.common import load_relax_scene
 
     cfg = ramp_config(build_config(quick=True), QUICK_STEP, 0.8).replace(max_steps=100_000)
     with Engine() as eng:

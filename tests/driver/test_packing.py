@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap.packing import generate, write_data, box_width, RADII
+from remote_trigger.pywrap.stages.packing import generate, write_data, box_width, RADII
 
 
 def test_same_seed_same_packing_other_seed_differs():
@@ -36,7 +36,7 @@ def test_geometry(n):
 
 
 def test_data_file_read_by_lammps(tmp_path):
-    from remote_trigger.pywrap.engine import Engine
+    from remote_trigger.pywrap.bindings.engine import Engine
 
     p = generate(30, seed=2)
     path = tmp_path / "p.data"

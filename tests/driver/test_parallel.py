@@ -6,7 +6,7 @@ import sys
 import pytest
 
 from remote_trigger.analysis.errors import InputError
-from remote_trigger.pywrap.parallel import on_rank0
+from remote_trigger.pywrap.runtime.parallel import on_rank0
 
 from .conftest import cli_env
 
@@ -15,7 +15,7 @@ BIN = os.path.dirname(sys.executable)
 SCRIPT = r'''
 from mpi4py import MPI
 from remote_trigger.analysis.errors import InputError, RemoteTriggerError
-from remote_trigger.pywrap.parallel import on_rank0
+from remote_trigger.pywrap.runtime.parallel import on_rank0
 comm = MPI.COMM_WORLD
 calls = []
 def f(x):

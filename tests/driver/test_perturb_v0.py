@@ -2,9 +2,9 @@
 import numpy as np
 
 from remote_trigger.pywrap import stages
-from remote_trigger.pywrap.config import DynamicsConfig
-from remote_trigger.pywrap.engine import Engine
-from remote_trigger.pywrap.results import read_all
+from remote_trigger.pywrap.stages.config import DynamicsConfig
+from remote_trigger.pywrap.bindings.engine import Engine
+from remote_trigger.pywrap.runtime.results import read_all
 
 EVERY, STEPS = 25, 400
 
@@ -18,7 +18,7 @@ def test_v0_is_per_step_max_of_run_a(relaxed, tmp_path):
     eq = str(tmp_path / "perturb" / "equilibrium.data")
     per_step = []
     with Engine() as eng:
-        from remote_trigger.pywrap.stage_common import _deck_vars
+        from remote_trigger.pywrap.stages.common import _deck_vars
 
         v = _deck_vars(cfg, eq, cfg.F_x)
         for var in ("gamma", "gamma_rot"):        # (relaxing decks only)

@@ -15,11 +15,12 @@ friction switched on with zero history. Checked on N = 40, seeds 1-3:
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.state import read_dump
-from remote_trigger.pywrap.config import ConfigError, RelaxConfig
+from remote_trigger.analysis.state.dumpfile import read_dump
+from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.stages.config import RelaxConfig
 from remote_trigger.pywrap import stages
-from remote_trigger.pywrap.packing import generate, write_data
-from remote_trigger.analysis.stability import stability_of_dump
+from remote_trigger.pywrap.stages.packing import generate, write_data
+from remote_trigger.analysis.stability.verdict import stability_of_dump
 
 N = 40
 

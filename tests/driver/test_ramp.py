@@ -5,9 +5,9 @@ import time
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap.config import RampConfig
+from remote_trigger.pywrap.stages.config import RampConfig
 from remote_trigger.pywrap import stages
-from remote_trigger.pywrap.results import read_all
+from remote_trigger.pywrap.runtime.results import read_all
 
 DF = 0.01
 TOL = 1e-5
@@ -93,7 +93,7 @@ def test_decisions_from_a_previous_basis_are_dgeev_s(full_ramp):
     (dgeev's eigenvectors, no basis); both answers are certified, so they
     must agree, and the eigenvalues must agree to the basis's accuracy.
     """
-    from remote_trigger.analysis.stability import stability_of_dump
+    from remote_trigger.analysis.stability.verdict import stability_of_dump
 
     cfg, res = full_ramp
     _, data = read_all(res.h5)
@@ -159,7 +159,7 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
     import dataclasses
     import json
 
-    from remote_trigger.analysis import stability
+    from remote_trigger.analysis.stability import verdict as stability
     from remote_trigger.pywrap import cli
 
     cfg, full = full_ramp
@@ -199,7 +199,7 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
 
 def test_ramp_file_layout_and_reader(full_ramp):
     """pywrap.ramp_file names what RampLog writes; read_points returns its rows."""
-    from remote_trigger.pywrap import ramp_file as rf
+    from remote_trigger.pywrap.stages import ramp_file as rf
 
     _, res = full_ramp
     attrs, data = read_all(res.h5)
@@ -269,7 +269,7 @@ def test_adaptive_ramp_needs_dF_x_max_above_dF_x(relaxed, dmax):
 
 def test_adaptive_step_rules():
     """Half the predicted distance, clipped; dF_x unless both loads are certified real."""
-    from remote_trigger.pywrap.ramp import ADAPTIVE_SAFETY, adaptive_step
+    from remote_trigger.pywrap.stages.ramp import ADAPTIVE_SAFETY, adaptive_step
 
     def spec(F, F_c=0.5):                   # a pair closing like sqrt(F_c - F)
         g = 0.2 * np.sqrt(F_c - F)
@@ -289,9 +289,9 @@ def test_inertia_reanalysis_from_bases_gives_dgeev_s_decisions(full_ramp, monkey
     """The ensemble's I0 = 1 re-analysis chains each point's basis to the next: the
     same decisions as each point decided alone from dgeev (the independent
     check), and the chain is used."""
-    from remote_trigger.analysis import exceptional
-    from remote_trigger.analysis.state import read_dump
-    from remote_trigger.pywrap.ensemble_onset import read_ramp, reanalyse, spectrum
+    from remote_trigger.analysis.stability import exceptional
+    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.pywrap.jobs.ensemble.onset import read_ramp, reanalyse, spectrum
 
     cfg, res = full_ramp
     pts = read_ramp(res.h5)

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap.engine import Engine
-from remote_trigger.pywrap import equilibrium as eq
+from remote_trigger.pywrap.bindings.engine import Engine
+from remote_trigger.pywrap.stages import equilibrium as eq
 
 
 def _lammps_residual(datafile, F_x, F_y=3.0, k_n=2e5, mu=1.0):
@@ -37,8 +37,8 @@ def test_relax_reaches_round_off_floor(relaxed):
 
 def test_independent_python_force_law(relaxed):
     """The analyzer's own force law on the dump agrees: G ~ 0."""
-    from remote_trigger.analysis.state import read_dump
-    from remote_trigger.analysis.jacobian import generalized_forces
+    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.analysis.stability.jacobian import generalized_forces
 
     st = read_dump(relaxed.dumpfile, require_contacts=False)
     G = generalized_forces(st).reshape(-1, 3)
@@ -63,7 +63,7 @@ def test_residual_history_monotone_after_polishing(relaxed):
 def test_soft_contacts_reach_1e_13(tmp_path, relaxed):
     """With a softer contact law the round-off floor is below 1e-13, and polishing
     reaches it (the floor scales as k_n^(2/3) F_y^(1/3), docs/driver.md)."""
-    from remote_trigger.pywrap.config import RelaxConfig
+    from remote_trigger.pywrap.stages.config import RelaxConfig
     from remote_trigger.pywrap import stages
 
     cfg = RelaxConfig(datafile=relaxed.datafile, k_n=2e3, F_y=0.003, gamma=0.2,
@@ -76,7 +76,7 @@ def test_soft_contacts_reach_1e_13(tmp_path, relaxed):
 
 def test_no_equilibrium_is_detected(relaxed):
     """A horizontal load far above the static friction makes the top slide."""
-    from remote_trigger.pywrap.config import RelaxConfig
+    from remote_trigger.pywrap.stages.config import RelaxConfig
     from remote_trigger.pywrap.stages import load_relax_scene
 
     cfg = RelaxConfig(datafile=relaxed.datafile, F_x=3.0, slide=0.5, check_every=500)
@@ -93,7 +93,7 @@ def test_modified_newton_reuses_one_factorisation(relaxed, monkeypatch):
     end at the round-off floor."""
     import time
 
-    from remote_trigger.pywrap.config import RelaxConfig
+    from remote_trigger.pywrap.stages.config import RelaxConfig
     from remote_trigger.pywrap.stages import load_relax_scene
 
     calls = []

@@ -3,7 +3,7 @@ every task is taken by exactly one rank, whoever is free first."""
 import multiprocessing as mp
 import os
 
-from remote_trigger.pywrap.jobfolder import claim_task, clear_claims
+from remote_trigger.pywrap.runtime.jobfolder import claim_task, clear_claims
 
 KEYS = [f"N100_s{k}" for k in range(60)]
 

@@ -12,12 +12,12 @@ import subprocess
 import numpy as np
 import pytest
 
-from remote_trigger.analysis import timestep as ts
-from remote_trigger.analysis.state import read_dump
+from remote_trigger.analysis.stability import timestep as ts
+from remote_trigger.analysis.state.dumpfile import read_dump
 from remote_trigger.pywrap import stages
-from remote_trigger.pywrap.config import (ConfigError, DynamicsConfig, RampConfig,
-                                          RelaxConfig)
-from remote_trigger.pywrap.results import read_all
+from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.stages.config import DynamicsConfig, RampConfig, RelaxConfig
+from remote_trigger.pywrap.runtime.results import read_all
 
 from .conftest import CLI, N_SMALL, SEED, cli_env
 
@@ -87,8 +87,8 @@ def test_ramp_auto_records_dt_and_resume_keeps_it(relaxed, limit, tmp_path):
 
 def _expected_relax_bound(cfg):
     """hertz_limit at FORCE_FACTOR x column load, from the generator's packing."""
-    from remote_trigger.pywrap.packing import generate
-    from remote_trigger.pywrap.timestep import FORCE_FACTOR
+    from remote_trigger.pywrap.stages.packing import generate
+    from remote_trigger.pywrap.stages.timestep import FORCE_FACTOR
 
     p = generate(N_SMALL, seed=SEED)
     force = FORCE_FACTOR * max(math.hypot(cfg.F_x, cfg.F_y),
@@ -112,7 +112,7 @@ def test_relax_auto_at_stiff_contacts(packing_file, tmp_path, k_n):
     assert info["dt_max_equilibrium"] == pytest.approx(eq_limit, rel=1e-8)
     assert info["dt_used"] < 0.1 * eq_limit
     # equilibrium at the stiffness-scaled round-off floor (f_accept = None)
-    from remote_trigger.pywrap.equilibrium import ROUNDOFF_FACTOR
+    from remote_trigger.pywrap.stages.equilibrium import ROUNDOFF_FACTOR
     keff = 1.5 * k_n ** (2 / 3) * cfg.F_y ** (1 / 3)
     st = read_dump(res.dumpfile)
     X = max(float(np.max(np.abs(st.positions))), float(np.max(st.box_length)))

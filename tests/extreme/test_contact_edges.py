@@ -14,8 +14,8 @@ import warnings
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap.accuracy import _LammpsFD
-from remote_trigger.analysis.jacobian import stiffness_matrix
+from remote_trigger.pywrap.jobs.accuracy.jacobian_check import _LammpsFD
+from remote_trigger.analysis.stability.jacobian import stiffness_matrix
 
 from . import lmp_helpers as H
 
@@ -237,7 +237,7 @@ def test_exactly_touching_is_no_contact():
 def test_coincident_centres_in_lammps_are_not_silently_nan():
     """Two centres at the same point: the contact normal is undefined. The analyzer
     refuses such a state; LAMMPS should too (plugin: NaN forces, see report)."""
-    from remote_trigger.analysis.state import ContactParams, build_state
+    from remote_trigger.analysis.state.state import ContactParams, build_state
 
     with pytest.raises(ValueError, match="overlapping centres"):
         build_state(ids=[1, 2], positions=[[0.0, 2.0], [0.0, 2.0]], radii=[0.5, 0.5],

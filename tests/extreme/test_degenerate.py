@@ -10,10 +10,10 @@ import warnings
 import numpy as np
 import pytest
 
-from remote_trigger.analysis import timestep as ts
-from remote_trigger.analysis.analyze import analyze
-from remote_trigger.analysis.jacobian import generalized_forces, stiffness_matrix
-from remote_trigger.analysis.state import ContactParams, build_state
+from remote_trigger.analysis.stability import timestep as ts
+from remote_trigger.analysis.stability.analyze import analyze
+from remote_trigger.analysis.stability.jacobian import generalized_forces, stiffness_matrix
+from remote_trigger.analysis.state.state import ContactParams, build_state
 
 from . import lmp_helpers as H
 

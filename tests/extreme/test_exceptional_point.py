@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from remote_trigger.analysis import exceptional as ex
+from remote_trigger.analysis.stability import exceptional as ex
+from remote_trigger.analysis.stability import projected
 
 FXC = 0.0123456789
 C = 1.0                      # d eps / d F_x
@@ -76,7 +77,7 @@ def test_bisection_brackets_the_critical_load():
 @pytest.mark.parametrize("dF", [1e-7, -1e-7])
 def test_projected_sparse_path_near_the_point(dF):
     A = sp.csr_matrix(embedded(FXC + dF, n=60))
-    dec, res = ex.classify_projected(A, sigma=10.0, k=8)
+    dec, res = projected.classify_projected(A, sigma=10.0, k=8)
     assert dec.complex_present is None or dec.complex_present == (dF > 0)
     if dec.complex_present is None:
         assert dec.confidence <= 1.0

@@ -17,7 +17,7 @@ N = 20
 
 @pytest.fixture(scope="module")
 def datafile(tmp_path_factory):
-    from remote_trigger.pywrap.packing import generate, write_data
+    from remote_trigger.pywrap.stages.packing import generate, write_data
 
     path = tmp_path_factory.mktemp("noeq") / "p.data"
     write_data(generate(N, seed=2), path)
@@ -26,8 +26,8 @@ def datafile(tmp_path_factory):
 
 def test_equilibrate_raises_clear_error_quickly(datafile, tmp_path):
     from remote_trigger.pywrap import stages
-    from remote_trigger.pywrap.config import RelaxConfig
-    from remote_trigger.pywrap.equilibrium import NoEquilibriumError
+    from remote_trigger.pywrap.stages.config import RelaxConfig
+    from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
 
     cfg = RelaxConfig(datafile=datafile, F_x=30.0, max_steps=200000)
     t0 = time.perf_counter()
@@ -40,8 +40,8 @@ def test_equilibrate_raises_clear_error_quickly(datafile, tmp_path):
 def test_max_steps_bounds_a_slow_case(datafile, tmp_path):
     """Even when the slide criterion is not met, max_steps ends the run with a message."""
     from remote_trigger.pywrap import stages
-    from remote_trigger.pywrap.config import RelaxConfig
-    from remote_trigger.pywrap.equilibrium import NoEquilibriumError
+    from remote_trigger.pywrap.stages.config import RelaxConfig
+    from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
 
     cfg = RelaxConfig(datafile=datafile, F_x=30.0, slide=1e9, max_steps=3000,
                       check_every=1000)

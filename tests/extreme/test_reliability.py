@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.state import read_dump
+from remote_trigger.analysis.state.dumpfile import read_dump
 
 from ..analysis.builders import random_packing, write_dump
 from . import lmp_helpers as H
@@ -86,11 +86,12 @@ def test_nan_in_sidecar(tmp_path, packing):
 
 def test_data_file_with_overlapping_centres(tmp_path):
     """A data file whose centres overlap: LAMMPS reads it, the driver's conversion to
-    the analyzer (equilibrium.analysis_state) refuses it with the atom ids."""
-    from remote_trigger.pywrap import equilibrium, stages
-    from remote_trigger.pywrap.config import RelaxConfig
-    from remote_trigger.pywrap.engine import Engine
-    from remote_trigger.pywrap.packing import generate, write_data
+    the analyzer (newton_solve.analysis_state) refuses it with the atom ids."""
+    from remote_trigger.pywrap.stages import newton_solve
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.stages.config import RelaxConfig
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages.packing import generate, write_data
 
     p = generate(20, seed=3)
     pos = p.positions.copy()
@@ -105,7 +106,7 @@ def test_data_file_with_overlapping_centres(tmp_path):
         eng.run(0)
         st = eng.gather_state()
         with pytest.raises(ValueError, match=r"overlapping centres: atom ids 5 and 6"):
-            equilibrium.analysis_state(st, cfg.k_n, cfg.k_t, cfg.mu, 0.0, cfg.F_y)
+            newton_solve.analysis_state(st, cfg.k_n, cfg.k_t, cfg.mu, 0.0, cfg.F_y)
 
 
 def _rss_kb():

@@ -18,7 +18,7 @@ import warnings
 import numpy as np
 import pytest
 
-from remote_trigger.analysis import timestep as ts
+from remote_trigger.analysis.stability import timestep as ts
 
 from . import lmp_helpers as H
 

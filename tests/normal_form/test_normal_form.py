@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from remote_trigger.analysis import normal_form as nf
+from remote_trigger.analysis.dynamics import normal_form as nf
 
 
 @pytest.mark.parametrize("delta", [0.05, 0.3])

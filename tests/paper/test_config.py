@@ -6,9 +6,10 @@ import os
 import pytest
 
 from remote_trigger.pywrap.config import ConfigError
-from remote_trigger.pywrap.paper_config import (PaperConfig, QUICK, PAPER, PAPER_F_X_C_MID,
-                                                build_config, read_toml)
-from remote_trigger.pywrap import paper
+from remote_trigger.pywrap.jobs.paper.config import (
+    PaperConfig, QUICK, PAPER, PAPER_F_X_C_MID, build_config)
+from remote_trigger.pywrap.config import read_toml
+from remote_trigger.pywrap.jobs import paper
 from remote_trigger.pywrap.cli import main as cli_main
 
 
@@ -174,7 +175,7 @@ def test_output_folder_rules(tmp_path):
 
 def test_fig5_load_above_the_threshold_is_refused():
     """fig5_F_x at or above F_x^c(mu0) (known only after the ramps) is refused by name."""
-    from remote_trigger.pywrap.fig5 import fig5_load
+    from remote_trigger.pywrap.jobs.paper.fig5 import fig5_load
 
     ramps = [{"F_x_c_low": 0.0646, "F_x_c_high": 0.06465, "status": "complete"},
              {"F_x_c_low": 0.0587, "F_x_c_high": 0.05875, "status": "complete"}]
@@ -191,8 +192,10 @@ def test_fig5_load_above_the_threshold_is_refused():
 
 def test_one_numeric_validator():
     """Stage, paper, ensemble and trigger-map configurations share check_number."""
-    from remote_trigger.pywrap import (config, ensemble_config, paper_config,
-                                       trigger_map_config)
+    from remote_trigger.pywrap import config
+    from remote_trigger.pywrap.jobs.ensemble import config as ensemble_config
+    from remote_trigger.pywrap.jobs.paper import config as paper_config
+    from remote_trigger.pywrap.jobs.trigger_map import config as trigger_map_config
 
     assert paper_config._num is config.check_number is trigger_map_config._num \
         is ensemble_config._num

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.eigtrack import track_pair
+from remote_trigger.analysis.stability.eigtrack import track_pair
 
 
 def synthetic(F, F_c=0.05, lam_c=100.0, c=250.0):

@@ -1,7 +1,8 @@
 """``ensemble`` configuration: bad input is refused, naming the value, nothing written."""
 import pytest
 
-from remote_trigger.pywrap import ensemble as en
+from remote_trigger.pywrap.jobs.ensemble import job as en
+from remote_trigger.pywrap.jobs.ensemble import onset
 from remote_trigger.pywrap.cli import main
 from remote_trigger.pywrap.config import ConfigError
 
@@ -98,16 +99,16 @@ def test_bracket_order_and_slope():
     # g = 3 sqrt(F - 0.1) exactly: the fit returns s = 3 and the onset 0.1
     F = [0.1 + 1e-4, 0.1 + 4e-4, 0.1 + 9e-4]
     g = [3 * (f - 0.1) ** 0.5 for f in F]
-    out = en.growth_slope(F, g, 0.0999, 0.10005)
+    out = onset.growth_slope(F, g, 0.0999, 0.10005)
     assert out["slope"] == pytest.approx(3.0, rel=1e-9)
     assert out["F_x_onset_fit"] == pytest.approx(0.1, abs=1e-12)
-    one = en.growth_slope([0.2], [0.3], 0.1, 0.2)
+    one = onset.growth_slope([0.2], [0.3], 0.1, 0.2)
     assert one["slope"] == pytest.approx(0.3 / 0.05 ** 0.5)
 
 
 def test_pair_position():
     lam = [1.0, 2.0, 5.0 + 0.5j, 5.0 - 0.5j, 7.0, 10.0]
-    p = en.pair_position(lam)
+    p = onset.pair_position(lam)
     assert p["pair_index"] == 3 and p["n_dof"] == 6
     assert p["pair_re_rel"] == pytest.approx(0.5)
     assert p["lambda_c"] == [5.0, 0.5]
@@ -118,7 +119,7 @@ def test_soft_mode_onsets_are_flagged_and_kept_out_of_the_stiff_statistics():
     onset: counted, and left out of the 'stiff onsets only' median and exponent."""
     import math
 
-    from remote_trigger.pywrap import ensemble_report as er
+    from remote_trigger.pywrap.jobs.ensemble import report as er
 
     assert er.soft_onset(1.1e-7) == 1 and er.soft_onset(-8e-7) == 1
     assert er.soft_onset(0.013) == 0 and er.soft_onset(math.nan) == -1

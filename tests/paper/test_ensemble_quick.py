@@ -18,7 +18,7 @@ import time
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap import ensemble as en
+from remote_trigger.pywrap.jobs.ensemble import job as en
 
 CLI = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
 
@@ -168,7 +168,7 @@ def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
 
 def test_failure_is_recorded_and_others_finish(tmp_path, monkeypatch):
     from mpi4py import MPI
-    from remote_trigger.pywrap.equilibrium import NoEquilibriumError
+    from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
 
     real = en._relax
 
@@ -201,7 +201,7 @@ def test_adaptive_ramps_and_continuation(tmp_path):
     outside [dF_x, dF_x_max]) and the I0 = 1 continuation above the ramp's end (it
     is needed for this packing: its I0 = 1 onset lies above the I0 = 1/2 one) runs
     with the same rule and brackets the onset."""
-    from remote_trigger.pywrap.results import read_all
+    from remote_trigger.pywrap.runtime.results import read_all
 
     out = str(tmp_path / "adaptive")
     proc = _run(["--quick", "--out", out, "--set", "n=[16]", "--set", "seeds=[4]",

@@ -121,8 +121,8 @@ def test_report_structure(run):
 def test_spectrum_real_positive_at_zero_and_coalescence(run):
     """All eigenvalues real and positive at F_x = 0; a real pair becomes complex at F_x^c."""
     out, _ = run
-    from remote_trigger.analysis.eigtrack import track_pair
-    from remote_trigger.pywrap.ramp_file import read_spectra
+    from remote_trigger.analysis.stability.eigtrack import track_pair
+    from remote_trigger.pywrap.stages.ramp_file import read_spectra
 
     for mu in ("1", "0.8"):
         h5 = os.path.join(out, f"ramp_mu{mu}", "ramp.h5")

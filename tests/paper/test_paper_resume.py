@@ -6,9 +6,10 @@ side:
 * uninterrupted (with ``--resume`` into an empty folder, which must start a
   new job);
 * killed with SIGKILL three times -- in the middle of the second ramp
-  (after the first ramp's summary reached ``paper.json``), at a seeded random
-  moment of the Fig. 5 runs, and while the figures and the report are being
-  written -- with the normal form's file deleted before the last session, and
+  (after the first ramp's summary reached ``paper.json``), just after a seeded
+  random one of the Fig. 5 runs (a), (b), (c) wrote its file (the kills wait for
+  files, never for a time: a faster step cannot move them out of their phase), and while the figures and the report are being
+  written -- with the normal form's file deleted before the last run, and
   resumed with ``--resume`` after each kill.
 
 Both reports must state the same numbers (report.json: every check and
@@ -30,9 +31,9 @@ import h5py
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap import paper
+from remote_trigger.pywrap.jobs import paper
 from remote_trigger.pywrap.config import ConfigError
-from remote_trigger.pywrap.paper_config import build_config
+from remote_trigger.pywrap.jobs.paper.config import build_config
 
 BIN = os.path.dirname(sys.executable)
 CLI = os.path.join(BIN, "remote-trigger")
@@ -105,21 +106,24 @@ def jobs(tmp_path_factory):
     states = []
 
     t0 = time.perf_counter()
-    # session 1: killed in the middle of the second ramp
+    # run 1: killed in the middle of the second ramp
     p = start(res)
     kill_when(p, lambda: os.path.exists(os.path.join(res, "ramp_mu0.8", "ramp.h5")),
               "the second ramp's first step")
     states.append(manifest(res))
-    # session 2: killed at a random moment of the Fig. 5 runs
-    delay = random.Random(KILL_SEED).uniform(0.0, 4.0)
+    # run 2: killed in the Fig. 5 runs, once a seeded random one of (a), (b), (c)
+    # has written its file (runs (d), (e), (p) are still to come)
+    run = random.Random(KILL_SEED).choice("abc")
     p = start(res, "--resume")
-    kill_when(p, lambda: bool(manifest(res).get("instability")), "Fig. 4 done", delay=delay)
+    kill_when(p, lambda: bool(manifest(res).get("instability"))
+              and os.path.exists(os.path.join(res, f"perturb_{run}.h5")),
+              f"Fig. 5 run ({run}) written")
     states.append(manifest(res))
-    # session 3: killed while the figures and the report are written
+    # run 3: killed while the figures and the report are written
     p = start(res, "--resume")
     kill_when(p, lambda: bool(manifest(res).get("normal_form")), "the figures")
     states.append(manifest(res))
-    # session 4: finishes (the normal form redone: its file is gone)
+    # run 4: finishes (the normal form redone: its file is gone)
     os.remove(os.path.join(res, "normal_form.h5"))
     last = finish(res, "--resume")
     t_res = time.perf_counter() - t0
@@ -129,7 +133,7 @@ def jobs(tmp_path_factory):
     t_ref = time.perf_counter() - t0
     log = read(res + ".log")
     return {"ref": ref, "res": res, "states": states, "last": last, "log": log,
-            "ref_proc": ref_proc, "delay": delay, "t_ref": t_ref, "t_res": t_res}
+            "ref_proc": ref_proc, "fig5_run": run, "t_ref": t_ref, "t_res": t_res}
 
 
 def test_fresh_start_with_resume_flag(jobs):
@@ -146,7 +150,7 @@ def test_what_each_kill_left(jobs):
     assert s1["status"] == "running" and s1["relax"] and s1["ramps"][0]
     assert s1["ramps"][1] is None and not s1.get("instability")
     # 2: both ramps and Fig. 4 persisted, Fig. 5 not
-    assert s2["ramps"][1] and s2["instability"] and not s2.get("perturb"), jobs["delay"]
+    assert s2["ramps"][1] and s2["instability"] and not s2.get("perturb"), jobs["fig5_run"]
     assert s2["sessions"][-1]["reused"] == ["ramp0", "relax"]
     # 3: every phase persisted, report not finished
     assert s3["status"] == "running"
@@ -237,11 +241,13 @@ def test_resume_with_other_configuration_refused(jobs):
 
 def test_config_difference_names_every_key(tmp_path):
     """Unit level: load_manifest lists each differing key with both values; np is free."""
+    from remote_trigger.pywrap.runtime.jobfolder import write_json
+
     cfg = build_config(None, {"seed": 3}, quick=True)
     out = tmp_path / "job"
     out.mkdir()
-    paper.write_json(str(out / "paper.json"), {"config": cfg.to_dict(), "out": str(out),
-                                               "status": "running"})
+    write_json(str(out / "paper.json"), {"config": cfg.to_dict(), "out": str(out),
+                                         "status": "running"})
     assert paper.load_manifest(str(out), build_config(None, {"seed": 3, "np": 2},
                                                       quick=True))["status"] == "running"
     with pytest.raises(ConfigError) as exc:

@@ -4,7 +4,8 @@ import os
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap import trigger_map as tm
+from remote_trigger.pywrap.jobs.trigger_map import job as tm
+from remote_trigger.pywrap.jobs.trigger_map import loads
 from remote_trigger.pywrap.cli import main
 from remote_trigger.pywrap.config import ConfigError
 
@@ -87,7 +88,7 @@ def test_msd_minimum_image():
             self.box_hi = np.array([10.0, 5.0, 0.5])
     a = S([[9.9999, 1.0, 0.0], [5.0, 2.0, 0.0]])
     b = S([[0.0001, 1.0, 0.0], [5.0, 2.0, 0.0]])
-    assert tm._msd(a, b) == pytest.approx(0.5 * 0.0002 ** 2, rel=1e-6)
+    assert loads._msd(a, b) == pytest.approx(0.5 * 0.0002 ** 2, rel=1e-6)
 
 
 def test_a_failed_point_is_a_row_with_its_reason(tmp_path):

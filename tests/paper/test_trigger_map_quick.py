@@ -17,8 +17,8 @@ import h5py
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.series import runaway_rate
-from remote_trigger.pywrap.trigger_map import rise_of
+from remote_trigger.analysis.dynamics.series import runaway_rate
+from remote_trigger.pywrap.jobs.trigger_map.job import rise_of
 
 CLI = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
 

@@ -54,7 +54,7 @@ def test_python_module_has_styles():
 def test_plugin_built_for_the_loaded_lammps_version(tmp_path):
     """Reloading the installed .so explicitly makes LAMMPS print the version
     the plugin was compiled for whenever it differs from its own."""
-    from remote_trigger.pywrap._plugin import PLUGIN_FILE
+    from remote_trigger.pywrap.bindings._plugin import PLUGIN_FILE
 
     deck = tmp_path / "in.reload"
     deck.write_text("plugin unload pair mindlin/smooth\n"

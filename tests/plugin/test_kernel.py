@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap import kernel
+from remote_trigger.pywrap.bindings import kernel
 
 KN, KT, MU = 2.0e5, 2.0e5 * 2.0 / 7.0, 1.0
 DELTA = 1.0e-3

@@ -13,7 +13,7 @@ def snippet():
 
 
 def test_readme_snippet_reads_a_generated_packing(tmp_path):
-    from remote_trigger.pywrap.packing import generate, write_data
+    from remote_trigger.pywrap.stages.packing import generate, write_data
 
     write_data(generate(20, seed=1), tmp_path / "packing.data")
     cwd = os.getcwd()

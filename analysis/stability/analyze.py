@@ -1,0 +1,234 @@
+"""One call from an equilibrium to its spectrum: K, rattlers, eigenvalues, decision.
+
+This is the entry point for the ramp and the command line::
+
+    from remote_trigger.analysis.stability.analyze import analyze, analyze_dump
+    res = analyze_dump("eq.dump")            # sidecar eq.dump.json gives k_n, k_t, mu, wall_y
+    res.decision.complex_present, res.growth_rate, res.rattlers.ids
+
+Steps: assemble K = -dG/dq (``jacobian.stiffness_matrix``, paper Appendix C),
+remove rattlers iteratively (``jacobian.find_rattlers``, frictional criterion
+of fewer than 2 contacts), form M^-1 K with M = diag(m, m, I/R^2), compute
+its eigenvalues (dense LAPACK up to ``eigen.DENSE_MAX`` dofs, else ARPACK
+shift-invert) and decide whether a complex pair is present with the
+certified test of ``exceptional`` (dense path: the whole spectrum) or
+``projected`` (sparse path: the projected subspace).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from remote_trigger.analysis.stability import eigen as _eigen
+from remote_trigger.analysis.stability import exceptional as _exc
+from remote_trigger.analysis.stability import jacobian as _jac
+from remote_trigger.analysis.stability import projected as _proj
+from remote_trigger.analysis.state.dumpfile import read_dump
+
+__all__ = ["Analysis", "analyze", "analyze_dump", "roundoff_floor", "check_equilibrium"]
+
+#: a residual this many times the round-off floor is "far above" it: the state
+#: is not the equilibrium of the parameters it is analysed with
+FAR_ABOVE_FLOOR = 1e3
+#: smallest floor used (the driver's smallest acceptance level, 1e-10)
+FLOOR_MIN = 1e-10
+#: floor = ROUNDOFF_FACTOR eps X k_eff (the driver's acceptance level, docs/driver.md)
+ROUNDOFF_FACTOR = 4.0
+
+
+@dataclass
+class Analysis:
+    """Result of :func:`analyze`.
+
+    Attributes
+    ----------
+    state : State
+    K : scipy.sparse.csr_matrix, shape (3N, 3N)
+        Full stiffness (rattlers kept).
+    mass : ndarray, shape (3N,)
+        Diagonal of M.
+    rattlers : RattlerResult
+        Removed disks (ids, indices) and the kept dofs.
+    eigen : EigenResult or None
+        Eigenvalues of M^-1 K restricted to the kept dofs.
+    decision : SpectrumDecision or None
+        Certified complex-pair decision (None if not requested).
+    residual : ndarray, shape (3N,)
+        G = contact + external forces (zero at equilibrium).
+    """
+
+    state: object
+    K: object
+    mass: np.ndarray
+    rattlers: object
+    eigen: object
+    decision: object
+    residual: np.ndarray
+
+    @property
+    def eigenvalues(self):
+        """Eigenvalues of M^-1 K after rattler removal (complex, sorted by real part)."""
+        return None if self.eigen is None else self.eigen.eigenvalues
+
+    @property
+    def growth_rate(self):
+        """max |Im sqrt(lambda)| (1/time); 0 if all eigenvalues are real and positive."""
+        return None if self.eigen is None else self.eigen.growth_rate
+
+    @property
+    def max_residual(self):
+        """max over disks of max(|F_i|, |T_i|/R_i) including the loads."""
+        G = self.residual.reshape(-1, 3)
+        return float(max(np.max(np.hypot(G[:, 0], G[:, 1])), np.max(np.abs(G[:, 2]))))
+
+
+def roundoff_floor(state):
+    r"""Residual that double precision allows for a state, as the driver accepts it.
+
+    .. math::
+
+        r_\mathrm{floor} = \max(10^{-10},\; 4\,\varepsilon\,X\,k_\mathrm{eff}),
+        \quad k_\mathrm{eff} = \tfrac32 k_n^{2/3} F^{1/3},
+
+    X the largest coordinate or box length, F the largest external load per
+    disk (or, without loads, the largest contact force of the dump, or 1):
+    the driver's acceptance level of a stagnating Newton iteration
+    (``remote_trigger.pywrap.stages.equilibrium.accept_level``, docs/driver.md).
+
+    Parameters
+    ----------
+    state : State
+
+    Returns
+    -------
+    float
+        Force units.
+    """
+    X = max(float(np.max(np.abs(state.positions))), float(np.max(state.box_hi - state.box_lo)))
+    F = float(np.max(np.hypot(state.external[:, 0], state.external[:, 1]))) \
+        if state.external.size else 0.0
+    if not F > 0 and state.contact_forces is not None and state.contact_forces.size:
+        F = float(np.max(np.hypot(state.contact_forces[:, 0], state.contact_forces[:, 1])))
+    if not F > 0:
+        F = 1.0
+    keff = 1.5 * float(state.params.k_n) ** (2.0 / 3.0) * F ** (1.0 / 3.0)
+    return max(FLOOR_MIN, ROUNDOFF_FACTOR * np.finfo(float).eps * X * keff)
+
+
+def check_equilibrium(state, factor=FAR_ABOVE_FLOOR, what=None):
+    """Refuse a state whose residual is far above the round-off floor.
+
+    A Jacobian and its spectrum describe the linear motion about an
+    equilibrium; at a state that is not one (wrong k_n, mu or loads in the
+    sidecar, a dump written with too few digits, a state in motion) they
+    describe nothing, and a "complex pair" found there is meaningless.
+
+    Parameters
+    ----------
+    state : State
+    factor : float
+        Refuse above ``factor`` x :func:`roundoff_floor` (default 1e3).
+    what : str, optional
+        Name of the state in the message (default its source file).
+
+    Returns
+    -------
+    ratio : float
+        Residual / floor.
+
+    Raises
+    ------
+    NotEquilibriumError
+        An ``InputError`` (``ValueError``), naming the residual, the floor
+        and what to check.
+    """
+    from remote_trigger.analysis.errors import NotEquilibriumError
+
+    G = _jac.generalized_forces(state).reshape(-1, 3)
+    r = float(max(np.max(np.hypot(G[:, 0], G[:, 1])), np.max(np.abs(G[:, 2]))))
+    floor = roundoff_floor(state)
+    ratio = r / floor
+    if not ratio <= factor:
+        name = what or state.source or "the state"
+        raise NotEquilibriumError(
+            f"{name} is not an equilibrium of its parameters: residual max |G| = {r:.3g} "
+            f"is {ratio:.3g} x the round-off floor {floor:.3g} (k_n = {state.params.k_n!r},"
+            f" k_t = {state.params.k_t!r}, mu = {state.params.mu!r}, F_x = "
+            f"{state.F_x!r}, F_y = {state.F_y!r}); check the sidecar and the "
+            f"dump's precision (%.17g)")
+    return ratio
+
+
+def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=None,
+            min_contacts=2):
+    """Stiffness, rattlers, spectrum and complex-pair decision of one state.
+
+    Parameters
+    ----------
+    state : State
+    eigenvalues : bool, optional
+        Compute the eigenvalues (default True).
+    decide : bool, optional
+        Run the certified complex-pair test (default True; dense path: all
+        pairs; sparse path: the ``k`` eigenvalues nearest ``sigma``).
+    method : {'auto', 'dense', 'sparse'}
+    k : int
+        Sparse path: number of eigenvalues.
+    sigma : float, optional
+        Sparse path: shift (1/time^2); default
+        :func:`~remote_trigger.analysis.stability.eigen.default_shift`, inside the band
+        where pairs coalesce (``docs/analysis.md``).
+    min_contacts : int
+        Rattler criterion (default 2, frictional disks).
+
+    Returns
+    -------
+    Analysis
+    """
+    K = _jac.stiffness_matrix(state)
+    mass = state.mass_diagonal()
+    rat = _jac.find_rattlers(state, min_contacts=min_contacts)
+    G = _jac.generalized_forces(state)
+    eig = dec = None
+    if eigenvalues and rat.keep_dofs.size:
+        Kr, mr = _jac.remove_dofs(K, mass, rat.keep_dofs)
+        n = Kr.shape[0]
+        dense = method == "dense" or (method == "auto" and n <= _eigen.DENSE_MAX)
+        if dense:
+            if decide:
+                # one LAPACK eigen-solve: the decision's eigenvalues are the spectrum
+                dec = _exc.classify_spectrum(_eigen.dynamical_matrix(Kr, mr).toarray())
+                eig = _eigen.EigenResult(np.asarray(dec.eigenvalues, np.complex128),
+                                         method="dense")
+            else:
+                eig = _eigen.dense_eigen(Kr, mr, vectors=False)
+        else:
+            if sigma is None:
+                sigma = _eigen.default_shift(Kr, mr)
+            if decide:
+                # one ARPACK run: the decision's Rayleigh-Ritz values are the k
+                # eigenvalues nearest sigma
+                dec, _ = _proj.classify_projected(_eigen.dynamical_matrix(Kr, mr), sigma,
+                                                  k=max(k, 2))
+                eig = _eigen.EigenResult(dec.eigenvalues, method="arpack-shift-invert",
+                                         sigma=float(sigma))
+            else:
+                eig = _eigen.sparse_eigen(Kr, mr, k=k, sigma=sigma)
+    return Analysis(state, K, mass, rat, eig, dec, G)
+
+
+def analyze_dump(path, **kwargs):
+    """:func:`analyze` of a dump; model-parameter keywords go to ``read_dump``.
+
+    Parameters
+    ----------
+    path : str
+    **kwargs
+        ``k_n, k_t, mu, wall_y, F_x, F_y, dt, frame`` for
+        :func:`~remote_trigger.analysis.state.dumpfile.read_dump`; the rest for
+        :func:`analyze`.
+    """
+    read_keys = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt", "frame", "no_wall")
+    rk = {key: kwargs.pop(key) for key in list(kwargs) if key in read_keys}
+    return analyze(read_dump(path, **rk), **kwargs)

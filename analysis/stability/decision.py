@@ -1,0 +1,230 @@
+"""What the certified complex-pair decision returns.
+
+:class:`PairDecision` (one pair of eigenvalues, or the isolation of two
+neighbouring units), :class:`SpectrumDecision` (the answer for the whole
+spectrum) and :class:`SpectrumBasis` (the verified basis of a decision, the
+start of the next one; a ramp saves and loads it). The decision and what
+each answer certifies: :mod:`remote_trigger.analysis.stability.exceptional`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import warnings
+
+import numpy as np
+
+__all__ = ["PairDecision", "SpectrumDecision", "SpectrumBasis"]
+
+
+@dataclass
+class PairDecision:
+    """Decision for one pair of eigenvalues (or the isolation of two neighbours).
+
+    Attributes
+    ----------
+    eigenvalues : ndarray, complex, shape (2,)
+        The pair (eigenvalues of the centre of its 2 x 2 block; for an
+        isolation entry the two neighbouring centres).
+    is_complex : bool
+        Sign of the discriminant at the centre: True if D < 0.
+    certified : bool
+        True if margin > 1: the sign of D (pair) or the separation of the
+        two discs (isolation) holds for every matrix of the set.
+    margin : float
+        |D| / (bound on the change of D) for a pair; distance of the centres
+        / sum of the radii for an isolation entry.
+    discriminant : float
+        D of the pair's 2 x 2 block (1/time^4 for M^-1 K), rounded to float.
+    bound : float
+        Largest change of D compatible with the errors.
+    eta : float
+        Frobenius radius of the pair's 2 x 2 block (all errors, coupling
+        included).
+    sep : float
+        Lower bound of sep(S_rr, S_cc) (inf for a 2 x 2 matrix).
+    kappa : tuple of float or None
+        Unused (kept for compatibility); None.
+    method : str
+        ``'exact-2x2'`` (the matrix is 2 x 2), ``'riccati-2x2'`` (a pair of a
+        larger matrix) or ``'gershgorin'`` (isolation of two neighbouring
+        units).
+    reason : str
+        Why an entry is not certified (empty otherwise).
+    sharp : bool
+        The pair's block was computed with the exact residual (step 4 of
+        :mod:`remote_trigger.analysis.stability.exceptional`), not only from
+        the float64 similarity.
+    """
+
+    eigenvalues: np.ndarray
+    is_complex: bool
+    certified: bool
+    margin: float
+    discriminant: float = float("nan")
+    bound: float = float("nan")
+    eta: float = float("nan")
+    sep: float = float("inf")
+    kappa: tuple | None = None
+    method: str = "riccati-2x2"
+    reason: str = ""
+    sharp: bool = False
+
+    @property
+    def decision(self):
+        """``'complex'``, ``'real'`` or ``'undecided'``."""
+        if not self.certified:
+            return "undecided"
+        return "complex" if self.is_complex else "real"
+
+
+@dataclass
+class SpectrumDecision:
+    """Is a complex pair present in the spectrum?
+
+    Attributes
+    ----------
+    complex_present : bool or None
+        True: a pair is certified complex. False: every eigenvalue is
+        certified real. None: undecided (a pair is too close to an
+        exceptional point for the precision of the matrix, or a unit is not
+        isolated).
+    confidence : float
+        For True, the largest margin among certified complex pairs; for
+        False, the smallest margin (pairs and isolation); for None, the
+        smallest margin (< 1) among the entries that failed.
+    pairs : list of PairDecision
+        Every pair and every isolation entry between neighbouring units.
+    backward_error : float
+        Largest row deviation bound dev_i of the similarity (units of A).
+    eigenvalues : ndarray, complex
+        All eigenvalues, sorted by real part: LAPACK's (``start`` 'dgeev'),
+        or the verified basis's block centres with their second-order
+        coupling term (``start`` 'basis').
+    timing : dict
+        Wall times in seconds: ``eigen`` (eigenvalues and vectors; 0 for a
+        decision from a previous basis) and ``decision`` (everything else).
+    reason : str
+        For an undecided spectrum, why.
+    basis : SpectrumBasis or None
+        The verified basis, to start the decision of a nearby matrix from
+        (``classify_spectrum(..., basis=)``); None if verification failed.
+    start : str
+        ``'dgeev'`` (eigenvectors computed for this matrix) or ``'basis'``
+        (the basis of a previous decision, corrected; see
+        :func:`remote_trigger.analysis.stability.exceptional.classify_spectrum`).
+    coverage : str
+        ``'whole'``: the decision covers every eigenvalue of the matrix (a
+        stability verdict). ``'partial'``: it covers only ``eigenvalues``
+        (:func:`remote_trigger.analysis.stability.projected.classify_projected`:
+        the k nearest a shift, certified for a matrix within the projection
+        residual); a pair elsewhere is not seen, so it is not a verdict.
+    n_total : int
+        Order of the whole matrix (0 if not recorded); with ``coverage``
+        ``'partial'``, ``eigenvalues.size`` of ``n_total`` are covered.
+    sigma : float
+        The shift of a partial decision (NaN for a whole one).
+    """
+
+    complex_present: bool | None
+    confidence: float
+    pairs: list = field(default_factory=list)
+    backward_error: float = 0.0
+    eigenvalues: np.ndarray | None = None
+    timing: dict = field(default_factory=dict)
+    reason: str = ""
+    basis: "SpectrumBasis | None" = None
+    start: str = "dgeev"
+    coverage: str = "whole"
+    n_total: int = 0
+    sigma: float = float("nan")
+
+    @property
+    def is_verdict(self):
+        """True iff the decision covers the whole spectrum (``coverage == 'whole'``)."""
+        return self.coverage == "whole"
+
+    def describe(self):
+        """One line: the decision and what it covers.
+
+        A whole-spectrum decision reads ``'complex pair: yes'`` / ``'no'`` /
+        ``'undecided'``; a partial one names its coverage and says that it is
+        no verdict, e.g. ``'partial decision (12 of 4800 eigenvalues, those
+        nearest sigma = 1.2e+04), not a stability verdict: no complex pair
+        among them'``.
+        """
+        if self.is_verdict:
+            what = {True: "yes", False: "no", None: "undecided"}[self.complex_present]
+            return f"complex pair: {what} (confidence margin {self.confidence:.3g})"
+        k = 0 if self.eigenvalues is None else len(self.eigenvalues)
+        what = {True: "a complex pair among them", False: "no complex pair among them",
+                None: "undecided among them"}[self.complex_present]
+        return (f"partial decision ({k} of {self.n_total or '?'} eigenvalues, those nearest "
+                f"sigma = {self.sigma:.6g}), not a stability verdict: {what} (margin "
+                f"{self.confidence:.3g})")
+
+    @property
+    def critical_pair(self):
+        """The pair that decided (largest-margin complex pair if present, else least certain)."""
+        cands = [p for p in self.pairs if p.method != "gershgorin"] or self.pairs
+        if not cands:
+            return None
+        if self.complex_present:
+            return max((p for p in cands if p.is_complex and p.certified),
+                       key=lambda p: p.margin)
+        return min(cands, key=lambda p: p.margin)
+
+
+@dataclass
+class SpectrumBasis:
+    """A verified basis of a decision: the start of the next one.
+
+    Attributes
+    ----------
+    X : ndarray, shape (n, n)
+        Columns: the units' bases (a real eigenvector, or two columns
+        spanning a pair's invariant subspace), unit ``b`` in columns
+        ``blocks[b][0] : blocks[b][0] + blocks[b][1]``.
+    R : ndarray, shape (n, n)
+        The float64 inverse of X used in the verification.
+    blocks : list of (int, int)
+        (first column, size 1 or 2) of each unit.
+    """
+
+    X: np.ndarray
+    R: np.ndarray
+    blocks: list
+
+    @property
+    def pairs(self):
+        """ndarray of bool, shape (len(blocks),): the unit is a pair (a complex
+        pair or two near-parallel real eigenvectors), i.e. has two columns."""
+        return np.array([k == 2 for _, k in self.blocks], dtype=bool)
+
+    def save(self, path):
+        """Write X and the block layout to ``path`` (``.npz``; R is recomputed on load)."""
+        b = np.asarray(self.blocks, np.int64).reshape(-1, 2)
+        with open(path, "wb") as fh:
+            np.savez(fh, X=self.X, blocks=b)
+
+    @classmethod
+    def load(cls, path):
+        """Read a basis written by :meth:`save` (R = inv(X), as the verification computes it).
+
+        Raises
+        ------
+        ValueError
+            If the file is not a saved basis (the message names it).
+        """
+        try:
+            with np.load(path) as z:
+                X, b = z["X"], z["blocks"]
+        except (OSError, KeyError, ValueError) as exc:
+            raise ValueError(f"cannot read spectrum basis {path!r}: {exc}") from exc
+        n = X.shape[0]
+        if (X.ndim != 2 or X.shape != (n, n) or b.ndim != 2 or b.shape[1] != 2
+                or int(b[:, 1].sum()) != n):
+            raise ValueError(f"cannot read spectrum basis {path!r}: inconsistent shapes")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            R = np.linalg.inv(X)
+        return cls(X, R, [(int(s), int(k)) for s, k in b])

@@ -1,0 +1,199 @@
+"""The stability verdict of an equilibrium: certified decision, codes, growth rate.
+
+The ramp calls :func:`stability_of_dump` on every equilibrium dump it writes.
+The work is done by the analyzer, :func:`remote_trigger.analysis.stability.analyze.analyze`
+(docs/analysis.md): K = -dG/dq (paper Appendix C), rattlers removed
+iteratively (frictional criterion: fewer than 2 contacts), eigenvalues of
+M^-1 K (Eq. 6: omega = +-sqrt(lambda)) and the **certified** complex-pair
+decision (``remote_trigger.analysis.stability.exceptional``: a verified similarity,
+Gershgorin isolation, and the pair's 2 x 2 block enclosed to the precision
+of the float64 matrix). No threshold on Im lambda is used:
+the decision is ``'complex'`` (a pair certified complex), ``'real'`` (every
+eigenvalue certified real) or ``'undecided'`` (a pair is so close to an
+exceptional point that the float64 matrix cannot tell), each with its
+margin (``confidence``, > 1 = certified).
+
+Ramp policy (docs/driver.md): only certified answers move the bracket of
+F_x^c. An ``'undecided'`` point is neither stable nor unstable; it is
+recorded (``decision`` = -1 with its margin) in ramp.h5, and the bisection
+works around it (``pywrap.stages.ramp_bracket``, ``next_bisection_point``).
+"""
+from dataclasses import dataclass
+import enum
+
+import numpy as np
+
+
+class Decision(enum.IntEnum):
+    """The certified decision on an equilibrium's spectrum, with its stored code.
+
+    The integer values are the codes stored in the ``decision`` columns of
+    ramp.h5, trigger_map.h5 and ensemble.h5 (docs/driver.md); an
+    ``IntEnum`` compares equal to them, so ``codes == Decision.COMPLEX``
+    works on a NumPy array of codes.
+
+    Attributes
+    ----------
+    COMPLEX : 1
+        A complex-conjugate pair of M^-1 K is certified (oscillatory instability).
+    REAL : 0
+        Every eigenvalue is certified real.
+    UNDECIDED : -1
+        A pair so close to an exceptional point that the float64 matrix
+        cannot tell (the margin says how close).
+    """
+
+    COMPLEX = 1
+    REAL = 0
+    UNDECIDED = -1
+
+    @property
+    def label(self):
+        """``'complex'``, ``'real'`` or ``'undecided'`` (the analyzer's words)."""
+        return self.name.lower()
+
+    @classmethod
+    def of(cls, value):
+        """The decision of a stored code (int or float) or of a label.
+
+        Raises
+        ------
+        ValueError
+            Neither a code (1, 0, -1) nor a label.
+        """
+        if isinstance(value, str):
+            try:
+                return cls[value.upper()]
+            except KeyError:
+                raise ValueError(f"not a decision label: {value!r}") from None
+        try:
+            code = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"not a decision code: {value!r}") from None
+        if not (np.isfinite(code) and code == int(code) and int(code) in (-1, 0, 1)):
+            raise ValueError(f"not a decision code: {value!r}")
+        return cls(int(code))
+
+
+#: numeric codes of the decision labels, as stored in ramp.h5
+DECISION_CODES = {d.label: int(d) for d in Decision}
+
+
+@dataclass
+class StabilityResult:
+    """Eigen-analysis of one equilibrium.
+
+    Attributes
+    ----------
+    eigenvalues : ndarray of complex128, shape (M,)
+        Eigenvalues of M^-1 K over the kept degrees of freedom, sorted by
+        real part.
+    complex_pair : bool
+        True iff a complex-conjugate pair is *certified* (``decision ==
+        'complex'``): an oscillatory instability.
+    max_imag : float
+        Largest |Im lambda| over the eigenvalues if ``complex_pair``, else 0.
+    growth_rate : float
+        max |Im omega| over omega = +-sqrt(lambda) (1/time); 0 for a real
+        positive spectrum.
+    n_rattlers : int
+        Disks removed as rattlers.
+    rattler_ids : ndarray of int64
+    decision : str
+        ``'complex'``, ``'real'`` or ``'undecided'``.
+    confidence : float
+        Margin of the decision (docs/analysis.md): > 1 certified; for
+        ``'undecided'`` the margin (< 1) of the least certain pair.
+    residual : float
+        max over disks of max(|F_i|, |T_i|/R_i) recomputed by the analyzer
+        from the dump (loads included).
+    timing : dict
+        Wall times (s) of the eigen-solve (``eigen``) and of the certified
+        decision (``decision``).
+    basis : remote_trigger.analysis.stability.decision.SpectrumBasis or None
+        The decision's verified basis (start of the next point's decision).
+    start : str
+        ``'dgeev'`` or ``'basis'`` (decided from a previous point's basis).
+    """
+
+    eigenvalues: np.ndarray
+    complex_pair: bool
+    max_imag: float
+    growth_rate: float
+    n_rattlers: int
+    rattler_ids: np.ndarray
+    decision: str = "real"
+    confidence: float = float("inf")
+    residual: float = float("nan")
+    timing: dict = None
+    basis: object = None
+    start: str = "dgeev"
+
+    @property
+    def decision_code(self):
+        """The :class:`Decision` (1 complex, 0 real, -1 undecided, as stored in ramp.h5)."""
+        return Decision.of(self.decision)
+
+
+def stability_of(state, basis=None):
+    """Eigen-analysis of an analysis ``State`` with the analyzer (dense path).
+
+    Parameters
+    ----------
+    state : remote_trigger.analysis.state.state.State
+    basis : remote_trigger.analysis.stability.decision.SpectrumBasis, optional
+        The previous point's ``basis``: tried first
+        (:func:`remote_trigger.analysis.stability.exceptional.classify_spectrum`).
+
+    Returns
+    -------
+    StabilityResult
+    """
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability import eigen, exceptional, jacobian
+
+    # K, rattlers and residual from analyze(); the dense spectrum and the
+    # certified decision from one classify_spectrum call (its eigen-solve gives
+    # the eigenvalues too: analyze(..., eigenvalues=True) would run a second,
+    # separate eigenvalue solve -- 20-30 % of the time of a ramp step)
+    res = analyze(state, eigenvalues=False, decide=False)
+    rat = res.rattlers
+    if rat.keep_dofs.size == 0:      # every disk a rattler: nothing to decide
+        return StabilityResult(np.zeros(0, complex), False, 0.0, 0.0, int(rat.ids.size),
+                               np.asarray(rat.ids, np.int64), "real", float("inf"),
+                               res.max_residual)
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
+    dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
+                                        basis=basis)
+    if dec.complex_present is None:
+        decision = "undecided"
+    else:
+        decision = "complex" if dec.complex_present else "real"
+    lam = np.asarray(dec.eigenvalues, np.complex128)
+    lam = lam[np.lexsort((lam.imag, lam.real))]
+    cplx = decision == "complex"
+    max_imag = float(np.max(np.abs(lam.imag))) if (cplx and lam.size) else 0.0
+    return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
+                           int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
+                           float(dec.confidence), res.max_residual, dict(dec.timing),
+                           dec.basis, dec.start)
+
+
+def stability_of_dump(path, basis=None):
+    """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
+
+    ``basis``: as in :func:`stability_of`.
+
+    Raises
+    ------
+    ValueError
+        If the dump or its sidecar is missing, corrupt or truncated (from
+        ``read_dump``; the message names the file).
+    """
+    from remote_trigger.analysis.state.dumpfile import read_dump
+
+    try:
+        state = read_dump(path, require_contacts=False)
+    except (OSError, KeyError, IndexError, ValueError) as exc:
+        raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
+    return stability_of(state, basis)

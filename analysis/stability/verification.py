@@ -1,0 +1,370 @@
+"""Steps 1-5 of the certified decision for one basis (the proof is the
+docstring of :mod:`remote_trigger.analysis.stability.exceptional`).
+
+Step 1: the spectrum cut into units (:func:`_units`) and each pair's real
+basis, refined near an exceptional point (:func:`_pair_basis`). Step 2: the
+row enclosure of S = X^{-1} A~ X (:class:`_Verified`). Steps 4-5: each
+pair's 2 x 2 block, crude and sharp, with its Riccati coupling to the rest
+(:class:`_Block`). Step 3: the isolation of neighbouring discs
+(:func:`_isolation`). :func:`_analyse` builds X from LAPACK's eigenvectors;
+:func:`_verify` runs steps 2-5 for any nonsingular X (also a previous
+decision's basis, :mod:`remote_trigger.analysis.stability.basis`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+import warnings
+
+import numpy as np
+import scipy.linalg as sla
+
+from remote_trigger.analysis.stability.decision import PairDecision, SpectrumBasis
+from remote_trigger.analysis.stability.enclosure import (
+    EPS, TINY, U, _cover_radius, _disc_test, _frac, _gamma, _margin, _pair_eigs,
+    _sigma_min_2x2_lower, _sigma_min_lower, _up, exact_residual)
+
+_PARALLEL = 1.0 - 1e-4          # |cos| of two real eigenvectors above which they form a pair
+_ILL = 100.0                    # pair basis condition above which the subspace is refined
+_SHARP_BELOW = 1e4              # crude margin below which a pair is also computed sharply
+
+
+# --------------------------------------------------------------------------- units and bases
+@dataclass
+class _Unit:
+    idx: tuple                 # eigenvalue indices (1 or 2)
+    complex_pair: bool = False
+    merged: bool = False       # real pair formed because the eigenvectors are parallel
+
+
+def _units(lam, V):
+    """Split the spectrum into real units and pairs (complex pairs, parallel real pairs)."""
+    n = lam.size
+    units = []
+    nonreal = np.flatnonzero(lam.imag != 0.0).tolist()
+    k = 0
+    while k < len(nonreal):             # LAPACK stores a complex pair as neighbours
+        j = nonreal[k]
+        if j + 1 < n and lam[j + 1] == np.conj(lam[j]):
+            units.append(_Unit((j, j + 1), complex_pair=True))
+            k += 2
+            continue
+        raise ValueError("eigenvalue solver returned an unpaired complex eigenvalue")
+    reals = np.flatnonzero(lam.imag == 0.0)
+    reals = reals[np.argsort(lam.real[reals], kind="stable")]
+    # |cos| of the angle between the eigenvectors of sorted neighbours (one
+    # array operation; only compared with _PARALLEL)
+    Vr = V[:, reals].real
+    nrm = np.sqrt(np.einsum("ij,ij->j", Vr, Vr))
+    parallel = (np.abs(np.einsum("ij,ij->j", Vr[:, :-1], Vr[:, 1:]))
+                / (nrm[:-1] * nrm[1:]) > _PARALLEL).tolist()
+    reals = reals.tolist()
+    k = 0
+    while k < len(reals):
+        if k + 1 < len(reals) and parallel[k]:
+            units.append(_Unit((reals[k], reals[k + 1]), merged=True))
+            k += 2
+            continue
+        units.append(_Unit((reals[k],)))
+        k += 1
+    return units
+
+
+def _refine(A, sigma, Q, iters=4):
+    """Orthonormal basis of the 2-dimensional invariant subspace nearest sigma.
+
+    Subspace iteration with (A - sigma I)^{-1} from Q; returns Q unchanged if
+    the shifted matrix cannot be factorised or the iteration breaks down.
+    """
+    n = A.shape[0]
+    B = A - sigma * np.eye(n)
+    for _ in range(3):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            lu, piv = sla.lu_factor(B, check_finite=False)
+        if np.all(np.diag(lu) != 0):
+            break
+        sigma = sigma * (1 + 64 * EPS) + 64 * TINY
+        B = A - sigma * np.eye(n)
+    else:
+        return Q
+    W = Q
+    for _ in range(iters):
+        Y = sla.lu_solve((lu, piv), W, check_finite=False)
+        if not np.all(np.isfinite(Y)):
+            return Q
+        W, _ = np.linalg.qr(Y)
+    return W
+
+
+def _pair_basis(A, lam, V, unit):
+    """Real orthonormal basis (n x 2) of a pair's invariant subspace (refined near an EP)."""
+    i, j = unit.idx
+    if unit.complex_pair:
+        V0 = np.column_stack([V[:, i].real, V[:, i].imag])
+    else:
+        V0 = np.column_stack([V[:, i].real, V[:, j].real])
+    V0 = V0 / np.maximum(np.linalg.norm(V0, axis=0), TINY)
+    sv = np.linalg.svd(V0, compute_uv=False)
+    Q, _ = np.linalg.qr(V0)
+    cond = sv[0] / sv[1] if sv[1] > 0 else math.inf
+    if unit.merged or cond > _ILL:
+        sigma = 0.5 * (lam[i].real + lam[j].real)
+        return _refine(A, sigma, Q), True
+    return Q, False
+
+
+# --------------------------------------------------------------------------- verification
+class _Verified:
+    """Enclosure of S = X^{-1} A~ X, row by row (step 2 of the proof)."""
+
+    def __init__(self, A, X, blocks, rel_error, input_error, Ap=None):
+        n = A.shape[0]
+        self.n = n
+        self.ok = False
+        self.reason = ""
+        g = _gamma(n + 2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                R = np.linalg.inv(X)
+            except np.linalg.LinAlgError:
+                self.reason = "eigenvector basis is singular"
+                return
+        if not np.all(np.isfinite(R)):
+            self.reason = "eigenvector basis is singular"
+            return
+        aA, aX, aR = np.abs(A), np.abs(X), np.abs(R)
+        G = (A if Ap is None else Ap) @ X
+        C = R @ G
+        H = R @ X
+        xs = aX.sum(axis=1)
+        axs = aA @ xs
+        raxs = aR @ axs
+        rgs = aR @ np.abs(G).sum(axis=1)
+        rxs = aR @ xs
+        Fh = H
+        Fh[np.diag_indices(n)] -= 1.0
+        f = _up(np.abs(Fh).sum(axis=1) + g * rxs, n)
+        fmax = float(f.max())
+        if not fmax < 0.5:
+            self.reason = f"eigenvector basis too ill-conditioned (||R X - I|| = {fmax:.2g})"
+            return
+        e1 = g * (rgs + raxs)
+        absC = np.abs(C)
+        nrax = _up(float((absC.sum(axis=1) + e1).max()), n)
+        dev = e1 + f * (nrax / (1.0 - fmax))
+        ynorm_inf = _up(float(aR.sum(axis=1).max()), n) / (1.0 - fmax)
+        if rel_error > 0:
+            w = rel_error * raxs
+            dev = dev + w + f * (float(w.max()) / (1.0 - fmax))
+        if input_error > 0:
+            Rn = np.linalg.norm(R, axis=1)
+            Yn = Rn + f * (float(Rn.max()) / (1.0 - fmax))
+            dev = dev + Yn * input_error * float(np.linalg.norm(X, axis=0).sum())
+        self.dev = _up(dev, n)
+        one = [s for s, k in blocks if k == 1]
+        absC[one, one] = 0.0
+        for s, k in blocks:
+            if k > 1:
+                absC[s:s + k, s:s + k] = 0.0
+        self.off = _up(absC.sum(axis=1), n)       # row sums outside the own block
+        self.absC = absC
+        self.C, self.R, self.f, self.fmax = C, R, f, fmax
+        self.ynorm_inf = ynorm_inf
+        self.raxs = raxs
+        self.ok = True
+
+    def crude_block(self, s):
+        """Centre (float) and entrywise radius of S_cc from the row enclosure."""
+        S = self.C[s:s + 2, s:s + 2].copy()
+        d = self.dev[s:s + 2]
+        return S, np.column_stack([d, d])
+
+    def sharp_block(self, A, Q, s, rel_error, input_error):
+        """S_cc = M~ + Y_c r with the exact residual r = A Q - Q M~ (step 4)."""
+        n = self.n
+        Mt = self.C[s:s + 2, s:s + 2].copy()
+        r, er = exact_residual(A, Q, Mt)
+        Rc = self.R[s:s + 2]
+        aRc = np.abs(Rc)
+        t = Rc @ r
+        rad = _gamma(n + 2) * (aRc @ np.abs(r)) + aRc @ er
+        # Y_c = R_c - (F Y)_c:  |(F Y r)_ik| <= f_i ||Y||_inf ||r_k + er_k||_inf
+        rcol = (np.abs(r) + er).max(axis=0)
+        rad = rad + np.outer(self.f[s:s + 2], self.ynorm_inf * rcol)
+        if rel_error > 0:
+            aAQ = np.abs(A) @ np.abs(Q)
+            rad = rad + rel_error * (aRc @ aAQ
+                                     + np.outer(self.f[s:s + 2], self.ynorm_inf
+                                                * aAQ.max(axis=0)))
+        if input_error > 0:
+            yc = float(np.linalg.norm(Rc)) + math.sqrt(2.0 * n) * float(self.f[s:s + 2].max()) \
+                * self.ynorm_inf
+            rad = rad + yc * input_error * float(np.linalg.norm(Q))
+        Sf = _frac(Mt)
+        Tf = _frac(t)
+        S = [[Sf[a][b] + Tf[a][b] for b in range(2)] for a in range(2)]
+        return S, _up(rad, n)
+
+
+@dataclass
+class _Block:
+    """What the decision of one pair c needs from the rest of S (step 4)."""
+
+    rest: bool                 # the matrix has more than the pair
+    gam: float                 # >= ||S_rc||_F
+    eta: float                 # >= ||S_cr||_F
+    err_rr: float              # >= ||S_rr - blockdiag||_F
+    r_c: float                 # block Gershgorin radius of the pair's rows
+    lam1: np.ndarray           # centres of the real units
+    others: list               # centres (2 x 2) of the other pairs
+
+    def decide(self, S, rad, sharp):
+        """PairDecision and cover radius for centre S (Fractions) and radius rad (2 x 2)."""
+        Sfl = np.array([[float(S[0][0]), float(S[0][1])], [float(S[1][0]), float(S[1][1])]])
+        rad = rad + U * np.abs(Sfl)          # float copy of the exact centre
+        D0 = ((S[0][0] - S[1][1]) / 2) ** 2 + S[0][1] * S[1][0]
+        if not np.all(np.isfinite(rad)):
+            return PairDecision(_pair_eigs(S), D0 < 0, False, 0.0, float(D0), eta=math.inf,
+                                reason="no finite bound on the block", sharp=sharp), math.inf
+        radn = _up(float(np.linalg.norm(rad)), 4)
+        sep = math.inf
+        if self.lam1.size:
+            sep = float(_sigma_min_2x2_lower(self.lam1 - Sfl[0, 0], -Sfl[1, 0], -Sfl[0, 1],
+                                             self.lam1 - Sfl[1, 1]).min())
+        for B in self.others:
+            Kr = np.kron(np.eye(2), B) - np.kron(Sfl.T, np.eye(2))
+            sep = min(sep, _sigma_min_lower(Kr))
+        delta = sep - self.err_rr - radn
+        ric = 0.0
+        if self.rest:
+            if not (delta > 0 and 4.0 * self.gam * self.eta < delta * delta * (1 - 8 * U)):
+                return PairDecision(
+                    _pair_eigs(S), D0 < 0, False, 0.0, float(D0), sep=float(sep), eta=radn,
+                    reason=f"pair not separated from the rest: sep >= {sep:.3g}, coupling "
+                           f"{self.gam:.3g} x {self.eta:.3g}", sharp=sharp), math.inf
+            ric = _up(2.0 * self.gam * self.eta / delta, 4)
+        D, bound = _disc_test(S, rad + ric)
+        cert = abs(D) > bound
+        dec = PairDecision(_pair_eigs(S), D < 0, bool(cert), _margin(D, bound), float(D),
+                           float(bound), _up(radn + 2 * ric, 4),
+                           float(delta if self.rest else math.inf), None, "riccati-2x2",
+                           "" if cert else "discriminant within its error bound", sharp)
+        # eig(M_c) lies in the block region only if the coupling term is below r_c
+        cover = math.inf if ric > self.r_c else _cover_radius(S, self.r_c + radn)
+        return dec, cover
+
+
+def _analyse(A, lam, V, units, rel_error, input_error, Ap=None):
+    """One verification pass over the given units. Returns (entries, summary data)."""
+    n = A.shape[0]
+    # column layout: units sorted by the real part of their eigenvalues
+    lr = lam.real.tolist()
+    key = [lr[un.idx[0]] if len(un.idx) == 1 else (lr[un.idx[0]] + lr[un.idx[1]]) / 2
+           for un in units]
+    order = sorted(range(len(units)), key=key.__getitem__)
+    units = [units[k] for k in order]
+    blocks, refined, single = [], [], []
+    s = 0
+    for un in units:
+        k = len(un.idx)
+        blocks.append((s, k))
+        if k == 1:
+            single.append((s, un.idx[0]))
+        s += k
+    X = np.empty((n, s))
+    if single:
+        at, idx = (np.array(c) for c in zip(*single))
+        Vs = V[:, idx].real
+        X[:, at] = Vs / np.sqrt(np.einsum("ij,ij->j", Vs, Vs))
+    for un, (s, k) in zip(units, blocks):
+        if k == 2:
+            X[:, s:s + 2], ref = _pair_basis(A, lam, V, un)
+        refined.append(k == 2 and ref)
+    return _verify(A, X, blocks, units, refined, rel_error, input_error, Ap)
+
+
+def _verify(A, X, blocks, units, refined, rel_error, input_error, Ap=None, ver=None):
+    """Steps 2-5 for the basis X (units' columns at ``blocks``): (entries, _Verified).
+
+    ``Ap``: A in a form for the product A X (a sparse copy; None: A). ``ver``:
+    the step-2 enclosure of this X and ``blocks`` if already made."""
+    n = A.shape[0]
+    if ver is None:
+        ver = _Verified(A, X, blocks, rel_error, input_error, Ap)
+    if not ver.ok:
+        return None, ver
+    ver.basis = SpectrumBasis(X, ver.R, blocks)
+    dev, off, C = ver.dev, ver.off, ver.C
+    one = np.array([b for b, (s, k) in enumerate(blocks) if k == 1], dtype=np.intp)
+    s_one = np.array([blocks[b][0] for b in one.tolist()], dtype=np.intp)
+    lam1 = C[s_one, s_one]
+    offdev = off + dev
+    # discs (centre, radius, block index): the real units', then the pairs'
+    discs = [lam1.tolist(), offdev[s_one].tolist(), one.tolist()]
+    pending = []                     # (block, start, _Block, crude decision, cover, centre)
+    pair_out = []
+    for b, (s, k) in enumerate(blocks):
+        if k == 1:
+            continue
+        c = [s, s + 1]
+        rest = np.ones(n, bool)
+        rest[c] = False
+        blk = _Block(
+            rest=bool(rest.any()),
+            gam=_up(math.sqrt(float(np.sum((ver.absC[:, c].sum(axis=1)[rest]
+                                            + dev[rest]) ** 2))), n),
+            eta=_up(math.sqrt(float(np.sum(offdev[c] ** 2))), 2),
+            err_rr=_up(math.sqrt(float(np.sum(offdev[rest] ** 2))), n),
+            r_c=_up(float(offdev[c].sum()), 4),
+            lam1=lam1,
+            others=[C[s2:s2 + 2, s2:s2 + 2] for s2, k2 in blocks if k2 == 2 and s2 != s])
+        S0 = _frac(ver.crude_block(s)[0])
+        dec, cover = blk.decide(S0, ver.crude_block(s)[1], False)
+        pending.append((b, s, blk, dec, cover, S0))
+    # sharp enclosure: the pair nearest an exceptional point (smallest crude
+    # margin), refined pairs, and every pair the crude enclosure leaves unsure
+    crit = min(range(len(pending)), key=lambda q: pending[q][3].margin) if pending else -1
+    for q, (b, s, blk, dec, cover, S) in enumerate(pending):
+        if q == crit or refined[b] or not dec.certified or dec.margin < _SHARP_BELOW:
+            try:
+                Sx, radx = ver.sharp_block(A, X[:, s:s + 2], s, rel_error, input_error)
+            except ValueError:
+                Sx = None
+            if Sx is not None:
+                dec2, cover2 = blk.decide(Sx, radx, True)
+                if dec2.certified or not dec.certified:
+                    dec, cover, S = dec2, cover2, Sx
+        centre = float((S[0][0] + S[1][1]) / 2)
+        for lst, v in zip(discs, (centre, cover + U * abs(centre), b)):
+            lst.append(v)
+        pair_out.append(dec)
+    iso, ver.conflicts = _isolation(discs, blocks, units)
+    return pair_out + iso, ver
+
+
+def _isolation(discs, blocks, units):
+    """Isolation of neighbouring discs (all centred on the real axis).
+
+    ``discs`` holds three lists: centres, radii and block indices. Returns
+    the PairDecision of each neighbouring pair of discs and the eigenvalue
+    index pairs of two real units whose discs overlap.
+    """
+    c, r, b = (np.asarray(v) for v in discs)
+    order = np.argsort(c, kind="stable")
+    c, r, b = c[order], r[order], b[order].tolist()
+    gap = (c[1:] - c[:-1]) * (1 - 2 * U)
+    rr = (r[:-1] + r[1:]) * (1 + 2 * U)
+    pos = rr > 0
+    m = np.full(gap.shape, math.inf)
+    m[pos] = gap[pos] / rr[pos]
+    ok = (gap > rr).tolist()
+    c, m, rr = c.tolist(), m.tolist(), rr.tolist()
+    iso = [PairDecision(np.array([c[k], c[k + 1]], complex), False, ok[k], m[k],
+                        method="gershgorin", reason="" if ok[k] else "discs overlap",
+                        bound=rr[k])
+           for k in range(len(ok))]
+    conflicts = [(units[b[k]].idx[0], units[b[k + 1]].idx[0]) for k in range(len(ok))
+                 if not ok[k] and blocks[b[k]][1] == 1 and blocks[b[k + 1]][1] == 1]
+    return iso, conflicts

@@ -1,0 +1,312 @@
+r"""The equilibrium dump and its sidecar: the one format contract of a state.
+
+The driver writes every equilibrium as ``X.data`` (LAMMPS ``write_data``),
+``X.dump`` and ``X.dump.json``; the analysis reads the last two. The dump is
+a text ``dump custom`` written with ``format float %.17g`` and sorted by id
+(docs/conventions.md section 3),
+
+.. code-block:: text
+
+    id type radius mass x y vx vy omegaz fx fy tqz v_fext_x v_fext_y
+    i2_mindlin_partner[1..K] d2_mindlin_t[1..K] d_mindlin_wall_t
+
+and the sidecar JSON ``<dump>.json`` holds the model parameters
+``k_n, k_t, mu, wall_y, F_x, F_y, dt`` (:data:`PARAM_KEYS`) that a dump
+cannot carry. :func:`read_dump` turns one snapshot into a
+:class:`~remote_trigger.analysis.state.state.State` (contacts from the history
+columns, :func:`~remote_trigger.analysis.state.state.build_state`);
+:func:`write_sidecar` / :func:`load_sidecar` write and read the sidecar.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+
+import numpy as np
+
+from remote_trigger.analysis.state.contacts import PARTNER, XI
+from remote_trigger.analysis.state.state import DISC_INERTIA, ContactParams, build_state
+
+__all__ = ["read_dump", "load_sidecar", "write_sidecar", "PARAM_KEYS", "REQUIRED_COLUMNS"]
+
+#: columns a dump must have (the history columns are checked separately)
+REQUIRED_COLUMNS = ("id", "type", "radius", "mass", "x", "y", "fx", "fy", "tqz",
+                    "v_fext_x", "v_fext_y", "d_mindlin_wall_t")
+OPTIONAL_COLUMNS = ("vx", "vy", "omegaz")
+#: the model parameters of the sidecar JSON
+PARAM_KEYS = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt")
+
+
+def _read_frames(path):
+    """Yield (timestep, natoms, bounds, boxflags, columns, rows) of each snapshot."""
+    with open(path, "r") as fh:
+        lines = fh.read().splitlines()
+    k = 0
+    nl = len(lines)
+    frames = []
+    while k < nl:
+        if not lines[k].strip():
+            k += 1
+            continue
+        if not lines[k].startswith("ITEM: TIMESTEP"):
+            raise ValueError(f"{path}: line {k + 1}: expected 'ITEM: TIMESTEP', got "
+                             f"{lines[k][:60]!r}")
+        try:
+            step = int(lines[k + 1].split()[0])
+            if not lines[k + 2].startswith("ITEM: NUMBER OF ATOMS"):
+                raise ValueError(f"line {k + 3}: expected 'ITEM: NUMBER OF ATOMS'")
+            natoms = int(lines[k + 3].split()[0])
+            head = lines[k + 4]
+            if not head.startswith("ITEM: BOX BOUNDS"):
+                raise ValueError(f"line {k + 5}: expected 'ITEM: BOX BOUNDS'")
+            flags = head.split()[3:]
+            if any(f in ("xy", "xz", "yz") for f in flags) or "abc" in head:
+                raise ValueError(f"triclinic boxes are not supported: {head!r}")
+            bounds = np.array([[float(v) for v in lines[k + 5 + a].split()[:2]]
+                               for a in range(3)])
+            cols_line = lines[k + 8]
+            if not cols_line.startswith("ITEM: ATOMS"):
+                raise ValueError(f"line {k + 9}: expected 'ITEM: ATOMS ...'")
+        except IndexError:
+            raise ValueError(f"{path}: truncated file: snapshot header at line {k + 1} is "
+                             f"incomplete") from None
+        except ValueError as exc:
+            raise ValueError(f"{path}: malformed snapshot header near line {k + 1}: "
+                             f"{exc}") from None
+        columns = cols_line.split()[2:]
+        body = lines[k + 9:k + 9 + natoms]
+        if len(body) < natoms:
+            raise ValueError(f"{path}: truncated file: snapshot at step {step} declares "
+                             f"{natoms} atoms but has {len(body)} atom lines")
+        frames.append((step, natoms, bounds, flags, columns, body, k + 10))
+        k += 9 + natoms
+    if not frames:
+        raise ValueError(f"{path}: no snapshot found (empty file?)")
+    return frames
+
+
+def _parse_body(path, columns, body, first_line):
+    ncol = len(columns)
+    rows = []
+    for m, line in enumerate(body):
+        parts = line.split()
+        if len(parts) != ncol:
+            raise ValueError(f"{path}: line {first_line + m}: expected {ncol} values, got "
+                             f"{len(parts)} (truncated or corrupt line)")
+        rows.append(parts)
+    try:
+        data = np.array(rows, dtype=np.float64)
+    except ValueError as exc:
+        raise ValueError(f"{path}: non-numeric value in the atom lines: {exc}") from None
+    return data.reshape(len(body), ncol)
+
+
+def _history_columns(columns, prefix):
+    """Indices of prefix[1..K] columns in order (or of the expanded prefix[*])."""
+    found = {}
+    for c, name in enumerate(columns):
+        if name.startswith(prefix + "[") and name.endswith("]"):
+            try:
+                found[int(name[len(prefix) + 1:-1])] = c
+            except ValueError:
+                raise ValueError(f"unreadable history column name {name!r}") from None
+    if not found:
+        return None
+    K = max(found)
+    missing = [k for k in range(1, K + 1) if k not in found]
+    if missing:
+        raise ValueError(f"history columns {prefix}{missing} are missing (have "
+                         f"{sorted(found)})")
+    return [found[k] for k in range(1, K + 1)]
+
+
+def load_sidecar(path):
+    """Read ``<dump>.json``; returns a dict (empty if the file does not exist).
+
+    Raises
+    ------
+    ValueError
+        If the JSON is unreadable or a value is not a number (or null for wall_y).
+    """
+    side = path + ".json"
+    if not os.path.exists(side):
+        return {}
+    try:
+        with open(side) as fh:
+            data = json.load(fh)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{side}: not valid JSON: {exc}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{side}: expected a JSON object, got {type(data).__name__}")
+    out = {}
+    for key in PARAM_KEYS:
+        if key in data:
+            val = data[key]
+            if val is None and key == "wall_y":
+                out[key] = None
+                continue
+            if isinstance(val, bool) or not isinstance(val, (int, float)):
+                raise ValueError(f"{side}: {key} must be a number, got {val!r}")
+            out[key] = float(val)
+    return out
+
+
+def write_sidecar(path, values):
+    """Write ``<dump>.json`` atomically: the model parameters of a dump.
+
+    The writer of the format :func:`load_sidecar` reads (docs/conventions.md
+    section 3); the driver writes every equilibrium's sidecar with it.
+
+    Parameters
+    ----------
+    path : str
+        The dump file (the sidecar is ``path + '.json'``).
+    values : dict
+        Exactly the keys ``PARAM_KEYS`` (``wall_y`` may be None: no wall);
+        numbers are stored as float64 (JSON numbers, exact round trip).
+
+    Raises
+    ------
+    ValueError
+        If a key is missing or unknown, or a value is not a finite number.
+    """
+    from remote_trigger.analysis.output import write_json_atomic
+
+    keys = set(values)
+    if keys != set(PARAM_KEYS):
+        raise ValueError(f"sidecar of {path}: keys must be {', '.join(PARAM_KEYS)}; missing "
+                         f"{sorted(set(PARAM_KEYS) - keys)}, unknown {sorted(keys - set(PARAM_KEYS))}")
+    out = {}
+    for key in PARAM_KEYS:
+        val = values[key]
+        if val is None and key == "wall_y":
+            out[key] = None
+            continue
+        if isinstance(val, bool) or not isinstance(val, (int, float, np.floating, np.integer)) \
+                or not math.isfinite(float(val)):
+            raise ValueError(f"sidecar of {path}: {key} must be a finite number, got {val!r}")
+        out[key] = float(val)
+    write_json_atomic(os.fspath(path) + ".json", out)
+
+
+def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=None,
+              F_y=None, dt=None, no_wall=False, mirror_rtol=1e-9, require_contacts=True,
+              inertia_factor=DISC_INERTIA):
+    """Read one snapshot of an equilibrium dump into a :class:`State`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Text ``dump custom`` file (docs/conventions.md section 3).
+    frame : int, optional
+        Which snapshot, Python indexing (default the last one).
+    k_n, k_t, mu, wall_y, F_x, F_y, dt : float, optional
+        Model parameters; each overrides the sidecar ``<path>.json``. k_n, k_t,
+        mu and wall_y are required from one of the two sources.
+    no_wall : bool, optional
+        Read a system without the flat wall (wall_y ignored, wall history must
+        be zero).
+    mirror_rtol : float, optional
+        The two sides of a contact must satisfy
+        ``|xi_ij - xi_ji| <= mirror_rtol * max(t*, |xi_ij|)``; LAMMPS writes
+        exact mirrors, so the default 1e-9 only absorbs periodic-image rounding.
+    require_contacts : bool, optional
+        Raise if the packing has no contact at all (default True).
+    inertia_factor : float, optional
+        I0 in I = I0 m R^2 (default 1/2, ``fix nve/sphere ... disc``).
+
+    Returns
+    -------
+    State
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        Truncated or malformed file, missing columns, NaN/inf values, ids not
+        unique, non-positive radius or mass, overlapping centres, history
+        naming an unknown atom, a contact listed on one side only or with
+        mirror values that differ, missing parameters, or no contacts.
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"dump file not found: {path}")
+    frames = _read_frames(path)
+    try:
+        step, natoms, bounds, flags, columns, body, first = frames[frame]
+    except IndexError:
+        raise ValueError(f"{path}: frame {frame} does not exist ({len(frames)} "
+                         f"snapshots)") from None
+    missing = [c for c in REQUIRED_COLUMNS if c not in columns]
+    pcols = _history_columns(columns, PARTNER)
+    xcols = _history_columns(columns, XI)
+    if pcols is None:
+        missing.append(PARTNER + "[*]")
+    if xcols is None:
+        missing.append(XI + "[*]")
+    if missing:
+        raise ValueError(f"{path}: missing dump columns {missing}; the analyzer needs "
+                         f"'{' '.join(REQUIRED_COLUMNS[:-1])} {PARTNER}[*] {XI}[*] "
+                         f"d_mindlin_wall_t' (docs/conventions.md section 3)")
+    if len(pcols) != len(xcols):
+        raise ValueError(f"{path}: {len(pcols)} {PARTNER} columns but {len(xcols)} {XI} "
+                         f"columns")
+    data = _parse_body(path, columns, body, first)
+    if natoms == 0:
+        raise ValueError(f"{path}: the snapshot has no atoms")
+    col = {name: c for c, name in enumerate(columns)}
+    bad = ~np.isfinite(data)
+    if np.any(bad):
+        r, c = np.argwhere(bad)[0]
+        raise ValueError(f"{path}: non-finite value {float(data[r, c])!r} in column "
+                         f"{columns[c]!r} of atom line {r + 1} (line {first + r} of the file)")
+
+    ids_f = data[:, col["id"]]
+    ids = ids_f.astype(np.int64)
+    if np.any(ids != ids_f) or np.any(ids <= 0):
+        raise ValueError(f"{path}: atom ids must be positive integers")
+    order = np.argsort(ids, kind="stable")
+    data = data[order]
+    ids = ids[order]
+    if np.any(np.diff(ids) == 0):
+        dup = ids[np.nonzero(np.diff(ids) == 0)[0][0]]
+        raise ValueError(f"{path}: atom id {dup} appears twice")
+
+    side = load_sidecar(path)
+    given = dict(k_n=k_n, k_t=k_t, mu=mu, wall_y=wall_y, F_x=F_x, F_y=F_y, dt=dt)
+    par = {key: (given[key] if given[key] is not None else side.get(key)) for key in PARAM_KEYS}
+    lack = [key for key in ("k_n", "k_t", "mu") if par[key] is None]
+    if par["wall_y"] is None and not no_wall:
+        lack.append("wall_y")
+    if lack:
+        raise ValueError(f"{path}: model parameters {lack} are neither in the sidecar "
+                         f"{path + '.json'} nor given explicitly")
+    params = ContactParams(par["k_n"], par["k_t"], par["mu"])
+
+    lo = bounds[:2, 0].copy()
+    hi = bounds[:2, 1].copy()
+    periodic = tuple(len(flags) > a and flags[a] == "pp" for a in range(2))
+    if np.any(hi <= lo):
+        raise ValueError(f"{path}: box bounds must satisfy lo < hi, got {bounds[:2].tolist()}")
+
+    partners = data[:, pcols]
+    xis = data[:, xcols]
+    wall_t = data[:, col["d_mindlin_wall_t"]]
+    extras = {}
+    for name in OPTIONAL_COLUMNS:
+        extras[name] = data[:, col[name]] if name in col else None
+    vel = (np.column_stack([extras["vx"], extras["vy"]])
+           if extras["vx"] is not None and extras["vy"] is not None else None)
+    return build_state(
+        ids=ids, positions=data[:, [col["x"], col["y"]]], radii=data[:, col["radius"]],
+        masses=data[:, col["mass"]], box_lo=lo, box_hi=hi, periodic=periodic, params=params,
+        wall_y=None if no_wall else float(par["wall_y"]),
+        partners=partners, partner_xi=xis, wall_t=wall_t,
+        external=data[:, [col["v_fext_x"], col["v_fext_y"]]],
+        contact_forces=data[:, [col["fx"], col["fy"], col["tqz"]]],
+        velocities=vel, omega=extras["omegaz"], types=data[:, col["type"]].astype(np.int64),
+        F_x=par["F_x"], F_y=par["F_y"], dt=par["dt"], timestep=step, source=path,
+        mirror_rtol=mirror_rtol, require_contacts=require_contacts,
+        inertia_factor=inertia_factor)

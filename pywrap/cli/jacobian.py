@@ -1,0 +1,151 @@
+"""``remote-trigger jacobian DUMP -o OUT.npz``: stiffness matrix and spectrum of a dump.
+
+Reads an equilibrium dump (``docs/conventions.md`` section 3, with its
+sidecar ``DUMP.json``), assembles K = -dG/dq (paper Appendix C), removes
+rattlers, computes the eigenvalues of M^-1 K and decides whether a complex
+pair is present; writes everything to a NumPy ``.npz`` file (keys in
+``docs/analysis.md``) and prints a one-screen summary.
+
+It refuses (exit status 2, nothing written) a dump whose residual is far
+above the round-off floor (:func:`~remote_trigger.analysis.stability.analyze.check_equilibrium`):
+the spectrum of a state that is not an equilibrium means nothing.
+``--allow-residual`` analyses it anyway and prints a warning. A ``--k-n``,
+``--k-t`` or ``--mu`` that contradicts the sidecar is refused unless
+``--override``. Under ``mpirun`` it runs on rank 0 only.
+
+Above 3000 dofs (``--method auto``) or with ``--method sparse`` the decision
+covers only the ``--k`` eigenvalues nearest a shift: it is printed and stored
+as a **partial** decision (``coverage = 'partial'``, ``complex_pair = -1``,
+its own answer in ``partial_complex_pair``), never as the stability verdict.
+"""
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+
+from remote_trigger.analysis.stability.analyze import analyze
+from remote_trigger.analysis.state.dumpfile import read_dump
+
+
+def register(subparsers):
+    """Add the ``jacobian`` subcommand to an argparse subparsers object."""
+    p = subparsers.add_parser(
+        "jacobian", help="stiffness matrix K = -dG/dq and eigenvalues of an equilibrium dump",
+        description="Assemble K = -dG/dq over q = (x, y, R theta) per disk from an "
+                    "equilibrium dump (with contact history), remove rattlers, compute the "
+                    "eigenvalues of M^-1 K and write them to an .npz file.")
+    p.add_argument("dump", help="text dump (dump custom, %%.17g, sorted by id) with the "
+                                "history columns; parameters from DUMP.json")
+    p.add_argument("-o", "--output", required=True, help="output .npz file")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing output file (default: refuse, exit status 2)")
+    p.add_argument("--frame", type=int, default=-1, help="snapshot index (default: last)")
+    for name, hlp in (("k-n", "normal stiffness k_n"), ("k-t", "tangential stiffness k_t"),
+                      ("mu", "friction coefficient"), ("wall-y", "height of the flat wall")):
+        p.add_argument(f"--{name}", type=float, default=None,
+                       help=f"{hlp} (default: the sidecar JSON's; a different value "
+                            f"needs --override)")
+    p.add_argument("--override", action="store_true",
+                   help="use --k-n/--k-t/--mu/--wall-y even where they contradict the sidecar")
+    p.add_argument("--allow-residual", action="store_true",
+                   help="analyse a state whose residual is far above the round-off floor "
+                        "(not an equilibrium of its parameters), with a warning")
+    p.add_argument("--method", choices=("auto", "dense", "sparse"), default="auto",
+                   help="eigenvalue path: dense LAPACK (the whole-spectrum verdict) or ARPACK "
+                        "shift-invert (a partial decision on --k eigenvalues near --sigma, "
+                        "labelled so; default auto: dense up to 3000 dofs)")
+    p.add_argument("--k", type=int, default=40, help="sparse path: eigenvalues per shift "
+                                                     "(default 40)")
+    p.add_argument("--sigma", type=float, default=None,
+                   help="sparse path: shift in units of 1/time^2 (default: 0.25 x the largest "
+                        "diagonal entry of M^-1 K after rattler removal, inside the band "
+                        "where pairs coalesce)")
+    p.add_argument("--min-contacts", type=int, default=2,
+                   help="rattler criterion: fewer contacts than this (default 2)")
+    p.add_argument("--no-eigen", action="store_true", help="write K only")
+    p.set_defaults(func=run, serial=True)
+
+
+def run(args):
+    """Execute the subcommand; returns the exit status.
+
+    Raises
+    ------
+    InputError
+        Bad output name, parameters that contradict the sidecar, or a state
+        far from equilibrium (without ``--allow-residual``).
+    FileNotFoundError, ValueError
+        Missing or malformed dump.
+    """
+    from remote_trigger.analysis.output import output_file, write_npz_atomic
+    from remote_trigger.analysis.stability.analyze import check_equilibrium
+    from remote_trigger.analysis.errors import InputError, NotEquilibriumError
+    from remote_trigger.analysis.state.sidecar import merge_model
+
+    output = output_file(args.output, "-o/--output", suffix=".npz")
+    if os.path.exists(output) and not args.overwrite:
+        raise InputError(f"-o/--output {args.output!r} exists; choose another file or add "
+                         f"--overwrite (nothing was written)")
+    if not os.path.exists(args.dump):
+        raise FileNotFoundError(f"dump file not found: {args.dump}")
+    given = {"k_n": args.k_n, "k_t": args.k_t, "mu": args.mu, "wall_y": args.wall_y}
+    merge_model(given, args.dump, flags={"k_n": "--k-n", "k_t": "--k-t", "mu": "--mu",
+                                         "wall_y": "--wall-y"},
+                override=args.override, keys=("k_n", "k_t", "mu", "wall_y"))
+    state = read_dump(args.dump, frame=args.frame, k_n=args.k_n, k_t=args.k_t, mu=args.mu,
+                      wall_y=args.wall_y)
+    try:
+        check_equilibrium(state, what=args.dump)
+        warning = None
+    except NotEquilibriumError as exc:
+        if not args.allow_residual:
+            raise NotEquilibriumError(f"{exc}; --allow-residual analyses it anyway") from None
+        warning = f"WARNING: {exc}; the eigenvalues below do not describe its motion"
+        print(f"remote-trigger jacobian: {warning}", file=sys.stderr, flush=True)
+    res = analyze(state, eigenvalues=not args.no_eigen, decide=not args.no_eigen,
+                  method=args.method, k=args.k, sigma=args.sigma,
+                  min_contacts=args.min_contacts)
+    sigma = res.eigen.sigma if res.eigen is not None and res.eigen.sigma is not None \
+        else np.nan
+    K = res.K
+    lam = res.eigenvalues if res.eigen is not None else np.zeros(0, complex)
+    dec = res.decision
+    # the stored verdict: a partial decision (k eigenvalues near a shift) is no
+    # verdict, so complex_pair is -1 then and its own answer goes to partial_complex_pair
+    flag = -1 if dec is None or dec.complex_present is None else int(dec.complex_present)
+    partial = dec is not None and not dec.is_verdict
+    out = {
+        "K_data": K.data, "K_indices": K.indices, "K_indptr": K.indptr,
+        "K_shape": np.array(K.shape, dtype=np.int64),
+        "mass": res.mass, "ids": state.dof_ids(), "rattlers": res.rattlers.ids,
+        "keep_dofs": res.rattlers.keep_dofs, "eigenvalues": lam,
+        "complex_pair": np.int64(-1 if partial else flag),
+        "coverage": np.str_("none" if dec is None else dec.coverage),
+        "partial_complex_pair": np.int64(flag if partial else -1),
+        "confidence": np.float64(np.nan if dec is None else dec.confidence),
+        "growth_rate": np.float64(np.nan if res.eigen is None else res.growth_rate),
+        "residual": np.float64(res.max_residual),
+        "method": np.str_("none" if res.eigen is None else res.eigen.method),
+        "sigma": np.float64(sigma),
+        "equilibrium": np.int64(warning is None),
+    }
+    write_npz_atomic(output, out)
+    lines = [
+        f"jacobian: {state.n} disks, {state.n_contacts} contacts, "
+        f"{state.wall_index.size} wall contacts, K {K.shape[0]}x{K.shape[1]} nnz {K.nnz}",
+        f"  residual max |G| = {res.max_residual:.3g}; rattlers removed: "
+        f"{res.rattlers.ids.size} {res.rattlers.ids.tolist()[:20]}"
+        f"{' ...' if res.rattlers.ids.size > 20 else ''}",
+    ]
+    if res.eigen is not None and lam.size:
+        lines.append(f"  eigenvalues ({res.eigen.method}): {lam.size}, Re in "
+                     f"[{lam.real.min():.6g}, {lam.real.max():.6g}], growth rate max Im omega "
+                     f"= {res.growth_rate:.6g}")
+        lines.append(f"  {dec.describe()}" if dec is not None else "  complex pair: not tested")
+    if warning:
+        lines.append(f"  {warning}")
+    lines.append(f"  written: {args.output}")
+    print("\n".join(lines))
+    return 0

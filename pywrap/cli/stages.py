@@ -1,0 +1,281 @@
+"""Subcommands ``generate``, ``relax``, ``ramp``, ``perturb``, ``instability``.
+
+All of them run under ``mpirun -np K remote-trigger ...`` as well (LAMMPS
+domain decomposition, output and analysis on rank 0). The model (F_x, F_y,
+mu, k_n, k_t) comes from the start file's sidecar (``X.data`` ->
+``X.dump.json``) when the options do not give it; an option that contradicts
+the sidecar is refused unless ``--override``
+(:func:`remote_trigger.analysis.state.sidecar.merge_model`). Other options not
+given keep the defaults of :mod:`remote_trigger.pywrap.config`;
+``--set KEY=VALUE`` sets any other configuration field (unknown keys are an
+error). Errors and exit statuses: :mod:`remote_trigger.pywrap.cli`.
+"""
+import json
+import os
+
+
+def _add_model(p):
+    p.add_argument("--datafile", required=True, help="LAMMPS data file to start from")
+    p.add_argument("--out", default="out", help="output folder (default ./out)")
+    p.add_argument("--mu", type=float, help="friction coefficient (default: the start "
+                   "file's sidecar, else 1)")
+    p.add_argument("--F-x", dest="F_x", type=float, help="horizontal load on top disks "
+                   "(default: the start file's sidecar, else 0)")
+    p.add_argument("--F-y", dest="F_y", type=float, help="downward load on top disks "
+                   "(default: the start file's sidecar, else 3)")
+    p.add_argument("--override", action="store_true",
+                   help="use --F-x/--F-y/--mu/--set k_n=/k_t= even where they contradict the "
+                        "start file's sidecar (the state is re-equilibrated at them)")
+    p.add_argument("--dt", type=_dt_arg, help="time step, or 'auto' = 0.1 x the stability "
+                   "limit of the start state (default 1e-3); a dt at or above the limit "
+                   "is refused")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="any configuration field, e.g. --set k_n=2e5 (repeatable)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--log", default="none", help="LAMMPS log file (default none)")
+
+
+def _dt_arg(text):
+    """``--dt``: a number or 'auto'."""
+    import argparse
+
+    if text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"dt must be a number or 'auto', got {text!r}") \
+            from None
+
+
+#: option of each model key, for messages
+_FLAGS = {"F_x": "--F-x", "F_y": "--F-y", "mu": "--mu", "k_n": "--set k_n=",
+          "k_t": "--set k_t="}
+
+
+def _config(cls, args, extra=()):
+    """The stage's configuration: options, ``--set``, and the start file's sidecar.
+
+    Raises
+    ------
+    ConfigError
+        A malformed ``--set``, an unknown key, a bad value, a missing data
+        file, or a model value that contradicts the sidecar (without
+        ``--override``).
+    """
+    from remote_trigger.analysis.state.sidecar import MODEL_KEYS, merge_model
+    from remote_trigger.pywrap.config import ConfigError
+
+    d = {"datafile": args.datafile}
+    for key in ("mu", "F_x", "F_y", "dt") + tuple(extra):
+        val = getattr(args, key, None)
+        if val is not None:
+            d[key] = val
+    for item in args.set:
+        if "=" not in item:
+            raise ConfigError(f"--set expects KEY=VALUE, got {item!r}")
+        k, v = item.split("=", 1)
+        try:
+            d[k.strip()] = json.loads(v)
+        except json.JSONDecodeError:
+            d[k.strip()] = v
+    if os.path.isfile(args.datafile):
+        given = {k: d[k] for k in MODEL_KEYS if d.get(k) is not None}
+        try:
+            model, source = merge_model(given, args.datafile, _FLAGS,
+                                        override=getattr(args, "override", False))
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+        d.update(model)
+        args.model_source = source
+    return cls.from_dict(d)
+
+
+def _note_model(args, cfg):
+    """On rank 0: one line naming the model taken from the start file's sidecar."""
+    src = getattr(args, "model_source", None)
+    if src and _rank() == 0 and not args.quiet:
+        print(f"{args.command}: model of the start state ({src}): F_x = {cfg.F_x!r}, "
+              f"F_y = {cfg.F_y!r}, mu = {cfg.mu!r}, k_n = {cfg.k_n!r}, k_t = {cfg.k_t!r}",
+              flush=True)
+
+
+def _runs_arg(text):
+    """``--runs``: letters of a, b, c."""
+    import argparse
+
+    bad = sorted(set(text) - set("abc"))
+    if not text or bad:
+        raise argparse.ArgumentTypeError(
+            f"unknown run letter(s) {', '.join(map(repr, bad))} in {text!r}: the runs are "
+            f"a (unperturbed), b (f(t)), c (f(t) + mu(v))" if bad else
+            "give at least one of the runs a, b, c")
+    return text
+
+
+#: printed after Ctrl-C, per subcommand (docs/driver.md, "Exit status")
+INTERRUPT_HINTS = {
+    "relax": "nothing of the relaxation is kept (relax has no --resume): rerun it",
+    "ramp": "ramp.h5 holds every finished equilibrium: the same command with --resume "
+            "continues it (bitwise the same result)",
+    "perturb": "the finished runs are kept: the same command with --resume continues with "
+               "the interrupted one (bitwise the same result)",
+    "instability": "instability.h5 is kept up to its last checkpoint (status 'running'); "
+                   "instability has no --resume: rerun it into another --out",
+}
+
+
+def register(subparsers):
+    """Add the driver's subcommands to the ``remote-trigger`` parser."""
+    g = subparsers.add_parser("generate", help="write a loose bidisperse packing data file")
+    g.add_argument("--n", type=int, default=100, help="number of disks, even (default 100)")
+    g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    g.add_argument("--phi", type=float, default=0.82, help="packing fraction for L (0.82)")
+    g.add_argument("--output", default="packing.data", help="data file (packing.data)")
+    g.add_argument("--overwrite", action="store_true",
+                   help="replace an existing --output file (default: refuse, exit status 2)")
+    g.set_defaults(func=run_generate, serial=True)
+
+    r = subparsers.add_parser("relax", help="settle / relax to equilibrium (f_min)")
+    _add_model(r)
+    r.add_argument("--settle-steps", dest="settle_steps", type=int,
+                   help="compaction aid for a loose packing (frictionless + gravity), steps")
+    r.add_argument("--f-min", dest="f_min", type=float, help="target residual (1e-15)")
+    r.add_argument("--no-newton", dest="newton", action="store_false", default=None,
+                   help="over-damped dynamics only")
+    r.set_defaults(func=run_relax, resume_hint=INTERRUPT_HINTS["relax"])
+
+    m = subparsers.add_parser("ramp", help="F_x ramp, eigenvalues, bisection of F_x^c")
+    _add_model(m)
+    m.add_argument("--dF-x", dest="dF_x", type=float, help="ramp step (1e-4)")
+    m.add_argument("--tol", type=float, help="bisection tolerance (1e-7)")
+    m.add_argument("--dF-x-max", dest="dF_x_max", type=float,
+                   help="adaptive ramp: largest step (default: every step is dF_x)")
+    m.add_argument("--resume", action="store_true",
+                   help="continue an interrupted ramp from its last equilibrium")
+    m.set_defaults(func=run_ramp, resume_hint=INTERRUPT_HINTS["ramp"])
+
+    p = subparsers.add_parser("perturb", help="undamped runs (a), (b) f(t), (c) f(t)+mu(v)")
+    _add_model(p)
+    p.add_argument("--t-max", dest="t_max", type=float, help="time of each run (1000)")
+    p.add_argument("--a", type=float, help="amplitude of f(t) (1e-12)")
+    p.add_argument("--omega-p", dest="omega_p", type=float, help="frequency of f(t) (0.01)")
+    p.add_argument("--runs", default="abc", type=_runs_arg,
+                   help="which runs, letters of a, b, c (default abc)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted perturb in --out (same options): its "
+                        "equilibrium and finished runs are kept")
+    p.set_defaults(func=run_perturb, resume_hint=INTERRUPT_HINTS["perturb"])
+
+    i = subparsers.add_parser("instability", help="undamped run above F_x^c until D saturates")
+    _add_model(i)
+    i.add_argument("--t-max", dest="t_max", type=float, help="maximum time (1000)")
+    i.add_argument("--d-sat", dest="d_sat", type=float, help="stop when D exceeds (1e-2)")
+    i.add_argument("--allow-stable", action="store_true",
+                   help="run also from a linearly stable equilibrium (no certified complex "
+                        "pair; default: refuse, exit status 2)")
+    i.set_defaults(func=run_instability, resume_hint=INTERRUPT_HINTS["instability"])
+
+
+def _rank():
+    from mpi4py import MPI
+    return MPI.COMM_WORLD.Get_rank()
+
+
+def run_generate(args):
+    """``remote-trigger generate`` (rank 0 only: ``serial``)."""
+    from remote_trigger.pywrap.config import ConfigError
+    from remote_trigger.pywrap.stages.config import check_packing_args
+    from remote_trigger.pywrap.stages.packing import generate, write_data
+
+    from remote_trigger.analysis.output import output_dir, output_file
+
+    check_packing_args(args.n, args.seed, args.phi)
+    if os.path.isdir(args.output) or args.output.endswith(os.sep):
+        output_file(args.output, "--output")
+    folder = os.path.dirname(os.path.abspath(args.output))
+    if os.path.exists(folder) and not os.path.isdir(folder):
+        raise ConfigError(f"--output {args.output!r}: {folder!r} is a file, not a folder")
+    output_dir(folder, "--output's folder")
+    output_file(args.output, "--output")
+    if os.path.exists(args.output) and not args.overwrite:
+        raise ConfigError(f"--output {args.output!r} exists; choose another file or add "
+                          f"--overwrite (nothing was written)")
+    p = generate(args.n, seed=args.seed, phi=args.phi)
+    write_data(p, args.output)
+    print(f"generate: {p.n} disks ({p.n_top} in top), L = {p.width:.6g}, "
+          f"seed {p.seed} -> {args.output}")
+    return 0
+
+
+def run_relax(args):
+    """``remote-trigger relax``."""
+    from remote_trigger.pywrap.stages.config import RelaxConfig
+    from remote_trigger.pywrap import stages
+
+    cfg = _config(RelaxConfig, args, ("settle_steps", "f_min", "newton"))
+    _note_model(args, cfg)
+    res = stages.relax(cfg, args.out, quiet=args.quiet, log=args.log)
+    if _rank() == 0:
+        print(f"relax: residual {res.residual:.3e} ({'< f_min' if res.converged else 'round-off floor'}), "
+              f"{res.newton_iterations} Newton steps, damped time {res.damped_time:.4g}, "
+              f"wall {res.wall_time:.2f} s, phi {res.packing_fraction:.4f} -> {res.h5}")
+    return 0
+
+
+def run_ramp(args):
+    """``remote-trigger ramp``."""
+    from remote_trigger.pywrap.stages.config import RampConfig
+    from remote_trigger.pywrap import stages
+
+    cfg = _config(RampConfig, args, ("dF_x", "tol", "dF_x_max"))
+    _note_model(args, cfg)
+    res = stages.ramp(cfg, args.out, quiet=args.quiet, resume=args.resume, log=args.log)
+    if _rank() == 0:
+        if res.status == "complete":
+            print(f"ramp: F_x^c in [{res.F_x_c_low:.10g}, {res.F_x_c_high:.10g}] (certified, "
+                  f"width {res.F_x_c_width:.3g}; {len(res.F_x)} steps, "
+                  f"{len(res.bisection_F_x)} bisections, {res.n_undecided} undecided) "
+                  f"-> {res.h5}")
+            if not res.tol_reached:
+                print(f"ramp: {res.message}")
+        else:
+            print(f"ramp: {res.status}: {res.message} -> {res.h5}")
+    return 0 if res.status == "complete" else 1
+
+
+def run_perturb(args):
+    """``remote-trigger perturb``."""
+    from remote_trigger.pywrap.stages.config import DynamicsConfig
+    from remote_trigger.pywrap import stages
+
+    cfg = _config(DynamicsConfig, args, ("t_max", "a", "omega_p"))
+    _note_model(args, cfg)
+    res = stages.perturb(cfg, args.out, quiet=args.quiet, log=args.log, runs=args.runs,
+                         resume=args.resume)
+    if _rank() == 0:
+        for k, r in res.items():
+            print(f"perturb ({k}): max D {r.D.max():.3e}, max |v_top| "
+                  f"{abs(r.v_top).max():.3e}, min mu {r.mu.min():.4f} -> {r.h5}")
+    return 0
+
+
+def run_instability(args):
+    """``remote-trigger instability``."""
+    from remote_trigger.pywrap.stages.config import DynamicsConfig
+    from remote_trigger.pywrap import stages
+
+    cfg = _config(DynamicsConfig, args, ("t_max", "d_sat"))
+    _note_model(args, cfg)
+    res = stages.instability(cfg, args.out, quiet=args.quiet, log=args.log,
+                             allow_stable=args.allow_stable)
+    if _rank() == 0:
+        e = res.extra
+        g = e["measured_growth_rate"]
+        meas = (f"measured {g:.4g}" if g == g else
+                "not measured (D did not grow clear of the noise level)")
+        pred = (f"predicted {e['predicted_growth_rate']:.4g}" if e["complex_pair"] else
+                f"predicted none (the start is linearly stable: {e['decision']})")
+        print(f"instability: D from {res.D[1]:.3e} to {res.D[-1]:.3e} in t = {res.t[-1]:.4g}; "
+              f"growth rate {meas}, {pred} -> {res.h5}")
+    return 0

@@ -1,0 +1,7 @@
+"""``remote-trigger ensemble`` (docs/ensemble.md).
+
+``config``  :class:`EnsembleConfig` (TOML, ``--set``, ``--quick``)
+``onset``   per packing: the coalescing pair, the sqrt-law slope, I0 = 1 re-analysis
+``job``     packings spread over MPI ranks, resumable; the subcommand
+``report``  ``ensemble.md``, ``ensemble.h5`` and the figure
+"""

@@ -1,0 +1,236 @@
+"""The onset of one ramp, measured from its points: certified bracket, position
+of the coalescing pair, growth-rate slope, and the re-analysis of the same
+equilibria under another moment of inertia (``remote-trigger ensemble``,
+docs/ensemble.md "What is measured"). Reads ``ramp.h5`` and equilibrium
+dumps; no LAMMPS.
+"""
+import math
+
+import numpy as np
+from remote_trigger.analysis.stability.verdict import Decision
+
+def spectrum(state, basis=None):
+    """Certified spectrum of one state (the ramp's dense path).
+
+    Parameters
+    ----------
+    state : remote_trigger.analysis.state.state.State
+        Its ``inertia`` sets the mass matrix M = diag(m, m, I / R^2).
+    basis : remote_trigger.analysis.stability.decision.SpectrumBasis, optional
+        The previous point's ``basis``: the decision starts from it where it
+        certifies (``classify_spectrum(basis=)``, the same answer as from
+        dgeev).
+
+    Returns
+    -------
+    dict
+        ``decision`` (1 complex, 0 real, -1 undecided), ``confidence``,
+        ``eigenvalues`` (complex, shape (M,), eigenvalues of M^-1 K after
+        rattler removal, 1/time^2, sorted by real part), ``n_pairs`` (pairs
+        certified complex), ``growth`` (max |Im sqrt(lambda)|, 1/time),
+        ``basis`` (the decision's verified basis, for the next point; None
+        if there is none).
+    """
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability import eigen, exceptional, jacobian
+
+    res = analyze(state, eigenvalues=False, decide=False)
+    keep = res.rattlers.keep_dofs
+    if keep.size == 0:
+        return {"decision": 0, "confidence": math.inf, "eigenvalues": np.zeros(0, complex),
+                "n_pairs": 0, "growth": 0.0, "basis": None}
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)
+    dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
+                                        basis=basis)
+    lam = np.asarray(dec.eigenvalues, np.complex128)
+    lam = lam[np.lexsort((lam.imag, lam.real))]
+    code = -1 if dec.complex_present is None else int(bool(dec.complex_present))
+    n_pairs = sum(1 for p in dec.pairs
+                  if p.method != "gershgorin" and p.is_complex and p.certified)
+    return {"decision": code, "confidence": float(dec.confidence), "eigenvalues": lam,
+            "n_pairs": int(n_pairs), "growth": float(eigen.growth_rate(lam)),
+            "basis": dec.basis}
+
+
+def read_ramp(h5):
+    """Every equilibrium of a ramp, in increasing F_x.
+
+    Parameters
+    ----------
+    h5 : str
+        ``ramp.h5`` of :func:`.stages.ramp`.
+
+    Returns
+    -------
+    list of dict
+        ``F_x``, ``decision`` (1, 0, -1), ``growth`` (1/time), ``dump``
+        (equilibrium dump), ``eigenvalues`` (complex, sorted by real part,
+        I0 = 1/2). Bisection points without an equilibrium are left out.
+    """
+    import h5py
+
+    pts = []
+    with h5py.File(h5, "r") as fh:
+        for kind, stem in (("steps", "step_{:05d}"), ("bisection", "bisect_{:03d}")):
+            if kind not in fh:
+                continue
+            F = fh[f"{kind}/F_x"][()]
+            dec = fh[f"{kind}/decision"][()]
+            g = fh[f"{kind}/growth_rate"][()]
+            files = [x.decode() if isinstance(x, bytes) else str(x)
+                     for x in fh[f"{kind}/datafile"][()]]
+            for k in range(len(F)):
+                if not np.isfinite(dec[k]):
+                    continue
+                name = f"eigenvalues/{kind}/{stem.format(k)}"
+                lam = np.asarray(fh[name][()], complex) if name in fh else np.zeros(0, complex)
+                lam = lam[np.lexsort((lam.imag, lam.real))]
+                pts.append({"F_x": float(F[k]), "decision": int(dec[k]), "growth": float(g[k]),
+                            "dump": files[k][:-len(".data")] + ".dump", "eigenvalues": lam})
+    pts.sort(key=lambda p: p["F_x"])
+    return pts
+
+
+def bracket(points):
+    """Certified bracket of F_x^c from points with decisions (the ramp's rule).
+
+    ``hi`` is the smallest F_x certified complex, ``lo`` the largest F_x
+    certified real below it; undecided points are neither.
+
+    Parameters
+    ----------
+    points : list of dict
+        Each with ``F_x`` and ``decision`` (1, 0, -1).
+
+    Returns
+    -------
+    lo, hi : float
+        ``hi`` = inf when no point is certified complex (``lo`` is then the
+        largest certified real F_x: a lower bound of F_x^c); NaN when there is
+        no such point.
+    """
+    cx = [p["F_x"] for p in points if p["decision"] == Decision.COMPLEX]
+    hi = min(cx) if cx else math.inf
+    real = [p["F_x"] for p in points if p["decision"] == 0 and p["F_x"] < hi]
+    lo = max(real) if real else math.nan
+    return float(lo), float(hi)
+
+
+def pair_position(eigenvalues):
+    """Where the coalesced pair sits in the spectrum.
+
+    Parameters
+    ----------
+    eigenvalues : ndarray of complex, shape (M,)
+        Spectrum of M^-1 K with a complex pair.
+
+    Returns
+    -------
+    dict
+        ``lambda_c`` (the pair of largest |Im sqrt(lambda)|, [Re, |Im|]),
+        ``pair_re_rel`` = Re lambda_c / max Re lambda, ``pair_index`` (1-based
+        index of the pair counted from the softest mode: 1 + the number of
+        eigenvalues with smaller real part), ``n_dof`` (M).
+    """
+    lam = np.asarray(eigenvalues, complex)
+    g = np.abs(np.sqrt(lam).imag)
+    c = lam[int(np.argmax(g))]
+    below = int(np.count_nonzero(lam.real < c.real - 1e-12 * abs(c.real)))
+    return {"lambda_c": [float(c.real), float(abs(c.imag))],
+            "pair_re_rel": float(c.real / np.max(lam.real)), "pair_index": below + 1,
+            "n_dof": int(lam.size)}
+
+
+def growth_slope(F, g, lo, hi):
+    """Slope s of the growth rate g = s sqrt(F_x - F_x^c) just above onset.
+
+    Parameters
+    ----------
+    F, g : array_like, shape (P,)
+        Loads certified complex near onset and their growth rates
+        max |Im sqrt(lambda)| (1/time).
+    lo, hi : float
+        Certified bracket of F_x^c.
+
+    Returns
+    -------
+    dict
+        ``slope`` (1/(time sqrt(force))), ``F_x_onset_fit`` (onset F_x0 of
+        the line g^2 = s^2 (F_x - F_x0); NaN with one point), ``n_points``.
+        With two or more distinct loads, least squares on g^2; with one,
+        s = g / sqrt(F_x - (lo + hi) / 2). NaN where undefined.
+    """
+    F, g = np.asarray(F, float), np.asarray(g, float)
+    out = {"slope": math.nan, "F_x_onset_fit": math.nan, "n_points": int(F.size)}
+    if F.size >= 2 and np.ptp(F) > 0:
+        a, b = np.polyfit(F, g * g, 1)
+        if a > 0:
+            out.update(slope=float(math.sqrt(a)), F_x_onset_fit=float(-b / a))
+    elif F.size == 1 and math.isfinite(lo) and math.isfinite(hi):
+        d = F[0] - 0.5 * (lo + hi)
+        if d > 0:
+            out["slope"] = float(g[0] / math.sqrt(d))
+    return out
+
+
+def onset_numbers(points, dF_x):
+    """Bracket, pair position and growth-rate slope of a ramp's points.
+
+    Parameters
+    ----------
+    points : list of dict
+        As from :func:`read_ramp` (decisions and eigenvalues of one
+        convention).
+    dF_x : float
+        Ramp step: the slope uses the certified complex points within one
+        step above F_x_c_high.
+
+    Returns
+    -------
+    dict
+        ``F_x_c_low``, ``F_x_c_high`` (see :func:`bracket`), ``n_undecided``,
+        ``F_x_last`` (largest F_x analysed), the keys of :func:`pair_position`
+        (NaN without a complex point) and of :func:`growth_slope`.
+    """
+    lo, hi = bracket(points)
+    out = {"F_x_c_low": lo, "F_x_c_high": hi,
+           "n_undecided": sum(1 for p in points if p["decision"] == Decision.UNDECIDED),
+           "F_x_last": max((p["F_x"] for p in points), default=math.nan),
+           "lambda_c": [math.nan, math.nan], "pair_re_rel": math.nan, "pair_index": -1,
+           "n_dof": -1, "slope": math.nan, "F_x_onset_fit": math.nan, "n_points": 0}
+    if math.isfinite(hi):
+        top = next(p for p in points if p["F_x"] == hi and p["decision"] == Decision.COMPLEX)
+        out.update(pair_position(top["eigenvalues"]))
+        near = [p for p in points if p["decision"] == Decision.COMPLEX and p["F_x"] <= hi + dF_x * (1 + 1e-9)]
+        out.update(growth_slope([p["F_x"] for p in near], [p["growth"] for p in near], lo, hi))
+    return out
+
+
+def reanalyse(points, I0):
+    """The same equilibria with the moment of inertia I = I0 m R^2 in M.
+
+    Only the mass matrix changes (K does not depend on the inertia); the
+    certified decision is recomputed at every point, in the order given
+    (increasing F_x), each starting from the previous point's basis.
+
+    Parameters
+    ----------
+    points : list of dict
+        From :func:`read_ramp` (their ``dump`` files must exist).
+    I0 : float
+
+    Returns
+    -------
+    list of dict
+        Same keys, with ``decision``, ``growth`` and ``eigenvalues`` of the
+        new convention.
+    """
+    from remote_trigger.analysis.state.dumpfile import read_dump
+
+    out, basis = [], None
+    for p in points:
+        s = spectrum(read_dump(p["dump"], require_contacts=False, inertia_factor=I0), basis)
+        basis = s.pop("basis")
+        out.append(dict(p, decision=s["decision"], growth=s["growth"],
+                        eigenvalues=s["eigenvalues"]))
+    return out

@@ -1,0 +1,457 @@
+"""Rows, statistics and outputs of ``remote-trigger ensemble``: one table row
+per packing and protocol (``ensemble.h5``), the statistics, the figure and
+``ensemble.md``, made on rank 0 (:mod:`remote_trigger.pywrap.jobs.ensemble.job`)."""
+import json
+import math
+
+import numpy as np
+
+from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
+from remote_trigger.pywrap.jobs.paper.config import PAPER
+from remote_trigger.pywrap.jobs.ensemble.config import I0_DYNAMICS
+from remote_trigger.analysis.stability.verdict import Decision
+
+#: the paper's bracket of F_x^c(mu = 1) for its N = 100 packing
+PAPER_BRACKET = (PAPER["F_x_c_mu1_low"], PAPER["F_x_c_mu1_high"])
+#: a coalescing pair with |Re lambda_c| below this fraction of lambda_max is a
+#: soft (near-floppy) mode pair, not two stiff modes: measured on the default
+#: ensemble, stiff onsets have Re lambda_c / lambda_max >= 0.013 and soft ones
+#: <= 1.2e-5 (both a factor >= 100 from this threshold)
+SOFT_MODE_REL = 1e-4
+
+
+# --------------------------------------------------------------------------- rows
+#: string columns of the table
+STR_COLS = ("key", "protocol", "status", "reason", "ramp_status_mu0", "ramp_status_mu_ss")
+#: columns of the table, in order (numbers are float64; -1 / NaN = not measured)
+COLUMNS = ("key", "n", "seed", "protocol", "I0", "dynamics_consistent", "status", "reason",
+           "phi", "residual", "antisymmetry",
+           "F_x_c_low", "F_x_c_high", "F_x_c", "F_x_c_ss_low", "F_x_c_ss_high", "F_x_c_ss",
+           "ratio", "ratio_low", "ratio_high", "order", "pair_re_rel", "pair_index", "n_dof",
+           "lambda_c_re", "lambda_c_im", "growth_slope", "F_x_onset_fit", "slope_points",
+           "n_undecided", "n_steps", "n_bisection", "n_extra", "ramp_status_mu0", "ramp_status_mu_ss",
+           "decision_at_zero", "n_pairs_at_zero", "growth_at_zero", "soft_onset", "wall")
+
+
+def _mid(lo, hi):
+    return 0.5 * (lo + hi) if math.isfinite(lo) and math.isfinite(hi) else math.nan
+
+
+def order_code(lo0, hi0, lo1, hi1):
+    """Is F_x^c(mu_ss mu0) < F_x^c(mu0)? From the two certified brackets.
+
+    Returns
+    -------
+    int
+        1 certified (hi1 < lo0), 0 certified reversed (lo1 > hi0), -1 not
+        decided (brackets overlap or missing).
+    """
+    if math.isfinite(hi1) and math.isfinite(lo0) and hi1 < lo0:
+        return 1
+    if math.isfinite(lo1) and math.isfinite(hi0) and lo1 > hi0:
+        return 0
+    return -1
+
+
+def _empty_row(task, protocol, I0):
+    row = {c: math.nan for c in COLUMNS}
+    row.update(key=task["key"], n=task["n"], seed=task["seed"], protocol=protocol, I0=I0,
+               dynamics_consistent=float(I0 == I0_DYNAMICS), status="failed", reason="",
+               ramp_status_mu0="", ramp_status_mu_ss="", pair_index=-1, n_dof=-1,
+               slope_points=0, order=-1, decision_at_zero=math.nan, n_extra=0,
+               soft_onset=-1)
+    return row
+
+
+def soft_onset(pair_re_rel):
+    """1 if the coalescing pair is a soft-mode pair (|Re lambda_c| < SOFT_MODE_REL
+    lambda_max), 0 if two stiff modes, -1 if unknown (no complex point)."""
+    if not math.isfinite(pair_re_rel):
+        return -1
+    return int(abs(pair_re_rel) < SOFT_MODE_REL)
+
+
+def rows_of(task, result, cfg):
+    """Table rows of one packing (see the module docstring).
+
+    Returns
+    -------
+    list of dict
+        Keys :data:`COLUMNS`. ``status``: ``'ok'`` (every bracket certified
+        to ``tol``), ``'incomplete'`` (a bracket wider than tol, only a lower
+        bound, or the second ramp missing: ``reason`` says which) or
+        ``'failed'`` (``reason``).
+    """
+    convs = [I0_DYNAMICS] + ([float(cfg.inertia_I0)] if cfg.inertia_I0 is not None else [])
+    rows = [_default_row(task, result, I0) for I0 in convs]
+    f = result.get("frictional")
+    if f is not None:
+        rows.append(_frictional_row(task, result, f))
+    return rows
+
+
+def _default_row(task, result, I0):
+    """The row of the default protocol's ramps analysed with inertia I0."""
+    d = result["default"]
+    row = _empty_row(task, "frictionless-then-friction", I0)
+    row["wall"] = result["wall"]
+    for k in ("phi", "residual", "antisymmetry"):
+        row[k] = d.get(k, math.nan)
+    ck = f"I0_{I0:g}"
+    r0, r1 = d["ramps"].get("mu0"), d["ramps"].get("mu_ss")
+    why = []
+    if d.get("error"):
+        why.append(d["error"])
+    for name, r in (("mu0", r0), ("mu_ss", r1)):
+        if r is None:
+            continue
+        row[f"ramp_status_{name}"] = r["ramp_status"]
+        if r["ramp_status"] != "complete":
+            why.append(f"ramp {name} (mu = {r['mu']:g}): {r['ramp_status']}"
+                       + (f" ({r['message']})" if r["message"] else ""))
+        elif not r["tol_reached"]:
+            why.append(f"ramp {name}: {r['message']}")
+    if r0 is not None and ck in r0:
+        o = r0[ck]
+        row.update(F_x_c_low=o["F_x_c_low"], F_x_c_high=o["F_x_c_high"],
+                   F_x_c=_mid(o["F_x_c_low"], o["F_x_c_high"]),
+                   pair_re_rel=o["pair_re_rel"], pair_index=o["pair_index"],
+                   n_dof=o["n_dof"], lambda_c_re=o["lambda_c"][0],
+                   lambda_c_im=o["lambda_c"][1], growth_slope=o["slope"],
+                   F_x_onset_fit=o["F_x_onset_fit"], slope_points=o["n_points"],
+                   n_undecided=o["n_undecided"], n_steps=r0["n_steps"],
+                   n_bisection=r0["n_bisection"])
+        if r0.get("at_zero") and I0 == I0_DYNAMICS:
+            row.update(decision_at_zero=r0["at_zero"]["decision"], n_pairs_at_zero=math.nan,
+                       growth_at_zero=r0["at_zero"]["growth"])
+        if I0 != I0_DYNAMICS:
+            row["n_extra"] = o["n_new"] + r1.get(ck, {}).get("n_new", 0) if r1 else \
+                o["n_new"]
+            if r0["ramp_status"] == "complete" and not math.isfinite(o["F_x_c_high"]):
+                why.append(f"I0 = {I0:g}: no pair certified complex up to F_x = "
+                           f"{o['F_x_last']:.6g} at mu0 (F_x^c above it)")
+            elif not o["tol_reached"] and r0["tol_reached"]:
+                why.append(f"I0 = {I0:g}: mu0 bracket wider than tol")
+    if r1 is not None and ck in r1:
+        o1 = r1[ck]
+        row.update(F_x_c_ss_low=o1["F_x_c_low"], F_x_c_ss_high=o1["F_x_c_high"],
+                   F_x_c_ss=_mid(o1["F_x_c_low"], o1["F_x_c_high"]))
+        if I0 != I0_DYNAMICS and r1["ramp_status"] == "complete":
+            if not math.isfinite(o1["F_x_c_high"]):
+                why.append(f"I0 = {I0:g}: no pair certified complex up to F_x = "
+                           f"{o1['F_x_last']:.6g} at mu_ss mu0 (F_x^c above it)")
+            elif not o1["tol_reached"] and r1["tol_reached"]:
+                why.append(f"I0 = {I0:g}: mu_ss mu0 bracket wider than tol")
+    row["soft_onset"] = soft_onset(row["pair_re_rel"])
+    row["ratio"] = row["F_x_c_ss"] / row["F_x_c"] if row["F_x_c"] else math.nan
+    if row["F_x_c_low"] > 0 and row["F_x_c_high"] > 0:
+        row["ratio_low"] = row["F_x_c_ss_low"] / row["F_x_c_high"]
+        row["ratio_high"] = row["F_x_c_ss_high"] / row["F_x_c_low"]
+    row["order"] = order_code(row["F_x_c_low"], row["F_x_c_high"], row["F_x_c_ss_low"],
+                              row["F_x_c_ss_high"])
+    if I0 != I0_DYNAMICS:
+        why.append(f"analysis only: I0 = {I0:g} is inconsistent with the dynamics "
+                   f"(I0 = {I0_DYNAMICS})")
+    if not (math.isfinite(row["F_x_c_low"]) or math.isfinite(row["F_x_c_high"])):
+        row["status"] = "failed"
+    elif math.isfinite(row["F_x_c"]) and math.isfinite(row["F_x_c_ss"]) and \
+            not d.get("error") and all(r is not None and r["tol_reached"]
+                                       and r.get(ck, {}).get("tol_reached", False)
+                                       for r in (r0, r1)):
+        row["status"] = "ok"
+    else:
+        row["status"] = "incomplete"
+    row["reason"] = "; ".join(why)
+    return row
+
+
+def _frictional_row(task, result, f):
+    """The row of the frictional protocol at F_x = 0."""
+    row = _empty_row(task, "frictional", I0_DYNAMICS)
+    row["wall"] = result["wall"]
+    if f.get("error"):
+        row["reason"] = f["error"]
+    else:
+        row.update(status="ok", phi=f["phi"], residual=f["residual"],
+                   antisymmetry=f["antisymmetry"], decision_at_zero=f["decision"],
+                   n_pairs_at_zero=f["n_pairs"], growth_at_zero=f["growth"])
+    return row
+
+
+# --------------------------------------------------------------------------- statistics
+def quartiles(x):
+    """(count, q25, median, q75) of the finite values of x (NaN if none)."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    if not x.size:
+        return 0, math.nan, math.nan, math.nan
+    q = np.percentile(x, [25, 50, 75])
+    return int(x.size), float(q[0]), float(q[1]), float(q[2])
+
+
+def percentile_of(value, x):
+    """Percentage of the finite values of x below ``value`` (NaN if none)."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return float(100.0 * np.mean(x < value)) if x.size else math.nan
+
+
+def select(rows, protocol, I0, n=None, usable=True):
+    """Rows of one protocol/convention (and size); ``usable``: status not 'failed'."""
+    return [r for r in rows if r["protocol"] == protocol and r["I0"] == I0
+            and (n is None or r["n"] == n) and (not usable or r["status"] != "failed")]
+
+
+def statistics(rows, cfg):
+    """The numbers of ``ensemble.md``.
+
+    Returns
+    -------
+    dict
+        ``per_n`` (per N and convention: quartiles of F_x^c(mu0), of the
+        ratio, of phi, of the slope), ``order`` (per convention: counts of
+        certified holds / reversed / undecided), ``frictional`` (per N:
+        unstable fraction at F_x = 0), ``paper_percentile`` (per
+        convention: percentiles of 0.0091 and 0.012 among F_x^c(mu0) at
+        N = 100, or at every N if 100 is not in the ensemble),
+        ``n_exponent`` (per convention: d ln median F_x^c / d ln N between
+        the smallest and largest N).
+    """
+    ft = "frictionless-then-friction"
+    convs = [I0_DYNAMICS] + ([float(cfg.inertia_I0)] if cfg.inertia_I0 is not None else [])
+    st = {"per_n": [], "order": {}, "frictional": [], "paper_percentile": {},
+          "n_exponent": {}}
+    for I0 in convs:
+        for n in cfg.n:
+            sel = select(rows, ft, I0, n)
+            st["per_n"].append({
+                "n": n, "I0": I0, "n_packings": len(select(rows, ft, I0, n, usable=False)),
+                "n_usable": len(sel),
+                "F_x_c": quartiles([r["F_x_c"] for r in sel]),
+                "F_x_c_ss": quartiles([r["F_x_c_ss"] for r in sel]),
+                "ratio": quartiles([r["ratio"] for r in sel]),
+                "phi": quartiles([r["phi"] for r in sel]),
+                "slope": quartiles([r["growth_slope"] for r in sel]),
+                "pair_re_rel": quartiles([r["pair_re_rel"] for r in sel]),
+                "pair_index": quartiles([r["pair_index"] for r in sel if r["pair_index"] > 0]),
+                "n_soft": sum(1 for r in sel if r["soft_onset"] == 1),
+                "F_x_c_stiff": quartiles([r["F_x_c"] for r in sel if r["soft_onset"] == 0])})
+        codes = [r["order"] for r in select(rows, ft, I0, usable=False)]
+        st["order"][I0] = {"holds": codes.count(1), "reversed": codes.count(0),
+                           "undecided": codes.count(-1), "total": len(codes)}
+        ref = [100] if 100 in cfg.n else list(cfg.n)
+        x = [r["F_x_c"] for r in select(rows, ft, I0) if r["n"] in ref]
+        st["paper_percentile"][I0] = {"n": ref, "count": int(np.sum(np.isfinite(x))),
+                                      "low": percentile_of(PAPER_BRACKET[0], x),
+                                      "high": percentile_of(PAPER_BRACKET[1], x)}
+        meds = [(p["n"], p["F_x_c"][2]) for p in st["per_n"] if p["I0"] == I0
+                and math.isfinite(p["F_x_c"][2]) and p["F_x_c"][2] > 0]
+        if len(meds) >= 2 and meds[0][0] != meds[-1][0]:
+            (n1, m1), (n2, m2) = meds[0], meds[-1]
+            st["n_exponent"][I0] = math.log(m2 / m1) / math.log(n2 / n1)
+        meds = [(p["n"], p["F_x_c_stiff"][2]) for p in st["per_n"] if p["I0"] == I0
+                and math.isfinite(p["F_x_c_stiff"][2]) and p["F_x_c_stiff"][2] > 0]
+        if len(meds) >= 2 and meds[0][0] != meds[-1][0]:
+            (n1, m1), (n2, m2) = meds[0], meds[-1]
+            st.setdefault("n_exponent_stiff", {})[I0] = math.log(m2 / m1) / math.log(n2 / n1)
+    for n in cfg.n:
+        fr = [r for r in rows if r["protocol"] == "frictional" and r["n"] == n]
+        ok = [r for r in fr if r["status"] == "ok"]
+        st["frictional"].append({
+            "n": n, "n_packings": len(fr), "n_relaxed": len(ok),
+            "unstable": sum(1 for r in ok if r["decision_at_zero"] == Decision.COMPLEX),
+            "undecided": sum(1 for r in ok if r["decision_at_zero"] == Decision.UNDECIDED),
+            "pairs": quartiles([r["n_pairs_at_zero"] for r in ok]),
+            "growth": quartiles([r["growth_at_zero"] for r in ok
+                                 if r["decision_at_zero"] == Decision.COMPLEX])})
+    return st
+
+
+# --------------------------------------------------------------------------- outputs
+def write_table(path, rows, cfg):
+    """``ensemble.h5``: one dataset per column under ``rows/`` (docs/ensemble.md)."""
+    from remote_trigger.pywrap.runtime.results import write_atomic
+
+    ds = {}
+    for c in COLUMNS:
+        vals = [r[c] for r in rows]
+        ds[f"rows/{c}"] = (np.array([str(v) for v in vals], dtype=object) if c in STR_COLS
+                           else np.asarray(vals, dtype=float))
+    attrs = {"stage": "ensemble", "config": json.dumps(cfg.to_dict(), sort_keys=True),
+             "I0_dynamics": I0_DYNAMICS,
+             "note": "rows with dynamics_consistent = 0 analyse the equilibria with "
+                     "another moment of inertia than the dynamics used (analysis only)",
+             "paper_bracket": list(PAPER_BRACKET)}
+    write_atomic(path, attrs, ds)
+
+
+def read_table(path):
+    """Rows of ``ensemble.h5`` as a dict of column arrays (strings decoded)."""
+    import h5py
+
+    with h5py.File(path, "r") as fh:
+        cols = {c: fh["rows/" + c][()] for c in fh["rows"]}
+    for c in STR_COLS:
+        if c in cols:
+            cols[c] = np.array([x.decode() if isinstance(x, bytes) else str(x)
+                                for x in cols[c]])
+    return cols
+
+
+def plot(path, rows, cfg):
+    """``ensemble.png``: F_x^c(mu0) histograms per N, the ratio, F_x^c vs N."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ft = "frictionless-then-friction"
+    convs = [I0_DYNAMICS] + ([float(cfg.inertia_I0)] if cfg.inertia_I0 is not None else [])
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig, ax = plt.subplots(1, 3, figsize=(14, 4.2))
+    allx = [r["F_x_c"] for r in rows if math.isfinite(r["F_x_c"]) and r["F_x_c"] > 0
+            and r["status"] != "failed"]
+    lo_b = min(allx + [PAPER_BRACKET[0]]) / 1.3
+    hi_b = max(allx + [PAPER_BRACKET[1]]) * 1.3
+    bins = np.geomspace(lo_b, hi_b, 25)
+    allr = [r["ratio"] for r in rows if math.isfinite(r["ratio"]) and r["status"] != "failed"]
+    rbins = np.linspace(min(allr + [1.0]) - 0.05, max(allr + [1.0]) + 0.05, 25)
+    for k, n in enumerate(cfg.n):
+        for I0, ls, fill in ((I0_DYNAMICS, "-", True), (cfg.inertia_I0, "--", False)):
+            if I0 is None:
+                continue
+            sel = select(rows, ft, float(I0), n)
+            for a_, col, b_ in ((ax[0], "F_x_c", bins), (ax[1], "ratio", rbins)):
+                x = [r[col] for r in sel if math.isfinite(r[col])]
+                if x:
+                    a_.hist(x, bins=b_, histtype="stepfilled" if fill else "step",
+                            alpha=0.35 if fill else 1.0, ls=ls, color=colors[k % len(colors)],
+                            label=f"N = {n}, I0 = {I0:g}")
+    ax[0].axvspan(*PAPER_BRACKET, color="k", alpha=0.15, label="paper (N = 100)")
+    ax[0].set_xscale("log")
+    ax[0].set_xlabel("F_x^c(mu0) (bracket midpoint)")
+    ax[0].set_ylabel("packings")
+    ax[0].legend(fontsize=7)
+    ax[1].axvline(1.0, color="k", lw=0.8)
+    ax[1].set_xlabel(f"F_x^c(mu_ss mu0) / F_x^c(mu0), mu_ss = {cfg.mu_ss:g}")
+    ax[1].legend(fontsize=7)
+    for j, I0 in enumerate(convs):
+        for n in cfg.n:
+            x = [r["F_x_c"] for r in select(rows, ft, I0, n) if math.isfinite(r["F_x_c"])]
+            if not x:
+                continue
+            shift = 1.0 + 0.04 * j
+            ax[2].plot([n * shift] * len(x), x, ".", color=colors[j], alpha=0.5)
+            soft = [r["F_x_c"] for r in select(rows, ft, I0, n)
+                    if math.isfinite(r["F_x_c"]) and r["soft_onset"] == 1]
+            if soft:
+                ax[2].plot([n * shift] * len(soft), soft, "x", color=colors[j], ms=7,
+                           label="soft-mode onset" if j == 0 else None)
+            c, q1, m, q3 = quartiles(x)
+            ax[2].errorbar([n * shift], [m], yerr=[[m - q1], [q3 - m]], fmt="o",
+                           color=colors[j], capsize=4,
+                           label=f"I0 = {I0:g}" + (" (analysis only)" if I0 != I0_DYNAMICS
+                                                   else "") if n == cfg.n[0] else None)
+    ax[2].fill_between([90, 110], *PAPER_BRACKET, color="k", alpha=0.15, label="paper")
+    ax[2].set_xscale("log")
+    ax[2].set_yscale("log")
+    ax[2].set_xlabel("N")
+    ax[2].set_ylabel("F_x^c(mu0): packings, median and quartiles")
+    ax[2].legend(fontsize=7)
+    fig.tight_layout()
+    savefig_atomic(fig, path, dpi=110)
+    plt.close(fig)
+
+
+def _f(x, f=".4g"):
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    return format(x, f)
+
+
+def _q(q, f=".4g"):
+    c, a, m, b = q
+    return "-" if not c else f"{_f(m, f)} [{_f(a, f)}, {_f(b, f)}]"
+
+
+def write_summary(path, rows, cfg, st, wall, size, computed):
+    """``ensemble.md``: the distributions, the checks and every failure."""
+    ft = "frictionless-then-friction"
+    n_pk = len(cfg.packings())
+    L = ["# Ensemble of packings", "",
+         f"{n_pk} packings: " + ", ".join(f"N = {n}: seeds {list(s)}"
+                                          for n, s in zip(cfg.n, cfg.seeds))
+         + f". mu0 = {cfg.mu:g}, mu_ss mu0 = {cfg.mu * cfg.mu_ss:g}; ramp dF_x = {cfg.dF_x:g},"
+         f" bisection to tol = {cfg.tol:g}, F_x_max = {cfg.F_x_max:g}. F_x^c is the midpoint "
+         f"of the certified bracket. Values: median [first quartile, third quartile] over the"
+         f" packings whose row is not 'failed'.", ""]
+    if cfg.inertia_I0 is not None:
+        L += [f"**I0 = {cfg.inertia_I0:g} rows are an analysis convention only**: the same "
+              f"equilibria (made by dynamics with I0 = {I0_DYNAMICS}) analysed with "
+              f"I = {cfg.inertia_I0:g} m R^2 in M; their eigenvalues do not predict the "
+              f"simulated motion.", ""]
+    L += ["## F_x^c by size and convention", "",
+          "| N | I0 | packings (usable) | F_x^c(mu0) | F_x^c(mu_ss mu0) | ratio | phi | "
+          "slope s | Re lambda_c / lambda_max | pair index | soft-mode onsets | "
+          "F_x^c(mu0), stiff onsets only (count) |",
+          "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for p in st["per_n"]:
+        L.append(f"| {p['n']} | {p['I0']:g} | {p['n_packings']} ({p['n_usable']}) | "
+                 f"{_q(p['F_x_c'])} | {_q(p['F_x_c_ss'])} | {_q(p['ratio'])} | "
+                 f"{_q(p['phi'])} | {_q(p['slope'])} | {_q(p['pair_re_rel'], '.3g')} | "
+                 f"{_q(p['pair_index'], '.3g')} | {p['n_soft']} | "
+                 f"{_q(p['F_x_c_stiff'])} ({p['F_x_c_stiff'][0]}) |")
+    L += ["", "slope s: g = s sqrt(F_x - F_x^c) just above onset (g = max Im sqrt(lambda)).",
+          f"Soft-mode onset: the first certified complex pair has |Re lambda_c| < "
+          f"{SOFT_MODE_REL:g} lambda_max -- two near-floppy modes, not two stiff ones (its "
+          f"F_x^c is that of the soft pair; the ramp stops there, so the stiff pairs' onset "
+          f"is not measured for that packing).",
+          "", "## N dependence", ""]
+    for I0, e in st["n_exponent"].items():
+        L.append(f"- I0 = {I0:g}: median F_x^c(mu0) ~ N^{e:.3g} between N = {min(cfg.n)} "
+                 f"and N = {max(cfg.n)} (two medians).")
+    for I0, e in st.get("n_exponent_stiff", {}).items():
+        L.append(f"- I0 = {I0:g}, stiff onsets only: median F_x^c(mu0) ~ N^{e:.3g}.")
+    if not st["n_exponent"]:
+        L.append("- one size only (or no usable median): no N dependence measured.")
+    L += ["", "## Does F_x^c(mu_ss mu0) < F_x^c(mu0) hold for every packing?", "",
+          "Certified: the two brackets do not overlap.", "",
+          "| I0 | holds | reversed | not decided | packings | every packing? |",
+          "|---|---|---|---|---|---|"]
+    for I0, o in st["order"].items():
+        every = "yes" if o["holds"] == o["total"] and o["total"] else "no"
+        L.append(f"| {I0:g} | {o['holds']} | {o['reversed']} | {o['undecided']} | "
+                 f"{o['total']} | {every} |")
+    L += ["", "## The paper's bracket in our distribution", ""]
+    for I0, p in st["paper_percentile"].items():
+        L.append(f"- I0 = {I0:g}, N = {p['n']} ({p['count']} packings): F_x^c = "
+                 f"{PAPER_BRACKET[0]:g} is at the {_f(p['low'], '.3g')}th percentile, "
+                 f"{PAPER_BRACKET[1]:g} at the {_f(p['high'], '.3g')}th.")
+    if cfg.frictional:
+        L += ["", "## Frictional relaxation (friction on during settling)", "",
+              "| N | packings | relaxed | unstable at F_x = 0 | undecided | fraction unstable "
+              "| certified complex pairs | max Im sqrt(lambda) (unstable ones) |",
+              "|---|---|---|---|---|---|---|---|"]
+        for f in st["frictional"]:
+            frac = f["unstable"] / f["n_relaxed"] if f["n_relaxed"] else math.nan
+            L.append(f"| {f['n']} | {f['n_packings']} | {f['n_relaxed']} | {f['unstable']} |"
+                     f" {f['undecided']} | {_f(frac, '.3g')} | {_q(f['pairs'], '.3g')} | "
+                     f"{_q(f['growth'], '.3g')} |")
+        dz = [r for r in select(rows, ft, I0_DYNAMICS) if r["decision_at_zero"] == Decision.COMPLEX]
+        L += ["", f"Default protocol: {len(dz)} packing(s) certified complex at F_x = 0."]
+    L += ["", "## Packings", "",
+          "| key | protocol | I0 | status | phi | F_x^c(mu0) bracket | F_x^c(mu_ss mu0) "
+          "bracket | order | at F_x = 0 | reason |", "|---|---|---|---|---|---|---|---|---|---|"]
+    dec = {1: "complex", 0: "real", -1: "undecided"}
+    for r in rows:
+        az = r["decision_at_zero"]
+        L.append(f"| {r['key']} | {r['protocol']} | {r['I0']:g} | {r['status']} | "
+                 f"{_f(r['phi'])} | [{_f(r['F_x_c_low'], '.6g')}, {_f(r['F_x_c_high'], '.6g')}]"
+                 f" | [{_f(r['F_x_c_ss_low'], '.6g')}, {_f(r['F_x_c_ss_high'], '.6g')}] | "
+                 f"{ {1: 'holds', 0: 'reversed', -1: '-'}[int(r['order'])] } | "
+                 f"{dec.get(int(az), '-') if math.isfinite(az) else '-'} | "
+                 f"{r['reason'] or ''} |")
+    cpu = sum({r["key"]: r["wall"] for r in rows}.values())
+    L += ["", "## Cost", "",
+          f"{n_pk} packings; {cpu:.0f} s of packing time in total; this session computed {len(computed)} packing(s) on {size} "
+          f"rank(s) in {wall:.0f} s of wall time."]
+    write_text_atomic(path, "\n".join(L) + "\n")

@@ -1,7 +1,0 @@
-"""Moved to :mod:`remote_trigger.pywrap.paper.config`; this name is kept
-(the same module object: attributes and monkeypatching are shared)."""
-import sys
-
-from .paper import config as _module
-
-sys.modules[__name__] = _module

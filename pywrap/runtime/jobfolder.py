@@ -1,0 +1,158 @@
+"""The output folder of a resumable job (``trigger-map``, ``ensemble``).
+
+A job folder holds ``config.json`` (the job's configuration, written when
+the job starts) and the job's files. :func:`check_job_folder` is run on
+rank 0 before anything else is written.
+"""
+import json
+import os
+
+import numpy as np
+
+from remote_trigger.analysis.output import write_json_atomic
+from remote_trigger.pywrap.config import ConfigError, parse_set
+
+#: the configuration file of a job folder
+CONFIG_FILE = "config.json"
+
+
+def claim_task(folder, key):
+    """Take task ``key`` for this rank: create ``folder/<key>.claim`` exclusively.
+
+    The task queue of a job's MPI ranks: every rank walks the same task list
+    and runs a task only if its claim succeeds, so a rank that is free takes
+    the next task no rank has taken (dynamic load balance, no messages).
+
+    Parameters
+    ----------
+    folder : str
+        The job's ``tasks`` folder (shared by every rank).
+    key : str
+        The task's key.
+
+    Returns
+    -------
+    bool
+        False if another rank has claimed it (``O_CREAT | O_EXCL`` is atomic
+        on a local file system and on NFS v3 and later).
+    """
+    try:
+        fd = os.open(os.path.join(folder, key + ".claim"), os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        return False
+    os.close(fd)
+    return True
+
+
+def clear_claims(folder):
+    """Remove every ``*.claim`` of ``folder`` (rank 0: before the ranks start
+    -- a killed run's claims on ``--resume`` -- and when all have ended)."""
+    for name in os.listdir(folder):
+        if name.endswith(".claim"):
+            os.remove(os.path.join(folder, name))
+
+
+def check_job_folder(out, config, resume, kind):
+    """Refuse an ``--out`` that is a file or holds other results; check ``--resume``.
+
+    Parameters
+    ----------
+    out : str
+        The output folder (created, with ``config.json``, for a new job).
+    config : dict
+        The job's configuration (JSON-serialisable); ``np`` may differ on
+        ``--resume``.
+    resume : bool
+        Continue the job in ``out``.
+    kind : str
+        What the job is called in messages ("a trigger map", "an ensemble").
+
+    Raises
+    ------
+    ConfigError
+        ``out`` is a file; it holds files but no ``config.json``; it holds a
+        job and ``resume`` is False; or that job's configuration differs
+        (every differing key is named with both values). Nothing is written
+        then.
+    """
+    from remote_trigger.analysis.errors import InputError
+    from remote_trigger.analysis.output import output_dir
+
+    try:
+        output_dir(out, "--out")      # a file, or a folder that cannot be created
+    except InputError as exc:
+        raise ConfigError(str(exc)) from None
+    cfgfile = os.path.join(out, CONFIG_FILE)
+    if os.listdir(out):
+        if not os.path.isfile(cfgfile):
+            raise ConfigError(f"--out {out!r} holds other files; choose an empty or new folder")
+        if not resume:
+            raise ConfigError(f"--out {out!r} holds {kind}; add --resume to continue it or "
+                              f"choose another folder")
+        with open(cfgfile) as fh:
+            old = dict(json.load(fh), np=None)
+        new = dict(json.loads(json.dumps(config)), np=None)
+        diff = [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+        if diff:
+            raise ConfigError(f"cannot resume {out!r}: its configuration differs in "
+                              + ", ".join(f"{k} = {old.get(k)!r} (then) vs {new.get(k)!r} "
+                                          f"(now)" for k in diff))
+        return
+    write_json(cfgfile, config)
+
+
+def add_job_arguments(p, out, config_class, quick_help, resume_help, set_example):
+    """The options every job subcommand (``trigger-map``, ``ensemble``) shares.
+
+    ``--out`` (default ``out``), ``--config TOML``, ``--quick``, ``--resume``,
+    ``--np``, ``--set KEY=VALUE`` (repeatable) and ``--quiet``; read back by
+    :func:`job_overrides`.
+    """
+    p.add_argument("--out", default=out, help=f"output folder (default {out})")
+    p.add_argument("--config", metavar="TOML", help=f"TOML file with any {config_class} key")
+    p.add_argument("--quick", action="store_true", default=None, help=quick_help)
+    p.add_argument("--resume", action="store_true", help=resume_help)
+    p.add_argument("--np", type=int, default=None, help="MPI ranks: re-launch under mpirun")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help=f"any configuration key (repeatable), e.g. {set_example}")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+
+
+def job_overrides(args, **more):
+    """Configuration overrides from :func:`add_job_arguments`'s options: every
+    ``--set``, ``--np`` and the keyword arguments that are not None."""
+    over = parse_set(args.set)
+    for key, val in dict(more, np=args.np).items():
+        if val is not None:
+            over[key] = val
+    return over
+
+
+def write_json(path, data):
+    """Write JSON atomically (temporary file + rename), NumPy scalars and arrays as JSON.
+
+    Parameters
+    ----------
+    path : str
+        The file; replaced whole (:func:`remote_trigger.analysis.output.write_json_atomic`).
+    data : object
+        JSON-serialisable, NumPy integers, floats, booleans and arrays included.
+
+    Raises
+    ------
+    TypeError
+        Anything else that JSON cannot hold, named by type.
+    """
+    write_json_atomic(path, data, indent=1, sort_keys=True, default=_json_default)
+
+
+def _json_default(obj):
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.floating,)):
+        return float(obj)
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")

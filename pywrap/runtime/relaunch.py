@@ -1,0 +1,58 @@
+"""Re-launch a command-line job under the environment's ``mpirun`` (``--np N``).
+
+``paper``, ``trigger-map`` and ``ensemble`` take ``--np N``: run from a
+serial shell, they start ``mpirun -np N python -m remote_trigger.pywrap.cli
+COMMAND ...`` with an environment flag that keeps the child from
+re-launching itself, and return its exit status.
+"""
+import os
+import shutil
+import subprocess
+import sys
+
+from remote_trigger.pywrap.config import ConfigError
+
+
+def find_mpirun(np, command):
+    """Path of ``mpirun``: next to the interpreter (the venv's), else on PATH.
+
+    Raises
+    ------
+    ConfigError
+        If there is none (the message names ``np`` and the command to run by hand).
+    """
+    mpirun = os.path.join(os.path.dirname(sys.executable), "mpirun")
+    if not os.path.exists(mpirun):
+        mpirun = shutil.which("mpirun")
+    if not mpirun:
+        raise ConfigError(f"np = {np} needs mpirun, found none next to {sys.executable} "
+                          f"or on PATH; run `mpirun -np {np} remote-trigger {command}` yourself")
+    return mpirun
+
+
+def relaunch(command, args, np, env_flag, extra=()):
+    """Run ``remote-trigger COMMAND`` with the options of ``args`` under ``mpirun -np np``.
+
+    Forwards ``--out``, ``--config``, ``--quick``, ``--set``, ``--resume``,
+    ``--quiet`` (those ``args`` has) and ``extra``; the child gets ``--np 1``
+    and ``env_flag=1`` in its environment.
+
+    Returns
+    -------
+    int
+        The child's exit status.
+    """
+    cmd = [find_mpirun(np, command), "-np", str(np), sys.executable, "-m",
+           "remote_trigger.pywrap.cli", command, "--out", args.out, "--np", "1"]
+    if getattr(args, "config", None):
+        cmd += ["--config", args.config]
+    if getattr(args, "quick", None):
+        cmd.append("--quick")
+    for s in getattr(args, "set", None) or []:
+        cmd += ["--set", s]
+    cmd += list(extra)
+    if getattr(args, "resume", False):
+        cmd.append("--resume")
+    if getattr(args, "quiet", False):
+        cmd.append("--quiet")
+    return subprocess.call(cmd, env=dict(os.environ, **{env_flag: "1"}))

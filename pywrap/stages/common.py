@@ -1,0 +1,229 @@
+"""What the driver stages share: deck scenes, equilibrium files, output checks, dt.
+
+Part of :mod:`remote_trigger.pywrap.stages` (docs/driver.md).
+"""
+import os
+
+import numpy as np
+
+from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.stages.config import RelaxConfig
+from remote_trigger.pywrap.bindings.engine import DUMP_COLUMNS
+from remote_trigger.pywrap.runtime.parallel import on_rank0
+
+
+RESULT_VERSION = 1
+
+
+class StableStartError(ConfigError):
+    """:func:`instability` asked to start from a linearly stable equilibrium (exit 2)."""
+
+
+# --------------------------------------------------------------------------- helpers
+def _progress(total, desc, quiet, rank, unit="it"):
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, disable=quiet or rank != 0, unit=unit,
+                leave=False, dynamic_ncols=True)
+
+
+#: deck variable <- configuration field, passed when the configuration has it
+#: (otherwise the deck's default applies)
+_DECK_FIELDS = (("gamma", "gamma"), ("gamma_rot", "gamma_rot"),
+                ("settle_steps", "settle_steps"), ("g_settle", "g_settle"),
+                ("top_gap", "top_gap"), ("check", "check_every"))
+
+
+def _deck_vars(cfg, datafile, F_x):
+    v = {"datafile": datafile, "kn": float(cfg.k_n), "kt": float(cfg.k_t),
+         "mu": float(cfg.mu), "Fx": float(F_x), "Fy": float(cfg.F_y),
+         "dt": float(cfg.dt)}
+    for var, name in _DECK_FIELDS:
+        if hasattr(cfg, name):
+            val = getattr(cfg, name)
+            v[var] = int(val) if var in ("settle_steps", "check") else float(val)
+    return v
+
+
+def load_relax_scene(eng, cfg, datafile, F_x, deck="in.relax"):
+    """Load the scene and the damped dynamics of ``deck`` from a data file."""
+    eng.clear()
+    eng.load_deck(deck, _deck_vars(cfg, datafile, F_x), ("scene", "damped", "dynamics"))
+
+
+def save_equilibrium(eng, cfg, F_x, prefix):
+    """Write ``prefix.data``, ``prefix.dump`` and ``prefix.dump.json``.
+
+    The state must be an equilibrium with v = 0 and no damping fix. The dump
+    holds contact forces only (the loads are switched off for its ``run 0``:
+    ``variable loadon equal 0``) and the loads in ``v_fext_x v_fext_y``.
+    Each file is written under a temporary name and renamed.
+    """
+    rank0 = eng.rank == 0
+    eng.command("variable loadon equal 0")
+    eng.run(0)
+    eng.command(f"write_dump all custom {prefix}.dump.part {DUMP_COLUMNS} "
+                f"modify sort id format float %.17g")
+    eng.command("variable loadon equal 1")
+    eng.command(f"write_data {prefix}.data.part nocoeff")
+    eng.run(0)
+    if rank0:
+        from remote_trigger.analysis.state.dumpfile import write_sidecar
+
+        write_sidecar(f"{prefix}.dump", {"k_n": cfg.k_n, "k_t": cfg.k_t, "mu": cfg.mu,
+                                         "wall_y": 0.0, "F_x": F_x, "F_y": cfg.F_y,
+                                         "dt": cfg.dt})
+        os.replace(f"{prefix}.dump.part", f"{prefix}.dump")
+        os.replace(f"{prefix}.data.part", f"{prefix}.data")
+    eng.comm.Barrier()
+
+
+def packing_fraction(state):
+    """phi = sum pi R^2 / (L h), h = max(y + R) above the wall at y = 0."""
+    L = state.box_hi[0] - state.box_lo[0]
+    h = float(np.max(state.positions[:, 1] + state.radii))
+    return float(np.sum(np.pi * state.radii ** 2) / (L * h))
+
+
+def _analyze(eng, dump, basis=None):
+    """Eigen-analysis of a dump on rank 0, broadcast to all ranks.
+
+    ``basis``: the previous point's ``StabilityResult.basis`` (rank 0's;
+    ignored elsewhere). The result's ``basis`` is kept on rank 0 only (None
+    on the others: it is an n x n pair of matrices, not broadcast).
+    """
+    from remote_trigger.analysis.stability.verdict import stability_of_dump
+
+    kept = {}
+
+    def run():
+        res = stability_of_dump(dump, basis)
+        kept["basis"], res.basis = res.basis, None
+        return res
+
+    res = on_rank0(eng.comm, run)
+    res.basis = kept.get("basis")
+    return res
+
+
+def _ensure_dir(eng, path):
+    if eng.rank == 0:
+        os.makedirs(path, exist_ok=True)
+    eng.comm.Barrier()
+
+
+def prepare_out(eng, out, files, overwrite=False, stage="stage"):
+    """Check and create the output folder of a stage, on rank 0, before any run.
+
+    Parameters
+    ----------
+    eng : Engine
+    out : str
+        Output folder (created with its parents).
+    files : list of str
+        The stage's results, relative to ``out``; any that exists is refused
+        unless ``overwrite`` (nothing is ever silently replaced).
+    overwrite : bool
+    stage : str
+        Name in messages.
+
+    Raises
+    ------
+    ConfigError
+        ``out`` is a file, cannot be created or written, or holds results of
+        the same stage (on every rank).
+    """
+    from remote_trigger.analysis.output import output_dir
+
+    def check():
+        try:
+            output_dir(out, "--out")
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+        if not overwrite:
+            found = [f for f in files if os.path.exists(os.path.join(out, f))]
+            if found:
+                raise ConfigError(f"the output folder {out!r} already holds {stage} results "
+                                  f"({', '.join(found)}): choose another --out or remove "
+                                  f"them (nothing was overwritten)")
+
+    on_rank0(eng.comm, check)
+
+
+def _equilibrium_files(name):
+    return [os.path.join(name, "equilibrium" + ext) for ext in (".data", ".dump", ".dump.json")]
+
+
+def _relax_cfg(cfg, F_x):
+    """A RelaxConfig with the model of ``cfg`` (for equilibrating dynamics stages)."""
+    keys = ("datafile", "k_n", "k_t", "mu", "F_y", "dt")
+    base = {k: getattr(cfg, k) for k in keys}
+    if isinstance(cfg, RelaxConfig):
+        base = {k: getattr(cfg, k) for k in RelaxConfig.__dataclass_fields__}
+    base["F_x"] = float(F_x)
+    return RelaxConfig.from_dict(base)
+
+
+def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
+    """Load ``datafile``, check ``cfg.dt`` against the stability limit, resolve 'auto'.
+
+    Returns ``(cfg with a numeric dt, TimestepInfo)``; see
+    :func:`remote_trigger.pywrap.stages.timestep.resolve`. No step is run.
+    """
+    from remote_trigger.pywrap.bindings.datafile import check_datafile
+    from remote_trigger.pywrap.stages.timestep import resolve
+
+    check_datafile(datafile)
+    probe = cfg.replace(dt=1.0) if cfg.dt == "auto" else cfg   # dt unused: no step run
+    load_relax_scene(eng, probe, datafile, F_x)
+    return resolve(eng, cfg, F_x, a_priori=a_priori, stage=stage)
+
+
+# --------------------------------------------------------------------------- relax
+
+def check_resume_config(path, cfg, attrs, skip=(), suffix=""):
+    """Refuse to resume ``path`` unless its stored configuration is ``cfg``'s.
+
+    Parameters
+    ----------
+    path : str
+        The result file (named in the message).
+    cfg : StageConfig
+        This run's configuration (``to_attrs()``; ``datafile`` is compared
+        by its contents elsewhere and skipped here).
+    attrs : dict
+        The file's root attributes.
+    skip : container of str
+        More keys not to compare.
+    suffix : str
+        Appended to the message.
+
+    Raises
+    ------
+    ConfigError
+        Naming the first differing key with both values.
+    """
+    for k, v in cfg.to_attrs().items():
+        if k == "datafile" or k in skip:
+            continue
+        old = attrs.get(k)
+        if isinstance(old, bytes):
+            old = old.decode()
+        if old is None and v == "None":
+            continue     # a key added later whose default (None) is the old behaviour
+        if old is None or str(old) != str(v):
+            raise ConfigError(f"cannot resume {path}: its configuration has {k} = "
+                              f"{old!r}, this run has {k} = {v!r}{suffix}")
+
+
+def file_sha256(path):
+    """SHA-256 (hex) of a file's contents: identifies a ramp's start file on resume."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+

@@ -1,0 +1,348 @@
+"""Configuration of the driver stages: frozen, validated dataclasses.
+
+Every stage takes one configuration object (:class:`RelaxConfig`,
+:class:`RampConfig`, :class:`DynamicsConfig`, all :class:`StageConfig`).
+All fields have defaults (the paper's values, docs/model.md), are validated
+in ``__post_init__`` by the checks of :mod:`remote_trigger.pywrap.config`
+(a :class:`~remote_trigger.pywrap.config.ConfigError` names the field and
+the bad value), and round-trip through HDF5 attributes
+(:meth:`StageConfig.to_attrs`, :meth:`StageConfig.from_attrs`);
+:meth:`StageConfig.from_dict` rejects unknown keys.
+
+Units are LAMMPS ``lj`` units of the model (mass m = 1, length 2 R1 = 1).
+"""
+from dataclasses import dataclass, fields, asdict
+import json
+import os
+
+from remote_trigger.pywrap.config import (
+    Config, ConfigError, ContactModel, _int, _nonneg, _num, _positive)
+
+
+#: relaxation protocols of :class:`RelaxConfig` (docs/driver.md)
+PROTOCOLS = ("frictionless-then-friction", "frictional")
+
+
+@dataclass(frozen=True)
+class StageConfig(Config):
+    """Model parameters shared by every stage.
+
+    Attributes
+    ----------
+    datafile : str
+        LAMMPS data file to start from (must exist).
+    k_n : float
+        Normal stiffness (Eq. 1), > 0. Default 2e5.
+    k_t : float or None
+        Tangential stiffness (Eq. 3), >= 0; None means 2 k_n / 7.
+    mu : float
+        Friction coefficient (Eq. 2, static mu_0), >= 0. Default 1.
+    F_y : float
+        Downward load on each ``top`` disk, > 0. Default 3.
+    dt : float or 'auto'
+        Time step, > 0, or ``'auto'``: SAFETY_FACTOR (0.1) x the
+        velocity-Verlet stability limit 2/omega_max of the state the stage
+        starts from (:mod:`remote_trigger.pywrap.stages.timestep`). Default 1e-3
+        (0.10-0.11 of the limit for the default model). Every stage refuses a
+        dt at or above the limit (:class:`TimestepError`, message gives the
+        limit) before it runs a step.
+    """
+
+    datafile: str = ""
+    k_n: float = ContactModel.k_n
+    k_t: float = None
+    mu: float = ContactModel.mu
+    F_y: float = ContactModel.F_y
+    dt: float | str = 1e-3
+
+    def __post_init__(self):
+        if not isinstance(self.datafile, (str, os.PathLike)) or not str(self.datafile):
+            raise ConfigError(f"datafile must be a file name, got datafile = {self.datafile!r}")
+        object.__setattr__(self, "datafile", os.fspath(self.datafile))
+        if not os.path.isfile(self.datafile):
+            raise ConfigError(f"datafile does not exist: datafile = {self.datafile!r}")
+        object.__setattr__(self, "k_t", self.model.k_t)
+        if isinstance(self.dt, str):
+            if self.dt != "auto":
+                raise ConfigError(f"dt must be a number > 0 or 'auto', got dt = {self.dt!r}")
+        else:
+            _positive("dt", self.dt)
+        self.validate()
+
+    @property
+    def model(self):
+        """The :class:`ContactModel` of this configuration (validated)."""
+        return ContactModel.of(self)
+
+    def validate(self):
+        """Stage-specific checks (overridden)."""
+
+    # ------------------------------------------------------------ conversion
+    def replace(self, **changes):
+        """Copy with some fields changed (validated again)."""
+        d = asdict(self)
+        d.update(changes)
+        return type(self).from_dict(d)
+
+    def to_attrs(self):
+        """Dict for HDF5 attributes: None becomes the string ``'None'``."""
+        out = {"config_class": type(self).__name__}
+        for k, v in asdict(self).items():
+            out[k] = "None" if v is None else v
+        return out
+
+    @classmethod
+    def from_attrs(cls, attrs, check_file=True):
+        """Inverse of :meth:`to_attrs` (extra attributes are ignored)."""
+        names = {f.name for f in fields(cls)}
+        d = {}
+        for k in names:
+            if k in attrs:
+                v = attrs[k]
+                if hasattr(v, "item"):
+                    v = v.item()
+                if isinstance(v, bytes):
+                    v = v.decode()
+                d[k] = None if v == "None" else v
+        return cls.from_dict(d)
+
+    def to_json(self):
+        """JSON text of the configuration."""
+        return json.dumps(asdict(self), sort_keys=True)
+
+
+@dataclass(frozen=True)
+class RelaxConfig(StageConfig):
+    """Relaxation to mechanical equilibrium (docs/model.md section 6, step 1).
+
+    Attributes
+    ----------
+    F_x : float
+        Horizontal load on each ``top`` disk (any sign). Default 0.
+    f_min : float
+        Target residual max_i max(|F_i|, |T_i|/R_i), > 0. Default 1e-15 (paper).
+    f_accept : float or None
+        Largest residual accepted as "equilibrium at round-off level" when
+        Newton stagnates above f_min (double precision cannot resolve forces
+        below ~ k_eff eps |x|); >= f_min. Default None: max(1e-10,
+        4 eps X k_eff), the round-off floor scaled with the stiffness
+        k_eff = 1.5 k_n^(2/3) F_y^(1/3) and the packing size X
+        (:func:`remote_trigger.pywrap.stages.equilibrium.accept_level`); 1e-10 for
+        the default model, 1.6e-8 at k_n = 2e9 (N = 20).
+    gamma, gamma_rot : float
+        Damping of the over-damped dynamics: ``fix viscous`` rate (1/time,
+        m = 1) and ``fix viscous/sphere`` coefficient; > 0. Defaults 2, 0.1.
+    protocol : str
+        ``'frictionless-then-friction'`` (default, **choice**, docs/driver.md):
+        (i) compact the bulk only, frictionless, with gravity ``g_settle``
+        for ``settle_steps`` steps while the ``top`` disks are held (not
+        integrated); (ii) lower the ``top`` line rigidly until its lowest
+        point is ``top_gap`` above the highest bulk point; (iii) gravity off,
+        relax frictionless (mu = 0, history stays 0) under the loads
+        (over-damped + Newton); (iv) switch friction on (``mu``): the
+        history is zero, so the state is still an equilibrium (checked).
+        ``'frictional'``: the former protocol (compaction of all disks with
+        ``mu_settle`` and gravity, then relaxation with friction ``mu``).
+    settle_steps : int
+        Compaction steps with gravity (0 = no compaction, e.g. for a data
+        file that is already an equilibrium), >= 0. Default 30000.
+    g_settle : float
+        Gravity of the compaction, >= 0. Default 0.5.
+    mu_settle : float
+        Friction during the compaction of the ``'frictional'`` protocol,
+        >= 0. Default 0 (the default protocol compacts with mu = 0).
+    top_gap : float
+        Gap between the lowest point of the lowered ``top`` line and the
+        highest point of the compacted bulk, > 0. Default 0.05.
+    top_attempts : int
+        Placements of the ``top`` line tried, >= 1 (default 4): if after the
+        frictionless relaxation some bulk disk centre is above a top disk
+        centre, the relaxation is repeated from the same compacted bulk with
+        the line shifted along x by k/top_attempts of its spacing; the first
+        placement that keeps every top centre above every bulk centre is
+        kept (else the one with the largest clearance, reported).
+    check_every : int
+        Damped steps between residual checks, >= 1. Default 1000.
+    max_steps : int
+        Give up after this many damped steps, >= 1. Default 5,000,000.
+    newton : bool
+        Polish with Newton steps (analytic stiffness). Default True.
+    newton_start : float
+        Newton is tried once the residual is below newton_start * F_y, > 0.
+        Default 1e-3.
+    newton_iter : int
+        Maximum Newton iterations per attempt, >= 1. Default 30.
+    slide : float
+        Error (no equilibrium) once the mean x displacement of ``top`` from
+        the start exceeds this length, > 0. Default 2.
+    """
+
+    F_x: float = 0.0
+    f_min: float = 1e-15
+    f_accept: float | None = None
+    gamma: float = 2.0
+    gamma_rot: float = 0.1
+    protocol: str = "frictionless-then-friction"
+    settle_steps: int = 30000
+    mu_settle: float = 0.0
+    g_settle: float = 0.5
+    top_gap: float = 0.05
+    top_attempts: int = 4
+    check_every: int = 1000
+    max_steps: int = 5_000_000
+    newton: bool = True
+    newton_start: float = 1e-3
+    newton_iter: int = 30
+    slide: float = 2.0
+
+    def validate(self):
+        _num("F_x", self.F_x)
+        _positive("f_min", self.f_min)
+        if self.f_accept is not None:
+            _positive("f_accept", self.f_accept)
+        if self.f_accept is not None and self.f_accept < self.f_min:
+            raise ConfigError(f"f_accept must be >= f_min = {self.f_min!r}, got "
+                              f"f_accept = {self.f_accept!r}")
+        _positive("gamma", self.gamma)
+        _positive("gamma_rot", self.gamma_rot)
+        if self.protocol not in PROTOCOLS:
+            raise ConfigError(f"protocol must be one of {', '.join(PROTOCOLS)}, got "
+                              f"protocol = {self.protocol!r}")
+        _int("settle_steps", self.settle_steps, 0)
+        _positive("top_gap", self.top_gap)
+        _int("top_attempts", self.top_attempts, 1)
+        _nonneg("mu_settle", self.mu_settle)
+        _nonneg("g_settle", self.g_settle)
+        _int("check_every", self.check_every, 1)
+        _int("max_steps", self.max_steps, 1)
+        if not isinstance(self.newton, bool):
+            raise ConfigError(f"newton must be True or False, got newton = {self.newton!r}")
+        _positive("newton_start", self.newton_start)
+        _int("newton_iter", self.newton_iter, 1)
+        _positive("slide", self.slide)
+
+
+@dataclass(frozen=True)
+class RampConfig(RelaxConfig):
+    """F_x ramp with eigenvalue analysis and bisection (docs/model.md section 6, step 2).
+
+    Attributes
+    ----------
+    F_x : float
+        Start value of the ramp (the data file is re-equilibrated there first).
+    dF_x : float
+        Ramp step, > 0. Default 1e-4 (paper).
+    F_x_max : float
+        Stop (no complex pair found) beyond this value, > F_x. Default 1.
+    tol : float
+        Bisection tolerance on F_x^c, > 0. Default 1e-7.
+    dF_x_max : float or None
+        None (default): every step is dF_x. A number > dF_x: adaptive ramp,
+        steps between dF_x and dF_x_max chosen from the predicted distance to
+        the nearest coalescence (``pywrap.ramp.next_step``, docs/driver.md).
+    """
+
+    dF_x: float = 1e-4
+    F_x_max: float = 1.0
+    tol: float = 1e-7
+    dF_x_max: float = None
+
+    def validate(self):
+        super().validate()
+        _positive("dF_x", self.dF_x)
+        if self.dF_x_max is not None:
+            _num("dF_x_max", self.dF_x_max)
+            if not self.dF_x_max > self.dF_x:
+                raise ConfigError(f"dF_x_max must be > dF_x = {self.dF_x!r} (or None: "
+                                  f"fixed steps), got dF_x_max = {self.dF_x_max!r}")
+        _num("F_x_max", self.F_x_max)
+        if self.F_x_max <= self.F_x:
+            raise ConfigError(f"F_x_max must be > F_x = {self.F_x!r}, got "
+                              f"F_x_max = {self.F_x_max!r}")
+        _positive("tol", self.tol)
+
+
+@dataclass(frozen=True)
+class DynamicsConfig(StageConfig):
+    """Undamped runs from an equilibrium (perturbation and instability).
+
+    Attributes
+    ----------
+    F_x : float
+        Horizontal load of the run (should match the equilibrium's).
+    t_max : float
+        Simulated time, > 0. Default 1000.
+    record_every : int
+        Steps between records of D(t), v and mu, >= 1. Default 100.
+    a : float
+        Amplitude of f(t) = a cos(omega_p t) added to F_x on ``top``, >= 0.
+        Default 1e-12 (paper).
+    omega_p : float
+        Angular frequency of f(t), >= 0. Default 0.01.
+    B, w, mu_ss : float
+        mu(v) law (Eq. 4): mu = mu0 (B exp(-w (v~ - v~0)) + mu_ss) above v~0;
+        defaults 0.2, 0.4, 0.8 (mu0 is ``mu``).
+    v0 : float or None
+        Threshold velocity; None means measured by run (a).
+    v_ss : float or None
+        Velocity scale of v~ = v / v_ss; None means v_ss = v0.
+    d_sat : float
+        Instability: stop once D(t) exceeds this, > 0. Default 1e-2.
+    t_on : float
+        Onset of f(t), >= 0: 0 (default) switches f(t) on as a step at t = 0;
+        t_on > 0 multiplies it by the raised cosine (1 - cos(pi t / t_on)) / 2
+        for t < t_on (smooth onset, no ringing of the fast modes).
+    tau : float or None
+        Viscous damping time, > 0: ``fix viscous`` with gamma = m / tau on
+        the translational velocities (Section IV's -(1/tau) dx/dt for the
+        positions; rotations undamped). None (default): no damping.
+    """
+
+    F_x: float = 0.0
+    t_max: float = 1000.0
+    record_every: int = 100
+    a: float = 1e-12
+    omega_p: float = 0.01
+    B: float = 0.2
+    w: float = 0.4
+    mu_ss: float = 0.8
+    v0: float = None
+    v_ss: float = None
+    d_sat: float = 1e-2
+    t_on: float = 0.0
+    tau: float = None
+
+    def validate(self):
+        _num("F_x", self.F_x)
+        _positive("t_max", self.t_max)
+        _int("record_every", self.record_every, 1)
+        _nonneg("a", self.a)
+        _nonneg("omega_p", self.omega_p)
+        _nonneg("B", self.B)
+        _nonneg("w", self.w)
+        _nonneg("mu_ss", self.mu_ss)
+        for name in ("v0", "v_ss"):
+            val = getattr(self, name)
+            if val is not None:
+                _positive(name, val)
+        _positive("d_sat", self.d_sat)
+        _nonneg("t_on", self.t_on)
+        if self.tau is not None:
+            _positive("tau", self.tau)
+
+
+def check_packing_args(n, seed, phi=0.82):
+    """Validate the arguments of the packing generator.
+
+    Raises
+    ------
+    ConfigError
+        If n is not an even integer >= 6, seed is not a non-negative integer,
+        or phi is outside (0.1, 0.91).
+    """
+    _int("n", n, 6)
+    if n % 2:
+        raise ConfigError(f"n must be even (equal numbers of both radii), got n = {n}")
+    _int("seed", seed, 0)
+    if not 0.1 < _num("phi", phi) < 0.91:
+        raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {phi!r}")

@@ -1,0 +1,571 @@
+"""The ramp stage: F_x steps, the certified bracket of F_x^c and its bisection.
+
+Part of :mod:`remote_trigger.pywrap.stages`; file layout in
+:mod:`remote_trigger.pywrap.stages.ramp_file`.
+"""
+from dataclasses import dataclass, field
+import os
+import time
+
+import numpy as np
+
+from remote_trigger.analysis.stability.verdict import Decision
+from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.stages.config import RampConfig
+from remote_trigger.pywrap.bindings.engine import Engine
+from remote_trigger.pywrap.stages import equilibrium as eq
+from remote_trigger.pywrap.runtime.parallel import on_rank0
+from remote_trigger.pywrap.stages import ramp_file
+from remote_trigger.pywrap.stages.common import (
+    _analyze, _ensure_dir, _progress, file_sha256, load_relax_scene, save_equilibrium,
+    start_timestep)
+
+
+@dataclass
+class RampResult:
+    """Outcome of :func:`ramp`.
+
+    Attributes
+    ----------
+    F_x : ndarray
+        Loads of the ramp steps.
+    residual : ndarray
+        Residual reached at each step.
+    complex_pair : ndarray of bool
+        Certified complex pair (analyzer decision ``'complex'``).
+    growth_rate : ndarray
+        max Im sqrt(lambda) at each step (0 when stable).
+    bisection_F_x, bisection_complex : ndarray
+    F_x_c_low, F_x_c_high : float
+        Certified bracket of F_x^c: the largest F_x certified real below the
+        smallest F_x certified complex (undecided points are neither); NaN
+        if not found.
+    status : str
+        ``'complete'``, ``'no_complex_pair'``, ``'no_equilibrium'`` or
+        ``'complex_at_start'``.
+    h5 : str
+    message : str
+        Set when the bracket stayed wider than ``tol`` (the points next to
+        F_x^c could not be certified) and for the other statuses.
+    decision, confidence : ndarray
+        Analyzer decision per ramp step, as the stored codes (float; the
+        values of :class:`~remote_trigger.analysis.stability.verdict.Decision`:
+        1 complex, 0 real, -1 undecided; :attr:`decisions` gives them as
+        ``Decision`` members) and its margin (> 1 certified).
+    bisection_decision : ndarray
+        Same for the bisection points (NaN where no equilibrium was found).
+    tol_reached : bool
+        The bracket is at most ``tol`` wide.
+    n_undecided : int
+        Equilibria (steps and bisection) the analyzer left undecided.
+    timestep : dict
+        The time-step decision at the start (``dt_used``, ``dt_max``,
+        ``dt_fraction``, ``dt_limit_source``, ``dt_auto``; also in ramp.h5).
+    """
+
+    F_x: np.ndarray
+    residual: np.ndarray
+    complex_pair: np.ndarray
+    growth_rate: np.ndarray
+    bisection_F_x: np.ndarray
+    bisection_complex: np.ndarray
+    F_x_c_low: float
+    F_x_c_high: float
+    status: str
+    h5: str
+    message: str = ""
+    decision: np.ndarray = None
+    confidence: np.ndarray = None
+    bisection_decision: np.ndarray = None
+    timestep: dict = field(default_factory=dict)
+    tol_reached: bool = False
+    n_undecided: int = 0
+
+    @property
+    def F_x_c(self):
+        """Midpoint of the bracket."""
+        return 0.5 * (self.F_x_c_low + self.F_x_c_high)
+
+    @property
+    def F_x_c_width(self):
+        """Width of the certified bracket, F_x_c_high - F_x_c_low (NaN if none)."""
+        return self.F_x_c_high - self.F_x_c_low
+
+    @property
+    def decisions(self):
+        """The ramp steps' decisions as :class:`Decision` members (list, one per step)."""
+        return [Decision.of(d) for d in (() if self.decision is None else self.decision)]
+
+
+def ramp_bracket(rlog):
+    """The certified bracket of F_x^c from every row of a ramp (steps and bisection).
+
+    Only certified answers count: ``hi`` is the smallest F_x certified
+    complex (decision 1), ``lo`` the largest F_x certified real (decision 0)
+    below it. Undecided points (decision -1) and points without an
+    equilibrium (``complex`` = 2) are neither stable nor unstable.
+
+    Returns
+    -------
+    lo, hi : float
+        NaN where there is no such point.
+    lo_file : str or None
+        Data file of the ``lo`` equilibrium (start of the next bisection point).
+    unknown : list of float
+        Loads strictly inside (lo, hi) without a certified answer.
+    """
+    F, dec, files = [], [], []
+    for kind in ("steps", "bisection"):
+        rows = rlog.rows[kind]
+        F.extend(rows["F_x"])
+        dec.extend(rows["decision"])
+        files.extend(rlog.files[kind])
+    F, dec = np.asarray(F, float), np.asarray(dec, float)
+    cx = F[dec == Decision.COMPLEX]
+    hi = float(cx.min()) if cx.size else float("nan")
+    real = np.flatnonzero((dec == 0) & (F < hi)) if cx.size else np.flatnonzero(dec == 0)
+    if real.size:
+        k = int(real[np.argmax(F[real])])
+        lo, lo_file = float(F[k]), files[k]
+    else:
+        lo, lo_file = float("nan"), None
+    unknown = sorted(float(f) for f, d in zip(F, dec)
+                     if not (d == Decision.REAL or d == Decision.COMPLEX) and lo < f < hi)
+    return lo, hi, lo_file, unknown
+
+
+def next_bisection_point(lo, hi, unknown, tol):
+    """Next load to decide inside the certified bracket, or why there is none.
+
+    Without undecided points inside, the midpoint. With some, they are
+    taken to mark the exceptional point's neighbourhood: the larger of the
+    two uncertified gaps [lo, min(unknown)] and [max(unknown), hi] is
+    halved, until both are at most tol/2.
+
+    Returns
+    -------
+    F : float or None
+    why : str
+        ``''`` (F given), ``'tol'`` (hi - lo <= tol), ``'undecided'`` (no
+        gap wider than tol/2 is left beside the undecided points) or
+        ``'resolution'`` (no float64 number strictly inside the gap).
+    """
+    if hi - lo <= tol:
+        return None, "tol"
+    if unknown:
+        g_lo, g_hi = unknown[0] - lo, hi - unknown[-1]
+        if max(g_lo, g_hi) <= 0.5 * tol:
+            return None, "undecided"
+        a, b = (lo, unknown[0]) if g_lo >= g_hi else (unknown[-1], hi)
+    else:
+        a, b = lo, hi
+    mid = 0.5 * (a + b)
+    if not a < mid < b:
+        return None, "resolution"
+    return mid, ""
+
+
+def _bracket_attrs(rlog, lo, hi, tol, why=""):
+    """ramp.h5 attributes of the certified bracket; a message when it is wider than tol."""
+    n_und = int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == Decision.UNDECIDED)
+                    for k in ("steps", "bisection")))
+    width = hi - lo
+    attrs = dict(F_x_c_low=lo, F_x_c_high=hi, F_x_c_width=width,
+                 tol_reached=bool(width <= tol), n_undecided=n_und)
+    if why in ("undecided", "resolution"):
+        _, _, _, unknown = ramp_bracket(rlog)
+        zone = (f"the loads in [{unknown[0]:.10g}, {unknown[-1]:.10g}] could not be "
+                f"certified (closer to the exceptional point than the float64 matrix "
+                f"resolves, or no equilibrium)" if unknown else
+                "no float64 load is left strictly inside the bracket")
+        attrs["message"] = (f"bisection stopped at width {width:.3g} > tol = {tol:.3g}: "
+                            f"{zone}; F_x^c is certified only to [{lo:.10g}, {hi:.10g}]")
+    return attrs
+
+
+def _ramp_point(eng, cfg, start_file, F_x, prefix, basis=None):
+    """Equilibrate at F_x from ``start_file``, save ``prefix.*``, analyse.
+
+    ``basis``: the previous point's verified spectrum basis (rank 0), tried
+    first by the certified decision. Returns (values dict, StabilityResult).
+    """
+    t0 = time.perf_counter()
+    load_relax_scene(eng, cfg, start_file, F_x, deck="in.ramp_step")
+    r, t_sim, rec = eq.equilibrate(eng, cfg, F_x, newton_first=True)
+    save_equilibrium(eng, cfg, F_x, prefix)
+    res = _analyze(eng, prefix + ".dump", basis)
+    vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
+            "from_basis": float(res.start == "basis"),
+            "decision": float(res.decision_code), "confidence": float(res.confidence),
+            "growth_rate": res.growth_rate, "max_imag": res.max_imag,
+            "n_rattlers": float(res.n_rattlers), "wall_time": time.perf_counter() - t0,
+            "damped_time": t_sim,
+            "newton_steps": float(max(0, sum(p == "newton" for p in rec.phase) - 1))}
+    return vals, res
+
+
+def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=None):
+    """Ramp F_x until a complex eigenvalue pair appears, then bisect F_x^c.
+
+    Step k has F_x = cfg.F_x + k dF_x (k = 0 re-equilibrates the data file at
+    cfg.F_x), or, with ``cfg.dF_x_max`` set, an adaptive step
+    (:func:`next_step`). Each step starts from the previous equilibrium's data file,
+    equilibrates (Newton first, damped dynamics if needed), writes
+    ``ramp/step_NNNNN.*`` and is analysed (:mod:`remote_trigger.analysis.stability.verdict`) until a step is
+    certified complex.
+
+    "Complex" and "real" are the analyzer's certified decisions; an
+    ``'undecided'`` point is neither (recorded with ``decision`` = -1 and its
+    margin). The bracket of F_x^c is [largest load certified real, smallest
+    load certified complex] (:func:`ramp_bracket`); bisection works inside
+    it, each point starting from the ``lo`` equilibrium
+    (:func:`next_bisection_point`), until it is at most ``cfg.tol`` wide or
+    no further point can be certified next to the undecided ones. Then the
+    ramp is ``'complete'`` with ``tol_reached`` False and a message giving the
+    width reached; nothing narrower than what was certified is reported.
+    A bisection point without an equilibrium is no answer either.
+
+    Parameters
+    ----------
+    cfg : RampConfig
+    out : str
+        Output folder (``ramp.h5``, ``ramp/``).
+    comm : mpi4py communicator, optional
+    quiet : bool
+    resume : bool
+        Continue an interrupted ramp from its last completed equilibrium; the
+        configuration must be the same. Without ``resume`` an existing
+        ``ramp.h5`` is an error (nothing is overwritten).
+    log : str
+        LAMMPS log file.
+    stop_after : int, optional
+        Testing aid: return (status ``'interrupted'``) after this many new
+        equilibria, as if killed.
+
+    Returns
+    -------
+    RampResult
+
+    Raises
+    ------
+    ConfigError
+        Bad configuration, ``ramp.h5`` exists without ``resume``, or the file
+        to resume is unreadable or from another configuration.
+    """
+    if not isinstance(cfg, RampConfig):
+        raise ConfigError(f"ramp needs a RampConfig, got {type(cfg).__name__}")
+    h5 = os.path.join(out, "ramp.h5")
+    folder = os.path.join(out, "ramp")
+    with Engine(comm=comm, log=log) as eng:
+        rlog = _open_ramp_log(eng, cfg, out, h5, resume)
+        _BASES.clear()
+        _ensure_dir(eng, folder)
+        rcfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "ramp")
+        if "dt_used" in rlog.attrs and cfg.dt == "auto":   # resume: the same step
+            rcfg = cfg.replace(dt=float(rlog.attrs["dt_used"]))
+            dtinfo.update(dt_used=rcfg.dt, dt_fraction=rcfg.dt / dtinfo["dt_max"])
+        rlog.attrs.update(dtinfo)
+        status = getattr(rlog, "status", "running")
+        if status in ("complete", "no_complex_pair", "no_equilibrium", "complex_at_start"):
+            return _ramp_result(rlog, status)
+        budget = _Budget(stop_after)
+        bar = _progress(None, "ramp", quiet, eng.rank, unit="step")
+        try:
+            ended = _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget)
+            if ended is not None:
+                return ended
+            return _bisect(eng, cfg, rcfg, rlog, folder, bar, budget)
+        finally:
+            bar.close()
+            if rlog.dirty:
+                # rows since the last checkpoint (interrupted, or an error)
+                _checkpoint(eng, rlog, folder, "running", force=True)
+
+
+class _Budget:
+    """New equilibria of this call, against ``stop_after`` (testing aid)."""
+
+    def __init__(self, stop_after):
+        self.stop_after, self.new = stop_after, 0
+
+    def spend(self):
+        """Count one equilibrium; True when the budget is used up."""
+        self.new += 1
+        return self.stop_after is not None and self.new >= self.stop_after
+
+
+def _open_ramp_log(eng, cfg, out, h5, resume):
+    """The ramp's log: new, or ``ramp.h5`` to resume (refused without ``resume``)."""
+    exists = eng.comm.bcast(os.path.exists(h5) if eng.rank == 0 else None, root=0)
+    if exists and not resume:
+        raise ConfigError(f"{h5} exists: use resume (--resume) to continue it, or "
+                          f"another output folder (nothing was overwritten)")
+
+    def open_log():
+        from remote_trigger.analysis.output import output_dir
+        from remote_trigger.pywrap.bindings.datafile import check_datafile
+
+        try:
+            check_datafile(cfg.datafile)
+            output_dir(out, "--out")
+            log_ = ramp_file.RampLog.load(cfg, h5) if (resume and exists) else ramp_file.RampLog(cfg, h5)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+        log_.attrs.setdefault("datafile_sha256", file_sha256(cfg.datafile))
+        return log_
+
+    return on_rank0(eng.comm, open_log)
+
+
+#: the adaptive ramp steps by this fraction of the predicted distance to the
+#: nearest coalescence (the prediction is exact for the square-root law and
+#: an underestimate for gaps closing faster, see analysis.eigtrack)
+ADAPTIVE_SAFETY = 0.5
+
+
+def next_step(cfg, rlog):
+    """Load of the next ramp step, from the steps recorded so far.
+
+    Fixed steps (``cfg.dF_x_max`` None): F_x + k dF_x for step k. Adaptive
+    ramp: steps 0 and 1 as fixed, then :func:`adaptive_step` from the last
+    two steps. The choice depends only on recorded rows, so a resumed ramp
+    takes the same loads.
+
+    Parameters
+    ----------
+    cfg : RampConfig
+    rlog : ramp_file.RampLog
+
+    Returns
+    -------
+    float
+    """
+    steps = rlog.rows[ramp_file.STEPS]
+    k = len(steps["F_x"])
+    if cfg.dF_x_max is None or k < 2:
+        return cfg.F_x + k * cfg.dF_x
+    prev, last = ((steps["F_x"][j], steps["decision"][j],
+                   rlog.eig[f"{ramp_file.STEPS}/{ramp_file.point_name(ramp_file.STEPS, j)}"])
+                  for j in (k - 2, k - 1))
+    return last[0] + adaptive_step(cfg.dF_x, cfg.dF_x_max, prev, last)
+
+
+def adaptive_step(dF_x, dF_x_max, prev, last):
+    """Step of the adaptive ramp after two analysed loads.
+
+    If both loads were certified real (decision 0) and their spectra have the
+    same size, ``ADAPTIVE_SAFETY`` x the distance to the nearest coalescence
+    predicted from them
+    (:func:`remote_trigger.analysis.stability.eigtrack.predict_coalescence`), clipped
+    to [dF_x, dF_x_max]; otherwise dF_x.
+
+    Parameters
+    ----------
+    dF_x, dF_x_max : float
+        Smallest and largest step.
+    prev, last : tuple (F_x, decision, eigenvalues)
+        The two loads, ``prev[0] < last[0]``.
+
+    Returns
+    -------
+    float
+    """
+    from remote_trigger.analysis.stability.eigtrack import predict_coalescence
+
+    if not (prev[1] == 0 and last[1] == 0):
+        return dF_x
+    try:
+        d, _ = predict_coalescence(prev[0], prev[2], last[0], last[2])
+    except ValueError:          # rattlers changed: no matching of neighbours
+        return dF_x
+    return min(max(ADAPTIVE_SAFETY * d, dF_x), dF_x_max)
+
+
+def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
+    """The ramp: steps of dF_x until one is certified complex.
+
+    Returns the :class:`RampResult` of a ramp that ends here (no complex pair
+    up to F_x_max, no equilibrium, complex at the start, interrupted), or None
+    when bisection follows.
+    """
+    steps = rlog.rows["steps"]
+    k0 = len(steps["F_x"]) - 1
+    basis = _load_basis(eng, rlog.files["steps"][k0] if k0 >= 0 else None)
+    while not (steps["complex"] and steps["complex"][-1] > 0):
+        k = len(steps["F_x"])
+        F = next_step(cfg, rlog)
+        if F > cfg.F_x_max:
+            n_und = int(np.count_nonzero(np.asarray(steps["decision"], float) == Decision.UNDECIDED))
+            rlog.attrs["message"] = (f"no complex pair certified up to F_x_max = "
+                                     f"{cfg.F_x_max}" + (f" ({n_und} steps undecided)"
+                                                         if n_und else ""))
+            _checkpoint(eng, rlog, folder, "no_complex_pair")
+            return _ramp_result(rlog, "no_complex_pair")
+        start = cfg.datafile if k == 0 else rlog.files["steps"][-1]
+        name = ramp_file.point_name(ramp_file.STEPS, k)
+        prefix = os.path.join(folder, name)
+        try:
+            vals, res = _ramp_point(eng, rcfg, start, F, prefix, basis)
+        except eq.NoEquilibriumError as exc:
+            rlog.attrs["message"] = str(exc)
+            _checkpoint(eng, rlog, folder, "no_equilibrium")
+            return _ramp_result(rlog, "no_equilibrium")
+        basis = res.basis
+        rlog.add(ramp_file.STEPS, name, prefix + ".data", vals, res.eigenvalues)
+        _remember(eng, rlog, prefix + ".data", basis)
+        _checkpoint(eng, rlog, folder, "running")
+        bar.update(1)
+        bar.set_postfix_str(f"F_x {F:.6g} r {vals['residual']:.1e} "
+                            f"complex {bool(vals['complex'])}")
+        if budget.spend():
+            return _ramp_result(rlog, "interrupted")
+    lo, hi, lo_file, unknown = ramp_bracket(rlog)
+    if lo_file is None:
+        rlog.attrs["message"] = (
+            "complex pair already at the start value of F_x" if len(steps["F_x"]) == 1
+            else f"no equilibrium certified real below the first certified complex "
+                 f"one (F_x = {hi:.10g}); the steps before it are undecided")
+        rlog.attrs.update(F_x_c_high=hi)
+        _checkpoint(eng, rlog, folder, "complex_at_start")
+        return _ramp_result(rlog, "complex_at_start")
+    return None
+
+
+def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget):
+    """Bisection of F_x^c on certified answers only (docs/driver.md); returns the
+    :class:`RampResult` (``'complete'``, or ``'interrupted'``)."""
+    bis = rlog.rows["bisection"]
+    while True:
+        lo, hi, lo_file, unknown = ramp_bracket(rlog)
+        mid, why = next_bisection_point(lo, hi, unknown, cfg.tol)
+        if mid is None:
+            break
+        j = len(bis["F_x"])
+        name = ramp_file.point_name(ramp_file.BISECTION, j)
+        prefix = os.path.join(folder, name)
+        try:
+            vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix,
+                                    _load_basis(eng, lo_file))
+        except eq.NoEquilibriumError:
+            vals = {c: np.nan for c in ramp_file.COLUMNS}
+            vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
+            res = None
+        rlog.add(ramp_file.BISECTION, name, prefix + ".data", vals,
+                 [] if res is None else res.eigenvalues)
+        _remember(eng, rlog, prefix + ".data", None if res is None else res.basis)
+        lo, hi, _, _ = ramp_bracket(rlog)
+        rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
+        _checkpoint(eng, rlog, folder, "running")
+        bar.update(1)
+        bar.set_postfix_str(f"F_x^c in [{lo:.9g}, {hi:.9g}]")
+        if budget.spend():
+            return _ramp_result(rlog, "interrupted")
+    rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol, why))
+    _checkpoint(eng, rlog, folder, "complete")
+    return _ramp_result(rlog, "complete")
+
+
+# --------------------------------------------------------------------------- spectrum bases
+# Each ramp step's certified decision starts from the previous step's
+# verified basis, each bisection point's from the basis of its start (the
+# bracket's lower end) (analysis.exceptional.classify_spectrum(basis=));
+# which basis it started from changes its margins and the last bits of its
+# eigenvalues (which the adaptive ramp's next load depends on). Rank 0 keeps
+# in memory the bases of the points a later point can start from (the last
+# step's and the lower end's). So that a resumed ramp takes the same loads
+# and stores the same numbers, at each checkpoint the bases of the starts of
+# the rows about to be written are saved beside their equilibria
+# (``<point>.basis.npz``, atomically) before ramp.h5 is, and every other
+# saved basis is removed after it; all are removed when the ramp ends.
+# --resume reads its starts' bases from those files: X as saved and R
+# recomputed by the same inversion the verification made, so the numbers
+# are those of the uninterrupted run (a missing file -- a ramp.h5 of an
+# older version -- only means that decision starts from dgeev). Between
+# checkpoints nothing is written: a basis at N = 100 is 0.6 MB, one per
+# point would be ~20 MB/s.
+#: rank 0: datafile -> verified basis of the points that can start a later one
+_BASES = {}
+
+
+def _basis_path(datafile):
+    return datafile[:-len(".data")] + ".basis.npz"
+
+
+def _starts(rlog):
+    """Data files of the recorded points a later point can start from."""
+    files = rlog.files[ramp_file.STEPS]
+    lo_file = ramp_bracket(rlog)[2]
+    return {f for f in ([files[-1]] if files else []) + [lo_file] if f}
+
+
+def _remember(eng, rlog, datafile, basis):
+    """Rank 0, once the point of ``datafile`` is recorded: keep its basis if it
+    can start a later point, forget those that no longer can."""
+    if eng.rank != 0:
+        return
+    if basis is not None:
+        _BASES[datafile] = basis
+    keep = _starts(rlog)
+    for f in [f for f in _BASES if f not in keep]:
+        del _BASES[f]
+
+
+def _checkpoint(eng, rlog, folder, status, force=False):
+    """Rank 0: ramp.h5 brought up to date (``rlog.write``: at a checkpoint, or
+    ``force``), the bases of its start points saved just before it, the other
+    saved bases removed after it (all of them for a final status)."""
+    import glob
+    from remote_trigger.analysis.output import atomic_path
+
+    if eng.rank != 0:
+        return
+    final = status != "running"
+    keep = set() if final else {_basis_path(f) for f in _starts(rlog)}
+
+    def save():
+        for f in _starts(rlog):
+            if f in _BASES:
+                with atomic_path(_basis_path(f)) as tmp:
+                    _BASES[f].save(tmp)
+
+    rlog.write(status, force=force, before=None if final else save)
+    if final or not rlog.dirty:         # the file on disk names only these starts
+        for path in glob.glob(os.path.join(folder, "*.basis.npz")):
+            if path not in keep:
+                os.remove(path)
+
+
+def _load_basis(eng, datafile):
+    """Rank 0: the basis of the point of ``datafile`` -- from memory, or (after
+    --resume) from its saved file; None if neither has it, the file is
+    unreadable, or on the other ranks."""
+    from remote_trigger.analysis.stability.decision import SpectrumBasis
+
+    if eng.rank != 0 or datafile is None:
+        return None
+    if datafile not in _BASES:
+        try:
+            _BASES[datafile] = SpectrumBasis.load(_basis_path(datafile))
+        except ValueError:          # absent or unreadable (named in the message)
+            return None
+    return _BASES[datafile]
+
+
+def _ramp_result(rlog, status):
+    s, b = rlog.rows["steps"], rlog.rows["bisection"]
+    return RampResult(
+        F_x=np.asarray(s["F_x"]), residual=np.asarray(s["residual"]),
+        complex_pair=np.asarray(s["complex"]) > 0, growth_rate=np.asarray(s["growth_rate"]),
+        bisection_F_x=np.asarray(b["F_x"]), bisection_complex=np.asarray(b["complex"]) == 1,
+        F_x_c_low=float(rlog.attrs.get("F_x_c_low", np.nan)),
+        F_x_c_high=float(rlog.attrs.get("F_x_c_high", np.nan)), status=status,
+        h5=rlog.path, message=str(rlog.attrs.get("message", "")),
+        decision=np.asarray(s["decision"]), confidence=np.asarray(s["confidence"]),
+        bisection_decision=np.asarray(b["decision"]),
+        timestep={k: v for k, v in rlog.attrs.items() if k.startswith("dt_")},
+        tol_reached=bool(rlog.attrs.get("tol_reached", False)),
+        n_undecided=int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == Decision.UNDECIDED)
+                            for k in ("steps", "bisection"))))
+
+
+# --------------------------------------------------------------------------- undamped

@@ -1,0 +1,364 @@
+"""The relax stage: the default protocol (frictionless-then-friction) and its steps.
+
+Part of :mod:`remote_trigger.pywrap.stages`; the LAMMPS commands of the
+protocol are sections of ``lammps_inputs/in.relax`` (docs/driver.md, "Decks").
+"""
+from dataclasses import dataclass, field
+import os
+import time
+
+import numpy as np
+
+from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.stages.config import RelaxConfig
+from remote_trigger.pywrap.bindings.engine import Engine
+from remote_trigger.pywrap.stages import equilibrium as eq
+from remote_trigger.pywrap.stages.newton_solve import stiffness
+from remote_trigger.pywrap.runtime.results import write_atomic
+from remote_trigger.pywrap.stages.common import (
+    RESULT_VERSION, _ensure_dir, _equilibrium_files, _progress, load_relax_scene, packing_fraction,
+    prepare_out, save_equilibrium, start_timestep)
+
+
+@dataclass
+class RelaxResult:
+    """Outcome of :func:`relax`.
+
+    Attributes
+    ----------
+    residual : float
+        r = max_i max(|F_i|, |T_i|/R_i) reached (exact, ``run 0``), with the
+        friction of ``cfg.mu`` on.
+    converged : bool
+        r < f_min (else r is the round-off floor, < f_accept).
+    wall_time : float
+        Seconds.
+    damped_time : float
+        Simulated time of over-damped dynamics (lj units), compaction excluded.
+    newton_iterations : int
+        Accepted Newton steps.
+    packing_fraction : float
+        phi = sum pi R^2 / (L h), h = max(y + R), all disks (top included).
+    history : RelaxRecord
+    datafile, dumpfile, h5 : str
+        Outputs.
+    protocol : str
+        Protocol used (``cfg.protocol``).
+    antisymmetry : float
+        ||K - K^T||_F / ||K||_F of the final equilibrium (0 when every
+        tangential displacement is zero).
+    top_clearance : float
+        min over top disks of y minus max over bulk disks of y (> 0: every
+        top disk centre is above every bulk disk centre).
+    compaction_time : float
+        Wall seconds of the compaction (and piston) phases.
+    top_attempts : int
+        Placements of the ``top`` line tried (default protocol).
+    timestep : dict
+        The time-step decision (:class:`~remote_trigger.pywrap.stages.timestep.TimestepInfo`:
+        ``dt_used``, ``dt_max``, ``dt_fraction``, ``dt_limit_source``,
+        ``dt_auto``) plus ``dt_max_equilibrium`` and
+        ``dt_fraction_equilibrium``, the eigenvalue limit of the final
+        equilibrium.
+    """
+
+    residual: float
+    converged: bool
+    wall_time: float
+    damped_time: float
+    newton_iterations: int
+    packing_fraction: float
+    history: object
+    datafile: str
+    dumpfile: str
+    h5: str
+    protocol: str = "frictionless-then-friction"
+    antisymmetry: float = float("nan")
+    top_clearance: float = float("nan")
+    compaction_time: float = 0.0
+    top_attempts: int = 0
+    timestep: dict = field(default_factory=dict)
+
+
+def set_friction(eng, mu):
+    """Set the friction coefficient of the pair style and the wall to ``mu``.
+
+    Runs the ``friction`` section of ``in.relax`` (its wall uses
+    ``v_mu_now``) with the string variable ``mu_set`` = ``repr(mu)`` (the
+    exact double); needs that scene loaded.
+    """
+    eng.command(f"variable mu_set string {float(mu)!r}")
+    eng.run_section("friction")
+
+
+def compact_bulk(eng):
+    """Protocol step (i): frictionless compaction of the bulk under gravity.
+
+    The ``compact`` section of ``in.relax``: the ``top`` disks are not
+    integrated (held where they are, above the bulk); the bulk disks move
+    with the damped dynamics and gravity ``g_settle`` for ``settle_steps``
+    steps (the deck variables, from the configuration). Friction must
+    already be off. Ends with v = omega = 0 and the integrator restored on
+    all disks.
+    """
+    eng.run_section("compact")
+
+
+def place_top(eng, gap):
+    """Protocol step (ii): move the ``top`` line rigidly (along y) onto the bulk.
+
+    The ``lower`` section of ``in.relax``: after the move the lowest point of
+    the line, min over top of (y - R), is ``gap`` (the deck's ``top_gap``)
+    above the highest bulk point, max over bulk of (y + R): no top disk touches
+    the bulk, and each falls onto the bulk surface under F_y.
+
+    Returns
+    -------
+    float
+        The displacement applied (negative = down).
+
+    Raises
+    ------
+    ValueError
+        If there are no top or no bulk disks, or the moved line would leave
+        the box (checked before the move).
+    """
+    st = eng.gather_state()
+    top = st.top
+    if not np.any(top) or np.all(top):
+        raise ValueError(f"place_top needs top and bulk disks, got {int(top.sum())} top "
+                         f"disks of {st.n}")
+    # the deck's lower_measure section, on the gathered positions (no run 0)
+    y, R = st.positions[:, 1], st.radii
+    dy = float(np.max(y[~top] + R[~top]) + gap - np.min(y[top] - R[top]))
+    if np.max(y[top] + R[top]) + dy >= st.box_hi[1]:
+        raise ValueError(f"the top line does not fit below the box top ylo/yhi = "
+                         f"{st.box_hi[1]!r} after a move by dy = {dy!r}")
+    eng.command(f"variable dy string {dy!r}")
+    eng.run_section("lower")
+    return dy
+
+
+def press_top(eng, F_x):
+    """Protocol step (iii a): the ``top`` line as a rigid piston on the bulk.
+
+    The ``press`` section of ``in.relax``: ``fix aveforce`` (defined after
+    the loads and the damping, so that it averages the total force) gives
+    every top disk the mean force of the line: the line translates rigidly,
+    pressing on the frictionless bulk with the loads, so no bulk disk can
+    squeeze between two top disks while the surface layer rearranges.
+    Damped dynamics in runs of ``check`` steps until the largest speed is
+    below ``v_stop``, at most ``press_steps`` steps (deck variables); then
+    the ``press_end`` section removes the constraint and sets v = omega = 0.
+
+    Returns
+    -------
+    int
+        Steps run.
+    """
+    eng.command(f"variable load_x equal {float(F_x)!r}")
+    if not eng.has_fix("integ"):
+        eng.run_section("damped")
+    check = int(eng.equal("check_v"))
+    max_steps = int(eng.equal("press_steps_v"))
+    v_stop = eng.equal("v_stop_v")
+    eng.run_section("press")
+    steps = 0
+    try:                               # the loop of the deck's press_loop section
+        while steps < max_steps:
+            eng.run(check, pre=(steps == 0))
+            steps += check
+            v = eng.gather("v")[:, :2]
+            if float(np.max(np.hypot(v[:, 0], v[:, 1]))) < v_stop:
+                break
+        eng.run_section("press_end")
+    finally:
+        eng.unfix("piston")
+    return steps
+
+
+def top_clearance(state):
+    """min over top disks of y minus max over bulk disks of y (centres)."""
+    y = state.positions[:, 1]
+    return float(np.min(y[state.top]) - np.max(y[~state.top]))
+
+
+def antisymmetry(state, cfg, F_x):
+    """||K - K^T||_F / ||K||_F of a gathered state (K: analysis Jacobian)."""
+    K = stiffness(state, cfg.k_n, cfg.k_t, cfg.mu, F_x, cfg.F_y)
+    if hasattr(K, "tocsr"):          # above DENSE_NEWTON_MAX dof
+        import scipy.sparse.linalg as spla
+
+        nrm = float(spla.norm(K))
+        return float(spla.norm(K - K.T) / nrm) if nrm > 0 else 0.0
+    nrm = float(np.linalg.norm(K))
+    return float(np.linalg.norm(K - K.T) / nrm) if nrm > 0 else 0.0
+
+
+def _frictionless_then_friction(eng, cfg, prog, t0):
+    """Steps (i)-(iv) of the default protocol (see :func:`relax`).
+
+    Returns (r, t_sim, record, compaction wall time, attempts).
+    """
+    cfg0 = cfg.replace(mu=0.0)
+    load_relax_scene(eng, cfg0, cfg.datafile, cfg.F_x)
+    t_comp = 0.0
+    offsets = [0.0]
+    if cfg.settle_steps > 0:
+        tc = time.perf_counter()
+        compact_bulk(eng)
+        place_top(eng, cfg.top_gap)
+        t_comp = time.perf_counter() - tc
+        st = eng.gather_state()
+        spacing = float(st.box_hi[0] - st.box_lo[0]) / max(1, int(np.count_nonzero(st.top)))
+        offsets = [k * spacing / cfg.top_attempts for k in range(cfg.top_attempts)]
+    start = eng.gather_state()
+    best = None
+    for k, dx in enumerate(offsets):
+        if k > 0:                      # same compacted bulk, line shifted along x
+            eng.restore(start)
+            eng.command(f"displace_atoms top move {dx!r} 0.0 0.0 units box")
+        if cfg.settle_steps > 0:
+            tc = time.perf_counter()
+            press_top(eng, cfg.F_x)
+            t_comp += time.perf_counter() - tc
+        try:
+            r, t_sim, rec = eq.equilibrate(eng, cfg0, cfg.F_x, progress=prog)
+        except eq.NoEquilibriumError as exc:
+            if k + 1 < len(offsets):
+                continue
+            if best is not None:
+                break
+            raise eq.NoEquilibriumError(
+                f"frictionless stage of protocol {cfg.protocol!r}: {exc}") from None
+        st = eng.gather_state()
+        clear = top_clearance(st)
+        if best is None or clear > best[0]:
+            best = (clear, st, r, t_sim, rec, k)
+        if clear > 0:
+            break
+    clear, st, r, t_sim, rec, k = best
+    if k != len(offsets) - 1 or not clear > 0:
+        eng.restore(st)
+    eng.unfix(*eq.DAMPING_FIXES, *eq.INTEGRATOR_FIXES)
+    # (iv) friction on; xi = 0 on every contact, so the forces are unchanged
+    set_friction(eng, cfg.mu)
+    st, _, r = eq.exact_residual(eng)
+    if np.any(st.xi != 0.0) or np.any(st.wall_xi != 0.0):
+        raise RuntimeError("friction switched on with nonzero contact history "
+                           f"(max |xi| = {float(np.max(np.abs(st.xi))):.3g})")
+    rec.add(t_sim, r, "friction-on", t0)
+    if not r < eq.accept_level(cfg, st):   # (not expected: xi = 0) polish with friction
+        r, t_sim, rec = eq.equilibrate(eng, cfg, cfg.F_x, record=rec, progress=prog,
+                                       newton_first=True)
+    return r, t_sim, rec, t_comp, k + 1
+
+
+def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
+    """Relax a packing to mechanical equilibrium at load (F_x, -F_y).
+
+    ``cfg.protocol = 'frictionless-then-friction'`` (default; docs/driver.md):
+    frictionless compaction of the bulk under gravity with the ``top`` line
+    held (:func:`compact_bulk`, skipped if ``settle_steps`` = 0), the line
+    lowered onto the bulk (:func:`place_top`), frictionless relaxation under
+    the loads (over-damped + Newton), then friction ``cfg.mu`` switched on
+    with zero history (still an equilibrium: the residual is re-evaluated,
+    and polished with friction if it is not below ``f_accept``).
+    ``'frictional'``: compaction of all disks with ``mu_settle``, then
+    relaxation with friction.
+
+    Parameters
+    ----------
+    cfg : RelaxConfig
+    out : str
+        Output folder: writes ``relax.h5`` and ``relax/equilibrium.*``.
+    comm : mpi4py communicator, optional
+    quiet : bool
+        No progress bar.
+    log : str
+        LAMMPS log file.
+    overwrite : bool
+        Replace the results of an earlier relax in ``out`` (default: refuse).
+
+    Returns
+    -------
+    RelaxResult
+
+    Raises
+    ------
+    ConfigError
+        ``out`` is not a writable folder or holds relax results (unless
+        ``overwrite``); the data file is empty, truncated, has non-finite
+        values or coincident disks.
+    NoEquilibriumError
+        If the top layer slides away or no equilibrium is reached.
+    """
+    if not isinstance(cfg, RelaxConfig):
+        raise ConfigError(f"relax needs a RelaxConfig, got {type(cfg).__name__}")
+    t0 = time.perf_counter()
+    with Engine(comm=comm, log=log) as eng:
+        cfg_in = cfg
+        cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "relax",
+                                     a_priori=cfg.settle_steps > 0)
+        prepare_out(eng, out, ["relax.h5"] + _equilibrium_files("relax"), overwrite, "relax")
+        _ensure_dir(eng, os.path.join(out, "relax"))
+        bar = _progress(None, "relax", quiet, eng.rank, unit="chk")
+
+        def prog(r):
+            bar.update(1)
+            bar.set_postfix_str(f"residual {r:.2e}")
+
+        t_comp, attempts = 0.0, 0
+        try:
+            if cfg.protocol == "frictionless-then-friction":
+                r, t_sim, rec, t_comp, attempts = _frictionless_then_friction(
+                    eng, cfg, prog, t0)
+            else:
+                load_relax_scene(eng, cfg, cfg.datafile, cfg.F_x)
+                if cfg.settle_steps > 0:
+                    tc = time.perf_counter()
+                    set_friction(eng, cfg.mu_settle)
+                    eng.commands(f"fix grav all gravity {cfg.g_settle!r} vector 0 -1 0\n"
+                                 f"run {cfg.settle_steps}\nunfix grav\n")
+                    set_friction(eng, cfg.mu)
+                    t_comp = time.perf_counter() - tc
+                r, t_sim, rec = eq.equilibrate(eng, cfg, cfg.F_x, progress=prog)
+        finally:
+            bar.close()
+        prefix = os.path.join(out, "relax", "equilibrium")
+        save_equilibrium(eng, cfg, cfg.F_x, prefix)
+        state = eng.gather_state()
+        phi = packing_fraction(state)
+        asym = antisymmetry(state, cfg, cfg.F_x) if eng.rank == 0 else None
+        asym = eng.comm.bcast(asym, root=0)
+        clear = top_clearance(state)
+        wall = time.perf_counter() - t0
+        nnewton = max(0, sum(1 for p in rec.phase if p == "newton") - 1)
+        h5 = os.path.join(out, "relax.h5")
+        if eng.rank == 0:
+            from remote_trigger.pywrap.stages.timestep import limit_of
+
+            lim_eq, _ = limit_of(state, cfg, cfg.F_x)
+            dtinfo.update(dt_max_equilibrium=lim_eq,
+                          dt_fraction_equilibrium=cfg.dt / lim_eq if lim_eq < np.inf else 0.0)
+        dtinfo = eng.comm.bcast(dtinfo, root=0)
+        if eng.rank == 0:
+            attrs = dict(cfg_in.to_attrs(), **dtinfo, stage="relax", status="complete",
+                         version=RESULT_VERSION, residual=r, converged=bool(r < cfg.f_min),
+                         wall_time=wall, damped_time=t_sim, packing_fraction=phi,
+                         antisymmetry=asym, top_clearance=clear, compaction_time=t_comp,
+                         top_attempts=attempts,
+                         n_ranks=eng.size, datafile_out=prefix + ".data",
+                         dumpfile=prefix + ".dump")
+            write_atomic(h5, attrs, {
+                "history/time": np.asarray(rec.time), "history/residual":
+                np.asarray(rec.residual), "history/phase": np.asarray(rec.phase, object),
+                "history/wall_time": np.asarray(rec.wall)})
+        eng.comm.Barrier()
+    return RelaxResult(r, bool(r < cfg.f_min), wall, t_sim, nnewton, phi, rec,
+                       prefix + ".data", prefix + ".dump", h5, protocol=cfg.protocol,
+                       antisymmetry=asym, top_clearance=clear, compaction_time=t_comp,
+                       top_attempts=attempts, timestep=dict(dtinfo))
+
+
+# --------------------------------------------------------------------------- ramp

@@ -1,0 +1,153 @@
+"""The package map of the README ("Layout") holds for the code: each package
+imports only what its row allows, no two modules import each other (no
+import circle of any length, lazy imports inside functions included), and no
+module is longer than 600 lines. Checked on the installed sources."""
+import ast
+import os
+
+import pytest
+
+import remote_trigger
+
+ROOT = list(remote_trigger.__path__)[0]          # a namespace package
+P = "remote_trigger."
+
+#: importer prefix -> prefixes it may import (besides itself); the longest
+#: matching importer prefix applies
+ALLOWED = {
+    "analysis": ("analysis.errors", "analysis.output"),
+    "analysis.state": ("analysis.errors", "analysis.output", "analysis.state"),
+    "analysis.stability": ("analysis.errors", "analysis.output", "analysis.state",
+                           "analysis.stability"),
+    "analysis.dynamics": ("analysis.errors", "analysis.output", "analysis.dynamics"),
+    "pywrap.config": ("analysis",),
+    "pywrap.errors": ("analysis", "pywrap.config", "pywrap.bindings", "pywrap.stages"),
+    "pywrap.bindings": ("analysis", "pywrap.config", "pywrap.bindings"),
+    "pywrap.runtime": ("analysis", "pywrap.config", "pywrap.runtime"),
+    "pywrap.stages": ("analysis", "pywrap.config", "pywrap.bindings", "pywrap.runtime",
+                      "pywrap.stages"),
+    "pywrap.cli": ("analysis", "pywrap"),
+}
+#: a job may import the lower layers and the paper job (whose folder the
+#: trigger map and the ensemble start from), not another job
+_JOB = ("analysis", "pywrap.config", "pywrap.errors", "pywrap.bindings", "pywrap.runtime",
+        "pywrap.stages", "pywrap.jobs.paper")
+ALLOWED["pywrap.jobs"] = _JOB
+for _job in ("paper", "trigger_map", "ensemble", "accuracy"):
+    ALLOWED[f"pywrap.jobs.{_job}"] = _JOB
+
+
+def modules():
+    out = {}
+    for top in ("analysis", "pywrap"):
+        for d, _, files in os.walk(os.path.join(ROOT, top)):
+            for f in files:
+                if f.endswith(".py"):
+                    path = os.path.join(d, f)
+                    name = os.path.relpath(path, ROOT)[:-3].replace(os.sep, ".")
+                    pkg = name.endswith(".__init__")
+                    out[name[:-9] if pkg else name] = (path, pkg)
+    return out
+
+
+MODULES = modules()
+
+
+def imports(name):
+    """Modules of the project that ``name`` imports (anywhere in its source)."""
+    path, pkg = MODULES[name]
+    base = name if pkg else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(open(path).read(), filename=path)):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                b = base
+                for _ in range(node.level - 1):
+                    b = b.rpartition(".")[0]
+                mod = b + ("." + node.module if node.module else "")
+            elif (node.module or "").startswith(P):
+                mod = node.module[len(P):]
+            else:
+                continue
+            for a in node.names:
+                found.add(mod + "." + a.name if mod + "." + a.name in MODULES else mod)
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.startswith(P):
+                    found.add(a.name[len(P):])
+    found.discard(name)
+    return {m for m in found if m in MODULES}
+
+
+def rule(name):
+    keys = [k for k in ALLOWED if name == k or name.startswith(k + ".")]
+    return max(keys, key=len) if keys else None
+
+
+def allowed(importer, imported):
+    key = rule(importer)
+    if key is None:
+        return True
+    if imported == key or imported.startswith(key + "."):
+        return True
+    return any(imported == a or imported.startswith(a + ".") for a in ALLOWED[key])
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_imports_follow_the_map(name):
+    bad = sorted(m for m in imports(name) if not allowed(name, m))
+    assert not bad, f"{name} imports {bad} (README Layout: {rule(name)})"
+
+
+def cycles(graph):
+    """Strongly connected components with more than one module (Tarjan)."""
+    index, low, stack, on, out, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in graph:
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_no_import_circles():
+    # a package imports its own modules; a module importing names from its
+    # package's __init__ is the usual Python idiom, not a circle of the code
+    graph = {m: {i for i in imports(m) if not m.startswith(i + ".")} for m in MODULES}
+    assert not cycles(graph)
+
+
+def test_the_checks_can_fail():
+    assert not allowed("analysis.state.state", "analysis.stability.jacobian")
+    assert not allowed("pywrap.runtime.jobfolder", "pywrap.jobs.paper")
+    assert not allowed("pywrap.jobs.ensemble.job", "pywrap.jobs.trigger_map.job")
+    assert allowed("pywrap.jobs.ensemble.job", "pywrap.jobs.paper.config")
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_modules_at_most_600_lines(name):
+    with open(MODULES[name][0]) as fh:
+        n = sum(1 for _ in fh)
+    assert n <= 600, f"{name}: {n} lines"
