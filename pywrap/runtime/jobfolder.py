@@ -16,42 +16,6 @@ from remote_trigger.pywrap.config import ConfigError, parse_set
 CONFIG_FILE = "config.json"
 
 
-def claim_task(folder, key):
-    """Take task ``key`` for this rank: create ``folder/<key>.claim`` exclusively.
-
-    The task queue of a job's MPI ranks: every rank walks the same task list
-    and runs a task only if its claim succeeds, so a rank that is free takes
-    the next task no rank has taken (dynamic load balance, no messages).
-
-    Parameters
-    ----------
-    folder : str
-        The job's ``tasks`` folder (shared by every rank).
-    key : str
-        The task's key.
-
-    Returns
-    -------
-    bool
-        False if another rank has claimed it (``O_CREAT | O_EXCL`` is atomic
-        on a local file system and on NFS v3 and later).
-    """
-    try:
-        fd = os.open(os.path.join(folder, key + ".claim"), os.O_CREAT | os.O_EXCL | os.O_WRONLY)
-    except FileExistsError:
-        return False
-    os.close(fd)
-    return True
-
-
-def clear_claims(folder):
-    """Remove every ``*.claim`` of ``folder`` (rank 0: before the ranks start
-    -- a killed run's claims on ``--resume`` -- and when all have ended)."""
-    for name in os.listdir(folder):
-        if name.endswith(".claim"):
-            os.remove(os.path.join(folder, name))
-
-
 def check_job_folder(out, config, resume, kind):
     """Refuse an ``--out`` that is a file or holds other results; check ``--resume``.
 
@@ -112,7 +76,9 @@ def add_job_arguments(p, out, config_class, quick_help, resume_help, set_example
     p.add_argument("--config", metavar="TOML", help=f"TOML file with any {config_class} key")
     p.add_argument("--quick", action="store_true", default=None, help=quick_help)
     p.add_argument("--resume", action="store_true", help=resume_help)
-    p.add_argument("--np", type=int, default=None, help="MPI ranks: re-launch under mpirun")
+    p.add_argument("--np", type=int, default=None,
+                   help="ranks that run tasks: re-launch under mpirun -np NP+1 (one more "
+                        "rank hands out the tasks and writes the results)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help=f"any configuration key (repeatable), e.g. {set_example}")
     p.add_argument("--quiet", action="store_true", help="no progress lines")

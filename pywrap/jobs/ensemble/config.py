@@ -69,7 +69,9 @@ class EnsembleConfig(Config):
         decision and eigenvalue) and the relaxed packings are kept (a ramp
         at N = 100 leaves ~25 MB of them).
     np : int
-        MPI ranks (re-launch under mpirun), >= 1. Default 1.
+        Ranks that run packings, >= 1 (default 1). Above 1 the job re-launches
+        itself under ``mpirun -np np+1``: rank 0 hands out the packings
+        (:func:`~remote_trigger.pywrap.runtime.taskfarm.run_tasks`).
     quick : bool
         The small test variant (:data:`QUICK`).
 

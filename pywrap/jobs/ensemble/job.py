@@ -40,11 +40,11 @@ frictionless-then-friction  1.0   same equilibria, I0 = 1 analysis
 frictional                  0.5   stability at F_x = 0
 ==========================  ====  ========================================
 
-Work is spread over MPI ranks: each rank runs its own LAMMPS instances on
-``MPI.COMM_SELF``; a free rank takes the next packing no rank has taken
-(one queue, largest N first; ``tasks/<key>.claim`` files). A
-packing's result is written atomically to ``tasks/<key>.json`` when it is
-finished; a job killed (also ``kill -9``) and run again with ``--resume``
+Work is spread over MPI ranks with ``mpi4py.futures``
+(:func:`remote_trigger.pywrap.runtime.taskfarm.run_tasks`): rank 0 hands
+out the packings (largest N first) and a free rank takes the next one,
+running its own LAMMPS instances on ``MPI.COMM_SELF``. Rank 0 writes a
+packing's result atomically to ``tasks/<key>.json`` when it is finished; a job killed (also ``kill -9``) and run again with ``--resume``
 keeps every finished packing, and of a packing it had started every
 finished stage (relaxation, ramp part, frictional part; an interrupted
 ramp continues from its ``ramp.h5``). One
@@ -65,8 +65,8 @@ import time
 import numpy as np
 
 from remote_trigger.pywrap.runtime.parallel import on_rank0
-from remote_trigger.pywrap.runtime.jobfolder import (
-    add_job_arguments, claim_task, clear_claims, job_overrides)
+from remote_trigger.pywrap.runtime.jobfolder import add_job_arguments, job_overrides
+from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 # the configuration and the table/statistics/outputs live in their own modules;
 # their names are importable from here as before
 from remote_trigger.pywrap.jobs.ensemble.config import (
@@ -442,6 +442,12 @@ def _np_default(o):
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
+def _packing_task(t, cfg, out, resume):
+    """One task of :func:`run_ensemble` (on a worker rank): :func:`run_packing`."""
+    return run_packing(cfg, t["n"], t["seed"], os.path.join(out, "packings", t["key"]),
+                       resume=resume)
+
+
 def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
     """The whole ensemble; every rank of ``comm`` calls it.
 
@@ -451,10 +457,9 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
     out : str
         Output folder (see :func:`check_out`).
     comm : mpi4py communicator, optional
-        Default ``MPI.COMM_WORLD``; its ranks take packings from one queue
-        (largest N first; a rank that is free takes the next packing no rank
-        has claimed, ``jobfolder.claim_task``), each rank runs LAMMPS on
-        ``MPI.COMM_SELF``.
+        Default ``MPI.COMM_WORLD``. With more than one rank, rank 0 hands out
+        the packings (largest N first) and ranks 1.. run them, each with
+        LAMMPS on ``MPI.COMM_SELF`` (:func:`.taskfarm.run_tasks`).
     speak : bool
         Progress lines (rank 0 only).
     resume : bool
@@ -489,39 +494,33 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
         check_out(cfg, out, resume)
         os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
         os.makedirs(os.path.join(out, "packings"), exist_ok=True)
-        clear_claims(os.path.join(out, "tasks"))   # a killed run's (--resume)
+        return [t for t in (tasks[i] for i in order) if load_task(out, t) is None]
 
-    on_rank0(comm, prepare)
     tasks = cfg.packings()
     order = sorted(range(len(tasks)), key=lambda i: (-tasks[i]["n"], i))
-    say(f"{len(tasks)} packings on {size} rank(s)")
+    todo = on_rank0(comm, prepare)
+    say(f"{len(tasks)} packings ({len(todo)} to run) on {n_workers(comm)} rank(s)")
     computed = []
-    for t in (tasks[i] for i in order):
-        if (load_task(out, t) is not None
-                or not claim_task(os.path.join(out, "tasks"), t["key"])):
-            continue
-        res = run_packing(cfg, t["n"], t["seed"], os.path.join(out, "packings", t["key"]),
-                          resume=resume)
+
+    def done(t, res, wall):
         write_json(_task_path(out, t["key"]), {"task": t, "status": "complete",
                                                "result": _jsonable(res)})
         computed.append(t["key"])
-        if speak and (rank == 0 or size == 1):
-            d = res["default"]
-            r0 = d["ramps"].get("mu0", {}).get("I0_0.5", {})
-            say(f"rank 0: {t['key']}: F_x^c(mu0) in [{r0.get('F_x_c_low', math.nan):.6g}, "
-                f"{r0.get('F_x_c_high', math.nan):.6g}]"
-                + (f"; error: {d['error']}" if d["error"] else "")
-                + f" ({res['wall']:.0f} s"
-                + (f"; {len(res['warnings'])} distinct warning(s) in tasks/{t['key']}.json"
-                   if res["warnings"] else "") + ")")
-    computed = comm.gather(computed, root=0)
-    if rank == 0:
-        clear_claims(os.path.join(out, "tasks"))
+        d = res["default"]
+        r0 = d["ramps"].get("mu0", {}).get("I0_0.5", {})
+        say(f"{t['key']}: F_x^c(mu0) in [{r0.get('F_x_c_low', math.nan):.6g}, "
+            f"{r0.get('F_x_c_high', math.nan):.6g}]"
+            + (f"; error: {d['error']}" if d["error"] else "")
+            + f" ({res['wall']:.0f} s"
+            + (f"; {len(res['warnings'])} distinct warning(s) in tasks/{t['key']}.json"
+               if res["warnings"] else "") + ")")
+
+    run_tasks(comm, todo, _packing_task, (cfg, out, resume), done)
     path = os.path.join(out, "ensemble.md")
     err = None
     if rank == 0:
         try:
-            computed = sorted(k for part in computed for k in part)
+            computed = sorted(computed)
             rows = []
             for t in tasks:
                 res = load_task(out, t)
@@ -533,14 +532,14 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
             write_table(os.path.join(out, TABLE), rows, cfg)
             plot(os.path.join(out, "ensemble.png"), rows, cfg)
             wall = time.perf_counter() - t_start
-            write_summary(path, rows, cfg, st, wall, size, computed)
+            write_summary(path, rows, cfg, st, wall, n_workers(comm), computed)
             mpath = os.path.join(out, MANIFEST)
             sessions = []
             if os.path.isfile(mpath):
                 with open(mpath) as fh:
                     sessions = json.load(fh).get("sessions", [])
-            sessions.append({"n_ranks": size, "computed": computed, "wall": wall,
-                             "resume": bool(resume)})
+            sessions.append({"n_ranks": n_workers(comm), "mpi_size": size,
+                             "computed": computed, "wall": wall, "resume": bool(resume)})
             write_json(mpath, {"config": cfg.to_dict(), "out": out, "status": "complete",
                                "n_packings": len(tasks), "sessions": sessions,
                                "statistics": _jsonable(
@@ -589,7 +588,7 @@ def main(args):
             check_out(cfg, out, args.resume)       # refuse before mpirun starts
         from remote_trigger.pywrap.runtime.relaunch import relaunch
 
-        return relaunch("ensemble", args, cfg.np, "REMOTE_TRIGGER_ENS_CHILD")
+        return relaunch("ensemble", args, cfg.np + 1, "REMOTE_TRIGGER_ENS_CHILD")
     path = run_ensemble(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)
     if world.Get_rank() == 0:
         print(f"ensemble: {path}")

@@ -66,7 +66,9 @@ class MapConfig(Config):
         Condition number kappa of the coalescing pair along the mu0 ramp:
         the ``kappa_steps`` steps nearest F_x^c (None: every step).
     np : int
-        MPI ranks (re-launch under mpirun), >= 1. Default 1.
+        Ranks that run tasks, >= 1 (default 1). Above 1 the job re-launches
+        itself under ``mpirun -np np+1``: rank 0 hands out the tasks
+        (:func:`~remote_trigger.pywrap.runtime.taskfarm.run_tasks`).
     quick : bool
         The small test variant (:data:`QUICK`).
     """

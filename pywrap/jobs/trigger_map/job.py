@@ -42,9 +42,10 @@ design; in short:
   drop with damping, from the quadratic eigenproblem
   (:func:`remote_trigger.analysis.stability.eigen.damped_growth_rate`).
 
-Work is spread over MPI ranks (each rank its own LAMMPS instance on
-``MPI.COMM_SELF``; a free rank takes the next task no rank has taken:
-``jobfolder.claim_task``); each task's runs are logged to
+Work is spread over MPI ranks with ``mpi4py.futures``
+(:func:`remote_trigger.pywrap.runtime.taskfarm.run_tasks`: rank 0 hands out
+the tasks, a free rank takes the next one and runs it on its own LAMMPS
+instance on ``MPI.COMM_SELF``); each task's runs are logged to
 ``tasks/<key>.json`` (atomic), so a job killed (also ``kill -9``) and run
 again with ``--resume`` keeps every finished run. Rank 0 writes
 ``trigger_map.h5`` (one row per map point), ``trigger_map.png`` and
@@ -59,8 +60,9 @@ import numpy as np
 
 from remote_trigger.analysis.dynamics.series import runaway_rate, runaway_consistent
 from remote_trigger.pywrap.runtime.parallel import on_rank0
+from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.runtime.jobfolder import (
-    add_job_arguments, claim_task, clear_claims, job_overrides)
+    add_job_arguments, job_overrides, write_json)
 # the configuration and the outputs live in their own modules; their names are
 # importable from here as before
 from remote_trigger.pywrap.jobs.trigger_map.config import ONSETS, MapConfig, QUICK, build_config
@@ -139,14 +141,12 @@ class _TaskLog:
         return None
 
     def add(self, run):
-        from remote_trigger.pywrap.runtime.jobfolder import write_json
         self.data["runs"].append(run)
         write_json(self.path, self.data)
 
     def finish(self, **result):
         """Record the result; the file is rewritten only if it changes (a resumed
         map re-walks finished tasks: their files stay untouched)."""
-        from remote_trigger.pywrap.runtime.jobfolder import write_json
         new = dict(self.data, **result, status="complete")
         if new == self.data:
             return
@@ -155,7 +155,6 @@ class _TaskLog:
 
     def fail(self, error):
         """Record the task as failed (redone by ``--resume``); returns the log data."""
-        from remote_trigger.pywrap.runtime.jobfolder import write_json
         self.data.update(status="failed", error=str(error))
         write_json(self.path, self.data)
         return self.data
@@ -354,6 +353,33 @@ def _forced_check(cfg, setup, ld, task, log, run, hi):
 
 
 # --------------------------------------------------------------------------- job
+#: the LAMMPS instance of this process's tasks (created by the first one)
+_ENGINE = None
+
+
+def _map_task(t, cfg, setup, out):
+    """One task of :func:`run_map` (on a worker rank); a failure is logged, not raised."""
+    global _ENGINE
+    if _ENGINE is None:
+        from mpi4py import MPI
+        from remote_trigger.pywrap.bindings.engine import Engine
+
+        _ENGINE = Engine(comm=MPI.COMM_SELF)
+    try:
+        return run_task(_ENGINE, cfg, setup, t, out)
+    except Exception as exc:  # noqa: BLE001 - one failed point must not stop the map
+        return _TaskLog(os.path.join(out, "tasks", t["key"] + ".json"), t).fail(
+            f"{type(exc).__name__}: {exc}")
+
+
+def _close_worker_engine():
+    """Close this process's task engine (every rank, once the tasks have ended)."""
+    global _ENGINE
+    if _ENGINE is not None:
+        _ENGINE.close()
+        _ENGINE = None
+
+
 def run_map(cfg, out, comm=None, speak=True, resume=False):
     """The whole trigger map; every rank of ``comm`` calls it.
 
@@ -363,7 +389,6 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
         Path of ``trigger_map.md`` (on every rank).
     """
     from mpi4py import MPI
-    from remote_trigger.pywrap.bindings.engine import Engine
 
     comm = comm or MPI.COMM_WORLD
     rank, size = comm.Get_rank(), comm.Get_size()
@@ -397,29 +422,20 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
     if rank == 0:
         os.makedirs(tdir, exist_ok=True)
         os.makedirs(os.path.join(out, "runs"), exist_ok=True)
-        clear_claims(tdir)            # a killed run's (--resume)
     comm.Barrier()
-    from remote_trigger.pywrap.runtime.jobfolder import write_json
-    done = 0
-    with Engine(comm=MPI.COMM_SELF) as eng:
-        for t in tasks:               # one queue: a free rank takes the next unclaimed task
-            if not claim_task(tdir, t["key"]):
-                continue
-            try:
-                d = run_task(eng, cfg, setup, t, out)
-            except Exception as exc:  # noqa: BLE001 - one failed point must not stop the map
-                d = _TaskLog(os.path.join(out, "tasks", t["key"] + ".json"), t)
-                d = d.fail(f"{type(exc).__name__}: {exc}")
-            done += 1
-            if speak and (rank == 0 or size == 1):
-                res = d
-                txt = (f"a_c in [{res.get('a_lo') or 0:.3g}, {res.get('a_hi') or math.inf:.3g}]"
-                       f" ({res.get('bracket_status')})" if t["kind"] == "threshold" else
-                       f"noise-triggered: {res.get('noise_triggered')}")
-                say(f"rank 0: {t['key']} ({done} on this rank, {len(tasks)} in all): {txt}")
-    comm.Barrier()
-    if rank == 0:
-        clear_claims(tdir)
+    ended = []
+
+    def done(t, res, wall):
+        ended.append(t["key"])
+        txt = (f"a_c in [{res.get('a_lo') or 0:.3g}, {res.get('a_hi') or math.inf:.3g}]"
+               f" ({res.get('bracket_status')})" if t["kind"] == "threshold" else
+               f"noise-triggered: {res.get('noise_triggered')}")
+        say(f"{t['key']} ({len(ended)} of {len(tasks)}): {txt}")
+
+    try:
+        run_tasks(comm, tasks, _map_task, (cfg, setup, out), done)
+    finally:
+        _close_worker_engine()
     path = os.path.join(out, "trigger_map.md")
     err = None
     if rank == 0:
@@ -434,10 +450,10 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
                 write_json(kpath, setup["ramp_kappa"])
             write_table(os.path.join(out, TABLE), rows, setup, cfg)
             plot_map(os.path.join(out, "trigger_map.png"), rows, setup)
-            write_summary(path, rows, setup, cfg, time.perf_counter() - t_start, size)
+            write_summary(path, rows, setup, cfg, time.perf_counter() - t_start, n_workers(comm))
             write_json(os.path.join(out, MANIFEST),
                        {"config": cfg.to_dict(), "out": out, "status": "complete",
-                        "n_tasks": len(tasks), "n_ranks": size,
+                        "n_tasks": len(tasks), "n_ranks": n_workers(comm), "mpi_size": size,
                         "wall": time.perf_counter() - t_start})
         except Exception as exc:  # noqa: BLE001 - re-raised on every rank
             err = exc
@@ -490,7 +506,7 @@ def main(args):
         from remote_trigger.pywrap.runtime.relaunch import relaunch
 
         load_paper_job(cfg.paper)
-        return relaunch("trigger-map", args, cfg.np, "REMOTE_TRIGGER_MAP_CHILD",
+        return relaunch("trigger-map", args, cfg.np + 1, "REMOTE_TRIGGER_MAP_CHILD",
                         extra=["--paper", args.paper] if args.paper else [])
     load_paper_job(cfg.paper)
     path = run_map(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)

@@ -1,0 +1,110 @@
+"""Independent tasks of a job spread over MPI ranks with ``mpi4py.futures``.
+
+The ``ensemble`` (one task per packing) and ``trigger-map`` (one task per
+map point or control) jobs hand their tasks to :func:`run_tasks`. Under MPI
+it uses :class:`mpi4py.futures.MPICommExecutor` on the job's communicator:
+rank 0 schedules the tasks (in the order given) and receives every result,
+ranks 1..n-1 run them, a free rank taking the next task (dynamic load
+balance). On one rank the tasks run one after the other in this process.
+The same launch works on one machine and on k nodes (``mpirun -np P`` /
+``srun``; docs/ensemble.md "Running on k nodes"): no shared file is used to
+hand out tasks, only MPI messages; the job's output folder must be visible
+to every rank, since a task writes its own files there.
+"""
+import time
+
+__all__ = ["run_tasks", "n_workers"]
+
+
+def n_workers(comm):
+    """Ranks that run tasks: ``size - 1`` under MPI (rank 0 schedules), 1 alone.
+
+    Parameters
+    ----------
+    comm : mpi4py communicator or None
+
+    Returns
+    -------
+    int
+    """
+    size = 1 if comm is None else comm.Get_size()
+    return max(1, size - 1)
+
+
+def run_tasks(comm, tasks, fn, args=(), done=None):
+    """Call ``fn(task, *args)`` for every task; rank 0 gets the results.
+
+    Every rank of ``comm`` calls this function; it returns when every task
+    has ended.
+
+    Parameters
+    ----------
+    comm : mpi4py communicator or None
+        ``None`` or size 1: the tasks run here, in order. Size > 1: rank 0
+        schedules, the other ranks run the tasks
+        (:class:`mpi4py.futures.MPICommExecutor`, root 0).
+    tasks : sequence
+        Picklable task descriptions, in the order they are handed out.
+    fn : callable
+        A module-level function (it is pickled by reference); it runs on a
+        worker rank and its return value is sent to rank 0 (picklable).
+        It should record a task's failure in its result rather than raise.
+    args : tuple, optional
+        Extra picklable arguments, sent with every task.
+    done : callable, optional
+        ``done(task, result, wall)`` on rank 0 as each task ends (in the
+        order they end): where the job writes the task's result file and
+        prints its progress line.
+
+    Returns
+    -------
+    list of (task, result) or None
+        On rank 0 the tasks and results in the order they ended; ``None``
+        on the other ranks.
+
+    Raises
+    ------
+    Exception
+        The first exception raised by ``fn`` or ``done``, re-raised on every
+        rank once the other tasks have ended (as
+        :func:`~remote_trigger.pywrap.runtime.parallel.on_rank0` does).
+    """
+    ended = []
+    if comm is None or comm.Get_size() == 1:
+        for task in tasks:
+            t0 = time.perf_counter()
+            res = fn(task, *args)
+            ended.append((task, res))
+            if done is not None:
+                done(task, res, time.perf_counter() - t0)
+        return ended
+    from concurrent.futures import as_completed
+
+    from mpi4py.futures import MPICommExecutor
+
+    from remote_trigger.pywrap.runtime.parallel import _portable
+
+    error = None
+    with MPICommExecutor(comm, root=0) as pool:
+        if pool is not None:             # rank 0; the workers run tasks meanwhile
+            futures = {pool.submit(_timed, fn, task, args): task for task in tasks}
+            for fut in as_completed(futures):
+                task = futures[fut]
+                try:
+                    res, wall = fut.result()
+                    ended.append((task, res))
+                    if done is not None:
+                        done(task, res, wall)
+                except Exception as exc:  # noqa: BLE001 - raised on every rank below
+                    error = error or _portable(exc)
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise error
+    return ended if comm.Get_rank() == 0 else None
+
+
+def _timed(fn, task, args):
+    """``(fn(task, *args), wall time in s)`` on the worker."""
+    t0 = time.perf_counter()
+    res = fn(task, *args)
+    return res, time.perf_counter() - t0
