@@ -1,7 +1,9 @@
 """``ensemble`` configuration: bad input is refused, naming the value, nothing written."""
 import pytest
 
+from remote_trigger.pywrap.jobs.ensemble import config as ec
 from remote_trigger.pywrap.jobs.ensemble import job as en
+from remote_trigger.pywrap.jobs.ensemble import report as er
 from remote_trigger.pywrap.jobs.ensemble import onset
 from remote_trigger.pywrap.cli import main
 from remote_trigger.pywrap.config import ConfigError
@@ -34,29 +36,29 @@ def test_bad_values_name_the_value(key, val, words):
     d = {"n": [100, 400]}
     d[key] = val
     with pytest.raises(ConfigError) as err:
-        en.EnsembleConfig.from_dict(d)
+        ec.EnsembleConfig.from_dict(d)
     assert words in str(err.value)
 
 
 def test_unknown_key():
     with pytest.raises(ConfigError, match="'seed'"):
-        en.EnsembleConfig.from_dict({"seed": 3})
+        ec.EnsembleConfig.from_dict({"seed": 3})
 
 
 def test_defaults_quick_and_precedence(tmp_path):
-    cfg = en.EnsembleConfig()
+    cfg = ec.EnsembleConfig()
     pk = cfg.packings()
     assert len(pk) == 25 and pk[0] == {"key": "N100_s1", "n": 100, "seed": 1}
     assert sum(p["n"] == 400 for p in pk) == 5
     assert (cfg.dF_x, cfg.tol, cfg.mu, cfg.mu_ss) == (2.5e-4, 1e-7, 1.0, 0.8)
-    one = en.EnsembleConfig(n=[16, 20], seeds=[3, 4])
+    one = ec.EnsembleConfig(n=[16, 20], seeds=[3, 4])
     assert one.seeds == ((3, 4), (3, 4))
     toml = tmp_path / "e.toml"
     toml.write_text("n = [16]\nseeds = [7]\n[relax]\ng_settle = 0.4\n")
-    cfg = en.build_config(str(toml), {"tol": 1e-3}, quick=True)
+    cfg = ec.build_config(str(toml), {"tol": 1e-3}, quick=True)
     assert cfg.n == (16,) and cfg.seeds == ((7,),) and cfg.tol == 1e-3 and cfg.quick
     assert cfg.relax == {"settle_steps": 10000, "g_settle": 0.4}
-    assert cfg.dF_x == en.QUICK["dF_x"]
+    assert cfg.dF_x == ec.QUICK["dF_x"]
 
 
 @pytest.mark.parametrize("argv,words", [
@@ -92,10 +94,10 @@ def test_bracket_order_and_slope():
     assert en.bracket(pts) == (0.1, 0.2)
     lo, hi = en.bracket(pts[:2])
     assert lo == 0.1 and hi == float("inf")
-    assert en.order_code(0.1, 0.2, 0.05, 0.08) == 1
-    assert en.order_code(0.1, 0.2, 0.25, 0.3) == 0
-    assert en.order_code(0.1, 0.2, 0.15, 0.3) == -1
-    assert en.order_code(0.1, 0.2, 0.25, float("inf")) == 0
+    assert er.order_code(0.1, 0.2, 0.05, 0.08) == 1
+    assert er.order_code(0.1, 0.2, 0.25, 0.3) == 0
+    assert er.order_code(0.1, 0.2, 0.15, 0.3) == -1
+    assert er.order_code(0.1, 0.2, 0.25, float("inf")) == 0
     # g = 3 sqrt(F - 0.1) exactly: the fit returns s = 3 and the onset 0.1
     F = [0.1 + 1e-4, 0.1 + 4e-4, 0.1 + 9e-4]
     g = [3 * (f - 0.1) ** 0.5 for f in F]
@@ -123,7 +125,7 @@ def test_soft_mode_onsets_are_flagged_and_kept_out_of_the_stiff_statistics():
 
     assert er.soft_onset(1.1e-7) == 1 and er.soft_onset(-8e-7) == 1
     assert er.soft_onset(0.013) == 0 and er.soft_onset(math.nan) == -1
-    cfg = en.EnsembleConfig.from_dict({"n": [100, 400], "seeds": [[1, 2], [1, 2]],
+    cfg = ec.EnsembleConfig.from_dict({"n": [100, 400], "seeds": [[1, 2], [1, 2]],
                                        "inertia_I0": None, "frictional": False})
     rows = []
     for n, seed, fc, rel in ((100, 1, 0.02, 0.2), (100, 2, 0.04, 0.1),

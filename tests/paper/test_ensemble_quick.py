@@ -18,7 +18,9 @@ import time
 import numpy as np
 import pytest
 
+from remote_trigger.pywrap.jobs.ensemble import config as ec
 from remote_trigger.pywrap.jobs.ensemble import job as en
+from remote_trigger.pywrap.jobs.ensemble import report as er
 
 CLI = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
 
@@ -45,7 +47,7 @@ def serial(tmp_path_factory):
     out = str(tmp_path_factory.mktemp("ens") / "serial")
     proc = _run(["--quick", "--out", out])
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    return out, proc, en.read_table(os.path.join(out, en.TABLE))
+    return out, proc, er.read_table(os.path.join(out, en.TABLE))
 
 
 def test_outputs_and_rows(serial):
@@ -97,7 +99,7 @@ def test_two_ranks_same_table(serial, tmp_path):
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     with open(os.path.join(out, en.MANIFEST)) as fh:
         assert json.load(fh)["sessions"][-1]["n_ranks"] == 2
-    _same(t1, en.read_table(os.path.join(out, en.TABLE)))
+    _same(t1, er.read_table(os.path.join(out, en.TABLE)))
     # warnings of the analysis are recorded per packing, not printed by any rank
     assert "Warning" not in proc.stderr, proc.stderr[-2000:]
     for name in os.listdir(os.path.join(out, "tasks")):
@@ -163,7 +165,7 @@ def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
     assert man["sessions"][-1]["resume"] is True
     assert not [n for n in os.listdir(tasks) if n.endswith(".claim")]
     assert os.stat(relaxed).st_mtime_ns == stamp, "the recorded relaxation was redone"
-    _same(t1, en.read_table(os.path.join(out, en.TABLE)))
+    _same(t1, er.read_table(os.path.join(out, en.TABLE)))
 
 
 def test_failure_is_recorded_and_others_finish(tmp_path, monkeypatch):
@@ -178,10 +180,10 @@ def test_failure_is_recorded_and_others_finish(tmp_path, monkeypatch):
         return real(cfg, datafile, folder, protocol)
 
     monkeypatch.setattr(en, "_relax", relax)
-    cfg = en.build_config(None, {"n": [16], "seeds": [1, 2], "inertia_I0": None}, quick=True)
+    cfg = ec.build_config(None, {"n": [16], "seeds": [1, 2], "inertia_I0": None}, quick=True)
     out = str(tmp_path / "fail")
     en.run_ensemble(cfg, out, comm=MPI.COMM_SELF, speak=False)
-    t = en.read_table(os.path.join(out, en.TABLE))
+    t = er.read_table(os.path.join(out, en.TABLE))
     assert list(t["key"]) == ["N16_s1", "N16_s1", "N16_s2", "N16_s2"]
     bad = (t["key"] == "N16_s2") & (t["protocol"] == "frictionless-then-friction")
     assert t["status"][bad][0] == "failed"
@@ -207,7 +209,7 @@ def test_adaptive_ramps_and_continuation(tmp_path):
     proc = _run(["--quick", "--out", out, "--set", "n=[16]", "--set", "seeds=[4]",
                  "--set", "dF_x_max=0.05", "--set", "keep_equilibria=true", "--quiet"])
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    t = en.read_table(os.path.join(out, en.TABLE))
+    t = er.read_table(os.path.join(out, en.TABLE))
     rows = {(t["protocol"][i], float(t["I0"][i])): i for i in range(len(t["key"]))}
     half, one = rows["frictionless-then-friction", 0.5], rows["frictionless-then-friction", 1.0]
     assert t["status"][half] == "ok" and t["status"][one] == "ok", list(t["reason"])

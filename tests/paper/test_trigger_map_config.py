@@ -1,10 +1,11 @@
 """``trigger-map`` configuration: bad input is refused, naming the value, nothing written."""
-import os
 
 import numpy as np
 import pytest
 
+from remote_trigger.pywrap.jobs.trigger_map import config as tc
 from remote_trigger.pywrap.jobs.trigger_map import job as tm
+from remote_trigger.pywrap.jobs.trigger_map import report as tr
 from remote_trigger.pywrap.jobs.trigger_map import loads
 from remote_trigger.pywrap.cli import main
 from remote_trigger.pywrap.config import ConfigError
@@ -30,15 +31,15 @@ from remote_trigger.pywrap.config import ConfigError
 ])
 def test_bad_values_name_the_value(key, val, words):
     with pytest.raises(ConfigError) as err:
-        tm.MapConfig.from_dict({"paper": "x", key: val})
+        tc.MapConfig.from_dict({"paper": "x", key: val})
     assert words in str(err.value)
 
 
 def test_unknown_key_and_missing_paper():
     with pytest.raises(ConfigError, match="'omega'"):
-        tm.MapConfig.from_dict({"paper": "x", "omega": [1.0]})
+        tc.MapConfig.from_dict({"paper": "x", "omega": [1.0]})
     with pytest.raises(ConfigError, match="paper"):
-        tm.MapConfig.from_dict({})
+        tc.MapConfig.from_dict({})
 
 
 @pytest.mark.parametrize("argv,words", [
@@ -59,13 +60,13 @@ def test_cli_refuses_and_writes_nothing(argv, words, tmp_path, capsys):
 def test_quick_preset_and_precedence(tmp_path):
     toml = tmp_path / "m.toml"
     toml.write_text('paper = "p"\nt_max = 300.0\n')
-    cfg = tm.build_config(str(toml), {"factor": 1.2}, quick=True)
+    cfg = tc.build_config(str(toml), {"factor": 1.2}, quick=True)
     assert cfg.quick and cfg.t_max == 300.0 and cfg.factor == 1.2
-    assert list(cfg.omega_p) == tm.QUICK["omega_p"]
+    assert list(cfg.omega_p) == tc.QUICK["omega_p"]
 
 
 def test_tasks_cover_the_grid_and_share_controls():
-    cfg = tm.MapConfig(paper="p", dt_check=2)
+    cfg = tc.MapConfig(paper="p", dt_check=2)
     setup = {"loads": [{"kind": "window 0.25", "fraction": 0.25},
                        {"kind": "window 0.5", "fraction": 0.5},
                        {"kind": "below", "fraction": -0.5}],
@@ -97,7 +98,7 @@ def test_a_failed_point_is_a_row_with_its_reason(tmp_path):
 
     setup = {"loads": [{"kind": "window 0.5", "fraction": 0.5, "F_x": 0.06}], "taus": [],
              "omegas": [0.01]}
-    cfg = tm.MapConfig(paper="p", onsets=["step"], dt_check=0)
+    cfg = tc.MapConfig(paper="p", onsets=["step"], dt_check=0)
     tasks = tm.make_tasks(cfg, setup)
     (tmp_path / "tasks").mkdir()
     logs = {
@@ -109,6 +110,6 @@ def test_a_failed_point_is_a_row_with_its_reason(tmp_path):
     for k, v in logs.items():
         (tmp_path / "tasks" / f"{k}.json").write_text(json.dumps(v))
     setup["loads"][0].update(growth=0.01, growth_tau=[])
-    rows = tm.collect(str(tmp_path), tasks, setup)
+    rows = tr.collect(str(tmp_path), tasks, setup)
     assert len(rows) == 1 and rows[0]["status"].startswith("failed: NoEquilibriumError")
     assert np.isnan(rows[0]["a_c"])

@@ -67,13 +67,9 @@ import numpy as np
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.jobfolder import add_job_arguments, job_overrides
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
-# the configuration and the table/statistics/outputs live in their own modules;
-# their names are importable from here as before
-from remote_trigger.pywrap.jobs.ensemble.config import (
-    EnsembleConfig, QUICK, I0_DYNAMICS, build_config)
+from remote_trigger.pywrap.jobs.ensemble.config import build_config
 from remote_trigger.pywrap.jobs.ensemble.report import (
-    PAPER_BRACKET, COLUMNS, STR_COLS, rows_of, statistics, quartiles, percentile_of, select,
-    order_code, write_table, read_table, plot, write_summary)
+    rows_of, statistics, write_table, plot, write_summary)
 
 __all__ = ["MANIFEST", "TABLE", "run_ensemble", "run_packing", "inertia_points", "check_out",
            "load_task", "register", "config_from_args", "main"]

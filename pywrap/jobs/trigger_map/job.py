@@ -63,11 +63,11 @@ from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.runtime.jobfolder import (
     add_job_arguments, job_overrides, write_json)
-# the configuration and the outputs live in their own modules; their names are
-# importable from here as before
-from remote_trigger.pywrap.jobs.trigger_map.config import ONSETS, MapConfig, QUICK, build_config
+from remote_trigger.pywrap.jobs.trigger_map.config import build_config
+from remote_trigger.pywrap.jobs.trigger_map.loads import (
+    load_paper_job, ramp_kappa, prepare_loads, map_omegas, predicted_rate)
 from remote_trigger.pywrap.jobs.trigger_map.report import (
-    MARGINAL, collect, write_table, plot_map, write_summary)
+    collect, write_table, plot_map, write_summary)
 
 __all__ = ["MANIFEST", "TABLE", "make_tasks", "run_map", "run_task", "rise_of", "d_run_level",
            "register", "config_from_args", "main"]
@@ -77,11 +77,6 @@ MANIFEST = "trigger_map.json"
 #: file of the table
 TABLE = "trigger_map.h5"
 
-
-# the paper job's data and the loads of the map (spectra, kappa, v0, compliance)
-# are read and computed in jobs.trigger_map.loads
-from remote_trigger.pywrap.jobs.trigger_map.loads import (  # noqa: E402
-    load_paper_job, ramp_kappa, prepare_loads, map_omegas, predicted_rate)
 
 
 # --------------------------------------------------------------------------- tasks
