@@ -6,6 +6,7 @@
 
 #include "atom.h"
 #include "comm.h"
+#include "domain.h"
 #include "error.h"
 #include "memory.h"
 
@@ -20,7 +21,8 @@ static const char TDISP[] = "mindlin_t";
 /* ---------------------------------------------------------------------- */
 
 FixMindlinHistory::FixMindlinHistory(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), idx_partner(-1), idx_t(-1), ncol(START_COLUMNS), nrows(0)
+    Fix(lmp, narg, arg), idx_partner(-1), idx_t(-1), ncol(START_COLUMNS),
+    nval((domain->dimension == 3) ? 3 : 1), nrows(0)
 {
   if (narg != 3)
     error->all(FLERR, "Fix mindlin/history is created by pair style mindlin/smooth and takes "
@@ -36,10 +38,10 @@ FixMindlinHistory::FixMindlinHistory(LAMMPS *lmp, int narg, char **arg) :
   restart_peratom = 1;
   create_attribute = 1;
   maxexchange_dynamic = 1;
-  maxexchange = 1 + 2 * ncol;
+  maxexchange = 1 + (1 + nval) * ncol;
 
   idx_partner = atom->add_custom(PARTNER, 0, ncol);
-  idx_t = atom->add_custom(TDISP, 1, ncol);
+  idx_t = atom->add_custom(TDISP, 1, nval * ncol);
   grow_arrays(atom->nmax);
   atom->add_callback(Atom::GROW);
   atom->add_callback(Atom::RESTART);
@@ -53,7 +55,7 @@ FixMindlinHistory::~FixMindlinHistory()
   atom->delete_callback(id, Atom::GROW);
   atom->delete_callback(id, Atom::RESTART);
   atom->remove_custom(idx_partner, 0, ncol);
-  atom->remove_custom(idx_t, 1, ncol);
+  atom->remove_custom(idx_t, 1, nval * ncol);
 }
 
 /* ---------------------------------------------------------------------- */
@@ -115,26 +117,22 @@ void FixMindlinHistory::set_columns(int n)
   int **p_new = nullptr;
   double **t_new = nullptr;
   memory->create(p_new, nrows, n, "mindlin/history:partner");
-  memory->create(t_new, nrows, n, "mindlin/history:t");
+  memory->create(t_new, nrows, nval * n, "mindlin/history:t");
   const int keep = (n < ncol) ? n : ncol;
   for (int i = 0; i < nrows; i++) {
-    for (int k = 0; k < keep; k++) {
-      p_new[i][k] = p_old[i][k];
-      t_new[i][k] = t_old[i][k];
-    }
-    for (int k = keep; k < n; k++) {
-      p_new[i][k] = 0;
-      t_new[i][k] = 0.0;
-    }
+    for (int k = 0; k < keep; k++) p_new[i][k] = p_old[i][k];
+    for (int k = keep; k < n; k++) p_new[i][k] = 0;
+    for (int k = 0; k < nval * keep; k++) t_new[i][k] = t_old[i][k];
+    for (int k = nval * keep; k < nval * n; k++) t_new[i][k] = 0.0;
   }
   memory->destroy(p_old);
   memory->destroy(t_old);
   atom->iarray[idx_partner] = p_new;
   atom->darray[idx_t] = t_new;
   atom->icols[idx_partner] = n;
-  atom->dcols[idx_t] = n;
+  atom->dcols[idx_t] = nval * n;
   ncol = n;
-  maxexchange = 1 + 2 * ncol;
+  maxexchange = 1 + (1 + nval) * ncol;
 }
 
 void FixMindlinHistory::reserve(int n)
@@ -158,7 +156,7 @@ int FixMindlinHistory::filled(int i) const
 void FixMindlinHistory::grow_arrays(int nmax)
 {
   memory->grow(atom->iarray[idx_partner], nmax, ncol, "mindlin/history:partner");
-  memory->grow(atom->darray[idx_t], nmax, ncol, "mindlin/history:t");
+  memory->grow(atom->darray[idx_t], nmax, nval * ncol, "mindlin/history:t");
   for (int i = nrows; i < nmax; i++) set_arrays(i);
   nrows = nmax;
 }
@@ -166,17 +164,17 @@ void FixMindlinHistory::grow_arrays(int nmax)
 void FixMindlinHistory::copy_arrays(int i, int j, int /*delflag*/)
 {
   memcpy(atom->iarray[idx_partner][j], atom->iarray[idx_partner][i], ncol * sizeof(int));
-  memcpy(atom->darray[idx_t][j], atom->darray[idx_t][i], ncol * sizeof(double));
+  memcpy(atom->darray[idx_t][j], atom->darray[idx_t][i], nval * ncol * sizeof(double));
 }
 
 void FixMindlinHistory::set_arrays(int i)
 {
   memset(atom->iarray[idx_partner][i], 0, ncol * sizeof(int));
-  memset(atom->darray[idx_t][i], 0, ncol * sizeof(double));
+  memset(atom->darray[idx_t][i], 0, nval * ncol * sizeof(double));
 }
 
 /* ----------------------------------------------------------------------
-   one atom's filled slots: n, then n (partner, t) pairs
+   one atom's filled slots: n, then n (partner, t) records, t of nval values
 ------------------------------------------------------------------------- */
 
 int FixMindlinHistory::pack_exchange(int i, double *buf)
@@ -188,7 +186,7 @@ int FixMindlinHistory::pack_exchange(int i, double *buf)
   buf[m++] = ubuf(n).d;
   for (int k = 0; k < n; k++) {
     buf[m++] = ubuf(p[k]).d;
-    buf[m++] = t[k];
+    for (int c = 0; c < nval; c++) buf[m++] = t[nval * k + c];
   }
   return m;
 }
@@ -203,7 +201,7 @@ int FixMindlinHistory::unpack_exchange(int nlocal, double *buf)
   int m = 1;
   for (int k = 0; k < n; k++) {
     p[k] = (int) ubuf(buf[m++]).i;
-    t[k] = buf[m++];
+    for (int c = 0; c < nval; c++) t[nval * k + c] = buf[m++];
   }
   return m;
 }
@@ -229,17 +227,17 @@ void FixMindlinHistory::unpack_restart(int nlocal, int nth)
 
 int FixMindlinHistory::size_restart(int nlocal)
 {
-  return 2 + 2 * filled(nlocal);
+  return 2 + (1 + nval) * filled(nlocal);
 }
 
 int FixMindlinHistory::maxsize_restart()
 {
-  return 2 + 2 * ncol;
+  return 2 + (1 + nval) * ncol;
 }
 
 /* ---------------------------------------------------------------------- */
 
 double FixMindlinHistory::memory_usage()
 {
-  return (double) nrows * ncol * (sizeof(int) + sizeof(double));
+  return (double) nrows * ncol * (sizeof(int) + nval * sizeof(double));
 }

@@ -10,7 +10,8 @@
      mindlin_partner[i][k]   partner atom ID of contact k of atom i
                              (0 = empty; filled slots come first)
      mindlin_t[i][k]         atom i's side of that contact's tangential
-                             displacement
+                             displacement (2d: the signed scalar xi)
+     mindlin_t[i][3k+c]      in 3d: component c of the vector t
 
    The number of columns starts at 8 and grows when an atom needs more
    (on its own rank at once; all ranks agree again at the next
@@ -57,7 +58,8 @@ class FixMindlinHistory : public Fix {
 
  protected:
   int idx_partner, idx_t;    // indices of the custom arrays in Atom
-  int ncol;                  // columns of both arrays on this rank
+  int ncol;                  // contact slots per atom on this rank
+  int nval;                  // values per contact in mindlin_t: 1 (2d), 3 (3d)
   int nrows;                 // rows allocated
 
   int filled(int i) const;

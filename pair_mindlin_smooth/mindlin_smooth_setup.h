@@ -14,16 +14,12 @@
 
 namespace MindlinSmooth {
 
-// Both styles need disks: atom style sphere in a 2d simulation.
+// Both styles need atom style sphere (disks in 2d, spheres in 3d).
 // `what` names the command in the error, e.g. "Pair style mindlin/smooth".
-inline void require_2d_spheres(LAMMPS_NS::LAMMPS *lmp, const char *what)
+inline void require_spheres(LAMMPS_NS::LAMMPS *lmp, const char *what)
 {
   if (!lmp->atom->radius_flag || !lmp->atom->omega_flag || !lmp->atom->torque_flag)
     lmp->error->all(FLERR, "{} requires atom style sphere", what);
-  if (lmp->domain->dimension != 2)
-    lmp->error->all(FLERR,
-                    "{} supports 2d simulations only (dimension 2), this one has dimension {}",
-                    what, lmp->domain->dimension);
 }
 
 // The tangential displacement is advanced by the velocities of each MD step

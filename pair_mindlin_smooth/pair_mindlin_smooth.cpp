@@ -11,6 +11,7 @@
 #include "pair_mindlin_smooth.h"
 
 #include "fix_mindlin_history.h"
+#include "mindlin_smooth_contacts.h"
 #include "mindlin_smooth_kernel.h"
 #include "mindlin_smooth_setup.h"
 
@@ -25,11 +26,13 @@
 #include "neighbor.h"
 #include "update.h"
 
-#include <cfloat>
 #include <cmath>
 #include <cstring>
 
 using namespace LAMMPS_NS;
+using MindlinSmooth::find_slot;
+using MindlinSmooth::touch_band;
+using MindlinSmooth::touch_base;
 
 static const char HISTORY_PARTNER[] = "mindlin_partner";
 static const char HISTORY_T[] = "mindlin_t";
@@ -45,8 +48,8 @@ PairMindlinSmooth::PairMindlinSmooth(LAMMPS *lmp) :
   writedata = 1;
   finitecutflag = 1;
   no_virial_fdotr_compute = 1;
-  single_extra = 5;
-  svector = new double[single_extra];
+  single_extra = 5;    // 7 in 3d (init_style)
+  svector = new double[7];
 }
 
 /* ---------------------------------------------------------------------- */
@@ -164,6 +167,15 @@ void PairMindlinSmooth::find_history()
   ncol = cols;
   int flag_t, cols_t;
   idx_t = atom->find_custom(HISTORY_T, flag_t, cols_t);
+  if (domain->dimension == 3) {
+    // three components (t_x, t_y, t_z) per contact
+    if (idx_t < 0 || flag_t != 1 || cols_t != 3 * ncol)
+      error->all(FLERR,
+                 "Pair style mindlin/smooth: in 3d per-atom array d2_{} must have 3 columns "
+                 "per contact, 3 x {} = {} for the {} of i2_{}, got {}",
+                 HISTORY_T, ncol, 3 * ncol, ncol, HISTORY_PARTNER, cols_t);
+    return;
+  }
   if (idx_t < 0 || flag_t != 1 || cols_t != ncol)
     error->all(FLERR,
                "Pair style mindlin/smooth: per-atom array d2_{} must exist with as "
@@ -175,15 +187,17 @@ void PairMindlinSmooth::find_history()
 
 void PairMindlinSmooth::init_style()
 {
-  MindlinSmooth::require_2d_spheres(lmp, "Pair style mindlin/smooth");
+  MindlinSmooth::require_spheres(lmp, "Pair style mindlin/smooth");
   MindlinSmooth::forbid_minimize(lmp, "Pair style mindlin/smooth");
   if (comm->ghost_velocity == 0)
     error->all(FLERR,
                "Pair style mindlin/smooth requires ghost atoms store velocity: "
                "use 'comm_modify vel yes'");
 
+  single_extra = (domain->dimension == 3) ? 7 : 5;
   setup_history();
   if ((int) contacts.size() < ncol) contacts.resize(ncol);
+  if (domain->dimension == 3 && (int) contacts3.size() < ncol) contacts3.resize(ncol);
 
   // Full list with per-type cutoffs (largest radii of the two types): a
   // size-based full list would stop compute pair/local from deriving its
@@ -246,59 +260,15 @@ double PairMindlinSmooth::init_one(int i, int j)
   return maxrad[i] + maxrad[j];
 }
 
-/* ----------------------------------------------------------------------
-   slot of partner jtag among one atom's ncol history slots, -1 if none
-------------------------------------------------------------------------- */
-
-static inline int find_slot(const int *partner, int ncol, tagint jtag)
-{
-  for (int k = 0; k < ncol; k++) {
-    if (partner[k] == jtag) return k;
-    if (partner[k] == 0) break;    // slots are packed
-  }
-  return -1;
-}
-
-/* ----------------------------------------------------------------------
-   touching band.  Each disk of a pair decides the contact from its own
-   copy of the geometry, and across a periodic boundary each sees the
-   other's image x +- L, rounded: at an overlap within a few ulps of the
-   coordinates the two tests can disagree (measured: 31 of 81 positions
-   one ulp apart around delta = 0 in a box 47.6 wide), and one side would
-   keep a history entry that the other drops.  A disk held by a single
-   contact is drawn to exactly that place (its force-free position is
-   delta = 0).  Within |delta| <= tau a pair therefore stays listed in the
-   history, or unlisted, as its history records -- the same on both sides --
-   with xi = 0 and no tangential force (so that the two sides' xi agree
-   too); the normal force is each side's own k_n delta^(3/2) for delta > 0,
-   as everywhere.  Outside the band the overlap decides.  tau depends only
-   on the box and the two radii, so both sides use the same tau; it is 64
-   ulps of the largest coordinate a ghost can have, ~1e-12 for a box of 50,
-   where the tangential force left out is below mu k_n tau^(3/2) ~ 1e-13.
-------------------------------------------------------------------------- */
-
-static const double TOUCH_ULPS = 64.0;
-
-static double touch_base(const Domain *domain)
-{
-  double ext = 0.0;
-  for (int d = 0; d < 2; d++) {
-    ext = MAX(ext, fabs(domain->boxlo[d]));
-    ext = MAX(ext, fabs(domain->boxhi[d]));
-  }
-  return ext + MAX(domain->prd[0], domain->prd[1]);
-}
-
-static inline double touch_band(double base, double radsum)
-{
-  return TOUCH_ULPS * DBL_EPSILON * (base + radsum);
-}
-
 /* ---------------------------------------------------------------------- */
 
 void PairMindlinSmooth::compute(int eflag, int vflag)
 {
   ev_init(eflag, vflag);
+  if (domain->dimension == 3) {
+    compute_3d();
+    return;
+  }
 
   // re-read: the arrays move when atoms are added or sorted
   find_history();
@@ -396,22 +366,9 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
 
     if (nc > nslot && !history) too_many_contacts(tag[i]);
 
-    // canonical order: ascending partner tag (insertion sort)
-    for (int a = 1; a < nc; a++) {
-      const Contact key = cs[a];
-      int b = a - 1;
-      while (b >= 0 && cs[b].tag > key.tag) {
-        cs[b + 1] = cs[b];
-        b--;
-      }
-      cs[b + 1] = key;
-    }
-    for (int a = 1; a < nc; a++)
-      if (cs[a].tag == cs[a - 1].tag)
-        error->one(FLERR,
-                   "Pair style mindlin/smooth: atom {} touches two periodic images of "
-                   "atom {}; the box is too small",
-                   tag[i], cs[a].tag);
+    // canonical order: ascending partner tag
+    const int dup = MindlinSmooth::sort_by_tag(cs, nc);
+    if (dup >= 0) two_images(tag[i], cs[dup].tag);
 
     for (int a = 0; a < nc; a++) {
       const Contact &c = cs[a];
@@ -470,14 +427,28 @@ void PairMindlinSmooth::too_many_contacts(tagint itag)
 }
 
 /* ----------------------------------------------------------------------
+   atom itag touches two periodic images of atom jtag
+------------------------------------------------------------------------- */
+
+void PairMindlinSmooth::two_images(tagint itag, tagint jtag)
+{
+  error->one(FLERR,
+             "Pair style mindlin/smooth: atom {} touches two periodic images of atom {}; the "
+             "box is too small",
+             itag, jtag);
+}
+
+/* ----------------------------------------------------------------------
    force of one pair from the stored history; never changes state.
    fforce: normal force / r along x_i - x_j.
    svector: F_t,x  F_t,y  u = |t|/t*  t_x  t_y  (tangential part, on atom i)
+   and in 3d F_t,z  t_z
 ------------------------------------------------------------------------- */
 
 double PairMindlinSmooth::single(int i, int j, int itype, int jtype, double rsq,
                                  double /*factor_coul*/, double /*factor_lj*/, double &fforce)
 {
+  if (domain->dimension == 3) return single_3d(i, j, itype, jtype, rsq, fforce);
   for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
   fforce = 0.0;
   const double radsum = atom->radius[i] + atom->radius[j];
