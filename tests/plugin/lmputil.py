@@ -125,3 +125,22 @@ def set_per_atom(lmp, name, atom_id, values):
     arr = lmp.numpy.extract_atom(name)
     for k, val in enumerate(values):
         arr[idx, k] = val
+
+
+def box_commands_3d(size=10.0, boundary="p p f", hist=None, ntypes=2, lo=0.0):
+    """A cubic 3D box [lo, lo + size]^3; ``hist`` an optional fix
+    property/atom command for the history (defined before the atoms)."""
+    a, b = float(lo), float(lo + size)
+    cmds = ["units lj", "dimension 3", "atom_style sphere", "atom_modify map array",
+            f"boundary {boundary}", "comm_modify vel yes",
+            f"region box block {a!r} {b!r} {a!r} {b!r} {a!r} {b!r}", f"create_box {ntypes} box"]
+    return cmds + ([hist] if hist else [])
+
+
+def add_sphere(lmp, atype, radius, pos):
+    """Create one sphere with mass 1 at ``pos``."""
+    x, y, z = (float(c) for c in pos)
+    lmp.command(f"create_atoms {atype} single {x!r} {y!r} {z!r} units box")
+    n = lmp.get_natoms()
+    lmp.command(f"set atom {n} diameter {float(2.0 * radius)!r}")
+    lmp.command(f"set atom {n} mass 1.0")
