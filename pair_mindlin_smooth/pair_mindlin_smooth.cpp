@@ -34,14 +34,14 @@ using MindlinSmooth::find_slot;
 using MindlinSmooth::touch_band;
 using MindlinSmooth::touch_base;
 
-static const char HISTORY_PARTNER[] = "mindlin_partner";
-static const char HISTORY_T[] = "mindlin_t";
+static const char *const HISTORY_PARTNER = FixMindlinHistory::PARTNER;
+static const char *const HISTORY_T = FixMindlinHistory::T_2D;
 
 /* ---------------------------------------------------------------------- */
 
 PairMindlinSmooth::PairMindlinSmooth(LAMMPS *lmp) :
     Pair(lmp), kn(nullptr), kt(nullptr), mu(nullptr), maxrad(nullptr), ncol(0),
-    idx_partner(-1), idx_t(-1), history(nullptr)
+    idx_partner(-1), idx_t(-1), idx_t3{-1, -1, -1}, history(nullptr)
 {
   single_enable = 1;
   restartinfo = 1;
@@ -147,8 +147,9 @@ void PairMindlinSmooth::setup_history()
 {
   history = dynamic_cast<FixMindlinHistory *>(modify->get_fix_by_id(FixMindlinHistory::ID));
   int flag, cols;
+  const char *tname = (domain->dimension == 3) ? FixMindlinHistory::T_3D[0] : HISTORY_T;
   if (!history && atom->find_custom(HISTORY_PARTNER, flag, cols) < 0 &&
-      atom->find_custom(HISTORY_T, flag, cols) < 0)
+      atom->find_custom(tname, flag, cols) < 0)
     history = dynamic_cast<FixMindlinHistory *>(
         modify->add_fix(fmt::format("{} all mindlin/history", FixMindlinHistory::ID)));
   find_history();
@@ -166,16 +167,23 @@ void PairMindlinSmooth::find_history()
                HISTORY_T, HISTORY_PARTNER, HISTORY_PARTNER, HISTORY_T);
   ncol = cols;
   int flag_t, cols_t;
-  idx_t = atom->find_custom(HISTORY_T, flag_t, cols_t);
   if (domain->dimension == 3) {
-    // three components (t_x, t_y, t_z) per contact
-    if (idx_t < 0 || flag_t != 1 || cols_t != 3 * ncol)
-      error->all(FLERR,
-                 "Pair style mindlin/smooth: in 3d per-atom array d2_{} must have 3 columns "
-                 "per contact, 3 x {} = {} for the {} of i2_{}, got {}",
-                 HISTORY_T, ncol, 3 * ncol, ncol, HISTORY_PARTNER, cols_t);
+    // the three components of t, one array each
+    for (int c = 0; c < 3; c++) {
+      const char *name = FixMindlinHistory::T_3D[c];
+      idx_t3[c] = atom->find_custom(name, flag_t, cols_t);
+      if (idx_t3[c] < 0 || flag_t != 1 || cols_t != ncol)
+        error->all(FLERR,
+                   "Pair style mindlin/smooth: in 3d the history needs per-atom arrays "
+                   "d2_mindlin_tx, d2_mindlin_ty, d2_mindlin_tz with as many columns as "
+                   "i2_{} ({}); d2_{} is {}",
+                   HISTORY_PARTNER, ncol, name,
+                   (idx_t3[c] < 0) ? std::string("missing")
+                                   : fmt::format("of {} columns", cols_t));
+    }
     return;
   }
+  idx_t = atom->find_custom(HISTORY_T, flag_t, cols_t);
   if (idx_t < 0 || flag_t != 1 || cols_t != ncol)
     error->all(FLERR,
                "Pair style mindlin/smooth: per-atom array d2_{} must exist with as "

@@ -10,8 +10,9 @@
      fix hist all property/atom i2_mindlin_partner 8 d2_mindlin_t 8 ghost no
 
    which keeps working (fixed number of slots; history in data files).
-   In 3d the tangential displacement is a vector: d2_mindlin_t then has
-   three columns per contact (t_x, t_y, t_z of slot k in 3k, 3k+1, 3k+2).
+   In 3d the tangential displacement is a vector, kept in three arrays
+   d2_mindlin_tx, d2_mindlin_ty, d2_mindlin_tz (instead of d2_mindlin_t),
+   each with the columns of i2_mindlin_partner.
 ------------------------------------------------------------------------- */
 
 #ifndef LMP_PAIR_MINDLIN_SMOOTH_H
@@ -65,7 +66,8 @@ class PairMindlinSmooth : public Pair {
   double **kn, **kt, **mu;
   double *maxrad;                   // largest radius of each atom type
   int ncol;                         // contact slots per atom
-  int idx_partner, idx_t;           // indices of the history arrays
+  int idx_partner, idx_t;           // indices of the history arrays (2d)
+  int idx_t3[3];                    // 3d: mindlin_tx, mindlin_ty, mindlin_tz
   std::vector<Contact> contacts;    // scratch space, >= ncol entries
   std::vector<Contact3> contacts3;    // the same in 3d
   class FixMindlinHistory *history;    // internal storage, or nullptr when

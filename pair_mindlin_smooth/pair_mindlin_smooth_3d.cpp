@@ -5,7 +5,7 @@
    list, each owned atom updating only its own side of each contact, the
    contacts of an atom summed in ascending partner tag, the touching band.
    The law is that of mindlin_smooth_kernel_3d.h: the stored tangential
-   displacement t (three columns per contact in mindlin_t) is projected
+   displacement t (mindlin_tx, mindlin_ty, mindlin_tz) is projected
    onto the current tangent plane with its length kept, advanced by the
    slip of the step and capped at t*; the torque is (-R_i n) x F_t.
 ------------------------------------------------------------------------- */
@@ -35,7 +35,7 @@ void PairMindlinSmooth::compute_3d()
 {
   find_history();
   int **partner = atom->iarray[idx_partner];
-  double **tdisp = atom->darray[idx_t];
+  double **tc[3] = {atom->darray[idx_t3[0]], atom->darray[idx_t3[1]], atom->darray[idx_t3[2]]};
 
   double **x = atom->x;
   double **v = atom->v;
@@ -49,7 +49,6 @@ void PairMindlinSmooth::compute_3d()
   const int update_history = (update->setupflag == 0);
   const double dt = update->dt;
   const double tbase = touch_base(domain);
-  const double zero[3] = {0.0, 0.0, 0.0};
 
   int nslot = ncol;
   if ((int) contacts3.size() < nslot) contacts3.resize(nslot);
@@ -68,7 +67,6 @@ void PairMindlinSmooth::compute_3d()
       cs = contacts3.data();
     }
     const int *ipartner = partner[i];
-    const double *itdisp = tdisp[i];
     int nc = 0;
 
     for (int jj = 0; jj < jnum; jj++) {
@@ -95,7 +93,9 @@ void PairMindlinSmooth::compute_3d()
       if (!listed && !(gap > 0.0)) continue;
       // inside the band: normal force only and t = 0 (as in 2d)
       const double delta = MAX(gap, 0.0);
-      const double *stored = (slot >= 0 && !band) ? itdisp + 3 * slot : zero;
+      double stored[3] = {0.0, 0.0, 0.0};
+      if (slot >= 0 && !band)
+        for (int a = 0; a < 3; a++) stored[a] = tc[a][i][slot];
       const bool advance = update_history && !band;
       double slip[3] = {0.0, 0.0, 0.0};
       if (advance) {
@@ -139,19 +139,19 @@ void PairMindlinSmooth::compute_3d()
         history->reserve(nc);
         find_history();
         partner = atom->iarray[idx_partner];
-        tdisp = atom->darray[idx_t];
+        for (int k = 0; k < 3; k++) tc[k] = atom->darray[idx_t3[k]];
         nslot = ncol;
       }
       int nl = 0;
       for (int a = 0; a < nc; a++) {
         if (!cs[a].listed) continue;
         partner[i][nl] = cs[a].tag;
-        for (int k = 0; k < 3; k++) tdisp[i][3 * nl + k] = cs[a].t[k];
+        for (int k = 0; k < 3; k++) tc[k][i][nl] = cs[a].t[k];
         nl++;
       }
       for (int a = nl; a < nslot; a++) {
         partner[i][a] = 0;
-        for (int k = 0; k < 3; k++) tdisp[i][3 * a + k] = 0.0;
+        for (int k = 0; k < 3; k++) tc[k][i][a] = 0.0;
       }
     }
   }
@@ -173,13 +173,15 @@ double PairMindlinSmooth::single_3d(int i, int j, int itype, int jtype, double r
   const double rmax = radsum + tau;
   if (rsq >= rmax * rmax || rsq == 0.0) return 0.0;
 
-  if (idx_t < 0) find_history();
+  if (idx_t3[0] < 0) find_history();
   const int slot = find_slot(atom->iarray[idx_partner][i], atom->icols[idx_partner], atom->tag[j]);
   const double r = sqrt(rsq);
   const double gap = radsum - r;
   if (!(gap > 0.0)) return 0.0;
   const double zero[3] = {0.0, 0.0, 0.0};
-  const double *stored = (slot >= 0 && gap > tau) ? atom->darray[idx_t][i] + 3 * slot : zero;
+  double stored[3] = {0.0, 0.0, 0.0};
+  if (slot >= 0 && gap > tau)
+    for (int a = 0; a < 3; a++) stored[a] = atom->darray[idx_t3[a]][i][slot];
 
   double **x = atom->x;
   const double n[3] = {(x[i][0] - x[j][0]) / r, (x[i][1] - x[j][1]) / r,

@@ -9,8 +9,8 @@ slip = P[(v_i - v_j) - (R_i om_i + R_j om_j) x n] (v_j = om_j = 0 for a wall).
 import numpy as np
 import pytest
 
-from .lmputil import (KN, KT, MU, add_sphere, box_commands_3d, gather, new_lammps,
-                      set_per_atom)
+from .lmputil import (KN, KT, MU, add_sphere, box_commands_3d, gather, history_3d,
+                      new_lammps, set_per_atom)
 
 R1, R2 = 0.5, 0.7
 DELTA = 1.0e-3
@@ -60,7 +60,7 @@ def two_spheres(v1=(0, 0, 0), w1=(0, 0, 0), v2=(0, 0, 0), w2=(0, 0, 0), nsteps=1
         set_per_atom(lmp, name, atom, val)
     lmp.command(f"run {nsteps}")
     out = {k: gather(lmp, k, 3) for k in ("x", "f", "torque", "v", "omega")}
-    out["t"] = gather(lmp, "d2_mindlin_t", 24)[:, :3]
+    out["t"] = history_3d(lmp)[:, 0]
     out["partner"] = gather(lmp, "i2_mindlin_partner", 8, dtype=0)[:, 0]
     return lmp, out
 
@@ -152,7 +152,7 @@ def test_history_follows_a_turning_normal():
             t *= size / np.linalg.norm(t)
         t = law(R1 + R2 - np.linalg.norm(d), t + DT * slip(n, v[0] - v[1],
                                                            R1 * om[0] + R2 * om[1]), 100.0)[1]
-    stored = gather(lmp, "d2_mindlin_t", 24)[:, :3]
+    stored = history_3d(lmp)[:, 0]
     assert abs(stored[0] @ n) < 1e-15 * np.linalg.norm(stored[0])     # in the plane
     assert np.linalg.norm(t) == pytest.approx(0.2508, abs=1e-4)
     close(stored[0], t, rel=1e-11)

@@ -110,8 +110,9 @@ def test_three_dimensions_need_three_history_columns_per_contact():
     base(lmp, dimension=3)
     lmp.commands_list(["create_atoms 1 single 5 5 5 units box", "set atom 1 mass 1.0",
                        "pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
-    with pytest.raises(Exception, match=r"in 3d per-atom array d2_mindlin_t must have 3 "
-                                        r"columns per contact, 3 x 8 = 24 .*got 8"):
+    with pytest.raises(Exception, match=r"in 3d the history needs per-atom arrays "
+                                        r"d2_mindlin_tx, d2_mindlin_ty, d2_mindlin_tz .*"
+                                        r"d2_mindlin_tx is missing"):
         lmp.command("run 0")
     lmp.close()
 
