@@ -39,6 +39,7 @@ FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
 {
   dim3 = (domain->dimension == 3);
   nval = dim3 ? 3 : 1;
+  MindlinSmooth::refuse_rolling_twisting(lmp, "Fix wall/mindlin/smooth", narg, arg);
   if (narg < 8) error->all(FLERR, "Fix wall/mindlin/smooth needs: {}", USAGE);
 
   kn = utils::numeric(FLERR, arg[3], false, lmp);

@@ -103,6 +103,7 @@ void PairMindlinSmooth::settings(int narg, char **arg)
 
 void PairMindlinSmooth::coeff(int narg, char **arg)
 {
+  MindlinSmooth::refuse_rolling_twisting(lmp, "Pair coeff mindlin/smooth", narg, arg);
   if (narg != 5)
     error->all(FLERR,
                "Pair coeff for mindlin/smooth needs 5 arguments (I J k_n k_t mu), got {}",

@@ -252,3 +252,23 @@ def test_wall_mu_from_fix_mu_velocity_in_3d():
     close(out["f"], ref["f"])
     assert abs(out["f"][0]) == pytest.approx(mu * KN * DELTA ** 1.5, rel=1e-11)
     lmp.close()
+
+
+def test_single_and_compute_pair_local_in_3d():
+    """compute pair/local p1..p7 = F_t,x F_t,y u t_x t_y F_t,z t_z of atom i,
+    from the stored history; run 0 changes neither history nor forces."""
+    lmp, out = two_spheres(v1=0.3 * E1, w2=(0.0, 0.5, -0.2), nsteps=5)
+    lmp.commands_list(["compute pl all pair/local p1 p2 p3 p4 p5 p6 p7 cutoff radius",
+                       "run 0", "run 0"])
+    np.testing.assert_array_equal(history_3d(lmp)[:, 0], out["t"])
+    np.testing.assert_array_equal(gather(lmp, "f", 3), out["f"])
+    pl = np.array(lmp.numpy.extract_compute("pl", 2, 2), dtype=np.float64)
+    assert pl.shape == (1, 7)
+    ref = expected_pair(out, 5)
+    ft = ref["f"][0] - (ref["f"][0] @ N0) * N0
+    sign = 1.0 if pl[0, 3] * ref["t"][0] > 0 else -1.0     # atom i is 1 or 2
+    close(sign * pl[0, [0, 1, 5]], ft)
+    close(sign * pl[0, [3, 4, 6]], ref["t"])
+    ts = MU * KN * DELTA / KT
+    assert pl[0, 2] == pytest.approx(np.linalg.norm(ref["t"]) / ts, rel=1e-12)
+    lmp.close()
