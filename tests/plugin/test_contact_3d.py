@@ -272,3 +272,34 @@ def test_single_and_compute_pair_local_in_3d():
     ts = MU * KN * DELTA / KT
     assert pl[0, 2] == pytest.approx(np.linalg.norm(ref["t"]) / ts, rel=1e-12)
     lmp.close()
+
+
+def test_more_than_eight_contacts_grow_the_history():
+    """A sphere with 12 neighbours (fcc shell), history kept by the pair: the
+    arrays grow past their 8 starting columns, every contact is recorded on
+    both sides as mirror images, and the forces on the centre sum to zero
+    by symmetry while each neighbour gets minus its share."""
+    dirs = np.array([(a, b, 0) for a in (1, -1) for b in (1, -1)] +
+                    [(a, 0, b) for a in (1, -1) for b in (1, -1)] +
+                    [(0, a, b) for a in (1, -1) for b in (1, -1)], float) / np.sqrt(2.0)
+    lmp = new_lammps()
+    lmp.commands_list(box_commands_3d(boundary="p p p"))
+    c = np.array([5.0, 5.0, 5.0])
+    add_sphere(lmp, 1, R1, c)
+    for d in dirs:
+        add_sphere(lmp, 1, R1, c + (2 * R1 - DELTA) * d)
+    lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN!r} {KT!r} {MU!r}",
+                       f"timestep {DT!r}"])
+    set_per_atom(lmp, "omega", 1, (0.7, -0.4, 0.9))
+    lmp.command("run 3")
+    ncol = lmp.numpy.extract_atom("i2_mindlin_partner").shape[1]
+    assert ncol >= 12
+    part = gather(lmp, "i2_mindlin_partner", ncol, dtype=0)
+    assert list(part[0][part[0] > 0]) == list(range(2, 14))
+    t = history_3d(lmp, ncol)
+    for k, j in enumerate(part[0][:12]):
+        row = int(np.nonzero(part[j - 1] == 1)[0][0])
+        np.testing.assert_array_equal(t[j - 1, row], -t[0, k])
+    f = gather(lmp, "f", 3)
+    assert np.abs(f[0]).max() < 1e-12 * np.abs(f[1:]).max()
+    lmp.close()
