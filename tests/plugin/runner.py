@@ -3,14 +3,16 @@
 Used in-process by the restart tests and as a script under ``mpirun`` by the
 MPI test:
 
-    mpirun -np 2 python runner.py START.data OUT.npz NSTEPS UPPER [SPLIT MODE] [3d]
+    mpirun -np 2 python runner.py START.data OUT.npz NSTEPS UPPER [SPLIT MODE] [3d [own]]
 
 With SPLIT and MODE (``data`` or ``restart``): run SPLIT steps, write a data
 or restart file, then continue in a fresh LAMMPS instance for the remaining
 steps. MODE ``split``: the same two ``run`` commands in one instance, no file.
 The final state (sorted by atom ID, float64) is saved on rank 0. With ``3d``
 the packing is one of spheres (``dimension 3``): the floor is a zplane, the
-load along -z, and the history has three columns per contact.
+load along -z, and the history has three arrays. With ``3d own`` the pair
+and the floor keep their history themselves (no fix property/atom; the data
+file must have no history sections) and the floor has friction.
 """
 import os
 import sys
@@ -28,17 +30,18 @@ SETTINGS_3D = ["units lj", "dimension 3", "atom_style sphere", "atom_modify map 
                "boundary p p f", "comm_modify vel yes"]
 
 
-def styles_and_dynamics(lmp, upper_y, dim=2):
+def styles_and_dynamics(lmp, upper_y, dim=2, floor_kt=0.0):
     """Wall, integrator and loads: all disks pushed down (as when they were
     settled), the upper ones also sideways, so that contacts slide. In 3D
     "down" is -z, ``upper_y`` a height in z, and the floor is frictionless:
     a zplane wall keeps its history in restart files, not in data files
-    (as xplane/yplane lo hi walls in 2D)."""
+    (as xplane/yplane lo hi walls in 2D), unless ``floor_kt`` is given."""
     kn, kt = lmputil.KN, lmputil.KT
     if dim == 3:
         lmp.commands_list([
             "set group all mass 1.0",
-            f"fix wall all wall/mindlin/smooth {kn!r} 0.0 {lmputil.MU!r} zplane 0.0 NULL",
+            f"fix wall all wall/mindlin/smooth {kn!r} {floor_kt!r} {lmputil.MU!r} "
+            "zplane 0.0 NULL",
             f"region upper block INF INF INF INF {upper_y!r} INF units box",
             "group upper region upper",
             "fix nve all nve/sphere",
@@ -59,9 +62,13 @@ def styles_and_dynamics(lmp, upper_y, dim=2):
     ])
 
 
-def open_data(datafile, upper_y, comm=None, dim=2):
+def open_data(datafile, upper_y, comm=None, dim=2, own=False):
     """A LAMMPS instance with the packing of ``datafile``, ready to run."""
     lmp = lmputil.new_lammps(comm=comm)
+    if own:
+        lmp.commands_list(SETTINGS_3D + ["pair_style mindlin/smooth", f"read_data {datafile}"])
+        styles_and_dynamics(lmp, upper_y, dim, floor_kt=lmputil.KT)
+        return lmp
     if dim == 3:
         lmp.commands_list(SETTINGS_3D + lmputil.HIST_3D + [
             "pair_style mindlin/smooth", f"read_data {datafile} {lmputil.READ_HIST_3D}"])
@@ -106,9 +113,10 @@ def state(lmp, dim=2):
 
 
 def continue_run(datafile, nsteps, upper_y, split=None, mode=None, workdir=".", comm=None,
-                 dim=2):
-    """Run ``nsteps`` from ``datafile``, optionally through a file round trip."""
-    lmp = open_data(datafile, upper_y, comm=comm, dim=dim)
+                 dim=2, own=False):
+    """Run ``nsteps`` from ``datafile``, optionally through a file round trip
+    (not with ``own``)."""
+    lmp = open_data(datafile, upper_y, comm=comm, dim=dim, own=own)
     if split is None:
         lmp.command(f"run {nsteps}")
     else:
@@ -133,13 +141,16 @@ def continue_run(datafile, nsteps, upper_y, split=None, mode=None, workdir=".", 
 
 
 def main(argv):
+    own = argv[-1] == "own"
+    argv = argv[:-1] if own else argv
     dim = 3 if argv[-1] == "3d" else 2
     argv = argv[:-1] if dim == 3 else argv
     datafile, outfile, nsteps, upper_y = argv[1], argv[2], int(argv[3]), float(argv[4])
     split = int(argv[5]) if len(argv) > 5 else None
     mode = argv[6] if len(argv) > 6 else None
     out = continue_run(datafile, nsteps, upper_y, split, mode,
-                       workdir=os.path.dirname(outfile), comm=MPI.COMM_WORLD, dim=dim)
+                       workdir=os.path.dirname(outfile), comm=MPI.COMM_WORLD, dim=dim,
+                       own=own)
     if MPI.COMM_WORLD.rank == 0:
         np.savez(outfile, **out)
 

@@ -71,6 +71,29 @@ def test_mpi_ranks_agree_bitwise(start, reference, np_, tmp_path):
     assert_same(reference, dict(np.load(out)))
 
 
+@pytest.mark.mpi
+def test_mpi_ranks_agree_bitwise_with_the_pairs_own_history(tmp_path):
+    """No fix property/atom, a frictional floor: the pair's and the wall's own
+    history migrate between 2 ranks; np = 2 equals np = 1 bitwise."""
+    lmp = new_lammps()
+    lmputil.settled_packing_3d(lmp, 120, seed=6, steps=6000, shear=0.3, hist=None)
+    path = str(tmp_path / "own.data")
+    lmp.command(f"write_data {path} pair ij")
+    upper = float(np.quantile(gather(lmp, "x", 3)[:, 2], 0.8))
+    lmp.close()
+    mpirun = os.path.join(os.path.dirname(sys.executable), "mpirun")
+    got = []
+    for np_ in (1, 2):
+        out = str(tmp_path / f"state{np_}.npz")
+        cmd = [mpirun, "-np", str(np_), sys.executable, runner.__file__, path, out,
+               str(NSTEPS), repr(upper), "3d", "own"]
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+        assert res.returncode == 0, res.stderr[-3000:]
+        got.append(dict(np.load(out)))
+    assert np.count_nonzero(got[0]["i2_mindlin_partner"]) > 60
+    assert_same(got[0], got[1])
+
+
 def test_internal_history_restart_is_bitwise(tmp_path):
     """No fix property/atom: the pair's own history (3 columns per contact) and
     the wall's (3 values per sphere) go through a restart file unchanged."""
