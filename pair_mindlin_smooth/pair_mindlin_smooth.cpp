@@ -160,6 +160,11 @@ void PairMindlinSmooth::find_history()
 {
   int flag, cols;
   idx_partner = atom->find_custom(HISTORY_PARTNER, flag, cols);
+  if ((idx_partner < 0 || flag != 0 || cols < 1) && domain->dimension == 3)
+    error->all(FLERR,
+               "Pair style mindlin/smooth: a fix property/atom defines d2_{} but not i2_{}; "
+               "define i2_{} with d2_mindlin_tx, d2_mindlin_ty, d2_mindlin_tz, or none of them",
+               FixMindlinHistory::T_3D[0], HISTORY_PARTNER, HISTORY_PARTNER);
   if (idx_partner < 0 || flag != 0 || cols < 1)
     error->all(FLERR,
                "Pair style mindlin/smooth: a fix property/atom defines d2_{} but not i2_{}; "
@@ -206,7 +211,6 @@ void PairMindlinSmooth::init_style()
   single_extra = (domain->dimension == 3) ? 7 : 5;
   setup_history();
   if ((int) contacts.size() < ncol) contacts.resize(ncol);
-  if (domain->dimension == 3 && (int) contacts3.size() < ncol) contacts3.resize(ncol);
 
   // Full list with per-type cutoffs (largest radii of the two types): a
   // size-based full list would stop compute pair/local from deriving its

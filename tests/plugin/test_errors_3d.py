@@ -51,6 +51,9 @@ def test_rolling_and_twisting_resistance_refused(cmd, word):
      r"columns as i2_mindlin_partner \(8\); d2_mindlin_ty is missing"),
     (["fix h all property/atom i2_mindlin_partner 8 d2_mindlin_tx 8 d2_mindlin_ty 4 "
       "d2_mindlin_tz 8 ghost no"], r"d2_mindlin_ty is of 4 columns"),
+    (["fix h all property/atom d2_mindlin_tx 8 ghost no"],
+     r"defines d2_mindlin_tx but not i2_mindlin_partner; define i2_mindlin_partner with "
+     r"d2_mindlin_tx, d2_mindlin_ty, d2_mindlin_tz, or none of them"),
 ])
 def test_incomplete_3d_history_arrays(hist, match):
     setup = box_commands_3d(hist=None) + hist
