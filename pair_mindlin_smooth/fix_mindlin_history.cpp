@@ -6,6 +6,7 @@
 
 #include "atom.h"
 #include "comm.h"
+#include "domain.h"
 #include "error.h"
 #include "memory.h"
 
@@ -14,32 +15,35 @@
 using namespace LAMMPS_NS;
 using namespace FixConst;
 
-static const char PARTNER[] = "mindlin_partner";
-static const char TDISP[] = "mindlin_t";
+static const char *const PARTNER = FixMindlinHistory::PARTNER;
 
 /* ---------------------------------------------------------------------- */
 
 FixMindlinHistory::FixMindlinHistory(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), idx_partner(-1), idx_t(-1), ncol(START_COLUMNS), nrows(0)
+    Fix(lmp, narg, arg), idx_partner(-1), idx_t{-1, -1, -1}, ncol(START_COLUMNS),
+    nval((domain->dimension == 3) ? 3 : 1), nrows(0)
 {
   if (narg != 3)
     error->all(FLERR, "Fix mindlin/history is created by pair style mindlin/smooth and takes "
                       "no arguments");
   int flag, cols;
-  if (atom->find_custom(PARTNER, flag, cols) >= 0 || atom->find_custom(TDISP, flag, cols) >= 0)
-    error->all(FLERR,
-               "Fix mindlin/history: per-atom arrays {} / {} already exist (from a fix "
-               "property/atom?)",
-               PARTNER, TDISP);
+  for (int c = -1; c < nval; c++) {
+    const char *name = (c < 0) ? PARTNER : t_name(c);
+    if (atom->find_custom(name, flag, cols) >= 0)
+      error->all(FLERR,
+                 "Fix mindlin/history: per-atom array {} already exists (from a fix "
+                 "property/atom?)",
+                 name);
+  }
 
   restart_global = 1;
   restart_peratom = 1;
   create_attribute = 1;
   maxexchange_dynamic = 1;
-  maxexchange = 1 + 2 * ncol;
+  maxexchange = 1 + (1 + nval) * ncol;
 
   idx_partner = atom->add_custom(PARTNER, 0, ncol);
-  idx_t = atom->add_custom(TDISP, 1, ncol);
+  for (int c = 0; c < nval; c++) idx_t[c] = atom->add_custom(t_name(c), 1, ncol);
   grow_arrays(atom->nmax);
   atom->add_callback(Atom::GROW);
   atom->add_callback(Atom::RESTART);
@@ -53,7 +57,7 @@ FixMindlinHistory::~FixMindlinHistory()
   atom->delete_callback(id, Atom::GROW);
   atom->delete_callback(id, Atom::RESTART);
   atom->remove_custom(idx_partner, 0, ncol);
-  atom->remove_custom(idx_t, 1, ncol);
+  for (int c = 0; c < nval; c++) atom->remove_custom(idx_t[c], 1, ncol);
 }
 
 /* ---------------------------------------------------------------------- */
@@ -110,31 +114,31 @@ void FixMindlinHistory::restart(char *buf)
 
 void FixMindlinHistory::set_columns(int n)
 {
-  int **p_old = atom->iarray[idx_partner];
-  double **t_old = atom->darray[idx_t];
-  int **p_new = nullptr;
-  double **t_new = nullptr;
-  memory->create(p_new, nrows, n, "mindlin/history:partner");
-  memory->create(t_new, nrows, n, "mindlin/history:t");
   const int keep = (n < ncol) ? n : ncol;
+  int **p_old = atom->iarray[idx_partner];
+  int **p_new = nullptr;
+  memory->create(p_new, nrows, n, "mindlin/history:partner");
   for (int i = 0; i < nrows; i++) {
-    for (int k = 0; k < keep; k++) {
-      p_new[i][k] = p_old[i][k];
-      t_new[i][k] = t_old[i][k];
-    }
-    for (int k = keep; k < n; k++) {
-      p_new[i][k] = 0;
-      t_new[i][k] = 0.0;
-    }
+    for (int k = 0; k < keep; k++) p_new[i][k] = p_old[i][k];
+    for (int k = keep; k < n; k++) p_new[i][k] = 0;
   }
   memory->destroy(p_old);
-  memory->destroy(t_old);
   atom->iarray[idx_partner] = p_new;
-  atom->darray[idx_t] = t_new;
   atom->icols[idx_partner] = n;
-  atom->dcols[idx_t] = n;
+  for (int c = 0; c < nval; c++) {
+    double **t_old = atom->darray[idx_t[c]];
+    double **t_new = nullptr;
+    memory->create(t_new, nrows, n, "mindlin/history:t");
+    for (int i = 0; i < nrows; i++) {
+      for (int k = 0; k < keep; k++) t_new[i][k] = t_old[i][k];
+      for (int k = keep; k < n; k++) t_new[i][k] = 0.0;
+    }
+    memory->destroy(t_old);
+    atom->darray[idx_t[c]] = t_new;
+    atom->dcols[idx_t[c]] = n;
+  }
   ncol = n;
-  maxexchange = 1 + 2 * ncol;
+  maxexchange = 1 + (1 + nval) * ncol;
 }
 
 void FixMindlinHistory::reserve(int n)
@@ -158,7 +162,8 @@ int FixMindlinHistory::filled(int i) const
 void FixMindlinHistory::grow_arrays(int nmax)
 {
   memory->grow(atom->iarray[idx_partner], nmax, ncol, "mindlin/history:partner");
-  memory->grow(atom->darray[idx_t], nmax, ncol, "mindlin/history:t");
+  for (int c = 0; c < nval; c++)
+    memory->grow(atom->darray[idx_t[c]], nmax, ncol, "mindlin/history:t");
   for (int i = nrows; i < nmax; i++) set_arrays(i);
   nrows = nmax;
 }
@@ -166,29 +171,29 @@ void FixMindlinHistory::grow_arrays(int nmax)
 void FixMindlinHistory::copy_arrays(int i, int j, int /*delflag*/)
 {
   memcpy(atom->iarray[idx_partner][j], atom->iarray[idx_partner][i], ncol * sizeof(int));
-  memcpy(atom->darray[idx_t][j], atom->darray[idx_t][i], ncol * sizeof(double));
+  for (int c = 0; c < nval; c++)
+    memcpy(atom->darray[idx_t[c]][j], atom->darray[idx_t[c]][i], ncol * sizeof(double));
 }
 
 void FixMindlinHistory::set_arrays(int i)
 {
   memset(atom->iarray[idx_partner][i], 0, ncol * sizeof(int));
-  memset(atom->darray[idx_t][i], 0, ncol * sizeof(double));
+  for (int c = 0; c < nval; c++) memset(atom->darray[idx_t[c]][i], 0, ncol * sizeof(double));
 }
 
 /* ----------------------------------------------------------------------
-   one atom's filled slots: n, then n (partner, t) pairs
+   one atom's filled slots: n, then n (partner, t) records, t of nval values
 ------------------------------------------------------------------------- */
 
 int FixMindlinHistory::pack_exchange(int i, double *buf)
 {
   const int n = filled(i);
   const int *p = atom->iarray[idx_partner][i];
-  const double *t = atom->darray[idx_t][i];
   int m = 0;
   buf[m++] = ubuf(n).d;
   for (int k = 0; k < n; k++) {
     buf[m++] = ubuf(p[k]).d;
-    buf[m++] = t[k];
+    for (int c = 0; c < nval; c++) buf[m++] = atom->darray[idx_t[c]][i][k];
   }
   return m;
 }
@@ -199,11 +204,10 @@ int FixMindlinHistory::unpack_exchange(int nlocal, double *buf)
   reserve(n);
   set_arrays(nlocal);
   int *p = atom->iarray[idx_partner][nlocal];
-  double *t = atom->darray[idx_t][nlocal];
   int m = 1;
   for (int k = 0; k < n; k++) {
     p[k] = (int) ubuf(buf[m++]).i;
-    t[k] = buf[m++];
+    for (int c = 0; c < nval; c++) atom->darray[idx_t[c]][nlocal][k] = buf[m++];
   }
   return m;
 }
@@ -229,17 +233,17 @@ void FixMindlinHistory::unpack_restart(int nlocal, int nth)
 
 int FixMindlinHistory::size_restart(int nlocal)
 {
-  return 2 + 2 * filled(nlocal);
+  return 2 + (1 + nval) * filled(nlocal);
 }
 
 int FixMindlinHistory::maxsize_restart()
 {
-  return 2 + 2 * ncol;
+  return 2 + (1 + nval) * ncol;
 }
 
 /* ---------------------------------------------------------------------- */
 
 double FixMindlinHistory::memory_usage()
 {
-  return (double) nrows * ncol * (sizeof(int) + sizeof(double));
+  return (double) nrows * ncol * (sizeof(int) + nval * sizeof(double));
 }

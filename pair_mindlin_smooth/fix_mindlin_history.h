@@ -10,7 +10,11 @@
      mindlin_partner[i][k]   partner atom ID of contact k of atom i
                              (0 = empty; filled slots come first)
      mindlin_t[i][k]         atom i's side of that contact's tangential
-                             displacement
+                             displacement (2d: the signed scalar xi)
+     mindlin_tx/ty/tz[i][k]  in 3d, instead of mindlin_t: the components of
+                             the vector t (three arrays, so that each line
+                             of a data-file section stays short: LAMMPS
+                             read_data reads lines of at most 255 characters)
 
    The number of columns starts at 8 and grows when an atom needs more
    (on its own rank at once; all ranks agree again at the next
@@ -30,6 +34,10 @@ class FixMindlinHistory : public Fix {
  public:
   static constexpr const char *ID = "MINDLIN_HISTORY";
   static constexpr int START_COLUMNS = 8;
+  // names of the per-atom arrays (without the i2_ / d2_ prefix)
+  static constexpr const char *PARTNER = "mindlin_partner";
+  static constexpr const char *T_2D = "mindlin_t";
+  static constexpr const char *T_3D[3] = {"mindlin_tx", "mindlin_ty", "mindlin_tz"};
 
   FixMindlinHistory(class LAMMPS *, int, char **);
   ~FixMindlinHistory() override;
@@ -56,8 +64,11 @@ class FixMindlinHistory : public Fix {
   void reserve(int n);
 
  protected:
-  int idx_partner, idx_t;    // indices of the custom arrays in Atom
-  int ncol;                  // columns of both arrays on this rank
+  int idx_partner, idx_t[3];    // indices of the custom arrays in Atom
+  int ncol;                     // columns of every array (contact slots) on this rank
+  int nval;                     // arrays of t: 1 (2d, mindlin_t), 3 (3d, mindlin_tx/ty/tz)
+
+  const char *t_name(int c) const { return (nval == 3) ? T_3D[c] : T_2D; }
   int nrows;                 // rows allocated
 
   int filled(int i) const;

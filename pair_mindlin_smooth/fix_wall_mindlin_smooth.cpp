@@ -5,9 +5,11 @@
 #include "fix_wall_mindlin_smooth.h"
 
 #include "mindlin_smooth_kernel.h"
+#include "mindlin_smooth_kernel_3d.h"
 #include "mindlin_smooth_setup.h"
 
 #include "atom.h"
+#include "domain.h"
 #include "error.h"
 #include "input.h"
 #include "memory.h"
@@ -22,11 +24,12 @@ using namespace LAMMPS_NS;
 using namespace FixConst;
 
 static const char HISTORY_WALL[] = "mindlin_wall_t";
-static constexpr int NCOLS = 5;    // fx fy u t delta
+static constexpr int NCOLS = 5;     // fx fy u t delta
+static constexpr int NCOLS3 = 8;    // 3d: fx fy fz u t_x t_y t_z delta
 
 static const char USAGE[] =
-    "fix ID group wall/mindlin/smooth k_n k_t mu xplane|yplane lo hi (NULL = open side), "
-    "yplane y_lo, or zcylinder R";
+    "fix ID group wall/mindlin/smooth k_n k_t mu xplane|yplane|zplane lo hi (NULL = open "
+    "side; zplane in 3d), yplane y_lo, or zcylinder R";
 
 /* ---------------------------------------------------------------------- */
 
@@ -34,6 +37,9 @@ FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), mu_ivar(-1), nwall(0), legacy_syntax(0), idx_legacy(-1),
     hist(nullptr), nmax_hist(0), nmax(0), reduced(0)
 {
+  dim3 = (domain->dimension == 3);
+  nval = dim3 ? 3 : 1;
+  MindlinSmooth::refuse_rolling_twisting(lmp, "Fix wall/mindlin/smooth", narg, arg);
   if (narg < 8) error->all(FLERR, "Fix wall/mindlin/smooth needs: {}", USAGE);
 
   kn = utils::numeric(FLERR, arg[3], false, lmp);
@@ -53,8 +59,13 @@ FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
   }
 
   const std::string wstyle = arg[6];
-  if (wstyle == "xplane" || wstyle == "yplane") {
-    const int axis = (wstyle == "xplane") ? 0 : 1;
+  if (wstyle == "zplane" && !dim3)
+    error->all(FLERR,
+               "Fix wall/mindlin/smooth: zplane needs dimension 3, this simulation has "
+               "dimension {}",
+               domain->dimension);
+  if (wstyle == "xplane" || wstyle == "yplane" || wstyle == "zplane") {
+    const int axis = wstyle[0] - 'x';
     if (narg == 8 && axis == 1) {
       legacy_syntax = 1;
       walls[nwall++] = {1, 1.0, wall_arg(arg[7], "y_lo")};
@@ -87,21 +98,22 @@ FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
 
   scalar_flag = 1;
   vector_flag = 1;
-  size_vector = 2;
+  size_vector = dim3 ? 3 : 2;
   global_freq = 1;
   extscalar = 1;
   extvector = 1;
   energy_global_flag = 1;
   peratom_flag = 1;
-  size_peratom_cols = NCOLS;
+  size_peratom_cols = dim3 ? NCOLS3 : NCOLS;
   peratom_freq = 1;
   array_atom = nullptr;
-  for (int k = 0; k < 3; k++) local[k] = total[k] = 0.0;
+  for (int k = 0; k < 4; k++) local[k] = total[k] = 0.0;
 
-  // own history, one value per disk and wall
+  // own history, one value (3d: three) per disk and wall
   restart_peratom = 1;
   create_attribute = 1;
-  maxexchange = nwall;
+  nhist = nwall * nval;
+  maxexchange = nhist;
   grow_arrays(atom->nmax);
   atom->add_callback(Atom::GROW);
   atom->add_callback(Atom::RESTART);
@@ -139,13 +151,18 @@ int FixWallMindlinSmooth::setmask()
 
 void FixWallMindlinSmooth::init()
 {
-  MindlinSmooth::require_2d_spheres(lmp, "Fix wall/mindlin/smooth");
+  MindlinSmooth::require_spheres(lmp, "Fix wall/mindlin/smooth");
   MindlinSmooth::forbid_minimize(lmp, "Fix wall/mindlin/smooth");
 
   // older decks: 'yplane y_lo' with d_mindlin_wall_t from a fix property/atom
   idx_legacy = -1;
   int flag, cols;
   const int idx = atom->find_custom(HISTORY_WALL, flag, cols);
+  if (legacy_syntax && idx >= 0 && dim3)
+    error->all(FLERR,
+               "Fix wall/mindlin/smooth {}: d_{} holds one value per atom, the 2d history; in "
+               "3d the fix keeps its history itself: drop d_{} from the fix property/atom",
+               id, HISTORY_WALL, HISTORY_WALL);
   if (legacy_syntax && idx >= 0) {
     if (flag != 1 || cols != 0)
       error->all(FLERR, "Fix wall/mindlin/smooth: d_{} must be a per-atom double vector",
@@ -268,6 +285,73 @@ void wall_pass(const WallArrays &a, const FixWallMindlinSmooth::Wall &wall, doub
     local[2] += fy;
   }
 }
+
+/* ----------------------------------------------------------------------
+   the same in 3d (KIND = 0, 1, 2: x-, y-, zplane; -1: zcylinder), the
+   law of mindlin_smooth_kernel_3d.h with v_j = 0, om_j = 0; three history
+   values per atom at a.stored + i * a.stride
+------------------------------------------------------------------------- */
+
+template <int KIND>
+void wall_pass3(const WallArrays &a, const FixWallMindlinSmooth::Wall &wall, double *local,
+                Error *error = nullptr, const tagint *tag = nullptr)
+{
+  const double zero[3] = {0.0, 0.0, 0.0};
+  for (int i = 0; i < a.nlocal; i++) {
+    if (!(a.mask[i] & a.groupbit)) continue;
+    const double radi = a.radius[i];
+    double *stored = a.stored + (bigint) i * a.stride;
+    double delta;
+    double n[3] = {0.0, 0.0, 0.0};
+    if (KIND >= 0) {
+      delta = radi - wall.sign * (a.x[i][KIND] - wall.pos);
+      n[KIND] = wall.sign;
+    } else {
+      // inside of a cylinder of radius pos about the z axis: n points inward
+      const double d = sqrt(a.x[i][0] * a.x[i][0] + a.x[i][1] * a.x[i][1]);
+      delta = radi + d - wall.pos;
+      if (delta > 0.0 && d == 0.0)
+        error->one(FLERR,
+                   "Fix wall/mindlin/smooth: atom {} (radius {}) on the axis of zcylinder "
+                   "R = {} has no contact normal",
+                   tag[i], radi, wall.pos);
+      if (delta > 0.0) {
+        n[0] = -a.x[i][0] / d;
+        n[1] = -a.x[i][1] / d;
+      }
+    }
+    if (delta <= 0.0) {
+      if (a.update_history)
+        for (int k = 0; k < 3; k++) stored[k] = 0.0;
+      continue;
+    }
+
+    double slip[3] = {0.0, 0.0, 0.0};
+    if (a.update_history) {
+      double w[3];
+      for (int k = 0; k < 3; k++) w[k] = radi * a.omega[i][k];
+      MindlinSmooth::slip3(n, a.v[i], w, slip);
+    }
+    const MindlinSmooth::Response3 res =
+        MindlinSmooth::step3(a.p, delta, n, stored, a.update_history ? slip : zero, a.dt,
+                             a.update_history);
+    double tq[3];
+    MindlinSmooth::torque3(radi, n, res.ft, tq);
+    double *out = a.out[i];
+    local[0] += 0.4 * res.fn * delta;
+    for (int k = 0; k < 3; k++) {
+      if (a.update_history) stored[k] = res.t[k];
+      const double fk = res.fn * n[k] + res.ft[k];
+      a.f[i][k] += fk;
+      a.torque[i][k] += tq[k];
+      out[k] += fk;
+      out[4 + k] = res.t[k];
+      local[1 + k] += fk;
+    }
+    out[3] = res.u;
+    out[7] = delta;
+  }
+}
 }    // namespace
 
 /* ---------------------------------------------------------------------- */
@@ -284,7 +368,7 @@ void FixWallMindlinSmooth::post_force(int /*vflag*/)
   if (atom->nmax > nmax) {
     memory->destroy(array_atom);
     nmax = atom->nmax;
-    memory->create(array_atom, nmax, NCOLS, "wall/mindlin/smooth:array_atom");
+    memory->create(array_atom, nmax, size_peratom_cols, "wall/mindlin/smooth:array_atom");
   }
 
   const int nlocal = atom->nlocal;
@@ -303,25 +387,34 @@ void FixWallMindlinSmooth::post_force(int /*vflag*/)
   a.p = {kn, kt, mu};
   a.out = array_atom;
 
-  for (int k = 0; k < 3; k++) local[k] = 0.0;
+  for (int k = 0; k < 4; k++) local[k] = 0.0;
   reduced = 0;
-  if (nlocal > 0) memset(array_atom[0], 0, sizeof(double) * nlocal * NCOLS);
+  if (nlocal > 0) memset(array_atom[0], 0, sizeof(double) * nlocal * size_peratom_cols);
 
   // one pass over the atoms per wall, specialised to the wall's kind (the
   // per-atom loop stays as short as the one-floor loop of older versions);
   // per atom the walls add their forces in the same order as before
   for (int w = 0; w < nwall; w++) {
     const Wall &wall = walls[w];
-    // history of this wall: d_mindlin_wall_t (legacy form), or column w
-    // of the fix's own contiguous nmax x nwall array
+    // history of this wall: d_mindlin_wall_t (legacy form, 2d), or
+    // columns nval w ... of the fix's own contiguous nmax x nhist array
     if (idx_legacy >= 0) {
       a.stored = atom->dvector[idx_legacy];
       a.stride = 1;
     } else {
-      a.stored = (nlocal > 0) ? hist[0] + w : nullptr;
-      a.stride = nwall;
+      a.stored = (nlocal > 0) ? hist[0] + nval * w : nullptr;
+      a.stride = nhist;
     }
-    if (wall.axis == 1)
+    if (dim3) {
+      if (wall.axis == 0)
+        wall_pass3<0>(a, wall, local);
+      else if (wall.axis == 1)
+        wall_pass3<1>(a, wall, local);
+      else if (wall.axis == 2)
+        wall_pass3<2>(a, wall, local);
+      else
+        wall_pass3<-1>(a, wall, local, error, atom->tag);
+    } else if (wall.axis == 1)
       wall_pass<1>(a, wall, local);
     else if (wall.axis == 0)
       wall_pass<0>(a, wall, local);
@@ -337,20 +430,20 @@ void FixWallMindlinSmooth::post_force(int /*vflag*/)
 double FixWallMindlinSmooth::compute_scalar()
 {
   if (!reduced) {
-    MPI_Allreduce(local, total, 3, MPI_DOUBLE, MPI_SUM, world);
+    MPI_Allreduce(local, total, 1 + size_vector, MPI_DOUBLE, MPI_SUM, world);
     reduced = 1;
   }
   return total[0];
 }
 
 /* ----------------------------------------------------------------------
-   total force of the walls on the group: 0 = x, 1 = y
+   total force of the walls on the group: 0 = x, 1 = y (, 2 = z in 3d)
 ------------------------------------------------------------------------- */
 
 double FixWallMindlinSmooth::compute_vector(int n)
 {
   if (!reduced) {
-    MPI_Allreduce(local, total, 3, MPI_DOUBLE, MPI_SUM, world);
+    MPI_Allreduce(local, total, 1 + size_vector, MPI_DOUBLE, MPI_SUM, world);
     reduced = 1;
   }
   return total[n + 1];
@@ -368,43 +461,44 @@ void *FixWallMindlinSmooth::extract(const char *str, int &dim)
 }
 
 /* ----------------------------------------------------------------------
-   own history rows: nwall values per atom, moved with the atom
+   own history rows: nhist = nwall x nval values per atom (wall w's in
+   nval w ... nval w + nval - 1), moved with the atom
 ------------------------------------------------------------------------- */
 
 void FixWallMindlinSmooth::grow_arrays(int n)
 {
-  memory->grow(hist, n, nwall, "wall/mindlin/smooth:history");
+  memory->grow(hist, n, nhist, "wall/mindlin/smooth:history");
   for (int i = nmax_hist; i < n; i++) set_arrays(i);
   nmax_hist = n;
 }
 
 void FixWallMindlinSmooth::copy_arrays(int i, int j, int /*delflag*/)
 {
-  for (int w = 0; w < nwall; w++) hist[j][w] = hist[i][w];
+  for (int k = 0; k < nhist; k++) hist[j][k] = hist[i][k];
 }
 
 void FixWallMindlinSmooth::set_arrays(int i)
 {
-  for (int w = 0; w < nwall; w++) hist[i][w] = 0.0;
+  for (int k = 0; k < nhist; k++) hist[i][k] = 0.0;
 }
 
 int FixWallMindlinSmooth::pack_exchange(int i, double *buf)
 {
-  for (int w = 0; w < nwall; w++) buf[w] = hist[i][w];
-  return nwall;
+  for (int k = 0; k < nhist; k++) buf[k] = hist[i][k];
+  return nhist;
 }
 
 int FixWallMindlinSmooth::unpack_exchange(int nlocal, double *buf)
 {
-  for (int w = 0; w < nwall; w++) hist[nlocal][w] = buf[w];
-  return nwall;
+  for (int k = 0; k < nhist; k++) hist[nlocal][k] = buf[k];
+  return nhist;
 }
 
 int FixWallMindlinSmooth::pack_restart(int i, double *buf)
 {
-  buf[0] = nwall + 1;
-  for (int w = 0; w < nwall; w++) buf[w + 1] = hist[i][w];
-  return nwall + 1;
+  buf[0] = nhist + 1;
+  for (int k = 0; k < nhist; k++) buf[k + 1] = hist[i][k];
+  return nhist + 1;
 }
 
 void FixWallMindlinSmooth::unpack_restart(int nlocal, int nth)
@@ -413,27 +507,28 @@ void FixWallMindlinSmooth::unpack_restart(int nlocal, int nth)
   int m = 0;
   for (int i = 0; i < nth; i++) m += static_cast<int>(extra[nlocal][m]);
   const int nstored = static_cast<int>(extra[nlocal][m]) - 1;
-  if (nstored != nwall)
+  if (nstored != nhist)
     error->one(FLERR,
                "Fix wall/mindlin/smooth {}: the restart file has {} walls for this fix ID, "
                "the command {}",
-               id, nstored, nwall);
-  for (int w = 0; w < nwall; w++) hist[nlocal][w] = extra[nlocal][m + 1 + w];
+               id, nstored / nval, nwall);
+  for (int k = 0; k < nhist; k++) hist[nlocal][k] = extra[nlocal][m + 1 + k];
 }
 
 int FixWallMindlinSmooth::size_restart(int /*nlocal*/)
 {
-  return nwall + 1;
+  return nhist + 1;
 }
 
 int FixWallMindlinSmooth::maxsize_restart()
 {
-  return nwall + 1;
+  return nhist + 1;
 }
 
 /* ---------------------------------------------------------------------- */
 
 double FixWallMindlinSmooth::memory_usage()
 {
-  return (double) nmax * NCOLS * sizeof(double) + (double) nmax_hist * nwall * sizeof(double);
+  return (double) nmax * size_peratom_cols * sizeof(double) +
+      (double) nmax_hist * nhist * sizeof(double);
 }

@@ -2,14 +2,17 @@
    remote-trigger: fix wall/mindlin/smooth (LAMMPS plugin)
 
    fix ID group wall/mindlin/smooth k_n k_t mu wallstyle args
-     wallstyle = xplane lo hi | yplane lo hi | yplane y_lo | zcylinder R
-       lo, hi = wall positions, NULL for an open side
+     wallstyle = xplane lo hi | yplane lo hi | zplane lo hi | yplane y_lo |
+                 zcylinder R
+       lo, hi = wall positions, NULL for an open side (zplane: 3d only)
        yplane y_lo = one floor (older decks; same as yplane y_lo NULL)
-       zcylinder R = circle of radius R about the origin, disks inside
+       zcylinder R = circle (3d: cylinder along z) of radius R about the
+                     origin (z axis), particles inside
 
-   Fixed walls with the contact law of pair style mindlin/smooth.  Each
-   fix keeps one tangential displacement per disk and wall in per-atom
-   arrays of its own (carried with the atoms and in restart files).  The
+   Fixed walls with the contact law of pair style mindlin/smooth (2d or
+   3d).  Each fix keeps one tangential displacement per particle and wall
+   (a scalar in 2d, a vector in 3d) in per-atom arrays of its own (carried
+   with the atoms and in restart files).  The
    one-value form 'yplane y_lo' uses the per-atom vector d_mindlin_wall_t
    instead when a fix property/atom defines it (older decks, data files).
 ------------------------------------------------------------------------- */
@@ -47,10 +50,10 @@ class FixWallMindlinSmooth : public Fix {
   int size_restart(int) override;
   int maxsize_restart() override;
 
-  // one wall: a plane with its inward normal along +-x or +-y, or the
-  // inside of a circle about the origin
+  // one wall: a plane with its inward normal along +-x, +-y or +-z, or
+  // the inside of a circle (cylinder) about the origin (z axis)
   struct Wall {
-    int axis;         // 0 = x, 1 = y (planes); -1 = circle
+    int axis;         // 0 = x, 1 = y, 2 = z (planes); -1 = circle
     double sign;      // inward normal n = sign e_axis (planes)
     double pos;       // plane position or circle radius
   };
@@ -61,12 +64,15 @@ class FixWallMindlinSmooth : public Fix {
   int mu_ivar;
   Wall walls[2];
   int nwall;
+  int dim3;             // 3d simulation
+  int nval;              // history values per particle and wall: 1 (2d), 3 (3d)
+  int nhist;             // nwall * nval
   int legacy_syntax;     // 'yplane y_lo' form
   int idx_legacy;        // index of d_mindlin_wall_t if this fix uses it, else -1
-  double **hist;         // own history: one column per wall
+  double **hist;         // own history: nval columns per wall
   int nmax_hist;
   int nmax;              // rows allocated in array_atom
-  double local[3], total[3];    // wall energy and force (fx, fy) on this rank / all
+  double local[4], total[4];    // wall energy and force (fx, fy[, fz]) on this rank / all
   int reduced;
 
   double wall_arg(const char *, const char *);

@@ -12,18 +12,31 @@
 #include "lammps.h"
 #include "update.h"
 
+#include <cstring>
+
 namespace MindlinSmooth {
 
-// Both styles need disks: atom style sphere in a 2d simulation.
+// Both styles need atom style sphere (disks in 2d, spheres in 3d).
 // `what` names the command in the error, e.g. "Pair style mindlin/smooth".
-inline void require_2d_spheres(LAMMPS_NS::LAMMPS *lmp, const char *what)
+inline void require_spheres(LAMMPS_NS::LAMMPS *lmp, const char *what)
 {
   if (!lmp->atom->radius_flag || !lmp->atom->omega_flag || !lmp->atom->torque_flag)
     lmp->error->all(FLERR, "{} requires atom style sphere", what);
-  if (lmp->domain->dimension != 2)
-    lmp->error->all(FLERR,
-                    "{} supports 2d simulations only (dimension 2), this one has dimension {}",
-                    what, lmp->domain->dimension);
+}
+
+// The contact law has no rolling or twisting resistance (relative rolling
+// and spin about the normal cost nothing).  A deck that asks for them, with
+// the keywords of pair granular, is told so instead of "wrong number of
+// arguments".
+inline void refuse_rolling_twisting(LAMMPS_NS::LAMMPS *lmp, const char *what, int narg,
+                                    char **arg)
+{
+  for (int i = 0; i < narg; i++)
+    if (strcmp(arg[i], "rolling") == 0 || strcmp(arg[i], "twisting") == 0)
+      lmp->error->all(FLERR,
+                      "{}: the contact law has no {} resistance (got '{}'); pair granular "
+                      "offers rolling and twisting models",
+                      what, arg[i], arg[i]);
 }
 
 // The tangential displacement is advanced by the velocities of each MD step

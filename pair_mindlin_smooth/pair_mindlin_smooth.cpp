@@ -11,6 +11,7 @@
 #include "pair_mindlin_smooth.h"
 
 #include "fix_mindlin_history.h"
+#include "mindlin_smooth_contacts.h"
 #include "mindlin_smooth_kernel.h"
 #include "mindlin_smooth_setup.h"
 
@@ -25,28 +26,30 @@
 #include "neighbor.h"
 #include "update.h"
 
-#include <cfloat>
 #include <cmath>
 #include <cstring>
 
 using namespace LAMMPS_NS;
+using MindlinSmooth::find_slot;
+using MindlinSmooth::touch_band;
+using MindlinSmooth::touch_base;
 
-static const char HISTORY_PARTNER[] = "mindlin_partner";
-static const char HISTORY_T[] = "mindlin_t";
+static const char *const HISTORY_PARTNER = FixMindlinHistory::PARTNER;
+static const char *const HISTORY_T = FixMindlinHistory::T_2D;
 
 /* ---------------------------------------------------------------------- */
 
 PairMindlinSmooth::PairMindlinSmooth(LAMMPS *lmp) :
     Pair(lmp), kn(nullptr), kt(nullptr), mu(nullptr), maxrad(nullptr), ncol(0),
-    idx_partner(-1), idx_t(-1), history(nullptr)
+    idx_partner(-1), idx_t(-1), idx_t3{-1, -1, -1}, history(nullptr)
 {
   single_enable = 1;
   restartinfo = 1;
   writedata = 1;
   finitecutflag = 1;
   no_virial_fdotr_compute = 1;
-  single_extra = 5;
-  svector = new double[single_extra];
+  single_extra = 5;    // 7 in 3d (init_style)
+  svector = new double[7];
 }
 
 /* ---------------------------------------------------------------------- */
@@ -100,6 +103,7 @@ void PairMindlinSmooth::settings(int narg, char **arg)
 
 void PairMindlinSmooth::coeff(int narg, char **arg)
 {
+  MindlinSmooth::refuse_rolling_twisting(lmp, "Pair coeff mindlin/smooth", narg, arg);
   if (narg != 5)
     error->all(FLERR,
                "Pair coeff for mindlin/smooth needs 5 arguments (I J k_n k_t mu), got {}",
@@ -144,8 +148,9 @@ void PairMindlinSmooth::setup_history()
 {
   history = dynamic_cast<FixMindlinHistory *>(modify->get_fix_by_id(FixMindlinHistory::ID));
   int flag, cols;
+  const char *tname = (domain->dimension == 3) ? FixMindlinHistory::T_3D[0] : HISTORY_T;
   if (!history && atom->find_custom(HISTORY_PARTNER, flag, cols) < 0 &&
-      atom->find_custom(HISTORY_T, flag, cols) < 0)
+      atom->find_custom(tname, flag, cols) < 0)
     history = dynamic_cast<FixMindlinHistory *>(
         modify->add_fix(fmt::format("{} all mindlin/history", FixMindlinHistory::ID)));
   find_history();
@@ -155,6 +160,11 @@ void PairMindlinSmooth::find_history()
 {
   int flag, cols;
   idx_partner = atom->find_custom(HISTORY_PARTNER, flag, cols);
+  if ((idx_partner < 0 || flag != 0 || cols < 1) && domain->dimension == 3)
+    error->all(FLERR,
+               "Pair style mindlin/smooth: a fix property/atom defines d2_{} but not i2_{}; "
+               "define i2_{} with d2_mindlin_tx, d2_mindlin_ty, d2_mindlin_tz, or none of them",
+               FixMindlinHistory::T_3D[0], HISTORY_PARTNER, HISTORY_PARTNER);
   if (idx_partner < 0 || flag != 0 || cols < 1)
     error->all(FLERR,
                "Pair style mindlin/smooth: a fix property/atom defines d2_{} but not i2_{}; "
@@ -163,6 +173,22 @@ void PairMindlinSmooth::find_history()
                HISTORY_T, HISTORY_PARTNER, HISTORY_PARTNER, HISTORY_T);
   ncol = cols;
   int flag_t, cols_t;
+  if (domain->dimension == 3) {
+    // the three components of t, one array each
+    for (int c = 0; c < 3; c++) {
+      const char *name = FixMindlinHistory::T_3D[c];
+      idx_t3[c] = atom->find_custom(name, flag_t, cols_t);
+      if (idx_t3[c] < 0 || flag_t != 1 || cols_t != ncol)
+        error->all(FLERR,
+                   "Pair style mindlin/smooth: in 3d the history needs per-atom arrays "
+                   "d2_mindlin_tx, d2_mindlin_ty, d2_mindlin_tz with as many columns as "
+                   "i2_{} ({}); d2_{} is {}",
+                   HISTORY_PARTNER, ncol, name,
+                   (idx_t3[c] < 0) ? std::string("missing")
+                                   : fmt::format("of {} columns", cols_t));
+    }
+    return;
+  }
   idx_t = atom->find_custom(HISTORY_T, flag_t, cols_t);
   if (idx_t < 0 || flag_t != 1 || cols_t != ncol)
     error->all(FLERR,
@@ -175,13 +201,14 @@ void PairMindlinSmooth::find_history()
 
 void PairMindlinSmooth::init_style()
 {
-  MindlinSmooth::require_2d_spheres(lmp, "Pair style mindlin/smooth");
+  MindlinSmooth::require_spheres(lmp, "Pair style mindlin/smooth");
   MindlinSmooth::forbid_minimize(lmp, "Pair style mindlin/smooth");
   if (comm->ghost_velocity == 0)
     error->all(FLERR,
                "Pair style mindlin/smooth requires ghost atoms store velocity: "
                "use 'comm_modify vel yes'");
 
+  single_extra = (domain->dimension == 3) ? 7 : 5;
   setup_history();
   if ((int) contacts.size() < ncol) contacts.resize(ncol);
 
@@ -246,59 +273,15 @@ double PairMindlinSmooth::init_one(int i, int j)
   return maxrad[i] + maxrad[j];
 }
 
-/* ----------------------------------------------------------------------
-   slot of partner jtag among one atom's ncol history slots, -1 if none
-------------------------------------------------------------------------- */
-
-static inline int find_slot(const int *partner, int ncol, tagint jtag)
-{
-  for (int k = 0; k < ncol; k++) {
-    if (partner[k] == jtag) return k;
-    if (partner[k] == 0) break;    // slots are packed
-  }
-  return -1;
-}
-
-/* ----------------------------------------------------------------------
-   touching band.  Each disk of a pair decides the contact from its own
-   copy of the geometry, and across a periodic boundary each sees the
-   other's image x +- L, rounded: at an overlap within a few ulps of the
-   coordinates the two tests can disagree (measured: 31 of 81 positions
-   one ulp apart around delta = 0 in a box 47.6 wide), and one side would
-   keep a history entry that the other drops.  A disk held by a single
-   contact is drawn to exactly that place (its force-free position is
-   delta = 0).  Within |delta| <= tau a pair therefore stays listed in the
-   history, or unlisted, as its history records -- the same on both sides --
-   with xi = 0 and no tangential force (so that the two sides' xi agree
-   too); the normal force is each side's own k_n delta^(3/2) for delta > 0,
-   as everywhere.  Outside the band the overlap decides.  tau depends only
-   on the box and the two radii, so both sides use the same tau; it is 64
-   ulps of the largest coordinate a ghost can have, ~1e-12 for a box of 50,
-   where the tangential force left out is below mu k_n tau^(3/2) ~ 1e-13.
-------------------------------------------------------------------------- */
-
-static const double TOUCH_ULPS = 64.0;
-
-static double touch_base(const Domain *domain)
-{
-  double ext = 0.0;
-  for (int d = 0; d < 2; d++) {
-    ext = MAX(ext, fabs(domain->boxlo[d]));
-    ext = MAX(ext, fabs(domain->boxhi[d]));
-  }
-  return ext + MAX(domain->prd[0], domain->prd[1]);
-}
-
-static inline double touch_band(double base, double radsum)
-{
-  return TOUCH_ULPS * DBL_EPSILON * (base + radsum);
-}
-
 /* ---------------------------------------------------------------------- */
 
 void PairMindlinSmooth::compute(int eflag, int vflag)
 {
   ev_init(eflag, vflag);
+  if (domain->dimension == 3) {
+    compute_3d();
+    return;
+  }
 
   // re-read: the arrays move when atoms are added or sorted
   find_history();
@@ -396,22 +379,9 @@ void PairMindlinSmooth::compute(int eflag, int vflag)
 
     if (nc > nslot && !history) too_many_contacts(tag[i]);
 
-    // canonical order: ascending partner tag (insertion sort)
-    for (int a = 1; a < nc; a++) {
-      const Contact key = cs[a];
-      int b = a - 1;
-      while (b >= 0 && cs[b].tag > key.tag) {
-        cs[b + 1] = cs[b];
-        b--;
-      }
-      cs[b + 1] = key;
-    }
-    for (int a = 1; a < nc; a++)
-      if (cs[a].tag == cs[a - 1].tag)
-        error->one(FLERR,
-                   "Pair style mindlin/smooth: atom {} touches two periodic images of "
-                   "atom {}; the box is too small",
-                   tag[i], cs[a].tag);
+    // canonical order: ascending partner tag
+    const int dup = MindlinSmooth::sort_by_tag(cs, nc);
+    if (dup >= 0) two_images(tag[i], cs[dup].tag);
 
     for (int a = 0; a < nc; a++) {
       const Contact &c = cs[a];
@@ -470,14 +440,28 @@ void PairMindlinSmooth::too_many_contacts(tagint itag)
 }
 
 /* ----------------------------------------------------------------------
+   atom itag touches two periodic images of atom jtag
+------------------------------------------------------------------------- */
+
+void PairMindlinSmooth::two_images(tagint itag, tagint jtag)
+{
+  error->one(FLERR,
+             "Pair style mindlin/smooth: atom {} touches two periodic images of atom {}; the "
+             "box is too small",
+             itag, jtag);
+}
+
+/* ----------------------------------------------------------------------
    force of one pair from the stored history; never changes state.
    fforce: normal force / r along x_i - x_j.
    svector: F_t,x  F_t,y  u = |t|/t*  t_x  t_y  (tangential part, on atom i)
+   and in 3d F_t,z  t_z
 ------------------------------------------------------------------------- */
 
 double PairMindlinSmooth::single(int i, int j, int itype, int jtype, double rsq,
                                  double /*factor_coul*/, double /*factor_lj*/, double &fforce)
 {
+  if (domain->dimension == 3) return single_3d(i, j, itype, jtype, rsq, fforce);
   for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
   fforce = 0.0;
   const double radsum = atom->radius[i] + atom->radius[j];

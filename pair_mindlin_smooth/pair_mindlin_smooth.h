@@ -10,6 +10,9 @@
      fix hist all property/atom i2_mindlin_partner 8 d2_mindlin_t 8 ghost no
 
    which keeps working (fixed number of slots; history in data files).
+   In 3d the tangential displacement is a vector, kept in three arrays
+   d2_mindlin_tx, d2_mindlin_ty, d2_mindlin_tz (instead of d2_mindlin_t),
+   each with the columns of i2_mindlin_partner.
 ------------------------------------------------------------------------- */
 
 #ifndef LMP_PAIR_MINDLIN_SMOOTH_H
@@ -50,12 +53,23 @@ class PairMindlinSmooth : public Pair {
     bool listed;    // kept in the history (false: a touching pair without one)
   };
 
+  // the same in 3d: tangential displacement vector, force, torque
+  struct Contact3 {
+    tagint tag;
+    double t[3];
+    double f[3], tq[3], en;
+    double del[3];
+    bool listed;
+  };
+
  protected:
   double **kn, **kt, **mu;
   double *maxrad;                   // largest radius of each atom type
   int ncol;                         // contact slots per atom
-  int idx_partner, idx_t;           // indices of the history arrays
+  int idx_partner, idx_t;           // indices of the history arrays (2d)
+  int idx_t3[3];                    // 3d: mindlin_tx, mindlin_ty, mindlin_tz
   std::vector<Contact> contacts;    // scratch space, >= ncol entries
+  std::vector<Contact3> contacts3;    // the same in 3d
   class FixMindlinHistory *history;    // internal storage, or nullptr when
                                        // a fix property/atom holds the arrays
 
@@ -65,6 +79,11 @@ class PairMindlinSmooth : public Pair {
   void insertion_radii();
   int grow_scratch(int);
   [[noreturn]] void too_many_contacts(tagint);
+  [[noreturn]] void two_images(tagint, tagint);
+
+  // 3d (pair_mindlin_smooth_3d.cpp)
+  void compute_3d();
+  double single_3d(int, int, int, int, double, double &);
 };
 
 }    // namespace LAMMPS_NS

