@@ -22,7 +22,7 @@ The driver's classes (``ConfigError``, ``NoEquilibriumError``,
 classes here; :mod:`remote_trigger.pywrap.errors` re-exports this module.
 """
 
-__all__ = ["RemoteTriggerError", "InputError", "NotEquilibriumError", "EXIT_OK",
+__all__ = ["RemoteTriggerError", "InputError", "NotEquilibriumError", "TooLargeError", "EXIT_OK",
            "EXIT_NO_RESULT", "EXIT_BAD_INPUT", "EXIT_NO_EQUILIBRIUM", "EXIT_INTERRUPTED"]
 
 #: exit statuses of the command line
@@ -53,3 +53,8 @@ class InputError(RemoteTriggerError, ValueError):
 
 class NotEquilibriumError(InputError):
     """A state given as an equilibrium has a residual far above the round-off floor."""
+
+
+class TooLargeError(RemoteTriggerError, MemoryError):
+    """A calculation that does not fit in this machine's memory; the message
+    names the size, the memory it needs and the memory available."""

@@ -20,8 +20,19 @@ works around it (``pywrap.stages.ramp_bracket``, ``next_bisection_point``).
 """
 from dataclasses import dataclass
 import enum
+import os
 
 import numpy as np
+
+from remote_trigger.analysis.errors import TooLargeError
+
+#: peak memory of the dense verdict (:func:`stability_of`), in float64 n x n
+#: matrices: 12.1 measured (tracemalloc) at n = 1158, the matrix itself not
+#: counted; with it and a margin, 14
+DENSE_PEAK_MATRICES = 14
+#: environment variable: the memory (GiB) a dense verdict may use, instead
+#: of what the machine has available
+MEMORY_ENV = "REMOTE_TRIGGER_MEMORY_GB"
 
 
 class Decision(enum.IntEnum):
@@ -135,6 +146,82 @@ class StabilityResult:
         return Decision.of(self.decision)
 
 
+def available_memory():
+    """Bytes a calculation may allocate here, or None if unknown.
+
+    ``$REMOTE_TRIGGER_MEMORY_GB`` if set; else the smaller of the machine's
+    ``MemAvailable`` (``/proc/meminfo``) and what the cgroup v2 limit
+    (``/sys/fs/cgroup/memory.max``, a batch job's limit) leaves.
+
+    Raises
+    ------
+    InputError
+        If the environment variable is not a positive number.
+    """
+    from remote_trigger.analysis.errors import InputError
+
+    env = os.environ.get(MEMORY_ENV)
+    if env is not None:
+        try:
+            gb = float(env)
+        except ValueError:
+            gb = -1.0
+        if not gb > 0:
+            raise InputError(f"{MEMORY_ENV} = {env!r}: not a positive number of GiB")
+        return int(gb * 2**30)
+    found = []
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    found.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        with open("/sys/fs/cgroup/memory.max") as fh:
+            limit = fh.read().strip()
+        with open("/sys/fs/cgroup/memory.current") as fh:
+            used = int(fh.read().strip())
+        if limit != "max":
+            found.append(int(limit) - used)
+    except (OSError, ValueError):
+        pass
+    return min(found) if found else None
+
+
+def check_dense_fits(n, available=None):
+    """Refuse a dense verdict of order ``n`` that would not fit in memory.
+
+    Parameters
+    ----------
+    n : int
+        Order of M^-1 K after rattler removal (dofs).
+    available : int, optional
+        Bytes available (default :func:`available_memory`; unknown: no check).
+
+    Raises
+    ------
+    TooLargeError
+        If :data:`DENSE_PEAK_MATRICES` x 8 n^2 bytes exceed ``available``; the
+        message names n, both amounts, and that no verdict was reached.
+    """
+    avail = available_memory() if available is None else available
+    need = DENSE_PEAK_MATRICES * 8.0 * n * n
+    if avail is not None and need > avail:
+        raise TooLargeError(
+            f"no stability verdict: the dense verdict for n = {n} dofs needs about "
+            f"{_amount(need)} ({DENSE_PEAK_MATRICES} float64 n x n matrices), "
+            f"{_amount(avail)} available ({MEMORY_ENV} or the machine's)")
+
+
+def _amount(nbytes):
+    """``'1.5 GiB'``, or MiB / KiB below a tenth of the larger unit."""
+    for unit, size in (("GiB", 2**30), ("MiB", 2**20)):
+        if nbytes >= 0.1 * size:
+            return f"{nbytes / size:.1f} {unit}"
+    return f"{nbytes / 2**10:.1f} KiB"
+
+
 def stability_of(state, basis=None):
     """Eigen-analysis of an analysis ``State`` with the analyzer (dense path).
 
@@ -148,6 +235,11 @@ def stability_of(state, basis=None):
     Returns
     -------
     StabilityResult
+
+    Raises
+    ------
+    TooLargeError
+        If the dense verdict would not fit in memory (:func:`check_dense_fits`).
     """
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability import eigen, exceptional, jacobian
@@ -163,6 +255,7 @@ def stability_of(state, basis=None):
                                np.asarray(rat.ids, np.int64), "real", float("inf"),
                                res.max_residual)
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
+    check_dense_fits(Kr.shape[0])
     dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
                                         basis=basis)
     if dec.complex_present is None:

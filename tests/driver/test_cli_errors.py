@@ -429,3 +429,21 @@ def test_jacobian_refuses_to_overwrite(capsys, ramp_run, tmp_path):
     assert status == 2 and out.read_bytes() == before
     assert_one_line_error(err, "exists", "--overwrite", "nothing was written")
     assert run_cli(capsys, "jacobian", dump, "-o", out, "--overwrite")[0] == 0
+
+
+# --------------------------------------------------------------------------- too large
+def test_ramp_without_memory_for_the_verdict_stops_with_the_reason(capsys, relaxed, tmp_path,
+                                                                   monkeypatch):
+    """A point whose dense verdict does not fit in memory ends the ramp with
+    exit status 1 and one line naming n and both amounts (no verdict guessed)."""
+    monkeypatch.setenv("REMOTE_TRIGGER_MEMORY_GB", "1e-6")
+    status, _, err = run_cli(capsys, "ramp", "--datafile", relaxed.datafile, "--out",
+                             tmp_path / "o", "--dF-x", "0.02", "--quiet")
+    assert status == 1
+    assert_one_line_error(err, "no stability verdict: the dense verdict for n = ",
+                          "KiB available (REMOTE_TRIGGER_MEMORY_GB")
+    monkeypatch.setenv("REMOTE_TRIGGER_MEMORY_GB", "lots")
+    status, _, err = run_cli(capsys, "ramp", "--datafile", relaxed.datafile, "--out",
+                             tmp_path / "p", "--dF-x", "0.02", "--quiet")
+    assert status == 2
+    assert_one_line_error(err, "REMOTE_TRIGGER_MEMORY_GB = 'lots': not a positive number")

@@ -333,7 +333,8 @@ def plot(path, rows, cfg):
     ax[0].legend(fontsize=7)
     ax[1].axvline(1.0, color="k", lw=0.8)
     ax[1].set_xlabel(f"F_x^c(mu_ss mu0) / F_x^c(mu0), mu_ss = {cfg.mu_ss:g}")
-    ax[1].legend(fontsize=7)
+    if ax[1].get_legend_handles_labels()[0]:     # no usable packing: no legend
+        ax[1].legend(fontsize=7)
     for j, I0 in enumerate(convs):
         for n in cfg.n:
             x = [r["F_x_c"] for r in select(rows, ft, I0, n) if math.isfinite(r["F_x_c"])]
@@ -356,7 +357,8 @@ def plot(path, rows, cfg):
     ax[2].set_yscale("log")
     ax[2].set_xlabel("N")
     ax[2].set_ylabel("F_x^c(mu0): packings, median and quartiles")
-    ax[2].legend(fontsize=7)
+    if ax[2].get_legend_handles_labels()[0]:
+        ax[2].legend(fontsize=7)
     fig.tight_layout()
     savefig_atomic(fig, path, dpi=110)
     plt.close(fig)
