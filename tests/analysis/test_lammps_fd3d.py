@@ -1,6 +1,6 @@
 """The 3D K against finite differences computed through LAMMPS (its own 3D step).
 
-36 spheres are settled on a floor and sheared so that some contacts slide
+Sphere-sphere blocks: 36 spheres are settled on a floor and sheared so that some contacts slide
 (u = 1) or come close to it; the floor and the integrator are removed
 (``lammps_fd3d``: the wall fix's 3D history cannot be restored from Python).
 The state is read back from LAMMPS (positions, the pair's history t), K is
@@ -13,13 +13,20 @@ As in 2D (``test_lammps_fd``) the law is C^1 but not C^2 at u = 1 (a capped
 contact is capped on one side of the step only), so the columns of spheres
 with such a contact converge like O(h); the others like O(h^2), and the
 Richardson combination (10 FD(h/10) - FD(h))/9 removes the O(h) term.
+
+Wall blocks: one sphere on an xplane, yplane or zplane wall (either side),
+its history built by an imposed slip or spin, each displaced evaluation in a
+fresh instance.
 """
 import numpy as np
 import pytest
 
 from remote_trigger.analysis.stability.jacobian3d import (
     contact_terms3d, generalized_forces3d, stiffness_matrix3d)
+from remote_trigger.analysis.state.state import ContactParams
+from remote_trigger.analysis.state.state3d import build_state3d
 
+from ..plugin.lmputil import KN, KT, MU, add_sphere, box_commands_3d, new_lammps, set_per_atom
 from .lammps_fd3d import LammpsFD3D, sheared_packing_3d, state_from_lammps
 
 STEPS = [1e-6, 1e-7, 1e-8, 1e-9]
@@ -89,3 +96,75 @@ def test_smooth_columns_converge_quadratically(setup):
     e7 = rel(sweep[1e-7][:, cols], K[:, cols])
     assert 50 < e6 / e7 < 200, (e6, e7)
     assert min(rel(sweep[h][:, cols], K[:, cols]) for h in STEPS) < 1e-8
+
+
+# ------------------------------------------------------------------ walls
+# One sphere on a wall. The wall fix keeps its 3D history itself, so every
+# displaced evaluation starts a fresh LAMMPS instance that builds the same
+# history (nsteps steps of an imposed slip, no integrator) and then takes
+# the displaced step.
+
+R_W, DELTA_W, DT_W = 0.7, 1.0e-3, 1.0e-4
+WALL_CASES = {   # wall args, centre, (normal, offset), motion that builds t, steps
+    "zplane lo, below the cap": ("zplane -4.0 NULL", [0.3, -0.2, -4.0 + R_W - DELTA_W],
+                                 ([0, 0, 1.0], -4.0), dict(v=(0.3, -0.2, 0.1)), 40),
+    "yplane hi, spin": ("yplane -4.0 4.0", [0.1, 4.0 - R_W + DELTA_W, 0.2],
+                        ([0, -1.0, 0], -4.0), dict(w=(0.5, 0.3, -0.8)), 20),
+    "xplane lo, capped": ("xplane -4.0 4.0", [-4.0 + R_W - DELTA_W, 0.1, 0.2],
+                          ([1.0, 0, 0], -4.0), dict(v=(0.1, 0.3, -0.25)), 200),
+}
+
+
+def _wall_run(case, dof=None, h=0.0):
+    args, centre, _, motion, nsteps = WALL_CASES[case]
+    lmp = new_lammps()
+    lmp.commands_list(box_commands_3d(size=10.0, lo=-5.0, boundary="f f f"))
+    add_sphere(lmp, 2, R_W, centre)
+    lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN!r} {KT!r} {MU!r}",
+                       f"fix w all wall/mindlin/smooth {KN!r} {KT!r} {MU!r} {args}",
+                       f"timestep {DT_W!r}"])
+    set_per_atom(lmp, "v", 1, motion.get("v", (0, 0, 0)))
+    set_per_atom(lmp, "omega", 1, motion.get("w", (0, 0, 0)))
+    lmp.command(f"run {nsteps}")
+    t = np.array(lmp.numpy.extract_fix("w", 1, 2)[0][4:7])
+    v, w = np.zeros(3), np.zeros(3)
+    if dof is not None and dof < 3:
+        lmp.numpy.extract_atom("x")[0, dof] += h
+        v[dof] = h / DT_W
+    elif dof is not None:
+        w[dof - 3] = h / (R_W * DT_W)
+    set_per_atom(lmp, "v", 1, v)
+    set_per_atom(lmp, "omega", 1, w)
+    lmp.command("run 1 pre no post no")
+    G = np.concatenate([np.array(lmp.numpy.extract_atom("f")[0]),
+                        np.array(lmp.numpy.extract_atom("torque")[0]) / R_W])
+    lmp.close()
+    return G, t
+
+
+def _wall_state(case, t):
+    _, centre, (normal, offset), _, _ = WALL_CASES[case]
+    return build_state3d(ids=[1], positions=[centre], radii=[R_W], masses=[1.0],
+                         box_lo=[-5.0] * 3, box_hi=[5.0] * 3, params=ContactParams(KN, KT, MU),
+                         periodic=(False,) * 3, walls=[(1, normal, offset)], wall_t=[t])
+
+
+@pytest.mark.parametrize("case", WALL_CASES)
+def test_wall_block_matches_lammps_finite_differences(case):
+    G0, t = _wall_run(case)
+    st = _wall_state(case, t)
+    u = contact_terms3d(st.params, st.wall_delta(), st.wall_t).u[0]
+    assert (u == 1.0) == ("capped" in case) and u > 0.1
+    assert np.abs(generalized_forces3d(st, external=False) - G0).max() <= \
+        1e-12 * np.abs(G0).max()
+    K = stiffness_matrix3d(st).toarray()
+    fd = {}
+    for h in (1e-7, 1e-8):
+        fd[h] = -np.column_stack([(_wall_run(case, q, h)[0] - _wall_run(case, q, -h)[0])
+                                  / (2 * h) for q in range(6)])
+    if "capped" in case:                   # one-sided kink: O(h), extrapolated away
+        e7, e8 = rel(fd[1e-7], K), rel(fd[1e-8], K)
+        assert 8 < e7 / e8 < 12 and e8 < 1e-5, (e7, e8)
+        assert rel((10 * fd[1e-8] - fd[1e-7]) / 9, K) < 5e-8
+    else:
+        assert rel(fd[1e-7], K) < 1e-8, (rel(fd[1e-7], K), rel(fd[1e-8], K))
