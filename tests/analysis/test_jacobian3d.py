@@ -207,3 +207,31 @@ def test_decision_runs_on_a_3d_cluster():
         assert dec.eigenvalues.size == A.shape[0]
         if state is not st:
             assert not dec.complex_present
+
+
+def test_decision_and_pair_tracking_through_a_coalescence():
+    """The history scaled by a in [0, 0.08] (K(a) a one-parameter family): the
+    certified decision is real up to a coalescence and complex after it, and
+    ``track_pair`` follows the pair: its real ancestors approach, and Im^2
+    grows linearly in a past the exceptional point (the square-root law)."""
+    from remote_trigger.analysis.stability.eigtrack import track_pair
+
+    st = random_packing3d(0, nx=3, ny=2, nz=2, cap_fraction=0.3)
+    rat = find_rattlers3d(st)
+    points = []
+    for a in np.linspace(0.0, 0.08, 17):
+        s = st.with_t(st.contact_t * a, st.wall_t * a)
+        K, m = remove_dofs(stiffness_matrix3d(s), s.mass_diagonal(), rat.keep_dofs)
+        dec = classify_spectrum(K.toarray() / m[:, None])
+        assert dec.complex_present is not None, a
+        points.append((a, dec.eigenvalues, dec.complex_present))
+    flags = [p[2] for p in points]
+    first = flags.index(True)
+    assert 3 < first and not any(flags[:first]) and all(flags[first:]), flags
+    tr = track_pair(points)
+    assert list(tr.complex_pair) == flags
+    gap = np.abs(tr.lam_b - tr.lam_a)
+    assert np.all(np.diff(gap[first - 3:first]) < 0)              # ancestors approach
+    im2 = np.abs(tr.lam_b[first:].imag) ** 2
+    slopes = np.diff(im2) / np.diff(tr.F_x[first:])
+    assert np.all(slopes > 0) and slopes.max() / slopes.min() < 1.2, slopes
