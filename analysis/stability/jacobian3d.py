@@ -62,6 +62,8 @@ modes only without a frictional wall (a wall pins them, as in 2D).
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -81,6 +83,7 @@ def cross_matrix(a):
                      np.stack([-a[..., 1], a[..., 0], z], -1)], -2)
 
 
+@dataclass
 class ContactTerms3D:
     """Response and partial derivatives of a set of 3D contacts (vectorized).
 
@@ -102,9 +105,14 @@ class ContactTerms3D:
         d F_t / d delta at fixed trial t (force/length).
     """
 
-    def __init__(self, fn, dfn, ft, t, u, capped, A, f_delta):
-        self.fn, self.dfn, self.ft, self.t, self.u = fn, dfn, ft, t, u
-        self.capped, self.A, self.f_delta = capped, A, f_delta
+    fn: np.ndarray
+    dfn: np.ndarray
+    ft: np.ndarray
+    t: np.ndarray
+    u: np.ndarray
+    capped: np.ndarray
+    A: np.ndarray
+    f_delta: np.ndarray
 
 
 def contact_terms3d(params, delta, t_trial):
@@ -165,7 +173,6 @@ def _pair_geometry(state):
 
 def _blocks(n, terms, t0, rho=None):
     """(F-rows, G^phi-rows) x (r, phi) partial blocks of side i; rho None: a wall."""
-    C = n.shape[0]
     nn = n[:, :, None] * n[:, None, :]
     P = np.eye(3) - nn
     nx = cross_matrix(n)
@@ -180,7 +187,7 @@ def _blocks(n, terms, t0, rho=None):
         Br = Br + cross_matrix(terms.ft) @ P / rho[:, None, None]
     Aphi = A @ nx
     Bphi = -nx @ Aphi
-    return Ar.reshape(C, 3, 3), Aphi, Br, Bphi
+    return Ar, Aphi, Br, Bphi
 
 
 def contact_blocks3d(state):

@@ -335,9 +335,11 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
                  wall_offset=woff, wall_t=wt, external=ext)
     d = st.separation(ci, cj)
     delta = radii[ci] + radii[cj] - np.linalg.norm(d, axis=1)
-    for k in np.nonzero(~(delta > 0))[0][:1]:
+    if not np.all(delta > 0):
+        k = int(np.argmin(delta > 0))
         raise ValueError(f"contact {ids[ci[k]]}-{ids[cj[k]]} has overlap {delta[k]!r} <= 0")
     wd = st.wall_delta()
-    for k in np.nonzero(~(wd > 0))[0][:1]:
+    if not np.all(wd > 0):
+        k = int(np.argmin(wd > 0))
         raise ValueError(f"wall contact of atom id {ids[widx[k]]} has overlap {wd[k]!r} <= 0")
     return st.with_t()

@@ -235,3 +235,23 @@ def test_decision_and_pair_tracking_through_a_coalescence():
     im2 = np.abs(tr.lam_b[first:].imag) ** 2
     slopes = np.diff(im2) / np.diff(tr.F_x[first:])
     assert np.all(slopes > 0) and slopes.max() / slopes.min() < 1.2, slopes
+
+
+def test_build_state3d_refuses_bad_contacts_and_projects_t():
+    p = ContactParams(KN, KT, 1.0)
+    kw = dict(radii=[0.5, 0.5], masses=[1.0, 1.0], box_lo=[-5] * 3, box_hi=[5] * 3,
+              params=p, periodic=(False,) * 3)
+    with pytest.raises(ValueError, match="contact 1-2 has overlap"):
+        build_state3d(ids=[1, 2], positions=[[0, 0, 0], [1.2, 0, 0]], pairs=[[1, 2]], **kw)
+    with pytest.raises(ValueError, match="atom id 7"):
+        build_state3d(ids=[1, 2], positions=[[0, 0, 0], [0.99, 0, 0]], pairs=[[1, 7]], **kw)
+    with pytest.raises(ValueError, match="wall contact of atom id 2"):
+        build_state3d(ids=[1, 2], positions=[[0, 0, 1], [0, 0, 2]],
+                      walls=[(2, *plane_wall("z", "lo", 0.0))], **kw)
+    # given from the larger id: stored from the smaller one with t_ij = -t_ji,
+    # and a t with a normal component is projected with its length kept
+    st = build_state3d(ids=[2, 1], positions=[[0.99, 0, 0], [0, 0, 0]], pairs=[[2, 1]],
+                       pair_t=[[1e-4, 2e-4, 0.0]], **kw)
+    assert list(st.ids) == [1, 2] and st.contact_i[0] == 0
+    np.testing.assert_allclose(st.contact_t[0], [0.0, -np.sqrt(5e-8), 0.0], rtol=1e-15)
+    assert st.notes["projected_t"] == pytest.approx(1 / np.sqrt(5), rel=1e-15)
