@@ -5,6 +5,7 @@ Subpackages and modules (docs/analysis.md):
 =================================  ==============================================================
 ``state``                          a packing's State and its file formats
 ``state.state``                    :class:`~remote_trigger.analysis.state.state.State`, ``build_state``
+``state.state3d``                  ``State3D`` for spheres (t vectors, plane walls)
 ``state.contacts``                 contact finding: geometric contacts, touching band, history, wall
 ``state.dumpfile``                 the equilibrium dump + sidecar format (read, write)
 ``state.sidecar``                  the sidecar's model parameters
@@ -12,6 +13,7 @@ Subpackages and modules (docs/analysis.md):
 ``state.trajectory``               LAMMPS dump trajectories with MDAnalysis; D(t), float32 floor
 ``stability``                      the linear algebra of the stability verdict
 ``stability.jacobian``             K = -dG/dq (paper Appendix C), residual G, rattler removal
+``stability.jacobian3d``           the same for spheres: 6N x 6N, 12 x 12 and 6 x 6 blocks
 ``stability.eigen``                eigenvalues of M^-1 K: dense LAPACK, ARPACK shift-invert
 ``stability.exceptional``          certified complex-pair decision near exceptional points
 ``stability.decision``             its results (PairDecision, SpectrumDecision, SpectrumBasis)
@@ -27,6 +29,7 @@ Subpackages and modules (docs/analysis.md):
 ``dynamics.series``                D(t) series: noise level, growth window and rate, saturation
 ``dynamics.normal_form``           the paper's 2x2 normal form
 ``forcelaw_ref``                   independent complex-step-capable force law (tests)
+``forcelaw_ref3d``                 the same for spheres (3D law, pair style's 3D step)
 ``output``                         atomic writers (text, JSON, HDF5, npz, figures), output checks
 ``errors``                         the exception hierarchy
 =================================  ==============================================================

@@ -1,6 +1,7 @@
 """The linear algebra of the stability verdict.
 
 ``jacobian``      K = -dG/dq (paper Appendix C), residual G, rattler removal
+``jacobian3d``    the same for spheres: 6 dofs per sphere, 12 x 12 and 6 x 6 blocks
 ``eigen``         eigenvalues of M^-1 K: dense LAPACK, ARPACK shift-invert, omega, growth
 ``exceptional``   the certified complex-pair decision near exceptional points (its proof)
 ``decision``      its results: PairDecision, SpectrumDecision, SpectrumBasis

@@ -1,0 +1,345 @@
+r"""A packing of spheres with its contact history, in float64 (3D).
+
+The three-dimensional counterpart of :class:`~remote_trigger.analysis.state.state.State`
+for the 3D law of the pair style (docs/model.md section 9): sphere ids,
+positions, radii, masses and moments of inertia, the box with its periodic
+axes, every sphere-sphere contact with its tangential displacement **vector**
+:math:`t_{ij}` (3 components, in the tangent plane, seen from i), and every
+contact with a flat wall (its unit normal into the sphere, its offset, its
+:math:`t`).
+
+Generalized coordinates per sphere, in ascending atom id (dof 6k + c):
+
+.. math::
+
+    q_k = (x_k, y_k, z_k, \phi_{x,k}, \phi_{y,k}, \phi_{z,k}), \qquad
+    \phi_k = R_k\,\theta_k,
+
+where :math:`\theta_k` is the small rotation vector about the equilibrium
+orientation; generalized forces :math:`G_k = (F_k, T_k/R_k)`, as
+:math:`(x, y, R\theta)` and :math:`(F_x, F_y, T/R)` in 2D.
+
+.. warning::
+
+   :func:`build_state3d` projects each stored :math:`t` onto the tangent
+   plane of its contact with its length kept. That is what the pair style
+   does to the stored value before every evaluation (so forces do not
+   change), and the Jacobian's linearisation assumes :math:`t\cdot n = 0`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from remote_trigger.analysis.state.state import ContactParams
+
+__all__ = ["SPHERE_INERTIA", "State3D", "build_state3d", "minimum_image3", "plane_wall"]
+
+#: solid spheres, as ``fix nve/sphere`` without ``disc``: I = 2/5 m R^2
+SPHERE_INERTIA = 0.4
+
+
+def minimum_image3(d, box_length, periodic):
+    """Minimum-image separations in 3D.
+
+    Parameters
+    ----------
+    d : ndarray, shape (..., 3)
+        Raw separations r_i - r_j (length).
+    box_length : array_like, shape (3,)
+    periodic : sequence of bool, length 3
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+    """
+    d = np.array(d, dtype=np.float64, copy=True)
+    for a in range(3):
+        if periodic[a]:
+            L = float(box_length[a])
+            d[..., a] -= L * np.round(d[..., a] / L)
+    return d
+
+
+def plane_wall(axis, side, position):
+    """The (normal, offset) of a flat wall, as ``fix wall/mindlin/smooth`` sees it.
+
+    Parameters
+    ----------
+    axis : {'x', 'y', 'z'}
+        ``xplane``, ``yplane`` or ``zplane``.
+    side : {'lo', 'hi'}
+        A wall at the low end (spheres above it, normal +e) or the high end
+        (normal -e).
+    position : float
+        Coordinate of the plane (length).
+
+    Returns
+    -------
+    normal : ndarray, shape (3,)
+        Unit normal into the spheres.
+    offset : float
+        n . p for a point p of the plane; the overlap is R - (n . x - offset).
+
+    Raises
+    ------
+    ValueError
+        On an unknown axis or side.
+    """
+    if axis not in ("x", "y", "z") or side not in ("lo", "hi"):
+        raise ValueError(f"wall axis must be x, y or z and side lo or hi, got {axis!r}, "
+                         f"{side!r}")
+    k = "xyz".index(axis)
+    n = np.zeros(3)
+    n[k] = 1.0 if side == "lo" else -1.0
+    return n, float(n[k] * position)
+
+
+@dataclass
+class State3D:
+    """A packing of spheres with its contact history, in float64.
+
+    Attributes
+    ----------
+    ids : ndarray of int64, shape (N,)
+        Atom ids, strictly ascending; index k is the sphere's block of dofs
+        6k ... 6k + 5.
+    positions : ndarray, shape (N, 3)
+        Centres (length).
+    radii, masses : ndarray, shape (N,)
+        Radius (length) and mass (mass units), > 0.
+    inertia : ndarray, shape (N,)
+        Moment of inertia I = I0 m R^2 (I0 = 2/5 for solid spheres,
+        :data:`SPHERE_INERTIA`).
+    box_lo, box_hi : ndarray, shape (3,)
+    periodic : tuple of bool, length 3
+    params : ContactParams
+        k_n, k_t, mu of the pair style and the walls.
+    contact_i, contact_j : ndarray of int64, shape (C,)
+        Sphere indices of each contact, ``ids[contact_i] < ids[contact_j]``.
+    contact_t : ndarray, shape (C, 3)
+        Tangential displacement t_ij seen from i (length), t_ij . n = 0 with
+        n = (r_i - r_j)/|r_i - r_j| (minimum image); t_ji = -t_ij.
+    wall_index : ndarray of int64, shape (W,)
+        Sphere of each sphere-wall contact.
+    wall_normal : ndarray, shape (W, 3)
+        Unit normal of the wall into the sphere.
+    wall_offset : ndarray, shape (W,)
+        n . p for a point p of the wall; overlap R - (n . x - offset) > 0.
+    wall_t : ndarray, shape (W, 3)
+        Tangential displacement of the wall contact (length), t . n = 0.
+    external : ndarray, shape (N, 3)
+        External force on each sphere (force units).
+    notes : dict
+        ``projected_t``: the largest |t . n| / |t| removed by the projection.
+    """
+
+    ids: np.ndarray
+    positions: np.ndarray
+    radii: np.ndarray
+    masses: np.ndarray
+    inertia: np.ndarray
+    box_lo: np.ndarray
+    box_hi: np.ndarray
+    periodic: tuple
+    params: ContactParams
+    contact_i: np.ndarray
+    contact_j: np.ndarray
+    contact_t: np.ndarray
+    wall_index: np.ndarray
+    wall_normal: np.ndarray
+    wall_offset: np.ndarray
+    wall_t: np.ndarray
+    external: np.ndarray
+    notes: dict = field(default_factory=dict)
+
+    @property
+    def n(self):
+        """Number of spheres N."""
+        return int(self.ids.size)
+
+    @property
+    def ndof(self):
+        """Number of generalized coordinates, 6N."""
+        return 6 * self.n
+
+    @property
+    def n_contacts(self):
+        """Number of sphere-sphere contacts C."""
+        return int(self.contact_i.size)
+
+    @property
+    def box_length(self):
+        """Box lengths, shape (3,)."""
+        return self.box_hi - self.box_lo
+
+    def separation(self, i, j):
+        """Minimum-image r_i - r_j for index arrays i, j; shape (len(i), 3)."""
+        return minimum_image3(self.positions[i] - self.positions[j], self.box_length,
+                              self.periodic)
+
+    def wall_delta(self):
+        """Overlap R - (n . x - offset) of every wall contact, shape (W,)."""
+        w = self.wall_index
+        return self.radii[w] - (np.einsum("wa,wa->w", self.wall_normal, self.positions[w])
+                                - self.wall_offset)
+
+    def mass_diagonal(self):
+        """Diagonal of M = diag(m, m, m, I/R^2, I/R^2, I/R^2) per sphere, shape (6N,).
+
+        The rotational entries are the mass of phi = R theta: I theta'' = T
+        gives (I/R^2) phi'' = T/R; with I = I0 m R^2 they are I0 m.
+        """
+        md = np.empty((self.n, 6))
+        md[:, :3] = self.masses[:, None]
+        md[:, 3:] = (self.inertia / self.radii**2)[:, None]
+        return md.reshape(-1)
+
+    def contact_counts(self):
+        """Number of contacts of every sphere, walls included, shape (N,)."""
+        return (np.bincount(self.contact_i, minlength=self.n)
+                + np.bincount(self.contact_j, minlength=self.n)
+                + np.bincount(self.wall_index, minlength=self.n))
+
+    def with_t(self, contact_t=None, wall_t=None):
+        """Copy with other tangential displacements (same contacts; projected).
+
+        Parameters
+        ----------
+        contact_t : array_like, shape (C, 3), optional
+        wall_t : array_like, shape (W, 3), optional
+
+        Returns
+        -------
+        State3D
+        """
+        import dataclasses
+
+        ct = self.contact_t if contact_t is None else np.asarray(contact_t, np.float64)
+        wt = self.wall_t if wall_t is None else np.asarray(wall_t, np.float64)
+        if ct.shape != self.contact_t.shape or wt.shape != self.wall_t.shape:
+            raise ValueError(f"t arrays must have shapes {self.contact_t.shape} and "
+                             f"{self.wall_t.shape}, got {ct.shape} and {wt.shape}")
+        d = self.separation(self.contact_i, self.contact_j)
+        n = d / np.linalg.norm(d, axis=1)[:, None]
+        ct, e1 = _project_keep_length(n, ct)
+        wt, e2 = _project_keep_length(self.wall_normal, wt)
+        notes = dict(self.notes, projected_t=max(e1, e2))
+        return dataclasses.replace(self, contact_t=ct, wall_t=wt, notes=notes)
+
+
+def _project_keep_length(n, t):
+    """t <- |t| P t / |P t| row by row (the pair style's rule); largest |t.n|/|t|."""
+    t = np.array(t, dtype=np.float64, copy=True).reshape(-1, 3)
+    if t.size == 0:
+        return t, 0.0
+    tn = np.einsum("ca,ca->c", t, n)
+    ln = np.linalg.norm(t, axis=1)
+    p = t - tn[:, None] * n
+    pl = np.linalg.norm(p, axis=1)
+    scale = np.divide(ln, pl, out=np.zeros_like(ln), where=pl > 0)
+    out = np.where((tn != 0.0)[:, None], p * scale[:, None], t)
+    err = float(np.max(np.divide(np.abs(tn), ln, out=np.zeros_like(ln), where=ln > 0)))
+    return out, err
+
+
+def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
+                  periodic=(True, True, False), pairs=(), pair_t=None, walls=(),
+                  wall_t=None, external=None, inertia_factor=SPHERE_INERTIA):
+    """Build a :class:`State3D` from arrays and an explicit contact list.
+
+    Parameters
+    ----------
+    ids : array_like of int, shape (N,)
+        Atom ids (any order; the state is sorted by id).
+    positions : array_like, shape (N, 3)
+    radii, masses : array_like, shape (N,)
+    box_lo, box_hi : array_like, shape (3,)
+    params : ContactParams
+    periodic : sequence of 3 bool
+    pairs : array_like of int, shape (C, 2)
+        Atom **ids** (a, b) of the sphere-sphere contacts, each once.
+    pair_t : array_like, shape (C, 3), optional
+        Tangential displacement of each pair seen from a (default zero).
+    walls : sequence of (id, normal, offset)
+        Sphere-wall contacts (see :func:`plane_wall`).
+    wall_t : array_like, shape (W, 3), optional
+        Their tangential displacements (default zero).
+    external : array_like, shape (N, 3), optional
+        External forces (zero if None), in the order of ``ids``.
+    inertia_factor : float
+        I0 in I = I0 m R^2 (default 2/5, solid spheres).
+
+    Returns
+    -------
+    State3D
+        Contacts ordered by (i, j) with ids[i] < ids[j]; t projected onto the
+        tangent planes with lengths kept.
+
+    Raises
+    ------
+    ValueError
+        On non-finite or non-positive values, duplicate ids, an unknown id in
+        ``pairs`` or ``walls``, a contact without overlap, or wrong shapes;
+        the message names the ids.
+    """
+    if not isinstance(params, ContactParams):
+        raise ValueError(f"params must be a ContactParams, got {type(params).__name__}")
+    ids = np.asarray(ids).astype(np.int64).reshape(-1)
+    n = ids.size
+    pos = np.asarray(positions, np.float64).reshape(n, 3)
+    radii = np.asarray(radii, np.float64).reshape(n)
+    masses = np.asarray(masses, np.float64).reshape(n)
+    for name, arr in (("positions", pos), ("radii", radii), ("masses", masses)):
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} must be finite")
+    if np.any(radii <= 0) or np.any(masses <= 0):
+        raise ValueError("radii and masses must be > 0")
+    order = np.argsort(ids, kind="stable")
+    if np.any(np.diff(ids[order]) == 0):
+        raise ValueError("atom ids must be unique")
+    ids, pos, radii, masses = ids[order], pos[order], radii[order], masses[order]
+    ext = (np.zeros((n, 3)) if external is None
+           else np.asarray(external, np.float64).reshape(n, 3)[order])
+    index = {int(a): k for k, a in enumerate(ids)}
+
+    def idx(a):
+        if int(a) not in index:
+            raise ValueError(f"contact names atom id {int(a)}, which is not in ids")
+        return index[int(a)]
+
+    pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
+    C = pairs.shape[0]
+    pt = np.zeros((C, 3)) if pair_t is None else np.asarray(pair_t, np.float64).reshape(C, 3)
+    ci = np.array([idx(a) for a in pairs[:, 0]], np.int64)
+    cj = np.array([idx(b) for b in pairs[:, 1]], np.int64)
+    swap = ids[ci] > ids[cj]
+    ci, cj = np.where(swap, cj, ci), np.where(swap, ci, cj)
+    pt = np.where(swap[:, None], -pt, pt)                  # t_ji = -t_ij
+    srt = np.lexsort((cj, ci))
+    ci, cj, pt = ci[srt], cj[srt], pt[srt]
+    W = len(walls)
+    widx = np.array([idx(w[0]) for w in walls], np.int64)
+    wn = np.array([np.asarray(w[1], np.float64) for w in walls]).reshape(W, 3)
+    woff = np.array([float(w[2]) for w in walls], np.float64)
+    if W and not np.allclose(np.linalg.norm(wn, axis=1), 1.0, rtol=0, atol=1e-14):
+        raise ValueError("wall normals must be unit vectors")
+    wt = np.zeros((W, 3)) if wall_t is None else np.asarray(wall_t, np.float64).reshape(W, 3)
+    box_lo = np.asarray(box_lo, np.float64).reshape(3).copy()
+    box_hi = np.asarray(box_hi, np.float64).reshape(3).copy()
+    st = State3D(ids=ids, positions=pos, radii=radii, masses=masses,
+                 inertia=float(inertia_factor) * masses * radii**2, box_lo=box_lo,
+                 box_hi=box_hi, periodic=tuple(bool(p) for p in periodic), params=params,
+                 contact_i=ci, contact_j=cj, contact_t=pt, wall_index=widx, wall_normal=wn,
+                 wall_offset=woff, wall_t=wt, external=ext)
+    d = st.separation(ci, cj)
+    delta = radii[ci] + radii[cj] - np.linalg.norm(d, axis=1)
+    if not np.all(delta > 0):
+        k = int(np.argmin(delta > 0))
+        raise ValueError(f"contact {ids[ci[k]]}-{ids[cj[k]]} has overlap {delta[k]!r} <= 0")
+    wd = st.wall_delta()
+    if not np.all(wd > 0):
+        k = int(np.argmin(wd > 0))
+        raise ValueError(f"wall contact of atom id {ids[widx[k]]} has overlap {wd[k]!r} <= 0")
+    return st.with_t()
