@@ -208,6 +208,20 @@ def contact_blocks3d(state):
     C = state.n_contacts
     if C == 0:
         return np.zeros((0, 12, 12)), np.zeros((0, 12), np.int64)
+    ii, ij, ji, jj = _sphere_blocks(state)
+    D = np.empty((C, 12, 12))
+    D[:, :6, :6], D[:, :6, 6:], D[:, 6:, :6], D[:, 6:, 6:] = ii, ij, ji, jj
+    dofs = np.concatenate([6 * state.contact_i[:, None] + np.arange(6),
+                           6 * state.contact_j[:, None] + np.arange(6)], axis=1)
+    return D, dofs.astype(np.int64)
+
+
+def _sphere_blocks(state):
+    """The four 6 x 6 blocks of K of each contact: (i, i), (i, j), (j, i), (j, j).
+
+    Each of shape (C, 6, 6), rows (F, T/R) of the first sphere named, columns
+    (r, phi) of the second; F_j = -F_i and T_j/R_j = T_i/R_i.
+    """
     rho, n, delta = _pair_geometry(state)
     if np.any(delta <= 0):
         k = int(np.argmax(delta <= 0))
@@ -215,14 +229,16 @@ def contact_blocks3d(state):
                          f"{state.ids[state.contact_j[k]]} has overlap {delta[k]!r} <= 0")
     terms = contact_terms3d(state.params, delta, state.contact_t)
     Ar, Aphi, Br, Bphi = _blocks(n, terms, state.contact_t, rho)
-    D = np.empty((C, 12, 12))
-    D[:, 0:3, 0:3], D[:, 0:3, 3:6], D[:, 0:3, 6:9], D[:, 0:3, 9:12] = Ar, Aphi, -Ar, Aphi
-    D[:, 3:6, 0:3], D[:, 3:6, 3:6], D[:, 3:6, 6:9], D[:, 3:6, 9:12] = Br, Bphi, -Br, Bphi
-    D[:, 6:9, :] = -D[:, 0:3, :]                  # F_j = -F_i
-    D[:, 9:12, :] = D[:, 3:6, :]                  # T_j/R_j = T_i/R_i
-    dofs = np.concatenate([6 * state.contact_i[:, None] + np.arange(6),
-                           6 * state.contact_j[:, None] + np.arange(6)], axis=1)
-    return -D, dofs.astype(np.int64)
+    C = Ar.shape[0]
+    out = np.empty((4, C, 6, 6))
+    # K = -dG/dq: D(i, i) = [[Ar, Aphi], [Br, Bphi]], D(i, j) = [[-Ar, Aphi], [-Br, Bphi]],
+    # D(j, i) = [[-Ar, -Aphi], [Br, Bphi]], D(j, j) = [[Ar, -Aphi], [-Br, Bphi]]
+    for k, (sa, sp_, sb) in enumerate(((-1, -1, -1), (1, -1, 1), (1, 1, -1), (-1, 1, 1))):
+        out[k, :, :3, :3] = sa * Ar
+        out[k, :, :3, 3:] = sp_ * Aphi
+        out[k, :, 3:, :3] = sb * Br
+        out[k, :, 3:, 3:] = -Bphi
+    return out[0], out[1], out[2], out[3]
 
 
 def wall_blocks3d(state):
@@ -272,21 +288,34 @@ def stiffness_matrix3d(state, wall=True):
     """
     if not isinstance(state, State3D):
         raise ValueError(f"expected a State3D, got {type(state).__name__}")
-    N6 = state.ndof
-    data, rows, cols = [], [], []
-    parts = [contact_blocks3d(state)] + ([wall_blocks3d(state)] if wall else [])
-    for B, dofs in parts:
-        if B.shape[0] == 0:
-            continue
-        m = dofs.shape[1]
-        data.append(B.reshape(-1))
-        rows.append(np.repeat(dofs, m, axis=1).reshape(-1))
-        cols.append(np.tile(dofs, (1, m)).reshape(-1))
-    if not data:
-        return sp.csr_matrix((N6, N6), dtype=np.float64)
-    K = sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
-                      shape=(N6, N6), dtype=np.float64)
-    K.sum_duplicates()
+    N = state.ndof // 6
+    diag = np.zeros((N, 36))
+    keys, data = [np.arange(N) * (N + 1)], [diag]
+    if state.n_contacts:
+        ii, ij, ji, jj = _sphere_blocks(state)
+        i, j = state.contact_i, state.contact_j
+        for k, b in ((i, ii), (j, jj)):          # each sphere's own block, summed
+            for e in range(36):
+                diag[:, e] += np.bincount(k, weights=b.reshape(-1, 36)[:, e], minlength=N)
+        keys += [i * N + j, j * N + i]
+        data += [ij.reshape(-1, 36), ji.reshape(-1, 36)]
+    if wall:
+        Bw, dw = wall_blocks3d(state)
+        k = dw[:, 0] // 6
+        for e in range(36):
+            diag[:, e] += np.bincount(k, weights=Bw.reshape(-1, 36)[:, e], minlength=N)
+    touched = np.zeros(N, bool)                    # the pattern is the contact network's
+    touched[state.contact_i] = touched[state.contact_j] = True
+    if wall:
+        touched[state.wall_index] = True
+    keys[0], data[0] = keys[0][touched], diag[touched]
+    keys = np.concatenate(keys)
+    order = np.argsort(keys)                       # (row, column); every key once
+    blocks = np.concatenate(data)[order].reshape(-1, 6, 6)
+    brow, bcol = np.divmod(keys[order], N)
+    indptr = np.searchsorted(brow, np.arange(N + 1))
+    K = sp.bsr_matrix((blocks, bcol, indptr), shape=(state.ndof, state.ndof),
+                      blocksize=(6, 6)).tocsr()
     K.sort_indices()
     return K
 

@@ -8,8 +8,22 @@ from .builders import KN, KT, MU
 
 
 def geometric_pairs(pos, radii, box_length, periodic):
-    """All overlapping pairs (i < j) by brute force; small N only."""
-    i, j = np.triu_indices(len(radii), 1)
+    """All overlapping pairs (i < j), in (i, j) order (a k-d tree: any N).
+
+    Periodic axes wrap (positions inside [0, L)); the others are open.
+    """
+    from scipy.spatial import cKDTree
+
+    pos = np.asarray(pos, np.float64)
+    span = np.ptp(pos, axis=0) + 4.0 * float(np.max(radii)) + 1.0
+    box = np.where(np.asarray(periodic), np.asarray(box_length, np.float64), 2.0 * span)
+    shifted = pos - np.where(np.asarray(periodic), 0.0, pos.min(axis=0))
+    cand = cKDTree(shifted, boxsize=box).query_pairs(2.0 * float(np.max(radii)),
+                                                     output_type="ndarray")
+    if cand.size == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    cand = cand[np.lexsort((cand[:, 1], cand[:, 0]))]
+    i, j = cand[:, 0].astype(np.int64), cand[:, 1].astype(np.int64)
     d = minimum_image3(pos[i] - pos[j], box_length, periodic)
     ok = np.linalg.norm(d, axis=1) < radii[i] + radii[j]
     return i[ok], j[ok]
