@@ -90,7 +90,10 @@ class StepTimer:
             try:
                 return f(*a, **k)
             finally:
-                self.t[key] = self.t.get(key, 0.0) + time.perf_counter() - t0
+                dt = time.perf_counter() - t0
+                self.t[key] = self.t.get(key, 0.0) + dt
+                if dt > 1.0 and name != "polish":      # progress, on stderr
+                    print(f"    {name}: {dt:.1f} s", file=sys.stderr, flush=True)
         setattr(mod, name, timed)
 
     def steps(self, total):
@@ -161,7 +164,7 @@ def large(runs, old_max, compare, old_seeds):
             data = os.path.join(work, "p.data")
             write_data(generate(n, seed=seed), data)
             cfg = RelaxConfig(datafile=data, relax_dynamics=dyn)
-            res = stages.relax(cfg, work, quiet=True)
+            res = stages.relax(cfg, work, quiet=True, log=os.path.join(work, "log.lammps"))
             steps = timer.steps(res.wall_time)
             rows.append((n, seed, dyn, res.wall_time, steps, res.top_attempts))
             d = describe(res.datafile, cfg)
