@@ -153,11 +153,12 @@ class RelaxConfig(StageConfig):
         piston until every speed is below ``v_stop``); ``'fire'``, LAMMPS's
         FIRE minimizer (``min_style fire``; the piston, then the free
         relaxation, each until the largest force is below
-        :data:`~remote_trigger.pywrap.stages.relax.FIRE_FTOL` x F_y), with damped dynamics after it only if Newton
-        does not finish. Both end with the same Newton polish and the same
-        residual test. ``'auto'`` (default): ``'damped'`` for N <= 400
-        disks (the results of N <= 400 are those of ``'damped'``, bitwise),
-        ``'fire'`` above. Used by the default protocol only.
+        :data:`~remote_trigger.pywrap.stages.relax.FIRE_FTOL` x F_y), with
+        damped dynamics after it only if Newton does not finish. Both end
+        with the same Newton polish and the same residual test.
+        ``'auto'`` (default): ``'damped'`` for N <= 400 disks (the results
+        of N <= 400 are those of ``'damped'``, bitwise), ``'fire'`` above.
+        Used by the default protocol only.
     settle_steps : int
         Compaction steps with gravity (0 = no compaction, e.g. for a data
         file that is already an equilibrium), >= 0. Default 30000.

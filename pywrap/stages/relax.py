@@ -357,7 +357,11 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
     lowered onto the bulk (:func:`place_top`), frictionless relaxation under
     the loads (over-damped + Newton), then friction ``cfg.mu`` switched on
     with zero history (still an equilibrium: the residual is re-evaluated,
-    and polished with friction if it is not below ``f_accept``).
+    and polished with friction if it is not below ``f_accept``). The piston
+    and the frictionless relaxation come to rest by damped dynamics or, with
+    ``cfg.relax_dynamics`` = ``'fire'`` (default above 400 disks,
+    :func:`relax_dynamics`), by FIRE minimization (:func:`press_top_fire`,
+    :func:`fire_minimize`) before the same Newton polish.
     ``'frictional'``: compaction of all disks with ``mu_settle``, then
     relaxation with friction.
 
