@@ -92,6 +92,7 @@ class StepTimer:
             finally:
                 dt = time.perf_counter() - t0
                 self.t[key] = self.t.get(key, 0.0) + dt
+                self.t[key + "_calls"] = self.t.get(key + "_calls", 0) + 1
                 if dt > 1.0 and name != "polish":      # progress, on stderr
                     print(f"    {name}: {dt:.1f} s", file=sys.stderr, flush=True)
         setattr(mod, name, timed)
@@ -102,6 +103,7 @@ class StepTimer:
         out = {k: t.get(k, 0.0) for k in ("i", "ii", "iiia", "iiib_fire", "iiib_newton")}
         out["iiib_damped"] = t.get("iiib_eq", 0.0) - out["iiib_newton"]
         out["rest"] = total - sum(out.values())
+        out["tried"] = int(t.get("iiia_calls", 0))     # one piston per placement tried
         return out
 
 
@@ -174,10 +176,11 @@ def large(runs, old_max, compare, old_seeds):
     print(f"relax, default protocol, one core: wall time [s] per step "
           f"(summed over the placements of the line)")
     print(f"{'N':>6} {'seed':>4} {'dynamics':>8} {'total':>8} "
-          + " ".join(f"{STEP_NAMES[k]:>15}" for k in STEPS) + f" {'placements':>10}")
+          + " ".join(f"{STEP_NAMES[k]:>15}" for k in STEPS) + f" {'placements tried/kept':>22}")
     for n, seed, dyn, wall, steps, att in rows:
         print(f"{n:6d} {seed:4d} {dyn:>8} {wall:8.1f} "
-              + " ".join(f"{steps[k]:15.1f}" for k in STEPS) + f" {att:10d}")
+              + " ".join(f"{steps[k]:15.1f}" for k in STEPS)
+              + f" {str(steps['tried']) + ' / ' + str(att):>22}")
     # ratio damped / fire per (N, seed); extrapolated damped time above old_max
     damped = {(n, s): w for n, s, dyn, w, _, _ in rows if dyn == "damped"}
     fire = {(n, s): w for n, s, dyn, w, _, _ in rows if dyn == "fire"}
