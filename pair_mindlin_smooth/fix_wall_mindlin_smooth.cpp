@@ -144,7 +144,7 @@ double FixWallMindlinSmooth::wall_arg(const char *str, const char *what)
 
 int FixWallMindlinSmooth::setmask()
 {
-  return POST_FORCE;
+  return POST_FORCE | MIN_POST_FORCE;
 }
 
 /* ---------------------------------------------------------------------- */
@@ -152,7 +152,6 @@ int FixWallMindlinSmooth::setmask()
 void FixWallMindlinSmooth::init()
 {
   MindlinSmooth::require_spheres(lmp, "Fix wall/mindlin/smooth");
-  MindlinSmooth::forbid_minimize(lmp, "Fix wall/mindlin/smooth");
 
   // older decks: 'yplane y_lo' with d_mindlin_wall_t from a fix property/atom
   idx_legacy = -1;
@@ -186,11 +185,30 @@ void FixWallMindlinSmooth::init()
       error->all(FLERR, "Fix wall/mindlin/smooth: variable {} for mu is not equal-style",
                  mu_var);
   }
+  // minimize only without friction (mu of a variable: its value now)
+  if (update->whichflag == 2) {
+    const double mu_now = (mu_ivar >= 0) ? input->variable->compute_equal(mu_ivar) : mu;
+    MindlinSmooth::forbid_minimize(lmp, "Fix wall/mindlin/smooth", mu_now * kt == 0.0);
+  }
 }
 
 /* ---------------------------------------------------------------------- */
 
 void FixWallMindlinSmooth::setup(int vflag)
+{
+  post_force(vflag);
+}
+
+/* ----------------------------------------------------------------------
+   energy minimization (frictionless walls only, see init): the same forces
+------------------------------------------------------------------------- */
+
+void FixWallMindlinSmooth::min_setup(int vflag)
+{
+  post_force(vflag);
+}
+
+void FixWallMindlinSmooth::min_post_force(int vflag)
 {
   post_force(vflag);
 }

@@ -35,6 +35,8 @@ class FixWallMindlinSmooth : public Fix {
   void init() override;
   void setup(int) override;
   void post_force(int) override;
+  void min_setup(int) override;
+  void min_post_force(int) override;
   double compute_scalar() override;
   double compute_vector(int) override;
   double memory_usage() override;

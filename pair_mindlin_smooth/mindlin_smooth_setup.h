@@ -41,13 +41,16 @@ inline void refuse_rolling_twisting(LAMMPS_NS::LAMMPS *lmp, const char *what, in
 
 // The tangential displacement is advanced by the velocities of each MD step
 // (v dt is the step's displacement); an energy minimization moves atoms
-// without meaningful velocities, so it would corrupt the history. Refuse it.
-inline void forbid_minimize(LAMMPS_NS::LAMMPS *lmp, const char *what)
+// without meaningful velocities, so it would corrupt the history. Refuse it
+// unless the contacts are frictionless (every mu or k_t zero: no tangential
+// force, the history stays zero), where a minimizer finds the same
+// equilibria as damped dynamics.
+inline void forbid_minimize(LAMMPS_NS::LAMMPS *lmp, const char *what, bool frictionless)
 {
-  if (lmp->update->whichflag == 2)
+  if (lmp->update->whichflag == 2 && !frictionless)
     lmp->error->all(FLERR,
-                    "{} cannot be used with minimize: the contact history follows the "
-                    "dynamics; relax with damped dynamics instead",
+                    "{} cannot be used with minimize unless mu = 0 (frictionless): the "
+                    "contact history follows the dynamics; relax with damped dynamics instead",
                     what);
 }
 

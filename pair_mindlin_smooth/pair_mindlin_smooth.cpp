@@ -202,7 +202,11 @@ void PairMindlinSmooth::find_history()
 void PairMindlinSmooth::init_style()
 {
   MindlinSmooth::require_spheres(lmp, "Pair style mindlin/smooth");
-  MindlinSmooth::forbid_minimize(lmp, "Pair style mindlin/smooth");
+  bool frictionless = true;    // every pair_coeff without tangential force (mixing keeps it)
+  for (int i = 1; i <= atom->ntypes; i++)
+    for (int j = i; j <= atom->ntypes; j++)
+      if (setflag[i][j] && mu[i][j] * kt[i][j] != 0.0) frictionless = false;
+  MindlinSmooth::forbid_minimize(lmp, "Pair style mindlin/smooth", frictionless);
   if (comm->ghost_velocity == 0)
     error->all(FLERR,
                "Pair style mindlin/smooth requires ghost atoms store velocity: "

@@ -21,6 +21,10 @@ from remote_trigger.pywrap.config import (
 
 #: relaxation protocols of :class:`RelaxConfig` (docs/driver.md)
 PROTOCOLS = ("frictionless-then-friction", "frictional")
+#: dynamics of the frictionless relaxation of the default protocol (``RelaxConfig.relax_dynamics``)
+RELAX_DYNAMICS = ("auto", "damped", "fire")
+#: ``relax_dynamics = 'auto'`` is ``'damped'`` up to this many disks, ``'fire'`` above
+RELAX_DYNAMICS_AUTO_N = 400
 
 
 @dataclass(frozen=True)
@@ -143,6 +147,18 @@ class RelaxConfig(StageConfig):
         history is zero, so the state is still an equilibrium (checked).
         ``'frictional'``: the former protocol (compaction of all disks with
         ``mu_settle`` and gravity, then relaxation with friction ``mu``).
+    relax_dynamics : {'auto', 'damped', 'fire'}
+        How the default protocol's frictionless steps (iii) reach rest:
+        ``'damped'``, over-damped dynamics (``gamma``, ``gamma_rot``; the
+        piston until every speed is below ``v_stop``); ``'fire'``, LAMMPS's
+        FIRE minimizer (``min_style fire``; the piston, then the free
+        relaxation, each until the largest force is below
+        :data:`~remote_trigger.pywrap.stages.relax.FIRE_FTOL` x F_y), with
+        damped dynamics after it only if Newton does not finish. Both end
+        with the same Newton polish and the same residual test.
+        ``'auto'`` (default): ``'damped'`` for N <= 400 disks (the results
+        of N <= 400 are those of ``'damped'``, bitwise), ``'fire'`` above.
+        Used by the default protocol only.
     settle_steps : int
         Compaction steps with gravity (0 = no compaction, e.g. for a data
         file that is already an equilibrium), >= 0. Default 30000.
@@ -183,6 +199,7 @@ class RelaxConfig(StageConfig):
     gamma: float = 2.0
     gamma_rot: float = 0.1
     protocol: str = "frictionless-then-friction"
+    relax_dynamics: str = "auto"
     settle_steps: int = 30000
     mu_settle: float = 0.0
     g_settle: float = 0.5
@@ -208,6 +225,9 @@ class RelaxConfig(StageConfig):
         if self.protocol not in PROTOCOLS:
             raise ConfigError(f"protocol must be one of {', '.join(PROTOCOLS)}, got "
                               f"protocol = {self.protocol!r}")
+        if self.relax_dynamics not in RELAX_DYNAMICS:
+            raise ConfigError(f"relax_dynamics must be one of {', '.join(RELAX_DYNAMICS)}, "
+                              f"got relax_dynamics = {self.relax_dynamics!r}")
         _int("settle_steps", self.settle_steps, 0)
         _positive("top_gap", self.top_gap)
         _int("top_attempts", self.top_attempts, 1)

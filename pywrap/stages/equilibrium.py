@@ -75,7 +75,9 @@ class RelaxRecord:
         r after that check (damped phase: estimate with the damping force
         removed; Newton phase: exact, v = 0).
     phase : list of str
-        ``'damped'`` or ``'newton'``.
+        ``'damped'`` or ``'newton'``; the relax stage also records
+        ``'fire'`` (the residual after FIRE, ``relax_dynamics = 'fire'``)
+        and ``'friction-on'``.
     wall : list of float
         Wall-clock seconds since the start.
     """

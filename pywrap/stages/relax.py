@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from remote_trigger.pywrap.config import ConfigError
-from remote_trigger.pywrap.stages.config import RelaxConfig
+from remote_trigger.pywrap.stages.config import RELAX_DYNAMICS_AUTO_N, RelaxConfig
 from remote_trigger.pywrap.bindings.engine import Engine
 from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.stages.newton_solve import stiffness
@@ -177,6 +177,72 @@ def press_top(eng, F_x):
     return steps
 
 
+#: ``relax_dynamics = 'fire'``: FIRE stops once the largest force on any disk is
+#: below FIRE_FTOL x F_y (Newton then polishes to the acceptance level)
+FIRE_FTOL = 1e-6
+
+
+def relax_dynamics(cfg, n):
+    """The dynamics of the frictionless steps (iii) for ``n`` disks: 'damped' or 'fire'.
+
+    ``cfg.relax_dynamics`` unless it is ``'auto'``: then ``'damped'`` for
+    n <= :data:`~remote_trigger.pywrap.stages.config.RELAX_DYNAMICS_AUTO_N`
+    (400), ``'fire'`` above.
+    """
+    if cfg.relax_dynamics != "auto":
+        return cfg.relax_dynamics
+    return "damped" if n <= RELAX_DYNAMICS_AUTO_N else "fire"
+
+
+def fire_minimize(eng, cfg, ftol=None):
+    """FIRE energy minimization of the loaded frictionless scene (section ``fire``).
+
+    The ``fire`` section of ``in.relax``: LAMMPS's ``min_style fire`` with
+    the forces of the pair, the wall, the loads and of any constraint
+    defined (the piston of :func:`press_top`), until the largest force on a
+    disk is below ``ftol`` (default :data:`FIRE_FTOL` x F_y) or after
+    ``cfg.max_steps`` iterations; then v = omega = 0. The damping and
+    integrator fixes are removed first (``fix viscous`` would act on FIRE's
+    velocities); :func:`~remote_trigger.pywrap.stages.equilibrium.equilibrate`
+    re-adds them if it needs damped dynamics. Friction must be off (the
+    plugin refuses minimize with friction).
+
+    Returns
+    -------
+    int
+        FIRE iterations.
+    """
+    ftol = FIRE_FTOL * cfg.F_y if ftol is None else ftol
+    eng.unfix(*eq.DAMPING_FIXES, *eq.INTEGRATOR_FIXES)
+    eng.command(f"variable fire_ftol string {float(ftol)!r}")
+    eng.command(f"variable fire_steps string {int(cfg.max_steps)}")
+    step0 = eng.step()
+    eng.run_section("fire")
+    return eng.step() - step0
+
+
+def press_top_fire(eng, cfg):
+    """Protocol step (iii a) with ``relax_dynamics = 'fire'``: the piston by FIRE.
+
+    The same rigid piston as :func:`press_top` (section ``press``), relaxed
+    by :func:`fire_minimize` instead of damped dynamics; then the
+    ``press_end`` section.
+
+    Returns
+    -------
+    int
+        FIRE iterations.
+    """
+    eng.command(f"variable load_x equal {float(cfg.F_x)!r}")
+    eng.run_section("press")
+    try:
+        steps = fire_minimize(eng, cfg)
+        eng.run_section("press_end")
+    finally:
+        eng.unfix("piston")
+    return steps
+
+
 def top_clearance(state):
     """min over top disks of y minus max over bulk disks of y (centres)."""
     y = state.positions[:, 1]
@@ -195,6 +261,26 @@ def antisymmetry(state, cfg, F_x):
     return float(np.linalg.norm(K - K.T) / nrm) if nrm > 0 else 0.0
 
 
+def _fire_relax(eng, cfg, t0):
+    """Step (iii b) with FIRE (:func:`fire_minimize`); a record with its residual.
+
+    Raises :class:`~remote_trigger.pywrap.stages.equilibrium.NoEquilibriumError`
+    if the ``top`` line slid farther than ``cfg.slide`` along x, as the damped
+    dynamics would.
+    """
+    st = eng.gather_state()
+    x0 = float(np.mean(st.unwrapped_positions()[st.top, 0]))
+    fire_minimize(eng, cfg)
+    st = eng.gather_state()
+    dx = float(np.mean(st.unwrapped_positions()[st.top, 0])) - x0
+    if abs(dx) > cfg.slide:
+        raise eq.NoEquilibriumError(f"no equilibrium at F_x = {cfg.F_x!r}: the top layer "
+                                    f"slid {dx:.3g} (> slide = {cfg.slide}) under FIRE")
+    rec = eq.RelaxRecord()
+    rec.add(0.0, eq.residual_of(st)[1], "fire", t0)
+    return rec
+
+
 def _frictionless_then_friction(eng, cfg, prog, t0):
     """Steps (i)-(iv) of the default protocol (see :func:`relax`).
 
@@ -202,6 +288,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
     """
     cfg0 = cfg.replace(mu=0.0)
     load_relax_scene(eng, cfg0, cfg.datafile, cfg.F_x)
+    fire = relax_dynamics(cfg, eng.natoms) == "fire"
     t_comp = 0.0
     offsets = [0.0]
     if cfg.settle_steps > 0:
@@ -220,10 +307,17 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
             eng.command(f"displace_atoms top move {dx!r} 0.0 0.0 units box")
         if cfg.settle_steps > 0:
             tc = time.perf_counter()
-            press_top(eng, cfg.F_x)
+            if fire:
+                press_top_fire(eng, cfg0)
+            else:
+                press_top(eng, cfg.F_x)
             t_comp += time.perf_counter() - tc
         try:
-            r, t_sim, rec = eq.equilibrate(eng, cfg0, cfg.F_x, progress=prog)
+            rec = None
+            if fire:       # FIRE to FIRE_FTOL F_y, then Newton (damped only if it fails)
+                rec = _fire_relax(eng, cfg0, t0)
+            r, t_sim, rec = eq.equilibrate(eng, cfg0, cfg.F_x, record=rec, progress=prog,
+                                           newton_first=fire)
         except eq.NoEquilibriumError as exc:
             if k + 1 < len(offsets):
                 continue
@@ -263,7 +357,11 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
     lowered onto the bulk (:func:`place_top`), frictionless relaxation under
     the loads (over-damped + Newton), then friction ``cfg.mu`` switched on
     with zero history (still an equilibrium: the residual is re-evaluated,
-    and polished with friction if it is not below ``f_accept``).
+    and polished with friction if it is not below ``f_accept``). The piston
+    and the frictionless relaxation come to rest by damped dynamics or, with
+    ``cfg.relax_dynamics`` = ``'fire'`` (default above 400 disks,
+    :func:`relax_dynamics`), by FIRE minimization (:func:`press_top_fire`,
+    :func:`fire_minimize`) before the same Newton polish.
     ``'frictional'``: compaction of all disks with ``mu_settle``, then
     relaxation with friction.
 

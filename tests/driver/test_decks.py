@@ -45,7 +45,7 @@ def test_decks_have_sections():
         assert sec["variables"].lstrip().startswith("#")   # documented on top
     relax = deck_sections(os.path.join(DECK_DIR, "in.relax"))
     for name in ("friction", "compact", "lower_measure", "lower", "press", "press_loop",
-                 "press_end", "relax", "output"):
+                 "press_end", "relax", "output", "fire"):
         assert relax.get(name, "").strip(), name
 
 
@@ -66,12 +66,14 @@ def test_driver_protocol_commands_come_from_the_deck():
                     and isinstance(n.value, str) and id(n) not in docs]
     code = "\n".join(strings)
     for cmd in ("pair_coeff", "aveforce", "fix grav bulk", "fix damp", "fix integ",
-                "viscous", "variable mu_now"):
+                "viscous", "variable mu_now", "min_style", "minimize "):
         assert cmd not in code, cmd
     relax = deck_sections(os.path.join(DECK_DIR, "in.relax"))
     assert "fix piston top aveforce" in relax["press"]
     assert "fix grav bulk gravity ${g_settle}" in relax["compact"]
     assert "pair_coeff * * ${kn} ${kt} ${mu_set}" in relax["friction"]
+    assert "min_style fire" in relax["fire"]
+    assert "jump SELF deck_end" in relax["output"]      # a standalone run skips fire
 
 
 def test_relax_deck(tmp_path, packing_file, relaxed):

@@ -1,4 +1,5 @@
 """Bad input gives a LAMMPS error that names the problem, never a crash or a silent run."""
+import numpy as np
 import pytest
 
 from .lmputil import HIST, KN, KT, add_disk, box_commands, new_lammps
@@ -203,4 +204,31 @@ def test_minimize_is_refused(wall):
         what = "Pair style mindlin/smooth"
     with pytest.raises(Exception, match=what + r" cannot be used with minimize"):
         lmp.command("minimize 0 1e-10 10 100")
+    lmp.close()
+
+
+def test_frictionless_minimize_settles_a_stack():
+    """With mu = 0 minimize is allowed: FIRE finds the Hertz overlaps of a stack.
+
+    Two disks (R = 0.5) above the wall at y = 0, a force -F on the upper one:
+    in equilibrium the pair carries F and the wall F, so both overlaps are
+    (F / k_n)^(2/3) (pair and wall act in the minimizer, history stays 0).
+    """
+    F = 3.0
+    lmp = new_lammps()
+    base(lmp)
+    add_disk(lmp, 1, 0.5, 5.0, 0.6)
+    add_disk(lmp, 1, 0.5, 5.0, 1.7)
+    lmp.commands_list([
+        "pair_style mindlin/smooth", f"pair_coeff * * {KN} {KT} 0.0",
+        f"fix w all wall/mindlin/smooth {KN} {KT} 0.0 yplane 0.0",
+        "group up id 2", f"fix load up addforce 0.0 {-F!r} 0.0",
+        "fix 2d all enforce2d", "timestep 1e-3",
+        "min_style fire", "min_modify norm max tmax 4",
+        "minimize 0.0 1e-9 100000 100000"])
+    x = np.ctypeslib.as_array(lmp.gather_atoms("x", 1, 3)).reshape(-1, 3)
+    delta = (F / KN) ** (2.0 / 3.0)
+    assert x[0, 1] == pytest.approx(0.5 - delta, abs=1e-9)
+    assert x[1, 1] - x[0, 1] == pytest.approx(1.0 - delta, abs=1e-9)
+    assert x[0, 0] == x[1, 0] == 5.0
     lmp.close()
