@@ -95,7 +95,7 @@ def test_one_model_type_for_every_configuration(packing_file):
     from remote_trigger.pywrap.config import ContactModel
     from remote_trigger.pywrap.stages.config import DynamicsConfig
     from remote_trigger.pywrap.jobs.paper.config import PaperConfig
-    from remote_trigger.pywrap.jobs.ensemble.job import EnsembleConfig
+    from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
 
     ref = ContactModel()
     assert ref.k_t == pytest.approx(2 * ref.k_n / 7)
