@@ -65,9 +65,10 @@ def run_tasks(comm, tasks, fn, args=(), done=None):
     Raises
     ------
     Exception
-        The first exception raised by ``fn`` or ``done``, re-raised on every
-        rank once the other tasks have ended (as
-        :func:`~remote_trigger.pywrap.runtime.parallel.on_rank0` does).
+        Under MPI, the first exception raised by ``fn`` or ``done``,
+        re-raised on every rank once the other tasks have ended (as
+        :func:`~remote_trigger.pywrap.runtime.parallel.on_rank0` does); on one
+        rank it propagates at once.
     """
     ended = []
     if comm is None or comm.Get_size() == 1:
