@@ -464,6 +464,8 @@ def find_rattlers(state, min_contacts=2, count_wall=True):
     Parameters
     ----------
     state : State
+        Or a ``State3D`` (spheres: 6 dofs each in ``keep_dofs``; its own
+        default is ``jacobian3d.find_rattlers3d``, 3 contacts).
     min_contacts : int, optional
         A frictional disk needs at least 2 contacts in 2D (module docstring);
         default 2. Use 3 for frictionless disks.
@@ -485,7 +487,8 @@ def find_rattlers(state, min_contacts=2, count_wall=True):
     alive, rounds = rattler_rule(n, state.contact_i, state.contact_j, wz, min_contacts)
     idx = np.nonzero(~alive)[0].astype(np.int64)
     keep = np.nonzero(alive)[0]
-    keep_dofs = (3 * keep[:, None] + np.arange(3)).reshape(-1).astype(np.int64)
+    per = state.ndof // n if n else 3            # 3 dofs per disk, 6 per sphere (State3D)
+    keep_dofs = (per * keep[:, None] + np.arange(per)).reshape(-1).astype(np.int64)
     return RattlerResult(idx, state.ids[idx], keep_dofs, rounds, int(min_contacts))
 
 

@@ -67,7 +67,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from remote_trigger.analysis.stability.jacobian import RattlerResult, rattler_rule
+from remote_trigger.analysis.stability.jacobian import find_rattlers
 from remote_trigger.analysis.state.state3d import State3D
 
 __all__ = ["ContactTerms3D", "contact_terms3d", "contact_blocks3d", "wall_blocks3d",
@@ -383,11 +383,4 @@ def find_rattlers3d(state, min_contacts=3, count_wall=True):
     ValueError
         If ``min_contacts`` < 0.
     """
-    n = state.n
-    wz = (np.bincount(state.wall_index, minlength=n) if count_wall
-          else np.zeros(n, np.int64))
-    alive, rounds = rattler_rule(n, state.contact_i, state.contact_j, wz, min_contacts)
-    idx = np.nonzero(~alive)[0].astype(np.int64)
-    keep = np.nonzero(alive)[0]
-    keep_dofs = (6 * keep[:, None] + np.arange(6)).reshape(-1).astype(np.int64)
-    return RattlerResult(idx, state.ids[idx], keep_dofs, rounds, int(min_contacts))
+    return find_rattlers(state, min_contacts, count_wall)
