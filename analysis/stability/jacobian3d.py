@@ -293,7 +293,7 @@ def stiffness_matrix3d(state, wall=True):
     keys, data = [np.arange(N) * (N + 1)], [diag]
     if state.n_contacts:
         ii, ij, ji, jj = _sphere_blocks(state)
-        i, j = state.contact_i, state.contact_j
+        i, j = state.contact_i.astype(np.int64), state.contact_j.astype(np.int64)
         for k, b in ((i, ii), (j, jj)):          # each sphere's own block, summed
             for e in range(36):
                 diag[:, e] += np.bincount(k, weights=b.reshape(-1, 36)[:, e], minlength=N)
