@@ -48,12 +48,10 @@ Timing: LAMMPS's own "Loop time" (setup excluded) and its Pair row of the
 MPI task timing breakdown, best of ``--repeat`` fresh instances per case,
 styles interleaved so that noise from other jobs hits both alike.
 
-``--dim 3`` (or ``bench_pair3d.py``, its own block in ``make bench``) does the
-same with spheres (``dimension 3``, periodic in x and z, wall at y = 0, packing
-from ``packing3d.py``), ``fix nve/sphere`` without ``disc`` and no
-``fix enforce2d``; the history lives in the pair's own arrays (no fix
-property/atom).  In both dimensions the benchmark stops if the two styles'
-forces at step 0 (zero history) differ by more than round-off.
+``--dim 3`` (``bench_pair3d.py``, its own block in ``make bench``): the same with
+spheres (periodic in x and z, packing3d.py), ``fix nve/sphere`` (no ``disc``, no
+enforce2d), history in the pair's own arrays.  Both dimensions stop if the
+styles' forces at step 0 (zero history) differ by more than round-off.
 """
 import argparse
 import json
@@ -363,9 +361,7 @@ def check_forces(data, verbose=True, tol=1e-8):
 
     With zero history, the only contact forces are Hertz normal forces; the
     stock mapping k = k_n/sqrt(R_eff) must reproduce ours to round-off.
-    Returns the largest difference of the per-particle forces relative to
-    the largest force; raises AssertionError if it exceeds ``tol`` (the
-    comparison would not be of the same physics).
+    Returns max |dF| / max |F| over particles; AssertionError above ``tol``.
     """
     import numpy as np
 
@@ -463,6 +459,13 @@ def cpu_model():
     return "unknown CPU"
 
 
+def commit():
+    """The source commit measured ('unknown' outside git)."""
+    r = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=PROJECT,
+                       capture_output=True, text=True)
+    return r.stdout.strip() or "unknown"
+
+
 def best(results, style):
     """The repetition of ``style`` with the shortest loop time."""
     rs = [r for r in results if r["style"] == style]
@@ -515,7 +518,7 @@ def main(argv=None):
 
     t_start = time.perf_counter()
     print(f"bench_pair: {'spheres, dimension 3' if DIM == 3 else 'disks, dimension 2'}; "
-          f"{cpu_model()}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}",
+          f"commit {commit()}; {cpu_model()}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}",
           flush=True)
     datas = {}
     for n in args.sizes:
