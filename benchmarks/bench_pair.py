@@ -47,6 +47,11 @@ in both runs (stock ``granular`` cannot read ours).
 Timing: LAMMPS's own "Loop time" (setup excluded) and its Pair row of the
 MPI task timing breakdown, best of ``--repeat`` fresh instances per case,
 styles interleaved so that noise from other jobs hits both alike.
+
+``--dim 3`` (``bench_pair3d.py``, its own block in ``make bench``): the same with
+spheres (periodic in x and z, packing3d.py), ``fix nve/sphere`` (no ``disc``, no
+enforce2d), history in the pair's own arrays.  Both dimensions stop if the
+styles' forces at step 0 (zero history) differ by more than round-off.
 """
 import argparse
 import json
@@ -79,6 +84,9 @@ SORT_BIN = 0.5 * (2 * max(RADII.values()) + SKIN)
 #: base packing, relaxed once; larger N are periodic copies of it along x
 BASE_N = 10000
 
+#: 2 (disks) or 3 (spheres, --dim 3)
+DIM = 2
+
 #: plugin file to load explicitly (--plugin), for measuring a prototype build
 #: in an environment where the project is not installed; None = auto-load
 PLUGIN = None
@@ -102,7 +110,7 @@ def new_lammps(log, comm=None):
 def header_commands():
     """Commands before the box: identical for every run."""
     pre = [f"plugin load {PLUGIN}"] if PLUGIN else []
-    return pre + ["units lj", "dimension 2", "atom_style sphere", "atom_modify map array",
+    return pre + ["units lj", f"dimension {DIM}", "atom_style sphere", "atom_modify map array",
                   "boundary p f p", "comm_modify vel yes", "newton on"]
 
 
@@ -134,9 +142,12 @@ def pair_commands(style, mu=MU):
 
 def run_commands(style, data):
     """Everything up to (not including) the first ``run`` of a timed case."""
-    return header_commands() + [
-        HIST_FIX,
-        f"read_data {data} fix hist NULL hist",
+    if DIM == 2:
+        read = [HIST_FIX, f"read_data {data} fix hist NULL hist"]
+        integrate = ["fix nve all nve/sphere disc", "fix 2d all enforce2d"]
+    else:
+        read, integrate = [f"read_data {data}"], ["fix nve all nve/sphere"]
+    return header_commands() + read + [
         "set group all mass 1.0",
         f"neighbor {SKIN} bin",
         "neigh_modify delay 0 every 1 check yes",
@@ -144,8 +155,7 @@ def run_commands(style, data):
     ] + pair_commands(style) + [
         f"fix wall all wall/mindlin/smooth {KN!r} {KT!r} {MU!r} yplane 0.0",
         f"fix load all addforce 0.0 {-LOAD} 0.0",
-        "fix nve all nve/sphere disc",
-        "fix 2d all enforce2d",
+    ] + integrate + [
         f"timestep {DT}",
         "thermo_style custom step ke pe",
         "thermo 0",
@@ -192,6 +202,9 @@ def parse_last_run(log):
 
 def packing_path(cache, n, seed):
     """Cached data file of the N-disk packing (n = 'base' for the relaxed base)."""
+    if DIM == 3:
+        import packing3d
+        return packing3d.packing_path(cache, n, seed)
     return os.path.join(cache, f"packing_v{PACKING_VERSION}_s{seed}_n{n}.data")
 
 
@@ -333,16 +346,22 @@ def ensure_packing(cache, n, seed, regen=False, verbose=True):
                 os.remove(base)
         if verbose:
             print(f"generating packing N = {n} (seed {seed}) -> {path}", flush=True)
-        make_packing(cache, n, seed, verbose)
+        if DIM == 3:
+            import packing3d
+            packing3d.make_packing(cache, n, seed, {
+                "new_lammps": new_lammps, "header": header_commands(), "kn": KN,
+                "radii": RADII, "skin": SKIN}, verbose)
+        else:
+            make_packing(cache, n, seed, verbose)
     return path
 
 
-def check_forces(data, verbose=True):
+def check_forces(data, verbose=True, tol=1e-8):
     """Serial check that the two styles give the same forces at step 0.
 
     With zero history, the only contact forces are Hertz normal forces; the
     stock mapping k = k_n/sqrt(R_eff) must reproduce ours to round-off.
-    Returns the largest relative difference of the per-disk forces.
+    Returns max |dF| / max |F| over particles; AssertionError above ``tol``.
     """
     import numpy as np
 
@@ -354,7 +373,7 @@ def check_forces(data, verbose=True):
             lmp.commands_list(run_commands(style, data) + ["run 0"])
             nloc = lmp.extract_global("nlocal")
             tag = np.array(lmp.numpy.extract_atom("id")[:nloc])
-            f = np.array(lmp.numpy.extract_atom("f")[:nloc, :2])
+            f = np.array(lmp.numpy.extract_atom("f")[:nloc, :DIM])
             order = np.argsort(tag)
             out[style] = f[order]
         finally:
@@ -366,6 +385,8 @@ def check_forces(data, verbose=True):
     if verbose:
         print(f"force check at step 0 (zero history): max |F_ours - F_stock| = {diff:.3g}"
               f" (max |F| = {scale:.3g}, relative {rel:.2g})", flush=True)
+    assert scale > 0 and rel <= tol, (
+        f"styles disagree at step 0: relative force difference {rel:.3g} > {tol:g}")
     return rel
 
 
@@ -409,8 +430,8 @@ def worker(args):
 def run_case(n, nprocs, data, steps, repeat, warmup, styles, logdir):
     """Launch a worker (serial or ``mpirun -np``) and return its results."""
     out = os.path.join(logdir, f"result.n{n}.np{nprocs}.json")
-    cmd = [sys.executable, os.path.abspath(__file__), "--worker", "--data", data,
-           "--steps", str(steps), "--repeat", str(repeat), "--warmup", str(warmup),
+    cmd = [sys.executable, os.path.abspath(__file__), "--worker", "--dim", str(DIM),
+           "--data", data, "--steps", str(steps), "--repeat", str(repeat), "--warmup", str(warmup),
            "--styles", styles, "--logdir", logdir, "--out", out]
     if PLUGIN:
         cmd += ["--plugin", PLUGIN]
@@ -438,6 +459,13 @@ def cpu_model():
     return "unknown CPU"
 
 
+def commit():
+    """The source commit measured ('unknown' outside git)."""
+    r = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=PROJECT,
+                       capture_output=True, text=True)
+    return r.stdout.strip() or "unknown"
+
+
 def best(results, style):
     """The repetition of ``style`` with the shortest loop time."""
     rs = [r for r in results if r["style"] == style]
@@ -452,8 +480,10 @@ def spread(results, style):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--dim", type=int, choices=(2, 3), default=2,
+                   help="2: disks (default); 3: spheres (packing3d.py)")
     p.add_argument("--sizes", type=int, nargs="+", default=[10000, 100000],
-                   help="numbers of disks, multiples of 10000 (default 10000 100000)")
+                   help="numbers of particles, multiples of 10000 (default 10000 100000)")
     p.add_argument("--nprocs", type=int, nargs="+", default=[1, 2],
                    help="MPI rank counts (default 1 2)")
     p.add_argument("--repeat", type=int, default=3, help="fresh runs per case (best of)")
@@ -476,7 +506,8 @@ def main(argv=None):
     p.add_argument("--out", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
 
-    global PLUGIN
+    global PLUGIN, DIM
+    DIM = args.dim
     if args.plugin:
         PLUGIN = os.path.abspath(args.plugin)
     if args.worker:
@@ -486,8 +517,9 @@ def main(argv=None):
         args.sizes, args.repeat = [10000], 1
 
     t_start = time.perf_counter()
-    print(f"bench_pair: {cpu_model()}, {os.cpu_count()} cores, load average "
-          f"{os.getloadavg()[0]:.2f}", flush=True)
+    print(f"bench_pair: {'spheres, dimension 3' if DIM == 3 else 'disks, dimension 2'}; "
+          f"commit {commit()}; {cpu_model()}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}",
+          flush=True)
     datas = {}
     for n in args.sizes:
         datas[n] = ensure_packing(args.cache, n, args.seed, regen=args.regen)
@@ -508,8 +540,9 @@ def main(argv=None):
 
     styles = args.styles.split(",")
     print()
-    print(f"same packing and settings for both styles: dt {DT}, no damping, load {LOAD}/disk, "
-          f"wall = fix wall/mindlin/smooth for both, skin {SKIN}, sort every 1000 steps")
+    print(f"same packing and settings for both styles: dt {DT}, no damping, load {LOAD}/"
+          f"{'sphere' if DIM == 3 else 'disk'}, wall = fix wall/mindlin/smooth for both, "
+          f"skin {SKIN}, sort every 1000 steps")
     print("atom-steps/s from LAMMPS loop time (best of %d; spread = (max-min)/min of the "
           "loop times, a noise measure; load = 1-min load average after the best run, CPU%% = its "
           "LAMMPS 'CPU use'; neighs/atom = list entries per atom: ours a full list, stock a half list)"
@@ -544,14 +577,16 @@ def main(argv=None):
                     ro = rate[(n, nprocs, "ours")] / rate[(n, nprocs, "stock")]
                     po = (best(allres[(n, nprocs)], "stock")["pair"]
                           / best(allres[(n, nprocs)], "ours")["pair"])
-                    goal = "  (goal >= 1.0)" if nprocs == 1 else ""
+                    goal = ("" if nprocs > 1 else "  (goal >= 1.5)" if DIM == 3
+                            else "  (goal >= 1.0)")
                     print(f"  N = {n:>6}, np = {nprocs}: ours/stock throughput "
                           f"{ro:.2f}x, pair time stock/ours {po:.2f}x{goal}")
     for n in args.sizes:
         if 1 in args.nprocs and 2 in args.nprocs:
             for style in styles:
                 s = rate[(n, 2, style)] / rate[(n, 1, style)]
-                goal = "  (goal >= 1.7 for ours at N = 1e5)" if style == "ours" else ""
+                goal = ("" if style != "ours" else "  (goal >= 1.85)" if DIM == 3
+                        else "  (goal >= 1.7 for ours at N = 1e5)")
                 print(f"  N = {n:>6}: 2-rank speed-up of {style:>5} {s:.2f}x{goal}")
     print(f"\ntotal benchmark time {time.perf_counter() - t_start:.0f} s, load average at "
           f"the end {os.getloadavg()[0]:.2f}; LAMMPS logs in {logdir}")
