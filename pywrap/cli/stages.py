@@ -142,6 +142,9 @@ def register(subparsers):
 
     r = subparsers.add_parser("relax", help="settle / relax to equilibrium (f_min)")
     _add_model(r)
+    r.add_argument("--dim", type=int, choices=(2, 3), default=None,
+                   help="2 or 3 (default: that of the data file; a contradicting value "
+                        "is an error)")
     r.add_argument("--settle-steps", dest="settle_steps", type=int,
                    help="compaction aid for a loose packing (frictionless + gravity), steps")
     r.add_argument("--f-min", dest="f_min", type=float, help="target residual (1e-15)")
@@ -223,6 +226,8 @@ def run_relax(args):
     from remote_trigger.pywrap import stages
 
     cfg = _config(RelaxConfig, args, ("settle_steps", "f_min", "newton"))
+    if args.dim is not None:
+        _check_dim(args.dim, cfg.datafile)
     _note_model(args, cfg)
     res = stages.relax(cfg, args.out, quiet=args.quiet, log=args.log)
     if _rank() == 0:
@@ -230,6 +235,18 @@ def run_relax(args):
               f"{res.newton_iterations} Newton steps, damped time {res.damped_time:.4g}, "
               f"wall {res.wall_time:.2f} s, phi {res.packing_fraction:.4f} -> {res.h5}")
     return 0
+
+
+def _check_dim(dim, datafile):
+    """Refuse a ``--dim`` that contradicts the data file (ConfigError, one line)."""
+    from remote_trigger.pywrap.bindings.datafile import data_dimension
+    from remote_trigger.pywrap.config import ConfigError
+
+    found = data_dimension(datafile)
+    if dim != found:
+        what = "spheres" if found == 3 else "disks"
+        raise ConfigError(f"--dim {dim} contradicts the data file {datafile}, which holds "
+                          f"{what} (dimension {found}); leave --dim out or give --dim {found}")
 
 
 def run_ramp(args):
