@@ -137,3 +137,61 @@ def test_2d_only_stages_refuse_spheres(capsys, packing3d, tmp_path, command):
                              "--quiet")
     assert status == 2
     assert_one_line_error(err, f"{command} is 2D only", "dimension 3")
+
+
+# ------------------------------------------------------------------ jacobian
+def test_jacobian_of_a_sphere_equilibrium(relaxed3d, tmp_path, capsys):
+    """K (6 dofs per sphere), rattlers (< 3 contacts), eigenvalues and the decision."""
+    from remote_trigger.analysis.stability.jacobian import remove_dofs
+    from remote_trigger.analysis.stability.jacobian3d import (
+        find_rattlers3d, stiffness_matrix3d)
+
+    out = tmp_path / "j.npz"
+    status, text, _ = run_cli(capsys, "jacobian", relaxed3d.dumpfile, "-o", out)
+    assert status == 0 and "160 spheres" in text
+    z = np.load(out)
+    st = read_dump3d(relaxed3d.dumpfile)
+    N = st.n
+    assert tuple(z["K_shape"]) == (6 * N, 6 * N)
+    np.testing.assert_array_equal(z["ids"], np.repeat(st.ids, 6))
+    np.testing.assert_array_equal(z["mass"].reshape(N, 6)[:, 3:], 0.4 * np.ones((N, 3)))
+    # rattlers: removed iteratively below 3 contacts; every kept sphere has >= 3 kept ones
+    rat = find_rattlers3d(st)
+    np.testing.assert_array_equal(z["rattlers"], rat.ids)
+    kept = np.setdiff1d(np.arange(N), rat.indices)
+    counts = np.zeros(N, int)
+    both = np.isin(st.contact_i, kept) & np.isin(st.contact_j, kept)
+    np.add.at(counts, st.contact_i[both], 1)
+    np.add.at(counts, st.contact_j[both], 1)
+    np.add.at(counts, st.wall_index[np.isin(st.wall_index, kept)], 1)
+    assert counts[kept].min() >= 3
+    # the eigenvalues: those of M^-1 K on the kept dofs, computed here directly
+    Kr, mr = remove_dofs(stiffness_matrix3d(st), st.mass_diagonal(), rat.keep_dofs)
+    lam = np.sort(np.linalg.eigvals(Kr.toarray() / mr[:, None]).real)
+    got = z["eigenvalues"]
+    assert got.size == 6 * (N - rat.ids.size) == lam.size
+    np.testing.assert_allclose(np.sort(got.real), lam, rtol=1e-9, atol=1e-9 * lam.max())
+    # zero history at F_x = 0: K symmetric, the spectrum real and positive, certified
+    assert np.abs(got.imag).max() == 0 and got.real.min() > 0
+    assert int(z["complex_pair"]) == 0 and str(z["coverage"]) == "whole"
+    assert int(z["equilibrium"]) == 1 and float(z["residual"]) < roundoff_floor(st)
+
+
+def test_jacobian_refuses_a_sphere_state_that_is_not_an_equilibrium(relaxed3d, tmp_path,
+                                                                     capsys):
+    status, _, err = run_cli(capsys, "jacobian", relaxed3d.dumpfile, "-o", tmp_path / "j.npz",
+                             "--k-n", "3e5", "--override")
+    assert status == 2
+    assert_one_line_error(err, "not an equilibrium", "k_n = 300000.0")
+    assert not (tmp_path / "j.npz").exists()
+
+
+def test_jacobian_names_a_missing_sphere_column(relaxed3d, tmp_path, capsys):
+    text = open(relaxed3d.dumpfile).read().replace(" v_wall_tz", " v_wall_tq", 1)
+    bad = tmp_path / "bad.dump"
+    bad.write_text(text)
+    status, _, err = run_cli(capsys, "jacobian", bad, "-o", tmp_path / "j.npz",
+                             "--k-n", "2e5", "--k-t", str(2e5 * 2 / 7), "--mu", "1",
+                             "--wall-y", "0")
+    assert status == 2
+    assert_one_line_error(err, "v_wall_tz")
