@@ -195,3 +195,23 @@ def test_jacobian_names_a_missing_sphere_column(relaxed3d, tmp_path, capsys):
                              "--wall-y", "0")
     assert status == 2
     assert_one_line_error(err, "v_wall_tz")
+
+
+def test_relax3d_deck_standalone(packing3d, tmp_path):
+    """``lmp -in in.relax3d``: the driver's protocol without Newton (FIRE to 3e-6)."""
+    import subprocess
+
+    from remote_trigger.pywrap.bindings.engine import deck_path
+
+    from .conftest import LMP, cli_env
+
+    out = tmp_path / "r"
+    proc = subprocess.run([LMP, "-in", deck_path("in.relax3d"), "-log", "none", "-screen",
+                           "none", "-var", "datafile", packing3d, "-var", "out", str(out)],
+                          cwd=tmp_path, env=cli_env(), capture_output=True, text=True,
+                          timeout=280)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    st = read_dump3d(str(out) + ".dump")
+    r = max_residual(generalized_forces3d(st), spheres=True)
+    assert r < 1e-5 and st.params.mu == 1.0 and not np.any(st.contact_t)
+    assert read_data(str(out) + ".data").dimension == 3
