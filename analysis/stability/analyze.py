@@ -13,6 +13,11 @@ its eigenvalues (dense LAPACK up to ``eigen.DENSE_MAX`` dofs, else ARPACK
 shift-invert) and decide whether a complex pair is present with the
 certified test of ``exceptional`` (dense path: the whole spectrum) or
 ``projected`` (sparse path: the projected subspace).
+
+A :class:`~remote_trigger.analysis.state.state3d.State3D` (spheres) takes
+the same steps with the 3D Jacobian (``jacobian3d``: 6 dofs per sphere,
+rattlers below 3 contacts, M = diag(m, m, m, 2m/5, 2m/5, 2m/5));
+:func:`analyze_dump` reads a dump of spheres with ``read_dump3d``.
 """
 from __future__ import annotations
 
@@ -23,10 +28,13 @@ import numpy as np
 from remote_trigger.analysis.stability import eigen as _eigen
 from remote_trigger.analysis.stability import exceptional as _exc
 from remote_trigger.analysis.stability import jacobian as _jac
+from remote_trigger.analysis.stability import jacobian3d as _jac3
 from remote_trigger.analysis.stability import projected as _proj
-from remote_trigger.analysis.state.dumpfile import read_dump
+from remote_trigger.analysis.state.dumpfile import dump_dimension, read_dump, read_dump3d
+from remote_trigger.analysis.state.state3d import State3D
 
-__all__ = ["Analysis", "analyze", "analyze_dump", "roundoff_floor", "check_equilibrium"]
+__all__ = ["Analysis", "analyze", "analyze_dump", "roundoff_floor", "check_equilibrium",
+           "max_residual"]
 
 #: a residual this many times the round-off floor is "far above" it: the state
 #: is not the equilibrium of the parameters it is analysed with
@@ -79,8 +87,29 @@ class Analysis:
     @property
     def max_residual(self):
         """max over disks of max(|F_i|, |T_i|/R_i) including the loads."""
-        G = self.residual.reshape(-1, 3)
-        return float(max(np.max(np.hypot(G[:, 0], G[:, 1])), np.max(np.abs(G[:, 2]))))
+        return max_residual(self.residual, isinstance(self.state, State3D))
+
+
+def max_residual(G, spheres=False):
+    """r = max_i max(|F_i|, |T_i|/R_i) of generalized forces G.
+
+    Parameters
+    ----------
+    G : ndarray, shape (3N,) or (6N,)
+        (F_x, F_y, T/R) per disk, or (F, T/R) per sphere (force units).
+    spheres : bool
+        G is that of spheres.
+
+    Returns
+    -------
+    float
+    """
+    if spheres:
+        G = np.asarray(G).reshape(-1, 6)
+        return float(max(np.max(np.linalg.norm(G[:, :3], axis=1)),
+                         np.max(np.linalg.norm(G[:, 3:], axis=1))))
+    G = np.asarray(G).reshape(-1, 3)
+    return float(max(np.max(np.hypot(G[:, 0], G[:, 1])), np.max(np.abs(G[:, 2]))))
 
 
 def roundoff_floor(state):
@@ -98,7 +127,7 @@ def roundoff_floor(state):
 
     Parameters
     ----------
-    state : State
+    state : State or State3D
 
     Returns
     -------
@@ -106,9 +135,13 @@ def roundoff_floor(state):
         Force units.
     """
     X = max(float(np.max(np.abs(state.positions))), float(np.max(state.box_hi - state.box_lo)))
-    F = float(np.max(np.hypot(state.external[:, 0], state.external[:, 1]))) \
-        if state.external.size else 0.0
-    if not F > 0 and state.contact_forces is not None and state.contact_forces.size:
+    if isinstance(state, State3D):
+        F = float(np.max(np.linalg.norm(state.external, axis=1))) if state.n else 0.0
+    else:
+        F = float(np.max(np.hypot(state.external[:, 0], state.external[:, 1]))) \
+            if state.external.size else 0.0
+    cf = getattr(state, "contact_forces", None)
+    if not F > 0 and cf is not None and cf.size:
         F = float(np.max(np.hypot(state.contact_forces[:, 0], state.contact_forces[:, 1])))
     if not F > 0:
         F = 1.0
@@ -126,7 +159,7 @@ def check_equilibrium(state, factor=FAR_ABOVE_FLOOR, what=None):
 
     Parameters
     ----------
-    state : State
+    state : State or State3D
     factor : float
         Refuse above ``factor`` x :func:`roundoff_floor` (default 1e3).
     what : str, optional
@@ -145,8 +178,9 @@ def check_equilibrium(state, factor=FAR_ABOVE_FLOOR, what=None):
     """
     from remote_trigger.analysis.errors import NotEquilibriumError
 
-    G = _jac.generalized_forces(state).reshape(-1, 3)
-    r = float(max(np.max(np.hypot(G[:, 0], G[:, 1])), np.max(np.abs(G[:, 2]))))
+    spheres = isinstance(state, State3D)
+    G = (_jac3.generalized_forces3d if spheres else _jac.generalized_forces)(state)
+    r = max_residual(G, spheres)
     floor = roundoff_floor(state)
     ratio = r / floor
     if not ratio <= factor:
@@ -161,12 +195,13 @@ def check_equilibrium(state, factor=FAR_ABOVE_FLOOR, what=None):
 
 
 def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=None,
-            min_contacts=2):
+            min_contacts=None):
     """Stiffness, rattlers, spectrum and complex-pair decision of one state.
 
     Parameters
     ----------
-    state : State
+    state : State or State3D
+        Disks, or spheres (then K from ``jacobian3d``).
     eigenvalues : bool, optional
         Compute the eigenvalues (default True).
     decide : bool, optional
@@ -179,17 +214,25 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
         Sparse path: shift (1/time^2); default
         :func:`~remote_trigger.analysis.stability.eigen.default_shift`, inside the band
         where pairs coalesce (``docs/analysis.md``).
-    min_contacts : int
-        Rattler criterion (default 2, frictional disks).
+    min_contacts : int, optional
+        Rattler criterion: fewer contacts than this (default 2 for frictional
+        disks, 3 for spheres, docs/model.md section 9.1).
 
     Returns
     -------
     Analysis
     """
-    K = _jac.stiffness_matrix(state)
+    if isinstance(state, State3D):
+        K = _jac3.stiffness_matrix3d(state)
+        rat = _jac3.find_rattlers3d(state, min_contacts=3 if min_contacts is None
+                                    else min_contacts)
+        G = _jac3.generalized_forces3d(state)
+    else:
+        K = _jac.stiffness_matrix(state)
+        rat = _jac.find_rattlers(state, min_contacts=2 if min_contacts is None
+                                 else min_contacts)
+        G = _jac.generalized_forces(state)
     mass = state.mass_diagonal()
-    rat = _jac.find_rattlers(state, min_contacts=min_contacts)
-    G = _jac.generalized_forces(state)
     eig = dec = None
     if eigenvalues and rat.keep_dofs.size:
         Kr, mr = _jac.remove_dofs(K, mass, rat.keep_dofs)
@@ -221,6 +264,9 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
 def analyze_dump(path, **kwargs):
     """:func:`analyze` of a dump; model-parameter keywords go to ``read_dump``.
 
+    A dump of spheres (:func:`~remote_trigger.analysis.state.dumpfile.dump_dimension`)
+    is read by ``read_dump3d``.
+
     Parameters
     ----------
     path : str
@@ -231,4 +277,5 @@ def analyze_dump(path, **kwargs):
     """
     read_keys = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt", "frame", "no_wall")
     rk = {key: kwargs.pop(key) for key in list(kwargs) if key in read_keys}
-    return analyze(read_dump(path, **rk), **kwargs)
+    reader = read_dump3d if dump_dimension(path, rk.get("frame", -1)) == 3 else read_dump
+    return analyze(reader(path, **rk), **kwargs)

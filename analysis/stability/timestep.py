@@ -76,10 +76,14 @@ class TimestepError(InputError):
 
 
 def _dynamical(state):
+    """M^-1 K of disks (State) or spheres (State3D)."""
     from remote_trigger.analysis.stability.eigen import dynamical_matrix
     from remote_trigger.analysis.stability.jacobian import stiffness_matrix
+    from remote_trigger.analysis.stability.jacobian3d import stiffness_matrix3d
+    from remote_trigger.analysis.state.state3d import State3D
 
-    return dynamical_matrix(stiffness_matrix(state), state.mass_diagonal())
+    K = (stiffness_matrix3d if isinstance(state, State3D) else stiffness_matrix)(state)
+    return dynamical_matrix(K, state.mass_diagonal())
 
 
 def omega_max(state, method="eigen"):
@@ -87,9 +91,8 @@ def omega_max(state, method="eigen"):
 
     Parameters
     ----------
-    state : State
-        Packing (``remote_trigger.analysis.state.state``); any state, not only an
-        equilibrium.
+    state : State or State3D
+        Packing of disks or spheres; any state, not only an equilibrium.
     method : {'eigen', 'gershgorin'}
         ``'eigen'``: the largest |lambda| (dense LAPACK up to 600 dofs, else
         ARPACK; falls back to Gershgorin if ARPACK does not converge).
@@ -178,7 +181,7 @@ def stable_timestep(state, safety=SAFETY_FACTOR, method="eigen"):
     return safety * lim
 
 
-def hertz_limit(k_n, force, k_t=None, mass=1.0, contacts=6):
+def hertz_limit(k_n, force, k_t=None, mass=1.0, contacts=6, inertia=0.5):
     """A-priori stability limit from the largest contact force, without a state.
 
     Parameters
@@ -190,15 +193,17 @@ def hertz_limit(k_n, force, k_t=None, mass=1.0, contacts=6):
     k_t : float, optional
         Tangential stiffness (default 2 k_n / 7); 0 for frictionless.
     mass : float, optional
-        Disk mass m (the rotational coordinate has mass m/2).
+        Disk mass m (the rotational coordinate has mass I0 m).
     contacts : int, optional
-        Contacts per disk z (default 6, dense 2D packing).
+        Contacts per disk z (default 6, dense 2D packing; 12 for spheres).
+    inertia : float, optional
+        I0 of I = I0 m R^2: 1/2 for disks (default), 2/5 for spheres.
 
     Returns
     -------
     float
         2 / sqrt(lambda_bound) with lambda_bound = 2 z (k_eff + (4/3) k_t
-        delta^{1/2}) / (m/2), k_eff = (3/2) k_n delta^{1/2},
+        delta^{1/2}) / (I0 m), k_eff = (3/2) k_n delta^{1/2},
         delta = (force / k_n)^{2/3}. Never above the eigenvalue limit of a
         packing whose contact forces are below ``force``.
 
@@ -215,7 +220,7 @@ def hertz_limit(k_n, force, k_t=None, mass=1.0, contacts=6):
     if not (np.isfinite(k_t) and k_t >= 0):
         raise ValueError(f"k_t must be finite and >= 0, got {k_t!r}")
     sqd = (force / k_n) ** (1.0 / 3.0)
-    lam = 2.0 * contacts * (1.5 * k_n * sqd + (4.0 / 3.0) * k_t * sqd) / (0.5 * mass)
+    lam = 2.0 * contacts * (1.5 * k_n * sqd + (4.0 / 3.0) * k_t * sqd) / (inertia * mass)
     return 2.0 / math.sqrt(lam)
 
 

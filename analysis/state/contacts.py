@@ -26,17 +26,17 @@ def minimum_image(d, box_length, periodic):
 
     Parameters
     ----------
-    d : ndarray, shape (..., 2)
-        Raw separations r_i - r_j.
-    box_length : array_like, shape (2,)
-    periodic : sequence of bool, length 2
+    d : ndarray, shape (..., D)
+        Raw separations r_i - r_j, D = 2 (disks) or 3 (spheres).
+    box_length : array_like, shape (D,)
+    periodic : sequence of bool, length D
 
     Returns
     -------
-    ndarray, shape (..., 2)
+    ndarray, shape (..., D)
     """
     d = np.array(d, dtype=np.float64, copy=True)
-    for a in range(2):
+    for a in range(d.shape[-1]):
         if periodic[a]:
             L = box_length[a]
             d[..., a] -= L * np.round(d[..., a] / L)
@@ -81,10 +81,12 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
 
     Parameters
     ----------
-    positions : ndarray, shape (N, 2)
+    positions : ndarray, shape (N, 2) or (N, 3)
+        Centres of disks, or of spheres (then ``box_lo``, ``box_hi`` and
+        ``periodic`` have 3 entries).
     radii : ndarray, shape (N,)
-    box_lo, box_hi : array_like, shape (2,)
-    periodic : sequence of bool
+    box_lo, box_hi : array_like, shape (D,)
+    periodic : sequence of bool, length D
     ids : array_like, shape (N,), optional
         Atom ids, only to name disks in error messages.
     gap : float, optional
@@ -108,15 +110,15 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
     from scipy.spatial import cKDTree
 
     pos = np.asarray(positions, dtype=np.float64)
-    n = pos.shape[0]
+    n, dim = pos.shape
     if n < 2:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    box_lo = np.asarray(box_lo, np.float64)
-    box_hi = np.asarray(box_hi, np.float64)
+    box_lo = np.asarray(box_lo, np.float64)[:dim]
+    box_hi = np.asarray(box_hi, np.float64)[:dim]
     L = box_hi - box_lo
     shifted = pos - box_lo
-    boxsize = np.empty(2)
-    for a in range(2):
+    boxsize = np.empty(dim)
+    for a in range(dim):
         if periodic[a]:
             shifted[:, a] = np.mod(shifted[:, a], L[a])
             shifted[:, a] = np.where(shifted[:, a] >= L[a], 0.0, shifted[:, a])
@@ -134,7 +136,7 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
     swap = i > j
     i, j = np.where(swap, j, i), np.where(swap, i, j)
     d = minimum_image(pos[i] - pos[j], L, periodic)
-    rho = np.hypot(d[:, 0], d[:, 1])
+    rho = _norm(d)
     bad = rho < np.maximum(radii[i], radii[j])
     if np.any(bad):
         k = int(np.argmax(bad))
@@ -148,13 +150,26 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
     return i[touch][order], j[touch][order], rho[touch][order]
 
 
+def _norm(d):
+    """|d| row by row: ``hypot`` for 2-vectors (as the 2D code always did), else the
+    Euclidean norm."""
+    if d.shape[-1] == 2:
+        return np.hypot(d[..., 0], d[..., 1])
+    return np.sqrt(np.sum(d * d, axis=-1))
+
+
 def _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol):
     """Disk-disk history (sorted by id) -> contacts (i < j, xi), mirror-checked.
 
+    Spheres: ``X`` has shape (N, K, 3) (the vector t per slot), the mirror
+    rule is t_ji = -t_ij, and the returned t is that of side i.
+
     Parameters
     ----------
-    P, X : ndarray, shape (N, K)
-        Partner ids (0 = empty slot) and tangential displacements per slot.
+    P : ndarray, shape (N, K)
+        Partner ids (0 = empty slot).
+    X : ndarray, shape (N, K) or (N, K, 3)
+        Tangential displacements per slot: xi (disks) or t (spheres).
     ids, pos, radii : ndarray
         Sorted by id.
     L : ndarray, shape (2,)
@@ -165,8 +180,8 @@ def _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol):
     Returns
     -------
     (ndarray, ndarray, ndarray, ndarray)
-        Indices i < j, xi (mean of the two sides) and the pairs' overlaps
-        delta (negative: apart).
+        Indices i < j, xi (mean of the two sides; spheres: t_ij, shape
+        (P, 3)) and the pairs' overlaps delta (negative: apart).
 
     Raises
     ------
@@ -210,20 +225,27 @@ def _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol):
     prim = rows < cidx
     hi_, hj, hxi = rows[prim], cidx[prim], pxi[prim]
     mxi = pxi[mpos_all[prim]]
+    vector = hxi.ndim == 2            # spheres: t_ji = -t_ij
+    if vector:
+        mxi = -mxi
     # scale of the check: t* of the contact (or |xi| without friction)
     d = minimum_image(pos[hi_] - pos[hj], L, periodic)
-    delta_h = radii[hi_] + radii[hj] - np.hypot(d[:, 0], d[:, 1])
+    delta_h = radii[hi_] + radii[hj] - _norm(d)
     with np.errstate(divide="ignore", invalid="ignore"):
         ts = (params.mu * params.k_n * np.maximum(delta_h, 0.0) / params.k_t
               if params.k_t > 0 else np.full(delta_h.shape, np.inf))
-    scale = np.maximum(np.abs(hxi), np.where(np.isfinite(ts), ts, 0.0))
-    mism = np.abs(hxi - mxi) > mirror_rtol * scale
+    size = np.sqrt(np.sum(hxi * hxi, axis=1)) if vector else np.abs(hxi)
+    diff = np.sqrt(np.sum((hxi - mxi) ** 2, axis=1)) if vector else np.abs(hxi - mxi)
+    scale = np.maximum(size, np.where(np.isfinite(ts), ts, 0.0))
+    mism = diff > mirror_rtol * scale
     if np.any(mism):
         k = int(np.argmax(mism))
+        what = ("t" if vector else "xi", "minus " if vector else "",
+                "t_ji = -t_ij" if vector else "must be equal")
         raise ValueError(f"contact {ids[hi_[k]]}-{ids[hj[k]]}: the two sides of the "
-                         f"history disagree, xi = {float(hxi[k])!r} on atom id "
-                         f"{ids[hi_[k]]} and {float(mxi[k])!r} on atom id {ids[hj[k]]} "
-                         f"(must be equal)")
+                         f"history disagree, {what[0]} = {hxi[k].tolist()!r} on atom id "
+                         f"{ids[hi_[k]]} and {what[1]}{mxi[k].tolist()!r} on atom id "
+                         f"{ids[hj[k]]} ({what[2]})")
     hxi = 0.5 * (hxi + mxi)
     return hi_, hj, hxi, delta_h
 

@@ -48,6 +48,11 @@ class DataFile:
     images : ndarray of int64, shape (n, 3) or None
     top : ndarray of bool, shape (n,) or None
         The ``topflag`` section (``i_top`` > 0); None without it.
+    z : ndarray, shape (n,) or None
+        z of each centre (``sphere`` style).
+    dimension : int
+        3 if some centre has z != 0 (spheres; a 2D LAMMPS data file has
+        z = 0 for every atom), else 2.
     """
 
     path: str
@@ -62,6 +67,8 @@ class DataFile:
     masses: np.ndarray = None
     images: np.ndarray = None
     top: np.ndarray = None
+    z: np.ndarray = None
+    dimension: int = 2
 
 
 def _is_number(word):
@@ -143,9 +150,10 @@ def _check_coincident(path, xy, ids):
     pairs = cKDTree(xy).query_pairs(COINCIDENT, output_type="ndarray")
     if len(pairs):
         i, j = (int(v) for v in pairs[0])
+        names = "(x, y)" if xy.shape[1] == 2 else "(x, y, z)"
+        where = ", ".join(repr(float(v)) for v in xy[i])
         raise ValueError(f"data file {path!r}: atoms {ids[i]} and {ids[j]} are at the same "
-                         f"place (x, y) = ({float(xy[i, 0])!r}, {float(xy[i, 1])!r}); their "
-                         f"contact has no normal")
+                         f"place {names} = ({where}); their contact has no normal")
 
 
 def read_data(path):
@@ -198,10 +206,12 @@ def read_data(path):
                    np.array([int(r[1]) for r in rows], np.int64)[order])
     if style == "sphere" and natoms > 0 and all(len(r) >= 7 for r in rows):
         a = np.array([r[:7] for r in rows])
+        out.dimension = 3 if np.any(a[:, 6] != 0.0) else 2
         if natoms > 1:
-            _check_coincident(path, a[:, 4:6], [w[0] for w in body])
+            _check_coincident(path, a[:, 4:4 + out.dimension], [w[0] for w in body])
         a = a[order]
         out.positions = a[:, 4:6].copy()
+        out.z = a[:, 6].copy()
         out.radii = 0.5 * a[:, 2]
         out.masses = a[:, 3] * (4.0 / 3.0) * np.pi * out.radii ** 3
         if all(len(r) >= 10 for r in rows):

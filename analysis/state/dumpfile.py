@@ -16,6 +16,14 @@ cannot carry. :func:`read_dump` turns one snapshot into a
 :class:`~remote_trigger.analysis.state.state.State` (contacts from the history
 columns, :func:`~remote_trigger.analysis.state.state.build_state`);
 :func:`write_sidecar` / :func:`load_sidecar` write and read the sidecar.
+
+Spheres (docs/model.md section 9) have the columns of
+:data:`REQUIRED_COLUMNS_3D` (the vectors in three columns, t in
+``d2_mindlin_tx[1..K] d2_mindlin_ty[1..K] d2_mindlin_tz[1..K]``, the wall
+contact's t in ``v_wall_tx v_wall_ty v_wall_tz``), the same sidecar, and are
+read by :func:`read_dump3d` into a
+:class:`~remote_trigger.analysis.state.state3d.State3D`;
+:func:`dump_dimension` tells the two apart by the columns.
 """
 from __future__ import annotations
 
@@ -28,12 +36,20 @@ import numpy as np
 from remote_trigger.analysis.state.contacts import PARTNER, XI
 from remote_trigger.analysis.state.state import DISC_INERTIA, ContactParams, build_state
 
-__all__ = ["read_dump", "load_sidecar", "write_sidecar", "PARAM_KEYS", "REQUIRED_COLUMNS"]
+__all__ = ["read_dump", "read_dump3d", "dump_dimension", "load_sidecar", "write_sidecar",
+           "PARAM_KEYS", "REQUIRED_COLUMNS", "REQUIRED_COLUMNS_3D"]
 
 #: columns a dump must have (the history columns are checked separately)
 REQUIRED_COLUMNS = ("id", "type", "radius", "mass", "x", "y", "fx", "fy", "tqz",
                     "v_fext_x", "v_fext_y", "d_mindlin_wall_t")
 OPTIONAL_COLUMNS = ("vx", "vy", "omegaz")
+#: columns of a dump of spheres (besides the history columns
+#: ``i2_mindlin_partner[*] d2_mindlin_tx[*] d2_mindlin_ty[*] d2_mindlin_tz[*]``)
+REQUIRED_COLUMNS_3D = ("id", "type", "radius", "mass", "x", "y", "z", "fx", "fy", "fz",
+                       "tqx", "tqy", "tqz", "v_fext_x", "v_fext_y", "v_fext_z",
+                       "v_wall_tx", "v_wall_ty", "v_wall_tz")
+#: the per-component history columns of spheres
+T3_COLUMNS = ("d2_mindlin_tx", "d2_mindlin_ty", "d2_mindlin_tz")
 #: the model parameters of the sidecar JSON
 PARAM_KEYS = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt")
 
@@ -310,3 +326,115 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
         F_x=par["F_x"], F_y=par["F_y"], dt=par["dt"], timestep=step, source=path,
         mirror_rtol=mirror_rtol, require_contacts=require_contacts,
         inertia_factor=inertia_factor)
+
+
+def dump_dimension(path, frame=-1):
+    """2 for a dump of disks, 3 for one of spheres (it has ``z`` and ``d2_mindlin_tx[1]``).
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        A missing or malformed file.
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"dump file not found: {path}")
+    columns = _read_frames(path)[frame][4]
+    return 3 if "z" in columns and _history_columns(columns, T3_COLUMNS[0]) else 2
+
+
+def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=None,
+                F_y=None, dt=None, no_wall=False, mirror_rtol=1e-9):
+    """Read one snapshot of an equilibrium dump of spheres into a :class:`State3D`.
+
+    The 3D counterpart of :func:`read_dump`: the same file layout and sidecar,
+    the columns of :data:`REQUIRED_COLUMNS_3D` and the history columns; the
+    contacts are the overlapping pairs with the history's t
+    (:func:`~remote_trigger.analysis.state.state3d.state3d_from_history`), the
+    wall the plane y = wall_y. Periodic axes from the box flags (``pp``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    frame : int, optional
+        Which snapshot (default the last one).
+    k_n, k_t, mu, wall_y, F_x, F_y, dt : float, optional
+        Override the sidecar's values; k_n, k_t, mu and wall_y are required
+        from one of the two.
+    no_wall : bool, optional
+        No floor (its history columns must then be zero).
+    mirror_rtol : float, optional
+        Tolerance of the check t_ji = -t_ij.
+
+    Returns
+    -------
+    State3D
+        Masses from the dump, I = 2/5 m R^2; ``F_x``, ``F_y``, ``source`` set.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        Truncated or malformed file, missing columns (named), non-finite
+        values, duplicate ids, bad history, missing parameters.
+    """
+    from remote_trigger.analysis.state.state3d import state3d_from_history
+
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"dump file not found: {path}")
+    frames = _read_frames(path)
+    try:
+        step, natoms, bounds, flags, columns, body, first = frames[frame]
+    except IndexError:
+        raise ValueError(f"{path}: frame {frame} does not exist ({len(frames)} "
+                         f"snapshots)") from None
+    missing = [c for c in REQUIRED_COLUMNS_3D if c not in columns]
+    hist = {name: _history_columns(columns, name) for name in (PARTNER,) + T3_COLUMNS}
+    missing += [f"{name}[*]" for name, cols in hist.items() if cols is None]
+    if missing:
+        raise ValueError(f"{path}: missing dump columns {missing} of a dump of spheres "
+                         f"(docs/conventions.md section 3)")
+    if len({len(c) for c in hist.values()}) != 1:
+        raise ValueError(f"{path}: the history columns differ in number: "
+                         f"{ {k: len(v) for k, v in hist.items()} }")
+    if natoms == 0:
+        raise ValueError(f"{path}: the snapshot has no atoms")
+    data = _parse_body(path, columns, body, first)
+    bad = ~np.isfinite(data)
+    if np.any(bad):
+        r, c = np.argwhere(bad)[0]
+        raise ValueError(f"{path}: non-finite value {float(data[r, c])!r} in column "
+                         f"{columns[c]!r} of atom line {r + 1} (line {first + r} of the file)")
+    col = {name: c for c, name in enumerate(columns)}
+    ids_f = data[:, col["id"]]
+    ids = ids_f.astype(np.int64)
+    if np.any(ids != ids_f) or np.any(ids <= 0):
+        raise ValueError(f"{path}: atom ids must be positive integers")
+    if np.unique(ids).size != ids.size:
+        raise ValueError(f"{path}: an atom id appears twice")
+    side = load_sidecar(path)
+    given = dict(k_n=k_n, k_t=k_t, mu=mu, wall_y=wall_y, F_x=F_x, F_y=F_y, dt=dt)
+    par = {key: (given[key] if given[key] is not None else side.get(key)) for key in PARAM_KEYS}
+    lack = [key for key in ("k_n", "k_t", "mu") if par[key] is None]
+    if par["wall_y"] is None and not no_wall:
+        lack.append("wall_y")
+    if lack:
+        raise ValueError(f"{path}: model parameters {lack} are neither in the sidecar "
+                         f"{path + '.json'} nor given explicitly")
+    wall_t = data[:, [col["v_wall_tx"], col["v_wall_ty"], col["v_wall_tz"]]]
+    if no_wall and np.any(wall_t != 0.0):
+        raise ValueError(f"{path}: wall history is nonzero but no wall is given")
+    part = data[:, hist[PARTNER]]
+    t = np.stack([data[:, hist[name]] for name in T3_COLUMNS], axis=-1)
+    return state3d_from_history(
+        ids=ids, positions=data[:, [col["x"], col["y"], col["z"]]],
+        radii=data[:, col["radius"]], masses=data[:, col["mass"]],
+        box_lo=bounds[:, 0], box_hi=bounds[:, 1],
+        params=ContactParams(par["k_n"], par["k_t"], par["mu"]),
+        periodic=tuple(len(flags) > a and flags[a] == "pp" for a in range(3)),
+        partners=part, partner_t=t, wall_y=None if no_wall else float(par["wall_y"]),
+        wall_t=wall_t,
+        external=data[:, [col["v_fext_x"], col["v_fext_y"], col["v_fext_z"]]],
+        mirror_rtol=mirror_rtol, F_x=par["F_x"], F_y=par["F_y"], source=path)

@@ -34,7 +34,8 @@ import numpy as np
 
 from remote_trigger.analysis.state.state import ContactParams
 
-__all__ = ["SPHERE_INERTIA", "State3D", "build_state3d", "minimum_image3", "plane_wall"]
+__all__ = ["SPHERE_INERTIA", "State3D", "build_state3d", "state3d_from_history",
+           "minimum_image3", "plane_wall"]
 
 #: solid spheres, as ``fix nve/sphere`` without ``disc``: I = 2/5 m R^2
 SPHERE_INERTIA = 0.4
@@ -133,6 +134,10 @@ class State3D:
         External force on each sphere (force units).
     notes : dict
         ``projected_t``: the largest |t . n| / |t| removed by the projection.
+    F_x, F_y : float or None
+        The loads of the state, when it comes from a dump (sidecar).
+    source : str or None
+        The file it was read from.
     """
 
     ids: np.ndarray
@@ -153,6 +158,9 @@ class State3D:
     wall_t: np.ndarray
     external: np.ndarray
     notes: dict = field(default_factory=dict)
+    F_x: float = None
+    F_y: float = None
+    source: str = None
 
     @property
     def n(self):
@@ -195,6 +203,10 @@ class State3D:
         md[:, :3] = self.masses[:, None]
         md[:, 3:] = (self.inertia / self.radii**2)[:, None]
         return md.reshape(-1)
+
+    def dof_ids(self):
+        """Atom id of every dof (6 per sphere), shape (6N,)."""
+        return np.repeat(self.ids, 6)
 
     def contact_counts(self):
         """Number of contacts of every sphere, walls included, shape (N,)."""
@@ -343,3 +355,103 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
         k = int(np.argmin(wd > 0))
         raise ValueError(f"wall contact of atom id {ids[widx[k]]} has overlap {wd[k]!r} <= 0")
     return st.with_t()
+
+
+def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, params,
+                         periodic=(True, False, True), partners=None, partner_t=None,
+                         wall_y=0.0, wall_t=None, external=None, mirror_rtol=1e-9,
+                         inertia_factor=SPHERE_INERTIA, **extra):
+    """A :class:`State3D` from per-atom arrays as LAMMPS holds them (a dump, a gather).
+
+    The contacts are the overlapping pairs (:func:`~remote_trigger.analysis.state.
+    contacts.find_contacts`, minimum image along the periodic axes); each takes
+    its t from the pair style's history (``i2_mindlin_partner``,
+    ``d2_mindlin_tx/ty/tz``; both sides listed, t_ji = -t_ij checked), zero if
+    the history does not list it (a contact that has not taken a step yet).
+    History of pairs that no longer overlap is dropped. The wall is the plane
+    y = ``wall_y`` (``fix wall/mindlin/smooth ... yplane``), normal +y; a sphere
+    touches it where R - (y - wall_y) > 0.
+
+    Parameters
+    ----------
+    ids : array_like of int, shape (N,)
+    positions : array_like, shape (N, 3)
+    radii, masses : array_like, shape (N,)
+    box_lo, box_hi : array_like, shape (3,)
+    params : ContactParams
+    periodic : sequence of 3 bool
+        Default periodic in x and z (the driver's scene).
+    partners : array_like of int, shape (N, K), optional
+        Partner ids per slot (0 = empty).
+    partner_t : array_like, shape (N, K, 3), optional
+        t of each slot, seen from the atom of the row (length).
+    wall_y : float or None
+        Height of the floor; None: no wall.
+    wall_t : array_like, shape (N, 3), optional
+        t of each sphere's wall contact (zero where it has none).
+    external : array_like, shape (N, 3), optional
+        Loads (force).
+    mirror_rtol : float
+        Tolerance of the mirror check, relative to max(t*, |t|).
+    inertia_factor : float
+        I0 (default 2/5).
+    **extra
+        ``F_x``, ``F_y``, ``source``: stored on the state.
+
+    Returns
+    -------
+    State3D
+
+    Raises
+    ------
+    ValueError
+        Malformed arrays, a history entry that names an unknown atom or lacks
+        its mirror, two sides that disagree, a centre inside another sphere
+        or at or below the wall.
+    """
+    import dataclasses
+
+    from remote_trigger.analysis.state.contacts import _history_pairs, find_contacts
+
+    ids = np.asarray(ids).astype(np.int64).reshape(-1)
+    n = ids.size
+    order = np.argsort(ids, kind="stable")
+    ids_s = ids[order]
+    pos = np.asarray(positions, np.float64).reshape(n, 3)[order]
+    rad = np.asarray(radii, np.float64).reshape(n)[order]
+    box_lo = np.asarray(box_lo, np.float64).reshape(3)
+    box_hi = np.asarray(box_hi, np.float64).reshape(3)
+    per = tuple(bool(p) for p in periodic)
+    gi, gj, _ = find_contacts(pos, rad, box_lo, box_hi, per, ids=ids_s)
+    t = np.zeros((gi.size, 3))
+    if partners is not None and gi.size:
+        P = np.asarray(partners, np.float64).reshape(n, -1)[order]
+        X = np.asarray(partner_t, np.float64).reshape(n, P.shape[1], 3)[order]
+        hi_, hj, ht, _ = _history_pairs(P, X, ids_s, pos, rad, box_hi - box_lo, per, params,
+                                        mirror_rtol)
+        known = {(int(a), int(b)): k for k, (a, b) in enumerate(zip(hi_, hj))}
+        for c, key in enumerate(zip(gi.tolist(), gj.tolist())):
+            if key in known:
+                t[c] = ht[known[key]]
+    walls, wt = [], []
+    if wall_y is not None:
+        normal, offset = plane_wall("y", "lo", float(wall_y))
+        wt_all = (np.zeros((n, 3)) if wall_t is None
+                  else np.asarray(wall_t, np.float64).reshape(n, 3)[order])
+        low = pos[:, 1] - float(wall_y)
+        if np.any(low <= 0.0):
+            k = int(np.argmax(low <= 0.0))
+            raise ValueError(f"the centre of atom id {ids_s[k]} (y = {float(pos[k, 1])!r}) is "
+                             f"at or below the wall y = {wall_y!r}")
+        for k in np.nonzero(rad - low > 0.0)[0]:
+            walls.append((int(ids_s[k]), normal, offset))
+            wt.append(wt_all[k])
+    ext = None if external is None else np.asarray(external, np.float64).reshape(n, 3)[order]
+    st = build_state3d(ids=ids_s, positions=pos, radii=rad,
+                       masses=np.asarray(masses, np.float64).reshape(n)[order],
+                       box_lo=box_lo, box_hi=box_hi, params=params, periodic=per,
+                       pairs=np.column_stack([ids_s[gi], ids_s[gj]]), pair_t=t, walls=walls,
+                       wall_t=np.array(wt).reshape(-1, 3), external=ext,
+                       inertia_factor=inertia_factor)
+    keep = {k: extra[k] for k in ("F_x", "F_y", "source") if k in extra}
+    return dataclasses.replace(st, **keep) if keep else st

@@ -7,12 +7,23 @@ Python (:func:`remote_trigger.analysis.state.datafile.read_data`) and raises a
 one-line :class:`~remote_trigger.pywrap.config.ConfigError` naming the file
 and the problem.
 """
-from remote_trigger.analysis.state.datafile import COINCIDENT, read_data  # noqa: F401
+from remote_trigger.analysis.state.datafile import COINCIDENT, DataFile, read_data  # noqa: F401
 
 from remote_trigger.pywrap.config import ConfigError
 
 
-def check_datafile(path):
+def data_dimension(path):
+    """2 (disks) or 3 (spheres) for a data file (:attr:`DataFile.dimension`).
+
+    Raises
+    ------
+    ConfigError
+        As :func:`check_datafile`.
+    """
+    return check_datafile(path, full=True).dimension
+
+
+def check_datafile(path, full=False):
     """Refuse a data file that LAMMPS cannot read or that has no valid positions.
 
     The checks of :func:`remote_trigger.analysis.state.datafile.read_data`: the
@@ -25,11 +36,13 @@ def check_datafile(path):
     Parameters
     ----------
     path : str
+    full : bool
+        Return the :class:`DataFile` instead of its atom count.
 
     Returns
     -------
-    int
-        Number of atoms.
+    int or DataFile
+        Number of atoms (or the file read).
 
     Raises
     ------
@@ -37,6 +50,7 @@ def check_datafile(path):
         Naming the file and what is wrong with it.
     """
     try:
-        return read_data(path).n
+        data = read_data(path)
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
+    return data if full else data.n

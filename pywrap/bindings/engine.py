@@ -37,6 +37,11 @@ HISTORY_SLOTS = 8
 #: carry the same text; tests compare them)
 DUMP_COLUMNS = ("id type radius mass x y vx vy omegaz fx fy tqz v_fext_x v_fext_y "
                 "i2_mindlin_partner[*] d2_mindlin_t[*] d_mindlin_wall_t")
+#: the same for spheres (``in.relax3d``; docs/conventions.md section 3)
+DUMP_COLUMNS_3D = ("id type radius mass x y z vx vy vz omegax omegay omegaz fx fy fz "
+                   "tqx tqy tqz v_fext_x v_fext_y v_fext_z i2_mindlin_partner[*] "
+                   "d2_mindlin_tx[*] d2_mindlin_ty[*] d2_mindlin_tz[*] "
+                   "v_wall_tx v_wall_ty v_wall_tz")
 
 
 class EngineError(RemoteTriggerError, RuntimeError):
@@ -94,6 +99,11 @@ def deck_sections(path):
 class AtomState:
     """Per-atom state gathered from LAMMPS, ordered by ascending atom id.
 
+    The shapes are those of disks (``dim`` = 2); for spheres (``dim`` = 3)
+    positions, velocities, forces have shape (N, 3), ``omega`` and
+    ``torques`` (N, 3), ``xi`` (N, K, 3) (``d2_mindlin_tx/ty/tz``),
+    ``wall_xi`` (N, 3) (the wall fix's t) and the box bounds (3,).
+
     Attributes
     ----------
     ids : ndarray of int64, shape (N,)
@@ -117,6 +127,8 @@ class AtomState:
         ``d_mindlin_wall_t``.
     top : ndarray of bool, shape (N,)
     box_lo, box_hi : ndarray, shape (2,)
+    dim : int
+        2 (disks) or 3 (spheres).
     """
 
     ids: np.ndarray
@@ -135,6 +147,7 @@ class AtomState:
     top: np.ndarray
     box_lo: np.ndarray
     box_hi: np.ndarray
+    dim: int = 2
 
     @property
     def n(self):
@@ -142,10 +155,18 @@ class AtomState:
         return int(self.ids.size)
 
     def unwrapped_positions(self):
-        """Unwrapped centres, shape (N, 2)."""
+        """Unwrapped centres (x unwrapped only), shape (N, dim)."""
         out = self.positions.copy()
         out[:, 0] += self.image * (self.box_hi[0] - self.box_lo[0])
         return out
+
+
+def _pad_columns(arrays):
+    """2D arrays padded with zero columns to the widest; others unchanged."""
+    if not arrays or arrays[0].ndim != 2:
+        return arrays
+    width = max(a.shape[1] for a in arrays)
+    return [np.pad(a, ((0, 0), (0, width - a.shape[1]))) for a in arrays]
 
 
 class Engine:
@@ -320,6 +341,11 @@ class Engine:
         return float(self.lmp.extract_variable(name))
 
     @property
+    def dimension(self):
+        """2 or 3 (LAMMPS ``dimension``)."""
+        return int(self.lmp.extract_setting("dimension"))
+
+    @property
     def natoms(self):
         """Total number of atoms."""
         return int(self.lmp.get_natoms())
@@ -330,9 +356,10 @@ class Engine:
         return int(self.lmp.extract_setting("nlocal"))
 
     def box(self):
-        """Box bounds ``(lo, hi)`` as arrays of shape (2,) (x, y)."""
+        """Box bounds ``(lo, hi)`` as arrays of shape (2,) (x, y); (3,) in 3D."""
         lo, hi, *_ = self.lmp.extract_box()
-        return np.array(lo[:2], np.float64), np.array(hi[:2], np.float64)
+        d = 3 if self.dimension == 3 else 2
+        return np.array(lo[:d], np.float64), np.array(hi[:d], np.float64)
 
     # ------------------------------------------------------------ per-atom data
     def _local(self, name):
@@ -380,7 +407,10 @@ class Engine:
         if self.size > 1:
             ids = np.concatenate(self.comm.allgather(ids))
             parts = self.comm.allgather(loc)
-            loc = {name: np.concatenate([p[name] for p in parts], axis=0) for name in names}
+            # the pair's own history arrays grow columns on one rank first
+            # (all agree again at the next reneighboring): pad with empty slots
+            loc = {name: np.concatenate(_pad_columns([p[name] for p in parts]), axis=0)
+                   for name in names}
         order = np.argsort(ids, kind="stable")
         return {name: a[order] for name, a in loc.items()}
 
@@ -416,6 +446,8 @@ class Engine:
 
     def gather_state(self):
         """Gather the full per-atom state (:class:`AtomState`), ordered by id."""
+        if self.dimension == 3:
+            return self._gather_state3d()
         lo, hi = self.box()
         g = self.gather_many(("id", "type", "radius", "rmass", "x", "image", "v", "omega",
                               "f", "torque", "i2_mindlin_partner", "d2_mindlin_t",
@@ -429,12 +461,64 @@ class Engine:
             partner=g["i2_mindlin_partner"], xi=g["d2_mindlin_t"],
             wall_xi=g["d_mindlin_wall_t"], top=g["i_top"] > 0, box_lo=lo, box_hi=hi)
 
+    def _gather_state3d(self):
+        """:meth:`gather_state` of spheres (the pair's t in three arrays, the
+        wall fix ``wall``'s t from its per-atom array, columns 5-7)."""
+        lo, hi = self.box()
+        hist = ("i2_mindlin_partner", "d2_mindlin_tx", "d2_mindlin_ty", "d2_mindlin_tz")
+        # the pair creates its history arrays at its first run: empty before
+        has_hist = self.lmp.numpy.extract_atom(hist[0]) is not None
+        g = self.gather_many(("id", "type", "radius", "rmass", "x", "image", "v", "omega",
+                              "f", "torque", "i_top") + (hist if has_hist else ()))
+        if not has_hist:
+            g[hist[0]] = np.zeros((g["id"].size, 0), np.int64)
+            for name in hist[1:]:
+                g[name] = np.zeros((g["id"].size, 0))
+        wall = np.zeros((g["id"].size, 3))
+        arr = self.lmp.numpy.extract_fix("wall", 1, 2) if self.has_fix("wall") else None
+        if arr is not None:                 # (the fix fills its array at its first run)
+            ids = np.asarray(self._local("id"), np.int64).copy()
+            loc = np.array(arr[:self.nlocal, 4:7], np.float64) if self.nlocal else \
+                np.zeros((0, 3))
+            if self.size > 1:
+                ids = np.concatenate(self.comm.allgather(ids))
+                loc = np.concatenate(self.comm.allgather(loc), axis=0)
+            wall = loc[np.argsort(ids, kind="stable")]
+        imgx = (g["image"] & 1023) - 512
+        return AtomState(
+            ids=g["id"], types=g["type"], radii=g["radius"], masses=g["rmass"],
+            positions=g["x"], image=imgx, velocities=g["v"], omega=g["omega"],
+            forces=g["f"], torques=g["torque"], partner=g["i2_mindlin_partner"],
+            xi=np.stack([g["d2_mindlin_tx"], g["d2_mindlin_ty"], g["d2_mindlin_tz"]], -1),
+            wall_xi=wall, top=g["i_top"] > 0, box_lo=lo, box_hi=hi, dim=3)
+
     def restore(self, state):
         """Put positions, velocities and contact history of ``state`` back.
 
         Used to undo a rejected Newton step; the next ``run`` rebuilds ghosts
         and neighbor lists.
+
+        Raises
+        ------
+        EngineError
+            Spheres with a nonzero wall history: the wall fix keeps it in an
+            array Python cannot write (it is zero while frictionless).
         """
+        if state.dim == 3:
+            if np.any(state.wall_xi != 0.0):
+                raise EngineError("cannot restore the wall history of spheres (kept inside "
+                                  "fix wall/mindlin/smooth): the state has wall contacts "
+                                  "with nonzero t")
+            self.scatter("x", state.positions)
+            self.scatter("v", state.velocities)
+            self.scatter("omega", state.omega)
+            # the pair's own arrays may have grown columns since: pad with empty slots
+            width = self._local("i2_mindlin_partner").shape[1]
+            pad = ((0, 0), (0, width - state.partner.shape[1]))
+            self.scatter("i2_mindlin_partner", np.pad(state.partner, pad).astype(np.int32))
+            for c, name in enumerate(("d2_mindlin_tx", "d2_mindlin_ty", "d2_mindlin_tz")):
+                self.scatter(name, np.pad(state.xi[..., c], pad))
+            return
         self.scatter("x", state.positions)
         self.scatter("v", state.velocities)
         self.scatter("omega", state.omega)

@@ -6,6 +6,12 @@ rattlers, computes the eigenvalues of M^-1 K and decides whether a complex
 pair is present; writes everything to a NumPy ``.npz`` file (keys in
 ``docs/analysis.md``) and prints a one-screen summary.
 
+A dump of spheres (docs/driver.md "Spheres": the columns z, fz, tqx ...,
+d2_mindlin_tx[*], ...) is read as such
+(:func:`~remote_trigger.analysis.state.dumpfile.dump_dimension`): K over
+q = (r, R theta) with 6 dofs per sphere (``jacobian3d``), rattlers below 3
+contacts, M = diag(m, m, m, 2m/5, 2m/5, 2m/5).
+
 It refuses (exit status 2, nothing written) a dump whose residual is far
 above the round-off floor (:func:`~remote_trigger.analysis.stability.analyze.check_equilibrium`):
 the spectrum of a state that is not an equilibrium means nothing.
@@ -26,16 +32,17 @@ import sys
 import numpy as np
 
 from remote_trigger.analysis.stability.analyze import analyze
-from remote_trigger.analysis.state.dumpfile import read_dump
+from remote_trigger.analysis.state.dumpfile import dump_dimension, read_dump, read_dump3d
 
 
 def register(subparsers):
     """Add the ``jacobian`` subcommand to an argparse subparsers object."""
     p = subparsers.add_parser(
         "jacobian", help="stiffness matrix K = -dG/dq and eigenvalues of an equilibrium dump",
-        description="Assemble K = -dG/dq over q = (x, y, R theta) per disk from an "
-                    "equilibrium dump (with contact history), remove rattlers, compute the "
-                    "eigenvalues of M^-1 K and write them to an .npz file.")
+        description="Assemble K = -dG/dq over q = (x, y, R theta) per disk (spheres: "
+                    "q = (x, y, z, R theta), 6 per sphere) from an equilibrium dump (with "
+                    "contact history), remove rattlers, compute the eigenvalues of M^-1 K and "
+                    "write them to an .npz file.")
     p.add_argument("dump", help="text dump (dump custom, %%.17g, sorted by id) with the "
                                 "history columns; parameters from DUMP.json")
     p.add_argument("-o", "--output", required=True, help="output .npz file")
@@ -62,8 +69,9 @@ def register(subparsers):
                    help="sparse path: shift in units of 1/time^2 (default: 0.25 x the largest "
                         "diagonal entry of M^-1 K after rattler removal, inside the band "
                         "where pairs coalesce)")
-    p.add_argument("--min-contacts", type=int, default=2,
-                   help="rattler criterion: fewer contacts than this (default 2)")
+    p.add_argument("--min-contacts", type=int, default=None,
+                   help="rattler criterion: fewer contacts than this (default 2 for disks, "
+                        "3 for spheres)")
     p.add_argument("--no-eigen", action="store_true", help="write K only")
     p.set_defaults(func=run, serial=True)
 
@@ -94,8 +102,9 @@ def run(args):
     merge_model(given, args.dump, flags={"k_n": "--k-n", "k_t": "--k-t", "mu": "--mu",
                                          "wall_y": "--wall-y"},
                 override=args.override, keys=("k_n", "k_t", "mu", "wall_y"))
-    state = read_dump(args.dump, frame=args.frame, k_n=args.k_n, k_t=args.k_t, mu=args.mu,
-                      wall_y=args.wall_y)
+    spheres = dump_dimension(args.dump, args.frame) == 3
+    state = (read_dump3d if spheres else read_dump)(
+        args.dump, frame=args.frame, k_n=args.k_n, k_t=args.k_t, mu=args.mu, wall_y=args.wall_y)
     try:
         check_equilibrium(state, what=args.dump)
         warning = None
@@ -133,7 +142,7 @@ def run(args):
     }
     write_npz_atomic(output, out)
     lines = [
-        f"jacobian: {state.n} disks, {state.n_contacts} contacts, "
+        f"jacobian: {state.n} {'spheres' if spheres else 'disks'}, {state.n_contacts} contacts, "
         f"{state.wall_index.size} wall contacts, K {K.shape[0]}x{K.shape[1]} nnz {K.nnz}",
         f"  residual max |G| = {res.max_residual:.3g}; rattlers removed: "
         f"{res.rattlers.ids.size} {res.rattlers.ids.tolist()[:20]}"

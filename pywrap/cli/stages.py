@@ -128,9 +128,13 @@ INTERRUPT_HINTS = {
 def register(subparsers):
     """Add the driver's subcommands to the ``remote-trigger`` parser."""
     g = subparsers.add_parser("generate", help="write a loose bidisperse packing data file")
-    g.add_argument("--n", type=int, default=100, help="number of disks, even (default 100)")
+    g.add_argument("--dim", type=int, choices=(2, 3), default=2,
+                   help="2: disks (default); 3: spheres, periodic in x and z")
+    g.add_argument("--n", type=int, default=None,
+                   help="number of disks, even (default 100; spheres 160)")
     g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    g.add_argument("--phi", type=float, default=0.82, help="packing fraction for L (0.82)")
+    g.add_argument("--phi", type=float, default=None,
+                   help="packing fraction for L (default 0.82; spheres 0.64)")
     g.add_argument("--output", default="packing.data", help="data file (packing.data)")
     g.add_argument("--overwrite", action="store_true",
                    help="replace an existing --output file (default: refuse, exit status 2)")
@@ -138,6 +142,9 @@ def register(subparsers):
 
     r = subparsers.add_parser("relax", help="settle / relax to equilibrium (f_min)")
     _add_model(r)
+    r.add_argument("--dim", type=int, choices=(2, 3), default=None,
+                   help="2 or 3 (default: that of the data file; a contradicting value "
+                        "is an error)")
     r.add_argument("--settle-steps", dest="settle_steps", type=int,
                    help="compaction aid for a loose packing (frictionless + gravity), steps")
     r.add_argument("--f-min", dest="f_min", type=float, help="target residual (1e-15)")
@@ -190,7 +197,11 @@ def run_generate(args):
 
     from remote_trigger.analysis.output import output_dir, output_file
 
-    check_packing_args(args.n, args.seed, args.phi)
+    from remote_trigger.pywrap.stages.packing import N_3D, PHI
+
+    n = args.n if args.n is not None else (N_3D if args.dim == 3 else 100)
+    phi = args.phi if args.phi is not None else PHI[args.dim]
+    check_packing_args(n, args.seed, phi, args.dim)
     if os.path.isdir(args.output) or args.output.endswith(os.sep):
         output_file(args.output, "--output")
     folder = os.path.dirname(os.path.abspath(args.output))
@@ -201,9 +212,10 @@ def run_generate(args):
     if os.path.exists(args.output) and not args.overwrite:
         raise ConfigError(f"--output {args.output!r} exists; choose another file or add "
                           f"--overwrite (nothing was written)")
-    p = generate(args.n, seed=args.seed, phi=args.phi)
+    p = generate(n, seed=args.seed, phi=phi, dim=args.dim)
     write_data(p, args.output)
-    print(f"generate: {p.n} disks ({p.n_top} in top), L = {p.width:.6g}, "
+    what = "spheres" if args.dim == 3 else "disks"
+    print(f"generate: {p.n} {what} ({p.n_top} in top), L = {p.width:.6g}, "
           f"seed {p.seed} -> {args.output}")
     return 0
 
@@ -214,6 +226,8 @@ def run_relax(args):
     from remote_trigger.pywrap import stages
 
     cfg = _config(RelaxConfig, args, ("settle_steps", "f_min", "newton"))
+    if args.dim is not None:
+        _check_dim(args.dim, cfg.datafile)
     _note_model(args, cfg)
     res = stages.relax(cfg, args.out, quiet=args.quiet, log=args.log)
     if _rank() == 0:
@@ -221,6 +235,18 @@ def run_relax(args):
               f"{res.newton_iterations} Newton steps, damped time {res.damped_time:.4g}, "
               f"wall {res.wall_time:.2f} s, phi {res.packing_fraction:.4f} -> {res.h5}")
     return 0
+
+
+def _check_dim(dim, datafile):
+    """Refuse a ``--dim`` that contradicts the data file (ConfigError, one line)."""
+    from remote_trigger.pywrap.bindings.datafile import data_dimension
+    from remote_trigger.pywrap.config import ConfigError
+
+    found = data_dimension(datafile)
+    if dim != found:
+        what = "spheres" if found == 3 else "disks"
+        raise ConfigError(f"--dim {dim} contradicts the data file {datafile}, which holds "
+                          f"{what} (dimension {found}); leave --dim out or give --dim {found}")
 
 
 def run_ramp(args):

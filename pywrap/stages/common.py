@@ -8,7 +8,7 @@ import numpy as np
 
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.stages.config import RelaxConfig
-from remote_trigger.pywrap.bindings.engine import DUMP_COLUMNS
+from remote_trigger.pywrap.bindings.engine import DUMP_COLUMNS, DUMP_COLUMNS_3D
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 
 
@@ -45,8 +45,20 @@ def _deck_vars(cfg, datafile, F_x):
     return v
 
 
-def load_relax_scene(eng, cfg, datafile, F_x, deck="in.relax"):
-    """Load the scene and the damped dynamics of ``deck`` from a data file."""
+#: the relax deck of each dimension (disks, spheres)
+RELAX_DECKS = {2: "in.relax", 3: "in.relax3d"}
+
+
+def load_relax_scene(eng, cfg, datafile, F_x, deck=None):
+    """Load the scene and the damped dynamics of ``deck`` from a data file.
+
+    ``deck`` None: ``in.relax``, or ``in.relax3d`` for a data file of spheres
+    (:func:`~remote_trigger.pywrap.bindings.datafile.data_dimension`).
+    """
+    if deck is None:
+        from remote_trigger.pywrap.bindings.datafile import data_dimension
+
+        deck = RELAX_DECKS[data_dimension(datafile)]
     eng.clear()
     eng.load_deck(deck, _deck_vars(cfg, datafile, F_x), ("scene", "damped", "dynamics"))
 
@@ -60,9 +72,10 @@ def save_equilibrium(eng, cfg, F_x, prefix):
     Each file is written under a temporary name and renamed.
     """
     rank0 = eng.rank == 0
+    columns = DUMP_COLUMNS_3D if eng.dimension == 3 else DUMP_COLUMNS
     eng.command("variable loadon equal 0")
     eng.run(0)
-    eng.command(f"write_dump all custom {prefix}.dump.part {DUMP_COLUMNS} "
+    eng.command(f"write_dump all custom {prefix}.dump.part {columns} "
                 f"modify sort id format float %.17g")
     eng.command("variable loadon equal 1")
     eng.command(f"write_data {prefix}.data.part nocoeff")
@@ -79,9 +92,15 @@ def save_equilibrium(eng, cfg, F_x, prefix):
 
 
 def packing_fraction(state):
-    """phi = sum pi R^2 / (L h), h = max(y + R) above the wall at y = 0."""
+    """phi = sum pi R^2 / (L h), h = max(y + R) above the wall at y = 0.
+
+    Spheres: phi = sum 4/3 pi R^3 / (L_x L_z h).
+    """
     L = state.box_hi[0] - state.box_lo[0]
     h = float(np.max(state.positions[:, 1] + state.radii))
+    if state.dim == 3:
+        Lz = state.box_hi[2] - state.box_lo[2]
+        return float(np.sum(4.0 / 3.0 * np.pi * state.radii ** 3) / (L * Lz * h))
     return float(np.sum(np.pi * state.radii ** 2) / (L * h))
 
 
@@ -169,11 +188,16 @@ def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
 
     Returns ``(cfg with a numeric dt, TimestepInfo)``; see
     :func:`remote_trigger.pywrap.stages.timestep.resolve`. No step is run.
+    A data file of spheres is refused (``ConfigError``) by every stage but
+    ``relax``.
     """
     from remote_trigger.pywrap.bindings.datafile import check_datafile
     from remote_trigger.pywrap.stages.timestep import resolve
 
-    check_datafile(datafile)
+    data = check_datafile(datafile, full=True)
+    if data.dimension == 3 and stage != "relax":
+        raise ConfigError(f"{stage}: {datafile} holds spheres (dimension 3); {stage} is 2D "
+                          f"only (spheres: generate, relax, jacobian; docs/driver.md)")
     probe = cfg.replace(dt=1.0) if cfg.dt == "auto" else cfg   # dt unused: no step run
     load_relax_scene(eng, probe, datafile, F_x)
     return resolve(eng, cfg, F_x, a_priori=a_priori, stage=stage)

@@ -351,18 +351,20 @@ class DynamicsConfig(StageConfig):
             _positive("tau", self.tau)
 
 
-def check_packing_args(n, seed, phi=0.82):
+def check_packing_args(n, seed, phi=0.82, dim=2):
     """Validate the arguments of the packing generator.
 
     Raises
     ------
     ConfigError
         If n is not an even integer >= 6, seed is not a non-negative integer,
-        or phi is outside (0.1, 0.91).
+        or phi is outside (0.1, 0.91) (spheres, ``dim`` = 3: (0.1, 0.74)).
     """
     _int("n", n, 6)
     if n % 2:
         raise ConfigError(f"n must be even (equal numbers of both radii), got n = {n}")
     _int("seed", seed, 0)
-    if not 0.1 < _num("phi", phi) < 0.91:
-        raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {phi!r}")
+    top = 0.91 if dim == 2 else 0.74
+    if not 0.1 < _num("phi", phi) < top:
+        raise ConfigError(f"phi must be in (0.1, {top}){' for spheres' if dim == 3 else ''}, "
+                          f"got phi = {phi!r}")

@@ -108,6 +108,8 @@ def residual_of(state, damping=None):
     Returns
     -------
     G : ndarray, shape (N, 3)
+        Spheres: (N, 6), (F, T/R); r = max_i max(|F_i|, |T_i|/R_i) with
+        Euclidean norms.
     r : float
     """
     f = state.forces.copy()
@@ -115,6 +117,11 @@ def residual_of(state, damping=None):
     if damping is not None:
         f += damping[0] * state.velocities
         tq += damping[1] * state.omega
+    if state.dim == 3:
+        G = np.column_stack([f, tq / state.radii[:, None]])
+        r = max(float(np.max(np.linalg.norm(f, axis=1))),
+                float(np.max(np.linalg.norm(G[:, 3:], axis=1))))
+        return G, r
     G = np.column_stack([f, tq / state.radii])
     r = max(float(np.max(np.hypot(G[:, 0], G[:, 1]))), float(np.max(np.abs(G[:, 2]))))
     return G, r
@@ -193,8 +200,9 @@ def closing_fraction(state, dq, k_n, r, wall_y=0.0):
     Parameters
     ----------
     state : AtomState
-    dq : ndarray, shape (N, 3)
-        The step (x, y, rotation R theta); only x, y matter.
+    dq : ndarray, shape (N, 3) or (N, 6)
+        The step (x, y, rotation R theta; spheres x, y, z, R theta); only
+        the translations matter.
     k_n : float
         Normal stiffness (Hertz force k_n delta^(3/2)).
     r : float
@@ -208,18 +216,20 @@ def closing_fraction(state, dq, k_n, r, wall_y=0.0):
     """
     from remote_trigger.analysis.state.contacts import find_contacts, minimum_image
 
+    dim = state.positions.shape[1]
     d_star = (CLOSING_FORCE * r / k_n) ** (2.0 / 3.0)
-    move = float(np.max(np.abs(dq[:, :2]))) if dq.size else 0.0
+    move = float(np.max(np.abs(dq[:, :dim]))) if dq.size else 0.0
     if not move > d_star:
         return 1.0
     R = state.radii
     pos = state.positions
-    i, j, rho = find_contacts(pos, R, state.box_lo, state.box_hi, gap=2.0 * move)
+    periodic = (True, False, True)[:dim]
+    i, j, rho = find_contacts(pos, R, state.box_lo, state.box_hi, periodic, gap=2.0 * move)
     g0 = np.concatenate([rho - R[i] - R[j], pos[:, 1] - R - wall_y])
-    L = state.box_hi[:2] - state.box_lo[:2]
-    d1 = minimum_image(pos[i] + dq[i, :2] - pos[j] - dq[j, :2], L, (True, False))
-    g1 = np.concatenate([np.hypot(d1[:, 0], d1[:, 1]) - R[i] - R[j],
-                         pos[:, 1] + dq[:, 1] - R - wall_y])
+    L = state.box_hi[:dim] - state.box_lo[:dim]
+    d1 = minimum_image(pos[i] + dq[i, :dim] - pos[j] - dq[j, :dim], L, periodic)
+    rho1 = np.hypot(d1[:, 0], d1[:, 1]) if dim == 2 else np.sqrt(np.sum(d1 * d1, axis=1))
+    g1 = np.concatenate([rho1 - R[i] - R[j], pos[:, 1] + dq[:, 1] - R - wall_y])
     bad = (g0 > 0.0) & (g1 < -d_star)
     if not np.any(bad):
         return 1.0
@@ -327,12 +337,10 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
                 continue
             stop = "stagnated"
             break
-        eng.scatter("x", state.positions + dq[:, :2])
-        eng.scatter("v", dq[:, :2] / cfg.dt)
-        eng.scatter("omega", dq[:, 2] / (state.radii * cfg.dt))
+        _apply_step(eng, state, dq, cfg.dt)
         eng.run(1, pre=True)
-        eng.scatter("v", np.zeros((state.n, 2)))
-        eng.scatter("omega", np.zeros(state.n))
+        eng.scatter("v", np.zeros((state.n, state.dim)))
+        eng.scatter("omega", np.zeros((state.n, 3) if state.dim == 3 else state.n))
         new = eng.gather_state()
         G_new, r_new = residual_of(new)
         below = chord_below is not None and r < chord_below
@@ -354,6 +362,19 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
             stop = "slow"           # a singular K): damped dynamics do better
             break
     return r, stop
+
+
+def _apply_step(eng, state, dq, dt):
+    """Set x += dq (translations), v = dq / dt, omega = dphi / (R dt): the next
+    ``run 1`` advances the history by the step's increment (module docstring).
+    dq of shape (N, 3) (disks) or (N, 6) (spheres: dphi a vector)."""
+    d = state.dim
+    eng.scatter("x", state.positions + dq[:, :d])
+    eng.scatter("v", dq[:, :d] / dt)
+    if d == 3:
+        eng.scatter("omega", dq[:, 3:] / (state.radii[:, None] * dt))
+    else:
+        eng.scatter("omega", dq[:, 2] / (state.radii * dt))
 
 
 def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):

@@ -2,7 +2,8 @@
 
 Part of :mod:`remote_trigger.pywrap.stages`, used by the Newton polishing of
 :mod:`remote_trigger.pywrap.stages.equilibrium`. K = -dG/dq is the analytic
-Jacobian of ``remote_trigger.analysis.stability.jacobian`` (paper Appendix C),
+Jacobian of ``remote_trigger.analysis.stability.jacobian`` (paper Appendix C;
+spheres: ``jacobian3d``, 6 dofs per sphere),
 dense up to :data:`DENSE_NEWTON_MAX` degrees of freedom and sparse above;
 :func:`newton_solver` factorises it once (dense LU or SuperLU) and falls back
 to least squares when K is singular (``lstsq``, or preconditioned LSMR for a
@@ -11,9 +12,12 @@ sparse K).
 import numpy as np
 
 def analysis_state(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0):
-    """Convert an :class:`AtomState` into ``remote_trigger.analysis`` State."""
+    """Convert an :class:`AtomState` into ``remote_trigger.analysis`` State (State3D
+    for spheres, :func:`analysis_state3d`)."""
     from remote_trigger.analysis.state.state import ContactParams, build_state
 
+    if state.dim == 3:
+        return analysis_state3d(state, k_n, k_t, mu, F_x, F_y, wall_y)
     ext = np.zeros((state.n, 2))
     ext[state.top, 0] = F_x
     ext[state.top, 1] = -F_y
@@ -26,6 +30,24 @@ def analysis_state(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0):
         require_contacts=False)
 
 
+def analysis_state3d(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0):
+    """The :class:`~remote_trigger.analysis.state.state3d.State3D` of a gathered state
+    of spheres: contacts = overlapping pairs with the pair's t, the wall y =
+    ``wall_y`` with the wall fix's t, loads (F_x, -F_y, 0) on ``top``; float64."""
+    from remote_trigger.analysis.state.state import ContactParams
+    from remote_trigger.analysis.state.state3d import state3d_from_history
+
+    ext = np.zeros((state.n, 3))
+    ext[state.top, 0] = F_x
+    ext[state.top, 1] = -F_y
+    return state3d_from_history(
+        ids=state.ids, positions=state.positions, radii=state.radii, masses=state.masses,
+        box_lo=state.box_lo, box_hi=state.box_hi,
+        params=ContactParams(float(k_n), float(k_t), float(mu)), periodic=(True, False, True),
+        partners=state.partner, partner_t=state.xi, wall_y=wall_y, wall_t=state.wall_xi,
+        external=ext, F_x=F_x, F_y=F_y)
+
+
 #: largest number of degrees of freedom (3N) that Newton solves with a dense
 #: LU (N = 400 disks); above it K stays sparse and is factorised by SuperLU
 #: (a dense K at N = 1e4 would need 7.2 GB)
@@ -33,13 +55,13 @@ DENSE_NEWTON_MAX = 1200
 
 
 def stiffness_dense(state, k_n, k_t, mu, F_x, F_y):
-    """Dense K = -dG/dq (3N x 3N) of a gathered state (analysis Jacobian)."""
+    """Dense K = -dG/dq (3N x 3N; spheres 6N x 6N) of a gathered state (analysis Jacobian)."""
     K = stiffness(state, k_n, k_t, mu, F_x, F_y, sparse=True)
     return K.toarray() if hasattr(K, "toarray") else np.asarray(K)
 
 
 def stiffness(state, k_n, k_t, mu, F_x, F_y, sparse=None):
-    """K = -dG/dq (3N x 3N) of a gathered state (analysis Jacobian).
+    """K = -dG/dq (3N x 3N; spheres 6N x 6N) of a gathered state (analysis Jacobian).
 
     Parameters
     ----------
@@ -51,13 +73,15 @@ def stiffness(state, k_n, k_t, mu, F_x, F_y, sparse=None):
 
     Returns
     -------
-    ndarray or scipy.sparse matrix, shape (3N, 3N)
+    ndarray or scipy.sparse matrix, shape (3N, 3N) or (6N, 6N)
     """
-    from remote_trigger.analysis.stability import jacobian
+    from remote_trigger.analysis.stability import jacobian, jacobian3d
 
+    ndof = (6 if state.dim == 3 else 3) * state.n
     if sparse is None:
-        sparse = 3 * state.n > DENSE_NEWTON_MAX
-    K = jacobian.stiffness_matrix(analysis_state(state, k_n, k_t, mu, F_x, F_y))
+        sparse = ndof > DENSE_NEWTON_MAX
+    ast = analysis_state(state, k_n, k_t, mu, F_x, F_y)
+    K = (jacobian3d.stiffness_matrix3d if state.dim == 3 else jacobian.stiffness_matrix)(ast)
     if sparse:
         return K
     return K.toarray() if hasattr(K, "toarray") else np.asarray(K)
@@ -88,7 +112,8 @@ def newton_solver(K):
     callable
         ``solve(G)``: G of shape (N, 3) (or 3N) -> dq of shape (N, 3); dq = 0
         on the dropped rows. The factorisation is reused by every call (the
-        chord steps of :func:`polish`).
+        chord steps of :func:`polish`). Spheres: G of shape (N, 6) or 6N -> dq
+        of shape (N, 6) (the block size follows G's).
     """
     if hasattr(K, "tocsc"):
         return _sparse_newton_solver(K)
@@ -120,13 +145,15 @@ def newton_solver(K):
 
 
 def _on_live_dofs(idx, reduced):
-    """``solve(G)``: dq = 0 but on the live dofs ``idx``, where ``reduced(G[idx])``."""
+    """``solve(G)``: dq = 0 but on the live dofs ``idx``, where ``reduced(G[idx])``;
+    dq has G's shape ((N, 3) or (N, 6); a flat G gives (N, 3))."""
     def solve(G):
-        g = np.asarray(G, np.float64).reshape(-1)
+        G = np.asarray(G, np.float64)
+        g = G.reshape(-1)
         dq = np.zeros_like(g)
         if idx.size:
             dq[idx] = reduced(g[idx])
-        return dq.reshape(-1, 3)
+        return dq.reshape(-1, G.shape[1] if G.ndim == 2 else 3)
 
     return solve
 

@@ -5,6 +5,10 @@ mass m = 1 each) in a box periodic in x, above a flat wall at y = 0. The
 upper boundary, the group ``top``, is a line of N_top ordinary free disks
 placed above the bulk; the decks load them with (F_x + f(t), -F_y).
 
+``dim = 3`` gives the same scene with spheres (docs/model.md section 9): the
+box is periodic in x and z with an L x L cross-section, the wall is the
+plane y = 0, and ``top`` is a layer instead of a line (below).
+
 Choices (documented in ``docs/driver.md``)
 ------------------------------------------
 * **Width.** L = sqrt(A / phi), A = sum of pi R_i^2 over all N disks and
@@ -20,13 +24,31 @@ Choices (documented in ``docs/driver.md``)
   in [0, L) x [R, H0] with a loose packing fraction phi0 = 0.55, without
   overlaps (periodic in x). The top line sits 0.05 above the highest bulk
   disk. Atom IDs: bulk 1..N - N_top, then the top line.
+* **Spheres (dim = 3).** The top layer is an m x m square grid, radii in
+  a checkerboard (R2 where the two grid indices have an even sum, so each
+  top sphere's four neighbours have the other radius), spacing
+  :data:`TOP_SPACING_3D` = 1.25 (a gap of 0.05 between neighbours): its
+  holes leave a bulk sphere (R >= 0.5) a clearance of 0.18 only, so the
+  bulk cannot flow up through the layer while it presses on it (with the
+  2D line's spacing L / m ~ 1.6 a frictionless bulk did, and the layer
+  sank to the floor). The width is L = 1.25 m with m the largest even
+  integer up to (V / phi)^(1/3) / 1.25, V = sum of 4/3 pi R_i^3, phi = 0.64
+  (random close packing of spheres; :data:`PHI_3D`); periodic in x and z,
+  L x L cross-section. Loose bulk by random sequential addition at
+  phi0 = 0.3 (:data:`PHI_LOOSE_3D`; RSA of spheres jams near 0.38) in
+  [0, L) x [R, H0] x [0, L). Default N = 160 (:data:`N_3D`): m = 4,
+  L = 5, N_top = 16, relaxed height ~ 10.
 * **Top flag.** The membership of ``top`` travels with the data file as the
   integer per-atom property ``i_top`` (section ``topflag``), so that decks
   define the group with ``group top variable istop``.
 
 The data file has ``atom_style sphere`` lines ``id type diameter density x y z``
 (density 1; decks then ``set group all mass 1.0``), an empty-history section
-``hist`` for ``read_data FILE fix hist NULL hist`` and the ``topflag`` section.
+``hist`` for ``read_data FILE fix hist NULL hist`` and the ``topflag`` section;
+in 3D (z in [0, L)) there is no history section: the 3D deck lets the pair
+keep its own history (any number of contacts per sphere; a ``fix
+property/atom`` section, whose lines ``read_data`` reads up to 255
+characters, holds 8), which starts at zero.
 """
 from dataclasses import dataclass
 import math
@@ -38,6 +60,16 @@ from remote_trigger.analysis.output import write_text_atomic
 RADII = (0.5, 0.7)
 #: contact-history columns per disk (conventions.md section 1)
 HISTORY_SLOTS = 8
+#: spheres: packing fraction that sets the width, loose fraction of the bulk,
+#: default number of spheres
+PHI_3D = 0.64
+PHI_LOOSE_3D = 0.3
+N_3D = 160
+#: spacing of the spheres' top layer (R1 + R2 = 1.2 plus a gap of 0.05)
+TOP_SPACING_3D = 1.25
+#: packing fraction of the width and of the loose bulk, per dimension
+PHI = {2: 0.82, 3: PHI_3D}
+PHI_LOOSE = {2: 0.55, 3: PHI_LOOSE_3D}
 
 
 @dataclass(frozen=True)
@@ -46,8 +78,8 @@ class Packing:
 
     Attributes
     ----------
-    positions : ndarray, shape (N, 2)
-        Disk centres x, y (length units, 2 R1 = 1).
+    positions : ndarray, shape (N, 2) or (N, 3)
+        Disk centres x, y (spheres: x, y, z), length units, 2 R1 = 1.
     radii : ndarray, shape (N,)
         0.5 or 0.7.
     types : ndarray of int, shape (N,)
@@ -55,7 +87,7 @@ class Packing:
     top : ndarray of bool, shape (N,)
         True for the disks of the upper boundary line.
     width : float
-        Periodic box length L along x.
+        Periodic box length L along x (and along z for spheres).
     ylo, yhi : float
         Box bounds along y (fixed boundary); the wall is at y = 0.
     seed : int
@@ -77,12 +109,17 @@ class Packing:
         return int(self.radii.size)
 
     @property
+    def dim(self):
+        """2 for disks, 3 for spheres."""
+        return int(self.positions.shape[1])
+
+    @property
     def n_top(self):
         """Number of disks of the ``top`` group."""
         return int(np.count_nonzero(self.top))
 
 
-def box_width(n, phi=0.82, radii=RADII):
+def box_width(n, phi=0.82, radii=RADII, dim=2):
     """Periodic width L such that N disks at packing fraction phi fill an L x L box.
 
     Parameters
@@ -91,38 +128,72 @@ def box_width(n, phi=0.82, radii=RADII):
         Total number of disks (half of each radius).
     phi : float
         Target packing fraction.
+    dim : {2, 3}
+        3: spheres; L is then a multiple of the top layer's spacing.
 
     Returns
     -------
     float
-        L = sqrt(N pi (R1^2 + R2^2) / 2 / phi).
+        L = sqrt(N pi (R1^2 + R2^2) / 2 / phi); spheres: L = 1.25 m, m the
+        largest even integer (>= 2) up to L3 / 1.25, L3 = (N 4/3 pi (R1^3 + R2^3)
+        / 2 / phi)^(1/3) the edge of a cube at phi.
     """
+    if dim == 3:
+        vol = n * (4.0 / 3.0) * math.pi * (radii[0] ** 3 + radii[1] ** 3) / 2.0
+        m = max(2, 2 * int((vol / phi) ** (1.0 / 3.0) // (2.0 * TOP_SPACING_3D)))
+        return TOP_SPACING_3D * m
     return math.sqrt(n * math.pi * (radii[0] ** 2 + radii[1] ** 2) / 2.0 / phi)
 
 
-def top_count(width, radii=RADII):
-    """Number of top-line disks for a box of width L: 2 floor(L / (2 (R1 + R2))), >= 2."""
+def top_count(width, radii=RADII, dim=2):
+    """Number of top disks for a box of width L.
+
+    2D: a line of m = 2 floor(L / (2 (R1 + R2))) >= 2 disks; 3D: an m x m
+    layer of spacing :data:`TOP_SPACING_3D`, m = L / 1.25 (rounded).
+    """
+    if dim == 3:
+        return int(round(width / TOP_SPACING_3D)) ** 2
     return max(2, 2 * int(width // (2.0 * (radii[0] + radii[1]))))
 
 
-def generate(n, seed=0, phi=0.82, phi_loose=0.55, max_tries=200000, radii=RADII):
+def _top_layer(width, n_top, y_line, radii, dim):
+    """Centres (n_top, dim) and radii of the top line (2D) or checkerboard layer (3D)."""
+    r1, r2 = radii
+    if dim == 2:
+        top_r = np.array([r2 if k % 2 == 0 else r1 for k in range(n_top)])
+        tx = (np.arange(n_top) + 0.5) * width / n_top
+        return np.column_stack([tx, np.full(n_top, y_line)]), top_r
+    m = int(round(math.sqrt(n_top)))
+    a, b = np.divmod(np.arange(n_top), m)
+    top_r = np.where((a + b) % 2 == 0, r2, r1)
+    return np.column_stack([(a + 0.5) * width / m, np.full(n_top, y_line),
+                            (b + 0.5) * width / m]), top_r
+
+
+def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII, dim=2):
     """Generate a loose, non-overlapping bidisperse packing with a top line.
 
     Parameters
     ----------
     n : int
-        Total number of disks, even, >= 6 (bulk plus top line).
+        Total number of disks, even, >= 6 (bulk plus top line); spheres: even
+        and larger than the top layer + 2.
     seed : int
         Seed of :func:`numpy.random.default_rng`; the same seed gives the same
         packing bit for bit.
-    phi : float
-        Packing fraction used to choose the width L (see :func:`box_width`).
-    phi_loose : float
-        Packing fraction of the random loose bulk, in (0, 0.6].
+    phi : float, optional
+        Packing fraction used to choose the width L (see :func:`box_width`);
+        default 0.82 (disks), :data:`PHI_3D` (spheres); in (0.1, 0.91)
+        for disks, (0.1, 0.74) for spheres.
+    phi_loose : float, optional
+        Packing fraction of the random loose bulk, in (0.05, 0.6] (spheres:
+        (0.05, 0.35]); default 0.55 (disks), :data:`PHI_LOOSE_3D` (spheres).
     max_tries : int
         Random trials per disk before giving up.
     radii : tuple of float
         (R1, R2), 0 < R1 < R2; default (0.5, 0.7) (docs/model.md section 1).
+    dim : {2, 3}
+        2: disks (box periodic in x); 3: spheres (periodic in x and z).
 
     Returns
     -------
@@ -131,9 +202,13 @@ def generate(n, seed=0, phi=0.82, phi_loose=0.55, max_tries=200000, radii=RADII)
     Raises
     ------
     ValueError
-        If ``n`` is odd or too small, or a fraction is outside its range, or
-        the random placement fails.
+        If ``n`` is odd or too small, ``dim`` is not 2 or 3, a fraction is
+        outside its range, or the random placement fails.
     """
+    if dim not in (2, 3):
+        raise ValueError(f"dim must be 2 or 3, got dim = {dim!r}")
+    phi = PHI[dim] if phi is None else phi
+    phi_loose = PHI_LOOSE[dim] if phi_loose is None else phi_loose
     if isinstance(n, bool) or int(n) != n:
         raise ValueError(f"n must be an integer, got n = {n!r}")
     n = int(n)
@@ -143,60 +218,67 @@ def generate(n, seed=0, phi=0.82, phi_loose=0.55, max_tries=200000, radii=RADII)
     r1, r2 = (float(r) for r in radii)
     if not (np.isfinite(r1) and np.isfinite(r2) and 0 < r1 < r2):
         raise ValueError(f"radii must satisfy 0 < R1 < R2, got radii = {tuple(radii)!r}")
-    if not 0.1 < phi < 0.91:
-        raise ValueError(f"phi must be in (0.1, 0.91), got phi = {phi}")
-    if not 0.05 < phi_loose <= 0.6:
-        raise ValueError(f"phi_loose must be in (0.05, 0.6], got phi_loose = {phi_loose}")
+    phi_max, loose_max = (0.91, 0.6) if dim == 2 else (0.74, 0.35)
+    if not 0.1 < phi < phi_max:
+        raise ValueError(f"phi must be in (0.1, {phi_max}) for dim = {dim}, got phi = {phi}")
+    if not 0.05 < phi_loose <= loose_max:
+        raise ValueError(f"phi_loose must be in (0.05, {loose_max}] for dim = {dim}, got "
+                         f"phi_loose = {phi_loose}")
     rng = np.random.default_rng(seed)
-    width = box_width(n, phi, (r1, r2))
-    n_top = top_count(width, (r1, r2))
+    width = box_width(n, phi, (r1, r2), dim)
+    n_top = top_count(width, (r1, r2), dim)
     if n_top >= n - 2:
-        raise ValueError(f"n = {n} is too small for a top line of {n_top} disks")
+        raise ValueError(f"n = {n} is too small for a top {'layer' if dim == 3 else 'line'} "
+                         f"of {n_top} {'spheres' if dim == 3 else 'disks'}")
     n_bulk_each = n // 2 - n_top // 2
     bulk_r = np.array([r2] * n_bulk_each + [r1] * n_bulk_each)
-    area = float(np.sum(np.pi * bulk_r ** 2))
-    height = area / (phi_loose * width)
+    if dim == 2:
+        height = float(np.sum(np.pi * bulk_r ** 2)) / (phi_loose * width)
+    else:
+        height = float(np.sum(4.0 / 3.0 * np.pi * bulk_r ** 3)) / (phi_loose * width ** 2)
 
-    xs, ys = [], []
+    xs, ys, zs = [], [], []
     for r in bulk_r:       # large first: random sequential addition
         for _ in range(max_tries):
             x = rng.uniform(0.0, width)
             y = rng.uniform(r, r + height)
+            z = rng.uniform(0.0, width) if dim == 3 else 0.0
             if xs:
                 dx = x - np.asarray(xs)
                 dx -= width * np.round(dx / width)
                 dy = y - np.asarray(ys)
                 rr = bulk_r[:len(xs)] + r
-                if np.any(dx * dx + dy * dy < rr * rr):
+                d2 = dx * dx + dy * dy
+                if dim == 3:
+                    dz = z - np.asarray(zs)
+                    dz -= width * np.round(dz / width)
+                    d2 = d2 + dz * dz
+                if np.any(d2 < rr * rr):
                     continue
             xs.append(x)
             ys.append(y)
+            zs.append(z)
             break
         else:
             raise ValueError(f"could not place {len(bulk_r)} loose disks at "
                              f"phi_loose = {phi_loose} (placed {len(xs)})")
     order = rng.permutation(len(bulk_r))       # mix types among IDs
-    bx = np.asarray(xs)[order]
-    by = np.asarray(ys)[order]
+    bulk = np.column_stack([xs, ys, zs][:dim])[order]
     br = bulk_r[order]
 
-    top_r = np.array([r2 if k % 2 == 0 else r1 for k in range(n_top)])
-    y_line = float(np.max(by + br)) + 0.05 + r2
-    tx = (np.arange(n_top) + 0.5) * width / n_top
-    ty = np.full(n_top, y_line)
+    y_line = float(np.max(bulk[:, 1] + br)) + 0.05 + r2
+    tpos, top_r = _top_layer(width, n_top, y_line, (r1, r2), dim)
 
-    x = np.concatenate([bx, tx])
-    y = np.concatenate([by, ty])
     radius = np.concatenate([br, top_r])
     typ = np.where(radius == r1, 1, 2).astype(np.int64)
-    top = np.concatenate([np.zeros(bx.size, bool), np.ones(n_top, bool)])
-    return Packing(positions=np.column_stack([x, y]), radii=radius, types=typ, top=top,
+    top = np.concatenate([np.zeros(br.size, bool), np.ones(n_top, bool)])
+    return Packing(positions=np.concatenate([bulk, tpos]), radii=radius, types=typ, top=top,
                    width=float(width),
                    ylo=-1.0, yhi=float(y_line + r2 + width), seed=int(seed))
 
 
 def write_data(packing, path):
-    """Write a packing as a LAMMPS data file (atom_style sphere, 2D).
+    """Write a packing as a LAMMPS data file (atom_style sphere, 2D or 3D).
 
     Read it with::
 
@@ -204,6 +286,12 @@ def write_data(packing, path):
         fix topflag all property/atom i_top ghost no
         read_data FILE fix hist NULL hist fix topflag NULL topflag
         set group all mass 1.0
+
+    and spheres (``dimension 3``, no history section: the pair and the wall
+    fix keep their own, starting from zero) with::
+
+        fix topflag all property/atom i_top ghost no
+        read_data FILE fix topflag NULL topflag
 
     Parameters
     ----------
@@ -213,26 +301,29 @@ def write_data(packing, path):
         temporary file is removed if writing or renaming fails).
     """
     p = packing
+    dim3 = p.dim == 3
     lines = [
         f"LAMMPS data file: remote-trigger packing, N = {p.n}, N_top = {p.n_top}, "
-        f"seed = {p.seed}",
+        f"seed = {p.seed}" + (", dimension 3" if dim3 else ""),
         "",
         f"{p.n} atoms",
         "2 atom types",
         "",
         f"0 {p.width!r} xlo xhi",
         f"{p.ylo!r} {p.yhi!r} ylo yhi",
-        "-0.5 0.5 zlo zhi",
+        f"0 {p.width!r} zlo zhi" if dim3 else "-0.5 0.5 zlo zhi",
         "",
         "Atoms # sphere",
         "",
     ]
     for k in range(p.n):
+        z = repr(float(p.positions[k, 2])) if dim3 else "0"
         lines.append(f"{k + 1} {int(p.types[k])} {float(2.0 * p.radii[k])!r} 1 "
-                     f"{float(p.positions[k, 0])!r} {float(p.positions[k, 1])!r} 0")
-    zeros = " ".join(["0"] * (2 * HISTORY_SLOTS + 1))
-    lines += ["", "hist # i_mindlin_partner d_mindlin_t d_mindlin_wall_t", ""]
-    lines += [f"{k + 1} {zeros}" for k in range(p.n)]
+                     f"{float(p.positions[k, 0])!r} {float(p.positions[k, 1])!r} {z}")
+    if not dim3:
+        zeros = " ".join(["0"] * (2 * HISTORY_SLOTS + 1))
+        lines += ["", "hist # i_mindlin_partner d_mindlin_t d_mindlin_wall_t", ""]
+        lines += [f"{k + 1} {zeros}" for k in range(p.n)]
     lines += ["", "topflag # i_top", ""]
     lines += [f"{k + 1} {int(p.top[k])}" for k in range(p.n)]
     write_text_atomic(path, "\n".join(lines) + "\n")

@@ -1,7 +1,10 @@
 """The relax stage: the default protocol (frictionless-then-friction) and its steps.
 
 Part of :mod:`remote_trigger.pywrap.stages`; the LAMMPS commands of the
-protocol are sections of ``lammps_inputs/in.relax`` (docs/driver.md, "Decks").
+protocol are sections of ``lammps_inputs/in.relax`` (docs/driver.md, "Decks"),
+for spheres of ``in.relax3d`` (same section names; docs/driver.md,
+"Spheres"): the same steps, with FIRE for the frictionless relaxation and
+the 3D Jacobian for Newton.
 """
 from dataclasses import dataclass, field
 import os
@@ -168,8 +171,10 @@ def press_top(eng, F_x):
         while steps < max_steps:
             eng.run(check, pre=(steps == 0))
             steps += check
-            v = eng.gather("v")[:, :2]
-            if float(np.max(np.hypot(v[:, 0], v[:, 1]))) < v_stop:
+            v = eng.gather("v")
+            speed = (np.hypot(v[:, 0], v[:, 1]) if eng.dimension == 2
+                     else np.linalg.norm(v, axis=1))
+            if float(np.max(speed)) < v_stop:
                 break
         eng.run_section("press_end")
     finally:
@@ -182,16 +187,43 @@ def press_top(eng, F_x):
 FIRE_FTOL = 1e-6
 
 
-def relax_dynamics(cfg, n):
+def relax_dynamics(cfg, n, dim=2):
     """The dynamics of the frictionless steps (iii) for ``n`` disks: 'damped' or 'fire'.
 
     ``cfg.relax_dynamics`` unless it is ``'auto'``: then ``'damped'`` for
     n <= :data:`~remote_trigger.pywrap.stages.config.RELAX_DYNAMICS_AUTO_N`
-    (400), ``'fire'`` above.
+    (400), ``'fire'`` above; always ``'fire'`` for spheres (``dim`` = 3).
     """
     if cfg.relax_dynamics != "auto":
         return cfg.relax_dynamics
-    return "damped" if n <= RELAX_DYNAMICS_AUTO_N else "fire"
+    return "damped" if n <= RELAX_DYNAMICS_AUTO_N and dim == 2 else "fire"
+
+
+def check_spheres_config(cfg):
+    """Refuse the options of ``relax`` that are 2D only, for a packing of spheres.
+
+    Spheres relax with the default protocol, FIRE and Newton: damped
+    dynamics do not bring a loaded 3D packing to rest (1e5 steps), and the
+    wall fix keeps its 3D history where Python cannot restore it, which
+    Newton steps with friction would need.
+
+    Raises
+    ------
+    ConfigError
+        ``protocol = 'frictional'``, ``relax_dynamics = 'damped'`` or
+        ``newton = False`` (``--no-newton``), naming the value.
+    """
+    bad = [(k, v, why) for k, v, ok, why in (
+        ("protocol", cfg.protocol, "frictionless-then-friction",
+         "its Newton steps with friction would need the wall's 3D history restored"),
+        ("relax_dynamics", cfg.relax_dynamics, ("auto", "fire"),
+         "damped dynamics do not bring a loaded 3D packing to rest"),
+        ("newton", cfg.newton, True, "damped dynamics alone do not reach equilibrium"))
+        if not (v in ok if isinstance(ok, tuple) else v == ok)]
+    if bad:
+        k, v, why = bad[0]
+        raise ConfigError(f"{k} = {v!r} is 2D only: {cfg.datafile} holds spheres "
+                          f"(dimension 3), and {why} (docs/driver.md, 'Spheres')")
 
 
 def fire_minimize(eng, cfg, ftol=None):
@@ -244,9 +276,27 @@ def press_top_fire(eng, cfg):
 
 
 def top_clearance(state):
-    """min over top disks of y minus max over bulk disks of y (centres)."""
+    """min over top disks of y minus max over bulk disks of y (centres).
+
+    Spheres (a layer, not a line: its height varies more than a disk's
+    across the box): min over bulk spheres b of (the highest top centre
+    within a horizontal distance :data:`~remote_trigger.pywrap.stages.packing.
+    TOP_SPACING_3D` of b, minus y_b); > 0 when no bulk sphere has come up
+    through or over the layer; -inf where the layer has opened (no top
+    sphere within that distance).
+    """
     y = state.positions[:, 1]
-    return float(np.min(y[state.top]) - np.max(y[~state.top]))
+    if state.dim == 2:
+        return float(np.min(y[state.top]) - np.max(y[~state.top]))
+    from remote_trigger.analysis.state.contacts import minimum_image
+    from remote_trigger.pywrap.stages.packing import TOP_SPACING_3D
+
+    xz = state.positions[:, [0, 2]]
+    L = (state.box_hi - state.box_lo)[[0, 2]]
+    d = minimum_image(xz[~state.top][:, None, :] - xz[state.top][None, :, :], L, (True, True))
+    near = np.hypot(d[..., 0], d[..., 1]) < TOP_SPACING_3D
+    above = np.where(near, y[state.top][None, :], -np.inf).max(axis=1)
+    return float(np.min(above - y[~state.top]))
 
 
 def antisymmetry(state, cfg, F_x):
@@ -288,7 +338,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
     """
     cfg0 = cfg.replace(mu=0.0)
     load_relax_scene(eng, cfg0, cfg.datafile, cfg.F_x)
-    fire = relax_dynamics(cfg, eng.natoms) == "fire"
+    fire = relax_dynamics(cfg, eng.natoms, eng.dimension) == "fire"
     t_comp = 0.0
     offsets = [0.0]
     if cfg.settle_steps > 0:
@@ -297,7 +347,10 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
         place_top(eng, cfg.top_gap)
         t_comp = time.perf_counter() - tc
         st = eng.gather_state()
-        spacing = float(st.box_hi[0] - st.box_lo[0]) / max(1, int(np.count_nonzero(st.top)))
+        per_row = max(1, int(np.count_nonzero(st.top)))
+        if st.dim == 3:                # an m x m layer: m spheres per row along x
+            per_row = max(1, int(round(np.sqrt(per_row))))
+        spacing = float(st.box_hi[0] - st.box_lo[0]) / per_row
         offsets = [k * spacing / cfg.top_attempts for k in range(cfg.top_attempts)]
     start = eng.gather_state()
     best = None
@@ -398,6 +451,8 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
         cfg_in = cfg
         cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "relax",
                                      a_priori=cfg.settle_steps > 0)
+        if eng.dimension == 3:
+            check_spheres_config(cfg)
         prepare_out(eng, out, ["relax.h5"] + _equilibrium_files("relax"), overwrite, "relax")
         _ensure_dir(eng, os.path.join(out, "relax"))
         bar = _progress(None, "relax", quiet, eng.rank, unit="chk")

@@ -102,12 +102,15 @@ def limit_of(state, cfg, F_x, a_priori=False):
     mu = max(float(cfg.mu), float(getattr(cfg, "mu_settle", 0.0)))
     st = analysis_state(state, cfg.k_n, cfg.k_t, mu, F_x, cfg.F_y)
     lim, src = math.inf, "eigen"
-    if st.n_contacts + np.count_nonzero(st.wall_delta > 0) > 0:
+    walls = st.wall_index.size if state.dim == 3 else np.count_nonzero(st.wall_delta > 0)
+    if st.n_contacts + walls > 0:
         lim = ts.stability_limit(st, "eigen")
     if a_priori:
         kt = float(cfg.k_t) if mu > 0 else 0.0
+        # spheres: up to 12 contacts, rotational mass 2/5 m
+        shape = dict(contacts=12, inertia=0.4) if state.dim == 3 else {}
         bound = ts.hertz_limit(float(cfg.k_n), relax_force_estimate(cfg, state), k_t=kt,
-                               mass=float(np.min(state.masses)))
+                               mass=float(np.min(state.masses)), **shape)
         if bound < lim:
             lim, src = bound, "hertz a priori"
     return lim, src
