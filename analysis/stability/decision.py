@@ -188,11 +188,17 @@ class SpectrumBasis:
         The float64 inverse of X used in the verification.
     blocks : list of (int, int)
         (first column, size 1 or 2) of each unit.
+    dofs : ndarray of int, shape (n,), or None
+        The degrees of freedom of the whole system that X's rows stand for
+        (the kept dofs after rattler removal, as ``remove_dofs`` takes them);
+        None if not recorded. With it, :meth:`on_dofs` carries the basis over
+        to a point whose rattlers differ.
     """
 
     X: np.ndarray
     R: np.ndarray
     blocks: list
+    dofs: np.ndarray | None = None
 
     @property
     def pairs(self):
@@ -200,11 +206,89 @@ class SpectrumBasis:
         pair or two near-parallel real eigenvectors), i.e. has two columns."""
         return np.array([k == 2 for _, k in self.blocks], dtype=bool)
 
+    def on_dofs(self, dofs):
+        """The basis carried over to another set of kept dofs (other rattlers).
+
+        A start for :func:`~remote_trigger.analysis.stability.exceptional.classify_spectrum`
+        at a point whose rattlers differ from this basis's (a disk that
+        gained or lost its last contacts between two ramp points): rows of
+        dofs that are kept in both are kept; for each dof no longer kept, the
+        real unit whose column lies most on the dropped dofs is dropped; for
+        each new dof a unit vector on it is added as a real unit (its mode is
+        then found by the correction of the verification). The verification
+        is the same rigorous one for any nonsingular X, so this changes only
+        whether the start succeeds, never what a decision certifies.
+
+        Parameters
+        ----------
+        dofs : array_like of int, shape (n_new,)
+            The new kept dofs (indices into the whole system's 3N or 6N).
+
+        Returns
+        -------
+        SpectrumBasis or None
+            ``self`` if the dofs are the same; None if this basis has no
+            recorded ``dofs``, if a dropped dof would take a pair's column, or
+            if the carried-over X is singular.
+        """
+        dofs = np.asarray(dofs, np.int64)
+        if self.dofs is None:
+            return None
+        old = np.asarray(self.dofs, np.int64)
+        if old.shape == dofs.shape and np.array_equal(old, dofs):
+            return self
+        in_new = np.isin(old, dofs)
+        in_old = np.isin(dofs, old)
+        n_drop, n_add = int(np.count_nonzero(~in_new)), int(np.count_nonzero(~in_old))
+        X = self.X
+        col_unit = np.repeat(np.arange(len(self.blocks)), [k for _, k in self.blocks])
+        drop_cols = np.zeros(X.shape[1], bool)
+        if n_drop:
+            weight = np.einsum("ij,ij->j", X[~in_new], X[~in_new]) \
+                / np.einsum("ij,ij->j", X, X)
+            sizes = np.array([k for _, k in self.blocks])[col_unit]
+            weight[sizes != 1] = -1.0
+            order = np.argsort(-weight, kind="stable")[:n_drop]
+            if np.any(weight[order] < 0):
+                return None
+            drop_cols[order] = True
+        # rows: the new dofs in their order; old rows where the dof was kept
+        pos_old = {int(d): i for i, d in enumerate(old)}
+        Xn = np.zeros((dofs.size, X.shape[1] - n_drop + n_add))
+        keep_cols = np.flatnonzero(~drop_cols)
+        rows_new = np.flatnonzero(in_old)
+        rows_old = np.array([pos_old[int(d)] for d in dofs[in_old]], np.int64)
+        Xn[np.ix_(rows_new, np.arange(keep_cols.size))] = X[np.ix_(rows_old, keep_cols)]
+        for c, r in enumerate(np.flatnonzero(~in_old)):
+            Xn[r, keep_cols.size + c] = 1.0
+        norms = np.sqrt(np.einsum("ij,ij->j", Xn, Xn))
+        if not np.all(norms > 0):
+            return None
+        Xn /= norms
+        blocks, s0 = [], 0
+        for start, k in self.blocks:
+            if k == 1 and drop_cols[start]:
+                continue
+            blocks.append((s0, k))
+            s0 += k
+        blocks += [(s0 + c, 1) for c in range(n_add)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                R = np.linalg.inv(Xn)
+            except np.linalg.LinAlgError:
+                return None
+        if not np.all(np.isfinite(R)):
+            return None
+        return SpectrumBasis(Xn, R, blocks, dofs.copy())
+
     def save(self, path):
-        """Write X and the block layout to ``path`` (``.npz``; R is recomputed on load)."""
+        """Write X, the block layout and the dofs to ``path`` (``.npz``; R is
+        recomputed on load)."""
         b = np.asarray(self.blocks, np.int64).reshape(-1, 2)
+        extra = {} if self.dofs is None else {"dofs": np.asarray(self.dofs, np.int64)}
         with open(path, "wb") as fh:
-            np.savez(fh, X=self.X, blocks=b)
+            np.savez(fh, X=self.X, blocks=b, **extra)
 
     @classmethod
     def load(cls, path):
@@ -218,6 +302,7 @@ class SpectrumBasis:
         try:
             with np.load(path) as z:
                 X, b = z["X"], z["blocks"]
+                dofs = z["dofs"] if "dofs" in z.files else None
         except (OSError, KeyError, ValueError) as exc:
             raise ValueError(f"cannot read spectrum basis {path!r}: {exc}") from exc
         n = X.shape[0]
@@ -227,4 +312,6 @@ class SpectrumBasis:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             R = np.linalg.inv(X)
-        return cls(X, R, [(int(s), int(k)) for s, k in b])
+        if dofs is not None and dofs.shape != (n,):
+            raise ValueError(f"cannot read spectrum basis {path!r}: inconsistent shapes")
+        return cls(X, R, [(int(s), int(k)) for s, k in b], dofs)

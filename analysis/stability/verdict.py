@@ -230,7 +230,11 @@ def stability_of(state, basis=None):
     state : remote_trigger.analysis.state.state.State
     basis : remote_trigger.analysis.stability.decision.SpectrumBasis, optional
         The previous point's ``basis``: tried first
-        (:func:`remote_trigger.analysis.stability.exceptional.classify_spectrum`).
+        (:func:`remote_trigger.analysis.stability.exceptional.classify_spectrum`);
+        if its ``dofs`` differ from this state's kept dofs (a disk became or
+        stopped being a rattler), it is carried over by
+        :meth:`~remote_trigger.analysis.stability.decision.SpectrumBasis.on_dofs`.
+        The returned basis records this state's kept dofs.
 
     Returns
     -------
@@ -256,8 +260,13 @@ def stability_of(state, basis=None):
                                res.max_residual)
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
     check_dense_fits(Kr.shape[0])
+    if basis is not None and basis.dofs is not None:
+        # other rattlers than at the basis's point: carried over (or None)
+        basis = basis.on_dofs(rat.keep_dofs)
     dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
                                         basis=basis)
+    if dec.basis is not None:
+        dec.basis.dofs = np.asarray(rat.keep_dofs, np.int64).copy()
     if dec.complex_present is None:
         decision = "undecided"
     else:
