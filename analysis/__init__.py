@@ -31,6 +31,7 @@ Subpackages and modules (docs/analysis.md):
 ``forcelaw_ref``                   independent complex-step-capable force law (tests)
 ``forcelaw_ref3d``                 the same for spheres (3D law, pair style's 3D step)
 ``output``                         atomic writers (text, JSON, HDF5, npz, figures), output checks
+``scaling``                        power laws over system sizes with bootstrap intervals
 ``errors``                         the exception hierarchy
 =================================  ==============================================================
 

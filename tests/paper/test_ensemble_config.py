@@ -139,3 +139,9 @@ def test_soft_mode_onsets_are_flagged_and_kept_out_of_the_stiff_statistics():
     assert p400["n_soft"] == 1 and p400["F_x_c_stiff"][0] == 1
     assert p400["F_x_c_stiff"][2] == 0.005 and p400["F_x_c"][2] == 0.00275
     assert st["n_exponent_stiff"][0.5] == math.log(0.005 / 0.03) / math.log(4)
+    # the fit over every packing: two sizes, F_x_c_ss not recorded (absent)
+    fit = st["n_fit"][0.5]["F_x_c"]
+    assert set(st["n_fit"][0.5]) == {"F_x_c"}
+    assert fit.sizes == (100, 400) and fit.n_points == 4
+    expected = (math.log(0.005 * 0.0005) - math.log(0.02 * 0.04)) / 2 / math.log(4)
+    assert fit.exponent == pytest.approx(expected, rel=1e-12)

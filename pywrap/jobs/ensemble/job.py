@@ -56,6 +56,7 @@ Rank 0 writes ``ensemble.h5``, ``ensemble.png`` and ``ensemble.md``.
    The I0 = 1 rows are an analysis convention, not a simulation: their
    eigenvalues do not predict the simulated motion (docs/model.md section 1).
 """
+import dataclasses
 import json
 import math
 import os
@@ -435,6 +436,8 @@ def _np_default(o):
         return float(o)
     if isinstance(o, (np.bool_,)):
         return bool(o)
+    if dataclasses.is_dataclass(o) and not isinstance(o, type):    # e.g. a PowerLawFit
+        return dataclasses.asdict(o)
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 

@@ -215,12 +215,17 @@ def statistics(rows, cfg):
         convention: percentiles of 0.0091 and 0.012 among F_x^c(mu0) at
         N = 100, or at every N if 100 is not in the ensemble),
         ``n_exponent`` (per convention: d ln median F_x^c / d ln N between
-        the smallest and largest N).
+        the smallest and largest N), ``n_fit`` (per convention, with two
+        sizes or more: :func:`~remote_trigger.analysis.scaling.power_law_fit`
+        of F_x^c(mu0), F_x^c(mu_ss mu0) and the window width F_x^c(mu0) -
+        F_x^c(mu_ss mu0) over every usable packing, keys ``'F_x_c'``,
+        ``'F_x_c_ss'``, ``'width'``; a quantity with fewer than two sizes is
+        left out).
     """
     ft = "frictionless-then-friction"
     convs = [I0_DYNAMICS] + ([float(cfg.inertia_I0)] if cfg.inertia_I0 is not None else [])
     st = {"per_n": [], "order": {}, "frictional": [], "paper_percentile": {},
-          "n_exponent": {}}
+          "n_exponent": {}, "n_fit": {}}
     for I0 in convs:
         for n in cfg.n:
             sel = select(rows, ft, I0, n)
@@ -254,6 +259,7 @@ def statistics(rows, cfg):
         if len(meds) >= 2 and meds[0][0] != meds[-1][0]:
             (n1, m1), (n2, m2) = meds[0], meds[-1]
             st.setdefault("n_exponent_stiff", {})[I0] = math.log(m2 / m1) / math.log(n2 / n1)
+        st["n_fit"][I0] = size_fits(select(rows, ft, I0))
     for n in cfg.n:
         fr = [r for r in rows if r["protocol"] == "frictional" and r["n"] == n]
         ok = [r for r in fr if r["status"] == "ok"]
@@ -265,6 +271,29 @@ def statistics(rows, cfg):
             "growth": quartiles([r["growth_at_zero"] for r in ok
                                  if r["decision_at_zero"] == Decision.COMPLEX])})
     return st
+
+
+def size_fits(rows):
+    """Power laws in N over the packings of ``rows`` (one convention).
+
+    Returns
+    -------
+    dict
+        ``'F_x_c'``, ``'F_x_c_ss'``, ``'width'`` (F_x^c(mu0) - F_x^c(mu_ss mu0),
+        where positive) -> :class:`~remote_trigger.analysis.scaling.PowerLawFit`;
+        a quantity whose usable values span fewer than two sizes is absent.
+    """
+    from remote_trigger.analysis.scaling import power_law_fit
+
+    n = np.array([r["n"] for r in rows], float)
+    a = np.array([r["F_x_c"] for r in rows], float)
+    b = np.array([r["F_x_c_ss"] for r in rows], float)
+    fits = {}
+    for key, y in (("F_x_c", a), ("F_x_c_ss", b), ("width", a - b)):
+        ok = np.isfinite(y) & (y > 0)
+        if np.unique(n[ok]).size >= 2:
+            fits[key] = power_law_fit(n, y)
+    return fits
 
 
 # --------------------------------------------------------------------------- outputs
@@ -413,6 +442,11 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
                  f"and N = {max(cfg.n)} (two medians).")
     for I0, e in st.get("n_exponent_stiff", {}).items():
         L.append(f"- I0 = {I0:g}, stiff onsets only: median F_x^c(mu0) ~ N^{e:.3g}.")
+    names = {"F_x_c": "F_x^c(mu0)", "F_x_c_ss": f"F_x^c({cfg.mu_ss:g} mu0)",
+             "width": "window F_x^c(mu0) - F_x^c(mu_ss mu0) (where > 0)"}
+    for I0, fits in st.get("n_fit", {}).items():
+        for key, fit in fits.items():
+            L.append(f"- I0 = {I0:g}, fit over every packing: {fit.describe(names[key])}.")
     if not st["n_exponent"]:
         L.append("- one size only (or no usable median): no N dependence measured.")
     L += ["", "## Does F_x^c(mu_ss mu0) < F_x^c(mu0) hold for every packing?", "",
