@@ -131,7 +131,7 @@ def test_2d_only_relax_options(capsys, packing3d, tmp_path, argv, needle):
     assert not os.path.exists(tmp_path / "o" / "relax.h5")
 
 
-@pytest.mark.parametrize("command", ["ramp", "perturb", "instability"])
+@pytest.mark.parametrize("command", ["perturb", "instability"])
 def test_2d_only_stages_refuse_spheres(capsys, packing3d, tmp_path, command):
     status, _, err = run_cli(capsys, command, "--datafile", packing3d, "--out", tmp_path / "o",
                              "--quiet")
