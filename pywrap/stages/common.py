@@ -325,3 +325,15 @@ def file_sha256(path):
     return h.hexdigest()
 
 
+
+
+def start_sha256(datafile):
+    """SHA-256 (hex) of a ramp's start: the data file, and for spheres also the
+    equilibrium dump beside it (their history; :func:`read_saved_history3d`)."""
+    import hashlib
+    from remote_trigger.pywrap.bindings.datafile import data_dimension
+
+    digest = file_sha256(datafile)
+    if data_dimension(datafile) != 3:
+        return digest
+    return hashlib.sha256((digest + file_sha256(equilibrium_dump(datafile))).encode()).hexdigest()

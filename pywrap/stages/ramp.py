@@ -17,8 +17,8 @@ from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.stages import ramp_file
 from remote_trigger.pywrap.stages.common import (
-    _analyze, _ensure_dir, _progress, check_spheres_ramp, file_sha256,
-    load_equilibrium_scene, save_equilibrium, start_timestep)
+    _analyze, _ensure_dir, _progress, check_spheres_ramp,
+    load_equilibrium_scene, save_equilibrium, start_sha256, start_timestep)
 
 
 @dataclass
@@ -315,7 +315,7 @@ def _open_ramp_log(eng, cfg, out, h5, resume):
             log_ = ramp_file.RampLog.load(cfg, h5) if (resume and exists) else ramp_file.RampLog(cfg, h5)
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
-        log_.attrs.setdefault("datafile_sha256", file_sha256(cfg.datafile))
+        log_.attrs.setdefault("datafile_sha256", start_sha256(cfg.datafile))
         return log_
 
     return on_rank0(eng.comm, open_log)

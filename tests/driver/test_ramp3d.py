@@ -158,6 +158,23 @@ def test_ramp_killed_at_random_moments_resumes_bitwise(relaxed3d, tmp_path):
         assert not diff, f"{ctx}, kills {chain['kills']}: " + "; ".join(diff)
 
 
+def test_resume_refuses_another_dump_beside_the_start(relaxed3d, tmp_path):
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.config import ConfigError
+    from remote_trigger.pywrap.stages.config import RampConfig
+
+    start = tmp_path / "eq.data"
+    for ext in (".data", ".dump", ".dump.json"):
+        shutil.copyfile(relaxed3d.datafile[:-len(".data")] + ext, str(start)[:-5] + ext)
+    cfg = RampConfig(datafile=str(start), dF_x=DF, tol=TOL)
+    assert stages.ramp(cfg, str(tmp_path / "o"), quiet=True, stop_after=1).status == \
+        "interrupted"
+    dump = tmp_path / "eq.dump"
+    dump.write_text(dump.read_text() + "\n")       # the same numbers, other bytes
+    with pytest.raises(ConfigError, match="another dump beside it"):
+        stages.ramp(cfg, str(tmp_path / "o"), quiet=True, resume=True)
+
+
 # ------------------------------------------------------------------ bad input
 def test_a_data_file_without_its_dump_is_refused(capsys, packing3d, tmp_path):
     status, _, err = run_cli(capsys, "ramp", "--datafile", packing3d, "--out", tmp_path / "o",
