@@ -141,11 +141,17 @@ def test_resume_after_interruption_is_bitwise(ramp3d, tmp_path):
     assert test_kill.compare_ramp(test_kill.read_all(full.h5), res.h5) == []
 
 
-def test_ramp_killed_at_random_moments_resumes_bitwise(relaxed3d, tmp_path):
-    ref_out = tmp_path / "ref"
-    wall, attrs, data = test_kill.run_reference(relaxed3d.datafile, ref_out, dF_x=DF,
-                                                tol=TOL)
+@pytest.fixture(scope="module")
+def cli_reference(relaxed3d, tmp_path_factory):
+    """The uninterrupted command-line ramp (one BLAS thread, as the trials)."""
+    out = tmp_path_factory.mktemp("ramp3d_cli") / "ref"
+    wall, attrs, data = test_kill.run_reference(relaxed3d.datafile, out, dF_x=DF, tol=TOL)
     assert attrs["status"] == "complete"
+    return wall, (attrs, data)
+
+
+def test_ramp_killed_at_random_moments_resumes_bitwise(relaxed3d, cli_reference, tmp_path):
+    wall, ref = cli_reference
     for trial in range(2):
         ctx = f"RT_KILL_SEED={test_kill.SEED} 3D trial {trial}"
         rng = np.random.default_rng([test_kill.SEED, 300 + trial])
@@ -154,8 +160,21 @@ def test_ramp_killed_at_random_moments_resumes_bitwise(relaxed3d, tmp_path):
                                      first_kill_early=(trial == 0), ctx=ctx, dF_x=DF,
                                      tol=TOL)
         print(f"{ctx}: reference {wall:.2f} s; kills {chain['kills']}")
-        diff = test_kill.compare_ramp((attrs, data), out / "ramp.h5", ctx)
+        diff = test_kill.compare_ramp(ref, out / "ramp.h5", ctx)
         assert not diff, f"{ctx}, kills {chain['kills']}: " + "; ".join(diff)
+
+
+@pytest.mark.mpi
+def test_two_ranks_give_the_same_ramp_bitwise(relaxed3d, cli_reference, tmp_path):
+    import subprocess
+
+    mpirun = os.path.join(test_kill.BIN, "mpirun")
+    args = [mpirun, "-np", "2"] + test_kill.ramp_args(relaxed3d.datafile, tmp_path / "o", DF,
+                                                      TOL)
+    res = subprocess.run(args, env=test_kill.cli_env(), capture_output=True, text=True,
+                         timeout=test_kill.TIMEOUT)
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert test_kill.compare_ramp(cli_reference[1], tmp_path / "o" / "ramp.h5") == []
 
 
 def test_resume_refuses_another_dump_beside_the_start(relaxed3d, tmp_path):
