@@ -86,8 +86,21 @@ def load_equilibrium_scene(eng, cfg, datafile, F_x, dim):
     if dim == 2:
         load_relax_scene(eng, cfg, datafile, F_x, deck="in.ramp_step")
         return
-    hist = on_rank0(eng.comm, lambda: read_saved_history3d(datafile))
     load_relax_scene(eng, cfg, datafile, F_x, deck=RELAX_DECKS[3])
+    restore_saved_history3d(eng, datafile)
+
+
+def restore_saved_history3d(eng, datafile):
+    """Write the history of the dump beside ``datafile`` into the loaded scene of
+    spheres: one ``run 0`` (the pair creates its arrays; a setup advances no
+    history), then :meth:`Engine.restore_history3d`.
+
+    Raises
+    ------
+    ConfigError
+        The dump is missing or unreadable, or of other atoms (on every rank).
+    """
+    hist = on_rank0(eng.comm, lambda: read_saved_history3d(datafile))
     if not np.array_equal(hist["ids"], np.arange(1, eng.natoms + 1)):
         raise ConfigError(f"{equilibrium_dump(datafile)}: its atom ids are not those of "
                           f"{datafile} (1..{eng.natoms})")
@@ -262,16 +275,15 @@ def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
 
     Returns ``(cfg with a numeric dt, TimestepInfo)``; see
     :func:`remote_trigger.pywrap.stages.timestep.resolve`. No step is run.
-    A data file of spheres is refused (``ConfigError``) by every stage but
-    ``relax`` and ``ramp``.
+    A data file of spheres needs the dump beside it (its history) in every
+    stage but ``relax`` (``ConfigError``).
     """
     from remote_trigger.pywrap.bindings.datafile import check_datafile
     from remote_trigger.pywrap.stages.timestep import resolve
 
     data = check_datafile(datafile, full=True)
-    if data.dimension == 3 and stage not in ("relax", "ramp"):
-        raise ConfigError(f"{stage}: {datafile} holds spheres (dimension 3); {stage} is 2D "
-                          f"only (spheres: generate, relax, ramp, jacobian; docs/driver.md)")
+    if data.dimension == 3 and stage != "relax":
+        read_saved_history3d(datafile)
     probe = cfg.replace(dt=1.0) if cfg.dt == "auto" else cfg   # dt unused: no step run
     load_relax_scene(eng, probe, datafile, F_x)
     return resolve(eng, cfg, F_x, a_priori=a_priori, stage=stage)

@@ -130,6 +130,38 @@ def test_short_ramp_gives_a_certified_bracket(ramp3d):
           f"= {out[hi][k].real / lmax:.3g}, Im {abs(out[hi][k].imag):.3g}")
 
 
+def test_a_saved_point_loads_back_as_the_same_equilibrium(ramp3d, tmp_path):
+    """Data file + the dump's history give the saved residual exactly; the same
+    data file with the history zeroed in its dump is far from equilibrium."""
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages.common import load_equilibrium_scene
+    from remote_trigger.pywrap.stages.equilibrium import exact_residual
+
+    cfg, res = ramp3d
+    start = [f for _, F, _, _, f in _points(res.h5) if F == res.F_x_c_low][0]
+    base = start[:-len(".data")]
+    lines = open(base + ".dump").read().splitlines()
+    cols = lines[8].split()[2:]
+    hist = [i for i, c in enumerate(cols) if c.startswith(("d2_mindlin_t", "v_wall_t"))]
+    body = []
+    for ln in lines[9:]:
+        p = ln.split()
+        for i in hist:
+            p[i] = "0"
+        body.append(" ".join(p))
+    zeroed = tmp_path / "zero"
+    (tmp_path / "zero.dump").write_text("\n".join(lines[:9] + body) + "\n")
+    for ext in (".data", ".dump.json"):
+        shutil.copyfile(base + ext, str(zeroed) + ext)
+    r = {}
+    for name, datafile in (("saved", start), ("zeroed", str(zeroed) + ".data")):
+        with Engine() as eng:
+            load_equilibrium_scene(eng, cfg, datafile, res.F_x_c_low, 3)
+            eng.unfix("damp", "rdamp", "integ")
+            r[name] = exact_residual(eng)[2]
+    assert r["saved"] < roundoff_floor(read_dump3d(base + ".dump")) and r["zeroed"] > 1e-3, r
+
+
 def test_resume_after_interruption_is_bitwise(ramp3d, tmp_path):
     from remote_trigger.pywrap import stages
 
@@ -237,3 +269,50 @@ def test_dim_3_that_agrees_is_accepted(capsys, relaxed3d, tmp_path):
     with h5py.File(tmp_path / "o" / "ramp.h5", "r") as fh:
         assert fh.attrs["status"] == "no_complex_pair"
         assert list(fh["steps/decision"][()]) == [0.0]
+
+
+# ------------------------------------------------------------------ undamped runs
+def _bracket_file(res, which):
+    F = res.F_x_c_low if which == "lo" else res.F_x_c_high
+    return [f for _, F_, _, _, f in _points(res.h5) if F_ == F][0]
+
+
+def test_perturb_of_spheres_keeps_the_equilibrium_and_mu_v_moves_it(ramp3d, tmp_path):
+    """From the certified-real equilibrium below F_x^c (friction carrying the
+    load, history nonzero): the unperturbed run (a) stays at rest to round-off
+    -- the pair's and the wall's history were written back exactly -- and
+    run (c), mu(v) on, moves the layer far more."""
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.stages.config import DynamicsConfig
+
+    _, res = ramp3d
+    start = _bracket_file(res, "lo")
+    cfg = DynamicsConfig(datafile=start, F_x=res.F_x_c_low, t_max=20.0)
+    out = stages.perturb(cfg, str(tmp_path), quiet=True)
+    assert set(out) == {"a", "b", "c"}
+    assert out["a"].extra["residual"] < 1e-10
+    with h5py.File(tmp_path / "perturb_a.h5", "r") as fh:
+        assert fh.attrs["status"] == "complete"
+    Da, Dc = out["a"].D.max(), out["c"].D.max()
+    print(f"3D perturb from F_x = {res.F_x_c_low}: max D (a) {Da:.3g}, (b) "
+          f"{out['b'].D.max():.3g}, (c) {Dc:.3g}; min mu (c) {out['c'].mu.min():.4g}")
+    assert Da < 1e-20 and out["a"].extra["v_top_max"] < 1e-8
+    assert out["c"].mu.min() < cfg.mu and Dc > 1e3 * Da
+
+
+def test_instability_of_spheres_runs_from_a_certified_complex_state(ramp3d, tmp_path,
+                                                                    capsys):
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.stages.config import DynamicsConfig
+
+    _, res = ramp3d
+    cfg = DynamicsConfig(datafile=_bracket_file(res, "hi"), F_x=res.F_x_c_high, t_max=5.0)
+    out = stages.instability(cfg, str(tmp_path / "i"), quiet=True, allow_stable=False)
+    assert out.extra["complex_pair"] and out.extra["predicted_growth_rate"] > 0
+    assert np.all(np.isfinite(out.D)) and out.t[-1] == pytest.approx(5.0)
+    # from the certified-real one it is refused, one line, nothing written
+    status, _, err = run_cli(capsys, "instability", "--datafile", _bracket_file(res, "lo"),
+                             "--out", tmp_path / "j", "--quiet")
+    assert status == 2
+    assert_one_line_error(err, "linearly stable")
+    assert not os.path.exists(tmp_path / "j" / "instability.h5")
