@@ -9,6 +9,7 @@
 #include "domain.h"
 #include "error.h"
 #include "memory.h"
+#include "utils.h"
 
 #include <cstring>
 
@@ -87,6 +88,21 @@ void FixMindlinHistory::agree_on_columns()
   int all;
   MPI_Allreduce(&ncol, &all, 1, MPI_INT, MPI_MAX, world);
   if (all > ncol) set_columns(all);
+}
+
+/* ----------------------------------------------------------------------
+   fix_modify MINDLIN_HISTORY columns N: at least N slots on every rank
+------------------------------------------------------------------------- */
+
+int FixMindlinHistory::modify_param(int narg, char **arg)
+{
+  if (strcmp(arg[0], "columns") != 0) return 0;
+  if (narg < 2) error->all(FLERR, "Fix_modify {} columns needs a number", id);
+  const int n = utils::inumeric(FLERR, arg[1], false, lmp);
+  if (n < 1) error->all(FLERR, "Fix_modify {} columns must be >= 1, got {}", id, arg[1]);
+  if (n > ncol) set_columns(n);
+  agree_on_columns();
+  return 2;
 }
 
 /* ----------------------------------------------------------------------

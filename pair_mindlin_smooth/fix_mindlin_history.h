@@ -21,6 +21,11 @@
    reneighboring and before a restart file is written).  Rows move with
    their atoms between ranks and are carried by write_restart /
    read_restart (the pair re-creates this fix with the same ID).
+
+     fix_modify MINDLIN_HISTORY columns N   makes room for N contacts per
+                             atom on every rank (never shrinks), so that a
+                             driver can write a wider saved history back
+                             with extract_atom.
 ------------------------------------------------------------------------- */
 
 #ifndef LMP_FIX_MINDLIN_HISTORY_H
@@ -44,6 +49,7 @@ class FixMindlinHistory : public Fix {
 
   int setmask() override;
   void setup_post_neighbor() override;
+  int modify_param(int, char **) override;
   void post_neighbor() override;
 
   void write_restart(FILE *) override;

@@ -35,7 +35,7 @@ static const char USAGE[] =
 
 FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), mu_ivar(-1), nwall(0), legacy_syntax(0), idx_legacy(-1),
-    hist(nullptr), nmax_hist(0), nmax(0), reduced(0)
+    idx_hist(-1), nmax_hist(0), nmax(0), reduced(0)
 {
   dim3 = (domain->dimension == 3);
   nval = dim3 ? 3 : 1;
@@ -114,6 +114,14 @@ FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
   create_attribute = 1;
   nhist = nwall * nval;
   maxexchange = nhist;
+  const std::string hname = std::string(HISTORY_WALL) + "_" + id;
+  int flag, cols;
+  if (atom->find_custom(hname.c_str(), flag, cols) >= 0)
+    error->all(FLERR,
+               "Fix wall/mindlin/smooth {}: per-atom array d2_{} already exists (from a fix "
+               "property/atom?)",
+               id, hname);
+  idx_hist = atom->add_custom(hname.c_str(), 1, nhist);
   grow_arrays(atom->nmax);
   atom->add_callback(Atom::GROW);
   atom->add_callback(Atom::RESTART);
@@ -126,7 +134,7 @@ FixWallMindlinSmooth::~FixWallMindlinSmooth()
   if (copymode) return;
   atom->delete_callback(id, Atom::GROW);
   atom->delete_callback(id, Atom::RESTART);
-  memory->destroy(hist);
+  atom->remove_custom(idx_hist, 1, nhist);
   memory->destroy(array_atom);
 }
 
@@ -420,7 +428,7 @@ void FixWallMindlinSmooth::post_force(int /*vflag*/)
       a.stored = atom->dvector[idx_legacy];
       a.stride = 1;
     } else {
-      a.stored = (nlocal > 0) ? hist[0] + nval * w : nullptr;
+      a.stored = (nlocal > 0) ? hist()[0] + nval * w : nullptr;
       a.stride = nhist;
     }
     if (dim3) {
@@ -483,39 +491,44 @@ void *FixWallMindlinSmooth::extract(const char *str, int &dim)
    nval w ... nval w + nval - 1), moved with the atom
 ------------------------------------------------------------------------- */
 
+double **FixWallMindlinSmooth::hist() const
+{
+  return atom->darray[idx_hist];
+}
+
 void FixWallMindlinSmooth::grow_arrays(int n)
 {
-  memory->grow(hist, n, nhist, "wall/mindlin/smooth:history");
+  memory->grow(atom->darray[idx_hist], n, nhist, "wall/mindlin/smooth:history");
   for (int i = nmax_hist; i < n; i++) set_arrays(i);
   nmax_hist = n;
 }
 
 void FixWallMindlinSmooth::copy_arrays(int i, int j, int /*delflag*/)
 {
-  for (int k = 0; k < nhist; k++) hist[j][k] = hist[i][k];
+  for (int k = 0; k < nhist; k++) hist()[j][k] = hist()[i][k];
 }
 
 void FixWallMindlinSmooth::set_arrays(int i)
 {
-  for (int k = 0; k < nhist; k++) hist[i][k] = 0.0;
+  for (int k = 0; k < nhist; k++) hist()[i][k] = 0.0;
 }
 
 int FixWallMindlinSmooth::pack_exchange(int i, double *buf)
 {
-  for (int k = 0; k < nhist; k++) buf[k] = hist[i][k];
+  for (int k = 0; k < nhist; k++) buf[k] = hist()[i][k];
   return nhist;
 }
 
 int FixWallMindlinSmooth::unpack_exchange(int nlocal, double *buf)
 {
-  for (int k = 0; k < nhist; k++) hist[nlocal][k] = buf[k];
+  for (int k = 0; k < nhist; k++) hist()[nlocal][k] = buf[k];
   return nhist;
 }
 
 int FixWallMindlinSmooth::pack_restart(int i, double *buf)
 {
   buf[0] = nhist + 1;
-  for (int k = 0; k < nhist; k++) buf[k + 1] = hist[i][k];
+  for (int k = 0; k < nhist; k++) buf[k + 1] = hist()[i][k];
   return nhist + 1;
 }
 
@@ -530,7 +543,7 @@ void FixWallMindlinSmooth::unpack_restart(int nlocal, int nth)
                "Fix wall/mindlin/smooth {}: the restart file has {} walls for this fix ID, "
                "the command {}",
                id, nstored / nval, nwall);
-  for (int k = 0; k < nhist; k++) hist[nlocal][k] = extra[nlocal][m + 1 + k];
+  for (int k = 0; k < nhist; k++) hist()[nlocal][k] = extra[nlocal][m + 1 + k];
 }
 
 int FixWallMindlinSmooth::size_restart(int /*nlocal*/)

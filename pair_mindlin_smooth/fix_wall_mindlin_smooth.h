@@ -11,8 +11,11 @@
 
    Fixed walls with the contact law of pair style mindlin/smooth (2d or
    3d).  Each fix keeps one tangential displacement per particle and wall
-   (a scalar in 2d, a vector in 3d) in per-atom arrays of its own (carried
-   with the atoms and in restart files).  The
+   (a scalar in 2d, a vector in 3d) in a per-atom array of its own (carried
+   with the atoms and in restart files), registered with Atom as the custom
+   array d2_mindlin_wall_t_<ID> (nval columns per wall, wall w's in columns
+   nval w ...), so that dumps, extract_atom and a driver that restores a
+   state can read and write it.  The
    one-value form 'yplane y_lo' uses the per-atom vector d_mindlin_wall_t
    instead when a fix property/atom defines it (older decks, data files).
 ------------------------------------------------------------------------- */
@@ -71,8 +74,9 @@ class FixWallMindlinSmooth : public Fix {
   int nhist;             // nwall * nval
   int legacy_syntax;     // 'yplane y_lo' form
   int idx_legacy;        // index of d_mindlin_wall_t if this fix uses it, else -1
-  double **hist;         // own history: nval columns per wall
+  int idx_hist;          // own history: custom array d2_mindlin_wall_t_<ID>, nhist columns
   int nmax_hist;
+  double **hist() const;
   int nmax;              // rows allocated in array_atom
   double local[4], total[4];    // wall energy and force (fx, fy[, fz]) on this rank / all
   int reduced;

@@ -284,6 +284,8 @@ def stability_of(state, basis=None):
 def stability_of_dump(path, basis=None):
     """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
 
+    A dump of spheres (``dump_dimension``) is read by ``read_dump3d``.
+
     ``basis``: as in :func:`stability_of`.
 
     Raises
@@ -292,10 +294,13 @@ def stability_of_dump(path, basis=None):
         If the dump or its sidecar is missing, corrupt or truncated (from
         ``read_dump``; the message names the file).
     """
-    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.analysis.state.dumpfile import dump_dimension, read_dump, read_dump3d
 
     try:
-        state = read_dump(path, require_contacts=False)
+        if dump_dimension(path) == 3:       # spheres: 6 dofs each, rattlers below 3 contacts
+            state = read_dump3d(path)
+        else:
+            state = read_dump(path, require_contacts=False)
     except (OSError, KeyError, IndexError, ValueError) as exc:
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
     return stability_of(state, basis)

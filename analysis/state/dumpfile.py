@@ -36,7 +36,7 @@ import numpy as np
 from remote_trigger.analysis.state.contacts import PARTNER, XI
 from remote_trigger.analysis.state.state import DISC_INERTIA, ContactParams, build_state
 
-__all__ = ["read_dump", "read_dump3d", "dump_dimension", "load_sidecar", "write_sidecar",
+__all__ = ["read_dump", "read_dump3d", "read_history3d", "dump_dimension", "load_sidecar", "write_sidecar",
            "PARAM_KEYS", "REQUIRED_COLUMNS", "REQUIRED_COLUMNS_3D"]
 
 #: columns a dump must have (the history columns are checked separately)
@@ -438,3 +438,47 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
         wall_t=wall_t,
         external=data[:, [col["v_fext_x"], col["v_fext_y"], col["v_fext_z"]]],
         mirror_rtol=mirror_rtol, F_x=par["F_x"], F_y=par["F_y"], source=path)
+
+
+def read_history3d(path, frame=-1):
+    """The contact history of a dump of spheres, exactly as written, by atom id.
+
+    What a driver needs to put a saved equilibrium back into LAMMPS (the
+    data file of spheres has no history; docs/driver.md "Spheres"): the
+    pair's partner table and t, and the wall's stored t, unchanged (no
+    contact search, no projection).
+
+    Returns
+    -------
+    dict
+        ``ids`` (N,) int64 ascending, ``partner`` (N, K) int64, ``t`` (N, K, 3),
+        ``wall_t`` (N, 3).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        Not a dump of spheres, malformed, or non-finite values (named).
+    """
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"dump file not found: {path}")
+    _, _, _, _, columns, body, first = _read_frames(path)[frame]
+    hist = {name: _history_columns(columns, name) for name in (PARTNER,) + T3_COLUMNS}
+    wall = ("v_wall_tx", "v_wall_ty", "v_wall_tz")
+    missing = [f"{k}[*]" for k, v in hist.items() if v is None]
+    missing += [c for c in ("id",) + wall if c not in columns]
+    if missing:
+        raise ValueError(f"{path}: missing dump columns {missing} of a dump of spheres")
+    if len({len(c) for c in hist.values()}) != 1:
+        raise ValueError(f"{path}: the history columns differ in number")
+    data = _parse_body(path, columns, body, first)
+    if not np.all(np.isfinite(data)):
+        raise ValueError(f"{path}: non-finite value in the atom lines")
+    order = np.argsort(data[:, columns.index("id")], kind="stable")
+    data = data[order]
+    return {"ids": data[:, columns.index("id")].astype(np.int64),
+            "partner": data[:, hist[PARTNER]].astype(np.int64),
+            "t": np.stack([data[:, hist[name]] for name in T3_COLUMNS], axis=-1),
+            "wall_t": data[:, [columns.index(c) for c in wall]]}

@@ -32,6 +32,9 @@ DECK_DIR = os.path.join(
     os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "lammps_inputs")
 #: contact-history columns per disk (docs/conventions.md section 1)
 HISTORY_SLOTS = 8
+#: the stored t of the wall fix ``wall`` of spheres: its per-atom array
+#: (``d2_mindlin_wall_t_<fix ID>``, three columns per wall; read and written)
+WALL_HISTORY_3D = "d2_mindlin_wall_t_wall"
 
 #: the equilibrium dump command of docs/conventions.md section 3 (the decks
 #: carry the same text; tests compare them)
@@ -463,61 +466,65 @@ class Engine:
 
     def _gather_state3d(self):
         """:meth:`gather_state` of spheres (the pair's t in three arrays, the
-        wall fix ``wall``'s t from its per-atom array, columns 5-7)."""
+        wall fix ``wall``'s stored t from its per-atom array :data:`WALL_HISTORY_3D`)."""
         lo, hi = self.box()
         hist = ("i2_mindlin_partner", "d2_mindlin_tx", "d2_mindlin_ty", "d2_mindlin_tz")
         # the pair creates its history arrays at its first run: empty before
         has_hist = self.lmp.numpy.extract_atom(hist[0]) is not None
         g = self.gather_many(("id", "type", "radius", "rmass", "x", "image", "v", "omega",
-                              "f", "torque", "i_top") + (hist if has_hist else ()))
+                              "f", "torque", "i_top", WALL_HISTORY_3D)
+                             + (hist if has_hist else ()))
         if not has_hist:
             g[hist[0]] = np.zeros((g["id"].size, 0), np.int64)
             for name in hist[1:]:
                 g[name] = np.zeros((g["id"].size, 0))
-        wall = np.zeros((g["id"].size, 3))
-        arr = self.lmp.numpy.extract_fix("wall", 1, 2) if self.has_fix("wall") else None
-        if arr is not None:                 # (the fix fills its array at its first run)
-            ids = np.asarray(self._local("id"), np.int64).copy()
-            loc = np.array(arr[:self.nlocal, 4:7], np.float64) if self.nlocal else \
-                np.zeros((0, 3))
-            if self.size > 1:
-                ids = np.concatenate(self.comm.allgather(ids))
-                loc = np.concatenate(self.comm.allgather(loc), axis=0)
-            wall = loc[np.argsort(ids, kind="stable")]
         imgx = (g["image"] & 1023) - 512
         return AtomState(
             ids=g["id"], types=g["type"], radii=g["radius"], masses=g["rmass"],
             positions=g["x"], image=imgx, velocities=g["v"], omega=g["omega"],
             forces=g["f"], torques=g["torque"], partner=g["i2_mindlin_partner"],
             xi=np.stack([g["d2_mindlin_tx"], g["d2_mindlin_ty"], g["d2_mindlin_tz"]], -1),
-            wall_xi=wall, top=g["i_top"] > 0, box_lo=lo, box_hi=hi, dim=3)
+            wall_xi=g[WALL_HISTORY_3D][:, :3], top=g["i_top"] > 0, box_lo=lo, box_hi=hi,
+            dim=3)
+
+    def restore_history3d(self, partner, xi, wall_xi):
+        """Set the contact history of spheres from arrays ordered by atom id.
+
+        Parameters
+        ----------
+        partner : ndarray of int, shape (N, K)
+            Partner ids (0 = empty slot), the pair's ``i2_mindlin_partner``.
+        xi : ndarray, shape (N, K, 3)
+            The pair's t (``d2_mindlin_tx/ty/tz``).
+        wall_xi : ndarray, shape (N, 3)
+            The wall fix ``wall``'s stored t (:data:`WALL_HISTORY_3D`).
+
+        The pair's arrays must exist (they are created at its first run, e.g.
+        ``run 0``); narrower arrays are padded with empty slots, wider ones
+        make the pair's arrays grow (``fix_modify MINDLIN_HISTORY columns K``).
+        """
+        width = self._local("i2_mindlin_partner").shape[1]
+        if partner.shape[1] > width:
+            self.command(f"fix_modify MINDLIN_HISTORY columns {partner.shape[1]}")
+            width = self._local("i2_mindlin_partner").shape[1]
+        pad = ((0, 0), (0, width - partner.shape[1]))
+        self.scatter("i2_mindlin_partner", np.pad(partner, pad).astype(np.int32))
+        for c, name in enumerate(("d2_mindlin_tx", "d2_mindlin_ty", "d2_mindlin_tz")):
+            self.scatter(name, np.pad(xi[..., c], pad))
+        self.scatter(WALL_HISTORY_3D, wall_xi)
 
     def restore(self, state):
         """Put positions, velocities and contact history of ``state`` back.
 
         Used to undo a rejected Newton step; the next ``run`` rebuilds ghosts
-        and neighbor lists.
-
-        Raises
-        ------
-        EngineError
-            Spheres with a nonzero wall history: the wall fix keeps it in an
-            array Python cannot write (it is zero while frictionless).
+        and neighbor lists. Spheres: the pair's and the wall fix's history
+        (:meth:`restore_history3d`).
         """
         if state.dim == 3:
-            if np.any(state.wall_xi != 0.0):
-                raise EngineError("cannot restore the wall history of spheres (kept inside "
-                                  "fix wall/mindlin/smooth): the state has wall contacts "
-                                  "with nonzero t")
             self.scatter("x", state.positions)
             self.scatter("v", state.velocities)
             self.scatter("omega", state.omega)
-            # the pair's own arrays may have grown columns since: pad with empty slots
-            width = self._local("i2_mindlin_partner").shape[1]
-            pad = ((0, 0), (0, width - state.partner.shape[1]))
-            self.scatter("i2_mindlin_partner", np.pad(state.partner, pad).astype(np.int32))
-            for c, name in enumerate(("d2_mindlin_tx", "d2_mindlin_ty", "d2_mindlin_tz")):
-                self.scatter(name, np.pad(state.xi[..., c], pad))
+            self.restore_history3d(state.partner, state.xi, state.wall_xi)
             return
         self.scatter("x", state.positions)
         self.scatter("v", state.velocities)

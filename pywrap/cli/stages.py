@@ -154,6 +154,9 @@ def register(subparsers):
 
     m = subparsers.add_parser("ramp", help="F_x ramp, eigenvalues, bisection of F_x^c")
     _add_model(m)
+    m.add_argument("--dim", type=int, choices=(2, 3), default=None,
+                   help="2 or 3 (default: that of the data file; a contradicting value "
+                        "is an error)")
     m.add_argument("--dF-x", dest="dF_x", type=float, help="ramp step (1e-4)")
     m.add_argument("--tol", type=float, help="bisection tolerance (1e-7)")
     m.add_argument("--dF-x-max", dest="dF_x_max", type=float,
@@ -255,6 +258,8 @@ def run_ramp(args):
     from remote_trigger.pywrap import stages
 
     cfg = _config(RampConfig, args, ("dF_x", "tol", "dF_x_max"))
+    if args.dim is not None:
+        _check_dim(args.dim, cfg.datafile)
     _note_model(args, cfg)
     res = stages.ramp(cfg, args.out, quiet=args.quiet, resume=args.resume, log=args.log)
     if _rank() == 0:

@@ -63,6 +63,93 @@ def load_relax_scene(eng, cfg, datafile, F_x, deck=None):
     eng.load_deck(deck, _deck_vars(cfg, datafile, F_x), ("scene", "damped", "dynamics"))
 
 
+def equilibrium_dump(datafile):
+    """The dump written beside an equilibrium data file (``X.data`` -> ``X.dump``)."""
+    return (datafile[:-len(".data")] if datafile.endswith(".data") else datafile) + ".dump"
+
+
+def load_equilibrium_scene(eng, cfg, datafile, F_x, dim):
+    """Load an equilibrium saved by :func:`save_equilibrium`, history included.
+
+    Disks (``dim`` = 2): the scene of ``in.ramp_step``, the history in the
+    data file. Spheres: the scene of ``in.relax3d`` from the data file (no
+    history there), one ``run 0`` (the pair creates its history arrays; a
+    setup never advances the history), then the pair's and the wall's t
+    exactly as in the equilibrium dump beside it
+    (:func:`~remote_trigger.analysis.state.dumpfile.read_history3d`).
+
+    Raises
+    ------
+    ConfigError
+        Spheres: the dump is missing, unreadable or of other atoms (on every rank).
+    """
+    if dim == 2:
+        load_relax_scene(eng, cfg, datafile, F_x, deck="in.ramp_step")
+        return
+    load_relax_scene(eng, cfg, datafile, F_x, deck=RELAX_DECKS[3])
+    restore_saved_history3d(eng, datafile)
+
+
+def restore_saved_history3d(eng, datafile):
+    """Write the history of the dump beside ``datafile`` into the loaded scene of
+    spheres: one ``run 0`` (the pair creates its arrays; a setup advances no
+    history), then :meth:`Engine.restore_history3d`.
+
+    Raises
+    ------
+    ConfigError
+        The dump is missing or unreadable, or of other atoms (on every rank).
+    """
+    hist = on_rank0(eng.comm, lambda: read_saved_history3d(datafile))
+    if not np.array_equal(hist["ids"], np.arange(1, eng.natoms + 1)):
+        raise ConfigError(f"{equilibrium_dump(datafile)}: its atom ids are not those of "
+                          f"{datafile} (1..{eng.natoms})")
+    eng.run(0)
+    eng.restore_history3d(hist["partner"], hist["t"], hist["wall_t"])
+
+
+def check_spheres_ramp(cfg):
+    """For a ramp of spheres: refuse ``newton = False`` and a start without its dump.
+
+    Damped dynamics alone do not bring a loaded 3D packing to rest, and the
+    history of spheres is in the equilibrium dump beside the data file
+    (:func:`read_saved_history3d`). No-op for disks.
+
+    Raises
+    ------
+    ConfigError
+    """
+    from remote_trigger.pywrap.bindings.datafile import data_dimension
+
+    if data_dimension(cfg.datafile) != 3:
+        return
+    if not cfg.newton:
+        raise ConfigError(f"newton = False is 2D only: {cfg.datafile} holds spheres "
+                          f"(dimension 3), and damped dynamics alone do not reach "
+                          f"equilibrium (docs/driver.md, 'Spheres')")
+    read_saved_history3d(cfg.datafile)
+
+
+def read_saved_history3d(datafile):
+    """The history of a saved equilibrium of spheres, from the dump beside its data file.
+
+    Raises
+    ------
+    ConfigError
+        The dump is missing or unreadable (a data file of spheres carries no
+        history: a ramp needs the equilibrium files of ``relax`` or ``ramp``).
+    """
+    from remote_trigger.analysis.state.dumpfile import read_history3d
+
+    dump = equilibrium_dump(datafile)
+    try:
+        return read_history3d(dump)
+    except (OSError, ValueError, IndexError) as exc:
+        raise ConfigError(f"{datafile} holds spheres, whose contact history is in the "
+                          f"equilibrium dump beside it, and {dump} cannot be read ({exc}); "
+                          f"start from the equilibrium.data of relax or a ramp step") from None
+
+
 def save_equilibrium(eng, cfg, F_x, prefix):
     """Write ``prefix.data``, ``prefix.dump`` and ``prefix.dump.json``.
 
@@ -188,16 +275,15 @@ def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
 
     Returns ``(cfg with a numeric dt, TimestepInfo)``; see
     :func:`remote_trigger.pywrap.stages.timestep.resolve`. No step is run.
-    A data file of spheres is refused (``ConfigError``) by every stage but
-    ``relax``.
+    A data file of spheres needs the dump beside it (its history) in every
+    stage but ``relax`` (``ConfigError``).
     """
     from remote_trigger.pywrap.bindings.datafile import check_datafile
     from remote_trigger.pywrap.stages.timestep import resolve
 
     data = check_datafile(datafile, full=True)
     if data.dimension == 3 and stage != "relax":
-        raise ConfigError(f"{stage}: {datafile} holds spheres (dimension 3); {stage} is 2D "
-                          f"only (spheres: generate, relax, jacobian; docs/driver.md)")
+        read_saved_history3d(datafile)
     probe = cfg.replace(dt=1.0) if cfg.dt == "auto" else cfg   # dt unused: no step run
     load_relax_scene(eng, probe, datafile, F_x)
     return resolve(eng, cfg, F_x, a_priori=a_priori, stage=stage)
@@ -251,3 +337,15 @@ def file_sha256(path):
     return h.hexdigest()
 
 
+
+
+def start_sha256(datafile):
+    """SHA-256 (hex) of a ramp's start: the data file, and for spheres also the
+    equilibrium dump beside it (their history; :func:`read_saved_history3d`)."""
+    import hashlib
+    from remote_trigger.pywrap.bindings.datafile import data_dimension
+
+    digest = file_sha256(datafile)
+    if data_dimension(datafile) != 3:
+        return digest
+    return hashlib.sha256((digest + file_sha256(equilibrium_dump(datafile))).encode()).hexdigest()

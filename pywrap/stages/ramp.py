@@ -17,8 +17,8 @@ from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.stages import ramp_file
 from remote_trigger.pywrap.stages.common import (
-    _analyze, _ensure_dir, _progress, file_sha256, load_relax_scene, save_equilibrium,
-    start_timestep)
+    _analyze, _ensure_dir, _progress, check_spheres_ramp,
+    load_equilibrium_scene, save_equilibrium, start_sha256, start_timestep)
 
 
 @dataclass
@@ -183,14 +183,16 @@ def _bracket_attrs(rlog, lo, hi, tol, why=""):
     return attrs
 
 
-def _ramp_point(eng, cfg, start_file, F_x, prefix, basis=None):
+def _ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
     """Equilibrate at F_x from ``start_file``, save ``prefix.*``, analyse.
 
     ``basis``: the previous point's verified spectrum basis (rank 0), tried
-    first by the certified decision. Returns (values dict, StabilityResult).
+    first by the certified decision; ``dim``: 3 for spheres (their history
+    comes from the dump beside ``start_file``). Returns (values dict,
+    StabilityResult).
     """
     t0 = time.perf_counter()
-    load_relax_scene(eng, cfg, start_file, F_x, deck="in.ramp_step")
+    load_equilibrium_scene(eng, cfg, start_file, F_x, dim)
     r, t_sim, rec = eq.equilibrate(eng, cfg, F_x, newton_first=True)
     save_equilibrium(eng, cfg, F_x, prefix)
     res = _analyze(eng, prefix + ".dump", basis)
@@ -261,6 +263,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         _BASES.clear()
         _ensure_dir(eng, folder)
         rcfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "ramp")
+        dim = eng.dimension             # of the start file, whose scene is loaded
         if "dt_used" in rlog.attrs and cfg.dt == "auto":   # resume: the same step
             rcfg = cfg.replace(dt=float(rlog.attrs["dt_used"]))
             dtinfo.update(dt_used=rcfg.dt, dt_fraction=rcfg.dt / dtinfo["dt_max"])
@@ -271,10 +274,10 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         budget = _Budget(stop_after)
         bar = _progress(None, "ramp", quiet, eng.rank, unit="step")
         try:
-            ended = _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget)
+            ended = _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim)
             if ended is not None:
                 return ended
-            return _bisect(eng, cfg, rcfg, rlog, folder, bar, budget)
+            return _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim)
         finally:
             bar.close()
             if rlog.dirty:
@@ -307,11 +310,12 @@ def _open_ramp_log(eng, cfg, out, h5, resume):
 
         try:
             check_datafile(cfg.datafile)
+            check_spheres_ramp(cfg)
             output_dir(out, "--out")
             log_ = ramp_file.RampLog.load(cfg, h5) if (resume and exists) else ramp_file.RampLog(cfg, h5)
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
-        log_.attrs.setdefault("datafile_sha256", file_sha256(cfg.datafile))
+        log_.attrs.setdefault("datafile_sha256", start_sha256(cfg.datafile))
         return log_
 
     return on_rank0(eng.comm, open_log)
@@ -381,7 +385,7 @@ def adaptive_step(dF_x, dF_x_max, prev, last):
     return min(max(ADAPTIVE_SAFETY * d, dF_x), dF_x_max)
 
 
-def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
+def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
     """The ramp: steps of dF_x until one is certified complex.
 
     Returns the :class:`RampResult` of a ramp that ends here (no complex pair
@@ -405,7 +409,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
         name = ramp_file.point_name(ramp_file.STEPS, k)
         prefix = os.path.join(folder, name)
         try:
-            vals, res = _ramp_point(eng, rcfg, start, F, prefix, basis)
+            vals, res = _ramp_point(eng, rcfg, start, F, prefix, basis, dim)
         except eq.NoEquilibriumError as exc:
             rlog.attrs["message"] = str(exc)
             _checkpoint(eng, rlog, folder, "no_equilibrium")
@@ -431,7 +435,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget):
     return None
 
 
-def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget):
+def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
     """Bisection of F_x^c on certified answers only (docs/driver.md); returns the
     :class:`RampResult` (``'complete'``, or ``'interrupted'``)."""
     bis = rlog.rows["bisection"]
@@ -445,7 +449,7 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget):
         prefix = os.path.join(folder, name)
         try:
             vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix,
-                                    _load_basis(eng, lo_file))
+                                    _load_basis(eng, lo_file), dim)
         except eq.NoEquilibriumError:
             vals = {c: np.nan for c in ramp_file.COLUMNS}
             vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer

@@ -24,7 +24,7 @@ from remote_trigger.analysis.output import atomic_path
 
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.runtime.results import read_all
-from remote_trigger.pywrap.stages.common import RESULT_VERSION, check_resume_config, file_sha256
+from remote_trigger.pywrap.stages.common import RESULT_VERSION, check_resume_config, start_sha256
 
 #: row groups of ramp.h5
 STEPS = "steps"
@@ -240,13 +240,14 @@ class RampLog:
         old_sha = attrs.get("datafile_sha256")
         if isinstance(old_sha, bytes):
             old_sha = old_sha.decode()
-        same = (file_sha256(cfg.datafile) == str(old_sha)) if old_sha is not None else (
+        same = (start_sha256(cfg.datafile) == str(old_sha)) if old_sha is not None else (
             old_file is not None and os.path.abspath(str(old_file))
             == os.path.abspath(cfg.datafile))
         if not same:
+            other = ("with other contents (spheres: or another dump beside it) "
+                     if old_sha is not None else "")
             raise ConfigError(f"cannot resume {path}: it ramps from datafile = {old_file!r}, "
-                              f"this run gives datafile = {cfg.datafile!r} "
-                              f"{'with other contents ' if old_sha is not None else ''}"
+                              f"this run gives datafile = {cfg.datafile!r} {other}"
                               f"(nothing was changed)")
         check_resume_config(path, cfg, attrs)
         log = cls(cfg, path)

@@ -204,8 +204,7 @@ def check_spheres_config(cfg):
 
     Spheres relax with the default protocol, FIRE and Newton: damped
     dynamics do not bring a loaded 3D packing to rest (1e5 steps), and the
-    wall fix keeps its 3D history where Python cannot restore it, which
-    Newton steps with friction would need.
+    frictional protocol compacts with friction by damped dynamics.
 
     Raises
     ------
@@ -215,7 +214,8 @@ def check_spheres_config(cfg):
     """
     bad = [(k, v, why) for k, v, ok, why in (
         ("protocol", cfg.protocol, "frictionless-then-friction",
-         "its Newton steps with friction would need the wall's 3D history restored"),
+         "it compacts with friction by damped dynamics, which do not bring a loaded 3D "
+         "packing to rest"),
         ("relax_dynamics", cfg.relax_dynamics, ("auto", "fire"),
          "damped dynamics do not bring a loaded 3D packing to rest"),
         ("newton", cfg.newton, True, "damped dynamics alone do not reach equilibrium"))

@@ -16,8 +16,12 @@ from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.analysis.dynamics.series import growth_fit
 from remote_trigger.pywrap.stages.common import (
     RESULT_VERSION, StableStartError, _DECK_FIELDS, _analyze, _deck_vars, _ensure_dir,
-    _equilibrium_files, _progress, _relax_cfg, check_resume_config, file_sha256, load_relax_scene,
-    prepare_out, save_equilibrium, start_timestep)
+    _equilibrium_files, _progress, _relax_cfg, check_resume_config, load_equilibrium_scene,
+    load_relax_scene, prepare_out, restore_saved_history3d, save_equilibrium, start_sha256,
+    start_timestep)
+
+#: the undamped deck of each dimension (disks, spheres)
+PERTURB_DECKS = {2: "in.perturb", 3: "in.perturb3d"}
 
 
 @dataclass
@@ -42,15 +46,20 @@ class SeriesResult:
     extra: dict = field(default_factory=dict)
 
 
-def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, attrs=None):
-    """Run ``in.perturb``'s scene from ``datafile`` and record every record_every steps."""
+def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, attrs=None,
+                  dim=2):
+    """Run ``in.perturb``'s scene from ``datafile`` and record every record_every steps.
+
+    ``dim`` = 3: ``in.perturb3d``, with the history of the dump beside ``datafile``."""
     eng.clear()
     v = _deck_vars(cfg, datafile, cfg.F_x)
     for var, _ in _DECK_FIELDS:        # the relaxing decks' variables
         v.pop(var, None)
     v.update(ton=float(cfg.t_on), visc=0.0 if cfg.tau is None else 1.0 / float(cfg.tau))
     v.update(variables)
-    eng.load_deck("in.perturb", v, ("scene", "dynamics"))
+    eng.load_deck(PERTURB_DECKS[dim], v, ("scene", "dynamics"))
+    if dim == 3:
+        restore_saved_history3d(eng, datafile)
     n = cfg.record_every
     # records every n steps (the variables are evaluated only then). fix vmax:
     # running min and max of v_top over EVERY step (ave/histo's global vector
@@ -111,7 +120,10 @@ def _equilibrium_for(eng, cfg, out, name, quiet):
     folder = os.path.join(out, name)
     _ensure_dir(eng, folder)
     rcfg = _relax_cfg(cfg, cfg.F_x)
-    load_relax_scene(eng, rcfg, cfg.datafile, cfg.F_x)
+    if eng.dimension == 3:      # (the start's scene is loaded) its history from its dump
+        load_equilibrium_scene(eng, rcfg, cfg.datafile, cfg.F_x, 3)
+    else:
+        load_relax_scene(eng, rcfg, cfg.datafile, cfg.F_x)
     r, _, _ = eq.equilibrate(eng, rcfg, cfg.F_x, newton_first=True)
     prefix = os.path.join(folder, "equilibrium")
     save_equilibrium(eng, rcfg, cfg.F_x, prefix)
@@ -237,12 +249,13 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
     results = {}
     with Engine(comm=comm, log=log) as eng:
         cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "perturb")
+        dim = eng.dimension
         prepare_out(eng, out, _equilibrium_files("perturb")
                     + [f"perturb_{k}.h5" for k in PERTURB_RUNS], overwrite or resume,
                     "perturb")
 
         def resume_state():
-            sha_ = file_sha256(cfg.datafile)
+            sha_ = start_sha256(cfg.datafile)
             r_, done_ = _perturb_resume_state(cfg, out, sha_) if resume else (None, {})
             return sha_, r_, done_
 
@@ -258,7 +271,7 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
         if "a" in runs or v0 is None:
             res = done.get("a") or _undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_a.h5"), {"a": 0.0, "muv": 0},
-                "perturb (a)", quiet, attrs=dict(base, run="a"))
+                "perturb (a)", quiet, attrs=dict(base, run="a"), dim=dim)
             results["a"] = res
             if v0 is None:              # max |v_top| over every step, not only records
                 v0 = float(res.extra["v_top_max"])
@@ -269,14 +282,14 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
             results["b"] = done.get("b") or _undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_b.h5"),
                 {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 0}, "perturb (b)", quiet,
-                attrs=dict(base, run="b"))
+                attrs=dict(base, run="b"), dim=dim)
         if "c" in runs:
             results["c"] = done.get("c") or _undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_c.h5"),
                 {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 1, "v0": float(v0),
                  "vss": float(vss), "B": float(cfg.B), "w": float(cfg.w),
                  "muss": float(cfg.mu_ss)}, "perturb (c)", quiet,
-                attrs=dict(base, run="c", v0=v0, v_ss=vss))
+                attrs=dict(base, run="c", v0=v0, v_ss=vss), dim=dim)
         for res in results.values():
             res.extra.update(residual=r, v0=v0, v_ss=vss, timestep=dict(dtinfo))
     return results
@@ -324,6 +337,7 @@ def instability(cfg, out, comm=None, quiet=False, log="none", overwrite=False,
         raise ConfigError(f"instability needs a DynamicsConfig, got {type(cfg).__name__}")
     with Engine(comm=comm, log=log) as eng:
         cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "instability")
+        dim = eng.dimension
         prepare_out(eng, out, ["instability.h5"] + _equilibrium_files("instability"),
                     overwrite, "instability")
         prefix, r = _equilibrium_for(eng, cfg, out, "instability", quiet)
@@ -351,7 +365,7 @@ def instability(cfg, out, comm=None, quiet=False, log="none", overwrite=False,
             stop=lambda o: o["D"][-1] > cfg.d_sat,
             attrs={"stage": "instability", "equilibrium": prefix + ".data",
                    "equilibrium_residual": r, "predicted_growth_rate": st.growth_rate,
-                   "complex_pair": st.complex_pair, **dtinfo})
+                   "complex_pair": st.complex_pair, **dtinfo}, dim=dim)
         res.extra.update(predicted_growth_rate=st.growth_rate, complex_pair=st.complex_pair,
                          decision=st.decision,
                          residual=r, saturated=bool(res.D[-1] > cfg.d_sat),

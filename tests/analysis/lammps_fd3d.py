@@ -13,10 +13,11 @@ then ``run 1`` and read f and torque / R; positions, velocities, spins and
 the pair's history (``i2_mindlin_partner``, ``d2_mindlin_t{x,y,z}``) are
 restored before the next displacement. Serial runs only.
 
-The wall fix keeps its 3D history inside the fix, where Python cannot
-restore it, so the packing is settled on a floor which is then removed: the
-finite differences test the sphere-sphere blocks (the wall blocks are tested
-against the complex step and, in a plane, against the 2D wall).
+The packing is settled on a floor which is then removed: the finite
+differences test the sphere-sphere blocks (the wall blocks are tested
+against the complex step and, in a plane, against the 2D wall; the wall's
+3D history, d2_mindlin_wall_t_<ID>, is writable too, but it is not
+restored here).
 """
 from mpi4py import MPI  # noqa: F401  (loads libmpi before liblammps)
 

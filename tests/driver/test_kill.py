@@ -109,11 +109,11 @@ def check_files(out, ctx=""):
     return found
 
 
-def run_reference(datafile, out, errfile=None):
+def run_reference(datafile, out, errfile=None, dF_x=DF, tol=TOL):
     """Uninterrupted CLI ramp; returns ``(wall seconds, attrs, data)``."""
     errfile = errfile or str(out) + ".stderr"
     t0 = time.monotonic()
-    proc = _start(ramp_args(datafile, out), errfile)
+    proc = _start(ramp_args(datafile, out, dF_x, tol), errfile)
     rc = proc.wait(timeout=TIMEOUT)
     wall = time.monotonic() - t0
     assert rc == 0, f"reference ramp failed ({rc}): {Path(errfile).read_text()}"
@@ -122,7 +122,7 @@ def run_reference(datafile, out, errfile=None):
 
 
 def ramp_chain(datafile, out, rng, expected, max_kills=MAX_KILLS, first_kill_early=False,
-               ctx=""):
+               ctx="", dF_x=DF, tol=TOL):
     """Start a CLI ramp, kill -9 it at random moments, resume until it completes.
 
     Parameters
@@ -138,6 +138,8 @@ def ramp_chain(datafile, out, rng, expected, max_kills=MAX_KILLS, first_kill_ear
     first_kill_early : bool
         Kill the first run as soon as ``out/ramp/`` exists, before
         ``ramp.h5`` is written (no random draw for that kill).
+    dF_x, tol : float
+        The ramp's options (default the N = 20 ramp's).
 
     Returns
     -------
@@ -152,7 +154,7 @@ def ramp_chain(datafile, out, rng, expected, max_kills=MAX_KILLS, first_kill_ear
     kills, runs, checked = [], 0, 0
     t_chain = time.monotonic()
     while True:
-        args = ramp_args(datafile, out) + (["--resume"] if runs else [])
+        args = ramp_args(datafile, out, dF_x, tol) + (["--resume"] if runs else [])
         t0 = time.monotonic()
         proc = _start(args, errfile)
         runs += 1

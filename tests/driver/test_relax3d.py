@@ -132,11 +132,14 @@ def test_2d_only_relax_options(capsys, packing3d, tmp_path, argv, needle):
 
 
 @pytest.mark.parametrize("command", ["ramp", "perturb", "instability"])
-def test_2d_only_stages_refuse_spheres(capsys, packing3d, tmp_path, command):
+def test_stages_refuse_spheres_without_their_dump(capsys, packing3d, tmp_path, command):
+    """A data file of spheres has no history: the stages after relax need the
+    equilibrium dump beside it (a generated packing has none)."""
     status, _, err = run_cli(capsys, command, "--datafile", packing3d, "--out", tmp_path / "o",
                              "--quiet")
     assert status == 2
-    assert_one_line_error(err, f"{command} is 2D only", "dimension 3")
+    assert_one_line_error(err, "holds spheres", "p3.dump", "cannot be read")
+    assert not os.path.exists(tmp_path / "o" / f"{command}.h5")
 
 
 # ------------------------------------------------------------------ jacobian

@@ -130,6 +130,72 @@ def test_internal_history_restart_is_bitwise(tmp_path):
     assert_same(ref, out)
 
 
+def test_history_arrays_are_written_back_exactly():
+    """The wall's own history is the per-atom array d2_mindlin_wall_t_<ID>
+    (equal to the fix's output t after a step); writing it and the pair's
+    arrays back (what the driver's Engine.restore does after a rejected
+    Newton step) continues bitwise as if nothing had happened in between,
+    and without the wall's array the continuation differs."""
+    names = ("i2_mindlin_partner", "d2_mindlin_tx", "d2_mindlin_ty", "d2_mindlin_tz",
+             "d2_mindlin_wall_t_wall")
+
+    def local(lmp, name):
+        n = lmp.extract_global("nlocal")
+        return lmp.numpy.extract_atom(name)[:n]
+
+    def save(lmp):
+        return {k: np.array(local(lmp, k)) for k in ("x", "v", "omega") + names}
+
+    def put(lmp, saved, skip=()):
+        for k, val in saved.items():
+            if k in skip:
+                continue
+            arr = local(lmp, k)
+            arr[:, :val.shape[1]] = val
+            arr[:, val.shape[1]:] = 0
+
+    def tail(lmp):
+        lmp.commands_list(["fix push all addforce 1.0 0.5 -5.0", "run 200", "unfix push"])
+        return {k: gather(lmp, k, 3) for k in ("x", "v", "omega", "f", "torque")}
+
+    lmp = new_lammps()
+    lmputil.settled_packing_3d(lmp, 60, seed=2, steps=8000, hist=None)
+    lmp.command("atom_modify sort 0 0.0")       # the local order stays put (one rank)
+    tail(lmp)
+    wall = np.array(local(lmp, "d2_mindlin_wall_t_wall"))
+    assert np.count_nonzero(wall) > 10
+    assert np.array_equal(wall, np.array(lmp.numpy.extract_fix("wall", 1, 2)
+                                         [:lmp.extract_global("nlocal"), 4:7]))
+    saved = save(lmp)
+    ref = tail(lmp)
+    got = {}
+    for skip in ((), ("d2_mindlin_wall_t_wall",)):
+        put(lmp, saved)
+        tail(lmp)                                  # moves on: the history changes
+        put(lmp, {k: np.zeros_like(v) for k, v in saved.items() if k in skip})
+        put(lmp, saved, skip)
+        got[skip] = tail(lmp)
+    lmp.close()
+    assert_same(ref, got[()])
+    assert not np.array_equal(ref["f"], got[("d2_mindlin_wall_t_wall",)]["f"])
+
+
+def test_fix_modify_columns_grows_the_pairs_history():
+    lmp = new_lammps()
+    lmputil.settled_packing_3d(lmp, 30, seed=3, steps=2000, hist=None)
+    before = np.array(lmp.numpy.extract_atom("d2_mindlin_tx")[:30])
+    assert before.shape[1] == 8
+    lmp.command("fix_modify MINDLIN_HISTORY columns 20")
+    after = np.array(lmp.numpy.extract_atom("d2_mindlin_tx")[:30])
+    assert after.shape == (30, 20)
+    assert np.array_equal(after[:, :8], before) and not np.any(after[:, 8:])
+    lmp.command("fix_modify MINDLIN_HISTORY columns 4")       # never shrinks
+    assert np.array(lmp.numpy.extract_atom("i2_mindlin_partner")[:30]).shape == (30, 20)
+    with pytest.raises(Exception, match="columns must be >= 1"):
+        lmp.command("fix_modify MINDLIN_HISTORY columns 0")
+    lmp.close()
+
+
 # ------------------------------------------------- stock granular, k_t = 0
 
 def stock_styles():
