@@ -281,13 +281,16 @@ def test_perturb_of_spheres_keeps_the_equilibrium_and_mu_v_moves_it(ramp3d, tmp_
     """From the certified-real equilibrium below F_x^c (friction carrying the
     load, history nonzero): the unperturbed run (a) stays at rest to round-off
     -- the pair's and the wall's history were written back exactly -- and
-    run (c), mu(v) on, moves the layer far more."""
+    run (c), mu(v) on, moves the layer far more. v0 is set below the forced
+    response's speeds so that mu(v) switches within the short run (measured
+    from run (a)'s noise it is not reached in t = 20: mu stays mu0 and (c)
+    equals (b))."""
     from remote_trigger.pywrap import stages
     from remote_trigger.pywrap.stages.config import DynamicsConfig
 
     _, res = ramp3d
     start = _bracket_file(res, "lo")
-    cfg = DynamicsConfig(datafile=start, F_x=res.F_x_c_low, t_max=20.0)
+    cfg = DynamicsConfig(datafile=start, F_x=res.F_x_c_low, t_max=20.0, v0=1e-14)
     out = stages.perturb(cfg, str(tmp_path), quiet=True)
     assert set(out) == {"a", "b", "c"}
     assert out["a"].extra["residual"] < 1e-10
