@@ -135,7 +135,7 @@ def register(subparsers):
     g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     g.add_argument("--phi", type=float, default=None,
                    help="packing fraction for L (default 0.82; spheres 0.64)")
-    g.add_argument("--output", default="packing.data", help="data file (packing.data)")
+    g.add_argument("-o", "--output", default="packing.data", help="data file (packing.data)")
     g.add_argument("--overwrite", action="store_true",
                    help="replace an existing --output file (default: refuse, exit status 2)")
     g.set_defaults(func=run_generate, serial=True)

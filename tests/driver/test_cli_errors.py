@@ -418,6 +418,11 @@ def test_generate_refuses_to_overwrite(capsys, tmp_path):
     assert run_cli(capsys, "generate", "--n", 20, "--seed", 2, "--output", out,
                    "--overwrite")[0] == 0
     assert out.read_bytes() != before
+    # -o is --output, as for jacobian and normal-form
+    status, _, err = run_cli(capsys, "generate", "--n", 20, "--seed", 3, "-o", out)
+    assert status == 2 and out.read_bytes() != before
+    assert run_cli(capsys, "generate", "--n", 20, "--seed", 3, "-o", tmp_path / "q.data")[0] == 0
+    assert (tmp_path / "q.data").exists()
 
 
 def test_jacobian_refuses_to_overwrite(capsys, ramp_run, tmp_path):
