@@ -50,13 +50,18 @@ class PaperConfig(Config):
 
     Attributes
     ----------
+    dim : {2, 3}
+        Disks (2, the paper) or spheres (3, docs/model.md section 9). Default 2.
+        With 3, :func:`build_config` starts from :data:`DIM3` (N, phi) and its
+        ``--quick`` preset from :data:`QUICK3D`.
     n : int
-        Number of disks, even, >= 6. Default 100 (paper).
+        Number of disks (spheres), even, >= 6. Default 100 (paper); spheres:
+        :data:`DIM3`.
     seed : int
         Seed of the packing generator, >= 0. Default 1.
     phi : float
-        Packing fraction that sets the box width L (generator), in (0.1, 0.91).
-        Default 0.82.
+        Packing fraction that sets the box width L (generator), in (0.1, 0.91)
+        for disks, (0.1, 0.74) for spheres. Default 0.82 (spheres 0.64).
     k_n : float
         Normal stiffness, > 0. Default 2e5 (paper).
     k_t : float or None
@@ -161,6 +166,7 @@ class PaperConfig(Config):
         The small, fast variant (:data:`QUICK`) was requested.
     """
 
+    dim: int = 2
     n: int = 100
     seed: int = 1
     phi: float = 0.82
@@ -206,12 +212,16 @@ class PaperConfig(Config):
     quick: bool = False
 
     def __post_init__(self):
+        if self.dim not in (2, 3) or isinstance(self.dim, bool):
+            raise ConfigError(f"dim must be 2 or 3, got dim = {self.dim!r}")
         _int("n", self.n, 6)
         if self.n % 2:
             raise ConfigError(f"n must be even (equal numbers of both radii), got n = {self.n}")
         _int("seed", self.seed, 0)
-        if not 0.1 < _num("phi", self.phi) < 0.91:
-            raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {self.phi!r}")
+        phi_max = 0.91 if self.dim == 2 else 0.74
+        if not 0.1 < _num("phi", self.phi) < phi_max:
+            raise ConfigError(f"phi must be in (0.1, {phi_max}) for dim = {self.dim}, got "
+                              f"phi = {self.phi!r}")
         _num("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
         object.__setattr__(self, "k_t", ContactModel.of(self).k_t)
         _num("dt", self.dt, 0, lo_open=True)
@@ -305,8 +315,23 @@ QUICK = {
 }
 
 
+#: the defaults of spheres that differ from those of disks (``dim = 3``): the
+#: generator's N and phi, and Fig. 5 runs of 500 tau instead of 1200 (a step of
+#: spheres costs ~10x one of disks; docs/paper.md "Spheres": the job within
+#: 15 min on 2 cores)
+DIM3 = {"n": 160, "phi": 0.64, "t_perturb": 500.0}
+
+#: the ``--quick`` preset of spheres: :data:`QUICK` with these changes (the
+#: smallest N whose box keeps the 5 x 5 cross-section of N = 160; short runs)
+QUICK3D = {"n": 96, "t_instability": 400.0, "t_perturb": 300.0}
+
+
 def build_config(toml=None, overrides=None, quick=False):
     """Merge defaults, the quick preset, a TOML file and overrides.
+
+    With ``dim = 3`` (from the file or the overrides) the defaults of
+    :data:`DIM3` come first and the quick preset is :data:`QUICK` updated
+    with :data:`QUICK3D`.
 
     Parameters
     ----------
@@ -326,4 +351,8 @@ def build_config(toml=None, overrides=None, quick=False):
     ConfigError
         Unknown key (named), bad value (named), unreadable file.
     """
-    return PaperConfig.from_dict(layered_config(toml, overrides, quick, QUICK, ("relax",)))
+    d = layered_config(toml, overrides, quick, QUICK, ("relax",))
+    if d.get("dim") == 3:
+        preset = dict(QUICK, **QUICK3D) if d.get("quick") else {}
+        d = dict(DIM3, **layered_config(toml, overrides, quick, preset, ("relax",)))
+    return PaperConfig.from_dict(d)
