@@ -40,9 +40,11 @@ def test_config_of_spheres():
 def run3d(tmp_path_factory):
     out = tmp_path_factory.mktemp("paper3d") / "quick-out"
     env = dict(os.environ, OMP_NUM_THREADS="1")
+    # two ranks (the job re-launches itself under mpirun): the ramps, and Fig. 4
+    # against Fig. 5, side by side
     proc = subprocess.run([os.path.join(BIN, "remote-trigger"), "paper", "--dim", "3",
-                           "--quick", "--out", str(out)], capture_output=True, text=True,
-                          env=env, timeout=900)
+                           "--quick", "--np", "2", "--out", str(out)], capture_output=True,
+                          text=True, env=env, timeout=900)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     return str(out), proc
 
@@ -68,6 +70,7 @@ def test_certified_brackets_ordered(run3d):
     out, _ = run3d
     man = json.load(open(os.path.join(out, "paper.json")))
     assert man["status"] == "complete" and man["config"]["dim"] == 3
+    assert man["n_ranks"] == 2
     r1, r08 = man["ramps"]
     for r in (r1, r08):
         assert r["status"] == "complete", r

@@ -45,7 +45,7 @@ def register(subparsers):
                         "paper.json starts a new job")
     p.add_argument("--config", metavar="TOML", help="TOML file with any of the keys below")
     p.add_argument("--quick", action="store_true", default=None,
-                   help="small, fast variant (N = 40, spheres N = 96; coarse steps, short runs)")
+                   help="small, fast variant (N = 40, spheres 96; coarse steps, short runs)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="any configuration key (repeatable), e.g. --set nf_eps=[0.1,0.01]")
     p.add_argument("--quiet", action="store_true", help="no progress lines")

@@ -103,14 +103,16 @@ class PaperConfig(Config):
     t_instability : float
         Longest time of the Fig. 4 run, > 0. The run lasts
         min(t_instability, instability_span / g) with g the predicted growth
-        rate, and stops once D exceeds ``d_sat``. Default 20000.
+        rate, and stops once D exceeds ``d_sat``. Default 20000 (spheres
+        3000, :data:`DIM3`).
     instability_span : float
         See ``t_instability``, > 0. Default 35 (D grows by e^70 = 30 decades).
     d_sat : float
         Stop the Fig. 4 run once D(t) exceeds this, > 0. Default 1.
     t_perturb : float
         Time of each Fig. 5 run, > 0 (a run stops earlier once D passes
-        ``fig5_d_run``). Default 1200 (1.9 periods of f(t)).
+        ``fig5_d_run``). Default 1200 (1.9 periods of f(t)); spheres 500
+        (:data:`DIM3`).
     record_every : int
         Steps between records of D, v and mu, >= 1. Default 500.
     a : float or None
@@ -316,13 +318,14 @@ QUICK = {
 
 
 #: the defaults of spheres that differ from those of disks (``dim = 3``): the
-#: generator's N and phi, and Fig. 5 runs of 500 tau instead of 1200 (a step of
-#: spheres costs ~10x one of disks; docs/paper.md "Spheres": the job within
-#: 15 min on 2 cores)
-DIM3 = {"n": 160, "phi": 0.64, "t_perturb": 500.0}
+#: generator's N and phi; Fig. 5 runs of 500 tau instead of 1200 and the Fig. 4
+#: run at most 3000 tau (its growth rate at N = 160, seed 1, is 0.0069, so
+#: instability_span / g alone would be 5047; a step of spheres costs several
+#: times one of disks): docs/paper.md "Spheres", the job within 15 min on 2 cores
+DIM3 = {"n": 160, "phi": 0.64, "t_perturb": 500.0, "t_instability": 3000.0}
 
-#: the ``--quick`` preset of spheres: :data:`QUICK` with these changes (the
-#: smallest N whose box keeps the 5 x 5 cross-section of N = 160; short runs)
+#: the ``--quick`` preset of spheres: :data:`QUICK` (coarse ramp steps) with
+#: N = 96 (the smallest N with the 5 x 5 cross-section of N = 160) and short runs
 QUICK3D = {"n": 96, "t_instability": 400.0, "t_perturb": 300.0}
 
 
