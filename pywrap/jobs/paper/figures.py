@@ -157,8 +157,10 @@ def fig_eigenvalues(out, summary, path):
     if F5:
         for ax in (axr, axi):
             ax.axvline(F5, color="k", lw=1)
-    axr.set_xlabel(F_LABEL)
-    axi.set_xlabel(F_LABEL)
+    label = F_LABEL.replace("disk", "sphere") if summary["config"].get("dim", 2) == 3 \
+        else F_LABEL
+    axr.set_xlabel(label)
+    axi.set_xlabel(label)
     axr.set_ylabel((r"Re $\lambda - \lambda_c$" if shift else r"Re $\lambda$")
                    + r"  [$1/\tau^2$]")
     axi.set_ylabel(r"Im $\lambda$  [$1/\tau^2$]")
