@@ -28,11 +28,13 @@ def test_config_of_spheres():
     q = build_config(overrides={"dim": 3}, quick=True)
     assert (q.n, q.dF_x, q.tol) == (QUICK3D["n"], QUICK["dF_x"], QUICK["tol"])
     assert build_config(overrides={"dim": 3, "n": 120}, quick=True).n == 120
+    with pytest.raises(ConfigError, match=r"phi must be in \(0.1, 0.91\), got phi = 0.95"):
+        build_config(overrides={"phi": 0.95})
     two = build_config(quick=True)
     assert (two.dim, two.n, two.phi) == (2, QUICK["n"], 0.82)
     with pytest.raises(ConfigError, match="dim must be 2 or 3"):
         build_config(overrides={"dim": 4})
-    with pytest.raises(ConfigError, match=r"phi must be in \(0.1, 0.74\) for dim = 3"):
+    with pytest.raises(ConfigError, match=r"phi must be in \(0.1, 0.74\) for spheres \(dim = 3\)"):
         build_config(overrides={"dim": 3, "phi": 0.82})
 
 

@@ -222,8 +222,9 @@ class PaperConfig(Config):
         _int("seed", self.seed, 0)
         phi_max = 0.91 if self.dim == 2 else 0.74
         if not 0.1 < _num("phi", self.phi) < phi_max:
-            raise ConfigError(f"phi must be in (0.1, {phi_max}) for dim = {self.dim}, got "
-                              f"phi = {self.phi!r}")
+            raise ConfigError(f"phi must be in (0.1, {phi_max})"
+                              + (" for spheres (dim = 3)" if self.dim == 3 else "")
+                              + f", got phi = {self.phi!r}")
         _num("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
         object.__setattr__(self, "k_t", ContactModel.of(self).k_t)
         _num("dt", self.dt, 0, lo_open=True)
