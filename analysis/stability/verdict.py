@@ -294,13 +294,10 @@ def stability_of_dump(path, basis=None):
         If the dump or its sidecar is missing, corrupt or truncated (from
         ``read_dump``; the message names the file).
     """
-    from remote_trigger.analysis.state.dumpfile import dump_dimension, read_dump, read_dump3d
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
 
     try:
-        if dump_dimension(path) == 3:       # spheres: 6 dofs each, rattlers below 3 contacts
-            state = read_dump3d(path)
-        else:
-            state = read_dump(path, require_contacts=False)
+        state = read_equilibrium(path)      # spheres: 6 dofs each, rattlers below 3 contacts
     except (OSError, KeyError, IndexError, ValueError) as exc:
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
     return stability_of(state, basis)

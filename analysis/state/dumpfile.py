@@ -36,7 +36,7 @@ import numpy as np
 from remote_trigger.analysis.state.contacts import PARTNER, XI
 from remote_trigger.analysis.state.state import DISC_INERTIA, ContactParams, build_state
 
-__all__ = ["read_dump", "read_dump3d", "read_history3d", "dump_dimension", "load_sidecar", "write_sidecar",
+__all__ = ["read_dump", "read_dump3d", "read_equilibrium", "read_history3d", "dump_dimension", "load_sidecar", "write_sidecar",
            "PARAM_KEYS", "REQUIRED_COLUMNS", "REQUIRED_COLUMNS_3D"]
 
 #: columns a dump must have (the history columns are checked separately)
@@ -341,6 +341,19 @@ def dump_dimension(path, frame=-1):
         raise FileNotFoundError(f"dump file not found: {path}")
     columns = _read_frames(path)[frame][4]
     return 3 if "z" in columns and _history_columns(columns, T3_COLUMNS[0]) else 2
+
+
+def read_equilibrium(path, frame=-1):
+    """A dump of disks (:func:`read_dump`, contacts not required) or of spheres
+    (:func:`read_dump3d`), by :func:`dump_dimension`.
+
+    Returns
+    -------
+    State or State3D
+    """
+    if dump_dimension(path, frame) == 3:
+        return read_dump3d(path, frame)
+    return read_dump(path, frame, require_contacts=False)
 
 
 def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=None,

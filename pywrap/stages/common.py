@@ -181,11 +181,13 @@ def save_equilibrium(eng, cfg, F_x, prefix):
 def packing_fraction(state):
     """phi = sum pi R^2 / (L h), h = max(y + R) above the wall at y = 0.
 
-    Spheres: phi = sum 4/3 pi R^3 / (L_x L_z h).
+    Spheres: phi = sum 4/3 pi R^3 / (L_x L_z h). ``state``: the engine's
+    gathered state, a ``State`` or a ``State3D`` (the dimension is that of
+    the positions).
     """
     L = state.box_hi[0] - state.box_lo[0]
     h = float(np.max(state.positions[:, 1] + state.radii))
-    if state.dim == 3:
+    if state.positions.shape[1] == 3:
         Lz = state.box_hi[2] - state.box_lo[2]
         return float(np.sum(4.0 / 3.0 * np.pi * state.radii ** 3) / (L * Lz * h))
     return float(np.sum(np.pi * state.radii ** 2) / (L * h))

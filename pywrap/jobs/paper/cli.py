@@ -11,7 +11,8 @@ from remote_trigger.pywrap.jobs.paper.job import run_paper  # noqa: F401
 
 
 _FLAG_HELP = {
-    "n": "number of disks (100)", "seed": "packing seed (1)", "mu": "friction of the main "
+    "dim": "2: disks (the paper), 3: spheres (N = 160, phi = 0.64 unless given) (2)",
+    "n": "number of disks (100; spheres 160)", "seed": "packing seed (1)", "mu": "friction of the main "
     "ramp and Figs. 4-5 (1)", "mu_low": "friction of the second ramp (0.8)",
     "dF_x": "ramp step (2.5e-4)", "tol": "bisection tolerance on F_x^c (1e-7)",
     "np": "MPI ranks: re-launch under the environment's mpirun (1)",
@@ -44,7 +45,7 @@ def register(subparsers):
                         "paper.json starts a new job")
     p.add_argument("--config", metavar="TOML", help="TOML file with any of the keys below")
     p.add_argument("--quick", action="store_true", default=None,
-                   help="small, fast variant (N = 40, coarse steps, short runs)")
+                   help="small, fast variant (N = 40, spheres 96; coarse steps, short runs)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="any configuration key (repeatable), e.g. --set nf_eps=[0.1,0.01]")
     p.add_argument("--quiet", action="store_true", help="no progress lines")

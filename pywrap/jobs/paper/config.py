@@ -50,13 +50,18 @@ class PaperConfig(Config):
 
     Attributes
     ----------
+    dim : {2, 3}
+        Disks (2, the paper) or spheres (3, docs/model.md section 9). Default 2.
+        With 3, :func:`build_config` starts from :data:`DIM3` (N, phi) and its
+        ``--quick`` preset from :data:`QUICK3D`.
     n : int
-        Number of disks, even, >= 6. Default 100 (paper).
+        Number of disks (spheres), even, >= 6. Default 100 (paper); spheres:
+        :data:`DIM3`.
     seed : int
         Seed of the packing generator, >= 0. Default 1.
     phi : float
-        Packing fraction that sets the box width L (generator), in (0.1, 0.91).
-        Default 0.82.
+        Packing fraction that sets the box width L (generator), in (0.1, 0.91)
+        for disks, (0.1, 0.74) for spheres. Default 0.82 (spheres 0.64).
     k_n : float
         Normal stiffness, > 0. Default 2e5 (paper).
     k_t : float or None
@@ -98,14 +103,16 @@ class PaperConfig(Config):
     t_instability : float
         Longest time of the Fig. 4 run, > 0. The run lasts
         min(t_instability, instability_span / g) with g the predicted growth
-        rate, and stops once D exceeds ``d_sat``. Default 20000.
+        rate, and stops once D exceeds ``d_sat``. Default 20000 (spheres
+        3000, :data:`DIM3`).
     instability_span : float
         See ``t_instability``, > 0. Default 35 (D grows by e^70 = 30 decades).
     d_sat : float
         Stop the Fig. 4 run once D(t) exceeds this, > 0. Default 1.
     t_perturb : float
         Time of each Fig. 5 run, > 0 (a run stops earlier once D passes
-        ``fig5_d_run``). Default 1200 (1.9 periods of f(t)).
+        ``fig5_d_run``). Default 1200 (1.9 periods of f(t)); spheres 500
+        (:data:`DIM3`).
     record_every : int
         Steps between records of D, v and mu, >= 1. Default 500.
     a : float or None
@@ -161,6 +168,7 @@ class PaperConfig(Config):
         The small, fast variant (:data:`QUICK`) was requested.
     """
 
+    dim: int = 2
     n: int = 100
     seed: int = 1
     phi: float = 0.82
@@ -206,12 +214,17 @@ class PaperConfig(Config):
     quick: bool = False
 
     def __post_init__(self):
+        if self.dim not in (2, 3) or isinstance(self.dim, bool):
+            raise ConfigError(f"dim must be 2 or 3, got dim = {self.dim!r}")
         _int("n", self.n, 6)
         if self.n % 2:
             raise ConfigError(f"n must be even (equal numbers of both radii), got n = {self.n}")
         _int("seed", self.seed, 0)
-        if not 0.1 < _num("phi", self.phi) < 0.91:
-            raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {self.phi!r}")
+        phi_max = 0.91 if self.dim == 2 else 0.74
+        if not 0.1 < _num("phi", self.phi) < phi_max:
+            raise ConfigError(f"phi must be in (0.1, {phi_max})"
+                              + (" for spheres (dim = 3)" if self.dim == 3 else "")
+                              + f", got phi = {self.phi!r}")
         _num("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
         object.__setattr__(self, "k_t", ContactModel.of(self).k_t)
         _num("dt", self.dt, 0, lo_open=True)
@@ -305,8 +318,24 @@ QUICK = {
 }
 
 
+#: the defaults of spheres that differ from those of disks (``dim = 3``): the
+#: generator's N and phi; Fig. 5 runs of 500 tau instead of 1200 and the Fig. 4
+#: run at most 3000 tau (its growth rate at N = 160, seed 1, is 0.0069, so
+#: instability_span / g alone would be 5047; a step of spheres costs several
+#: times one of disks): docs/paper.md "Spheres", the job within 15 min on 2 cores
+DIM3 = {"n": 160, "phi": 0.64, "t_perturb": 500.0, "t_instability": 3000.0}
+
+#: the ``--quick`` preset of spheres: :data:`QUICK` (coarse ramp steps) with
+#: N = 96 (the smallest N with the 5 x 5 cross-section of N = 160) and short runs
+QUICK3D = {"n": 96, "t_instability": 400.0, "t_perturb": 300.0}
+
+
 def build_config(toml=None, overrides=None, quick=False):
     """Merge defaults, the quick preset, a TOML file and overrides.
+
+    With ``dim = 3`` (from the file or the overrides) the defaults of
+    :data:`DIM3` come first and the quick preset is :data:`QUICK` updated
+    with :data:`QUICK3D`.
 
     Parameters
     ----------
@@ -326,4 +355,8 @@ def build_config(toml=None, overrides=None, quick=False):
     ConfigError
         Unknown key (named), bad value (named), unreadable file.
     """
-    return PaperConfig.from_dict(layered_config(toml, overrides, quick, QUICK, ("relax",)))
+    d = layered_config(toml, overrides, quick, QUICK, ("relax",))
+    if d.get("dim") == 3:
+        preset = dict(QUICK, **QUICK3D) if d.get("quick") else {}
+        d = dict(DIM3, **layered_config(toml, overrides, quick, preset, ("relax",)))
+    return PaperConfig.from_dict(d)

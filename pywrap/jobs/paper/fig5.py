@@ -14,7 +14,7 @@ module builds Fig. 5 around that window (docs/paper.md, "Fig. 5"):
    and analysed (certified decision, growth rate max Im sqrt(lambda)). At
    F_5: certified real with mu0, certified complex with mu_ss mu0, and mu*
    (where the pair turns complex) by bisection in mu (:func:`mu_star`).
-3. **Runs** (undamped, ``in.perturb``): (a) unperturbed, (b) f(t), (c) f(t)
+3. **Runs** (undamped, ``in.perturb``; spheres ``in.perturb3d``): (a) unperturbed, (b) f(t), (c) f(t)
    + mu(v), (d) control: f(t) + mu(v) at a load certified real after the
    friction drop, (e) control: mu(v) without forcing at F_5, and (p) the
    paper's amplitude a = 1e-12 with mu(v). v0 = ``fig5_v0_margin`` x the
@@ -44,7 +44,7 @@ def friction_drop(eng, rcfg, datafile, F_x, mu, prefix):
     """Equilibrium after the friction coefficient drops to ``mu``, analysed.
 
     The data file (positions and tangential history of an equilibrium, e.g.
-    built at mu0) is loaded with friction ``mu`` on every contact and the
+    built at mu0; spheres: the history of the dump beside it) is loaded with friction ``mu`` on every contact and the
     wall, re-equilibrated at ``F_x`` (Newton first, damped dynamics if
     needed; contacts beyond the new Coulomb limit slide) and analysed.
 
@@ -66,9 +66,11 @@ def friction_drop(eng, rcfg, datafile, F_x, mu, prefix):
         ``growth_rate`` (max Im sqrt(lambda), 1/time), ``residual``,
         ``datafile``.
     """
+    from remote_trigger.pywrap.bindings.datafile import data_dimension
     from remote_trigger.pywrap.stages.ramp import _ramp_point
 
-    vals, res = _ramp_point(eng, rcfg.replace(mu=float(mu)), datafile, float(F_x), prefix)
+    vals, res = _ramp_point(eng, rcfg.replace(mu=float(mu)), datafile, float(F_x), prefix,
+                            dim=data_dimension(datafile))
     return {"mu": float(mu), "decision": res.decision, "confidence": float(res.confidence),
             "growth_rate": float(res.growth_rate), "residual": float(vals["residual"]),
             "datafile": prefix + ".data"}
@@ -121,13 +123,13 @@ def top_compliance(ramp_h5, F):
     -------
     float
     """
-    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
 
     Fs, files = ramp_file.read_points(ramp_h5)
     k = int(np.clip(np.searchsorted(Fs, F) - 1, 0, len(Fs) - 2))
     xs = []
     for i in (k, k + 1):
-        st = read_dump(files[i][:-len(".data")] + ".dump", require_contacts=False)
+        st = read_equilibrium(files[i][:-len(".data")] + ".dump")
         top = st.external[:, 1] != 0
         xs.append(float(np.mean(st.positions[top, 0])))
     return (xs[1] - xs[0]) / (Fs[k + 1] - Fs[k])
@@ -290,7 +292,7 @@ class _Fig5Runs:
     """
 
     def __init__(self, eng, cfg, out, summ, eq5, F5, mu0, dump):
-        from remote_trigger.analysis.state.dumpfile import read_dump
+        from remote_trigger.analysis.state.dumpfile import read_equilibrium
         from remote_trigger.analysis.stability.timestep import stability_limit
         from remote_trigger.pywrap.jobs.paper.stage_configs import dynamics_config
 
@@ -298,7 +300,7 @@ class _Fig5Runs:
         self.data5 = eq5["datafile"]
         lim = None
         if eng.comm.Get_rank() == 0:
-            lim = float(stability_limit(read_dump(dump, require_contacts=False)))
+            lim = float(stability_limit(read_equilibrium(dump)))
         lim = eng.comm.bcast(lim, root=0)
         dt = cfg.fig5_dt_fraction * lim
         summ.update(dt=dt, dt_max=lim)
@@ -327,7 +329,7 @@ class _Fig5Runs:
         h5 = os.path.join(self.out, f"perturb_{key}.h5")
         res = _undamped_run(
             self.eng, dc, datafile, h5, variables, f"perturb ({key})", True,
-            stop=self._stop if stop else None,
+            stop=self._stop if stop else None, dim=cfg.dim,
             attrs=dict(self.base, run=key, d_run=cfg.fig5_d_run, sat_span=cfg.fig5_sat_span,
                        **attrs))
         self.walls[key] = time.perf_counter() - t0

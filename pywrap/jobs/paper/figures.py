@@ -54,37 +54,48 @@ def mu_law(v_tilde, mu0, B, w, mu_ss, v0_tilde):
 
 # --------------------------------------------------------------------------- Fig. 1
 def fig_packing(out, path):
-    """The relaxed packing: bulk disks, the ``top`` line (loaded) and the wall."""
+    """The relaxed packing: bulk disks, the ``top`` line (loaded) and the wall.
+
+    Spheres: their side view (projection on the x-y plane), the ``top`` layer."""
     plt = _plt()
     from matplotlib.collections import PatchCollection
     from matplotlib.patches import Circle
-    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
+    from remote_trigger.pywrap.stages.common import packing_fraction
 
-    st = read_dump(os.path.join(out, "relax", "equilibrium.dump"), require_contacts=False)
+    st = read_equilibrium(os.path.join(out, "relax", "equilibrium.dump"))
     top = st.external[:, 1] != 0
     L = st.box_hi[0] - st.box_lo[0]
     fig, ax = plt.subplots(figsize=(5.2, 5.6))
     col = np.where(top, "tab:red", np.where(st.radii > 0.6, "tab:blue", "lightsteelblue"))
+    # spheres: drawn from the back (small z) to the front
+    order = np.argsort(st.positions[:, 2], kind="stable") if st.positions.shape[1] == 3 \
+        else slice(None)
+    pos, radii, col = st.positions[order], st.radii[order], col[order]
     for shift in (-L, 0.0, L):          # periodic images of disks that cross x = 0, L
-        x = st.positions[:, 0] + shift
-        near = (x + st.radii > st.box_lo[0] - 0.8) & (x - st.radii < st.box_hi[0] + 0.8)
+        x = pos[:, 0] + shift
+        near = (x + radii > st.box_lo[0] - 0.8) & (x - radii < st.box_hi[0] + 0.8)
         circles = [Circle((xi, yi), r) for xi, yi, r in
-                   zip(x[near], st.positions[near, 1], st.radii[near])]
+                   zip(x[near], pos[near, 1], radii[near])]
         ax.add_collection(PatchCollection(circles, facecolor=col[near], edgecolor="k",
                                           lw=0.4, alpha=1.0 if shift == 0 else 0.35))
     ax.axhline(0.0, color="k", lw=2)
     ax.axvline(st.box_lo[0], color="gray", ls=":", lw=1)
     ax.axvline(st.box_hi[0], color="gray", ls=":", lw=1)
-    h = float(np.max(st.positions[:, 1] + st.radii))
+    h = float(np.max(pos[:, 1] + radii))
     ax.set_xlim(st.box_lo[0] - 0.8, st.box_hi[0] + 0.8)
     ax.set_ylim(-0.5, h + 0.8)
     ax.set_aspect("equal")
     ax.set_xlabel(r"$x$ [$\sigma = 2R_1$]")
     ax.set_ylabel(r"$y$ [$\sigma$]")
-    phi = rep.packing_fraction_of(st)
-    ax.set_title(f"relaxed packing, N = {st.n}, $\\phi$ = {phi:.4f}\n"
-                 f"red: top line loaded by $(F_x, -F_y)$; periodic in x (L = {L:.3f})",
-                 fontsize=9)
+    phi = packing_fraction(st)
+    if st.positions.shape[1] == 3:
+        title = (f"relaxed packing, N = {st.n} spheres (side view), $\\phi$ = {phi:.4f}\n"
+                 f"red: top layer loaded by $(F_x, -F_y, 0)$; periodic in x, z (L = {L:.3f})")
+    else:
+        title = (f"relaxed packing, N = {st.n}, $\\phi$ = {phi:.4f}\n"
+                 f"red: top line loaded by $(F_x, -F_y)$; periodic in x (L = {L:.3f})")
+    ax.set_title(title, fontsize=9)
     fig.tight_layout()
     return _save(fig, path)
 
@@ -146,8 +157,10 @@ def fig_eigenvalues(out, summary, path):
     if F5:
         for ax in (axr, axi):
             ax.axvline(F5, color="k", lw=1)
-    axr.set_xlabel(F_LABEL)
-    axi.set_xlabel(F_LABEL)
+    label = F_LABEL.replace("disk", "sphere") if summary["config"].get("dim", 2) == 3 \
+        else F_LABEL
+    axr.set_xlabel(label)
+    axi.set_xlabel(label)
     axr.set_ylabel((r"Re $\lambda - \lambda_c$" if shift else r"Re $\lambda$")
                    + r"  [$1/\tau^2$]")
     axi.set_ylabel(r"Im $\lambda$  [$1/\tau^2$]")

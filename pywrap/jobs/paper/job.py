@@ -190,10 +190,11 @@ class _PaperJob:
         t0 = time.perf_counter()
         err = None
         if rank == 0:
-            self.wclock.say(f"relax: N = {cfg.n}, seed {cfg.seed}")
+            self.wclock.say(f"relax: N = {cfg.n}" + (" spheres" if cfg.dim == 3 else "")
+                            + f", seed {cfg.seed}")
             solo = comm.Split(0, 0) if size > 1 else comm
             try:
-                write_data(generate(cfg.n, seed=cfg.seed, phi=cfg.phi), datafile)
+                write_data(generate(cfg.n, seed=cfg.seed, phi=cfg.phi, dim=cfg.dim), datafile)
                 rel = stages.relax(relax_config(cfg, datafile), out, comm=solo, quiet=True,
                                    overwrite=True)
                 summary["relax"] = {"residual": rel.residual,

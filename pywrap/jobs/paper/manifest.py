@@ -96,9 +96,10 @@ def config_difference(stored, cfg):
     list of (str, object, object)
         ``(key, stored value, value of cfg)``, sorted by key; keys of
         :data:`RESUME_FREE_KEYS` are ignored. A key missing on one side has
-        the value ``'<missing>'`` there.
+        the value ``'<missing>'`` there (but ``dim`` missing in ``stored`` is 2).
     """
     a, b = _normalised(stored), _normalised(cfg.to_dict())
+    a.setdefault("dim", 2)      # a manifest written before spheres: disks
     missing = "<missing>"
     return [(k, a.get(k, missing), b.get(k, missing)) for k in sorted(set(a) | set(b))
             if k not in RESUME_FREE_KEYS and a.get(k, missing) != b.get(k, missing)]

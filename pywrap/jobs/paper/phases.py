@@ -55,8 +55,10 @@ def continue_ramp(rcfg, start_file, loads, folder, comm):
     """Equilibria above F_x^c: the continuation of the ramp for Figs. 3 and 4.
 
     Each load starts from the previous equilibrium (the first from
-    ``start_file``), is equilibrated exactly as a ramp step (``in.ramp_step``
-    scene, Newton first, damped dynamics if needed), written to
+    ``start_file``), is equilibrated exactly as a ramp step (the scene of
+    ``stages.common.load_equilibrium_scene``: disks or spheres with the
+    history of the dump beside the data file; Newton first, damped dynamics
+    if needed), written to
     ``folder/ext_NN.*`` and analysed. Stops at the first load without an
     equilibrium.
 
@@ -80,17 +82,19 @@ def continue_ramp(rcfg, start_file, loads, folder, comm):
     """
     from remote_trigger.pywrap.bindings.engine import Engine
     from remote_trigger.pywrap.stages import equilibrium as eq
-    from remote_trigger.pywrap.stages import load_relax_scene, save_equilibrium
+    from remote_trigger.pywrap.bindings.datafile import data_dimension
+    from remote_trigger.pywrap.stages.common import load_equilibrium_scene, save_equilibrium
 
     if comm.Get_rank() == 0:
         os.makedirs(folder, exist_ok=True)
     comm.Barrier()
     rows = []
     start = start_file
+    dim = data_dimension(start_file)
     with Engine(comm=comm) as eng:
         for k, F in enumerate(loads):
             prefix = os.path.join(folder, f"ext_{k:02d}")
-            load_relax_scene(eng, rcfg, start, F, deck="in.ramp_step")
+            load_equilibrium_scene(eng, rcfg, start, F, dim)
             try:
                 r, _, _ = eq.equilibrate(eng, rcfg, F, newton_first=True)
             except eq.NoEquilibriumError as exc:

@@ -25,13 +25,6 @@ def _read_series(path):
     return d
 
 
-def packing_fraction_of(state):
-    """phi = sum pi R^2 / (L h), h = max(y + R) (wall at y = 0), as the driver's relax."""
-    L = state.box_hi[0] - state.box_lo[0]
-    h = float(np.max(state.positions[:, 1] + state.radii))
-    return float(np.sum(np.pi * state.radii ** 2) / (L * h))
-
-
 def tracks(out, summary):
     """:class:`~remote_trigger.analysis.stability.eigtrack.PairTrack` per ramp index (0: mu, 1: mu_low), None if none."""
     import h5py
@@ -76,10 +69,12 @@ def spectrum_at_zero(h5path):
     asym = float("nan")
     dump = datafile[:-len(".data")] + ".dump"
     if os.path.isfile(dump):
-        from remote_trigger.analysis.state.dumpfile import read_dump
+        from remote_trigger.analysis.state.dumpfile import read_equilibrium
         from remote_trigger.analysis.stability.jacobian import stiffness_matrix
+        from remote_trigger.analysis.stability.jacobian3d import stiffness_matrix3d
 
-        K = stiffness_matrix(read_dump(dump))
+        st = read_equilibrium(dump)
+        K = (stiffness_matrix3d if st.positions.shape[1] == 3 else stiffness_matrix)(st)
         asym = float(np.sqrt(abs((K - K.T).multiply(K - K.T).sum()))
                      / np.sqrt(abs(K.multiply(K).sum())))
     return {"F_x": F0, "complex": cplx > 0, "decision": dec, "confidence": conf,
