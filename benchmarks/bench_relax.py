@@ -65,7 +65,13 @@ STEP_NAMES = {"i": "(i) compact", "ii": "(ii) lower", "iiia": "(iii a) piston",
 
 
 class StepTimer:
-    """Wall time per protocol step: wraps the stage functions that do the steps."""
+    """Wall time per protocol step: wraps the stage functions that do the steps.
+
+    Each wrapped function is charged its exclusive time (its calls of other
+    wrapped functions go to theirs): ``_fire_relax`` is FIRE (and its retries),
+    the ``polish`` calls inside it Newton, an ``equilibrate`` inside it the
+    damped fallback.
+    """
 
     def __init__(self):
         import importlib
@@ -74,10 +80,11 @@ class StepTimer:
         self.eq = importlib.import_module("remote_trigger.pywrap.stages.equilibrium")
         self.t = {}
         self._orig = []
+        self._stack = []            # [start, time of wrapped calls inside] per open call
         for mod, name, key in ((self.rx, "compact_bulk", "i"), (self.rx, "place_top", "ii"),
                                (self.rx, "press_top", "iiia"), (self.rx, "press_top_fire", "iiia"),
                                (self.rx, "_fire_relax", "iiib_fire"),
-                               (self.eq, "equilibrate", "iiib_eq"),
+                               (self.eq, "equilibrate", "iiib_damped"),
                                (self.eq, "polish", "iiib_newton")):
             self._wrap(mod, name, key)
 
@@ -86,12 +93,16 @@ class StepTimer:
         self._orig.append((mod, name, f))
 
         def timed(*a, **k):
-            t0 = time.perf_counter()
+            frame = [time.perf_counter(), 0.0]
+            self._stack.append(frame)
             try:
                 return f(*a, **k)
             finally:
-                dt = time.perf_counter() - t0
-                self.t[key] = self.t.get(key, 0.0) + dt
+                self._stack.pop()
+                dt = time.perf_counter() - frame[0]
+                if self._stack:
+                    self._stack[-1][1] += dt
+                self.t[key] = self.t.get(key, 0.0) + dt - frame[1]
                 self.t[key + "_calls"] = self.t.get(key + "_calls", 0) + 1
                 if dt > 1.0 and name != "polish":      # progress, on stderr
                     print(f"    {name}: {dt:.1f} s", file=sys.stderr, flush=True)
@@ -100,8 +111,8 @@ class StepTimer:
     def steps(self, total):
         """Per-step seconds of the run just finished; resets the counters."""
         t, self.t = self.t, {}
-        out = {k: t.get(k, 0.0) for k in ("i", "ii", "iiia", "iiib_fire", "iiib_newton")}
-        out["iiib_damped"] = t.get("iiib_eq", 0.0) - out["iiib_newton"]
+        out = {k: t.get(k, 0.0) for k in ("i", "ii", "iiia", "iiib_fire", "iiib_damped",
+                                          "iiib_newton")}
         out["rest"] = total - sum(out.values())
         out["tried"] = int(t.get("iiia_calls", 0))     # one piston per placement tried
         return out

@@ -237,31 +237,34 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     else:
         height = float(np.sum(4.0 / 3.0 * np.pi * bulk_r ** 3)) / (phi_loose * width ** 2)
 
-    xs, ys, zs = [], [], []
-    for r in bulk_r:       # large first: random sequential addition
-        for _ in range(max_tries):
-            x = rng.uniform(0.0, width)
-            y = rng.uniform(r, r + height)
-            z = rng.uniform(0.0, width) if dim == 3 else 0.0
-            if xs:
-                dx = x - np.asarray(xs)
-                dx -= width * np.round(dx / width)
-                dy = y - np.asarray(ys)
-                rr = bulk_r[:len(xs)] + r
-                d2 = dx * dx + dy * dy
-                if dim == 3:
+    if dim == 2:      # overlaps tested on a cell grid: the packing of the all-pairs test
+        xs, ys = _random_sequential_addition(bulk_r, width, height, rng, max_tries,
+                                             phi_loose)
+        zs = [0.0] * len(xs)
+    else:             # spheres: every draw tested against all spheres placed
+        xs, ys, zs = [], [], []
+        for r in bulk_r:       # large first: random sequential addition
+            for _ in range(max_tries):
+                x = rng.uniform(0.0, width)
+                y = rng.uniform(r, r + height)
+                z = rng.uniform(0.0, width)
+                if xs:
+                    dx = x - np.asarray(xs)
+                    dx -= width * np.round(dx / width)
+                    dy = y - np.asarray(ys)
+                    rr = bulk_r[:len(xs)] + r
                     dz = z - np.asarray(zs)
                     dz -= width * np.round(dz / width)
-                    d2 = d2 + dz * dz
-                if np.any(d2 < rr * rr):
-                    continue
-            xs.append(x)
-            ys.append(y)
-            zs.append(z)
-            break
-        else:
-            raise ValueError(f"could not place {len(bulk_r)} loose disks at "
-                             f"phi_loose = {phi_loose} (placed {len(xs)})")
+                    d2 = dx * dx + dy * dy + dz * dz
+                    if np.any(d2 < rr * rr):
+                        continue
+                xs.append(x)
+                ys.append(y)
+                zs.append(z)
+                break
+            else:
+                raise ValueError(f"could not place {len(bulk_r)} loose spheres at "
+                                 f"phi_loose = {phi_loose} (placed {len(xs)})")
     order = rng.permutation(len(bulk_r))       # mix types among IDs
     bulk = np.column_stack([xs, ys, zs][:dim])[order]
     br = bulk_r[order]
@@ -275,6 +278,79 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     return Packing(positions=np.concatenate([bulk, tpos]), radii=radius, types=typ, top=top,
                    width=float(width),
                    ylo=-1.0, yhi=float(y_line + r2 + width), seed=int(seed))
+
+
+
+def _random_sequential_addition(radii, width, height, rng, max_tries, phi_loose):
+    """Centres of disks ``radii`` placed one by one at random in [0, L) x [R, R + H), no overlaps.
+
+    Each disk draws (x, y) uniformly until it overlaps no disk placed before it
+    (periodic in x), at most ``max_tries`` draws. The overlap test of a draw
+    is ``dx^2 + dy^2 < (R_i + R_j)^2`` with dx the minimum image, evaluated
+    only for the disks of the 3 x 3 cells around it on a grid of cells wider
+    than the largest contact distance 2 max(R): a disk it overlaps lies in
+    one of them, so every draw is accepted or rejected exactly as by the test
+    against all disks (the same expression, the same draws, the same packing
+    bit for bit) at a cost per draw independent of the number placed (the
+    full test made N = 6400 take minutes).
+
+    Returns
+    -------
+    xs, ys : list of float
+
+    Raises
+    ------
+    ValueError
+        If a disk finds no place within ``max_tries`` draws.
+    """
+    reach = 2.0 * float(np.max(radii)) * (1.0 + 1e-9) + 1e-12
+    ncx = int(width // reach)
+    ncx = ncx if ncx >= 3 else 1          # narrower: one column, every disk is a neighbour
+    cx = width / ncx
+    cy = reach
+    ncy = int((float(np.max(radii)) + height) // cy) + 1
+    cells = [[] for _ in range(ncx * ncy)]
+    cols = (0,) if ncx == 1 else (-1, 0, 1)
+    rad = [float(r) for r in radii]
+    xs, ys = [], []
+    for k, r in enumerate(rad):
+        for _ in range(max_tries):
+            x = rng.uniform(0.0, width)
+            y = rng.uniform(r, r + height)
+            ix = min(int(x / cx), ncx - 1)
+            iy = min(int(y / cy), ncy - 1)
+            if _overlaps(x, y, r, ix, iy, cells, cols, ncx, ncy, xs, ys, rad, width):
+                continue
+            xs.append(x)
+            ys.append(y)
+            cells[iy * ncx + ix].append(k)
+            break
+        else:
+            raise ValueError(f"could not place {len(radii)} loose disks at "
+                             f"phi_loose = {phi_loose} (placed {len(xs)})")
+    return xs, ys
+
+
+def _overlaps(x, y, r, ix, iy, cells, cols, ncx, ncy, xs, ys, rad, width):
+    """Whether a disk (x, y, r) in cell (ix, iy) overlaps a placed disk of the 3 x 3 cells.
+
+    Scalar double arithmetic, operation for operation the vectorised test
+    ``dx -= L round(dx / L); dx^2 + dy^2 < (r + R_j)^2`` (round half to even
+    in both), so the decisions are the same bit for bit.
+    """
+    for di in (-1, 0, 1):
+        row = iy + di
+        if not 0 <= row < ncy:
+            continue
+        for dj in cols:
+            for j in cells[row * ncx + (ix + dj) % ncx]:
+                dx = x - xs[j]
+                dx -= width * round(dx / width)
+                dy = y - ys[j]
+                rr = rad[j] + r
+                if dx * dx + dy * dy < rr * rr:
+                    return True
+    return False
 
 
 def write_data(packing, path):

@@ -226,14 +226,14 @@ def check_spheres_config(cfg):
                           f"(dimension 3), and {why} (docs/driver.md, 'Spheres')")
 
 
-def fire_minimize(eng, cfg, ftol=None):
+def fire_minimize(eng, cfg, ftol=None, max_steps=None):
     """FIRE energy minimization of the loaded frictionless scene (section ``fire``).
 
     The ``fire`` section of ``in.relax``: LAMMPS's ``min_style fire`` with
     the forces of the pair, the wall, the loads and of any constraint
     defined (the piston of :func:`press_top`), until the largest force on a
     disk is below ``ftol`` (default :data:`FIRE_FTOL` x F_y) or after
-    ``cfg.max_steps`` iterations; then v = omega = 0. The damping and
+    ``max_steps`` (default ``cfg.max_steps``) iterations; then v = omega = 0. The damping and
     integrator fixes are removed first (``fix viscous`` would act on FIRE's
     velocities); :func:`~remote_trigger.pywrap.stages.equilibrium.equilibrate`
     re-adds them if it needs damped dynamics. Friction must be off (the
@@ -247,7 +247,8 @@ def fire_minimize(eng, cfg, ftol=None):
     ftol = FIRE_FTOL * cfg.F_y if ftol is None else ftol
     eng.unfix(*eq.DAMPING_FIXES, *eq.INTEGRATOR_FIXES)
     eng.command(f"variable fire_ftol string {float(ftol)!r}")
-    eng.command(f"variable fire_steps string {int(cfg.max_steps)}")
+    max_steps = cfg.max_steps if max_steps is None else max_steps
+    eng.command(f"variable fire_steps string {int(max_steps)}")
     step0 = eng.step()
     eng.run_section("fire")
     return eng.step() - step0
@@ -311,24 +312,68 @@ def antisymmetry(state, cfg, F_x):
     return float(np.linalg.norm(K - K.T) / nrm) if nrm > 0 else 0.0
 
 
-def _fire_relax(eng, cfg, t0):
-    """Step (iii b) with FIRE (:func:`fire_minimize`); a record with its residual.
+#: ``relax_dynamics = 'fire'``: while Newton stops above the acceptance level
+#: after FIRE, FIRE runs again with its force tolerance divided by this factor
+#: (not below the acceptance level), then Newton again
+FIRE_RETRY_FACTOR = 100.0
+#: ... at most this many times, each of at most FIRE_RETRY_STEPS iterations; then
+#: damped dynamics, as for ``'damped'``
+FIRE_RETRIES = 3
+FIRE_RETRY_STEPS = 50_000
 
-    Raises :class:`~remote_trigger.pywrap.stages.equilibrium.NoEquilibriumError`
-    if the ``top`` line slid farther than ``cfg.slide`` along x, as the damped
-    dynamics would.
+
+def _fire_relax(eng, cfg, t0, progress=None):
+    """Step (iii b) with FIRE: FIRE, then Newton; FIRE again, tighter, while Newton stalls.
+
+    :func:`fire_minimize` to :data:`FIRE_FTOL` F_y, then Newton polishing
+    (:func:`~remote_trigger.pywrap.stages.equilibrium.polish`, modified
+    Newton as in ``equilibrate``). If Newton stops above the acceptance level
+    (:func:`~remote_trigger.pywrap.stages.equilibrium.accept_level`; at
+    N = 10^4 it stagnated after FIRE to 3e-6), FIRE runs again from the
+    state Newton reached with its tolerance divided by
+    :data:`FIRE_RETRY_FACTOR` (not below the acceptance level), and Newton
+    again, at most :data:`FIRE_RETRIES` times (of at most
+    :data:`FIRE_RETRY_STEPS` FIRE iterations; measured: 300-2500 at
+    N = 1600); only then damped dynamics with Newton (``equilibrate``), the
+    former fallback.
+
+    Returns
+    -------
+    r, t_sim, record
+        As :func:`~remote_trigger.pywrap.stages.equilibrium.equilibrate`
+        (t_sim = 0 unless the damped fallback ran).
+
+    Raises
+    ------
+    NoEquilibriumError
+        If the ``top`` line slid farther than ``cfg.slide`` along x (FIRE or
+        the fallback), as the damped dynamics would.
     """
+    eng.command(f"variable load_x equal {float(cfg.F_x)!r}")
     st = eng.gather_state()
     x0 = float(np.mean(st.unwrapped_positions()[st.top, 0]))
-    fire_minimize(eng, cfg)
-    st = eng.gather_state()
-    dx = float(np.mean(st.unwrapped_positions()[st.top, 0])) - x0
-    if abs(dx) > cfg.slide:
-        raise eq.NoEquilibriumError(f"no equilibrium at F_x = {cfg.F_x!r}: the top layer "
-                                    f"slid {dx:.3g} (> slide = {cfg.slide}) under FIRE")
     rec = eq.RelaxRecord()
-    rec.add(0.0, eq.residual_of(st)[1], "fire", t0)
-    return rec
+    ftol = FIRE_FTOL * cfg.F_y
+    for attempt in range(FIRE_RETRIES + 1):
+        fire_minimize(eng, cfg, ftol, None if attempt == 0 else FIRE_RETRY_STEPS)
+        st = eng.gather_state()
+        dx = float(np.mean(st.unwrapped_positions()[st.top, 0])) - x0
+        if abs(dx) > cfg.slide:
+            raise eq.NoEquilibriumError(f"no equilibrium at F_x = {cfg.F_x!r}: the top layer "
+                                        f"slid {dx:.3g} (> slide = {cfg.slide}) under FIRE")
+        rec.add(0.0, eq.residual_of(st)[1], "fire", t0)
+        if not cfg.newton:
+            break
+        accept = eq.accept_level(cfg, st)
+        r, stop = eq.polish(eng, cfg, cfg.F_x, rec, t0, 0.0, chord_below=accept)
+        if progress is not None:
+            progress(r)
+        if r < cfg.f_min or (stop and r < accept):
+            return r, 0.0, rec
+        if ftol <= accept:
+            break
+        ftol = max(ftol / FIRE_RETRY_FACTOR, accept)
+    return eq.equilibrate(eng, cfg, cfg.F_x, record=rec, progress=progress)
 
 
 def _frictionless_then_friction(eng, cfg, prog, t0):
@@ -366,11 +411,10 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
                 press_top(eng, cfg.F_x)
             t_comp += time.perf_counter() - tc
         try:
-            rec = None
-            if fire:       # FIRE to FIRE_FTOL F_y, then Newton (damped only if it fails)
-                rec = _fire_relax(eng, cfg0, t0)
-            r, t_sim, rec = eq.equilibrate(eng, cfg0, cfg.F_x, record=rec, progress=prog,
-                                           newton_first=fire)
+            if fire:       # FIRE, Newton; FIRE again tighter while Newton stalls
+                r, t_sim, rec = _fire_relax(eng, cfg0, t0, prog)
+            else:
+                r, t_sim, rec = eq.equilibrate(eng, cfg0, cfg.F_x, progress=prog)
         except eq.NoEquilibriumError as exc:
             if k + 1 < len(offsets):
                 continue

@@ -12,6 +12,41 @@ def test_same_seed_same_packing_other_seed_differs():
     assert not np.array_equal(a.positions, c.positions)
 
 
+
+def _rsa_all_pairs(radii, width, height, rng, max_tries):
+    """Reference: each draw tested against every disk placed before it."""
+    xs, ys = [], []
+    for r in radii:
+        for _ in range(max_tries):
+            x = rng.uniform(0.0, width)
+            y = rng.uniform(r, r + height)
+            if xs:
+                dx = x - np.asarray(xs)
+                dx -= width * np.round(dx / width)
+                dy = y - np.asarray(ys)
+                rr = radii[:len(xs)] + r
+                if np.any(dx * dx + dy * dy < rr * rr):
+                    continue
+            xs.append(x)
+            ys.append(y)
+            break
+    return xs, ys
+
+
+@pytest.mark.parametrize("n, seed, width", [(6, 0, 2.9), (40, 7, 5.0), (400, 1, 20.8),
+                                            (1000, 3, 32.0)])
+def test_cell_list_placement_equals_the_all_pairs_test(n, seed, width):
+    # one column of cells (width < 3 x 1.4) and several; loose phi 0.55 near RSA jamming
+    from remote_trigger.pywrap.stages.packing import _random_sequential_addition
+
+    radii = np.array([RADII[1]] * (n // 2) + [RADII[0]] * (n // 2))
+    height = float(np.sum(np.pi * radii ** 2)) / (0.55 * width)
+    rng_ref, rng = np.random.default_rng(seed), np.random.default_rng(seed)
+    ref = _rsa_all_pairs(radii, width, height, rng_ref, 200000)
+    got = _random_sequential_addition(radii, width, height, rng, 200000, 0.55)
+    assert got[0] == ref[0] and got[1] == ref[1]          # bit for bit
+    assert rng.bit_generator.state == rng_ref.bit_generator.state   # the same draws
+
 @pytest.mark.parametrize("n", [20, 100])
 def test_geometry(n):
     p = generate(n, seed=3)

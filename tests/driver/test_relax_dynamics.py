@@ -70,3 +70,60 @@ def test_fire_path_reaches_the_same_criteria(relaxed_fire):
 
     i, j, rho = find_contacts(dump.positions, dump.radii, dump.box_lo, dump.box_hi)
     assert np.max(dump.radii[i] + dump.radii[j] - rho) < (5 * 3.0 / 2e5) ** (2 / 3)
+
+
+def _stalling_polish(monkeypatch, stall):
+    """Newton phases for which ``stall(record)`` is true stop at once (as after FIRE at N = 10^4)."""
+    import importlib
+
+    eq = importlib.import_module("remote_trigger.pywrap.stages.equilibrium")
+    real, calls = eq.polish, []
+
+    def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
+        calls.append(eq.exact_residual(eng)[2])
+        if stall(record):
+            record.add(t_sim, calls[-1], "newton", t0)
+            return calls[-1], "stagnated"
+        return real(eng, cfg, F_x, record, t0, t_sim, target, chord_below)
+
+    monkeypatch.setattr(eq, "polish", polish)
+    return calls
+
+
+def _fire_relax(tmp_path, n=100):
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.stages.packing import generate, write_data
+
+    data = str(tmp_path / "p.data")
+    write_data(generate(n, seed=1), data)
+    return stages.relax(RelaxConfig(datafile=data, relax_dynamics="fire"), str(tmp_path),
+                        quiet=True)
+
+
+def test_stalled_newton_after_fire_runs_fire_again_tighter(tmp_path, monkeypatch):
+    from remote_trigger.pywrap.stages.relax import FIRE_FTOL, FIRE_RETRY_FACTOR
+
+    # the first Newton phase of each placement of the line stalls
+    _stalling_polish(monkeypatch, lambda record: record.phase.count("fire") < 2)
+    res = _fire_relax(tmp_path)
+    ph = list(res.history.phase)
+    fires = [r for r, p in zip(res.history.residual, ph) if p == "fire"]
+    assert len(fires) == 2 and "damped" not in ph          # FIRE again, no damped fallback
+    assert fires[0] < FIRE_FTOL * 3.0 and fires[1] < FIRE_FTOL * 3.0 / FIRE_RETRY_FACTOR
+    assert ph[ph.index("fire", 1) + 1] == "newton"         # Newton again, from FIRE's state
+    G, _ = _lammps_residual(res.datafile, 0.0)
+    r = max(np.max(np.hypot(G[:, 0], G[:, 1])), np.max(np.abs(G[:, 2])))
+    assert r == res.residual and r < 1e-10 and res.top_clearance > 0
+
+
+def test_newton_stalling_after_every_fire_falls_back_to_damped(tmp_path, monkeypatch):
+    import importlib
+
+    rx = importlib.import_module("remote_trigger.pywrap.stages.relax")
+    # one retry (FIRE to 3e-8, above the acceptance level 1e-10), Newton stalls after both
+    monkeypatch.setattr(rx, "FIRE_RETRIES", 1)
+    _stalling_polish(monkeypatch, lambda record: "damped" not in record.phase)
+    res = _fire_relax(tmp_path)
+    ph = list(res.history.phase)
+    assert ph.count("fire") == 2
+    assert "damped" in ph and res.residual < 1e-10 and res.top_clearance > 0
