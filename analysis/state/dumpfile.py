@@ -118,6 +118,22 @@ def _parse_body(path, columns, body, first_line):
     return data.reshape(len(body), ncol)
 
 
+def _frame(path, frame):
+    """Snapshot ``frame`` of the dump at ``path`` as :func:`_read_frames` gives it.
+
+    Raises FileNotFoundError if the file does not exist, ValueError if the
+    frame does not (the message names the number of snapshots).
+    """
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"dump file not found: {path}")
+    frames = _read_frames(path)
+    try:
+        return frames[frame]
+    except IndexError:
+        raise ValueError(f"{path}: frame {frame} does not exist ({len(frames)} "
+                         f"snapshots)") from None
+
+
 def _history_columns(columns, prefix):
     """Indices of prefix[1..K] columns in order (or of the expanded prefix[*])."""
     found = {}
@@ -247,14 +263,7 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
         mirror values that differ, missing parameters, or no contacts.
     """
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise FileNotFoundError(f"dump file not found: {path}")
-    frames = _read_frames(path)
-    try:
-        step, natoms, bounds, flags, columns, body, first = frames[frame]
-    except IndexError:
-        raise ValueError(f"{path}: frame {frame} does not exist ({len(frames)} "
-                         f"snapshots)") from None
+    step, natoms, bounds, flags, columns, body, first = _frame(path, frame)
     missing = [c for c in REQUIRED_COLUMNS if c not in columns]
     pcols = _history_columns(columns, PARTNER)
     xcols = _history_columns(columns, XI)
@@ -336,10 +345,7 @@ def dump_dimension(path, frame=-1):
     FileNotFoundError, ValueError
         A missing or malformed file.
     """
-    path = os.fspath(path)
-    if not os.path.exists(path):
-        raise FileNotFoundError(f"dump file not found: {path}")
-    columns = _read_frames(path)[frame][4]
+    columns = _frame(os.fspath(path), frame)[4]
     return 3 if "z" in columns and _history_columns(columns, T3_COLUMNS[0]) else 2
 
 
@@ -395,14 +401,7 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
     from remote_trigger.analysis.state.state3d import state3d_from_history
 
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise FileNotFoundError(f"dump file not found: {path}")
-    frames = _read_frames(path)
-    try:
-        step, natoms, bounds, flags, columns, body, first = frames[frame]
-    except IndexError:
-        raise ValueError(f"{path}: frame {frame} does not exist ({len(frames)} "
-                         f"snapshots)") from None
+    step, natoms, bounds, flags, columns, body, first = _frame(path, frame)
     missing = [c for c in REQUIRED_COLUMNS_3D if c not in columns]
     hist = {name: _history_columns(columns, name) for name in (PARTNER,) + T3_COLUMNS}
     missing += [f"{name}[*]" for name, cols in hist.items() if cols is None]
@@ -475,9 +474,7 @@ def read_history3d(path, frame=-1):
         Not a dump of spheres, malformed, or non-finite values (named).
     """
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise FileNotFoundError(f"dump file not found: {path}")
-    _, _, _, _, columns, body, first = _read_frames(path)[frame]
+    _, _, _, _, columns, body, first = _frame(path, frame)
     hist = {name: _history_columns(columns, name) for name in (PARTNER,) + T3_COLUMNS}
     wall = ("v_wall_tx", "v_wall_ty", "v_wall_tz")
     missing = [f"{k}[*]" for k, v in hist.items() if v is None]
