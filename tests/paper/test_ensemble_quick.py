@@ -228,3 +228,29 @@ def test_adaptive_ramps_and_continuation(tmp_path):
     step = np.diff(loads)
     assert np.all(step >= 1e-2 * (1 - 1e-12)) and np.all(step <= 0.05 * (1 + 1e-12))
 
+
+
+def test_packing_without_memory_for_the_verdict_is_recorded_and_others_finish(tmp_path,
+                                                                              monkeypatch):
+    """A packing whose dense verdict would not fit in memory (here: a limit
+    set between the two sizes' needs) ends with status 'failed' and the
+    reason naming its order n and the memory available; the smaller packing
+    finishes. (The frictional-protocol rows are not asserted: at N = 40 that
+    relaxation fails on its own in the quick setting.)"""
+    from mpi4py import MPI
+    from remote_trigger.analysis.stability import verdict
+
+    need = {n: verdict.DENSE_PEAK_MATRICES * 8 * (3 * n) ** 2 for n in (16, 40)}
+    monkeypatch.setenv(verdict.MEMORY_ENV, repr((need[16] + need[40]) / 2 / 2**30))
+    cfg = ec.build_config(None, {"n": [16, 40], "seeds": [1], "inertia_I0": None}, quick=True)
+    out = str(tmp_path / "mem")
+    en.run_ensemble(cfg, out, comm=MPI.COMM_SELF, speak=False)
+    t = er.read_table(os.path.join(out, en.TABLE))
+    main = t["protocol"] == "frictionless-then-friction"
+    big, small = main & (t["key"] == "N40_s1"), main & (t["key"] == "N16_s1")
+    assert big.sum() == 1 and small.sum() == 1
+    assert t["status"][big][0] == "failed" and math.isnan(t["F_x_c_low"][big][0])
+    reason = t["reason"][big][0]
+    assert "TooLargeError" in reason and "dense verdict for n = " in reason, reason
+    assert "available" in reason, reason
+    assert t["status"][small][0] == "ok" and t["F_x_c_low"][small][0] > 0
