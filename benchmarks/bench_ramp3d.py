@@ -24,7 +24,9 @@ default for both). A point is:
   beside it, with its LAPACK eigen-solve.
 
 Memory, at the reported point's dump of each scene, each number from a
-fresh process (``--memory``) that has read the dump first:
+fresh process (``--memory``) that has read the dump, imported every module
+of ``analysis.stability`` and made a first small LAPACK call (OpenBLAS
+allocates its buffers then) before it measures:
 
 * **tracemalloc peak**: the largest Python-visible allocation (NumPy and
   SciPy arrays included, LAPACK's internal workspace not) during the
@@ -152,6 +154,26 @@ def peak_rss():
     raise OSError("no VmHWM in /proc/self/status")
 
 
+def _warm_up():
+    """Import every module the operations import lazily, and make the first BLAS and
+    LAPACK calls (OpenBLAS allocates its buffers then): neither is counted."""
+    import importlib
+    import pkgutil
+
+    import numpy as np
+    import scipy.linalg
+    import scipy.sparse.linalg  # noqa: F401
+
+    import remote_trigger.analysis.stability as stab
+
+    for m in pkgutil.iter_modules(stab.__path__):
+        importlib.import_module(f"{stab.__name__}.{m.name}")
+    a = np.random.default_rng(0).standard_normal((64, 64))
+    scipy.linalg.eig(a)
+    scipy.linalg.lu_factor(a)
+    np.linalg.solve(a, a @ a)
+
+
 def _measure(what, dump, traced):
     """Run in a fresh process: read ``dump``, then one operation; print its memory."""
     import numpy as np
@@ -161,6 +183,7 @@ def _measure(what, dump, traced):
 
     state = read_equilibrium(dump)
     spheres = isinstance(state, State3D)
+    _warm_up()
     if what == "jacobian":
         from remote_trigger.analysis.stability import jacobian, jacobian3d
 
@@ -250,8 +273,9 @@ def main(argv=None):
     print(f"3D / 2D: equilibrium {ratio['equilibrium']:.1f} x (CPU {ratio['equilibrium_cpu']:.1f}"
           f" x), decision {ratio['decision']:.1f} x (CPU {ratio['decision_cpu']:.1f} x), point "
           f"{pt:.1f} x; dof kept {three['n_eig']} / {two['n_eig']}")
-    print("memory (fresh process per number, after reading the dump; tracemalloc: Python-"
-          "visible peak incl. NumPy/SciPy arrays; peak RSS: growth of VmHWM)")
+    print("memory (fresh process per number, after reading the dump, the imports and a "
+          "first LAPACK call; tracemalloc: Python-visible peak incl. NumPy/SciPy arrays; "
+          "peak RSS: growth of VmHWM)")
     for r, m in zip(rows, mem):
         name = f"{'spheres' if r['dim'] == 3 else 'disks'} {r['n']}"
         j, d = m["jacobian"], m["decision"]
