@@ -236,7 +236,11 @@ def _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol):
               if params.k_t > 0 else np.full(delta_h.shape, np.inf))
     size = np.sqrt(np.sum(hxi * hxi, axis=1)) if vector else np.abs(hxi)
     diff = np.sqrt(np.sum((hxi - mxi) ** 2, axis=1)) if vector else np.abs(hxi - mxi)
-    scale = np.maximum(size, np.where(np.isfinite(ts), ts, 0.0))
+    ts = np.where(np.isfinite(ts), ts, 0.0)
+    # the two sides are advanced separately (and a ghost's periodic image is
+    # rounded), so they differ by round-off of the history's own scale: a
+    # barely touching contact (tiny t*) is checked against the largest t*
+    scale = np.maximum(np.maximum(size, ts), ts.max(initial=0.0))
     mism = diff > mirror_rtol * scale
     if np.any(mism):
         k = int(np.argmax(mism))

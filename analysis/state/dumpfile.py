@@ -241,8 +241,10 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
         be zero).
     mirror_rtol : float, optional
         The two sides of a contact must satisfy
-        ``|xi_ij - xi_ji| <= mirror_rtol * max(t*, |xi_ij|)``; LAMMPS writes
-        exact mirrors, so the default 1e-9 only absorbs periodic-image rounding.
+        ``|xi_ij - xi_ji| <= mirror_rtol * max(t*, |xi_ij|, T)``, T the
+        largest t* of the snapshot's contacts; the default 1e-9 only absorbs
+        round-off (periodic-image rounding; spheres: each side advances its
+        own t).
     require_contacts : bool, optional
         Raise if the packing has no contact at all (default True).
     inertia_factor : float, optional

@@ -392,7 +392,8 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
     external : array_like, shape (N, 3), optional
         Loads (force).
     mirror_rtol : float
-        Tolerance of the mirror check, relative to max(t*, |t|).
+        Tolerance of the mirror check, relative to max(t*, |t|, the largest
+        t* of the snapshot) (see ``read_dump``).
     inertia_factor : float
         I0 (default 2/5).
     **extra

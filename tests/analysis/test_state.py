@@ -246,3 +246,33 @@ def test_touching_band_across_the_periodic_boundary(delta, history, contact, tou
     assert (st.contact_i.size == 1) == contact
     assert st.notes["touching_pairs"] == touching
     assert (len(w) > 0) == warned, [str(x.message) for x in w]
+
+
+def test_mirror_check_scale_is_the_snapshots_largest_t_star():
+    """Spheres: each side advances its own t, so the two sides of a barely
+    touching contact (t* ~ 1e-6) may differ by round-off of the history's
+    scale (1.5e-15, as measured in an ensemble run) -- accepted; a mismatch
+    of 1e-10 (above 1e-9 x the largest t* ~ 3.5e-3) is still refused."""
+    from remote_trigger.analysis.state.state3d import state3d_from_history
+
+    params = ContactParams(2e5, 2e5 * 2 / 7, 1.0)
+    d_small, d_big = 1.7e-7, 1e-3               # overlaps of the two contacts
+    pos = np.array([[5.0, 5.0, 5.0], [5.0, 6.0 - d_small, 5.0], [6.0 - d_big, 5.0, 5.0]])
+    t_small = np.array([5.696931578993402e-07, 0.0, 3.78e-08])
+    t_big = np.array([0.0, 1e-4, 2e-4])
+
+    def state(mismatch):
+        partners = np.array([[2, 3], [1, 0], [1, 0]])
+        t = np.zeros((3, 2, 3))
+        t[0, 0], t[1, 0] = t_small, -(t_small + mismatch)
+        t[0, 1], t[2, 0] = t_big, -t_big
+        return state3d_from_history(ids=[1, 2, 3], positions=pos, radii=[0.5] * 3,
+                                    masses=[1.0] * 3, box_lo=[0.0] * 3, box_hi=[10.0] * 3,
+                                    params=params, periodic=(False,) * 3, partners=partners,
+                                    partner_t=t, wall_y=None)
+
+    assert params.mu * params.k_n * d_small / params.k_t < 1e-6 < np.linalg.norm(t_small) * 2
+    st = state(np.array([1.5e-15, 1e-16, 2e-16]))
+    assert st.n_contacts == 2
+    with pytest.raises(ValueError, match="two sides of the history disagree"):
+        state(np.array([1e-10, 0.0, 0.0]))
