@@ -21,8 +21,8 @@ I0_OF_DIM = {2: DISC_INERTIA, 3: SPHERE_INERTIA}
 #: the parts of the ensemble that are 2D only: key -> (its value with spheres, why)
 ONLY_2D = {
     "frictional": (False, "its compaction with friction runs damped dynamics, which do "
-                          "not bring a loaded 3D packing to rest (the relax stage refuses "
-                          "protocol = 'frictional' for spheres)"),
+                          "not bring a loaded 3D packing to rest; the relax stage refuses "
+                          "protocol = 'frictional' for spheres"),
     "frictional_relax": ({}, "it configures the frictional relaxation, which spheres do "
                              "not have"),
     "inertia_I0": (None, "the I0 rows re-analyse disks with the paper's Jacobian "
