@@ -212,6 +212,8 @@ def run_packing(cfg, n, seed, folder, resume=False):
     Parameters
     ----------
     cfg : EnsembleConfig
+        Its ``dim`` chooses disks or spheres (:func:`.packing.generate`;
+        the stages take the dimension from the data file).
     n, seed : int
     folder : str
         Work folder (created; its previous content is removed unless
@@ -227,7 +229,8 @@ def run_packing(cfg, n, seed, folder, resume=False):
     -------
     dict
         ``default`` (relaxation summary and ``ramps``: one part per friction,
-        see :func:`_ramp_part`), ``frictional`` (:func:`_frictional_part`),
+        see :func:`_ramp_part`), ``frictional`` (:func:`_frictional_part`;
+        None when ``cfg.frictional`` is False, always for spheres),
         each with ``error`` (None or the reason), ``wall`` (s) and
         ``warnings`` (the distinct warnings raised meanwhile, recorded, not
         printed; for a resumed packing also those its kept stages recorded).
