@@ -91,8 +91,8 @@ def test_bracket_order_and_slope():
     pts = [{"F_x": 0.0, "decision": 0}, {"F_x": 0.1, "decision": 0},
            {"F_x": 0.15, "decision": -1}, {"F_x": 0.2, "decision": 1},
            {"F_x": 0.3, "decision": 1}]
-    assert en.bracket(pts) == (0.1, 0.2)
-    lo, hi = en.bracket(pts[:2])
+    assert onset.bracket(pts) == (0.1, 0.2)
+    lo, hi = onset.bracket(pts[:2])
     assert lo == 0.1 and hi == float("inf")
     assert er.order_code(0.1, 0.2, 0.05, 0.08) == 1
     assert er.order_code(0.1, 0.2, 0.25, 0.3) == 0
@@ -131,7 +131,7 @@ def test_soft_mode_onsets_are_flagged_and_kept_out_of_the_stiff_statistics():
     for n, seed, fc, rel in ((100, 1, 0.02, 0.2), (100, 2, 0.04, 0.1),
                              (400, 1, 0.005, 0.09), (400, 2, 0.0005, 1e-6)):
         row = er._empty_row({"key": f"N{n}_s{seed}", "n": n, "seed": seed},
-                            "frictionless-then-friction", 0.5)
+                            "frictionless-then-friction", 0.5, cfg.I0_dynamics)
         row.update(status="ok", F_x_c=fc, pair_re_rel=rel, soft_onset=er.soft_onset(rel))
         rows.append(row)
     st = er.statistics(rows, cfg)

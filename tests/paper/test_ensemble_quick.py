@@ -21,6 +21,7 @@ import pytest
 from remote_trigger.pywrap.jobs.ensemble import config as ec
 from remote_trigger.pywrap.jobs.ensemble import job as en
 from remote_trigger.pywrap.jobs.ensemble import report as er
+from remote_trigger.pywrap.jobs.ensemble import task as et
 
 CLI = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
 
@@ -115,7 +116,7 @@ def _started(out):
     mid = []
     for key in (os.listdir(packs) if os.path.isdir(packs) else []):
         try:
-            with open(os.path.join(packs, key, en.PROGRESS)) as fh:
+            with open(os.path.join(packs, key, et.PROGRESS)) as fh:
                 if "mu0" in json.load(fh)["ramps"] and key not in done:
                     mid.append(key)
         except OSError:
@@ -172,14 +173,14 @@ def test_failure_is_recorded_and_others_finish(tmp_path, monkeypatch):
     from mpi4py import MPI
     from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
 
-    real = en._relax
+    real = et._relax
 
     def relax(cfg, datafile, folder, protocol):
         if "N16_s2" in folder and protocol != "frictional":
             raise NoEquilibriumError("top layer slid away (forced by the test)")
         return real(cfg, datafile, folder, protocol)
 
-    monkeypatch.setattr(en, "_relax", relax)
+    monkeypatch.setattr(et, "_relax", relax)
     cfg = ec.build_config(None, {"n": [16], "seeds": [1, 2], "inertia_I0": None}, quick=True)
     out = str(tmp_path / "fail")
     en.run_ensemble(cfg, out, comm=MPI.COMM_SELF, speak=False)

@@ -6,13 +6,31 @@ from dataclasses import dataclass, field, asdict
 from remote_trigger.pywrap.config import (
     Config, ConfigError, ContactModel, _int, _num, check_bool, check_table, layered_config)
 from remote_trigger.pywrap.stages.config import RelaxConfig
-from remote_trigger.pywrap.jobs.paper.config import PaperConfig
+from remote_trigger.pywrap.jobs.paper.config import PaperConfig, DIM3 as PAPER_DIM3
+from remote_trigger.analysis.state.state import DISC_INERTIA
+from remote_trigger.analysis.state.state3d import SPHERE_INERTIA
 
 #: keys of the ``relax`` and ``frictional_relax`` tables that the ensemble sets itself
 RELAX_SET_BY_JOB = ("datafile", "k_n", "k_t", "mu", "F_y", "dt", "F_x", "protocol")
 
-#: moment of inertia factor of the dynamics (``fix nve/sphere ... disc``)
-I0_DYNAMICS = 0.5
+#: moment of inertia factor of the dynamics of disks (``fix nve/sphere ... disc``)
+I0_DYNAMICS = DISC_INERTIA
+#: moment of inertia factor of the dynamics, per dimension (spheres: I = 2/5 m R^2)
+I0_OF_DIM = {2: DISC_INERTIA, 3: SPHERE_INERTIA}
+
+#: the parts of the ensemble that are 2D only: key -> (its value with spheres, why)
+ONLY_2D = {
+    "frictional": (False, "its compaction with friction runs damped dynamics, which do "
+                          "not bring a loaded 3D packing to rest; the relax stage refuses "
+                          "protocol = 'frictional' for spheres"),
+    "frictional_relax": ({}, "it configures the frictional relaxation, which spheres do "
+                             "not have"),
+    "inertia_I0": (None, "the I0 rows re-analyse disks with the paper's Jacobian "
+                         "convention I = I0 m R^2; the paper has no spheres, so there is "
+                         "no other convention to compare with"),
+    "inertia_extra_steps": (None, "it bounds the I0 continuation, which spheres do not "
+                                  "have"),
+}
 
 _DEFAULT_SEEDS = (tuple(range(1, 21)), tuple(range(1, 6)))
 
@@ -24,14 +42,21 @@ class EnsembleConfig(Config):
 
     Attributes
     ----------
+    dim : {2, 3}
+        2: disks (the paper; default), 3: spheres, with the defaults of
+        :data:`DIM3` (``n`` = [160], ``seeds`` 1..12, ``phi`` = 0.64) and
+        without the 2D-only parts (:data:`ONLY_2D`: the frictional protocol
+        and the I0 re-analysis; giving them is refused).
     n : list of int
         System sizes N (disks, top line included), each even and >= 6, no
-        repeats. Default [100, 400].
+        repeats. Default [100, 400]. Spheres: each large enough for the
+        generator's top layer and a box of width >= 5 (N >= 82 at phi = 0.64).
     seeds : list of int, or list of list of int
         Packing seeds (>= 0): one list used for every N, or one non-empty
         list per N. Default 1..20 for N = 100 and 1..5 for N = 400.
     phi : float
-        Packing fraction of the generator's box, in (0.1, 0.91). Default 0.82.
+        Packing fraction of the generator's box, in (0.1, 0.91) (spheres:
+        (0.1, 0.74)). Default 0.82.
     k_n, k_t, F_y, dt : float
         Model (docs/model.md; k_t None: 2 k_n / 7). Defaults as ``paper``.
     mu : float
@@ -81,6 +106,7 @@ class EnsembleConfig(Config):
         Any bad value; the message names the key and the value.
     """
 
+    dim: int = 2
     n: tuple = (100, 400)
     seeds: tuple = _DEFAULT_SEEDS
     phi: float = PaperConfig.phi
@@ -104,6 +130,8 @@ class EnsembleConfig(Config):
     quick: bool = False
 
     def __post_init__(self):
+        if self.dim not in (2, 3) or isinstance(self.dim, bool):
+            raise ConfigError(f"dim must be 2 or 3, got dim = {self.dim!r}")
         n = self.n
         if isinstance(n, int) and not isinstance(n, bool):
             n = [n]
@@ -119,7 +147,9 @@ class EnsembleConfig(Config):
             raise ConfigError(f"n must not repeat a size, got n = {self.n!r}")
         object.__setattr__(self, "n", tuple(n))
         object.__setattr__(self, "seeds", self._seeds(self.seeds, len(n)))
-        if not 0.1 < _num("phi", self.phi) < 0.91:
+        if self.dim == 3:
+            self._check_spheres()
+        elif not 0.1 < _num("phi", self.phi) < 0.91:
             raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {self.phi!r}")
         _num("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
         object.__setattr__(self, "k_t", ContactModel.of(self).k_t)
@@ -149,6 +179,27 @@ class EnsembleConfig(Config):
                         RelaxConfig)
         _int("np", self.np, 1)
 
+    def _check_spheres(self):
+        """dim = 3: phi, sizes the generator can fill, no 2D-only part."""
+        from remote_trigger.pywrap.stages.packing import RADII, box_width, top_count
+
+        for key, (off, why) in ONLY_2D.items():
+            if getattr(self, key) != off:
+                raise ConfigError(f"{key} = {getattr(self, key)!r} is 2D only (dim = 3: "
+                                  f"spheres): {why}; leave it out or set {key} = "
+                                  f"{_toml(off)}")
+        if not 0.1 < _num("phi", self.phi) < 0.74:
+            raise ConfigError(f"phi must be in (0.1, 0.74) for spheres (dim = 3), got "
+                              f"phi = {self.phi!r}")
+        for v in self.n:
+            # a box narrower than 5 (a 2 x 2 top layer) lets a sphere touch two
+            # periodic images of another (the pair refuses it)
+            width = box_width(v, self.phi, RADII, 3)
+            if width < 5.0 or top_count(width, RADII, 3) >= v - 2:
+                raise ConfigError(f"n must hold sizes whose box of spheres is at least 5 "
+                                  f"wide (N >= 82 at phi = 0.64; dim = 3), got n = "
+                                  f"{list(self.n)!r} (N = {v}: width {width:g})")
+
     @staticmethod
     def _seeds(seeds, n_sizes):
         bad = ConfigError(f"seeds must be a non-empty list of integers >= 0, or one such "
@@ -174,11 +225,31 @@ class EnsembleConfig(Config):
         return tuple(tuple(lst) for lst in per_n)
 
     def to_dict(self):
-        """Plain dict (lists for tuples)."""
+        """Plain dict (lists for tuples).
+
+        ``dim`` is there only for spheres: the configuration of disks is
+        written as before ``dim`` existed, so a folder of disks written
+        then resumes (``--resume`` compares ``config.json``) and its files
+        are unchanged.
+        """
         d = asdict(self)
         d["n"] = list(self.n)
         d["seeds"] = [list(s) for s in self.seeds]
+        if self.dim == 2:
+            del d["dim"]
         return d
+
+    @property
+    def I0_dynamics(self):
+        """The moment of inertia factor of the dynamics, I = I0 m R^2 (1/2 disks,
+        2/5 spheres): the convention of the ramps' decisions."""
+        return I0_OF_DIM[self.dim]
+
+    def conventions(self):
+        """The I0 of the table's rows of the default protocol: the dynamics' own,
+        then ``inertia_I0`` (if any)."""
+        return [self.I0_dynamics] + ([float(self.inertia_I0)] if self.inertia_I0 is not None
+                                     else [])
 
     def packings(self):
         """The packings, in table order.
@@ -192,21 +263,42 @@ class EnsembleConfig(Config):
                 for n, ss in zip(self.n, self.seeds) for s in ss]
 
 
+def _toml(v):
+    return {False: "false", None: "null"}.get(v, repr(v)) if not isinstance(v, dict) else "{}"
+
+
 #: the ``--quick`` preset: three tiny packings, coarse ramps
 QUICK = {"n": [16, 20], "seeds": [[1, 2], [1]], "dF_x": 1e-2, "tol": 2e-3,
          "relax": {"settle_steps": 10000}, "frictional_relax": {"max_steps": 50000},
          "inertia_extra_steps": 4}
+
+#: the defaults of spheres (``dim = 3``) that differ from those of disks: the
+#: paper job's N and phi of spheres (:data:`.paper.config.DIM3`), 12 seeds, and
+#: the 2D-only parts off (:data:`ONLY_2D`)
+DIM3 = dict({"n": [PAPER_DIM3["n"]], "seeds": list(range(1, 13)), "phi": PAPER_DIM3["phi"]},
+            **{k: off for k, (off, _) in ONLY_2D.items()})
+
+#: the ``--quick`` preset of spheres: :data:`QUICK`'s coarse ramps and short
+#: compaction, two packings of N = 96 (the smallest box of the paper's
+#: ``--quick``, a 4 x 4 top layer), nothing of the 2D-only parts
+QUICK3D = dict({k: v for k, v in QUICK.items() if k not in ONLY_2D},
+               n=[96], seeds=[1, 3])
 
 
 def build_config(toml=None, overrides=None, quick=False):
     """Defaults < quick preset < TOML file < overrides; returns :class:`EnsembleConfig`.
 
     The tables ``relax`` and ``frictional_relax`` are merged key by key.
+    With ``dim = 3`` (from the file or the overrides) the defaults of
+    :data:`DIM3` come first and the quick preset is :data:`QUICK3D`.
 
     Raises
     ------
     ConfigError
         Unknown key (named), bad value (named), unreadable file.
     """
-    return EnsembleConfig.from_dict(layered_config(toml, overrides, quick, QUICK,
-                                                    ("relax", "frictional_relax")))
+    tables = ("relax", "frictional_relax")
+    d = layered_config(toml, overrides, quick, QUICK, tables)
+    if d.get("dim") == 3:
+        d = dict(DIM3, **layered_config(toml, overrides, quick, QUICK3D, tables))
+    return EnsembleConfig.from_dict(d)

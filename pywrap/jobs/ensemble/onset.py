@@ -65,7 +65,8 @@ def read_ramp(h5):
     list of dict
         ``F_x``, ``decision`` (1, 0, -1), ``growth`` (1/time), ``dump``
         (equilibrium dump), ``eigenvalues`` (complex, sorted by real part,
-        I0 = 1/2). Bisection points without an equilibrium are left out.
+        the dynamics' I0: 1/2 disks, 2/5 spheres). Bisection points without
+        an equilibrium are left out.
     """
     import h5py
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 from remote_trigger.pywrap.jobs.paper.config import PAPER
-from remote_trigger.pywrap.jobs.ensemble.config import I0_DYNAMICS
+from remote_trigger.pywrap.jobs.ensemble.config import ONLY_2D
 from remote_trigger.analysis.stability.verdict import Decision
 
 #: the paper's bracket of F_x^c(mu = 1) for its N = 100 packing
@@ -53,10 +53,10 @@ def order_code(lo0, hi0, lo1, hi1):
     return -1
 
 
-def _empty_row(task, protocol, I0):
+def _empty_row(task, protocol, I0, i0_dyn):
     row = {c: math.nan for c in COLUMNS}
     row.update(key=task["key"], n=task["n"], seed=task["seed"], protocol=protocol, I0=I0,
-               dynamics_consistent=float(I0 == I0_DYNAMICS), status="failed", reason="",
+               dynamics_consistent=float(I0 == i0_dyn), status="failed", reason="",
                ramp_status_mu0="", ramp_status_mu_ss="", pair_index=-1, n_dof=-1,
                slope_points=0, order=-1, decision_at_zero=math.nan, n_extra=0,
                soft_onset=-1)
@@ -82,18 +82,19 @@ def rows_of(task, result, cfg):
         bound, or the second ramp missing: ``reason`` says which) or
         ``'failed'`` (``reason``).
     """
-    convs = [I0_DYNAMICS] + ([float(cfg.inertia_I0)] if cfg.inertia_I0 is not None else [])
-    rows = [_default_row(task, result, I0) for I0 in convs]
+    i0_dyn = cfg.I0_dynamics
+    rows = [_default_row(task, result, I0, i0_dyn) for I0 in cfg.conventions()]
     f = result.get("frictional")
     if f is not None:
-        rows.append(_frictional_row(task, result, f))
+        rows.append(_frictional_row(task, result, f, i0_dyn))
     return rows
 
 
-def _default_row(task, result, I0):
-    """The row of the default protocol's ramps analysed with inertia I0."""
+def _default_row(task, result, I0, i0_dyn):
+    """The row of the default protocol's ramps analysed with inertia I0 (``i0_dyn``:
+    that of the dynamics)."""
     d = result["default"]
-    row = _empty_row(task, "frictionless-then-friction", I0)
+    row = _empty_row(task, "frictionless-then-friction", I0, i0_dyn)
     row["wall"] = result["wall"]
     for k in ("phi", "residual", "antisymmetry"):
         row[k] = d.get(k, math.nan)
@@ -121,10 +122,10 @@ def _default_row(task, result, I0):
                    F_x_onset_fit=o["F_x_onset_fit"], slope_points=o["n_points"],
                    n_undecided=o["n_undecided"], n_steps=r0["n_steps"],
                    n_bisection=r0["n_bisection"])
-        if r0.get("at_zero") and I0 == I0_DYNAMICS:
+        if r0.get("at_zero") and I0 == i0_dyn:
             row.update(decision_at_zero=r0["at_zero"]["decision"], n_pairs_at_zero=math.nan,
                        growth_at_zero=r0["at_zero"]["growth"])
-        if I0 != I0_DYNAMICS:
+        if I0 != i0_dyn:
             row["n_extra"] = o["n_new"] + r1.get(ck, {}).get("n_new", 0) if r1 else \
                 o["n_new"]
             if r0["ramp_status"] == "complete" and not math.isfinite(o["F_x_c_high"]):
@@ -136,7 +137,7 @@ def _default_row(task, result, I0):
         o1 = r1[ck]
         row.update(F_x_c_ss_low=o1["F_x_c_low"], F_x_c_ss_high=o1["F_x_c_high"],
                    F_x_c_ss=_mid(o1["F_x_c_low"], o1["F_x_c_high"]))
-        if I0 != I0_DYNAMICS and r1["ramp_status"] == "complete":
+        if I0 != i0_dyn and r1["ramp_status"] == "complete":
             if not math.isfinite(o1["F_x_c_high"]):
                 why.append(f"I0 = {I0:g}: no pair certified complex up to F_x = "
                            f"{o1['F_x_last']:.6g} at mu_ss mu0 (F_x^c above it)")
@@ -149,9 +150,9 @@ def _default_row(task, result, I0):
         row["ratio_high"] = row["F_x_c_ss_high"] / row["F_x_c_low"]
     row["order"] = order_code(row["F_x_c_low"], row["F_x_c_high"], row["F_x_c_ss_low"],
                               row["F_x_c_ss_high"])
-    if I0 != I0_DYNAMICS:
+    if I0 != i0_dyn:
         why.append(f"analysis only: I0 = {I0:g} is inconsistent with the dynamics "
-                   f"(I0 = {I0_DYNAMICS})")
+                   f"(I0 = {i0_dyn})")
     if not (math.isfinite(row["F_x_c_low"]) or math.isfinite(row["F_x_c_high"])):
         row["status"] = "failed"
     elif math.isfinite(row["F_x_c"]) and math.isfinite(row["F_x_c_ss"]) and \
@@ -165,9 +166,9 @@ def _default_row(task, result, I0):
     return row
 
 
-def _frictional_row(task, result, f):
+def _frictional_row(task, result, f, i0_dyn):
     """The row of the frictional protocol at F_x = 0."""
-    row = _empty_row(task, "frictional", I0_DYNAMICS)
+    row = _empty_row(task, "frictional", i0_dyn, i0_dyn)
     row["wall"] = result["wall"]
     if f.get("error"):
         row["reason"] = f["error"]
@@ -213,7 +214,8 @@ def statistics(rows, cfg):
         certified holds / reversed / undecided), ``frictional`` (per N:
         unstable fraction at F_x = 0), ``paper_percentile`` (per
         convention: percentiles of 0.0091 and 0.012 among F_x^c(mu0) at
-        N = 100, or at every N if 100 is not in the ensemble),
+        N = 100, or at every N if 100 is not in the ensemble; empty for
+        spheres, whose F_x^c the paper's disks do not bracket),
         ``n_exponent`` (per convention: d ln median F_x^c / d ln N between
         the smallest and largest N), ``n_fit`` (per convention, with two
         sizes or more: :func:`~remote_trigger.analysis.scaling.power_law_fit`
@@ -223,7 +225,7 @@ def statistics(rows, cfg):
         left out).
     """
     ft = "frictionless-then-friction"
-    convs = [I0_DYNAMICS] + ([float(cfg.inertia_I0)] if cfg.inertia_I0 is not None else [])
+    convs = cfg.conventions()
     st = {"per_n": [], "order": {}, "frictional": [], "paper_percentile": {},
           "n_exponent": {}, "n_fit": {}}
     for I0 in convs:
@@ -246,9 +248,10 @@ def statistics(rows, cfg):
                            "undecided": codes.count(-1), "total": len(codes)}
         ref = [100] if 100 in cfg.n else list(cfg.n)
         x = [r["F_x_c"] for r in select(rows, ft, I0) if r["n"] in ref]
-        st["paper_percentile"][I0] = {"n": ref, "count": int(np.sum(np.isfinite(x))),
-                                      "low": percentile_of(PAPER_BRACKET[0], x),
-                                      "high": percentile_of(PAPER_BRACKET[1], x)}
+        if cfg.dim == 2:
+            st["paper_percentile"][I0] = {"n": ref, "count": int(np.sum(np.isfinite(x))),
+                                          "low": percentile_of(PAPER_BRACKET[0], x),
+                                          "high": percentile_of(PAPER_BRACKET[1], x)}
         meds = [(p["n"], p["F_x_c"][2]) for p in st["per_n"] if p["I0"] == I0
                 and math.isfinite(p["F_x_c"][2]) and p["F_x_c"][2] > 0]
         if len(meds) >= 2 and meds[0][0] != meds[-1][0]:
@@ -307,10 +310,12 @@ def write_table(path, rows, cfg):
         ds[f"rows/{c}"] = (np.array([str(v) for v in vals], dtype=object) if c in STR_COLS
                            else np.asarray(vals, dtype=float))
     attrs = {"stage": "ensemble", "config": json.dumps(cfg.to_dict(), sort_keys=True),
-             "I0_dynamics": I0_DYNAMICS,
+             "I0_dynamics": cfg.I0_dynamics,
              "note": "rows with dynamics_consistent = 0 analyse the equilibria with "
                      "another moment of inertia than the dynamics used (analysis only)",
              "paper_bracket": list(PAPER_BRACKET)}
+    if cfg.dim == 3:
+        attrs["note"] = "spheres (dim = 3): " + skipped_in_3d()
     write_atomic(path, attrs, ds)
 
 
@@ -334,18 +339,21 @@ def plot(path, rows, cfg):
     import matplotlib.pyplot as plt
 
     ft = "frictionless-then-friction"
-    convs = [I0_DYNAMICS] + ([float(cfg.inertia_I0)] if cfg.inertia_I0 is not None else [])
+    convs = cfg.conventions()
+    i0_dyn = cfg.I0_dynamics
+    paper = cfg.dim == 2          # the paper's bracket is of disks
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     fig, ax = plt.subplots(1, 3, figsize=(14, 4.2))
     allx = [r["F_x_c"] for r in rows if math.isfinite(r["F_x_c"]) and r["F_x_c"] > 0
             and r["status"] != "failed"]
-    lo_b = min(allx + [PAPER_BRACKET[0]]) / 1.3
-    hi_b = max(allx + [PAPER_BRACKET[1]]) * 1.3
+    ref = list(PAPER_BRACKET) if paper else []
+    lo_b = min(allx + ref[:1] or [1e-3]) / 1.3
+    hi_b = max(allx + ref[1:] or [1e-3]) * 1.3
     bins = np.geomspace(lo_b, hi_b, 25)
     allr = [r["ratio"] for r in rows if math.isfinite(r["ratio"]) and r["status"] != "failed"]
     rbins = np.linspace(min(allr + [1.0]) - 0.05, max(allr + [1.0]) + 0.05, 25)
     for k, n in enumerate(cfg.n):
-        for I0, ls, fill in ((I0_DYNAMICS, "-", True), (cfg.inertia_I0, "--", False)):
+        for I0, ls, fill in ((i0_dyn, "-", True), (cfg.inertia_I0, "--", False)):
             if I0 is None:
                 continue
             sel = select(rows, ft, float(I0), n)
@@ -355,9 +363,10 @@ def plot(path, rows, cfg):
                     a_.hist(x, bins=b_, histtype="stepfilled" if fill else "step",
                             alpha=0.35 if fill else 1.0, ls=ls, color=colors[k % len(colors)],
                             label=f"N = {n}, I0 = {I0:g}")
-    ax[0].axvspan(*PAPER_BRACKET, color="k", alpha=0.15, label="paper (N = 100)")
+    if paper:
+        ax[0].axvspan(*PAPER_BRACKET, color="k", alpha=0.15, label="paper (N = 100)")
     ax[0].set_xscale("log")
-    ax[0].set_xlabel("F_x^c(mu0) (bracket midpoint)")
+    ax[0].set_xlabel("F_x^c(mu0) (bracket midpoint)" + ("" if paper else ", spheres"))
     ax[0].set_ylabel("packings")
     ax[0].legend(fontsize=7)
     ax[1].axvline(1.0, color="k", lw=0.8)
@@ -379,9 +388,10 @@ def plot(path, rows, cfg):
             c, q1, m, q3 = quartiles(x)
             ax[2].errorbar([n * shift], [m], yerr=[[m - q1], [q3 - m]], fmt="o",
                            color=colors[j], capsize=4,
-                           label=f"I0 = {I0:g}" + (" (analysis only)" if I0 != I0_DYNAMICS
+                           label=f"I0 = {I0:g}" + (" (analysis only)" if I0 != i0_dyn
                                                    else "") if n == cfg.n[0] else None)
-    ax[2].fill_between([90, 110], *PAPER_BRACKET, color="k", alpha=0.15, label="paper")
+    if paper:
+        ax[2].fill_between([90, 110], *PAPER_BRACKET, color="k", alpha=0.15, label="paper")
     ax[2].set_xscale("log")
     ax[2].set_yscale("log")
     ax[2].set_xlabel("N")
@@ -391,6 +401,13 @@ def plot(path, rows, cfg):
     fig.tight_layout()
     savefig_atomic(fig, path, dpi=110)
     plt.close(fig)
+
+
+def skipped_in_3d():
+    """What the ensemble of spheres leaves out, and why (one line, from
+    :data:`~remote_trigger.pywrap.jobs.ensemble.config.ONLY_2D`)."""
+    return ("the frictional relaxation protocol (" + ONLY_2D["frictional"][1] + ") and the "
+            "I0 = 1 re-analysis rows (" + ONLY_2D["inertia_I0"][1] + ")")
 
 
 def _f(x, f=".4g"):
@@ -408,16 +425,19 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
     """``ensemble.md``: the distributions, the checks and every failure."""
     ft = "frictionless-then-friction"
     n_pk = len(cfg.packings())
-    L = ["# Ensemble of packings", "",
+    L = ["# Ensemble of packings" + (" of spheres (dim = 3)" if cfg.dim == 3 else ""), "",
          f"{n_pk} packings: " + ", ".join(f"N = {n}: seeds {list(s)}"
                                           for n, s in zip(cfg.n, cfg.seeds))
          + f". mu0 = {cfg.mu:g}, mu_ss mu0 = {cfg.mu * cfg.mu_ss:g}; ramp dF_x = {cfg.dF_x:g},"
          f" bisection to tol = {cfg.tol:g}, F_x_max = {cfg.F_x_max:g}. F_x^c is the midpoint "
          f"of the certified bracket. Values: median [first quartile, third quartile] over the"
          f" packings whose row is not 'failed'.", ""]
+    if cfg.dim == 3:
+        L += [f"Spheres: I0 = {cfg.I0_dynamics:g} (I = 2/5 m R^2, the dynamics' own). "
+              f"Skipped in 3D: {skipped_in_3d()}.", ""]
     if cfg.inertia_I0 is not None:
         L += [f"**I0 = {cfg.inertia_I0:g} rows are an analysis convention only**: the same "
-              f"equilibria (made by dynamics with I0 = {I0_DYNAMICS}) analysed with "
+              f"equilibria (made by dynamics with I0 = {cfg.I0_dynamics}) analysed with "
               f"I = {cfg.inertia_I0:g} m R^2 in M; their eigenvalues do not predict the "
               f"simulated motion.", ""]
     L += ["## F_x^c by size and convention", "",
@@ -458,6 +478,8 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
         L.append(f"| {I0:g} | {o['holds']} | {o['reversed']} | {o['undecided']} | "
                  f"{o['total']} | {every} |")
     L += ["", "## The paper's bracket in our distribution", ""]
+    if cfg.dim == 3:
+        L.append("- not compared: the paper's bracket 0.0091-0.012 is of N = 100 disks.")
     for I0, p in st["paper_percentile"].items():
         L.append(f"- I0 = {I0:g}, N = {p['n']} ({p['count']} packings): F_x^c = "
                  f"{PAPER_BRACKET[0]:g} is at the {_f(p['low'], '.3g')}th percentile, "
@@ -472,7 +494,8 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
             L.append(f"| {f['n']} | {f['n_packings']} | {f['n_relaxed']} | {f['unstable']} |"
                      f" {f['undecided']} | {_f(frac, '.3g')} | {_q(f['pairs'], '.3g')} | "
                      f"{_q(f['growth'], '.3g')} |")
-        dz = [r for r in select(rows, ft, I0_DYNAMICS) if r["decision_at_zero"] == Decision.COMPLEX]
+        dz = [r for r in select(rows, ft, cfg.I0_dynamics)
+              if r["decision_at_zero"] == Decision.COMPLEX]
         L += ["", f"Default protocol: {len(dz)} packing(s) certified complex at F_x = 0."]
     L += ["", "## Packings", "",
           "| key | protocol | I0 | status | phi | F_x^c(mu0) bracket | F_x^c(mu_ss mu0) "

@@ -1,0 +1,349 @@
+"""One task of ``remote-trigger ensemble``: everything measured on one packing
+(:func:`run_packing`), run on a worker rank with its own LAMMPS instances on
+``MPI.COMM_SELF``; the job that hands the packings out is
+:mod:`remote_trigger.pywrap.jobs.ensemble.job`, the design docs/ensemble.md.
+
+Per packing: generate (disks, or spheres with ``dim = 3``), relax with the
+default protocol, ramp F_x at mu0 and at mu_ss mu0 (the ``ramp`` stage), the
+onset numbers of each ramp (:mod:`.onset`); for disks also the I0 = 1
+re-analysis with its continuation above a ramp's end (:func:`inertia_points`)
+and the frictional relaxation at F_x = 0. Each finished stage is recorded in
+the packing's ``progress.json``, so a killed packing resumes from it.
+"""
+import dataclasses
+import json
+import math
+import os
+import shutil
+import time
+
+import numpy as np
+
+from remote_trigger.pywrap.jobs.ensemble.onset import (
+    spectrum, read_ramp, bracket, onset_numbers, reanalyse)
+from remote_trigger.analysis.stability.verdict import Decision
+
+__all__ = ["PROGRESS", "run_packing", "inertia_points"]
+
+
+def _new_point(eng, rcfg, start_dump, F_x, prefix, I0):
+    """Equilibrium at F_x from the equilibrium of ``start_dump`` (a ramp step), analysed
+    with I0; returns the point dict, or None without an equilibrium."""
+    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.pywrap.stages import equilibrium as eq
+    from remote_trigger.pywrap.stages import load_relax_scene, save_equilibrium
+
+    load_relax_scene(eng, rcfg, start_dump[:-len(".dump")] + ".data", F_x, deck="in.ramp_step")
+    try:
+        eq.equilibrate(eng, rcfg, F_x, newton_first=True)
+    except eq.NoEquilibriumError:
+        return None
+    save_equilibrium(eng, rcfg, F_x, prefix)
+    s = spectrum(read_dump(prefix + ".dump", require_contacts=False, inertia_factor=I0))
+    s.pop("basis")
+    return {"F_x": float(F_x), "decision": s["decision"], "growth": s["growth"],
+            "dump": prefix + ".dump", "eigenvalues": s["eigenvalues"]}
+
+
+def inertia_points(cfg, points, mu, I0, folder):
+    """The ramp's equilibria under the convention I0, extended until F_x^c is bracketed.
+
+    The ramp stops at its own first complex point (I0 = 1/2). Under another
+    I0 the onset may lie above it: then the ramp is continued with the same
+    step dF_x, or the adaptive step under I0 if ``cfg.dF_x_max`` is set
+    (:func:`.ramp.adaptive_step`; new equilibria, each from the previous one,
+    exactly as ramp steps) for at most ``inertia_extra_steps`` steps (default 0.5 F_x_max / dF_x),
+    until a point is certified complex under I0. Inside the bracket the
+    certified decision under I0 drives a bisection to ``tol``
+    (:func:`.stages.next_bisection_point`, each point from the ``lo``
+    equilibrium, as the ramp's).
+
+    Parameters
+    ----------
+    cfg : EnsembleConfig
+    points : list of dict
+        :func:`read_ramp` of the ramp (I0 = 1/2).
+    mu : float
+        Friction of the ramp.
+    I0 : float
+    folder : str
+        Where the new equilibria go (``I0_<I0>/``).
+
+    Returns
+    -------
+    list of dict
+        Every point (old and new), decisions and eigenvalues under I0, in
+        increasing F_x; new ones have ``new`` = True.
+    """
+    from mpi4py import MPI
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.jobs.paper import ramp_config
+    from remote_trigger.pywrap.stages.ramp import adaptive_step
+    from remote_trigger.pywrap.stages import next_bisection_point
+
+    pts = reanalyse(points, I0)
+    if not pts:
+        return pts
+    lo, hi = bracket(pts)
+    steps = [p for p in pts if p["F_x"] in {q["F_x"] for q in points}]
+    if math.isfinite(hi) and (not math.isfinite(lo) or hi - lo <= cfg.tol):
+        return pts
+    rcfg = ramp_config(cfg, points[0]["dump"][:-len(".dump")] + ".data", mu)
+    os.makedirs(folder, exist_ok=True)
+    with Engine(comm=MPI.COMM_SELF) as eng:
+        last = max(steps, key=lambda p: p["F_x"])
+        k = 0
+        k_max = (cfg.inertia_extra_steps if cfg.inertia_extra_steps is not None
+                 else int(0.5 * cfg.F_x_max / cfg.dF_x))
+        while not math.isfinite(hi) and k < k_max:
+            k += 1
+            h = cfg.dF_x
+            if cfg.dF_x_max is not None:
+                # the predictor's second load at least half a step below (not a
+                # bisection point next to the ramp's end)
+                prev = max((p for p in pts if p["F_x"] < last["F_x"] - 0.5 * cfg.dF_x),
+                           key=lambda p: p["F_x"], default=None)
+                if prev is not None:
+                    h = adaptive_step(cfg.dF_x, cfg.dF_x_max,
+                                      *((p["F_x"], p["decision"], p["eigenvalues"])
+                                        for p in (prev, last)))
+            F = last["F_x"] + h
+            p = _new_point(eng, rcfg, last["dump"], F, os.path.join(folder, f"ext_{k:04d}"),
+                           I0)
+            if p is None:
+                break
+            pts.append(dict(p, new=True))
+            last = p
+            lo, hi = bracket(pts)
+        j = 0
+        while math.isfinite(hi) and math.isfinite(lo):
+            unknown = sorted(p["F_x"] for p in pts if p["decision"] == Decision.UNDECIDED and lo < p["F_x"] < hi)
+            mid, _ = next_bisection_point(lo, hi, unknown, cfg.tol)
+            if mid is None:
+                break
+            start = max((p for p in pts if p["F_x"] == lo and p["decision"] == 0),
+                        key=lambda p: p["F_x"])
+            p = _new_point(eng, rcfg, start["dump"], mid,
+                           os.path.join(folder, f"bisect_{j:03d}"), I0)
+            j += 1
+            pts.append(dict(p, new=True) if p is not None else
+                        {"F_x": mid, "decision": -1, "growth": math.nan, "dump": "",
+                         "eigenvalues": np.zeros(0, complex), "new": True})
+            lo, hi = bracket(pts)
+    pts.sort(key=lambda p: p["F_x"])
+    return pts
+
+
+# --------------------------------------------------------------------------- one packing
+def _relax(cfg, datafile, folder, protocol):
+    """Relax ``datafile`` with ``protocol``; returns the RelaxResult."""
+    from mpi4py import MPI
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.jobs.paper import relax_config
+
+    rcfg = relax_config(cfg, datafile)
+    if protocol == "frictional":
+        extra = dict({"mu_settle": float(cfg.mu)}, **cfg.frictional_relax)
+        rcfg = rcfg.replace(protocol="frictional", **extra)
+    # the folder is the packing's own: a relaxation killed in an earlier
+    # run of the job (--resume) left its files there
+    return stages.relax(rcfg, folder, comm=MPI.COMM_SELF, quiet=True, overwrite=True)
+
+
+def _ramp(cfg, datafile, mu, folder, resume=False):
+    """Ramp at friction ``mu`` from ``datafile`` (``resume``: continue the
+    ramp.h5 a killed run left, bitwise as uninterrupted); returns the
+    RampResult."""
+    from mpi4py import MPI
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.jobs.paper import ramp_config
+
+    return stages.ramp(ramp_config(cfg, datafile, mu), folder, comm=MPI.COMM_SELF, quiet=True,
+                       resume=resume)
+
+
+def _ramp_part(cfg, relaxed, mu, folder, resume=False):
+    """One ramp and the onset numbers under both conventions (dict, JSON-ready)."""
+    res = _ramp(cfg, relaxed, mu, folder, resume)
+    part = {"mu": float(mu), "ramp_status": res.status, "message": res.message,
+            "n_steps": int(len(res.F_x)), "n_bisection": int(len(res.bisection_F_x)),
+            "tol_reached": bool(res.tol_reached), "h5": res.h5}
+    pts = read_ramp(res.h5)
+    part["at_zero"] = ({"decision": pts[0]["decision"], "growth": pts[0]["growth"]}
+                       if pts and pts[0]["F_x"] == 0.0 else None)
+    part[f"I0_{cfg.I0_dynamics:g}"] = dict(onset_numbers(pts, cfg.dF_x), n_new=0,
+                                           tol_reached=bool(res.tol_reached))
+    if cfg.inertia_I0 is not None and pts:
+        I0 = float(cfg.inertia_I0)
+        ifolder = os.path.join(folder, f"I0_{I0:g}")
+        shutil.rmtree(ifolder, ignore_errors=True)     # a killed run's points
+        ipts = inertia_points(cfg, pts, mu, I0, ifolder)
+        o = onset_numbers(ipts, cfg.dF_x)
+        o.update(n_new=sum(1 for p in ipts if p.get("new")),
+                 tol_reached=bool(o["F_x_c_high"] - o["F_x_c_low"] <= cfg.tol))
+        part[f"I0_{I0:g}"] = o
+    return part
+
+
+def _frictional_part(cfg, datafile, folder):
+    """Frictional relaxation and its spectrum at F_x = 0 (dict, JSON-ready)."""
+    from remote_trigger.analysis.state.dumpfile import read_dump
+
+    rel = _relax(cfg, datafile, folder, "frictional")
+    s = spectrum(read_dump(rel.dumpfile, require_contacts=False))
+    return {"phi": rel.packing_fraction, "residual": rel.residual,
+            "antisymmetry": rel.antisymmetry, "decision": s["decision"],
+            "confidence": s["confidence"], "n_pairs": s["n_pairs"],
+            "n_complex_eigenvalues": int(np.count_nonzero(s["eigenvalues"].imag != 0)),
+            "growth": s["growth"]}
+
+
+def _failure(exc):
+    return f"{type(exc).__name__}: {exc}"
+
+
+def run_packing(cfg, n, seed, folder, resume=False):
+    """Everything measured on one packing; failures are recorded, not raised.
+
+    Each finished stage (the default relaxation, each friction's ramp part,
+    the frictional part) is recorded in ``folder/progress.json`` (atomically)
+    as soon as it is done.
+
+    Parameters
+    ----------
+    cfg : EnsembleConfig
+        Its ``dim`` chooses disks or spheres (:func:`.packing.generate`;
+        the stages take the dimension from the data file).
+    n, seed : int
+    folder : str
+        Work folder (created; its previous content is removed unless
+        ``resume``).
+    resume : bool
+        Continue the packing a killed run left in ``folder``: the stages
+        recorded in its ``progress.json`` are kept, an interrupted ramp
+        continues from its ``ramp.h5`` (bitwise as uninterrupted), any other
+        interrupted stage is redone. Without a ``progress.json`` the packing
+        starts afresh.
+
+    Returns
+    -------
+    dict
+        ``default`` (relaxation summary and ``ramps``: one part per friction,
+        see :func:`_ramp_part`), ``frictional`` (:func:`_frictional_part`;
+        None when ``cfg.frictional`` is False, always for spheres),
+        each with ``error`` (None or the reason), ``wall`` (s) and
+        ``warnings`` (the distinct warnings raised meanwhile, recorded, not
+        printed; for a resumed packing also those its kept stages recorded).
+        ``wall`` is this run's time for the packing.
+    """
+    import warnings
+
+    # the analysis warns per equilibrium (e.g. a history entry without overlap);
+    # on a rank other than 0 that would print, so every rank records them in the
+    # packing's result (tasks/<key>.json) instead
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = _run_packing(cfg, n, seed, folder, resume, caught)
+    result["warnings"] = _warning_lines(caught, result.pop("earlier_warnings"))
+    return result
+
+
+PROGRESS = "progress.json"
+
+
+def _warning_lines(caught, earlier=()):
+    return sorted(set(earlier) | {f"{w.category.__name__}: {w.message}" for w in caught})
+
+
+def _load_progress(folder):
+    """The stages a killed run finished (``progress.json``), or None."""
+    try:
+        with open(os.path.join(folder, PROGRESS)) as fh:
+            return json.load(fh)
+    except (OSError, ValueError):
+        return None
+
+
+def _run_packing(cfg, n, seed, folder, resume=False, caught=()):
+    """:func:`run_packing` without the warning capture."""
+    from remote_trigger.pywrap.stages.packing import generate, write_data
+    from remote_trigger.pywrap.runtime.jobfolder import write_json
+
+    t0 = time.perf_counter()
+    done = _load_progress(folder) if resume else None
+    if done is None:
+        if os.path.isdir(folder):
+            shutil.rmtree(folder)
+        os.makedirs(folder)
+        done = {"relax": None, "ramps": {}, "frictional": None, "warnings": []}
+    earlier = list(done["warnings"])
+
+    def record(stage, key, value):
+        """A finished stage, on disk before the next one starts."""
+        if key is None:
+            done[stage] = _jsonable(value)
+        else:
+            done[stage][key] = _jsonable(value)
+        done["warnings"] = _warning_lines(caught, earlier)
+        write_json(os.path.join(folder, PROGRESS), done)
+
+    datafile = os.path.join(folder, "packing.data")
+    result = {"n": n, "seed": seed, "default": {"error": None, "ramps": {}},
+              "frictional": None, "earlier_warnings": earlier}
+    d = result["default"]
+    try:
+        if not os.path.isfile(datafile):    # written atomically: complete if present
+            write_data(generate(n, seed=seed, phi=cfg.phi, dim=cfg.dim), datafile)
+        if done["relax"] is None:
+            rel = _relax(cfg, datafile, os.path.join(folder, "default"),
+                         "frictionless-then-friction")
+            record("relax", None, {"phi": rel.packing_fraction, "residual": rel.residual,
+                                   "antisymmetry": rel.antisymmetry,
+                                   "datafile": rel.datafile})
+        d.update({k: v for k, v in done["relax"].items() if k != "datafile"})
+        for key, mu in (("mu0", cfg.mu), ("mu_ss", cfg.mu * cfg.mu_ss)):
+            if key not in done["ramps"]:
+                record("ramps", key, _ramp_part(cfg, done["relax"]["datafile"], mu,
+                                                os.path.join(folder, f"ramp_{key}"), resume))
+            d["ramps"][key] = done["ramps"][key]
+    except Exception as exc:  # noqa: BLE001 - recorded: one packing does not stop the others
+        d["error"] = _failure(exc)
+    if cfg.frictional:
+        try:
+            if not os.path.isfile(datafile):
+                raise RuntimeError("no generated packing (see the default protocol's error)")
+            if done["frictional"] is None:
+                record("frictional", None, dict(_frictional_part(
+                    cfg, datafile, os.path.join(folder, "frictional")), error=None))
+            result["frictional"] = done["frictional"]
+        except Exception as exc:  # noqa: BLE001 - recorded
+            result["frictional"] = {"error": _failure(exc)}
+    if not cfg.keep_equilibria:
+        for key in ("mu0", "mu_ss"):
+            shutil.rmtree(os.path.join(folder, f"ramp_{key}", "ramp"), ignore_errors=True)
+            if cfg.inertia_I0 is not None:
+                shutil.rmtree(os.path.join(folder, f"ramp_{key}", f"I0_{cfg.inertia_I0:g}"),
+                              ignore_errors=True)
+    result["wall"] = time.perf_counter() - t0
+    return result
+
+
+def _jsonable(x):
+    """Result dict with NaN/inf kept as floats and numpy types as Python ones."""
+    return json.loads(json.dumps(x, default=_np_default))
+
+
+def _np_default(o):
+    if isinstance(o, np.ndarray):
+        if np.iscomplexobj(o):
+            return [[float(v.real), float(v.imag)] for v in o]
+        return o.tolist()
+    if isinstance(o, (np.integer,)):
+        return int(o)
+    if isinstance(o, (np.floating,)):
+        return float(o)
+    if isinstance(o, (np.bool_,)):
+        return bool(o)
+    if dataclasses.is_dataclass(o) and not isinstance(o, type):    # e.g. a PowerLawFit
+        return dataclasses.asdict(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
