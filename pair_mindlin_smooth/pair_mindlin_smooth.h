@@ -53,13 +53,26 @@ class PairMindlinSmooth : public Pair {
     bool listed;    // kept in the history (false: a touching pair without one)
   };
 
-  // the same in 3d: tangential displacement vector, force, torque
+  // the same in 3d: tangential displacement vector, force, n x F_t (the
+  // torque on either sphere is -R n x F_t)
   struct Contact3 {
     tagint tag;
+    int listed;
     double t[3];
-    double f[3], tq[3], en;
+    double f[3], nxf[3], en;
     double del[3];
-    bool listed;
+  };
+
+  // a contact of two owned spheres computed by the first of them in the
+  // list, waiting for the second: the first's side and what the second
+  // needs to check that its own side is the mirror image
+  struct Image3 {
+    tagint tag;          // the first sphere's ID
+    int i;               // and its local index
+    int flags;           // HAS_CONTACT, LISTED, IN_BAND, HAS_SLOT of the first side
+    int next;            // the second sphere's previous image, -1 if none
+    double t[3], f[3], nxf[3], en;
+    double stored[3];    // the first side's stored history (zero if none)
   };
 
  protected:
@@ -69,9 +82,16 @@ class PairMindlinSmooth : public Pair {
   int idx_partner, idx_t;           // indices of the history arrays (2d)
   int idx_t3[3];                    // 3d: mindlin_tx, mindlin_ty, mindlin_tz
   std::vector<Contact> contacts;    // scratch space, >= ncol entries
-  std::vector<Contact3> contacts3;    // the same in 3d
+  std::vector<Contact3> contacts3;    // 3d: one atom's contacts
+  std::vector<int> order3;            // 3d: the same in ascending tag
+  std::vector<Image3> images3;        // 3d: the images of one step, in the
+                                      // order they were made (compact, so
+                                      // that they stay in cache until used)
+  std::vector<int> rank3, head3;      // 3d: each atom's position in the list
+                                      // and its latest image (-1: none)
   class FixMindlinHistory *history;    // internal storage, or nullptr when
                                        // a fix property/atom holds the arrays
+  bool packed3;    // 3d: history slots past the first empty one are known to be zero
 
   void allocate();
   void find_history();
