@@ -14,7 +14,9 @@ DOCS_OUT   ?= docs/_build/html
 SPHINXOPTS ?=
 # MPI ranks of `make demo`: 2 where the machine has 2 cores or more (the job's
 # independent stages run side by side, results bitwise equal to 1 rank;
-# docs/paper.md "Timing"), else 1
+# docs/paper.md "Timing"), else 1; also the number of pytest-xdist workers of
+# `make test` (one test file per worker at a time, so a module's fixtures are
+# built once)
 NP     ?= $(shell n=$$(nproc 2>/dev/null || echo 1); [ "$$n" -ge 2 ] && echo 2 || echo 1)
 
 SOURCES := pyproject.toml CMakeLists.txt \
@@ -50,7 +52,7 @@ demo: install
 	$(VENV)/bin/remote-trigger paper --np $(NP) --out $(OUT)
 
 test: install
-	$(PY) -m pytest -q -ra
+	$(PY) -m pytest -q -ra -n $(NP) --dist loadfile
 
 docs: install
 	$(PY) -m sphinx -W --keep-going -b html $(SPHINXOPTS) docs $(DOCS_OUT)
