@@ -65,17 +65,7 @@ DF_X = 2.5e-4
 SCENES = ((2, 100), (3, 160))
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-
-def _commit():
-    """The source commit measured (and whether the tree differs from it)."""
-    try:
-        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT,
-                             capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                               cwd=ROOT, capture_output=True, text=True).stdout.strip()
-        return rev + (" (with uncommitted changes)" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+from bench_step import _commit  # noqa: E402  (the source commit measured)
 
 
 def relaxed(dim, n, seed, base):
