@@ -1,0 +1,727 @@
+r"""A certified complex-pair verdict on the whole spectrum, by spectrum slicing.
+
+The dense decision (:mod:`remote_trigger.analysis.stability.exceptional`)
+costs O(n^3) time and 14 n x n matrices of memory; from n ~ 10^4 it no
+longer fits. This module decides the same question for a sparse K -- does
+M^{-1}(K + E) have a complex pair, for every E with |E| <= rel_error |K|
+entrywise -- at the cost of computing the eigenpairs of the *symmetric part*
+in slices with sparse factorizations, O(n^2 k) time and O(n k) memory
+(k a slice's size).
+
+**Setting.** M is diagonal, so M^{-1}K is similar to A = M^{-1/2} K M^{-1/2}
+= S + W, S symmetric, W skew-symmetric. In the paper's systems W is small
+(||W||_2 ~ 1e-3 lambda_max at the onset: the tangential stiffness's
+asymmetry) but larger than the mean spacing of S's eigenvalues from
+N ~ 1000 on, so eigenvalue inclusion discs of radius ||W|| (Bauer-Fike)
+overlap everywhere and decide nothing. What decides is the *local* coupling
+across a point of the real axis.
+
+**Boundary lemma.** Let a be real, not an eigenvalue of S, and write S in an
+orthonormal basis where it is block diagonal up to small terms:
+S = H + a + (symmetric rest), H = diag(Theta_N - a, H_2), Theta_N the Ritz
+values of S within Delta of a (their vectors computed), H_2 the
+compression of S to the orthogonal complement (eigenvalues at least
+Delta_eff from a, shown by counting, below). Put Gamma = |H|, J = sign(H)
+(they commute) and B = A + F - a - H (F any matrix of the set, ||F||_2 <=
+eps). For z = a + iy, Gamma^{-1/2}(A + F - z)Gamma^{-1/2} = J + B' -
+iy Gamma^{-1} with B' = Gamma^{-1/2} B Gamma^{-1/2}. Since J and Gamma^{-1}
+commute, v^* J Gamma^{-1} v is real, so
+Re <Jv, (J + B' - iy Gamma^{-1}) v> >= (1 - ||herm(J B')||) ||v||^2.
+If kappa(a) := ||herm(J B')|| < 1, no matrix S + t(W + F + rest), 0 <= t
+<= 1, has an eigenvalue on the line Re z = a, and by continuity in t **the
+number of eigenvalues of A + F with real part below a equals the number of
+eigenvalues of S below a**. For the skew W, herm(J W') = (J W' - W' J)/2
+couples only directions on opposite sides of a, each weighted by
+1/sqrt(|theta_i - a| |theta_j - a|): a pair (i, j) with a between them
+counts as |w_ij| / sqrt(g_i g_j) (the exact 2 x 2 condition for a real pair
+is |w_ij| < sqrt(g_i g_j) with a at its centre). kappa(a) is bounded by the
+2-norm of the 2 x 2 matrix of block norms: x11 the Frobenius norm of the
+near block (explicit), x12 = ||W Q_N Gamma_N^{-1/2}||_F / sqrt(Delta_eff),
+x22 = ||W||_2 / Delta_eff, plus ||symmetric rest + F|| / min Gamma.
+
+**Counting.** The number of eigenvalues of S below a is Sylvester's inertia
+of a sparse factorization P(S - aI)P^T = L U (SuperLU, symmetric
+permutation, diagonal pivots): with D = diag(U), L D L^T = P(S - aI)P^T + Z
+exactly, Z symmetric with ||Z||_2 <= ||Z||_inf <= fuzz (the a-priori
+backward error gamma_n |L||U| of Gaussian elimination, Higham Thm. 9.3, plus
+|L||D L^T - U|), so #neg(D) lies between the counts of S below a - fuzz and
+a + fuzz. Ritz pairs of S are computed slice by slice (ARPACK shift-invert
+with the same factorization), each slice's Rayleigh-Ritz residual R bounding
+its values by Kahan's theorem (|theta_i - lambda| <= ||R||_2, distinct
+eigenvalues). The slices' edges x_j lie in gaps; if every slice's count
+#neg(x_{j+1}) - #neg(x_j) equals its number of Ritz values and the counts
+run from 0 to n, every eigenvalue of S is matched to a Ritz value and lies
+inside a slice, so none is near an edge, and the window and Delta_eff of
+every boundary hold.
+
+**Strips.** Certified boundaries cut the real axis into strips; a strip
+with one eigenvalue of S holds exactly one eigenvalue of A + F, which is
+real (conjugate symmetry). A strip with m >= 2 (a strongly coupled
+cluster: a complex pair or a real pair near its exceptional point) is
+decided from its m x m block T = Theta_I + Q_I^T W Q_I: for real x in the
+strip, A + F - x is singular iff the Schur complement T - x + E(x) is, with
+||E(x)|| <= eta(x) = b(x)^2 / (1 - kappa_r(x)) + rho_T (b the scaled
+coupling of the strip to the rest, kappa_r the rest's boundary bound at x,
+rho_T the error of T). If sigma_min(T - x) > eta(x) on the whole strip, it
+holds no real eigenvalue: its m eigenvalues are complex pairs
+(**complex**, certified). If det(T - x) changes sign m times at points where
+sigma_min(T - x) > eta(x), there are m real roots (**real**). Otherwise the
+strip is **undecided** and says why.
+
+The spectrum is *complex* if a strip is certified complex, *real* if every
+strip is certified real, else *undecided*. Every bound is rigorous with the
+rounding errors of the float64 computations bounded a priori (gamma_k, as
+in :mod:`~remote_trigger.analysis.stability.enclosure`), except that the
+sums and norms of small computed quantities are inflated by a factor (1 +
+1e-10) rather than bounded term by term.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+import math
+import time
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from remote_trigger.analysis.stability.decision import PairDecision, SpectrumDecision
+from remote_trigger.analysis.stability.enclosure import U, _gamma, _sigma_min_lower
+
+__all__ = ["classify_sliced", "count_below", "SlicedStats"]
+
+_INFLATE = 1.0 + 1e-10          # inflation of computed sums of nonnegative terms
+_MAX_STRIP = 8                  # largest cluster decided from its block
+
+
+class _Fail(Exception):
+    """A step could not be certified; the message is the reason."""
+
+
+@dataclass
+class SlicedStats:
+    """What the sliced verdict did (``SpectrumDecision.timing`` holds the times).
+
+    Attributes
+    ----------
+    n : int
+        Order of A.
+    slices : int
+        Number of shift-invert slices of S.
+    boundaries : int
+        Certified boundaries (a strip between two).
+    strips : dict
+        Number of strips per size m.
+    norm_W : float
+        Rigorous upper bound of ||W||_2 (1/time^2).
+    window : float
+        Delta, the half-width of the explicit window (1/time^2).
+    max_kappa : float
+        Largest kappa(a) among certified boundaries.
+    fuzz : float
+        Largest inertia fuzz (1/time^2).
+    ritz_radius : float
+        Largest Ritz radius ||R||_2 of a slice (1/time^2).
+    """
+
+    n: int = 0
+    slices: int = 0
+    boundaries: int = 0
+    strips: dict = field(default_factory=dict)
+    norm_W: float = 0.0
+    window: float = 0.0
+    max_kappa: float = 0.0
+    fuzz: float = 0.0
+    ritz_radius: float = 0.0
+
+
+# --------------------------------------------------------------------------- counting
+def _lu(H):
+    """SuperLU of a symmetric matrix with a symmetric permutation and diagonal pivots."""
+    lu = spla.splu(sp.csc_matrix(H), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                   options=dict(SymmetricMode=True, Equil=False))
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        raise _Fail("the inertia factorization pivoted off the diagonal")
+    return lu
+
+
+def count_below(S, a, lu=None):
+    """Sylvester count of the eigenvalues of the symmetric S below a, with its fuzz.
+
+    Parameters
+    ----------
+    S : sparse matrix, shape (n, n)
+        Symmetric, float64.
+    a : float
+        The shift.
+    lu : SuperLU, optional
+        A factorization of S - a I made by this module (reused).
+
+    Returns
+    -------
+    count : int
+        Number of negative pivots: the number of eigenvalues below a of a
+        symmetric S + Z with ||Z||_2 <= fuzz, hence between the counts of S
+        below a - fuzz and below a + fuzz.
+    fuzz : float
+        Rigorous bound of ||Z||_2 (same units as S).
+    lu : SuperLU
+        The factorization (for solves with S - a I).
+
+    Raises
+    ------
+    ValueError
+        If the factorization met a zero pivot or pivoted off the diagonal
+        (a is an eigenvalue, or S - a I is too ill-conditioned here).
+    """
+    n = S.shape[0]
+    H = sp.csc_matrix(S - a * sp.identity(n, format="csc"))
+    try:
+        lu = lu or _lu(H)
+    except (_Fail, RuntimeError) as exc:
+        raise ValueError(f"no inertia of S - a I at a = {a!r}: {exc}") from None
+    L, Uf = lu.L.tocsr(), lu.U.tocsr()
+    d = Uf.diagonal()
+    if not np.all(np.isfinite(d)) or np.any(d == 0):
+        raise ValueError(f"no inertia of S - a I at a = {a!r}: zero pivot")
+    aL, aU = abs(L), abs(Uf)
+    one = np.ones(n)
+    ge = _gamma(n + 2) * float(np.max(aL @ (aU @ one)))
+    E2 = (sp.diags(d) @ L.T.tocsr() - Uf)           # D L^T - U: exact would be 0
+    e2 = float(np.max(aL @ (abs(E2) @ one) + U * (aL @ (abs(sp.diags(d) @ L.T) @ one))))
+    diag_err = U * float(np.max(np.abs(S.diagonal() - a)))      # rounding of S_ii - a
+    fuzz = (ge + e2 * (1 + 4 * U) + diag_err) * _INFLATE
+    return int(np.count_nonzero(d < 0)), fuzz, lu
+
+
+def _norm1(X):
+    return float(abs(X).sum(axis=0).max()) * (1 + _gamma(X.shape[0]))
+
+
+def _norm2_skew(W):
+    """Rigorous upper bound of ||W||_2 for a skew W: ||W||_1 (= ||W||_inf), sharpened
+    by the inertia of [[t I, W], [W^T, t I]] (eigenvalues t +- sigma_i(W))."""
+    crude = _norm1(W)
+    n = W.shape[0]
+    if n < 3 or crude == 0:
+        return crude
+    try:
+        est = spla.svds(W, k=1, return_singular_vectors=False, tol=1e-6)[0]
+    except Exception:            # ARPACK failures leave the crude bound
+        return crude
+    t = 1.02 * est
+    aug = sp.bmat([[None, W], [W.T, None]], format="csc")
+    try:
+        cnt, fuzz, _ = count_below(aug, -t)
+    except ValueError:
+        return crude
+    # the augmented matrix minus (-t) ... shifted: eigenvalues of aug are +- sigma_i,
+    # so no eigenvalue below -t - fuzz means ||W|| <= t + fuzz
+    return min(crude, (t + fuzz) * (1 + 4 * U)) if cnt == 0 else crude
+
+
+# --------------------------------------------------------------------------- slices
+@dataclass
+class _Slice:
+    lo: float                   # lower edge (a gap point)
+    hi: float                   # upper edge
+    theta: np.ndarray           # Ritz values in (lo, hi)
+    Q: np.ndarray               # n x k Ritz vectors
+    WQ: np.ndarray              # W Q
+    radius: float               # Kahan radius ||R||_2 bound
+    resid: np.ndarray           # per-vector residual norm bounds
+    phi: float                  # ||Q^T Q - I||_2 bound
+
+
+def _ritz(S, W, Q, normS, normW):
+    """Rayleigh-Ritz of S on span(Q); vectors, values, radius, residuals, phi."""
+    Q, _ = np.linalg.qr(Q)
+    H = Q.T @ (S @ Q)
+    theta, Y = np.linalg.eigh((H + H.T) / 2)
+    Q = Q @ Y
+    SQ = S @ Q
+    R = SQ - Q * theta
+    n, k = Q.shape
+    G = Q.T @ Q - np.eye(k)
+    phi = (np.linalg.norm(G) + _gamma(n) * k) * _INFLATE
+    round_r = _gamma(n + 2) * (normS + float(np.max(np.abs(theta)))) * math.sqrt(k)
+    resid = (np.linalg.norm(R, axis=0) + round_r) * _INFLATE
+    # Kahan for the exactly orthonormal Q (Q^T Q)^{-1/2}: ||R|| (1 + phi) + 2 phi |theta|
+    radius = (math.sqrt(float(np.sum(resid ** 2))) * (1 + phi)
+              + 2 * phi * float(np.max(np.abs(theta)))) * _INFLATE
+    return theta, Q, W @ Q, radius, resid, phi
+
+
+def _slices(S, W, k, normS, normW, lo0, stats):
+    """Yield the Ritz slices of S from ``lo0`` (below the spectrum) upwards."""
+    n = S.shape[0]
+    x = lo0
+    cnt_x, fz, lu = count_below(S, x)
+    if cnt_x != 0:
+        raise _Fail(f"{cnt_x} eigenvalues of S below the Gershgorin bound {x:.6g}")
+    stats.fuzz = max(stats.fuzz, fz)
+    rng = np.random.default_rng(12345)
+    while cnt_x < n:
+        rem = n - cnt_x
+        kk = min(k, rem)
+        op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=np.float64)
+        if kk >= n - 1:
+            lam, V = np.linalg.eigh(S.toarray())
+            lam, V = lam[cnt_x:], V[:, cnt_x:]
+        else:
+            lam, V = spla.eigsh(S, k=kk, sigma=x, which="LA", OPinv=op, tol=0.0,
+                                v0=rng.standard_normal(n), ncv=min(n, max(2 * kk + 1, 20)))
+        theta, Q, WQ, radius, resid, phi = _ritz(S, W, V, normS, normW)
+        if np.any(theta <= x):
+            raise _Fail(f"a Ritz value at or below the slice edge {x:.6g}")
+        if kk == rem:
+            y = float(theta[-1]) + max(1.0, abs(float(theta[-1]))) * 1e-3 + 2 * radius
+            keep = np.ones(theta.size, bool)
+        else:
+            # the upper edge in the largest gap among the top tenth
+            top = max(2, kk // 10)
+            g = np.diff(theta[-top:])
+            j = theta.size - top + int(np.argmax(g))
+            y = 0.5 * (theta[j] + theta[j + 1])
+            keep = theta < y
+        cnt_y, fz, lu_y = count_below(S, y)
+        stats.fuzz = max(stats.fuzz, fz)
+        if cnt_y - cnt_x != int(keep.sum()):
+            raise _Fail(f"slice ({x:.6g}, {y:.6g}) holds {cnt_y - cnt_x} eigenvalues of S "
+                        f"by inertia but {int(keep.sum())} Ritz values")
+        gap_lo = float(theta[keep][0] - x)
+        gap_hi = float(y - theta[keep][-1])
+        if min(gap_lo, gap_hi) <= 2 * (radius + stats.fuzz):
+            raise _Fail(f"slice edge within the Ritz radius {radius:.3g} of a Ritz value")
+        stats.slices += 1
+        stats.ritz_radius = max(stats.ritz_radius, radius)
+        yield _Slice(x, y, theta[keep], Q[:, keep], WQ[:, keep], radius, resid[keep], phi)
+        x, cnt_x, lu = y, cnt_y, lu_y
+
+
+# --------------------------------------------------------------------------- buffer
+class _Buffer:
+    """The Ritz pairs of the slices in memory: values, residuals, vectors, W Q and
+    Q^T W Q (skew), and the norms of the overlaps Q_i^T Q_j of different slices."""
+
+    def __init__(self, n):
+        self.th = np.zeros(0)
+        self.rs = np.zeros(0)
+        self.sid = np.zeros(0, int)
+        self.Q = np.zeros((n, 0))
+        self.WQ = np.zeros((n, 0))
+        self.Wn = np.zeros((0, 0))
+        self.wqn = np.zeros(0)   # ||W q_i||
+        self.phis = {}          # slice id -> phi
+        self.cross = {}         # (i, j), i < j -> ||Q_i^T Q_j||_F
+        self.edges = []         # (id, lo, hi)
+
+    def add(self, sl, sid):
+        C = self.Q.T @ sl.WQ
+        D = sl.Q.T @ sl.WQ
+        for j in np.unique(self.sid):
+            self.cross[(int(j), sid)] = float(np.linalg.norm(self.Q[:, self.sid == j].T @ sl.Q))
+        self.Wn = np.block([[self.Wn, C], [-C.T, D]])
+        self.Q = np.hstack([self.Q, sl.Q])
+        self.WQ = np.hstack([self.WQ, sl.WQ])
+        self.th = np.concatenate([self.th, sl.theta])
+        self.wqn = np.concatenate([self.wqn, np.linalg.norm(sl.WQ, axis=0)])
+        self.rs = np.concatenate([self.rs, sl.resid])
+        self.sid = np.concatenate([self.sid, np.full(sl.theta.size, sid)])
+        self.phis[sid] = sl.phi
+        self.edges.append((sid, sl.lo, sl.hi))
+
+    def drop_below(self, x):
+        """Forget the slices whose upper edge is below x (keep at least one)."""
+        gone = [e for e in self.edges[:-1] if e[2] < x]
+        if not gone:
+            return
+        keep = ~np.isin(self.sid, [e[0] for e in gone])
+        self.th, self.rs, self.sid = self.th[keep], self.rs[keep], self.sid[keep]
+        self.wqn = self.wqn[keep]
+        self.Q, self.WQ = self.Q[:, keep], self.WQ[:, keep]
+        self.Wn = self.Wn[np.ix_(keep, keep)]
+        self.edges = self.edges[len(gone):]
+
+    @property
+    def lo(self):
+        return self.edges[0][1]
+
+    @property
+    def hi(self):
+        return self.edges[-1][2]
+
+    def phi(self, idx):
+        """Bound of ||Q_N^T Q_N - I||_2 for the Ritz vectors idx (their slices' overlaps)."""
+        used = sorted(set(int(i) for i in self.sid[idx]))
+        tot = sum(self.phis[i] ** 2 for i in used)
+        tot += 2 * sum(self.cross[(i, j)] ** 2 for i in used for j in used if i < j)
+        return math.sqrt(tot) * _INFLATE
+
+
+def _norm22(x11, x12, x22):
+    """2-norm of the symmetric 2 x 2 matrix of block norms."""
+    m = 0.5 * (x11 + x22)
+    return (m + math.sqrt(0.25 * (x11 - x22) ** 2 + x12 * x12)) * _INFLATE
+
+
+@dataclass
+class _Ctx:
+    normW: float
+    normS: float
+    eps: float
+    Delta: float
+    rnd: float                  # rounding of the W products (absolute, 2-norm)
+    A: object = None            # M^-1/2 K M^-1/2 (CSR)
+    normA1: float = 0.0         # ||A||_1 >= ||A||_2 bound of |A|
+    r_glob: float = 0.0         # largest Kahan radius so far
+
+
+def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
+    """kappa of the rest (all but ``exclude``) across the interval [lower, upper].
+
+    ``lo_edge``/``hi_edge``: below/above them Ritz values are not in the buffer
+    (None: no eigenvalue there). Returns kappa, g_min, Delta_eff, near indices,
+    their g (distance to the interval), the Xi bound and phi of the near set.
+    """
+    th, rs, wqn = buf.th, buf.rs, buf.wqn
+    dist = np.where(th < lower, lower - th, np.where(th > upper, th - upper, 0.0))
+    ex = np.zeros(th.size, bool)
+    ex[list(exclude)] = True
+    if np.any((dist == 0) & ~ex):
+        raise _Fail("a Ritz value of the rest inside the interval")
+    near = np.nonzero((dist < ctx.Delta) & ~ex)[0]
+    far_d = [lower - lo_edge if lo_edge is not None else math.inf,
+             hi_edge - upper if hi_edge is not None else math.inf]
+    out = np.nonzero((dist >= ctx.Delta) & ~ex)[0]
+    d_out = min(far_d + ([float(dist[out].min())] if out.size else []))
+    used = np.concatenate([near, np.asarray(list(exclude), int)])
+    phi = buf.phi(used) if used.size else 0.0
+    rhat = (math.sqrt(float(np.sum(rs[used] ** 2))) * (1 + phi)
+            + 2 * phi * float(np.max(np.abs(th[used])) if used.size else 0.0)) * _INFLATE
+    d_eff = d_out - ctx.r_glob - 4 * rhat
+    if not d_eff > 0:
+        raise _Fail("the window's complement is not separated from the interval")
+    g = dist[near]
+    g_min = min(float(g.min()) if g.size else math.inf, d_eff)
+    xi = ctx.eps + 2 * rhat + (2 * phi + phi * phi) * ctx.normW + ctx.rnd * max(used.size, 1)
+    below = lo_edge is None and not np.any((th < lower) & ~ex)
+    above = hi_edge is None and not np.any((th > upper) & ~ex)
+    if below or above:
+        # one side empty: J = +-I, herm(J W') = 0 for the skew W
+        return xi / g_min, g_min, d_eff, near, dist[near], xi, phi
+    Ls, Us = near[th[near] < lower], near[th[near] > upper]
+    if Ls.size and Us.size:
+        B = buf.Wn[np.ix_(Ls, Us)]
+        x11 = float(np.linalg.norm((np.abs(B) + ctx.rnd) / np.sqrt(
+            np.outer(dist[Ls], dist[Us])))) * _INFLATE
+    else:
+        x11 = 0.0
+    x12 = ((math.sqrt(float(np.sum(wqn[near] ** 2 / g))) * (1 + phi) + ctx.rnd
+            * math.sqrt(near.size / g_min)) / math.sqrt(d_eff)) * _INFLATE if near.size else 0.0
+    x22 = ctx.normW / d_eff
+    kappa = _norm22(x11, x12, x22) + xi / g_min
+    return kappa, g_min, d_eff, near, g, xi, phi
+
+
+def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
+    """Decide one strip of m >= 2 eigenvalues (module docstring, *Strips*).
+
+    With Q_I the strip's Ritz vectors (orthonormalised) and Q_r the rest, for
+    real x in [a_lo, a_hi] the Schur complement of A - x onto span(Q_I) is
+    T(x) = Q_I^T A Q_I - x - Q_I^T A Y(x), Y(x) the solution in range(Q_r) of
+    P_r (A - x) Y = P_r A Q_I: a bordered sparse system. Its computed Y has a
+    residual Z; the true complement differs by at most b ||Z|| /
+    (sqrt(g_min) (1 - kappa_r)), and T is Lipschitz in x with constant
+    1 + b^2 / (g_min (1 - kappa_r)^2) (b, kappa_r, g_min bounded on the
+    whole strip by :func:`_coupling`).
+    """
+    m = I.size
+    kap, g_min, d_eff, near, g, xi, phi = _coupling(
+        ctx, buf, a_lo, a_hi, lo_edge, hi_edge, exclude=I)
+    lam0 = buf.th[I].astype(complex)
+    if not kap < 1:
+        return "undecided", 0.0, lam0, f"the rest is coupled across the strip (kappa {kap:.3g})"
+    WQI = buf.WQ[:, I]
+    cross = buf.Wn[np.ix_(near, I)]
+    bn = float(np.linalg.norm((np.abs(cross) + ctx.rnd) / np.sqrt(g)[:, None])) if near.size else 0.0
+    b = (math.sqrt(bn ** 2 + float(np.sum(WQI ** 2)) / d_eff) * (1 + phi)
+         + xi * math.sqrt(m) / math.sqrt(g_min)) * _INFLATE
+    lip = (1.0 + b * b / (g_min * (1 - kap) ** 2)) * _INFLATE
+    A = ctx.A
+    n = A.shape[0]
+    Q, _ = np.linalg.qr(buf.Q[:, I])
+    phiI = (float(np.linalg.norm(Q.T @ Q - np.eye(m))) + _gamma(n) * m) * _INFLATE
+    AQ = A @ Q
+    Tc = Q.T @ AQ
+    # errors of Tc and of the set: rounding, the non-orthonormality of Q, F
+    rho = ((_gamma(n + 8) * m * ctx.normA1 + (2 * phiI + phiI ** 2) * ctx.normA1)
+           + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * _INFLATE
+    I_n = sp.identity(n, format="csr")
+    Qs = sp.csr_matrix(Q)
+
+    def schur(x):
+        M = sp.bmat([[A - x * I_n, Qs], [Qs.T, None]], format="csc")
+        try:
+            sol = spla.splu(M).solve(np.vstack([AQ, np.zeros((m, m))]))
+        except RuntimeError:
+            return None, math.inf
+        Y = sol[:n]
+        Y = Y - Q @ (Q.T @ Y)
+        Z = (A @ Y - x * Y) - AQ
+        Z = Z - Q @ (Q.T @ Z)
+        T = Tc - x * np.eye(m) - Q.T @ (A @ Y)
+        err = (b * (float(np.linalg.norm(Z)) + _gamma(n + 8) * ctx.normA1
+                    * float(np.linalg.norm(Y)) * 4) / math.sqrt(g_min) / (1 - kap)
+               + _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y)) * 2 + rho)
+        return T, err * _INFLATE
+
+    def test(x):
+        T, err = schur(x)
+        if T is None:
+            return 0.0, 0.0, T
+        floor = 1e3 * _gamma(m + 2) * float(np.linalg.norm(T))
+        return _sigma_min_lower(T) - err, max(err, floor), T
+
+    # the strip's eigenvalues: fixed point of x = eig(T(x) + x) from the Ritz values
+    T0, _ = schur(0.5 * (a_lo + a_hi))
+    if T0 is None:
+        return "undecided", 0.0, lam0, "the bordered system of the strip is singular"
+    lam_c = np.linalg.eigvals(T0 + 0.5 * (a_lo + a_hi) * np.eye(m))
+    for _ in range(3):
+        if np.all(lam_c.imag == 0):
+            new = []
+            for lr in np.sort(lam_c.real):
+                T1, _ = schur(float(lr))
+                if T1 is None:
+                    break
+                ev = np.linalg.eigvals(T1 + lr * np.eye(m))
+                new.append(ev[np.argmin(np.abs(ev - lr))])
+            if len(new) == m:
+                lam_c = np.asarray(new)
+    real = np.sort(lam_c.real[np.abs(lam_c.imag) == 0])
+    if real.size == m:
+        pts = np.concatenate([[a_lo], 0.5 * (real[1:] + real[:-1]), [a_hi]])
+        signs, margin = [], math.inf
+        for p in pts:
+            s, floor, T = test(float(p))
+            if not s > floor:
+                return "undecided", max(s, 0.0) / floor if floor else 0.0, lam_c, (
+                    f"strip of {m}: det of its Schur complement not certified at x = {p:.9g}")
+            margin = min(margin, (s + floor) / floor if floor else math.inf)
+            signs.append(np.linalg.slogdet(T)[0])
+        if all(signs[i] != signs[i + 1] for i in range(m)):
+            return "real", margin, lam_c, ""
+        return "undecided", 0.0, lam_c, f"strip of {m}: no sign change of det between roots"
+    if real.size == 0:
+        # no real root on [a_lo, a_hi]: cover it by intervals where sigma_min > lip h
+        todo, margin, evals = [(a_lo, a_hi)], math.inf, 0
+        while todo:
+            lo, hi = todo.pop()
+            mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+            s, floor, _ = test(mid)
+            evals += 1
+            if s - lip * h > floor:
+                margin = min(margin, (s - lip * h) / floor if floor else math.inf)
+                continue
+            if evals > 400 or h < 1e-12 * max(abs(mid), 1.0):
+                return "undecided", max(s - lip * h, 0.0) / floor if floor else 0.0, lam_c, (
+                    f"strip of {m}: a real root cannot be excluded near x = {mid:.9g}")
+            todo += [(lo, mid), (mid, hi)]
+        return "complex", margin, lam_c, ""
+    return "undecided", 0.0, lam_c, f"strip of {m}: real and complex block eigenvalues"
+
+
+# --------------------------------------------------------------------------- the verdict
+def _scaled(K, mass):
+    """A = M^-1/2 K M^-1/2 (CSR), its symmetric part S (CSC) and skew part W (CSR)."""
+    K = sp.csr_matrix(K, dtype=np.float64)
+    n = K.shape[0]
+    if K.ndim != 2 or K.shape[1] != n:
+        raise ValueError(f"K must be square, got shape {K.shape}")
+    if not np.all(np.isfinite(K.data)):
+        raise ValueError("K has non-finite entries")
+    mass = np.asarray(mass, np.float64).reshape(-1)
+    if mass.size != n or not np.all(np.isfinite(mass)) or np.any(mass <= 0):
+        raise ValueError(f"mass must be {n} finite positive values, got {mass.size} values "
+                         f"with minimum {float(np.min(mass)) if mass.size else float('nan')!r}")
+    s = 1.0 / np.sqrt(mass)
+    A = sp.diags(s) @ K @ sp.diags(s)
+    A = sp.csr_matrix(A)
+    A.sum_duplicates()
+    S = ((A + A.T) * 0.5).tocsc()
+    W = ((A - A.T) * 0.5).tocsr()
+    W.eliminate_zeros()
+    return A, S, W
+
+
+def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=None):
+    """Certified complex-pair verdict on the whole spectrum of M^-1 K, by slicing.
+
+    Parameters
+    ----------
+    K : sparse matrix, shape (n, n)
+        Stiffness K = -dG/dq after rattler removal (force/length), float64.
+    mass : array_like, shape (n,)
+        Diagonal of M.
+    rel_error : float, optional
+        Entrywise relative uncertainty of K (default u = 2^-53); the verdict
+        holds for every M^-1 (K + E) with |E| <= rel_error |K|.
+    window : float, optional
+        Half-width Delta of the explicit window about each boundary, in units
+        of ||W||_2 (default 10); larger decides more boundaries at more cost.
+    slice_size : int, optional
+        Ritz pairs per shift-invert slice (default: about three windows).
+    stats : SlicedStats, optional
+        Filled with what was done.
+
+    Returns
+    -------
+    SpectrumDecision
+        ``complex_present`` True / False / None as the dense decision
+        (:func:`~remote_trigger.analysis.stability.exceptional.classify_spectrum`),
+        ``coverage`` 'whole', ``start`` 'sliced'; ``pairs`` holds one entry
+        per strip of two or more eigenvalues; ``eigenvalues`` are the Ritz
+        values of S for single strips (the eigenvalue of A in such a strip is
+        real and within the strip) and the block eigenvalues of larger strips:
+        approximations, not enclosures.
+
+    Raises
+    ------
+    ValueError
+        If K is not square or finite, or a mass is not positive.
+
+    Notes
+    -----
+    Module docstring: what is certified and how.
+    """
+    t0 = time.perf_counter()
+    stats = stats if stats is not None else SlicedStats()
+    A, S, W = _scaled(K, mass)
+    n = A.shape[0]
+    stats.n = n
+    absA = abs(A)
+    nA = math.sqrt(_norm1(absA) * _norm1(absA.T))
+    nSW = _norm1(abs(S) + abs(W))
+    eps = ((rel_error + 12 * U) * nA + U * nSW) * _INFLATE
+    normW = _norm2_skew(W)
+    normS = _norm1(S)
+    stats.norm_W = normW
+    rows = int(np.max(np.diff(A.indptr))) if n else 0
+    rnd = _gamma(n + rows + 4) * _norm1(abs(W)) * 4
+    ctx = _Ctx(normW, normS, eps, window * normW if normW > 0 else 1e-3 * max(normS, 1.0), rnd,
+               A, nA)
+    stats.window = ctx.Delta
+    absS = abs(S)
+    gersh = float(np.min(S.diagonal() - (np.asarray(absS.sum(axis=1)).ravel()
+                                         - np.abs(S.diagonal()))))
+    lo0 = gersh - 1e-3 * max(normS, 1.0) - 1.0
+    if slice_size is None:
+        slice_size = int(min(600, max(60, 3 * 2 * ctx.Delta / max(normS, 1e-300) * n)))
+    pairs, lam, reason = [], [], ""
+    certified = [lo0]           # certified boundaries
+    cert_count = [0]            # Ritz values below each
+    n_done = 0                  # global index of the next gap to test
+    buf = _Buffer(n)
+    dropped = 0                 # Ritz values forgotten below the buffer
+    margins, complex_margins, undecided_margins = [], [], []
+    strips = {}
+    t_slices = 0.0
+
+    def finish_strip(lo_idx, hi_idx, a_lo, a_hi, final):
+        m = hi_idx - lo_idx
+        strips[m] = strips.get(m, 0) + 1
+        I = np.arange(lo_idx, hi_idx) - dropped
+        if m == 1:
+            lam.append(complex(buf.th[I[0]]))
+            return
+        if m > _MAX_STRIP:
+            lam.extend(complex(t) for t in buf.th[I])
+            undecided_margins.append(0.0)
+            pairs.append(PairDecision(buf.th[I].astype(complex), False, False, 0.0,
+                                      method="sliced-strip",
+                                      reason=f"strip of {m} eigenvalues (> {_MAX_STRIP})"))
+            return
+        try:
+            verdict, margin, lam_c, why = _decide_strip(
+                ctx, buf, I, a_lo, a_hi, buf.lo if dropped else None, None if final else buf.hi)
+        except _Fail as exc:
+            verdict, margin, why = "undecided", 0.0, str(exc)
+            lam_c = buf.th[I].astype(complex)
+        lam.extend(lam_c)
+        ok = verdict != "undecided"
+        pairs.append(PairDecision(np.sort_complex(lam_c), verdict == "complex", ok,
+                                  float(margin), method="sliced-strip", reason=why))
+        (complex_margins if verdict == "complex" else margins if ok
+         else undecided_margins).append(float(margin))
+
+    try:
+        gen = _slices(S, W, slice_size, normS, normW, lo0, stats)
+        final = False
+        sid = 0
+        while not final:
+            ts = time.perf_counter()
+            sl = next(gen)
+            t_slices += time.perf_counter() - ts
+            buf.add(sl, sid)
+            sid += 1
+            ctx.r_glob = max(ctx.r_glob, sl.radius)
+            final = dropped + buf.th.size == n
+            top = n if final else None
+            # test the gaps between Ritz values whose window lies in the buffer
+            while True:
+                j = n_done                # gap between global Ritz j - 1 and j
+                if j > n:
+                    break
+                if j == n:
+                    if not final:
+                        break
+                    a = float(buf.th[-1]) + max(ctx.Delta, 1.0)
+                else:
+                    if j - dropped >= buf.th.size:
+                        break
+                    a = (0.5 * (buf.th[j - 1 - dropped] + buf.th[j - dropped]) if j > 0
+                         else None)
+                    if a is None:
+                        n_done += 1
+                        continue
+                    if not final and a + ctx.Delta > buf.hi:
+                        break
+                n_done += 1
+                try:
+                    kap = _coupling(ctx, buf, a, a, buf.lo if dropped else None,
+                                    None if final else buf.hi)[0]
+                except _Fail:
+                    kap = math.inf
+                if kap < 1:
+                    stats.boundaries += 1
+                    stats.max_kappa = max(stats.max_kappa, kap)
+                    margins.append(1.0 / kap if kap > 0 else math.inf)
+                    finish_strip(cert_count[-1], j, certified[-1], a, final)
+                    certified.append(a)
+                    cert_count.append(j)
+                if top is None and len(certified) > 1:
+                    low = certified[-1] - 2 * ctx.Delta
+                    before = buf.th.size
+                    buf.drop_below(low)
+                    dropped += before - buf.th.size
+        if cert_count[-1] != n:
+            raise _Fail("the top of the spectrum has no certified boundary")
+    except _Fail as exc:
+        reason = str(exc)
+    stats.strips = dict(sorted(strips.items()))
+    lam = np.asarray(lam, complex)
+    lam = lam[np.lexsort((lam.imag, lam.real))] if lam.size else lam
+    timing = {"eigen": t_slices, "decision": time.perf_counter() - t0 - t_slices}
+    if reason:
+        return SpectrumDecision(None, 0.0, pairs, 0.0, lam, timing, reason, start="sliced",
+                                n_total=n)
+    if complex_margins:
+        return SpectrumDecision(True, max(complex_margins), pairs, eps, lam, timing,
+                                start="sliced", n_total=n)
+    if undecided_margins:
+        bad = [p for p in pairs if not p.certified]
+        return SpectrumDecision(None, min(undecided_margins), pairs, eps, lam, timing,
+                                bad[0].reason, start="sliced", n_total=n)
+    return SpectrumDecision(False, min(margins) if margins else math.inf, pairs, eps, lam,
+                            timing, start="sliced", n_total=n)
