@@ -186,7 +186,8 @@ def count_below(S, a, lu=None):
         raise ValueError(f"no inertia of S - a I at a = {a!r}: zero pivot")
     aL, aU = abs(L), abs(Uf)
     one = np.ones(n)
-    ge = _gamma(n + 2) * float(np.max(aL @ (aU @ one)))
+    depth = int(max(np.max(np.diff(L.indptr)), np.max(np.diff(Uf.tocsc().indptr))))
+    ge = _gamma(depth + 2) * float(np.max(aL @ (aU @ one)))
     E2 = (sp.diags(d) @ L.T.tocsr() - Uf)           # D L^T - U: exact would be 0
     e2 = float(np.max(aL @ (abs(E2) @ one) + U * (aL @ (abs(sp.diags(d) @ L.T) @ one))))
     diag_err = U * float(np.max(np.abs(S.diagonal() - a)))      # rounding of S_ii - a
@@ -253,50 +254,85 @@ def _ritz(S, W, Q, normS, normW):
 
 
 def _slices(S, W, k, normS, normW, lo0, stats):
-    """Yield the Ritz slices of S from ``lo0`` (below the spectrum) upwards."""
+    """Yield the Ritz slices of S from ``lo0`` (below the spectrum) upwards.
+
+    Each slice: the k eigenvalues of S nearest a shift sigma (ARPACK
+    shift-invert), sigma placed about half a slice above the previous upper
+    edge x so that the k nearest reach below x (no hole: checked, and the
+    count below proves it); the new upper edge y lies in the widest gap of
+    the slice's upper part whose distance to its Ritz values exceeds the
+    Ritz radius and the inertia fuzz; the inertia count of (x, y) must equal
+    the number of Ritz values kept.
+    """
     n = S.shape[0]
     x = lo0
-    cnt_x, fz, lu = count_below(S, x)
+    cnt_x, fz, _ = count_below(S, x)
     if cnt_x != 0:
         raise _Fail(f"{cnt_x} eigenvalues of S below the Gershgorin bound {x:.6g}")
     stats.fuzz = max(stats.fuzz, fz)
+    fz_x = fz
     rng = np.random.default_rng(12345)
+    width = None                # estimated width of k eigenvalues
     while cnt_x < n:
         rem = n - cnt_x
-        kk = min(k, rem)
-        op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=np.float64)
-        if kk >= n - 1:
-            lam, V = np.linalg.eigh(S.toarray())
-            lam, V = lam[cnt_x:], V[:, cnt_x:]
+        kk = min(k, n - 2)
+        sigma = x if width is None else x + 0.45 * width
+        for attempt in range(12):
+            if kk >= n - 2 or rem <= 2:
+                lam, V = np.linalg.eigh(S.toarray())
+                sel = lam > x
+                lam, V = lam[sel], V[:, sel]
+                whole = True
+            else:
+                lu = _lu(S - sigma * sp.identity(n, format="csc"))
+                op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=np.float64)
+                lam, V = spla.eigsh(S, k=kk, sigma=sigma, which="LM", OPinv=op, tol=0.0,
+                                    v0=rng.standard_normal(n), ncv=min(n, 2 * kk + 1))
+                whole = False
+            if whole or sigma == x or np.min(lam) < x:
+                break
+            sigma = x + 0.5 * (sigma - x) if attempt < 10 else x   # a hole above x: lower
         else:
-            lam, V = spla.eigsh(S, k=kk, sigma=x, which="LA", OPinv=op, tol=0.0,
-                                v0=rng.standard_normal(n), ncv=min(n, max(2 * kk + 1, 20)))
+            raise _Fail(f"no shift above {x:.6g} reached the slice edge")
         theta, Q, WQ, radius, resid, phi = _ritz(S, W, V, normS, normW)
-        if np.any(theta <= x):
-            raise _Fail(f"a Ritz value at or below the slice edge {x:.6g}")
-        if kk == rem:
-            y = float(theta[-1]) + max(1.0, abs(float(theta[-1]))) * 1e-3 + 2 * radius
-            keep = np.ones(theta.size, bool)
+        above = theta > x
+        if not whole and np.max(theta) <= x:
+            raise _Fail(f"no Ritz value above the slice edge {x:.6g}")
+        theta, Q, WQ, resid = theta[above], Q[:, above], WQ[:, above], resid[above]
+        if theta[0] - x <= 2 * (radius + fz_x):
+            raise _Fail(f"slice edge {x:.9g} within {2 * (radius + fz_x):.3g} of a Ritz value")
+        reach = np.max(lam) if not whole else math.inf
+        if whole or cnt_x + theta.size >= n:
+            y = float(theta[-1]) + max(1.0, abs(float(theta[-1]))) * 1e-3 + 2 * radius + 1.0
+            cands = [(y, theta.size)]
         else:
-            # the upper edge in the largest gap among the top tenth
-            top = max(2, kk // 10)
-            g = np.diff(theta[-top:])
-            j = theta.size - top + int(np.argmax(g))
-            y = 0.5 * (theta[j] + theta[j + 1])
-            keep = theta < y
-        cnt_y, fz, lu_y = count_below(S, y)
+            # all eigenvalues up to the largest |lam - sigma| are found; edges in the
+            # widest gaps of the upper half of what lies below that reach
+            ok = theta < reach
+            th = theta[ok]
+            lo_i = max(1, th.size // 2)
+            gaps = np.diff(th[lo_i - 1:])
+            order = np.argsort(gaps)[::-1][:8]
+            cands = [(0.5 * (th[lo_i - 1 + j] + th[lo_i + j]), lo_i + j) for j in order]
+        for y, nkeep in cands:
+            try:
+                cnt_y, fz, lu_y = count_below(S, y)
+            except ValueError:
+                continue
+            d = min(abs(theta - y))
+            if d > 2 * (radius + fz) and cnt_y - cnt_x == nkeep:
+                break
+        else:
+            raise _Fail(f"no certified edge above {x:.9g}: inertia count and Ritz values "
+                        f"differ or the edge is within the Ritz radius {radius:.3g} + "
+                        f"inertia fuzz of a Ritz value")
         stats.fuzz = max(stats.fuzz, fz)
-        if cnt_y - cnt_x != int(keep.sum()):
-            raise _Fail(f"slice ({x:.6g}, {y:.6g}) holds {cnt_y - cnt_x} eigenvalues of S "
-                        f"by inertia but {int(keep.sum())} Ritz values")
-        gap_lo = float(theta[keep][0] - x)
-        gap_hi = float(y - theta[keep][-1])
-        if min(gap_lo, gap_hi) <= 2 * (radius + stats.fuzz):
-            raise _Fail(f"slice edge within the Ritz radius {radius:.3g} of a Ritz value")
         stats.slices += 1
         stats.ritz_radius = max(stats.ritz_radius, radius)
+        keep = slice(0, nkeep)
+        width = float(theta[nkeep - 1] - theta[0]) * k / max(nkeep - 1, 1)
         yield _Slice(x, y, theta[keep], Q[:, keep], WQ[:, keep], radius, resid[keep], phi)
-        x, cnt_x, lu = y, cnt_y, lu_y
+        x, cnt_x, fz_x = y, cnt_y, fz
 
 
 # --------------------------------------------------------------------------- buffer
