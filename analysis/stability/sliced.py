@@ -483,7 +483,8 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
     bn = float(np.linalg.norm((np.abs(cross) + ctx.rnd) / np.sqrt(g)[:, None])) if near.size else 0.0
     b = (math.sqrt(bn ** 2 + float(np.sum(WQI ** 2)) / d_eff) * (1 + phi)
          + xi * math.sqrt(m) / math.sqrt(g_min)) * _INFLATE
-    lip = (1.0 + b * b / (g_min * (1 - kap) ** 2)) * _INFLATE
+    # |T''(x)| <= 2 b^2 / (g_min^2 (1 - kappa_r)^3) on the strip
+    curv = 2 * b * b / (g_min ** 2 * (1 - kap) ** 3) * _INFLATE
     A = ctx.A
     n = A.shape[0]
     Q, _ = np.linalg.qr(buf.Q[:, I])
@@ -496,21 +497,32 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
     I_n = sp.identity(n, format="csr")
     Qs = sp.csr_matrix(Q)
 
-    def schur(x):
+    def schur(x, deriv=False):
         M = sp.bmat([[A - x * I_n, Qs], [Qs.T, None]], format="csc")
         try:
-            sol = spla.splu(M).solve(np.vstack([AQ, np.zeros((m, m))]))
+            lu = spla.splu(M)
         except RuntimeError:
-            return None, math.inf
-        Y = sol[:n]
+            return (None, math.inf) + ((None, math.inf) if deriv else ())
+        Y = lu.solve(np.vstack([AQ, np.zeros((m, m))]))[:n]
         Y = Y - Q @ (Q.T @ Y)
         Z = (A @ Y - x * Y) - AQ
         Z = Z - Q @ (Q.T @ Z)
         T = Tc - x * np.eye(m) - Q.T @ (A @ Y)
-        err = (b * (float(np.linalg.norm(Z)) + _gamma(n + 8) * ctx.normA1
-                    * float(np.linalg.norm(Y)) * 4) / math.sqrt(g_min) / (1 - kap)
-               + _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y)) * 2 + rho)
-        return T, err * _INFLATE
+        rY = _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y))
+        zn = float(np.linalg.norm(Z)) + 4 * rY
+        err = (b * zn / math.sqrt(g_min) / (1 - kap) + 2 * rY + rho) * _INFLATE
+        if not deriv:
+            return T, err
+        # T'(x) = -I - Q^T A (C_r - x)^-1 Y(x), from the same factorization
+        Y2 = lu.solve(np.vstack([Y, np.zeros((m, m))]))[:n]
+        Y2 = Y2 - Q @ (Q.T @ Y2)
+        Z2 = (A @ Y2 - x * Y2) - Y
+        Z2 = Z2 - Q @ (Q.T @ Z2)
+        D = -np.eye(m) - Q.T @ (A @ Y2)
+        rY2 = _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y2))
+        derr = (b * (float(np.linalg.norm(Z2)) + 4 * rY2 + zn / (g_min * (1 - kap)))
+                / math.sqrt(g_min) / (1 - kap) + 2 * rY2) * _INFLATE
+        return T, err, D, derr
 
     def test(x):
         T, err = schur(x)
@@ -524,6 +536,12 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
     if T0 is None:
         return "undecided", 0.0, lam0, "the bordered system of the strip is singular"
     lam_c = np.linalg.eigvals(T0 + 0.5 * (a_lo + a_hi) * np.eye(m))
+    for _ in range(3):          # the complement evaluated at the cluster's centre
+        xc = float(np.clip(np.mean(lam_c.real), a_lo, a_hi))
+        T1, _ = schur(xc)
+        if T1 is None:
+            break
+        lam_c = np.linalg.eigvals(T1 + xc * np.eye(m))
     for _ in range(3):
         if np.all(lam_c.imag == 0):
             new = []
@@ -550,18 +568,27 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
             return "real", margin, lam_c, ""
         return "undecided", 0.0, lam_c, f"strip of {m}: no sign change of det between roots"
     if real.size == 0:
-        # no real root on [a_lo, a_hi]: cover it by intervals where sigma_min > lip h
+        # no real root on [a_lo, a_hi]: cover it by intervals [x - h, x + h] on which
+        # T(x + t) = T(x) + t T'(x) + O(curv t^2 / 2) stays nonsingular; sigma_min of
+        # the explicit linear part is sampled (Lipschitz constant ||T'||)
         todo, margin, evals = [(a_lo, a_hi)], math.inf, 0
         while todo:
             lo, hi = todo.pop()
             mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
-            s, floor, _ = test(mid)
+            T, err, D, derr = schur(mid, deriv=True)
             evals += 1
-            if s - lip * h > floor:
-                margin = min(margin, (s - lip * h) / floor if floor else math.inf)
+            if T is None:
+                return "undecided", 0.0, lam_c, "the bordered system of the strip is singular"
+            ts = np.linspace(-h, h, 33)
+            smin = min(_sigma_min_lower(T + t * D) for t in ts)
+            low = smin - float(np.linalg.norm(D, 2)) * (ts[1] - ts[0]) / 2 * (1 + 1e-8)
+            floor = 1e3 * _gamma(m + 2) * float(np.linalg.norm(T))
+            slack = err + h * derr + 0.5 * curv * h * h + floor
+            if low > slack:
+                margin = min(margin, low / slack)
                 continue
             if evals > 400 or h < 1e-12 * max(abs(mid), 1.0):
-                return "undecided", max(s - lip * h, 0.0) / floor if floor else 0.0, lam_c, (
+                return "undecided", max(low, 0.0) / slack, lam_c, (
                     f"strip of {m}: a real root cannot be excluded near x = {mid:.9g}")
             todo += [(lo, mid), (mid, hi)]
         return "complex", margin, lam_c, ""

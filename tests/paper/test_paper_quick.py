@@ -217,3 +217,30 @@ def test_growth_with_velocity_dependent_friction(run):
     level = np.median(a["D"][a["t"] > 0])
     assert c["D"].max() > 1e12 * level
     assert np.max(np.abs(c["v_top"])) > 1e7 * np.median(np.abs(a["v_top"][a["t"] > 0]))
+
+
+def test_sliced_verdict_agrees_with_the_dense_one_on_the_ramps(run):
+    """The whole-spectrum verdict by slicing (analysis.stability.sliced) and the dense
+    certified decision agree on every bisection point of both quick ramps (the points
+    that bracket F_x^c) and on their first and last steps; neither is undecided."""
+    import glob
+
+    from remote_trigger.analysis.stability import eigen, exceptional, jacobian
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability.sliced import classify_sliced
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
+
+    out, _ = run
+    seen = {True: 0, False: 0}
+    for mu in ("1", "0.8"):
+        steps = sorted(glob.glob(os.path.join(out, f"ramp_mu{mu}", "ramp", "step_*.dump")))
+        dumps = sorted(glob.glob(os.path.join(out, f"ramp_mu{mu}", "ramp", "bisect_*.dump")))
+        for path in dumps + [steps[0], steps[-1]]:
+            res = analyze(read_equilibrium(path), eigenvalues=False, decide=False)
+            Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
+            sliced = classify_sliced(Kr, mr)
+            dense = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray())
+            assert dense.complex_present is not None
+            assert sliced.complex_present is dense.complex_present, (path, sliced.reason)
+            seen[sliced.complex_present] += 1
+    assert seen[True] >= 2 and seen[False] >= 2

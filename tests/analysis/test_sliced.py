@@ -1,0 +1,125 @@
+"""The whole-spectrum verdict by slicing (analysis.stability.sliced) against the
+dense certified decision and against Arb, on hand-built matrices with planted
+pairs and on frictional packings."""
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from remote_trigger.analysis.stability import eigen, exceptional
+from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced, count_below
+
+from .arb_oracle import full_spectrum
+
+
+def planted(n=150, pairs=(), seed=0, coupling=0.3):
+    """K and M whose M^-1/2 K M^-1/2 = S + W: S = diagonal spectrum in [1, 100] plus a
+    sparse symmetric coupling, W a sparse skew coupling; ``pairs`` = (i, ratio):
+    eigenvalues i and i + 1 of S 0.2 apart, coupled by w = ratio * 0.1 (in the
+    2 x 2 block alone: complex iff ratio > 1)."""
+    rng = np.random.default_rng(seed)
+    theta = np.linspace(1.0, 100.0, n) + rng.uniform(-0.1, 0.1, n)
+    W = sp.random(n, n, density=4.0 / n, random_state=rng, data_rvs=rng.standard_normal)
+    W = (W - W.T) * (coupling * 0.1)
+    C = sp.random(n, n, density=3.0 / n, random_state=rng, data_rvs=rng.standard_normal)
+    S = sp.diags(theta) + (C + C.T) * 0.01
+    W = W.tolil()
+    S = S.tolil()
+    for i, ratio in pairs:
+        S[i + 1, i + 1] = S[i, i] + 0.2
+        for j in (i, i + 1):             # the pair coupled to nothing else
+            for k in range(n):
+                if k not in (i, i + 1):
+                    W[j, k] = W[k, j] = 0.0
+                    S[j, k] = S[k, j] = 0.0
+        W[i, i + 1], W[i + 1, i] = ratio * 0.1, -ratio * 0.1
+    A = (S + W).tocsr()
+    mass = rng.uniform(0.5, 2.0, n)
+    r = np.sqrt(mass)
+    K = sp.diags(r) @ A @ sp.diags(r)
+    return sp.csr_matrix(K), mass
+
+
+def dense_decision(K, mass):
+    return exceptional.classify_spectrum(eigen.dynamical_matrix(K, mass).toarray())
+
+
+def test_count_below_is_the_number_of_eigenvalues_below():
+    rng = np.random.default_rng(3)
+    C = sp.random(200, 200, density=0.03, random_state=rng)
+    S = sp.csc_matrix(C + C.T + sp.diags(np.linspace(-5, 5, 200)))
+    lam = np.linalg.eigvalsh(S.toarray())
+    for a in (-6.0, -1.3, 0.01, 2.7, 9.0):
+        cnt, fuzz, _ = count_below(S, a)
+        assert fuzz < 1e-8
+        assert cnt == np.count_nonzero(lam < a)
+    with pytest.raises(ValueError, match="a = 1.0"):
+        count_below(sp.csc_matrix(np.eye(3)), 1.0)
+
+
+@pytest.mark.parametrize("where", [2, 75, 146])
+@pytest.mark.parametrize("ratio", [1.5, 1.02, 0.97, 0.7])
+def test_planted_pair_bottom_middle_top(where, ratio):
+    """A complex pair (ratio 1.5, 1.02) or a real pair near its exceptional
+    point (0.97, 0.7) planted at the bottom, the middle or the top of the
+    spectrum; a complex pair is decided as a strip of two eigenvalues, a real
+    one by a boundary between them (0.7) or as a strip (0.97, if no boundary
+    can be certified there)."""
+    K, mass = planted(pairs=[(where, ratio)])
+    st = SlicedStats()
+    res = classify_sliced(K, mass, stats=st)
+    assert res.coverage == "whole" and res.start == "sliced"
+    assert res.complex_present is (ratio > 1), res.reason
+    assert dense_decision(K, mass).complex_present is (ratio > 1)
+    assert sum(st.strips.values()) + st.strips.get(2, 0) == 150
+    if ratio > 1:
+        assert st.strips.get(2, 0) >= 1
+        assert any(p.certified and p.is_complex for p in res.pairs)
+    assert all(p.certified for p in res.pairs)
+
+
+def test_two_nearly_coalescing_real_pairs_are_real():
+    K, mass = planted(pairs=[(40, 0.9), (41 + 60, 0.95)], seed=1)
+    res = classify_sliced(K, mass)
+    assert res.complex_present is False, res.reason
+    assert dense_decision(K, mass).complex_present is False
+    assert all(p.certified for p in res.pairs)
+
+
+@pytest.mark.parametrize("ratio", [1.2, 0.8])
+def test_agrees_with_arb(ratio):
+    """n = 40: Arb's enclosure of the whole spectrum of M^-1 K says the same."""
+    K, mass = planted(n=40, pairs=[(20, ratio)], seed=2)
+    res = classify_sliced(K, mass)
+    want = "complex" if ratio > 1 else "real"
+    assert res.complex_present is (ratio > 1), res.reason
+    assert full_spectrum(eigen.dynamical_matrix(K, mass).toarray()) == want
+
+
+def test_strong_coupling_is_never_called_real():
+    """A skew part as large as the spacing: many complex pairs; the verdict is
+    'complex' or 'undecided', never 'real' (the check can fail)."""
+    K, mass = planted(n=120, seed=4, coupling=30.0)
+    dense = dense_decision(K, mass)
+    assert dense.complex_present is True
+    res = classify_sliced(K, mass)
+    assert res.complex_present in (True, None)
+    if res.complex_present is None:
+        assert res.reason
+
+
+def test_too_narrow_window_is_undecided_with_a_reason():
+    K, mass = planted(pairs=[(75, 1.5)])
+    res = classify_sliced(K, mass, window=1e-3)
+    assert res.complex_present in (True, None)
+    if res.complex_present is None:
+        assert res.reason
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="square"):
+        classify_sliced(sp.csr_matrix(np.ones((3, 4))), np.ones(3))
+    with pytest.raises(ValueError, match="-1.0"):
+        classify_sliced(sp.identity(3, format="csr"), np.array([1.0, -1.0, 1.0]))
+    bad = sp.csr_matrix(np.array([[1.0, np.nan], [0.0, 1.0]]))
+    with pytest.raises(ValueError, match="non-finite"):
+        classify_sliced(bad, np.ones(2))
