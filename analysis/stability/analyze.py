@@ -9,10 +9,12 @@ This is the entry point for the ramp and the command line::
 Steps: assemble K = -dG/dq (``jacobian.stiffness_matrix``, paper Appendix C),
 remove rattlers iteratively (``jacobian.find_rattlers``, frictional criterion
 of fewer than 2 contacts), form M^-1 K with M = diag(m, m, I/R^2), compute
-its eigenvalues (dense LAPACK up to ``eigen.DENSE_MAX`` dofs, else ARPACK
-shift-invert) and decide whether a complex pair is present with the
-certified test of ``exceptional`` (dense path: the whole spectrum) or
-``projected`` (sparse path: the projected subspace).
+its eigenvalues and decide whether a complex pair is present, on the whole
+spectrum: dense LAPACK with the certified test of ``exceptional`` up to
+``eigen.DENSE_MAX`` dofs, above it the certified verdict by spectrum
+slicing of ``sliced``. ``method='sparse'`` asks instead for the *partial*
+decision of ``projected`` on the k eigenvalues nearest a shift (labelled
+partial, not a verdict).
 
 A :class:`~remote_trigger.analysis.state.state3d.State3D` (spheres) takes
 the same steps with the 3D Jacobian (``jacobian3d``: 6 dofs per sphere,
@@ -30,6 +32,7 @@ from remote_trigger.analysis.stability import exceptional as _exc
 from remote_trigger.analysis.stability import jacobian as _jac
 from remote_trigger.analysis.stability import jacobian3d as _jac3
 from remote_trigger.analysis.stability import projected as _proj
+from remote_trigger.analysis.stability import sliced as _sliced
 from remote_trigger.analysis.state.dumpfile import dump_dimension, read_dump, read_dump3d
 from remote_trigger.analysis.state.state3d import State3D
 
@@ -205,9 +208,13 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
     eigenvalues : bool, optional
         Compute the eigenvalues (default True).
     decide : bool, optional
-        Run the certified complex-pair test (default True; dense path: all
-        pairs; sparse path: the ``k`` eigenvalues nearest ``sigma``).
-    method : {'auto', 'dense', 'sparse'}
+        Run the certified complex-pair test (default True; dense and sliced
+        paths: the whole spectrum; sparse path: the ``k`` eigenvalues nearest
+        ``sigma``, a partial decision).
+    method : {'auto', 'dense', 'sliced', 'sparse'}
+        'auto': dense up to ``eigen.DENSE_MAX`` dofs, else sliced
+        (:func:`~remote_trigger.analysis.stability.sliced.classify_sliced`;
+        without ``decide``, ARPACK's k eigenvalues nearest ``sigma``).
     k : int
         Sparse path: number of eigenvalues.
     sigma : float, optional
@@ -237,8 +244,16 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
     if eigenvalues and rat.keep_dofs.size:
         Kr, mr = _jac.remove_dofs(K, mass, rat.keep_dofs)
         n = Kr.shape[0]
+        if method not in ("auto", "dense", "sliced", "sparse"):
+            raise ValueError(f"method must be 'auto', 'dense', 'sliced' or 'sparse', got {method!r}")
         dense = method == "dense" or (method == "auto" and n <= _eigen.DENSE_MAX)
-        if dense:
+        sliced = method == "sliced" or (method == "auto" and not dense and decide)
+        if sliced:
+            # the whole-spectrum verdict by slicing; its eigenvalues are the Ritz
+            # values of the symmetric part and the strips' block eigenvalues
+            dec = _sliced.classify_sliced(Kr, mr)
+            eig = _eigen.EigenResult(np.asarray(dec.eigenvalues, np.complex128), method="sliced")
+        elif dense:
             if decide:
                 # one LAPACK eigen-solve: the decision's eigenvalues are the spectrum
                 dec = _exc.classify_spectrum(_eigen.dynamical_matrix(Kr, mr).toarray())

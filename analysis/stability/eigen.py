@@ -166,7 +166,10 @@ class EigenResult:
     kappa : ndarray, shape (k,) or None
         Eigenvalue condition numbers (see :func:`condition_numbers`).
     method : str
-        ``'dense'`` or ``'arpack-shift-invert'``.
+        ``'dense'``, ``'arpack-shift-invert'`` or ``'sliced'`` (the Ritz values of
+        the symmetric part and strip block eigenvalues of
+        :func:`~remote_trigger.analysis.stability.sliced.classify_sliced`:
+        approximations within their certified strips, not enclosures).
     sigma : float or None
         Shift used by the sparse path.
     """

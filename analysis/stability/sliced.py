@@ -276,7 +276,7 @@ def _slices(S, W, k, normS, normW, lo0, stats):
     while cnt_x < n:
         rem = n - cnt_x
         kk = min(k, n - 2)
-        sigma = x if width is None else x + 0.45 * width
+        sigma = x if width is None else x + 0.5 * width
         for attempt in range(12):
             if kk >= n - 2 or rem <= 2:
                 lam, V = np.linalg.eigh(S.toarray())
@@ -307,10 +307,10 @@ def _slices(S, W, k, normS, normW, lo0, stats):
             cands = [(y, theta.size)]
         else:
             # all eigenvalues up to the largest |lam - sigma| are found; edges in the
-            # widest gaps of the upper half of what lies below that reach
+            # widest gaps of the upper quarter of what lies below that reach
             ok = theta < reach
             th = theta[ok]
-            lo_i = max(1, th.size // 2)
+            lo_i = max(1, (th.size * 3) // 4)
             gaps = np.diff(th[lo_i - 1:])
             order = np.argsort(gaps)[::-1][:8]
             cands = [(0.5 * (th[lo_i - 1 + j] + th[lo_i + j]), lo_i + j) for j in order]

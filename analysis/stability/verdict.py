@@ -124,7 +124,8 @@ class StabilityResult:
     basis : remote_trigger.analysis.stability.decision.SpectrumBasis or None
         The decision's verified basis (start of the next point's decision).
     start : str
-        ``'dgeev'`` or ``'basis'`` (decided from a previous point's basis).
+        ``'dgeev'``, ``'basis'`` (decided from a previous point's basis) or
+        ``'sliced'`` (the verdict by slicing, above ``eigen.DENSE_MAX`` dofs).
     """
 
     eigenvalues: np.ndarray
@@ -223,7 +224,12 @@ def _amount(nbytes):
 
 
 def stability_of(state, basis=None):
-    """Eigen-analysis of an analysis ``State`` with the analyzer (dense path).
+    """Eigen-analysis of an analysis ``State`` with the analyzer.
+
+    Up to ``eigen.DENSE_MAX`` dofs the dense certified decision (from
+    ``basis`` if given); above, the whole-spectrum verdict by slicing
+    (:func:`~remote_trigger.analysis.stability.sliced.classify_sliced`; no
+    basis, ``start`` 'sliced', eigenvalues approximate).
 
     Parameters
     ----------
@@ -243,7 +249,8 @@ def stability_of(state, basis=None):
     Raises
     ------
     TooLargeError
-        If the dense verdict would not fit in memory (:func:`check_dense_fits`).
+        If the dense verdict (at most ``eigen.DENSE_MAX`` dofs) would not fit in
+        memory (:func:`check_dense_fits`).
     """
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability import eigen, exceptional, jacobian
@@ -259,6 +266,8 @@ def stability_of(state, basis=None):
                                np.asarray(rat.ids, np.int64), "real", float("inf"),
                                res.max_residual)
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
+    if Kr.shape[0] > eigen.DENSE_MAX:
+        return _sliced_result(Kr, mr, res)
     check_dense_fits(Kr.shape[0])
     if basis is not None and basis.dofs is not None:
         # other rattlers than at the basis's point: carried over (or None)
@@ -279,6 +288,23 @@ def stability_of(state, basis=None):
                            int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
                            float(dec.confidence), res.max_residual, dict(dec.timing),
                            dec.basis, dec.start)
+
+
+def _sliced_result(Kr, mr, res):
+    """The verdict of a large state (above ``eigen.DENSE_MAX`` dofs) by slicing."""
+    from remote_trigger.analysis.stability import eigen
+    from remote_trigger.analysis.stability.sliced import classify_sliced
+
+    dec = classify_sliced(Kr, mr)
+    decision = {True: "complex", False: "real", None: "undecided"}[dec.complex_present]
+    lam = np.asarray(dec.eigenvalues, np.complex128)
+    cplx = decision == "complex"
+    max_imag = float(np.max(np.abs(lam.imag))) if (cplx and lam.size) else 0.0
+    rat = res.rattlers
+    return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
+                           int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
+                           float(dec.confidence), res.max_residual, dict(dec.timing),
+                           None, "sliced")
 
 
 def stability_of_dump(path, basis=None):

@@ -59,10 +59,11 @@ def register(subparsers):
     p.add_argument("--allow-residual", action="store_true",
                    help="analyse a state whose residual is far above the round-off floor "
                         "(not an equilibrium of its parameters), with a warning")
-    p.add_argument("--method", choices=("auto", "dense", "sparse"), default="auto",
-                   help="eigenvalue path: dense LAPACK (the whole-spectrum verdict) or ARPACK "
-                        "shift-invert (a partial decision on --k eigenvalues near --sigma, "
-                        "labelled so; default auto: dense up to 3000 dofs)")
+    p.add_argument("--method", choices=("auto", "dense", "sliced", "sparse"), default="auto",
+                   help="dense LAPACK or spectrum slicing (both the whole-spectrum certified "
+                        "verdict), or ARPACK shift-invert (a partial decision on --k "
+                        "eigenvalues near --sigma, labelled so); default auto: dense up to "
+                        "3000 dofs, sliced above")
     p.add_argument("--k", type=int, default=40, help="sparse path: eigenvalues per shift "
                                                      "(default 40)")
     p.add_argument("--sigma", type=float, default=None,
