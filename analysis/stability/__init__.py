@@ -7,7 +7,8 @@
 ``decision``      its results: PairDecision, SpectrumDecision, SpectrumBasis
 ``verification``  its steps 1-5 for one basis: units, enclosure, pairs, isolation
 ``basis``         the decision started from a previous decision's basis
-``projected``     the decision on the k eigenvalues nearest a shift (sparse)
+``projected``     the decision on the k eigenvalues nearest a shift (sparse, partial)
+``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse)
 ``enclosure``     its rigorous float64 bounds
 ``verdict``       the ramp's verdict: certified decision, its codes, growth rate
 ``eigtrack``      the coalescing eigenvalue pair through a ramp (Fig. 3)
