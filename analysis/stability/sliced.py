@@ -43,10 +43,11 @@ x22 = ||W||_2 / Delta_eff, plus ||symmetric rest + F|| / min Gamma.
 of a sparse factorization P(S - aI)P^T = L U (SuperLU, symmetric
 permutation, diagonal pivots): with D = diag(U), L D L^T = P(S - aI)P^T + Z
 exactly, Z symmetric with ||Z||_2 <= ||Z||_inf <= fuzz (the a-priori
-backward error gamma_n |L||U| of Gaussian elimination, Higham Thm. 9.3, plus
-|L||D L^T - U|), so #neg(D) lies between the counts of S below a - fuzz and
-a + fuzz. Ritz pairs of S are computed slice by slice (ARPACK shift-invert
-with the same factorization), each slice's Rayleigh-Ritz residual R bounding
+backward error gamma_k |L||U| of Gaussian elimination, k the longest
+elimination sum, Higham Thm. 9.3, plus |L||D L^T - U|), so #neg(D) lies
+between the counts of S below a - fuzz and a + fuzz. Ritz pairs of S are
+computed slice by slice (ARPACK shift-invert about a shift inside the
+slice), each slice's Rayleigh-Ritz residual R bounding
 its values by Kahan's theorem (|theta_i - lambda| <= ||R||_2, distinct
 eigenvalues). The slices' edges x_j lie in gaps; if every slice's count
 #neg(x_{j+1}) - #neg(x_j) equals its number of Ritz values and the counts
@@ -72,8 +73,11 @@ The spectrum is *complex* if a strip is certified complex, *real* if every
 strip is certified real, else *undecided*. Every bound is rigorous with the
 rounding errors of the float64 computations bounded a priori (gamma_k, as
 in :mod:`~remote_trigger.analysis.stability.enclosure`), except that the
-sums and norms of small computed quantities are inflated by a factor (1 +
-1e-10) rather than bounded term by term.
+sums and norms of computed nonnegative quantities (Frobenius norms, the
+2-norm of a strip's derivative block) are inflated by a factor (1 + 1e-10)
+rather than bounded term by term. ARPACK and LAPACK are used only to
+propose vectors; nothing rests on their accuracy but through the residuals
+and counts checked here.
 """
 from __future__ import annotations
 
@@ -440,6 +444,9 @@ def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
         raise _Fail("the window's complement is not separated from the interval")
     g = dist[near]
     g_min = min(float(g.min()) if g.size else math.inf, d_eff)
+    if not g_min > 2 * (ctx.r_glob + 4 * rhat):
+        # the count of S below the interval must equal that of the block-diagonal H
+        raise _Fail("a Ritz value within its radius of the interval")
     xi = ctx.eps + 2 * rhat + (2 * phi + phi * phi) * ctx.normW + ctx.rnd * max(used.size, 1)
     below = lo_edge is None and not np.any((th < lower) & ~ex)
     above = hi_edge is None and not np.any((th > upper) & ~ex)
