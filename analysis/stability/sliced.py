@@ -96,6 +96,7 @@ __all__ = ["classify_sliced", "count_below", "SlicedStats"]
 
 _INFLATE = 1.0 + 1e-10          # inflation of computed sums of nonnegative terms
 _MAX_STRIP = 8                  # largest cluster decided from its block
+_ARPACK_TOL = 1e-8              # ARPACK stopping tolerance (only the checked residuals matter)
 
 
 class _Fail(Exception):
@@ -290,7 +291,7 @@ def _slices(S, W, k, normS, normW, lo0, stats):
             else:
                 lu = _lu(S - sigma * sp.identity(n, format="csc"))
                 op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=np.float64)
-                lam, V = spla.eigsh(S, k=kk, sigma=sigma, which="LM", OPinv=op, tol=0.0,
+                lam, V = spla.eigsh(S, k=kk, sigma=sigma, which="LM", OPinv=op, tol=_ARPACK_TOL,
                                     v0=rng.standard_normal(n), ncv=min(n, 2 * kk + 1))
                 whole = False
             if whole or sigma == x or np.min(lam) < x:
