@@ -13,7 +13,7 @@ sparse LU above), write the equilibrium files, and the certified decision:
   dgeev on the same dump is timed beside it);
 * N > 400: the whole-spectrum certified verdict by slicing
   (``analysis.stability.sliced.classify_sliced``, what the ramp uses above
-  ``eigen.DENSE_MAX`` dofs), with the growth of the peak RSS during it; the
+  ``eigen.DENSE_MAX`` dofs), with its peak traced memory (tracemalloc); the
   dense eigen-solve (LAPACK eigenvalues only) of the same matrix is timed
   beside it up to ``DENSE_TIMED_MAX`` dofs. The synthetic points (no stored
   packing) still use the PARTIAL decision on the 12 eigenvalues nearest a
@@ -275,7 +275,7 @@ def _point(cfg, start, F_x, prefix, basis=None):
         # the whole-spectrum verdict by slicing (analysis.stability.sliced), and
         # the dense eigen-solve (eigenvalues only) of the same matrix beside it
         # where it fits (n <= DENSE_TIMED_MAX)
-        import resource
+        import tracemalloc
         from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced
 
         t0 = time.perf_counter()
@@ -283,15 +283,17 @@ def _point(cfg, start, F_x, prefix, basis=None):
         ana = analyze(st, eigenvalues=False, decide=False)
         Kr, mr = remove_dofs(ana.K, ana.mass, ana.rattlers.keep_dofs)
         stats = SlicedStats()
-        rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        tracemalloc.start()
         dec = classify_sliced(Kr, mr, stats=stats)
         t1 = time.perf_counter()
-        rss1 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        traced = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
         verdict = {True: "complex", False: "real", None: "undecided"}[dec.complex_present]
         row.update(decision=t1 - t0, eigen=dec.timing.get("eigen", np.nan),
                    verdict=f"{verdict} (whole spectrum, sliced: {stats.slices} slices, "
                            f"strips {stats.strips})",
-                   n_eig=Kr.shape[0], peak_rss_growth_MB=(rss1 - rss0) / 1024.0)
+                   n_eig=Kr.shape[0], traced_MB=traced / 2**20,
+                   dense_matrix_MB=8.0 * Kr.shape[0] ** 2 / 2**20)
         if Kr.shape[0] <= DENSE_TIMED_MAX:
             import scipy.linalg as sla
             A = eigen.dynamical_matrix(Kr, mr).toarray()
@@ -447,7 +449,9 @@ def main(argv=None):
                 f"sparse, PARTIAL (not a stability verdict): 12 of {r['dof']} eigenvalues, "
                 f"nearest sigma = {PAIR_RE_REL} lambda_max (lambda_max by ARPACK "
                 f"{r['lam_max_time']:.2f} s, not counted)" if "parts" in r else
-                f"{r['verdict']}; peak RSS +{r['peak_rss_growth_MB']:.0f} MB"
+                f"{r['verdict']}; peak memory {r['traced_MB']:.0f} MB (tracemalloc: NumPy "
+                f"arrays, not SuperLU's factors) = {r['traced_MB'] / r['dense_matrix_MB']:.2f} "
+                f"dense n x n matrices"
                 + (f"; dense LAPACK eigenvalues of the same matrix {r['dense_eigvals']:.1f} s"
                    if "dense_eigvals" in r else ""))
         relax = "stored" if "stored" in r else "tiled" if "tiled" in r else f"{r['relax']:.1f}"
