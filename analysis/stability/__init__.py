@@ -9,6 +9,7 @@
 ``basis``         the decision started from a previous decision's basis
 ``projected``     the decision on the k eigenvalues nearest a shift (sparse, partial)
 ``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse)
+``slicing``       its Sylvester counts and Ritz slices of the symmetric part
 ``enclosure``     its rigorous float64 bounds
 ``verdict``       the ramp's verdict: certified decision, its codes, growth rate
 ``eigtrack``      the coalescing eigenvalue pair through a ramp (Fig. 3)

@@ -6,7 +6,8 @@ import pytest
 import scipy.sparse as sp
 
 from remote_trigger.analysis.stability import eigen, exceptional
-from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced, count_below
+from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced
+from remote_trigger.analysis.stability.slicing import count_below
 
 from .arb_oracle import full_spectrum
 
