@@ -445,7 +445,11 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     absS = abs(S)
     gersh = float(np.min(S.diagonal() - (np.asarray(absS.sum(axis=1)).ravel()
                                          - np.abs(S.diagonal()))))
+    # the bottom boundary: Re <x, (S + W + F) x> >= lambda_min(S) - eps >= gersh - eps,
+    # so no eigenvalue of any matrix of the set has real part below lo0
     lo0 = gersh - 1e-3 * max(normS, 1.0) - 1.0
+    if not eps < gersh - lo0:
+        raise ValueError(f"rel_error {rel_error!r} is too large for this matrix")
     if slice_size is None:
         slice_size = int(min(600, max(60, 3 * 2 * ctx.Delta / max(normS, 1e-300) * n)))
     pairs, lam, reason = [], [], ""
