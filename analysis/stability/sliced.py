@@ -419,7 +419,8 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     Raises
     ------
     ValueError
-        If K is not square or finite, or a mass is not positive.
+        If K is not square or finite, a mass is not positive, or ``rel_error``
+        is so large that the set reaches below the Gershgorin bound.
 
     Notes
     -----
