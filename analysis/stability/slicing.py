@@ -204,11 +204,10 @@ def _slices(S, W, k, normS, normW, lo0, stats):
     rng = np.random.default_rng(12345)
     width = None                # estimated width of k eigenvalues
     while cnt_x < n:
-        rem = n - cnt_x
         kk = min(k, n - 2)
         sigma = x if width is None else x + 0.5 * width
         for attempt in range(12):
-            if kk >= n - 2 or rem <= 2:
+            if kk >= n - 2:
                 lam, V = np.linalg.eigh(S.toarray())
                 sel = lam > x
                 lam, V = lam[sel], V[:, sel]
