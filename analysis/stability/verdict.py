@@ -7,7 +7,8 @@ iteratively (frictional criterion: fewer than 2 contacts), eigenvalues of
 M^-1 K (Eq. 6: omega = +-sqrt(lambda)) and the **certified** complex-pair
 decision (``remote_trigger.analysis.stability.exceptional``: a verified similarity,
 Gershgorin isolation, and the pair's 2 x 2 block enclosed to the precision
-of the float64 matrix). No threshold on Im lambda is used:
+of the float64 matrix; above ``eigen.DENSE_MAX`` dofs the whole-spectrum
+verdict by slicing, ``remote_trigger.analysis.stability.sliced``). No threshold on Im lambda is used:
 the decision is ``'complex'`` (a pair certified complex), ``'real'`` (every
 eigenvalue certified real) or ``'undecided'`` (a pair is so close to an
 exceptional point that the float64 matrix cannot tell), each with its
