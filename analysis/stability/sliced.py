@@ -320,24 +320,25 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
                 new.append(ev[np.argmin(np.abs(ev - lr))])
             if len(new) == m:
                 lam_c = np.asarray(new)
-    real = np.sort(lam_c.real[np.abs(lam_c.imag) == 0])
-    if real.size == m:
-        pts = np.concatenate([[a_lo], 0.5 * (real[1:] + real[:-1]), [a_hi]])
+    def all_real(roots):
+        """m real roots: det T changes sign between consecutive estimated roots."""
+        pts = np.concatenate([[a_lo], 0.5 * (roots[1:] + roots[:-1]), [a_hi]])
         signs, margin = [], math.inf
         for p in pts:
             s, floor, T = test(float(p))
             if not s > floor:
-                return "undecided", max(s, 0.0) / floor if floor else 0.0, lam_c, (
+                return "undecided", max(s, 0.0) / floor if floor else 0.0, (
                     f"strip of {m}: det of its Schur complement not certified at x = {p:.9g}")
             margin = min(margin, (s + floor) / floor if floor else math.inf)
             signs.append(np.linalg.slogdet(T)[0])
         if all(signs[i] != signs[i + 1] for i in range(m)):
-            return "real", margin, lam_c, ""
-        return "undecided", 0.0, lam_c, f"strip of {m}: no sign change of det between roots"
-    if real.size == 0:
-        # no real root on [a_lo, a_hi]: cover it by intervals [x - h, x + h] on which
-        # T(x + t) = T(x) + t T'(x) + O(curv t^2 / 2) stays nonsingular; sigma_min of
-        # the explicit linear part is sampled (Lipschitz constant ||T'||)
+            return "real", margin, ""
+        return "undecided", 0.0, f"strip of {m}: no sign change of det between roots"
+
+    def no_real_root():
+        """Cover [a_lo, a_hi] by intervals [x - h, x + h] on which T(x + t) = T(x) +
+        t T'(x) + O(curv t^2 / 2) stays nonsingular; sigma_min of the explicit
+        linear part is sampled (Lipschitz constant ||T'||)."""
         todo, margin, evals = [(a_lo, a_hi)], math.inf, 0
         while todo:
             lo, hi = todo.pop()
@@ -345,7 +346,7 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
             T, err, D, derr = schur(mid, deriv=True)
             evals += 1
             if T is None:
-                return "undecided", 0.0, lam_c, "the bordered system of the strip is singular"
+                return "undecided", 0.0, "the bordered system of the strip is singular"
             ts = np.linspace(-h, h, 33)
             smin = min(_sigma_min_lower(T + t * D) for t in ts)
             low = smin - float(np.linalg.norm(D, 2)) * (ts[1] - ts[0]) / 2 * (1 + 1e-8)
@@ -355,11 +356,25 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
                 margin = min(margin, low / slack)
                 continue
             if evals > 400 or h < 1e-12 * max(abs(mid), 1.0):
-                return "undecided", max(low, 0.0) / slack, lam_c, (
+                return "undecided", max(low, 0.0) / slack, (
                     f"strip of {m}: a real root cannot be excluded near x = {mid:.9g}")
             todo += [(lo, mid), (mid, hi)]
-        return "complex", margin, lam_c, ""
-    return "undecided", 0.0, lam_c, f"strip of {m}: real and complex block eigenvalues"
+        return "complex", margin, ""
+
+    # the route the estimates suggest first, then the other one
+    roots = np.sort(lam_c.real)
+    distinct = bool(np.all(np.diff(roots) > 0))
+    first_real = bool(np.all(lam_c.imag == 0))
+    tries = ([all_real] if first_real else []) + [no_real_root] + \
+        ([all_real] if distinct and not first_real else [])
+    result = ("undecided", 0.0, f"strip of {m}: no distinct root estimates")
+    for route in tries:
+        result = route(roots) if route is all_real else route()
+        if result[0] != "undecided":
+            break
+    if result[0] == "real":
+        lam_c = roots.astype(complex)       # certified real: the estimates' real parts
+    return result[0], result[1], lam_c, result[2]
 
 
 # --------------------------------------------------------------------------- the verdict
