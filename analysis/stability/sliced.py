@@ -87,6 +87,7 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from remote_trigger.analysis.stability.decision import PairDecision, SpectrumDecision
@@ -303,23 +304,21 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
     if T0 is None:
         return "undecided", 0.0, lam0, "the bordered system of the strip is singular"
     lam_c = np.linalg.eigvals(T0 + 0.5 * (a_lo + a_hi) * np.eye(m))
-    for _ in range(3):          # the complement evaluated at the cluster's centre
+    # the roots of det T(x) = 0, estimated from T linearised about the cluster's
+    # centre xc: det(T(xc) + (x - xc) T'(xc)) = 0, a generalized eigenproblem
+    for _ in range(4):
         xc = float(np.clip(np.mean(lam_c.real), a_lo, a_hi))
-        T1, _ = schur(xc)
+        T1, _, D1, _ = schur(xc, deriv=True)
         if T1 is None:
             break
-        lam_c = np.linalg.eigvals(T1 + xc * np.eye(m))
-    for _ in range(3):
-        if np.all(lam_c.imag == 0):
-            new = []
-            for lr in np.sort(lam_c.real):
-                T1, _ = schur(float(lr))
-                if T1 is None:
-                    break
-                ev = np.linalg.eigvals(T1 + lr * np.eye(m))
-                new.append(ev[np.argmin(np.abs(ev - lr))])
-            if len(new) == m:
-                lam_c = np.asarray(new)
+        try:
+            est = sla.eigvals(T1 - xc * D1, -D1)
+        except (np.linalg.LinAlgError, ValueError):
+            break
+        if not np.all(np.isfinite(est)):
+            break
+        lam_c = est
+
     def all_real(roots):
         """m real roots: det T changes sign between consecutive estimated roots."""
         pts = np.concatenate([[a_lo], 0.5 * (roots[1:] + roots[:-1]), [a_hi]])
