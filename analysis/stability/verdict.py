@@ -255,6 +255,7 @@ def stability_of(state, basis=None):
     """
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability import eigen, exceptional, jacobian
+    from remote_trigger.analysis.stability.sliced import classify_sliced
 
     # K, rattlers and residual from analyze(); the dense spectrum and the
     # certified decision from one classify_spectrum call (its eigen-solve gives
@@ -268,15 +269,17 @@ def stability_of(state, basis=None):
                                res.max_residual)
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
     if Kr.shape[0] > eigen.DENSE_MAX:
-        return _sliced_result(Kr, mr, res)
-    check_dense_fits(Kr.shape[0])
-    if basis is not None and basis.dofs is not None:
-        # other rattlers than at the basis's point: carried over (or None)
-        basis = basis.on_dofs(rat.keep_dofs)
-    dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
-                                        basis=basis)
-    if dec.basis is not None:
-        dec.basis.dofs = np.asarray(rat.keep_dofs, np.int64).copy()
+        # the whole-spectrum verdict by slicing: no dense matrix, no basis
+        dec = classify_sliced(Kr, mr)
+    else:
+        check_dense_fits(Kr.shape[0])
+        if basis is not None and basis.dofs is not None:
+            # other rattlers than at the basis's point: carried over (or None)
+            basis = basis.on_dofs(rat.keep_dofs)
+        dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
+                                            basis=basis)
+        if dec.basis is not None:
+            dec.basis.dofs = np.asarray(rat.keep_dofs, np.int64).copy()
     if dec.complex_present is None:
         decision = "undecided"
     else:
@@ -289,23 +292,6 @@ def stability_of(state, basis=None):
                            int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
                            float(dec.confidence), res.max_residual, dict(dec.timing),
                            dec.basis, dec.start)
-
-
-def _sliced_result(Kr, mr, res):
-    """The verdict of a large state (above ``eigen.DENSE_MAX`` dofs) by slicing."""
-    from remote_trigger.analysis.stability import eigen
-    from remote_trigger.analysis.stability.sliced import classify_sliced
-
-    dec = classify_sliced(Kr, mr)
-    decision = {True: "complex", False: "real", None: "undecided"}[dec.complex_present]
-    lam = np.asarray(dec.eigenvalues, np.complex128)
-    cplx = decision == "complex"
-    max_imag = float(np.max(np.abs(lam.imag))) if (cplx and lam.size) else 0.0
-    rat = res.rattlers
-    return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
-                           int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
-                           float(dec.confidence), res.max_residual, dict(dec.timing),
-                           None, "sliced")
 
 
 def stability_of_dump(path, basis=None):
