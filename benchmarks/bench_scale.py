@@ -47,6 +47,7 @@ points, docs/driver.md).
 
     python benchmarks/bench_scale.py [--sizes 100 400 1600 10000] [--quick]
                                      [--relaxed 1600=path/equilibrium.data]
+                                     [--points 1]
 """
 import os
 
@@ -104,7 +105,7 @@ def one_point(n, seed, dF_x, base):
     return two_points(rel.datafile, dF_x, out, row)
 
 
-def stored_point(n, datafile, dF_x, base):
+def stored_point(n, datafile, dF_x, base, points=2):
     """Two ramp points from a packing relaxed beforehand (``--relaxed``)."""
     from remote_trigger.analysis.state.datafile import read_data
     from remote_trigger.pywrap.stages.common import packing_fraction
@@ -116,7 +117,7 @@ def stored_point(n, datafile, dF_x, base):
         raise SystemExit(f"bench_scale: {datafile} has {d.positions.shape[0]} atoms, not {n}")
     row = {"n": n, "dof": 3 * n, "relax": float("nan"), "phi": packing_fraction(d),
            "stored": datafile}
-    return two_points(datafile, dF_x, out, row)
+    return two_points(datafile, dF_x, out, row, points)
 
 
 def tiled_packing(src, copies, path, seed=1, jitter=1e-6):
@@ -209,8 +210,9 @@ def tiled_point(src, copies, dF_x, base, seed):
     return two_points(os.path.join(out, "equilibrium.data"), dF_x, out, row)
 
 
-def two_points(start, dF_x, out, row):
-    """The ramp points F_x = dF_x and 2 dF_x from the equilibrium ``start``."""
+def two_points(start, dF_x, out, row, points=2):
+    """The ramp points F_x = dF_x and 2 dF_x from the equilibrium ``start``
+    (``points`` = 1: only the first, reported)."""
     from remote_trigger.pywrap.stages.config import RampConfig
 
     cfg = RampConfig(datafile=start, dF_x=dF_x, F_x=0.0)
@@ -218,7 +220,7 @@ def two_points(start, dF_x, out, row):
     # equilibrium; the first warms up (imports, first LAMMPS instance), the
     # second is reported
     basis = None
-    for k in (1, 2):
+    for k in range(1, points + 1):
         pt = _point(cfg, start, k * dF_x, os.path.join(out, f"step{k}"), basis)
         basis = pt.pop("basis", None)
         if k == 1:
@@ -406,6 +408,10 @@ def main(argv=None):
                     help="packings relaxed beforehand: their points are measured without "
                          "relaxing (default: " + ", ".join(f"{n}={p}" for n, p in
                                                            STORED.items()) + ")")
+    ap.add_argument("--points", type=int, choices=(1, 2), default=2,
+                    help="ramp points measured from a stored packing: 2 (default; the "
+                         "second is reported) or 1 (F_x = dF_x only: for N whose verdict "
+                         "takes many minutes)")
     ap.add_argument("--out", default=None, help="keep outputs here (default: temp dir)")
     args = ap.parse_args(argv)
     sizes = [n for n in args.sizes if n <= 400] if args.quick else args.sizes
@@ -421,7 +427,7 @@ def main(argv=None):
     for n in sizes:
         src = max((m for m in stored if m <= n), default=None)
         if n in stored and n > args.relax_max:
-            rows.append(stored_point(n, stored[n], args.dF_x, base))
+            rows.append(stored_point(n, stored[n], args.dF_x, base, args.points))
         elif n <= args.relax_max:
             rows.append(one_point(n, args.seed, args.dF_x, base))
         elif src is not None:
@@ -483,8 +489,9 @@ def main(argv=None):
             dense = e100 * (r["dof"] / 300.0) ** 3
             print(f"{'':6} dense eigen-solve at this size, extrapolated as n^3 from N = 100: "
                   f"{dense:.0f} s per point")
-    print("point, cpu: the second point; fine ramp, adaptive: points x the mean of the two "
-          "points above N = 400, x the second below")
+    print(f"point, cpu: the {'second' if args.points == 2 else 'first (--points 1, stored packings)'}"
+          " point; fine ramp, adaptive: points x the mean of the points measured above "
+          "N = 400, x the second below")
     print(f"fine ramp: F_x^c / dF_x + 12 points, F_x^c the ensemble's median "
           f"({FC_MEDIAN[100]:g} at N = 100, {FC_MEDIAN[400]:g} at 400, extrapolated as "
           f"N^{FC_EXPONENT:g} above); adaptive: {ADAPTIVE_POINTS} points "
