@@ -333,7 +333,8 @@ def read_table(path):
 
 
 def plot(path, rows, cfg):
-    """``ensemble.png``: F_x^c(mu0) histograms per N, the ratio, F_x^c vs N."""
+    """``ensemble.png``: F_x^c(mu0) histograms per N, the ratio, F_x^c vs N, and
+    F_x^c(mu0), F_x^c(mu_ss mu0) and the window width vs N with their fits."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -343,7 +344,7 @@ def plot(path, rows, cfg):
     i0_dyn = cfg.I0_dynamics
     paper = cfg.dim == 2          # the paper's bracket is of disks
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    fig, ax = plt.subplots(1, 3, figsize=(14, 4.2))
+    fig, ax = plt.subplots(1, 4, figsize=(18.5, 4.2))
     allx = [r["F_x_c"] for r in rows if math.isfinite(r["F_x_c"]) and r["F_x_c"] > 0
             and r["status"] != "failed"]
     ref = list(PAPER_BRACKET) if paper else []
@@ -398,9 +399,40 @@ def plot(path, rows, cfg):
     ax[2].set_ylabel("F_x^c(mu0): packings, median and quartiles")
     if ax[2].get_legend_handles_labels()[0]:
         ax[2].legend(fontsize=7)
+    _plot_window(ax[3], select(rows, ft, float(i0_dyn)), cfg, colors)
     fig.tight_layout()
     savefig_atomic(fig, path, dpi=110)
     plt.close(fig)
+
+
+def _plot_window(ax, rows, cfg, colors):
+    """F_x^c(mu0), F_x^c(mu_ss mu0) and the window width vs N (the dynamics'
+    convention): median and quartiles per N, the power-law fit over every
+    packing (:func:`size_fits`) as a line where there are two sizes or more."""
+    fits = size_fits(rows)
+    n = np.array([r["n"] for r in rows], float)
+    a = np.array([r["F_x_c"] for r in rows], float)
+    b = np.array([r["F_x_c_ss"] for r in rows], float)
+    for j, (key, y, label) in enumerate((("F_x_c", a, "F_x^c(mu0)"),
+                                         ("F_x_c_ss", b, f"F_x^c({cfg.mu_ss:g} mu0)"),
+                                         ("width", a - b, "window F_x^c(mu0) - "
+                                                          f"F_x^c({cfg.mu_ss:g} mu0) > 0"))):
+        ok = np.isfinite(y) & (y > 0)
+        for k, size in enumerate(sorted(set(n[ok].tolist()))):
+            c, q1, m, q3 = quartiles(y[ok & (n == size)])
+            ax.errorbar([size * (1.0 + 0.04 * j)], [m], yerr=[[m - q1], [q3 - m]], fmt="os^"[j],
+                        color=colors[j], capsize=4, label=label if k == 0 else None)
+        fit = fits.get(key)
+        if fit is not None:
+            x = np.geomspace(fit.sizes[0], fit.sizes[-1], 20)
+            ax.plot(x, fit.prefactor * x ** fit.exponent, "-", lw=0.8, color=colors[j],
+                    label=f"fit: N^{fit.exponent:.2f} +- {fit.stderr:.2f}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("N")
+    ax.set_ylabel(f"median and quartiles (I0 = {cfg.I0_dynamics:g})")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7)
 
 
 def skipped_in_3d():
