@@ -306,6 +306,41 @@ def post_switch_level(t, D, mu, mu0, span=100.0):
     return float(np.median(D[sel])) if np.any(sel) else float("nan")
 
 
+#: growth of an exponential over the saturation span that :func:`saturation_span`
+#: asks for: 4 x the factor 2 of :func:`saturated`
+SPAN_GROWTH = 8.0
+
+
+def saturation_span(growth_rate, span=100.0):
+    """Span of :func:`saturated` for a run expected to grow at ``growth_rate``.
+
+    :func:`saturated` calls D saturated when it grew less than 2x over the
+    last span; an exponential e^{2 g t} must therefore grow well above 2
+    over it. The span returned is ``span``, lengthened where needed so that
+    e^{2 g span} >= :data:`SPAN_GROWTH` = 8 (ln 8 / (2 g) = 1.04 / g: 196 at
+    g = 0.0053); the span is unchanged for g >= ln 8 / (2 span) (0.0104 at
+    span = 100).
+
+    Parameters
+    ----------
+    growth_rate : float
+        Amplitude growth rate g (1/time; D grows as e^{2 g t}), e.g. the
+        certified max Im sqrt(lambda) after the friction drop.
+    span : float
+        Shortest span (time), > 0.
+
+    Returns
+    -------
+    float
+        ``span`` if g is not positive or not finite, else
+        max(span, ln(SPAN_GROWTH) / (2 g)).
+    """
+    g = float(growth_rate)
+    if not (math.isfinite(g) and g > 0.0):
+        return float(span)
+    return max(float(span), math.log(SPAN_GROWTH) / (2.0 * g))
+
+
 def saturated(t, D, mu, mu0, span=100.0, rise=1e3):
     """Has a triggered run's D stopped growing (nonlinear saturation)?
 

@@ -61,6 +61,30 @@ def test_saturated_only_after_growth_stops():
     assert not ser.saturated(t, D, np.ones_like(t), 1.0)
 
 
+def test_saturation_span_follows_a_slow_growth():
+    """Below g = 0.0035 (e^{2 g 100} < 2; the 3D Fig. 5 (c) run grew at 0.0041
+    to 0.0047 and, oscillating, was stopped so) the fixed 100 tau span calls
+    a still-growing D saturated; the span scaled with g does not, and still
+    fires within one span of the real saturation."""
+    # unchanged at the 2D jobs' rates (default 2D ~0.012-0.013, 3D quick 0.0113)
+    assert ser.saturation_span(0.0105) == ser.saturation_span(0.05) == 100.0
+    assert ser.saturation_span(0.0053) == pytest.approx(196.2, abs=0.1)
+    assert ser.saturation_span(0.0) == ser.saturation_span(float("nan")) == 100.0
+    assert ser.saturation_span(0.002, span=50.0) == pytest.approx(math.log(8) / 0.004)
+    assert math.exp(2 * 0.0053 * ser.saturation_span(0.0053)) == pytest.approx(ser.SPAN_GROWTH)
+    g = 0.0033
+    t, D, mu = triggered_series(g=g, t_grow=300.0, sat=1e3, t_end=3000.0, n=6001)
+    ks = range(10, t.size, 25)
+    assert any(ser.saturated(t[:k], D[:k], mu[:k], 1.0, span=100.0) for k in ks)
+    span = ser.saturation_span(g)
+    assert not any(ser.saturated(t[:k], D[:k], mu[:k], 1.0, span=span) for k in ks)
+    t, D, mu = triggered_series(g=g, t_grow=300.0, sat=1e-8, t_end=3000.0, n=6001)
+    t_sat = 300 + math.log(1e4) / (2 * g)
+    first = next(k for k in range(10, t.size) if ser.saturated(t[:k], D[:k], mu[:k], 1.0,
+                                                                 span=span))
+    assert t_sat < t[first - 1] <= t_sat + span + 1
+
+
 def test_growth_over_bounded_and_exponential():
     t = np.linspace(0, 1000, 4001)
     bounded = 1e-12 * (1 + 0.9 * np.sin(5 * t) ** 2)

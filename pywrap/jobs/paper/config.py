@@ -146,8 +146,10 @@ class PaperConfig(Config):
     fig5_sat_span : float
         A run whose friction has switched stops once it has saturated: max D
         above 1e3 x its level right after the switch and grown less than 2x
-        over the last fig5_sat_span (``analysis.series.saturated``), > 0.
-        Default 100.
+        over the last span (``analysis.series.saturated``); the span is
+        fig5_sat_span, lengthened to ln 8 / (2 g) where the certified
+        growth rate g after the friction drop is below 0.0104
+        (``analysis.series.saturation_span``), > 0. Default 100.
     mu_star_tol : float
         Bisection tolerance of mu* (the friction at which the Fig. 5 state
         turns unstable), > 0. Default 1e-3.

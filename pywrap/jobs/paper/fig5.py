@@ -311,6 +311,11 @@ class _Fig5Runs:
                      "equilibrium_residual": eq5["residual"], "dt_used": dt, "dt_max": lim,
                      "dt_fraction": cfg.fig5_dt_fraction}
         self.walls, self.files = {}, {}
+        # saturation span: fig5_sat_span, longer where the certified growth
+        # rate after the drop is too slow to grow 8x over it
+        from remote_trigger.analysis.dynamics.series import saturation_span
+        self.sat_span = saturation_span(summ["drop"]["growth_rate"], cfg.fig5_sat_span)
+        summ["sat_span"] = self.sat_span
 
     def _stop(self, o):
         from remote_trigger.analysis.dynamics import series as ser
@@ -318,7 +323,7 @@ class _Fig5Runs:
         cfg = self.cfg
         return o["D"][-1] > cfg.fig5_d_run or (
             o["mu"][-1] < self.mu0 and ser.saturated(o["t"], o["D"], o["mu"], self.mu0,
-                                                     span=cfg.fig5_sat_span))
+                                                     span=self.sat_span))
 
     def run(self, key, dc, datafile, variables, stop=True, **attrs):
         """One undamped run ``perturb_<key>.h5`` (stopped at fig5_d_run or saturation)."""
@@ -330,7 +335,7 @@ class _Fig5Runs:
         res = _undamped_run(
             self.eng, dc, datafile, h5, variables, f"perturb ({key})", True,
             stop=self._stop if stop else None, dim=cfg.dim,
-            attrs=dict(self.base, run=key, d_run=cfg.fig5_d_run, sat_span=cfg.fig5_sat_span,
+            attrs=dict(self.base, run=key, d_run=cfg.fig5_d_run, sat_span=self.sat_span,
                        **attrs))
         self.walls[key] = time.perf_counter() - t0
         self.files[key] = h5
