@@ -84,3 +84,49 @@ def test_certified_brackets_ordered(run3d):
     assert r08["F_x_c_high"] < r1["F_x_c_low"]
     lo, hi = man["perturb"]["window"]
     assert lo < man["perturb"]["F_x"] < hi
+
+
+def test_trigger_map_spectral_numbers_of_spheres(run3d):
+    """``trigger-map``'s spectral numbers of a load of spheres (its Fig. 5 load):
+    the growth rate after the drop equals the job's certified one; with no
+    damping in effect the damped rate is that rate; with weak damping on the
+    translations only (``fix viscous``: dofs 6k..6k+2, jacobian3d's layout)
+    it moves by the first-order shift -(w^H M^-1 C x) / (2 w^H x) of the
+    pair's left and right eigenvectors (fails if the rotations were damped
+    or the wrong dofs were); D_drop is the mean-square displacement with the
+    minimum image along x and z."""
+    import numpy as np
+    import scipy.linalg as sla
+
+    from remote_trigger.analysis.stability import eigen
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability.jacobian import remove_dofs
+    from remote_trigger.analysis.state.dumpfile import read_dump3d
+    from remote_trigger.pywrap.jobs.trigger_map.loads import spectrum_numbers
+
+    out, _ = run3d
+    eq, dr = (os.path.join(out, "perturb", f + ".dump") for f in ("equilibrium", "drop"))
+    with open(os.path.join(out, "paper.json")) as fh:
+        g = json.load(fh)["perturb"]["drop"]["growth_rate"]
+    assert g > 0
+    tau = 10.0 / g
+    num = spectrum_numbers(eq, dr, [1e12, tau])
+    assert abs(num["growth"] - g) <= 1e-9 * g
+    assert abs(num["growth_tau"][0] - g) <= 1e-6 * g
+    s1 = read_dump3d(dr)
+    an = analyze(s1, eigenvalues=False, decide=False)
+    keep = an.rattlers.keep_dofs
+    Kr, mr = remove_dofs(an.K, an.mass, keep)
+    lam, wl, vr = sla.eig(eigen.dynamical_matrix(Kr, mr).toarray(), left=True, right=True)
+    i = int(np.argmax(np.abs(np.sqrt(lam).imag)))
+    x, w = vr[:, i], wl[:, i]
+    c = (1.0 / tau) * ((keep % 6) < 3) / mr          # M^-1 C, translations only
+    shift = (-np.vdot(w, c * x) / (2.0 * np.vdot(w, x))).real
+    assert shift < 0
+    assert abs((num["growth_tau"][1] - g) - shift) < 0.02 * abs(shift)
+    s0 = read_dump3d(eq)
+    d = s1.positions - s0.positions
+    for a in (0, 2):
+        L = s0.box_hi[a] - s0.box_lo[a]
+        d[:, a] -= L * np.round(d[:, a] / L)
+    assert num["D_drop"] == pytest.approx(float(np.mean(np.sum(d * d, axis=1))), rel=1e-12)

@@ -189,7 +189,8 @@ def _one_run(eng, setup, ld, task, a, muv, h5, d_run):
 
     t0 = time.perf_counter()
     r = _undamped_run(eng, dc, ld["equilibrium"], h5, v, h5, True, stop=stop,
-                             attrs={"stage": "trigger-map", "d_run": d_run or 0.0})
+                      attrs={"stage": "trigger-map", "d_run": d_run or 0.0},
+                      dim=int(setup.get("dim", 2)))
     wall = time.perf_counter() - t0
     sw = np.flatnonzero(r.mu < mu0)
     hit = np.flatnonzero(r.D > d_run) if d_run is not None else np.zeros(0, int)

@@ -46,10 +46,12 @@ def load_paper_job(folder):
 
 
 def _msd(a, b):
-    """Mean over disks of |r_a - r_b|^2 (minimum image along periodic x)."""
-    d = a.positions[:, :2] - b.positions[:, :2]
-    L = a.box_hi[0] - a.box_lo[0]
-    d[:, 0] -= L * np.round(d[:, 0] / L)
+    """Mean over disks or spheres of |r_a - r_b|^2 (minimum image along the
+    periodic x, and z for spheres)."""
+    d = a.positions - b.positions                   # shape (N, 2) or (N, 3)
+    for ax in ((0, 2) if d.shape[1] == 3 else (0,)):
+        L = a.box_hi[ax] - a.box_lo[ax]
+        d[:, ax] -= L * np.round(d[:, ax] / L)
     return float(np.mean(np.sum(d * d, axis=1)))
 
 
@@ -74,19 +76,22 @@ def spectrum_numbers(dump_mu0, dump_drop, taus):
         pair: the spectral distance to the exceptional point), ``growth_tau``
         (max Re s with damping, per tau), ``D_drop``.
     """
-    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.analysis.state.dumpfile import dump_dimension, read_equilibrium
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability.jacobian import remove_dofs
     from remote_trigger.analysis.stability import eigen
 
     out = {}
-    s0, s1 = read_dump(dump_mu0), read_dump(dump_drop)
+    s0, s1 = read_equilibrium(dump_mu0), read_equilibrium(dump_drop)
     out["D_drop"] = _msd(s1, s0)
+    # dofs per particle: disks x, y, theta (rotation: dof 2); spheres x, y, z
+    # and three rotations (dofs 3-5)
+    per, first_rot = (6, 3) if dump_dimension(dump_mu0) == 3 else (3, 2)
     res = {}
     for key, st in (("mu0", s0), ("drop", s1)):
         an = analyze(st, eigenvalues=False, decide=False)
         Kr, mr = remove_dofs(an.K, an.mass, an.rattlers.keep_dofs)
-        rot = (an.rattlers.keep_dofs % 3) == 2
+        rot = (an.rattlers.keep_dofs % per) >= first_rot
         res[key] = (eigen.dense_eigen(Kr, mr, vectors=True), Kr, mr, rot)
     e0, e1 = res["mu0"][0], res["drop"][0]
     w0 = np.sort(np.sqrt(np.abs(e0.eigenvalues.real)))
@@ -144,13 +149,13 @@ def ramp_kappa(ramp_h5, limit=None):
         ``lambda_c`` (the pair at the first complex point).
     """
     import h5py
-    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability.jacobian import remove_dofs
     from remote_trigger.analysis.stability import eigen
 
     def spec(datafile):
-        st = read_dump(datafile[:-len(".data")] + ".dump")
+        st = read_equilibrium(datafile[:-len(".data")] + ".dump")
         an = analyze(st, eigenvalues=False, decide=False)
         Kr, mr = remove_dofs(an.K, an.mass, an.rattlers.keep_dofs)
         return eigen.dense_eigen(Kr, mr, vectors=True)
@@ -216,7 +221,7 @@ def _prepare_loads(cfg, pcfg, man, out):
     from remote_trigger.pywrap.jobs.paper import ramp_config
     from remote_trigger.pywrap.jobs.paper import fig5
     from remote_trigger.analysis.stability.timestep import stability_limit
-    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
 
     ramps = man["ramps"]
     fig = man["perturb"]
@@ -248,8 +253,7 @@ def _prepare_loads(cfg, pcfg, man, out):
             ld.update(equilibrium=eq["datafile"], decision_mu0=eq["decision"],
                       margin_mu0=eq["confidence"], decision_drop=dr["decision"],
                       margin_drop=dr["confidence"], residual=eq["residual"],
-                      dt_max=float(stability_limit(read_dump(pre + ".dump",
-                                                             require_contacts=False))),
+                      dt_max=float(stability_limit(read_equilibrium(pre + ".dump"))),
                       compliance=float(fig5.top_compliance(ramps[0]["h5"], F)),
                       a_max=float(cfg.a_max_factor * (hi - F)))
     # the reference load (growth rate g of the tau_g column): nearest the middle
@@ -272,7 +276,7 @@ def _prepare_loads(cfg, pcfg, man, out):
             "mu0": mu0, "mu_ss": mu_ss, "g_ref": float(g_ref), "window": [lo, hi],
             "B": float(pcfg.B), "w": float(pcfg.w), "mu_ss_ratio": float(pcfg.mu_ss),
             "k_n": float(pcfg.k_n), "k_t": float(pcfg.k_t), "F_y": float(pcfg.F_y),
-            "a_paper": float(pcfg.a_paper)}
+            "a_paper": float(pcfg.a_paper), "dim": int(pcfg.dim)}
 
 
 def map_omegas(cfg, loads):
