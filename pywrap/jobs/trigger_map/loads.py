@@ -61,9 +61,11 @@ def spectrum_numbers(dump_mu0, dump_drop, taus):
     Parameters
     ----------
     dump_mu0, dump_drop : str
-        Dumps of the equilibrium with mu0 and after the friction drop.
+        Dumps of the equilibrium with mu0 and after the friction drop (disks
+        or spheres).
     taus : list of float
-        Damping times (``fix viscous``: gamma = 1/tau on x and y).
+        Damping times (``fix viscous``: gamma = 1/tau on the translations,
+        x and y of disks, x, y and z of spheres; rotations undamped).
 
     Returns
     -------
