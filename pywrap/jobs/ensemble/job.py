@@ -207,7 +207,8 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
                 rows.extend(rows_of(t, res, cfg))
             st = statistics(rows, cfg)
             write_table(os.path.join(out, TABLE), rows, cfg)
-            plot(os.path.join(out, "ensemble.png"), rows, cfg)
+            plot(os.path.join(out, "ensemble.png"), rows, cfg,
+                 st["n_fit"].get(cfg.I0_dynamics))
             wall = time.perf_counter() - t_start
             write_summary(path, rows, cfg, st, wall, n_workers(comm), computed)
             mpath = os.path.join(out, MANIFEST)

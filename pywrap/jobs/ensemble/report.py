@@ -332,9 +332,11 @@ def read_table(path):
     return cols
 
 
-def plot(path, rows, cfg):
+def plot(path, rows, cfg, fits=None):
     """``ensemble.png``: F_x^c(mu0) histograms per N, the ratio, F_x^c vs N, and
-    F_x^c(mu0), F_x^c(mu_ss mu0) and the window width vs N with their fits."""
+    F_x^c(mu0), F_x^c(mu_ss mu0) and the window width vs N with their fits
+    (``fits``: :func:`size_fits` of the dynamics' convention, as in
+    :func:`statistics`; computed here if not given)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -399,17 +401,17 @@ def plot(path, rows, cfg):
     ax[2].set_ylabel("F_x^c(mu0): packings, median and quartiles")
     if ax[2].get_legend_handles_labels()[0]:
         ax[2].legend(fontsize=7)
-    _plot_window(ax[3], select(rows, ft, float(i0_dyn)), cfg, colors)
+    _plot_window(ax[3], select(rows, ft, float(i0_dyn)), cfg, colors, fits)
     fig.tight_layout()
     savefig_atomic(fig, path, dpi=110)
     plt.close(fig)
 
 
-def _plot_window(ax, rows, cfg, colors):
+def _plot_window(ax, rows, cfg, colors, fits=None):
     """F_x^c(mu0), F_x^c(mu_ss mu0) and the window width vs N (the dynamics'
     convention): median and quartiles per N, the power-law fit over every
     packing (:func:`size_fits`) as a line where there are two sizes or more."""
-    fits = size_fits(rows)
+    fits = size_fits(rows) if fits is None else fits
     n = np.array([r["n"] for r in rows], float)
     a = np.array([r["F_x_c"] for r in rows], float)
     b = np.array([r["F_x_c_ss"] for r in rows], float)

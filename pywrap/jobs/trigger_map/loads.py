@@ -78,7 +78,7 @@ def spectrum_numbers(dump_mu0, dump_drop, taus):
         pair: the spectral distance to the exceptional point), ``growth_tau``
         (max Re s with damping, per tau), ``D_drop``.
     """
-    from remote_trigger.analysis.state.dumpfile import dump_dimension, read_equilibrium
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability.jacobian import remove_dofs
     from remote_trigger.analysis.stability import eigen
@@ -88,7 +88,7 @@ def spectrum_numbers(dump_mu0, dump_drop, taus):
     out["D_drop"] = _msd(s1, s0)
     # dofs per particle: disks x, y, theta (rotation: dof 2); spheres x, y, z
     # and three rotations (dofs 3-5)
-    per, first_rot = (6, 3) if dump_dimension(dump_mu0) == 3 else (3, 2)
+    per, first_rot = (6, 3) if s0.positions.shape[1] == 3 else (3, 2)
     res = {}
     for key, st in (("mu0", s0), ("drop", s1)):
         an = analyze(st, eigenvalues=False, decide=False)
