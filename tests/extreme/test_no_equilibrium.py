@@ -3,12 +3,12 @@
 With mu = 1 and F_y = 3 per top disk, F_x = 30 is ten times the Coulomb
 limit of the whole top line; the driver's relaxation must raise
 NoEquilibriumError (Python) / exit with status 3 (command line) within a
-bounded time.
+bounded number of steps (not seconds: a wall-time bound fails on a loaded machine).
 """
 import os
+import re
 import subprocess
 import sys
-import time
 
 import pytest
 
@@ -30,11 +30,13 @@ def test_equilibrate_raises_clear_error_quickly(datafile, tmp_path):
     from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
 
     cfg = RelaxConfig(datafile=datafile, F_x=30.0, max_steps=200000)
-    t0 = time.perf_counter()
     with pytest.raises(NoEquilibriumError, match=r"no equilibrium at F_x = 30\.0: the top "
-                                                 r"layer slid"):
+                                                 r"layer slid .* in t = ") as info:
         stages.relax(cfg, str(tmp_path / "out"), quiet=True)
-    assert time.perf_counter() - t0 < 30.0
+    # "quickly" in steps, not seconds: the slide criterion ended the run long
+    # before max_steps (a wall-time bound would fail on a loaded machine)
+    t_sim = float(re.search(r"in t = (\S+)$", str(info.value)).group(1))
+    assert t_sim / cfg.dt < 0.1 * cfg.max_steps
 
 
 def test_max_steps_bounds_a_slow_case(datafile, tmp_path):
@@ -45,10 +47,9 @@ def test_max_steps_bounds_a_slow_case(datafile, tmp_path):
 
     cfg = RelaxConfig(datafile=datafile, F_x=30.0, slide=1e9, max_steps=3000,
                       check_every=1000)
-    t0 = time.perf_counter()
+    # bounded by the step count the message names, not by a wall time
     with pytest.raises(NoEquilibriumError, match="within max_steps = 3000"):
         stages.relax(cfg, str(tmp_path / "out2"), quiet=True)
-    assert time.perf_counter() - t0 < 30.0
 
 
 def test_command_line_exit_status_3(datafile, tmp_path):
