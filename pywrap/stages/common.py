@@ -258,8 +258,12 @@ def prepare_out(eng, out, files, overwrite=False, stage="stage"):
     on_rank0(eng.comm, check)
 
 
+#: the files :func:`save_equilibrium` writes for one equilibrium ``prefix``
+EQUILIBRIUM_EXTS = (".data", ".dump", ".dump.json")
+
+
 def _equilibrium_files(name):
-    return [os.path.join(name, "equilibrium" + ext) for ext in (".data", ".dump", ".dump.json")]
+    return [os.path.join(name, "equilibrium" + ext) for ext in EQUILIBRIUM_EXTS]
 
 
 def _relax_cfg(cfg, F_x):

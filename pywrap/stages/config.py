@@ -260,12 +260,22 @@ class RampConfig(RelaxConfig):
         None (default): every step is dF_x. A number > dF_x: adaptive ramp,
         steps between dF_x and dF_x_max chosen from the predicted distance to
         the nearest coalescence (``pywrap.ramp.next_step``, docs/driver.md).
+    keep_equilibria : bool
+        True (default): every point's equilibrium files stay in ``ramp/``.
+        False: at each checkpoint the ramp removes the files of the points
+        that no later point starts from and that are not an end of the
+        certified bracket (it keeps the last step, the bracket's lower end
+        and its upper end); ``ramp.h5`` keeps every decision and eigenvalue
+        either way. For large N (docs/driver.md, "Disk use"). A storage
+        choice, not part of the result: a ramp may be resumed with the
+        other value.
     """
 
     dF_x: float = 1e-4
     F_x_max: float = 1.0
     tol: float = 1e-7
     dF_x_max: float = None
+    keep_equilibria: bool = True
 
     def validate(self):
         super().validate()
@@ -280,6 +290,9 @@ class RampConfig(RelaxConfig):
             raise ConfigError(f"F_x_max must be > F_x = {self.F_x!r}, got "
                               f"F_x_max = {self.F_x_max!r}")
         _positive("tol", self.tol)
+        if not isinstance(self.keep_equilibria, bool):
+            raise ConfigError(f"keep_equilibria must be True or False, got "
+                              f"keep_equilibria = {self.keep_equilibria!r}")
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.stages import ramp_file
 from remote_trigger.pywrap.stages.common import (
-    _analyze, _ensure_dir, _progress, check_spheres_ramp,
+    EQUILIBRIUM_EXTS, _analyze, _ensure_dir, _progress, check_spheres_ramp,
     load_equilibrium_scene, save_equilibrium, start_sha256, start_timestep)
 
 
@@ -502,6 +502,35 @@ def _starts(rlog):
     return {f for f in ([files[-1]] if files else []) + [lo_file] if f}
 
 
+def _kept_equilibria(rlog):
+    """Data files whose equilibria a ramp with ``keep_equilibria`` False keeps:
+    the starts (:func:`_starts`) and the bracket's upper end (the smallest
+    load certified complex)."""
+    keep = _starts(rlog)
+    hi = ramp_bracket(rlog)[1]
+    for kind in (ramp_file.STEPS, ramp_file.BISECTION):
+        for F, d, f in zip(rlog.rows[kind]["F_x"], rlog.rows[kind]["decision"],
+                           rlog.files[kind]):
+            if d == Decision.COMPLEX and F == hi:
+                keep.add(f)
+    return keep
+
+
+def _prune_equilibria(rlog):
+    """Remove the equilibrium files of the recorded points not in
+    :func:`_kept_equilibria` (files already gone are skipped)."""
+    keep = _kept_equilibria(rlog)
+    for kind in (ramp_file.STEPS, ramp_file.BISECTION):
+        for f in rlog.files[kind]:
+            if f in keep:
+                continue
+            for ext in EQUILIBRIUM_EXTS:
+                try:
+                    os.remove(f[:-len(".data")] + ext)
+                except FileNotFoundError:
+                    pass
+
+
 def _remember(eng, rlog, datafile, basis):
     """Rank 0, once the point of ``datafile`` is recorded: keep its basis if it
     can start a later point, forget those that no longer can."""
@@ -517,7 +546,9 @@ def _remember(eng, rlog, datafile, basis):
 def _checkpoint(eng, rlog, folder, status, force=False):
     """Rank 0: ramp.h5 brought up to date (``rlog.write``: at a checkpoint, or
     ``force``), the bases of its start points saved just before it, the other
-    saved bases removed after it (all of them for a final status)."""
+    saved bases removed after it (all of them for a final status), and, with
+    ``keep_equilibria`` False, the equilibria no longer needed
+    (:func:`_prune_equilibria`), also only once ramp.h5 names every row."""
     import glob
     from remote_trigger.analysis.output import atomic_path
 
@@ -537,6 +568,8 @@ def _checkpoint(eng, rlog, folder, status, force=False):
         for path in glob.glob(os.path.join(folder, "*.basis.npz")):
             if path not in keep:
                 os.remove(path)
+        if not rlog.cfg.keep_equilibria:
+            _prune_equilibria(rlog)
 
 
 def _load_basis(eng, datafile):

@@ -249,7 +249,8 @@ class RampLog:
             raise ConfigError(f"cannot resume {path}: it ramps from datafile = {old_file!r}, "
                               f"this run gives datafile = {cfg.datafile!r} {other}"
                               f"(nothing was changed)")
-        check_resume_config(path, cfg, attrs)
+        # keeping the equilibria or not changes no number: either may resume
+        check_resume_config(path, cfg, attrs, skip=("keep_equilibria",))
         log = cls(cfg, path)
         for kind in (STEPS, BISECTION):
             for c in cls.COLS:

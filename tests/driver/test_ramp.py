@@ -314,3 +314,56 @@ def test_inertia_reanalysis_from_bases_gives_dgeev_s_decisions(full_ramp, monkey
         np.testing.assert_allclose(np.sort_complex(p["eigenvalues"]),
                                    np.sort_complex(s["eigenvalues"]), rtol=0,
                                    atol=1e-10 * np.abs(s["eigenvalues"]).max())
+
+
+def _stored_points(folder):
+    """Stems of the equilibria in a ramp folder, with the extensions each has."""
+    from collections import defaultdict
+
+    from remote_trigger.pywrap.stages.common import EQUILIBRIUM_EXTS
+
+    have = defaultdict(set)
+    for f in os.listdir(folder):
+        for ext in EQUILIBRIUM_EXTS:
+            if f.endswith(ext):
+                have[f[:-len(ext)]].add(ext)
+    return dict(have)
+
+
+def test_keep_equilibria_false_keeps_only_the_bracket_and_the_same_numbers(full_ramp,
+                                                                           tmp_path):
+    """``keep_equilibria = False``: the same rows and bracket as the full ramp,
+    bitwise, and only the bracket's two ends and the last step on disk, each
+    with its three files (interrupted and resumed half-way, too)."""
+    from remote_trigger.pywrap.stages.common import EQUILIBRIUM_EXTS
+
+    cfg, full = full_ramp
+    pcfg = cfg.replace(keep_equilibria=False)
+    k = max(2, (full.F_x.size + full.bisection_F_x.size) // 2)
+    part = stages.ramp(pcfg, str(tmp_path), quiet=True, stop_after=k)
+    assert part.status == "interrupted"
+    # while it runs: at most the last step and the bracket's ends (here: 1-3 points)
+    assert 1 <= len(_stored_points(tmp_path / "ramp")) <= 3
+    # resumed by the configuration that keeps everything: a storage choice only
+    res = stages.ramp(cfg, str(tmp_path), quiet=True, resume=True)
+    assert res.status == "complete"
+    _, a = read_all(res.h5)
+    _, b = read_all(full.h5)
+    for key in b:
+        if key.endswith("/datafile") or key.endswith("wall_time"):
+            continue
+        np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    assert (res.F_x_c_low, res.F_x_c_high) == (full.F_x_c_low, full.F_x_c_high)
+
+    # a whole ramp without the equilibria: the ends of the bracket stay
+    out = tmp_path / "pruned"
+    res = stages.ramp(pcfg, str(out), quiet=True)
+    _, a = read_all(res.h5)
+    rows = {f: (F, d) for kind in ("steps", "bisection")
+            for F, d, f in zip(a[f"{kind}/F_x"], a[f"{kind}/decision"],
+                               (_dump(x)[:-len(".dump")] for x in a[f"{kind}/datafile"]))}
+    kept = _stored_points(out / "ramp")
+    assert all(exts == set(EQUILIBRIUM_EXTS) for exts in kept.values()), kept
+    kept_rows = sorted(rows[str(out / "ramp" / stem)] for stem in kept)
+    assert (res.F_x_c_low, 0.0) in kept_rows and (res.F_x_c_high, 1.0) in kept_rows
+    assert len(kept) <= 3 < len(rows), (kept, len(rows))

@@ -153,13 +153,16 @@ def _relax(cfg, datafile, folder, protocol):
 def _ramp(cfg, datafile, mu, folder, resume=False):
     """Ramp at friction ``mu`` from ``datafile`` (``resume``: continue the
     ramp.h5 a killed run left, bitwise as uninterrupted); returns the
-    RampResult."""
+    RampResult. Unless ``keep_equilibria`` (or the I0 re-analysis, which
+    reads every point's dump), the ramp keeps only the equilibria it still
+    needs while it runs (``RampConfig.keep_equilibria``)."""
     from mpi4py import MPI
     from remote_trigger.pywrap import stages
     from remote_trigger.pywrap.jobs.paper import ramp_config
 
-    return stages.ramp(ramp_config(cfg, datafile, mu), folder, comm=MPI.COMM_SELF, quiet=True,
-                       resume=resume)
+    keep = bool(cfg.keep_equilibria or cfg.inertia_I0 is not None)
+    rcfg = ramp_config(cfg, datafile, mu).replace(keep_equilibria=keep)
+    return stages.ramp(rcfg, folder, comm=MPI.COMM_SELF, quiet=True, resume=resume)
 
 
 def _ramp_part(cfg, relaxed, mu, folder, resume=False):
