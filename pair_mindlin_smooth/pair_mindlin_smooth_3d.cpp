@@ -92,10 +92,44 @@ contact_side(const Atoms3 &a, int i, int j, const double del[3], double r, doubl
   c.listed = listed;
 }
 
-// stored history of one side: its slot's t, or zero (no slot, or in the band)
-inline void stored_t(double **const tc[3], int i, int slot, bool band, double out[3])
+// stored history of one side: its slot's t, or zero (no slot, or in the band);
+// row[k] = the side's row of mindlin_tx, _ty, _tz
+inline void stored_t(const double *const row[3], int slot, bool band, double out[3])
 {
-  for (int k = 0; k < 3; k++) out[k] = (slot >= 0 && !band) ? tc[k][i][slot] : 0.0;
+  for (int k = 0; k < 3; k++) out[k] = (slot >= 0 && !band) ? row[k][slot] : 0.0;
+}
+
+// Slots that can stand for the canonical order (bits of a 64-bit mask).
+constexpr int SLOT_ORDER_MAX = 64;
+
+// Notes the slot of contact number c of an atom for slot_order(): pos[s]
+// = the contact in slot s, mask = the slots taken, all = every contact
+// so far has a slot below SLOT_ORDER_MAX.
+inline void note_slot(int slot, int c, int *pos, unsigned long long &mask, bool &all)
+{
+  if ((unsigned) slot < (unsigned) SLOT_ORDER_MAX) {
+    pos[slot] = c;
+    mask |= 1ull << slot;
+  } else
+    all = false;
+}
+
+// The canonical order read off the history slots, without a sort: true
+// when every contact holds a slot, together they hold slots 0..nc-1 (nc
+// contacts, nc distinct slots) and their tags ascend along the slots.
+// The history is written in ascending tag, so this is the common case:
+// no contact made or lost since the last step, none in the touching band
+// without a slot.  Anything else (or slots not in order, as a driver may
+// set them) takes rank_by_tag().
+inline bool slot_order(const PairMindlinSmooth::Contact3 *cs, int nc, const int *pos,
+                       unsigned long long mask, bool all)
+{
+  if (!all || nc > SLOT_ORDER_MAX) return false;
+  const unsigned long long full = (nc == SLOT_ORDER_MAX) ? ~0ull : (1ull << nc) - 1;
+  if (mask != full) return false;
+  for (int a = 1; a < nc; a++)
+    if (!(cs[pos[a - 1]].tag < cs[pos[a]].tag)) return false;
+  return true;
 }
 
 // The canonical order of one atom's contacts, ascending partner tag:
@@ -186,7 +220,11 @@ void PairMindlinSmooth::compute_3d()
     const int *jlist = firstneigh[i];
     const int jnum = numneigh[i];
     const int *ipartner = partner[i];
+    const double *const itc[3] = {tc[0][i], tc[1][i], tc[2][i]};
     int nc = 0;
+    int pos[SLOT_ORDER_MAX];    // slot_order(): the contact in each slot
+    unsigned long long taken = 0;
+    bool allslots = true;
 
     // the contacts computed here: with ghosts, and with owned atoms later
     // in the list (which get the image)
@@ -212,13 +250,14 @@ void PairMindlinSmooth::compute_3d()
       const bool band = (gap <= tau && gap >= -tau);
       const int slot = find_slot(ipartner, nslot, tag[j]);
       double stored[3];
-      stored_t(tc, i, slot, band, stored);
+      stored_t(itc, slot, band, stored);
       const bool listed = band ? (slot >= 0) : (gap > 0.0);
       const bool has = listed || gap > 0.0;
       Contact3 &c = cs[nc];
       if (has) {
         c.tag = tag[j];
         contact_side(at, i, j, del, r, gap, band, stored, listed, c);
+        note_slot(slot, nc, pos, taken, allslots);
         nc++;
       }
       if (!once) continue;
@@ -251,13 +290,14 @@ void PairMindlinSmooth::compute_3d()
       const bool band = (im.flags & IN_BAND) != 0;
       const int slot = find_slot(ipartner, nslot, im.tag);
       double stored[3];
-      stored_t(tc, i, slot, band, stored);
+      stored_t(itc, slot, band, stored);
       const bool mirror = band ? (((im.flags & HAS_SLOT) != 0) == (slot >= 0))
                                : (stored[0] == -im.stored[0] && stored[1] == -im.stored[1] &&
                                   stored[2] == -im.stored[2]);
       const int j = im.i;
       if (mirror) {
         if (!(im.flags & HAS_CONTACT)) continue;
+        note_slot(slot, nc, pos, taken, allslots);
         Contact3 &c = cs[nc++];
         c.tag = im.tag;
         c.listed = (im.flags & LISTED) != 0;
@@ -277,33 +317,40 @@ void PairMindlinSmooth::compute_3d()
       const double gap = (radi + radius[j]) - r;
       const bool listed = band ? (slot >= 0) : (gap > 0.0);
       if (!(listed || gap > 0.0)) continue;
+      note_slot(slot, nc, pos, taken, allslots);
       Contact3 &c = cs[nc++];
       c.tag = im.tag;
       contact_side(at, i, j, del, r, gap, band, stored, listed, c);
     }
 
     if (nc > nslot && !history) too_many_contacts(itag);
-    const tagint dup = rank_by_tag(cs, nc, order);
-    if (dup > 0) two_images(itag, dup);
+    const int *ord = pos;
+    if (!slot_order(cs, nc, pos, taken, allslots)) {
+      const tagint dup = rank_by_tag(cs, nc, order);
+      if (dup > 0) two_images(itag, dup);
+      ord = order;
+    }
 
+    // summed in registers: the same additions in the same order as into
+    // f[i] and torque[i] directly, which the compiler would have to
+    // reload after every store (they might alias the contacts)
+    double fi[3] = {f[i][0], f[i][1], f[i][2]};
+    double ti[3] = {torque[i][0], torque[i][1], torque[i][2]};
     for (int a = 0; a < nc; a++) {
-      const Contact3 &c = cs[order[a]];
+      const Contact3 &c = cs[ord[a]];
       for (int k = 0; k < 3; k++) {
-        f[i][k] += c.f[k];
-        torque[i][k] += -radi * c.nxf[k];
+        fi[k] += c.f[k];
+        ti[k] += -radi * c.nxf[k];
       }
       if (evflag)
         ev_tally_xyz_full(i, c.en, 0.0, c.f[0], c.f[1], c.f[2], c.del[0], c.del[1], c.del[2]);
     }
+    for (int k = 0; k < 3; k++) {
+      f[i][k] = fi[k];
+      torque[i][k] = ti[k];
+    }
 
     if (update_history) {
-      // slots from the first empty one on are zero (written so below), so
-      // only those that held a contact are cleared
-      int nold = nslot;
-      if (packed3) {
-        nold = 0;
-        while (nold < nslot && partner[i][nold] != 0) nold++;
-      }
       if (nc > nslot) {
         history->reserve(nc);
         find_history();
@@ -311,17 +358,22 @@ void PairMindlinSmooth::compute_3d()
         for (int k = 0; k < 3; k++) tc[k] = atom->darray[idx_t3[k]];
         nslot = ncol;
       }
+      int *prow = partner[i];
+      double *const trow[3] = {tc[0][i], tc[1][i], tc[2][i]};
       int nl = 0;
       for (int a = 0; a < nc; a++) {
-        const Contact3 &c = cs[order[a]];
+        const Contact3 &c = cs[ord[a]];
         if (!c.listed) continue;
-        partner[i][nl] = c.tag;
-        for (int k = 0; k < 3; k++) tc[k][i][nl] = c.t[k];
+        prow[nl] = c.tag;
+        for (int k = 0; k < 3; k++) trow[k][nl] = c.t[k];
         nl++;
       }
-      for (int a = nl; a < nold; a++) {
-        partner[i][a] = 0;
-        for (int k = 0; k < 3; k++) tc[k][i][a] = 0.0;
+      // the slots that held a contact and hold none now: slots are packed
+      // and, once cleared whole (packed3), zero from the first empty one on,
+      // so the old entries past nl end at the first zero
+      for (int a = nl; a < nslot && (!packed3 || prow[a] != 0); a++) {
+        prow[a] = 0;
+        for (int k = 0; k < 3; k++) trow[k][a] = 0.0;
       }
     }
   }
