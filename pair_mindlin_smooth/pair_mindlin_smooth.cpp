@@ -41,7 +41,8 @@ static const char *const HISTORY_T = FixMindlinHistory::T_2D;
 
 PairMindlinSmooth::PairMindlinSmooth(LAMMPS *lmp) :
     Pair(lmp), kn(nullptr), kt(nullptr), mu(nullptr), maxrad(nullptr), ncol(0),
-    idx_partner(-1), idx_t(-1), idx_t3{-1, -1, -1}, history(nullptr), packed3(false)
+    idx_partner(-1), idx_t(-1), idx_t3{-1, -1, -1}, ordered3_list(nullptr),
+    ordered3_inum(-1), ordered3_nlocal(-1), history(nullptr), packed3(false)
 {
   single_enable = 1;
   restartinfo = 1;
@@ -214,6 +215,7 @@ void PairMindlinSmooth::init_style()
 
   single_extra = (domain->dimension == 3) ? 7 : 5;
   packed3 = false;    // the history may have been read or set: clear it whole once
+  ordered3_list = nullptr;    // the atoms may have been sorted or replaced
   setup_history();
   if ((int) contacts.size() < ncol) contacts.resize(ncol);
 

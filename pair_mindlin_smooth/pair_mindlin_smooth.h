@@ -67,12 +67,16 @@ class PairMindlinSmooth : public Pair {
   // list, waiting for the second: the first's side and what the second
   // needs to check that its own side is the mirror image
   struct Image3 {
-    tagint tag;          // the first sphere's ID
-    int i;               // and its local index
-    int flags;           // HAS_CONTACT, LISTED, IN_BAND, HAS_SLOT of the first side
-    int next;            // the second sphere's previous image, -1 if none
+    int flags;           // NEAR, HAS_CONTACT, LISTED, IN_BAND, HAS_SLOT of the first side
     double t[3], f[3], nxf[3], en;
     double stored[3];    // the first side's stored history (zero if none)
+  };
+
+  // a neighbour j of an owned sphere and its part in the pair's image
+  // (pair_mindlin_smooth_3d.cpp, order_neighbors_3d)
+  struct Entry3 {
+    int j;
+    int img;
   };
 
  protected:
@@ -83,12 +87,11 @@ class PairMindlinSmooth : public Pair {
   int idx_t3[3];                    // 3d: mindlin_tx, mindlin_ty, mindlin_tz
   std::vector<Contact> contacts;    // scratch space, >= ncol entries
   std::vector<Contact3> contacts3;    // 3d: one atom's contacts
-  std::vector<int> order3;            // 3d: the same in ascending tag
-  std::vector<Image3> images3;        // 3d: the images of one step, in the
-                                      // order they were made (compact, so
-                                      // that they stay in cache until used)
-  std::vector<int> rank3, head3;      // 3d: each atom's position in the list
-                                      // and its latest image (-1: none)
+  std::vector<Image3> images3;        // 3d: one image per pair of owned atoms
+  std::vector<Entry3> entries3;       // 3d: the neighbours of each owned atom in
+  std::vector<int> first3;            // ascending tag, from first3[ii] on
+  NeighList *ordered3_list;           // the list, inum and nlocal entries3
+  int ordered3_inum, ordered3_nlocal;    // was made from (nullptr: none)
   class FixMindlinHistory *history;    // internal storage, or nullptr when
                                        // a fix property/atom holds the arrays
   bool packed3;    // 3d: history slots past the first empty one are known to be zero
@@ -103,6 +106,7 @@ class PairMindlinSmooth : public Pair {
 
   // 3d (pair_mindlin_smooth_3d.cpp)
   void compute_3d();
+  void order_neighbors_3d();
   double single_3d(int, int, int, int, double, double &);
 };
 

@@ -33,9 +33,11 @@
 #include "domain.h"
 #include "error.h"
 #include "neigh_list.h"
+#include "neighbor.h"
 #include "update.h"
 
 #include <cmath>
+#include <type_traits>
 
 using namespace LAMMPS_NS;
 using MindlinSmooth::find_slot;
@@ -44,8 +46,13 @@ using MindlinSmooth::touch_base;
 
 namespace {
 
-// Image3::flags: the first side's contact, history entry, band, slot
-enum { HAS_CONTACT = 1, LISTED = 2, IN_BAND = 4, HAS_SLOT = 8 };
+// Image3::flags: the pair within reach (else the rest is not set), the first
+// side's contact, history entry, band, slot
+enum { HAS_CONTACT = 1, LISTED = 2, IN_BAND = 4, HAS_SLOT = 8, NEAR = 16 };
+
+// Entry3::img of a neighbour computed by each side, with no image (even, so
+// that img & 1 tells only the second side of a pair)
+constexpr int ALONE = -2;
 
 // what one side of a contact reads
 struct Atoms3 {
@@ -96,67 +103,101 @@ contact_side(const Atoms3 &a, int i, int j, const double del[3], double r, doubl
 // row[k] = the side's row of mindlin_tx, _ty, _tz
 inline void stored_t(const double *const row[3], int slot, bool band, double out[3])
 {
-  for (int k = 0; k < 3; k++) out[k] = (slot >= 0 && !band) ? row[k][slot] : 0.0;
+  if (slot >= 0 && !band)
+    for (int k = 0; k < 3; k++) out[k] = row[k][slot];
+  else
+    for (int k = 0; k < 3; k++) out[k] = 0.0;
 }
 
-// Slots that can stand for the canonical order (bits of a 64-bit mask).
-constexpr int SLOT_ORDER_MAX = 64;
-
-// Notes the slot of contact number c of an atom for slot_order(): pos[s]
-// = the contact in slot s, mask = the slots taken, all = every contact
-// so far has a slot below SLOT_ORDER_MAX.
-inline void note_slot(int slot, int c, int *pos, unsigned long long &mask, bool &all)
+// Slot of partner jtag in one atom's history row (find_slot()'s answer),
+// for partners asked in ascending tag: a walk along the row, which this
+// loop writes in ascending tag, from where the previous one stopped (k).
+// A tag not met on the way is looked for in the whole row (a new contact,
+// or a row a driver or a data file wrote in another order).
+inline int walk_slot(const int *row, int nslot, int &k, tagint jtag)
 {
-  if ((unsigned) slot < (unsigned) SLOT_ORDER_MAX) {
-    pos[slot] = c;
-    mask |= 1ull << slot;
-  } else
-    all = false;
-}
-
-// The canonical order read off the history slots, without a sort: true
-// when every contact holds a slot, together they hold slots 0..nc-1 (nc
-// contacts, nc distinct slots) and their tags ascend along the slots.
-// The history is written in ascending tag, so this is the common case:
-// no contact made or lost since the last step, none in the touching band
-// without a slot.  Anything else (or slots not in order, as a driver may
-// set them) takes rank_by_tag().
-inline bool slot_order(const PairMindlinSmooth::Contact3 *cs, int nc, const int *pos,
-                       unsigned long long mask, bool all)
-{
-  if (!all || nc > SLOT_ORDER_MAX) return false;
-  const unsigned long long full = (nc == SLOT_ORDER_MAX) ? ~0ull : (1ull << nc) - 1;
-  if (mask != full) return false;
-  for (int a = 1; a < nc; a++)
-    if (!(cs[pos[a - 1]].tag < cs[pos[a]].tag)) return false;
-  return true;
-}
-
-// The canonical order of one atom's contacts, ascending partner tag:
-// order[m] = the index of the m-th.  Each contact's place is the number of
-// contacts with a smaller tag, counted without branches (cheaper than a
-// sort for the ~6 contacts of a sphere, whose tags come in no order).
-// Returns a tag that occurs twice (the smallest), 0 if none.
-inline tagint rank_by_tag(const PairMindlinSmooth::Contact3 *cs, int nc, int *order)
-{
-  tagint dup = 0;
-  for (int a = 0; a < nc; a++) {
-    const tagint ta = cs[a].tag;
-    int below = 0, same = 0;
-    for (int b = 0; b < nc; b++) {
-      below += (cs[b].tag < ta);
-      same += (cs[b].tag == ta);
-    }
-    if (same > 1) {
-      if (dup == 0 || ta < dup) dup = ta;
-      continue;
-    }
-    order[below] = a;
-  }
-  return dup;
+  // most often the contacts are those of the row: jtag is the next one
+  if (k < nslot && row[k] == jtag) return k++;
+  using utag = std::make_unsigned<tagint>::type;
+  // 0 < row[k] < jtag in one comparison (tags are > 0, an empty slot is 0)
+  while (k < nslot && (utag) (row[k] - 1) < (utag) (jtag - 1)) k++;
+  if (k < nslot && row[k] == jtag) return k;
+  return find_slot(row, nslot, jtag);
 }
 
 }    // namespace
+
+/* ----------------------------------------------------------------------
+   The full neighbor list as the 3d loop walks it, made again whenever
+   LAMMPS builds the list (and after every init): per owned atom (position ii in the list) its
+   neighbours in ascending tag, so that its contacts come out in the
+   canonical order with no sort, and the slot of each partner is found by
+   one walk along the history row.  Each pair of owned atoms gets the
+   index of its image, in the order the first of the two meets it (so the
+   images are written in order and read while still in cache): the entry
+   of the first atom says 2 * index (it computes and writes the image), the
+   second's 2 * index + 1 (it reads it); ALONE = computed by each side,
+   with no image (a ghost, or an atom not in the list).
+------------------------------------------------------------------------- */
+
+void PairMindlinSmooth::order_neighbors_3d()
+{
+  const int nlocal = atom->nlocal;
+  const tagint *tag = atom->tag;
+  const int inum = list->inum;
+  const int *ilist = list->ilist;
+  const int *numneigh = list->numneigh;
+  int **firstneigh = list->firstneigh;
+
+  // position of each owned atom in the list (-1: not in it)
+  std::vector<int> rank(nlocal, -1);
+  int total = 0;
+  for (int ii = 0; ii < inum; ii++) {
+    rank[ilist[ii]] = ii;
+    total += numneigh[ilist[ii]];
+  }
+  first3.resize(inum + 1);
+  entries3.resize(total);
+  int most = 0, npair = 0, n = 0;
+  for (int ii = 0; ii < inum; ii++) {
+    const int i = ilist[ii];
+    const int *jlist = firstneigh[i];
+    first3[ii] = n;
+    for (int jj = 0; jj < numneigh[i]; jj++) {
+      const int j = jlist[jj] & NEIGHMASK;
+      const int jr = (j < nlocal) ? rank[j] : -1;
+      int img = ALONE;
+      if (jr > ii)
+        img = 2 * npair++;
+      else if (jr >= 0 && jr < ii) {
+        // the image j made for this pair: j's entry of i
+        for (int e = first3[jr]; e < first3[jr + 1]; e++)
+          if (entries3[e].j == i && entries3[e].img >= 0 && !(entries3[e].img & 1))
+            img = entries3[e].img + 1;
+        if (img == ALONE)
+          error->one(FLERR,
+                     "Pair style mindlin/smooth: atom {} is a neighbour of atom {} but not the "
+                     "other way round (the neighbor list is not symmetric)",
+                     tag[j], tag[i]);
+      }
+      // insertion in ascending partner tag
+      int e = n++;
+      while (e > first3[ii] && tag[entries3[e - 1].j] > tag[j]) {
+        entries3[e] = entries3[e - 1];
+        e--;
+      }
+      entries3[e] = {j, img};
+    }
+    most = MAX(most, n - first3[ii]);
+  }
+  first3[inum] = n;
+  if ((int) images3.size() < npair) images3.resize(npair + npair / 8 + 1);
+  if ((int) contacts3.size() < most) contacts3.resize(most);
+
+  ordered3_list = list;
+  ordered3_inum = inum;
+  ordered3_nlocal = nlocal;
+}
 
 /* ---------------------------------------------------------------------- */
 
@@ -179,99 +220,112 @@ void PairMindlinSmooth::compute_3d()
   const double tbase = touch_base(domain);
   int nslot = ncol;
 
-  // Position of each owned atom in the list (-1: not in it).  An image per
-  // pair of owned neighbours at most; scratch space for one atom's
-  // contacts, as many as its neighbours (the full list is symmetric).
   const int inum = list->inum;
   const int *ilist = list->ilist;
-  const int *numneigh = list->numneigh;
-  int **firstneigh = list->firstneigh;
-  if ((int) rank3.size() < nlocal) {
-    rank3.resize(atom->nmax);
-    head3.resize(atom->nmax);
-  }
-  int *rank = rank3.data(), *head = head3.data();
-  for (int i = 0; i < nlocal; i++) rank[i] = head[i] = -1;
-  int total = 0, most = 0;
-  bool inorder = true;    // ilist[ii] == ii: the position is the index itself
-  for (int ii = 0; ii < inum; ii++) {
-    const int i = ilist[ii];
-    rank[i] = ii;
-    inorder = inorder && (i == ii);
-    total += numneigh[i];
-    most = MAX(most, numneigh[i]);
-  }
-  if ((int) images3.size() < total / 2 + 1) images3.resize(total / 2 + total / 8 + 1);
-  if ((int) contacts3.size() < most) {
-    contacts3.resize(most);
-    order3.resize(most);
-  }
+  // a list built this step (ago = 0: set by every build, in a run and in
+  // its setup), or another list or atom count than the last one ordered
+  if (neighbor->ago == 0 || list != ordered3_list || inum != ordered3_inum ||
+      nlocal != ordered3_nlocal)
+    order_neighbors_3d();
+  const Entry3 *entries = entries3.data();
+  const int *first = first3.data();
   Image3 *images = images3.data();
-  const int maximage = (int) images3.size();
-  int nimage = 0;
   Contact3 *cs = contacts3.data();
-  int *order = order3.data();
 
   for (int ii = 0; ii < inum; ii++) {
     const int i = ilist[ii];
     const tagint itag = tag[i];
     const double radi = radius[i];
     const double xi[3] = {x[i][0], x[i][1], x[i][2]};
-    const int *jlist = firstneigh[i];
-    const int jnum = numneigh[i];
     const int *ipartner = partner[i];
     const double *const itc[3] = {tc[0][i], tc[1][i], tc[2][i]};
     int nc = 0;
-    int pos[SLOT_ORDER_MAX];    // slot_order(): the contact in each slot
-    unsigned long long taken = 0;
-    bool allslots = true;
+    int walk = 0;       // walk_slot() along i's history row
+    tagint dup = 0;     // a partner met twice (two periodic images), 0 if none
 
-    // the contacts computed here: with ghosts, and with owned atoms later
-    // in the list (which get the image)
-    for (int jj = 0; jj < jnum; jj++) {
-      const int j = jlist[jj] & NEIGHMASK;
-      const bool once = inorder ? (j < nlocal) : (j < nlocal && rank[j] >= 0);
-      if (once && (inorder ? j : rank[j]) < ii) continue;    // computed by j: image below
+    // the contacts in ascending partner tag: computed here (with ghosts,
+    // and with owned atoms later in the list, which get the image), or
+    // the image of the side computed by an atom earlier in the list
+    for (int e = first[ii]; e < first[ii + 1]; e++) {
+      const int j = entries[e].j, img = entries[e].img;
+
+      if (img & 1) {
+        // the mirror image where i's own history is the image of j's,
+        // else i's side anew
+        const Image3 &im = images[img >> 1];
+        if (!(im.flags & NEAR)) continue;
+        const tagint jtag = tag[j];
+        const bool band = (im.flags & IN_BAND) != 0;
+        const int slot = walk_slot(ipartner, nslot, walk, jtag);
+        double stored[3];
+        stored_t(itc, slot, band, stored);
+        const bool mirror = band ? (((im.flags & HAS_SLOT) != 0) == (slot >= 0))
+                                 : (stored[0] == -im.stored[0] && stored[1] == -im.stored[1] &&
+                                    stored[2] == -im.stored[2]);
+        if (mirror) {
+          if (!(im.flags & HAS_CONTACT)) continue;
+          if (nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
+          Contact3 &c = cs[nc++];
+          c.tag = jtag;
+          c.listed = (im.flags & LISTED) != 0;
+          for (int k = 0; k < 3; k++) {
+            c.t[k] = -im.t[k];
+            c.f[k] = -im.f[k];
+            c.nxf[k] = im.nxf[k];    // n x F_t: both factors change sign
+          }
+          c.en = im.en;
+          if (evflag)
+            for (int k = 0; k < 3; k++) c.del[k] = xi[k] - x[j][k];
+          continue;
+        }
+        // the same geometry as j's (del negated exactly)
+        const double del[3] = {xi[0] - x[j][0], xi[1] - x[j][1], xi[2] - x[j][2]};
+        const double r = sqrt(MindlinSmooth::dot3(del, del));
+        const double gap = (radi + radius[j]) - r;
+        const bool listed = band ? (slot >= 0) : (gap > 0.0);
+        if (!(listed || gap > 0.0)) continue;
+        if (nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
+        Contact3 &c = cs[nc++];
+        c.tag = jtag;
+        contact_side(at, i, j, del, r, gap, band, stored, listed, c);
+        continue;
+      }
 
       const double del[3] = {xi[0] - x[j][0], xi[1] - x[j][1], xi[2] - x[j][2]};
       const double rsq = MindlinSmooth::dot3(del, del);
       const double radsum = radi + radius[j];
       const double tau = touch_band(tbase, radsum);
       const double rmax = radsum + tau;
-      if (rsq >= rmax * rmax) continue;
+      if (rsq >= rmax * rmax) {
+        if (img >= 0) images[img >> 1].flags = 0;
+        continue;
+      }
 
       if (rsq == 0.0)
         error->one(FLERR,
                    "Pair style mindlin/smooth: atoms {} and {} have coincident centres "
                    "(no contact normal)",
                    itag, tag[j]);
+      const tagint jtag = tag[j];
       const double r = sqrt(rsq);
       const double gap = radsum - r;
       const bool band = (gap <= tau && gap >= -tau);
-      const int slot = find_slot(ipartner, nslot, tag[j]);
+      const int slot = walk_slot(ipartner, nslot, walk, jtag);
       double stored[3];
       stored_t(itc, slot, band, stored);
       const bool listed = band ? (slot >= 0) : (gap > 0.0);
       const bool has = listed || gap > 0.0;
       Contact3 &c = cs[nc];
       if (has) {
-        c.tag = tag[j];
+        if (nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
+        c.tag = jtag;
         contact_side(at, i, j, del, r, gap, band, stored, listed, c);
-        note_slot(slot, nc, pos, taken, allslots);
         nc++;
       }
-      if (!once) continue;
-      if (nimage == maximage)
-        error->one(FLERR,
-                   "Pair style mindlin/smooth: more contact images than half the neighbour "
-                   "pairs (the neighbor list is not symmetric)");
-      Image3 &im = images[nimage];
-      im.tag = itag;
-      im.i = i;
-      im.flags = (has ? HAS_CONTACT : 0) | (listed ? LISTED : 0) | (band ? IN_BAND : 0) |
-          (slot >= 0 ? HAS_SLOT : 0);
-      im.next = head[j];
-      head[j] = nimage++;
+      if (img < 0) continue;
+      Image3 &im = images[img >> 1];
+      im.flags = NEAR | (has ? HAS_CONTACT : 0) | (listed ? LISTED : 0) |
+          (band ? IN_BAND : 0) | (slot >= 0 ? HAS_SLOT : 0);
       for (int k = 0; k < 3; k++) im.stored[k] = stored[k];
       if (has) {
         for (int k = 0; k < 3; k++) {
@@ -283,53 +337,8 @@ void PairMindlinSmooth::compute_3d()
       }
     }
 
-    // the contacts computed by atoms earlier in the list: the mirror image
-    // where i's own history is the image of theirs, else i's side anew
-    for (int a = head[i]; a >= 0; a = images[a].next) {
-      const Image3 &im = images[a];
-      const bool band = (im.flags & IN_BAND) != 0;
-      const int slot = find_slot(ipartner, nslot, im.tag);
-      double stored[3];
-      stored_t(itc, slot, band, stored);
-      const bool mirror = band ? (((im.flags & HAS_SLOT) != 0) == (slot >= 0))
-                               : (stored[0] == -im.stored[0] && stored[1] == -im.stored[1] &&
-                                  stored[2] == -im.stored[2]);
-      const int j = im.i;
-      if (mirror) {
-        if (!(im.flags & HAS_CONTACT)) continue;
-        note_slot(slot, nc, pos, taken, allslots);
-        Contact3 &c = cs[nc++];
-        c.tag = im.tag;
-        c.listed = (im.flags & LISTED) != 0;
-        for (int k = 0; k < 3; k++) {
-          c.t[k] = -im.t[k];
-          c.f[k] = -im.f[k];
-          c.nxf[k] = im.nxf[k];    // n x F_t: both factors change sign
-        }
-        c.en = im.en;
-        if (evflag)
-          for (int k = 0; k < 3; k++) c.del[k] = xi[k] - x[j][k];
-        continue;
-      }
-      // the same geometry as j's (del negated exactly)
-      const double del[3] = {xi[0] - x[j][0], xi[1] - x[j][1], xi[2] - x[j][2]};
-      const double r = sqrt(MindlinSmooth::dot3(del, del));
-      const double gap = (radi + radius[j]) - r;
-      const bool listed = band ? (slot >= 0) : (gap > 0.0);
-      if (!(listed || gap > 0.0)) continue;
-      note_slot(slot, nc, pos, taken, allslots);
-      Contact3 &c = cs[nc++];
-      c.tag = im.tag;
-      contact_side(at, i, j, del, r, gap, band, stored, listed, c);
-    }
-
     if (nc > nslot && !history) too_many_contacts(itag);
-    const int *ord = pos;
-    if (!slot_order(cs, nc, pos, taken, allslots)) {
-      const tagint dup = rank_by_tag(cs, nc, order);
-      if (dup > 0) two_images(itag, dup);
-      ord = order;
-    }
+    if (dup > 0) two_images(itag, dup);
 
     // summed in registers: the same additions in the same order as into
     // f[i] and torque[i] directly, which the compiler would have to
@@ -337,7 +346,7 @@ void PairMindlinSmooth::compute_3d()
     double fi[3] = {f[i][0], f[i][1], f[i][2]};
     double ti[3] = {torque[i][0], torque[i][1], torque[i][2]};
     for (int a = 0; a < nc; a++) {
-      const Contact3 &c = cs[ord[a]];
+      const Contact3 &c = cs[a];
       for (int k = 0; k < 3; k++) {
         fi[k] += c.f[k];
         ti[k] += -radi * c.nxf[k];
@@ -362,7 +371,7 @@ void PairMindlinSmooth::compute_3d()
       double *const trow[3] = {tc[0][i], tc[1][i], tc[2][i]};
       int nl = 0;
       for (int a = 0; a < nc; a++) {
-        const Contact3 &c = cs[ord[a]];
+        const Contact3 &c = cs[a];
         if (!c.listed) continue;
         prow[nl] = c.tag;
         for (int k = 0; k < 3; k++) trow[k][nl] = c.t[k];
