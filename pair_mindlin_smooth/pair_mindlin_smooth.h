@@ -89,7 +89,8 @@ class PairMindlinSmooth : public Pair {
   std::vector<Contact3> contacts3;    // 3d: one atom's contacts
   std::vector<Image3> images3;        // 3d: one image per pair of owned atoms
   std::vector<Entry3> entries3;       // 3d: the neighbours of each owned atom in
-  std::vector<int> first3;            // ascending tag, from first3[ii] on
+  std::vector<int> first3;            // ascending tag, from first3[ii] on,
+  std::vector<char> twins3;           // and whether a tag occurs twice there
   NeighList *ordered3_list;           // the list, inum and nlocal entries3
   int ordered3_inum, ordered3_nlocal;    // was made from (nullptr: none)
   class FixMindlinHistory *history;    // internal storage, or nullptr when

@@ -59,9 +59,15 @@ struct Atoms3 {
   double **x, **v, **omega;
   const double *radius;
   const int *type;
-  double **kn, **kt, **mu;
   double dt;
   bool update_history;
+};
+
+// what it reads of its own sphere i, fetched once per sphere
+struct Own3 {
+  const double *v, *omega;
+  double radius;
+  const double *kn, *kt, *mu;    // the rows of i's type
 };
 
 // One side of the contact of sphere i with sphere j (del = x_i - x_j,
@@ -69,8 +75,8 @@ struct Atoms3 {
 // zero if none): the kernel's step, the force on i and n x F_t.
 // (always inlined: a call in the pair loop spills its registers)
 __attribute__((always_inline)) inline void
-contact_side(const Atoms3 &a, int i, int j, const double del[3], double r, double gap, bool band,
-             const double stored[3], bool listed, PairMindlinSmooth::Contact3 &c)
+contact_side(const Atoms3 &a, const Own3 &o, int j, const double del[3], double r, double gap,
+             bool band, const double stored[3], bool listed, PairMindlinSmooth::Contact3 &c)
 {
   const double n[3] = {del[0] / r, del[1] / r, del[2] / r};
   // inside the band: normal force only and t = 0 (as in 2d)
@@ -78,15 +84,15 @@ contact_side(const Atoms3 &a, int i, int j, const double del[3], double r, doubl
   const bool advance = a.update_history && !band;
   double slip[3] = {0.0, 0.0, 0.0};
   if (advance) {
-    const double *vi = a.v[i], *vj = a.v[j], *oi = a.omega[i], *oj = a.omega[j];
+    const double *vi = o.v, *vj = a.v[j], *oi = o.omega, *oj = a.omega[j];
     const double dv[3] = {vi[0] - vj[0], vi[1] - vj[1], vi[2] - vj[2]};
-    const double ri = a.radius[i], rj = a.radius[j];
+    const double ri = o.radius, rj = a.radius[j];
     const double w[3] = {ri * oi[0] + rj * oj[0], ri * oi[1] + rj * oj[1],
                          ri * oi[2] + rj * oj[2]};
     MindlinSmooth::slip3(n, dv, w, slip);
   }
-  const int it = a.type[i], jt = a.type[j];
-  const MindlinSmooth::Params p = {a.kn[it][jt], a.kt[it][jt], a.mu[it][jt]};
+  const int jt = a.type[j];
+  const MindlinSmooth::Params p = {o.kn[jt], o.kt[jt], o.mu[jt]};
   const MindlinSmooth::Response3 res =
       MindlinSmooth::step3(p, delta, n, stored, slip, a.dt, advance);
   for (int k = 0; k < 3; k++) {
@@ -157,6 +163,7 @@ void PairMindlinSmooth::order_neighbors_3d()
     total += numneigh[ilist[ii]];
   }
   first3.resize(inum + 1);
+  twins3.resize(inum);
   entries3.resize(total);
   int most = 0, npair = 0, n = 0;
   for (int ii = 0; ii < inum; ii++) {
@@ -189,6 +196,9 @@ void PairMindlinSmooth::order_neighbors_3d()
       entries3[e] = {j, img};
     }
     most = MAX(most, n - first3[ii]);
+    twins3[ii] = 0;
+    for (int e = first3[ii] + 1; e < n; e++)
+      if (tag[entries3[e].j] == tag[entries3[e - 1].j]) twins3[ii] = 1;
   }
   first3[inum] = n;
   if ((int) images3.size() < npair) images3.resize(npair + npair / 8 + 1);
@@ -215,7 +225,7 @@ void PairMindlinSmooth::compute_3d()
   const int nlocal = atom->nlocal;
 
   const int update_history = (update->setupflag == 0);
-  const Atoms3 at = {x,  atom->v, atom->omega, radius, atom->type, kn, kt, mu, update->dt,
+  const Atoms3 at = {x, atom->v, atom->omega, radius, atom->type, update->dt,
                      update_history != 0};
   const double tbase = touch_base(domain);
   int nslot = ncol;
@@ -239,14 +249,27 @@ void PairMindlinSmooth::compute_3d()
     const double xi[3] = {x[i][0], x[i][1], x[i][2]};
     const int *ipartner = partner[i];
     const double *const itc[3] = {tc[0][i], tc[1][i], tc[2][i]};
+    const int itype = at.type[i];
+    const Own3 own = {at.v[i], at.omega[i], radi, kn[itype], kt[itype], mu[itype]};
     int nc = 0;
     int walk = 0;       // walk_slot() along i's history row
     tagint dup = 0;     // a partner met twice (two periodic images), 0 if none
 
+    // The force and torque summed as the contacts come, in ascending tag,
+    // in registers: the same additions in the same order as into f[i] and
+    // torque[i] directly, which the compiler would have to reload after
+    // every store (they might alias the contacts).
+    double fi[3] = {f[i][0], f[i][1], f[i][2]};
+    double ti[3] = {torque[i][0], torque[i][1], torque[i][2]};
+
     // the contacts in ascending partner tag: computed here (with ghosts,
     // and with owned atoms later in the list, which get the image), or
     // the image of the side computed by an atom earlier in the list
-    for (int e = first[ii]; e < first[ii + 1]; e++) {
+    // (twins: a tag occurs twice among the neighbours, two periodic images
+    // of one atom; then each contact is checked against the last)
+    const bool twins = twins3[ii] != 0;
+    const int elast = first[ii + 1];
+    for (int e = first[ii]; e < elast; e++) {
       const int j = entries[e].j, img = entries[e].img;
 
       if (img & 1) {
@@ -264,18 +287,22 @@ void PairMindlinSmooth::compute_3d()
                                     stored[2] == -im.stored[2]);
         if (mirror) {
           if (!(im.flags & HAS_CONTACT)) continue;
-          if (nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
+          if (twins && nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
           Contact3 &c = cs[nc++];
           c.tag = jtag;
           c.listed = (im.flags & LISTED) != 0;
           for (int k = 0; k < 3; k++) {
             c.t[k] = -im.t[k];
-            c.f[k] = -im.f[k];
-            c.nxf[k] = im.nxf[k];    // n x F_t: both factors change sign
+            fi[k] += -im.f[k];
+            ti[k] += -radi * im.nxf[k];    // n x F_t: both factors change sign
           }
-          c.en = im.en;
-          if (evflag)
-            for (int k = 0; k < 3; k++) c.del[k] = xi[k] - x[j][k];
+          if (evflag) {
+            for (int k = 0; k < 3; k++) {
+              c.f[k] = -im.f[k];
+              c.del[k] = xi[k] - x[j][k];
+            }
+            c.en = im.en;
+          }
           continue;
         }
         // the same geometry as j's (del negated exactly)
@@ -284,10 +311,14 @@ void PairMindlinSmooth::compute_3d()
         const double gap = (radi + radius[j]) - r;
         const bool listed = band ? (slot >= 0) : (gap > 0.0);
         if (!(listed || gap > 0.0)) continue;
-        if (nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
+        if (twins && nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
         Contact3 &c = cs[nc++];
         c.tag = jtag;
-        contact_side(at, i, j, del, r, gap, band, stored, listed, c);
+        contact_side(at, own, j, del, r, gap, band, stored, listed, c);
+        for (int k = 0; k < 3; k++) {
+          fi[k] += c.f[k];
+          ti[k] += -radi * c.nxf[k];
+        }
         continue;
       }
 
@@ -317,9 +348,13 @@ void PairMindlinSmooth::compute_3d()
       const bool has = listed || gap > 0.0;
       Contact3 &c = cs[nc];
       if (has) {
-        if (nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
+        if (twins && nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
         c.tag = jtag;
-        contact_side(at, i, j, del, r, gap, band, stored, listed, c);
+        contact_side(at, own, j, del, r, gap, band, stored, listed, c);
+        for (int k = 0; k < 3; k++) {
+          fi[k] += c.f[k];
+          ti[k] += -radi * c.nxf[k];
+        }
         nc++;
       }
       if (img < 0) continue;
@@ -340,24 +375,15 @@ void PairMindlinSmooth::compute_3d()
     if (nc > nslot && !history) too_many_contacts(itag);
     if (dup > 0) two_images(itag, dup);
 
-    // summed in registers: the same additions in the same order as into
-    // f[i] and torque[i] directly, which the compiler would have to
-    // reload after every store (they might alias the contacts)
-    double fi[3] = {f[i][0], f[i][1], f[i][2]};
-    double ti[3] = {torque[i][0], torque[i][1], torque[i][2]};
-    for (int a = 0; a < nc; a++) {
-      const Contact3 &c = cs[a];
-      for (int k = 0; k < 3; k++) {
-        fi[k] += c.f[k];
-        ti[k] += -radi * c.nxf[k];
-      }
-      if (evflag)
-        ev_tally_xyz_full(i, c.en, 0.0, c.f[0], c.f[1], c.f[2], c.del[0], c.del[1], c.del[2]);
-    }
     for (int k = 0; k < 3; k++) {
       f[i][k] = fi[k];
       torque[i][k] = ti[k];
     }
+    if (evflag)
+      for (int a = 0; a < nc; a++) {
+        const Contact3 &c = cs[a];
+        ev_tally_xyz_full(i, c.en, 0.0, c.f[0], c.f[1], c.f[2], c.del[0], c.del[1], c.del[2]);
+      }
 
     if (update_history) {
       if (nc > nslot) {
