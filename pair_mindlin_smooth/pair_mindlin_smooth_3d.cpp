@@ -61,6 +61,7 @@ struct Atoms3 {
   const int *type;
   double dt;
   bool update_history;
+  bool evflag;    // energy or virial tallied this step
 };
 
 // what it reads of its own sphere i, fetched once per sphere
@@ -98,10 +99,13 @@ contact_side(const Atoms3 &a, const Own3 &o, int j, const double del[3], double 
   for (int k = 0; k < 3; k++) {
     c.t[k] = res.t[k];
     c.f[k] = res.fn * n[k] + res.ft[k];
-    c.del[k] = del[k];
   }
   MindlinSmooth::cross3(n, res.ft, c.nxf);
-  c.en = 0.4 * res.fn * delta;    // Hertz elastic energy (2/5) k_n delta^{5/2}
+  if (a.evflag) {
+    // what the energy and virial tally reads
+    for (int k = 0; k < 3; k++) c.del[k] = del[k];
+    c.en = 0.4 * res.fn * delta;    // Hertz elastic energy (2/5) k_n delta^{5/2}
+  }
   c.listed = listed;
 }
 
@@ -226,7 +230,7 @@ void PairMindlinSmooth::compute_3d()
 
   const int update_history = (update->setupflag == 0);
   const Atoms3 at = {x, atom->v, atom->omega, radius, atom->type, update->dt,
-                     update_history != 0};
+                     update_history != 0, evflag != 0};
   const double tbase = touch_base(domain);
   int nslot = ncol;
 
@@ -368,7 +372,7 @@ void PairMindlinSmooth::compute_3d()
           im.f[k] = c.f[k];
           im.nxf[k] = c.nxf[k];
         }
-        im.en = c.en;
+        if (evflag) im.en = c.en;
       }
     }
 
