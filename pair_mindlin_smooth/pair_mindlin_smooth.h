@@ -63,6 +63,15 @@ class PairMindlinSmooth : public Pair {
     double del[3];
   };
 
+  // a contact one atom computes itself, as its loop over the neighbours
+  // leaves it: where its result goes (contact pos; image img, with flags)
+  // and what the contact law needs
+  struct Pending3 {
+    int j, pos, img, flags;
+    double del[3], r, gap, stored[3];
+    bool band, listed;
+  };
+
   // a contact of two owned spheres computed by the first of them in the
   // list, waiting for the second: the first's side and what the second
   // needs to check that its own side is the mirror image
@@ -87,6 +96,7 @@ class PairMindlinSmooth : public Pair {
   int idx_t3[3];                    // 3d: mindlin_tx, mindlin_ty, mindlin_tz
   std::vector<Contact> contacts;    // scratch space, >= ncol entries
   std::vector<Contact3> contacts3;    // 3d: one atom's contacts
+  std::vector<Pending3> pending3;     // 3d: those it computes itself
   std::vector<Image3> images3;        // 3d: one image per pair of owned atoms
   std::vector<Entry3> entries3;       // 3d: the neighbours of each owned atom in
   std::vector<int> first3;            // ascending tag, from first3[ii] on,

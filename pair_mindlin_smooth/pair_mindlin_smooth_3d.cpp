@@ -206,7 +206,10 @@ void PairMindlinSmooth::order_neighbors_3d()
   }
   first3[inum] = n;
   if ((int) images3.size() < npair) images3.resize(npair + npair / 8 + 1);
-  if ((int) contacts3.size() < most) contacts3.resize(most);
+  if ((int) contacts3.size() < most) {
+    contacts3.resize(most);
+    pending3.resize(most);
+  }
 
   ordered3_list = list;
   ordered3_inum = inum;
@@ -245,6 +248,7 @@ void PairMindlinSmooth::compute_3d()
   const int *first = first3.data();
   Image3 *images = images3.data();
   Contact3 *cs = contacts3.data();
+  Pending3 *pend = pending3.data();
 
   for (int ii = 0; ii < inum; ii++) {
     const int i = ilist[ii];
@@ -259,12 +263,7 @@ void PairMindlinSmooth::compute_3d()
     int walk = 0;       // walk_slot() along i's history row
     tagint dup = 0;     // a partner met twice (two periodic images), 0 if none
 
-    // The force and torque summed as the contacts come, in ascending tag,
-    // in registers: the same additions in the same order as into f[i] and
-    // torque[i] directly, which the compiler would have to reload after
-    // every store (they might alias the contacts).
-    double fi[3] = {f[i][0], f[i][1], f[i][2]};
-    double ti[3] = {torque[i][0], torque[i][1], torque[i][2]};
+    int np = 0;         // contacts to compute here (pend)
 
     // the contacts in ascending partner tag: computed here (with ghosts,
     // and with owned atoms later in the list, which get the image), or
@@ -297,14 +296,11 @@ void PairMindlinSmooth::compute_3d()
           c.listed = (im.flags & LISTED) != 0;
           for (int k = 0; k < 3; k++) {
             c.t[k] = -im.t[k];
-            fi[k] += -im.f[k];
-            ti[k] += -radi * im.nxf[k];    // n x F_t: both factors change sign
+            c.f[k] = -im.f[k];
+            c.nxf[k] = im.nxf[k];    // n x F_t: both factors change sign
           }
           if (evflag) {
-            for (int k = 0; k < 3; k++) {
-              c.f[k] = -im.f[k];
-              c.del[k] = xi[k] - x[j][k];
-            }
+            for (int k = 0; k < 3; k++) c.del[k] = xi[k] - x[j][k];
             c.en = im.en;
           }
           continue;
@@ -316,13 +312,9 @@ void PairMindlinSmooth::compute_3d()
         const bool listed = band ? (slot >= 0) : (gap > 0.0);
         if (!(listed || gap > 0.0)) continue;
         if (twins && nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
-        Contact3 &c = cs[nc++];
-        c.tag = jtag;
-        contact_side(at, own, j, del, r, gap, band, stored, listed, c);
-        for (int k = 0; k < 3; k++) {
-          fi[k] += c.f[k];
-          ti[k] += -radi * c.nxf[k];
-        }
+        cs[nc].tag = jtag;
+        pend[np++] = {j, nc++, ALONE, 0, {del[0], del[1], del[2]}, r, gap,
+                      {stored[0], stored[1], stored[2]}, band, listed};
         continue;
       }
 
@@ -350,31 +342,50 @@ void PairMindlinSmooth::compute_3d()
       stored_t(itc, slot, band, stored);
       const bool listed = band ? (slot >= 0) : (gap > 0.0);
       const bool has = listed || gap > 0.0;
-      Contact3 &c = cs[nc];
+      const int flags = (has ? HAS_CONTACT : 0) | (listed ? LISTED : 0) |
+          (band ? IN_BAND : 0) | (slot >= 0 ? HAS_SLOT : 0);
       if (has) {
         if (twins && nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
-        c.tag = jtag;
-        contact_side(at, own, j, del, r, gap, band, stored, listed, c);
-        for (int k = 0; k < 3; k++) {
-          fi[k] += c.f[k];
-          ti[k] += -radi * c.nxf[k];
-        }
-        nc++;
+        cs[nc].tag = jtag;
+        pend[np++] = {j, nc++, img, flags, {del[0], del[1], del[2]}, r, gap,
+                      {stored[0], stored[1], stored[2]}, band, listed};
+        continue;
       }
       if (img < 0) continue;
       Image3 &im = images[img >> 1];
-      im.flags = NEAR | (has ? HAS_CONTACT : 0) | (listed ? LISTED : 0) |
-          (band ? IN_BAND : 0) | (slot >= 0 ? HAS_SLOT : 0);
+      im.flags = NEAR | flags;
       for (int k = 0; k < 3; k++) im.stored[k] = stored[k];
-      if (has) {
-        for (int k = 0; k < 3; k++) {
-          im.t[k] = c.t[k];
-          im.f[k] = c.f[k];
-          im.nxf[k] = c.nxf[k];
-        }
-        if (evflag) im.en = c.en;
-      }
     }
+
+    // The contacts computed here, after the loop over the neighbours: a
+    // short loop of independent contacts, whose long chains of divisions
+    // and square roots the processor can overlap
+    for (int q = 0; q < np; q++) {
+      const Pending3 &pc = pend[q];
+      Contact3 &c = cs[pc.pos];
+      contact_side(at, own, pc.j, pc.del, pc.r, pc.gap, pc.band, pc.stored, pc.listed, c);
+      if (pc.img < 0) continue;
+      Image3 &im = images[pc.img >> 1];
+      im.flags = NEAR | pc.flags;
+      for (int k = 0; k < 3; k++) {
+        im.stored[k] = pc.stored[k];
+        im.t[k] = c.t[k];
+        im.f[k] = c.f[k];
+        im.nxf[k] = c.nxf[k];
+      }
+      if (evflag) im.en = c.en;
+    }
+
+    // summed in registers: the same additions in the same order as into
+    // f[i] and torque[i] directly, which the compiler would have to
+    // reload after every store (they might alias the contacts)
+    double fi[3] = {f[i][0], f[i][1], f[i][2]};
+    double ti[3] = {torque[i][0], torque[i][1], torque[i][2]};
+    for (int a = 0; a < nc; a++)
+      for (int k = 0; k < 3; k++) {
+        fi[k] += cs[a].f[k];
+        ti[k] += -radi * cs[a].nxf[k];
+      }
 
     if (nc > nslot && !history) too_many_contacts(itag);
     if (dup > 0) two_images(itag, dup);
