@@ -76,9 +76,9 @@ class PairMindlinSmooth : public Pair {
   // list, waiting for the second: the first's side and what the second
   // needs to check that its own side is the mirror image
   struct Image3 {
-    int flags;           // NEAR, HAS_CONTACT, LISTED, IN_BAND, HAS_SLOT of the first side
-    double t[3], f[3], nxf[3], en;
+    int flags;           // HAS_CONTACT, LISTED, IN_BAND, HAS_SLOT of the first side
     double stored[3];    // the first side's stored history (zero if none)
+    double t[3], f[3], nxf[3], en;
   };
 
   // a neighbour j of an owned sphere and its part in the pair's image
@@ -97,7 +97,11 @@ class PairMindlinSmooth : public Pair {
   std::vector<Contact> contacts;    // scratch space, >= ncol entries
   std::vector<Contact3> contacts3;    // 3d: one atom's contacts
   std::vector<Pending3> pending3;     // 3d: those it computes itself
-  std::vector<Image3> images3;        // 3d: one image per pair of owned atoms
+  std::vector<Image3> images3;        // 3d: the images of one step, in the order
+                                      // they are made (compact: still in cache
+                                      // when read)
+  std::vector<int> near3;             // per pair of owned atoms: its image, -1 if
+                                      // the pair is out of reach this step
   std::vector<Entry3> entries3;       // 3d: the neighbours of each owned atom in
   std::vector<int> first3;            // ascending tag, from first3[ii] on,
   std::vector<char> twins3;           // and whether a tag occurs twice there

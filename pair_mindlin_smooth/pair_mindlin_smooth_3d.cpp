@@ -46,9 +46,8 @@ using MindlinSmooth::touch_base;
 
 namespace {
 
-// Image3::flags: the pair within reach (else the rest is not set), the first
-// side's contact, history entry, band, slot
-enum { HAS_CONTACT = 1, LISTED = 2, IN_BAND = 4, HAS_SLOT = 8, NEAR = 16 };
+// Image3::flags: the first side's contact, history entry, band, slot
+enum { HAS_CONTACT = 1, LISTED = 2, IN_BAND = 4, HAS_SLOT = 8 };
 
 // Entry3::img of a neighbour computed by each side, with no image (even, so
 // that img & 1 tells only the second side of a pair)
@@ -139,15 +138,16 @@ inline int walk_slot(const int *row, int nslot, int &k, tagint jtag)
 
 /* ----------------------------------------------------------------------
    The full neighbor list as the 3d loop walks it, made again whenever
-   LAMMPS builds the list (and after every init): per owned atom (position ii in the list) its
-   neighbours in ascending tag, so that its contacts come out in the
-   canonical order with no sort, and the slot of each partner is found by
-   one walk along the history row.  Each pair of owned atoms gets the
-   index of its image, in the order the first of the two meets it (so the
-   images are written in order and read while still in cache): the entry
-   of the first atom says 2 * index (it computes and writes the image), the
-   second's 2 * index + 1 (it reads it); ALONE = computed by each side,
-   with no image (a ghost, or an atom not in the list).
+   LAMMPS builds the list (and after every init): per owned atom (position
+   ii in the list) its neighbours in ascending tag, so that its contacts
+   come out in the canonical order with no sort, and the slot of each
+   partner is found by one walk along the history row.  Each pair of owned
+   atoms gets an index, in the order the first of the two meets it: the
+   entry of the first atom says 2 * index (it computes the contact and
+   leaves its image, near3[index] = where), the second's 2 * index + 1 (it
+   reads it); ALONE = computed by each side, with no image (a ghost, or an
+   atom not in the list).  The images themselves are appended as they are
+   made, only for pairs within reach: a compact array, in cache when read.
 ------------------------------------------------------------------------- */
 
 void PairMindlinSmooth::order_neighbors_3d()
@@ -205,6 +205,7 @@ void PairMindlinSmooth::order_neighbors_3d()
       if (tag[entries3[e].j] == tag[entries3[e - 1].j]) twins3[ii] = 1;
   }
   first3[inum] = n;
+  near3.resize(npair);
   if ((int) images3.size() < npair) images3.resize(npair + npair / 8 + 1);
   if ((int) contacts3.size() < most) {
     contacts3.resize(most);
@@ -247,6 +248,8 @@ void PairMindlinSmooth::compute_3d()
   const Entry3 *entries = entries3.data();
   const int *first = first3.data();
   Image3 *images = images3.data();
+  int *near = near3.data();
+  int nimage = 0;
   Contact3 *cs = contacts3.data();
   Pending3 *pend = pending3.data();
 
@@ -278,8 +281,9 @@ void PairMindlinSmooth::compute_3d()
       if (img & 1) {
         // the mirror image where i's own history is the image of j's,
         // else i's side anew
-        const Image3 &im = images[img >> 1];
-        if (!(im.flags & NEAR)) continue;
+        const int m = near[img >> 1];
+        if (m < 0) continue;
+        const Image3 &im = images[m];
         const tagint jtag = tag[j];
         const bool band = (im.flags & IN_BAND) != 0;
         const int slot = walk_slot(ipartner, nslot, walk, jtag);
@@ -324,7 +328,7 @@ void PairMindlinSmooth::compute_3d()
       const double tau = touch_band(tbase, radsum);
       const double rmax = radsum + tau;
       if (rsq >= rmax * rmax) {
-        if (img >= 0) images[img >> 1].flags = 0;
+        if (img >= 0) near[img >> 1] = -1;
         continue;
       }
 
@@ -352,8 +356,9 @@ void PairMindlinSmooth::compute_3d()
         continue;
       }
       if (img < 0) continue;
-      Image3 &im = images[img >> 1];
-      im.flags = NEAR | flags;
+      near[img >> 1] = nimage;
+      Image3 &im = images[nimage++];
+      im.flags = flags;
       for (int k = 0; k < 3; k++) im.stored[k] = stored[k];
     }
 
@@ -365,8 +370,9 @@ void PairMindlinSmooth::compute_3d()
       Contact3 &c = cs[pc.pos];
       contact_side(at, own, pc.j, pc.del, pc.r, pc.gap, pc.band, pc.stored, pc.listed, c);
       if (pc.img < 0) continue;
-      Image3 &im = images[pc.img >> 1];
-      im.flags = NEAR | pc.flags;
+      near[pc.img >> 1] = nimage;
+      Image3 &im = images[nimage++];
+      im.flags = pc.flags;
       for (int k = 0; k < 3; k++) {
         im.stored[k] = pc.stored[k];
         im.t[k] = c.t[k];
