@@ -16,8 +16,8 @@ from remote_trigger.pywrap.jobs.paper.report_metrics import perturb_metrics
 
 #: Fig. 5 (c) counts as a runaway only if its largest D is more than this many
 #: times the largest D of control (d), the friction drop below the window
-#: (measured: 2D quick scene 117 x, the 3D default job 2.9 x, where (c) did not
-#: run away within its 500 tau)
+#: (measured: 2D quick scene 117 x; the 3D default job 2.9 x when its runs were
+#: 500 tau long and (c) had not grown yet, 1200 x with 5000 tau)
 FIG5C_OVER_CONTROL = 10.0
 
 
