@@ -137,7 +137,10 @@ def _norm2_skew(W):
     if n < 3 or crude == 0:
         return crude
     try:
-        est = spla.svds(W, k=1, return_singular_vectors=False, tol=1e-6)[0]
+        # a fixed start vector, so that the bound does not depend on earlier
+        # ARPACK calls in the process
+        est = spla.svds(W, k=1, return_singular_vectors=False, tol=1e-6,
+                        v0=np.random.default_rng(0).standard_normal(n))[0]
     except Exception:            # ARPACK failures leave the crude bound
         return crude
     t = 1.02 * est
