@@ -502,27 +502,15 @@ def _starts(rlog):
     return {f for f in ([files[-1]] if files else []) + [lo_file] if f}
 
 
-def _kept_equilibria(rlog):
-    """Data files whose equilibria a ramp with ``keep_equilibria`` False keeps:
-    the starts (:func:`_starts`) and the bracket's upper end (the smallest
-    load certified complex)."""
-    keep = _starts(rlog)
-    hi = ramp_bracket(rlog)[1]
-    for kind in (ramp_file.STEPS, ramp_file.BISECTION):
-        for F, d, f in zip(rlog.rows[kind]["F_x"], rlog.rows[kind]["decision"],
-                           rlog.files[kind]):
-            if d == Decision.COMPLEX and F == hi:
-                keep.add(f)
-    return keep
-
-
 def _prune_equilibria(rlog):
-    """Remove the equilibrium files of the recorded points not in
-    :func:`_kept_equilibria` (files already gone are skipped)."""
-    keep = _kept_equilibria(rlog)
+    """Remove the equilibrium files of the recorded points except the starts
+    (:func:`_starts`) and the bracket's upper end (the smallest load certified
+    complex); files already gone are skipped."""
+    keep, hi = _starts(rlog), ramp_bracket(rlog)[1]
     for kind in (ramp_file.STEPS, ramp_file.BISECTION):
-        for f in rlog.files[kind]:
-            if f in keep:
+        rows = rlog.rows[kind]
+        for F, d, f in zip(rows["F_x"], rows["decision"], rlog.files[kind]):
+            if f in keep or (d == Decision.COMPLEX and F == hi):
                 continue
             for ext in EQUILIBRIUM_EXTS:
                 try:
