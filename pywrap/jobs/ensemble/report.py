@@ -545,6 +545,6 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
                  f"{r['reason'] or ''} |")
     cpu = sum({r["key"]: r["wall"] for r in rows}.values())
     L += ["", "## Cost", "",
-          f"{n_pk} packings; {cpu:.0f} s of packing time in total; this session computed {len(computed)} packing(s) on {size} "
+          f"{n_pk} packings; {cpu:.0f} s of packing time in total; this run computed {len(computed)} packing(s) on {size} "
           f"rank(s) in {wall:.0f} s of wall time."]
     write_text_atomic(path, "\n".join(L) + "\n")
