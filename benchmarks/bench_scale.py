@@ -293,7 +293,8 @@ def _point(cfg, start, F_x, prefix, basis=None):
         verdict = {True: "complex", False: "real", None: "undecided"}[dec.complex_present]
         row.update(decision=t1 - t0, eigen=dec.timing.get("eigen", np.nan),
                    verdict=f"{verdict} (whole spectrum, sliced: {stats.slices} slices, "
-                           f"strips {stats.strips})",
+                           f"strips {stats.strips}"
+                           + (f"; {dec.reason}" if dec.complex_present is None else "") + ")",
                    n_eig=Kr.shape[0], traced_MB=traced / 2**20,
                    dense_matrix_MB=8.0 * Kr.shape[0] ** 2 / 2**20)
         if Kr.shape[0] <= DENSE_TIMED_MAX:

@@ -127,6 +127,9 @@ class StabilityResult:
     start : str
         ``'dgeev'``, ``'basis'`` (decided from a previous point's basis) or
         ``'sliced'`` (the verdict by slicing, above ``eigen.DENSE_MAX`` dofs).
+    reason : str
+        Why the decision is ``'undecided'`` (the decision's own words, e.g.
+        which strip and where); empty otherwise.
     """
 
     eigenvalues: np.ndarray
@@ -141,6 +144,7 @@ class StabilityResult:
     timing: dict = None
     basis: object = None
     start: str = "dgeev"
+    reason: str = ""
 
     @property
     def decision_code(self):
@@ -291,7 +295,8 @@ def stability_of(state, basis=None):
     return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
                            int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
                            float(dec.confidence), res.max_residual, dict(dec.timing),
-                           dec.basis, dec.start)
+                           dec.basis, dec.start,
+                           str(dec.reason or "") if decision == "undecided" else "")
 
 
 def stability_of_dump(path, basis=None):

@@ -415,7 +415,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
             _checkpoint(eng, rlog, folder, "no_equilibrium")
             return _ramp_result(rlog, "no_equilibrium")
         basis = res.basis
-        rlog.add(ramp_file.STEPS, name, prefix + ".data", vals, res.eigenvalues)
+        rlog.add(ramp_file.STEPS, name, prefix + ".data", vals, res.eigenvalues, res.reason)
         _remember(eng, rlog, prefix + ".data", basis)
         _checkpoint(eng, rlog, folder, "running")
         bar.update(1)
@@ -455,7 +455,7 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
             vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
             res = None
         rlog.add(ramp_file.BISECTION, name, prefix + ".data", vals,
-                 [] if res is None else res.eigenvalues)
+                 [] if res is None else res.eigenvalues, "" if res is None else res.reason)
         _remember(eng, rlog, prefix + ".data", None if res is None else res.basis)
         lo, hi, _, _ = ramp_bracket(rlog)
         rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))

@@ -2,7 +2,8 @@
 
 Root attributes: the ramp configuration, ``stage = 'ramp'``, ``status``,
 ``version``, the bracket ``F_x_c_low``/``F_x_c_high`` and its status
-(docs/driver.md). Groups:
+(docs/driver.md), and ``undecided_reasons`` (JSON: point name -> why the
+decision left it undecided) once a point is undecided. Groups:
 
 ``steps/<column>`` and ``bisection/<column>``
     One row per equilibrium of the ramp (in ramp order) and of the bisection
@@ -15,6 +16,7 @@ Root attributes: the ramp configuration, ``stage = 'ramp'``, ``status``,
 
 Readers use these names, never string literals.
 """
+import json
 import os
 import time
 
@@ -39,6 +41,9 @@ COLUMNS = ("F_x", "residual", "complex", "decision", "confidence", "growth_rate"
 #: resumed older file gets for its existing rows
 LATER_COLUMNS = {"from_basis": 0.0}
 DATAFILE = "datafile"
+#: root attribute: why each undecided point is undecided (JSON object, point
+#: name -> the decision's reason, e.g. the strip and where)
+UNDECIDED_REASONS = "undecided_reasons"
 #: name prefix of a point's eigenvalue dataset (and of its equilibrium files)
 POINT_PREFIX = {STEPS: "step_", BISECTION: "bisect_"}
 #: digits of the row index in those names
@@ -154,11 +159,17 @@ class RampLog:
         self.attrs = {}
         self.dirty = False          # rows added since the last write
 
-    def add(self, kind, name, datafile, values, eigenvalues):
+    def add(self, kind, name, datafile, values, eigenvalues, reason=""):
+        """One row; ``reason``: why its decision is undecided (kept in the
+        attribute :data:`UNDECIDED_REASONS`, a JSON object by point name)."""
         for c in self.COLS:
             self.rows[kind][c].append(values[c])
         self.files[kind].append(datafile)
         self.eig[f"{kind}/{name}"] = np.asarray(eigenvalues, complex)
+        if reason:
+            why = json.loads(self.attrs.get(UNDECIDED_REASONS, "{}"))
+            why[name] = str(reason)
+            self.attrs[UNDECIDED_REASONS] = json.dumps(why)
         self.dirty = True
 
     def write(self, status, force=False, before=None, **attrs):
@@ -270,7 +281,8 @@ class RampLog:
                 log.eig[k[len(eig):]] = v
         log.attrs = {k: v for k, v in attrs.items()
                      if k in ("F_x_c_low", "F_x_c_high", "F_x_c_width", "tol_reached",
-                              "n_undecided", "message", "dt_used", "datafile_sha256")}
+                              "n_undecided", "message", "dt_used", "datafile_sha256",
+                              UNDECIDED_REASONS)}
         log.status = attrs.get("status", "running")
         log._synced = False          # rewrite in full once (older files: fixed-size)
         return log

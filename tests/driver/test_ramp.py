@@ -367,3 +367,34 @@ def test_keep_equilibria_false_keeps_only_the_bracket_and_the_same_numbers(full_
     kept_rows = sorted(rows[str(out / "ramp" / stem)] for stem in kept)
     assert (res.F_x_c_low, 0.0) in kept_rows and (res.F_x_c_high, 1.0) in kept_rows
     assert len(kept) <= 3 < len(rows), (kept, len(rows))
+
+
+def test_undecided_points_keep_their_reason_in_ramp_h5(full_ramp, tmp_path, monkeypatch):
+    """An undecided point's reason (the decision's own words) is stored in ramp.h5's
+    ``undecided_reasons`` and survives an interruption and --resume."""
+    import dataclasses
+    import json
+
+    from remote_trigger.analysis.stability import verdict
+
+    real = verdict.stability_of_dump
+    why = "strip of 9 eigenvalues (> 8)"
+
+    def forced(path, basis=None):
+        res = real(path, basis)
+        if os.path.basename(path) == "step_00001.dump":
+            return dataclasses.replace(res, decision="undecided", complex_pair=False,
+                                       reason=why)
+        return res
+
+    monkeypatch.setattr(verdict, "stability_of_dump", forced)
+    cfg, full = full_ramp
+    part = stages.ramp(cfg, str(tmp_path), quiet=True, stop_after=3)
+    assert part.status == "interrupted"
+    res = stages.ramp(cfg, str(tmp_path), quiet=True, resume=True)
+    attrs, data = read_all(res.h5)
+    assert data["steps/decision"][1] == -1 and res.n_undecided == 1
+    assert json.loads(attrs["undecided_reasons"]) == {"step_00001": why}
+    assert (res.F_x_c_low, res.F_x_c_high) == (full.F_x_c_low, full.F_x_c_high)
+    # a ramp with no undecided point has no such attribute
+    assert "undecided_reasons" not in read_all(full.h5)[0]
