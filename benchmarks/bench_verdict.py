@@ -59,7 +59,9 @@ def _ramp(n, seed, mu, dF_x, tol, base):
 
 
 def _compare(dump):
-    """Both decisions of one equilibrium dump: (dense, sliced, reason, t_dense, t_sliced, n)."""
+    """Both decisions of one equilibrium dump, a dict: ``dense`` and ``sliced``
+    (True complex, False real, None undecided), their reasons when undecided,
+    the strip sizes, ``n`` and the CPU time of each decision."""
     from remote_trigger.analysis.stability import eigen, exceptional, jacobian
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced
