@@ -457,7 +457,7 @@ def main(argv=None):
                 f"nearest sigma = {PAIR_RE_REL} lambda_max (lambda_max by ARPACK "
                 f"{r['lam_max_time']:.2f} s, not counted)" if "parts" in r else
                 f"{r['verdict']}; peak memory {r['traced_MB']:.0f} MB (tracemalloc: NumPy "
-                f"arrays, not SuperLU's factors) = {r['traced_MB'] / r['dense_matrix_MB']:.2f} "
+                f"arrays, not the factors) = {r['traced_MB'] / r['dense_matrix_MB']:.2f} "
                 f"dense n x n matrices"
                 + (f"; dense LAPACK eigenvalues of the same matrix {r['dense_eigvals']:.1f} s"
                    if "dense_eigvals" in r else ""))

@@ -40,11 +40,11 @@ near block (explicit), x12 = ||W Q_N Gamma_N^{-1/2}||_F / sqrt(Delta_eff),
 x22 = ||W||_2 / Delta_eff, plus ||symmetric rest + F|| / min Gamma.
 
 **Counting.** The number of eigenvalues of S below a is Sylvester's inertia
-of a sparse factorization P(S - aI)P^T = L U (SuperLU, symmetric
-permutation, diagonal pivots): with D = diag(U), L D L^T = P(S - aI)P^T + Z
-exactly, Z symmetric with ||Z||_2 <= ||Z||_inf <= fuzz (the a-priori
-backward error gamma_k |L||U| of Gaussian elimination, k the longest
-elimination sum, Higham Thm. 9.3, plus |L||D L^T - U|), so #neg(D) lies
+of a sparse factorization P^T(S - aI)P = L D L^T (QDLDL: a genuine LDL^T,
+AMD ordering, no pivoting): L D L^T = P^T(S - aI)P + Z exactly, Z
+symmetric with ||Z||_2 <= ||Z||_inf <= fuzz (the a-priori backward error
+gamma_k |L||D||L^T| of the Cholesky-type elimination, k the longest
+inner product, Higham Thm. 10.3), so #neg(D) lies
 between the counts of S below a - fuzz and a + fuzz. Ritz pairs of S are
 computed slice by slice (ARPACK shift-invert about a shift inside the
 slice), each slice's Rayleigh-Ritz residual R bounding
@@ -98,6 +98,11 @@ from remote_trigger.analysis.stability.slicing import (
 __all__ = ["classify_sliced", "SlicedStats"]
 
 _MAX_STRIP = 8                  # largest cluster decided from its block
+# Ritz pairs per slice: ARPACK's work per pair grows with it (orthogonalization
+# against 2k + 1 Lanczos vectors), the number of factorizations falls with it;
+# measured at N = 6400 (n = 18 582): 40 -> 216 s, 60 -> 201 s, 85 -> 222 s,
+# 124 -> 274 s of CPU (docs/results/analysis.md)
+_SLICE_SIZE = 60
 
 
 # --------------------------------------------------------------------------- buffer
@@ -415,7 +420,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         Half-width Delta of the explicit window about each boundary, in units
         of ||W||_2 (default 10); larger decides more boundaries at more cost.
     slice_size : int, optional
-        Ritz pairs per shift-invert slice (default: about three windows).
+        Ritz pairs per shift-invert slice (default 60).
     stats : SlicedStats, optional
         Filled with what was done.
 
@@ -466,7 +471,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     if not eps < gersh - lo0:
         raise ValueError(f"rel_error {rel_error!r} is too large for this matrix")
     if slice_size is None:
-        slice_size = int(min(600, max(60, 3 * 2 * ctx.Delta / max(normS, 1e-300) * n)))
+        slice_size = _SLICE_SIZE
     pairs, lam, reason = [], [], ""
     certified = [lo0]           # certified boundaries
     cert_count = [0]            # Ritz values below each

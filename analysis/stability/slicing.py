@@ -15,6 +15,7 @@ import math
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+import qdldl
 
 from remote_trigger.analysis.stability.enclosure import U, _gamma
 
@@ -22,6 +23,7 @@ __all__ = ["count_below", "SlicedStats"]
 
 _INFLATE = 1.0 + 1e-10          # inflation of computed sums of nonnegative terms
 _ARPACK_TOL = 1e-8              # ARPACK stopping tolerance (only the checked residuals matter)
+_SHIFT_FRACTION = 0.35          # shift-invert shift above a slice's lower edge, in slice widths
 
 
 class _Fail(Exception):
@@ -52,6 +54,11 @@ class SlicedStats:
         Largest inertia fuzz (1/time^2).
     ritz_radius : float
         Largest Ritz radius ||R||_2 of a slice (1/time^2).
+    arpack_runs : int
+        Shift-invert eigen-solves (a slice whose shift missed its lower edge
+        takes more than one).
+    computed : int
+        Eigenpairs computed by those solves (n of them are kept).
     """
 
     n: int = 0
@@ -63,19 +70,31 @@ class SlicedStats:
     max_kappa: float = 0.0
     fuzz: float = 0.0
     ritz_radius: float = 0.0
+    arpack_runs: int = 0
+    computed: int = 0
 
 
 # --------------------------------------------------------------------------- counting
-def _lu(H):
-    """SuperLU of a symmetric matrix with a symmetric permutation and diagonal pivots."""
-    lu = spla.splu(sp.csc_matrix(H), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                   options=dict(SymmetricMode=True, Equil=False))
-    if not np.array_equal(lu.perm_r, lu.perm_c):
-        raise _Fail("the inertia factorization pivoted off the diagonal")
-    return lu
+def _shifted(S, a):
+    """S - a I (CSC) with every diagonal entry stored, zero or not (QDLDL needs them)."""
+    C = sp.coo_matrix(S)
+    n = C.shape[0]
+    off = C.row != C.col
+    i = np.arange(n)
+    return sp.coo_matrix((np.concatenate([C.data[off], S.diagonal() - a]),
+                          (np.concatenate([C.row[off], i]), np.concatenate([C.col[off], i]))),
+                         shape=C.shape).tocsc()
 
 
-def count_below(S, a, lu=None):
+def _ldl(H, what):
+    """QDLDL's P^T H P = (I + L) D (I + L)^T of a symmetric H (AMD ordering, no pivoting)."""
+    try:
+        return qdldl.Solver(H)
+    except RuntimeError as exc:      # a zero pivot (QDLDL: "not quasi-definite")
+        raise _Fail(f"no LDL^T factorization of {what}: {exc}") from None
+
+
+def count_below(S, a, factor=None):
     """Sylvester count of the eigenvalues of the symmetric S below a, with its fuzz.
 
     Parameters
@@ -84,7 +103,7 @@ def count_below(S, a, lu=None):
         Symmetric, float64.
     a : float
         The shift.
-    lu : SuperLU, optional
+    factor : qdldl.Solver, optional
         A factorization of S - a I made by this module (reused).
 
     Returns
@@ -95,34 +114,44 @@ def count_below(S, a, lu=None):
         below a - fuzz and below a + fuzz.
     fuzz : float
         Rigorous bound of ||Z||_2 (same units as S).
-    lu : SuperLU
+    factor : qdldl.Solver
         The factorization (for solves with S - a I).
 
     Raises
     ------
     ValueError
-        If the factorization met a zero pivot or pivoted off the diagonal
-        (a is an eigenvalue, or S - a I is too ill-conditioned here).
+        If the factorization met a zero pivot (a is an eigenvalue of a
+        leading block: no inertia from this ordering).
+
+    Notes
+    -----
+    The factorization is QDLDL's up-looking P^T (S - a I) P = (I + L) D
+    (I + L)^T, a genuine LDL^T (one triangle, one D). Each computed entry of
+    L and D is an inner product of at most m terms (m the largest row or
+    column count of I + L), a division and a reciprocal, so the computed
+    factors satisfy (I + L) D (I + L)^T = P^T (S - a I) P + Z exactly with
+    |Z| <= gamma_{m+3} |I + L| |D| |I + L|^T entrywise (the analysis of
+    Cholesky, Higham, *Accuracy and Stability of Numerical Algorithms*,
+    2nd ed., Thm. 10.3; gamma_{2m+4} is used, a margin of two). Z is
+    symmetric, so ||Z||_2 <= ||Z||_inf, bounded by the largest row sum; the
+    rounding of the diagonal S_ii - a adds u max|S_ii - a|. By Sylvester's
+    law of inertia the count of negative d_i is that of S - a I + P Z P^T.
     """
     n = S.shape[0]
-    H = sp.csc_matrix(S - a * sp.identity(n, format="csc"))
     try:
-        lu = lu or _lu(H)
-    except (_Fail, RuntimeError) as exc:
+        factor = factor or _ldl(_shifted(S, a), "S - a I")
+    except _Fail as exc:
         raise ValueError(f"no inertia of S - a I at a = {a!r}: {exc}") from None
-    L, Uf = lu.L.tocsr(), lu.U.tocsr()
-    d = Uf.diagonal()
+    L, d, _ = factor.factors()
     if not np.all(np.isfinite(d)) or np.any(d == 0):
         raise ValueError(f"no inertia of S - a I at a = {a!r}: zero pivot")
-    aL, aU = abs(L), abs(Uf)
+    aL = (abs(sp.csc_matrix(L)) + sp.identity(n, format="csc")).tocsc()
+    depth = int(max(np.max(np.diff(aL.indptr)), np.max(np.bincount(aL.indices, minlength=n))))
     one = np.ones(n)
-    depth = int(max(np.max(np.diff(L.indptr)), np.max(np.diff(Uf.tocsc().indptr))))
-    ge = _gamma(depth + 2) * float(np.max(aL @ (aU @ one)))
-    E2 = (sp.diags(d) @ L.T.tocsr() - Uf)           # D L^T - U: exact would be 0
-    e2 = float(np.max(aL @ (abs(E2) @ one) + U * (aL @ (abs(sp.diags(d) @ L.T) @ one))))
+    rows = aL @ (np.abs(d) * (aL.T @ one))       # |I + L| |D| |I + L|^T 1
     diag_err = U * float(np.max(np.abs(S.diagonal() - a)))      # rounding of S_ii - a
-    fuzz = (ge + e2 * (1 + 4 * U) + diag_err) * _INFLATE
-    return int(np.count_nonzero(d < 0)), fuzz, lu
+    fuzz = (_gamma(2 * depth + 4) * float(np.max(rows)) + diag_err) * _INFLATE
+    return int(np.count_nonzero(d < 0)), fuzz, factor
 
 
 def _norm1(X):
@@ -190,7 +219,7 @@ def _slices(S, W, k, normS, normW, lo0, stats):
     """Yield the Ritz slices of S from ``lo0`` (below the spectrum) upwards.
 
     Each slice: the k eigenvalues of S nearest a shift sigma (ARPACK
-    shift-invert), sigma placed about half a slice above the previous upper
+    shift-invert), sigma placed about a third of a slice above the previous upper
     edge x so that the k nearest reach below x (no hole: checked, and the
     count below proves it); the new upper edge y lies in the widest gap of
     the slice's upper part whose distance to its Ritz values exceeds the
@@ -208,7 +237,10 @@ def _slices(S, W, k, normS, normW, lo0, stats):
     width = None                # estimated width of k eigenvalues
     while cnt_x < n:
         kk = min(k, n - 2)
-        sigma = x if width is None else x + 0.5 * width
+        # the k nearest to sigma reach below x unless (x, sigma) holds more than
+        # k/2 of them: sigma a third of a slice above x leaves a margin for the
+        # variation of the eigenvalue density (a miss costs a second ARPACK run)
+        sigma = x if width is None else x + _SHIFT_FRACTION * width
         for attempt in range(12):
             if kk >= n - 2:
                 lam, V = np.linalg.eigh(S.toarray())
@@ -216,11 +248,13 @@ def _slices(S, W, k, normS, normW, lo0, stats):
                 lam, V = lam[sel], V[:, sel]
                 whole = True
             else:
-                lu = _lu(S - sigma * sp.identity(n, format="csc"))
-                op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=np.float64)
+                fac = _ldl(_shifted(S, sigma), f"S - sigma I at sigma = {sigma:.9g}")
+                op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=np.float64)
                 lam, V = spla.eigsh(S, k=kk, sigma=sigma, which="LM", OPinv=op, tol=_ARPACK_TOL,
                                     v0=rng.standard_normal(n), ncv=min(n, 2 * kk + 1))
                 whole = False
+                stats.arpack_runs += 1
+                stats.computed += lam.size
             if whole or sigma == x or np.min(lam) < x:
                 break
             sigma = x + 0.5 * (sigma - x) if attempt < 10 else x   # a hole above x: lower
@@ -238,17 +272,21 @@ def _slices(S, W, k, normS, normW, lo0, stats):
             y = float(theta[-1]) + max(1.0, abs(float(theta[-1]))) * 1e-3 + 2 * radius + 1.0
             cands = [(y, theta.size)]
         else:
-            # all eigenvalues up to the largest |lam - sigma| are found; edges in the
-            # widest gaps of the upper quarter of what lies below that reach
-            ok = theta < reach
-            th = theta[ok]
-            lo_i = max(1, (th.size * 3) // 4)
-            gaps = np.diff(th[lo_i - 1:])
-            order = np.argsort(gaps)[::-1][:8]
-            cands = [(0.5 * (th[lo_i - 1 + j] + th[lo_i + j]), lo_i + j) for j in order]
+            # all eigenvalues up to the largest |lam - sigma| are found; edges in
+            # gaps of what lies below that reach: the widest of the top sixth first
+            # (the higher the edge, the fewer Ritz pairs are computed twice), then
+            # the widest of the rest of the upper half
+            th = theta[theta < reach]
+            top = max(1, (th.size * 5) // 6)
+            half = max(1, th.size // 2)
+            cands = []
+            for lo_i, hi_i in ((top, th.size), (half, top)):
+                gaps = np.diff(th[lo_i - 1:hi_i])
+                cands += [(0.5 * (th[lo_i - 1 + j] + th[lo_i + j]), lo_i + j)
+                          for j in np.argsort(gaps)[::-1][:8]]
         for y, nkeep in cands:
             try:
-                cnt_y, fz, lu_y = count_below(S, y)
+                cnt_y, fz, _ = count_below(S, y)
             except ValueError:
                 continue
             d = min(abs(theta - y))

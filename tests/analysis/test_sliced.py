@@ -57,6 +57,26 @@ def test_count_below_is_the_number_of_eigenvalues_below():
         count_below(sp.csc_matrix(np.eye(3)), 1.0)
 
 
+def test_count_below_inside_a_packing_spectrum():
+    """S of a frictional packing (810 kept dofs), shifts in 25 gaps across its
+    spectrum (indefinite S - a I, factorized without pivoting): the count is
+    the dense one and the fuzz stays far below the gap."""
+    from remote_trigger.analysis.stability import jacobian
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability.sliced import _scaled
+
+    from .builders import random_packing
+
+    res = analyze(random_packing(5, nx=20, ny=15), eigenvalues=False, decide=False)
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
+    S = _scaled(Kr, mr)[1]
+    lam = np.linalg.eigvalsh(S.toarray())
+    for i in np.linspace(5, lam.size - 6, 25).astype(int):
+        cnt, fuzz, _ = count_below(S, 0.5 * (lam[i] + lam[i + 1]))
+        assert cnt == i + 1
+        assert fuzz < 1e-2 * (lam[i + 1] - lam[i])
+
+
 @pytest.mark.parametrize("where", [2, 75, 146])
 @pytest.mark.parametrize("ratio", [1.5, 1.02, 0.97, 0.7])
 def test_planted_pair_bottom_middle_top(where, ratio):
