@@ -396,5 +396,20 @@ def test_undecided_points_keep_their_reason_in_ramp_h5(full_ramp, tmp_path, monk
     assert data["steps/decision"][1] == -1 and res.n_undecided == 1
     assert json.loads(attrs["undecided_reasons"]) == {"step_00001": why}
     assert (res.F_x_c_low, res.F_x_c_high) == (full.F_x_c_low, full.F_x_c_high)
+    # the ensemble reads it back and names it in its table's reason column
+    from remote_trigger.pywrap.jobs.ensemble.onset import onset_numbers, read_ramp
+    from remote_trigger.pywrap.jobs.ensemble.report import _default_row
+
+    pts = read_ramp(res.h5)
+    assert [p["reason"] for p in pts if p["decision"] == -1] == [why]
+    o = onset_numbers(pts, cfg.dF_x)
+    assert o["undecided"] == [[pts[1]["F_x"], why]]
+    ramp = {"ramp_status": "complete", "tol_reached": True, "message": "", "mu": cfg.mu,
+            "n_steps": 3, "n_bisection": 0, "I0_0.5": dict(o, n_new=0, tol_reached=True)}
+    row = _default_row({"key": "N10_s1", "n": 10, "seed": 1},
+                       {"wall": 1.0, "default": {"ramps": {"mu0": ramp, "mu_ss": None}}},
+                       0.5, 0.5)
+    assert f"1 undecided point(s) at mu0, the first at F_x = {pts[1]['F_x']:.6g}: {why}" \
+        in row["reason"]
     # a ramp with no undecided point has no such attribute
     assert "undecided_reasons" not in read_all(full.h5)[0]

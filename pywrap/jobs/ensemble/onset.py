@@ -65,13 +65,20 @@ def read_ramp(h5):
     list of dict
         ``F_x``, ``decision`` (1, 0, -1), ``growth`` (1/time), ``dump``
         (equilibrium dump), ``eigenvalues`` (complex, sorted by real part,
-        the dynamics' I0: 1/2 disks, 2/5 spheres). Bisection points without
+        the dynamics' I0: 1/2 disks, 2/5 spheres), ``reason`` (why an
+        undecided point is undecided, from the file's ``undecided_reasons``;
+        '' otherwise or where the file has none). Bisection points without
         an equilibrium are left out.
     """
+    import json
+
     import h5py
+
+    from remote_trigger.pywrap.stages.ramp_file import UNDECIDED_REASONS
 
     pts = []
     with h5py.File(h5, "r") as fh:
+        why = json.loads(fh.attrs.get(UNDECIDED_REASONS, "{}"))
         for kind, stem in (("steps", "step_{:05d}"), ("bisection", "bisect_{:03d}")):
             if kind not in fh:
                 continue
@@ -87,7 +94,8 @@ def read_ramp(h5):
                 lam = np.asarray(fh[name][()], complex) if name in fh else np.zeros(0, complex)
                 lam = lam[np.lexsort((lam.imag, lam.real))]
                 pts.append({"F_x": float(F[k]), "decision": int(dec[k]), "growth": float(g[k]),
-                            "dump": files[k][:-len(".data")] + ".dump", "eigenvalues": lam})
+                            "dump": files[k][:-len(".data")] + ".dump", "eigenvalues": lam,
+                            "reason": str(why.get(stem.format(k), ""))})
     pts.sort(key=lambda p: p["F_x"])
     return pts
 
@@ -190,12 +198,15 @@ def onset_numbers(points, dF_x):
     -------
     dict
         ``F_x_c_low``, ``F_x_c_high`` (see :func:`bracket`), ``n_undecided``,
-        ``F_x_last`` (largest F_x analysed), the keys of :func:`pair_position`
+        ``undecided`` (a list of [F_x, reason] of the undecided points; the
+        reason '' where none was recorded), ``F_x_last`` (largest F_x analysed), the keys of :func:`pair_position`
         (NaN without a complex point) and of :func:`growth_slope`.
     """
     lo, hi = bracket(points)
     out = {"F_x_c_low": lo, "F_x_c_high": hi,
            "n_undecided": sum(1 for p in points if p["decision"] == Decision.UNDECIDED),
+           "undecided": [[p["F_x"], p.get("reason", "")] for p in points
+                         if p["decision"] == Decision.UNDECIDED],
            "F_x_last": max((p["F_x"] for p in points), default=math.nan),
            "lambda_c": [math.nan, math.nan], "pair_re_rel": math.nan, "pair_index": -1,
            "n_dof": -1, "slope": math.nan, "F_x_onset_fit": math.nan, "n_points": 0}
