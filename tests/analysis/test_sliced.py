@@ -72,9 +72,17 @@ def test_count_below_inside_a_packing_spectrum():
     S = _scaled(Kr, mr)[1]
     lam = np.linalg.eigvalsh(S.toarray())
     for i in np.linspace(5, lam.size - 6, 25).astype(int):
-        cnt, fuzz, _ = count_below(S, 0.5 * (lam[i] + lam[i + 1]))
+        a = 0.5 * (lam[i] + lam[i + 1])
+        cnt, fuzz, factor = count_below(S, a)
         assert cnt == i + 1
         assert fuzz < 1e-2 * (lam[i + 1] - lam[i])
+        # the premise of the fuzz: the factors reproduce P^T (S - a I) P to within
+        # it (a factorization that regularized or pivoted would not)
+        L, d, p = factor.factors()
+        IL = sp.identity(S.shape[0], format="csc") + sp.csc_matrix(L)
+        H = (S - a * sp.identity(S.shape[0], format="csc")).tocsr()[p][:, p]
+        Z = (IL @ sp.diags(d) @ IL.T - H).toarray()
+        assert np.max(np.abs(Z).sum(axis=1)) <= fuzz
 
 
 @pytest.mark.parametrize("where", [2, 75, 146])
