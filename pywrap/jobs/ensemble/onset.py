@@ -29,7 +29,7 @@ def spectrum(state, basis=None):
         rattler removal, 1/time^2, sorted by real part), ``n_pairs`` (pairs
         certified complex), ``growth`` (max |Im sqrt(lambda)|, 1/time),
         ``basis`` (the decision's verified basis, for the next point; None
-        if there is none).
+        if there is none), ``reason`` (why, when undecided; else '').
     """
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability import eigen, exceptional, jacobian
@@ -38,7 +38,7 @@ def spectrum(state, basis=None):
     keep = res.rattlers.keep_dofs
     if keep.size == 0:
         return {"decision": 0, "confidence": math.inf, "eigenvalues": np.zeros(0, complex),
-                "n_pairs": 0, "growth": 0.0, "basis": None}
+                "n_pairs": 0, "growth": 0.0, "basis": None, "reason": ""}
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)
     dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
                                         basis=basis)
@@ -49,7 +49,7 @@ def spectrum(state, basis=None):
                   if p.method != "gershgorin" and p.is_complex and p.certified)
     return {"decision": code, "confidence": float(dec.confidence), "eigenvalues": lam,
             "n_pairs": int(n_pairs), "growth": float(eigen.growth_rate(lam)),
-            "basis": dec.basis}
+            "basis": dec.basis, "reason": str(dec.reason or "") if code == -1 else ""}
 
 
 def read_ramp(h5):
@@ -199,8 +199,9 @@ def onset_numbers(points, dF_x):
     dict
         ``F_x_c_low``, ``F_x_c_high`` (see :func:`bracket`), ``n_undecided``,
         ``undecided`` (a list of [F_x, reason] of the undecided points; the
-        reason '' where none was recorded), ``F_x_last`` (largest F_x analysed), the keys of :func:`pair_position`
-        (NaN without a complex point) and of :func:`growth_slope`.
+        reason '' where none was recorded), ``F_x_last`` (largest F_x
+        analysed), the keys of :func:`pair_position` (NaN without a complex
+        point) and of :func:`growth_slope`.
     """
     lo, hi = bracket(points)
     out = {"F_x_c_low": lo, "F_x_c_high": hi,
@@ -234,8 +235,8 @@ def reanalyse(points, I0):
     Returns
     -------
     list of dict
-        Same keys, with ``decision``, ``growth`` and ``eigenvalues`` of the
-        new convention.
+        Same keys, with ``decision``, ``growth``, ``eigenvalues`` and
+        ``reason`` of the new convention.
     """
     from remote_trigger.analysis.state.dumpfile import read_dump
 
@@ -244,5 +245,5 @@ def reanalyse(points, I0):
         s = spectrum(read_dump(p["dump"], require_contacts=False, inertia_factor=I0), basis)
         basis = s.pop("basis")
         out.append(dict(p, decision=s["decision"], growth=s["growth"],
-                        eigenvalues=s["eigenvalues"]))
+                        eigenvalues=s["eigenvalues"], reason=s["reason"]))
     return out

@@ -42,7 +42,7 @@ def _new_point(eng, rcfg, start_dump, F_x, prefix, I0):
     s = spectrum(read_dump(prefix + ".dump", require_contacts=False, inertia_factor=I0))
     s.pop("basis")
     return {"F_x": float(F_x), "decision": s["decision"], "growth": s["growth"],
-            "dump": prefix + ".dump", "eigenvalues": s["eigenvalues"]}
+            "dump": prefix + ".dump", "eigenvalues": s["eigenvalues"], "reason": s["reason"]}
 
 
 def inertia_points(cfg, points, mu, I0, folder):
