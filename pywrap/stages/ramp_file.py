@@ -44,6 +44,7 @@ DATAFILE = "datafile"
 #: root attribute: why each undecided point is undecided (JSON object, point
 #: name -> the decision's reason, e.g. the strip and where)
 UNDECIDED_REASONS = "undecided_reasons"
+
 #: name prefix of a point's eigenvalue dataset (and of its equilibrium files)
 POINT_PREFIX = {STEPS: "step_", BISECTION: "bisect_"}
 #: digits of the row index in those names
@@ -137,6 +138,11 @@ def read_spectra(h5path, extra=()):
 CHECKPOINT_SECONDS = 5.0
 
 
+def undecided_reasons(attrs):
+    """Point name -> reason, from a ramp file's (or a RampLog's) root attributes."""
+    return json.loads(attrs.get(UNDECIDED_REASONS, "{}"))
+
+
 class RampLog:
     """In-memory copy of ramp.h5, written atomically at checkpoints.
 
@@ -167,7 +173,7 @@ class RampLog:
         self.files[kind].append(datafile)
         self.eig[f"{kind}/{name}"] = np.asarray(eigenvalues, complex)
         if reason:
-            why = json.loads(self.attrs.get(UNDECIDED_REASONS, "{}"))
+            why = undecided_reasons(self.attrs)
             why[name] = str(reason)
             self.attrs[UNDECIDED_REASONS] = json.dumps(why)
         self.dirty = True

@@ -70,15 +70,13 @@ def read_ramp(h5):
         '' otherwise or where the file has none). Bisection points without
         an equilibrium are left out.
     """
-    import json
-
     import h5py
 
-    from remote_trigger.pywrap.stages.ramp_file import UNDECIDED_REASONS
+    from remote_trigger.pywrap.stages.ramp_file import undecided_reasons
 
     pts = []
     with h5py.File(h5, "r") as fh:
-        why = json.loads(fh.attrs.get(UNDECIDED_REASONS, "{}"))
+        why = undecided_reasons(fh.attrs)
         for kind, stem in (("steps", "step_{:05d}"), ("bisection", "bisect_{:03d}")):
             if kind not in fh:
                 continue

@@ -112,8 +112,7 @@ def _default_row(task, result, I0, i0_dyn):
                        + (f" ({r['message']})" if r["message"] else ""))
         elif not r["tol_reached"]:
             why.append(f"ramp {name}: {r['message']}")
-    for name, r in (("mu0", r0), ("mu_ss", r1)):
-        und = (r or {}).get(ck, {}).get("undecided") or []
+        und = r.get(ck, {}).get("undecided") or []
         if und:
             F, what = und[0]
             why.append(f"{len(und)} undecided point(s) at {name}, the first at F_x = {F:.6g}"
