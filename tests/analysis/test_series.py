@@ -124,6 +124,41 @@ def test_settled_growth_composes_the_window():
     assert ser.settled_growth(t, D, np.ones_like(t), 1.0, 0.8, 0.01) is None
 
 
+def _beating_series(g=0.0053, jump=1e-14, t_grow=1000.0, sat=4e-11, dt=0.85,
+                    t_end=1950.0, beat=650.0, seed=0):
+    """Fig. 5 (c) of the default 3D job in closed form: after the switch the
+    spheres oscillate about the shifted equilibrium (amplitude sqrt(jump),
+    beating slowly with period `beat`), a pair grows from below that
+    oscillation at rate g and saturates at `sat`; records at random phases
+    of both fast oscillations (as with records 0.85 time units apart)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, t_end, dt)
+    env = 1.0 + 0.7 * np.cos(2 * np.pi * t / beat + rng.uniform(0, 2 * np.pi))
+    a = np.sqrt(jump) * env * np.cos(rng.uniform(0, 2 * np.pi, t.size))
+    amp = np.minimum(np.sqrt(jump) * np.exp(g * (t - t_grow)), np.sqrt(sat))
+    D = (a + amp * np.cos(rng.uniform(0, 2 * np.pi, t.size))) ** 2
+    D = np.where(t < 5.0, 1e-25, D)
+    return t, D, np.where(t < 5.0, 1.0, 0.8)
+
+
+def test_settled_growth_starts_above_the_beating_oscillation():
+    # the window starts above 3 x the largest D before it, not above a multiple of
+    # the median after the switch: measured over 20 seeds, at most 15 % off g
+    # (median +1 %); the former window (10 x the median, 1e-2 x max D) was off by
+    # up to 91 % on the same series
+    g, errs, former = 0.0053, [], []
+    for seed in range(10):
+        t, D, mu = _beating_series(g=g, seed=seed)
+        res = ser.settled_growth(t, D, mu, 1.0, 0.8, 0.01)
+        errs.append(res["growth_rate"] / g - 1)
+        assert D[res["window"][0]] > 3 * res["peak"] and res["peak"] > res["level"]
+        level = ser.post_switch_level(t, D, mu, 1.0)
+        former.append(ser.growth_window(t, D, level, lo=10.0, hi=1e-2,
+                                        start=res["settle_index"])[1] / g - 1)
+    assert max(abs(e) for e in errs) < 0.2 and np.median(np.abs(errs)) < 0.08
+    assert max(abs(e) for e in former) > 0.5
+
+
 def _pair_series(g, t_end=1200.0, dt=1.0, freq=115.7, seed=3):
     """D of a complex pair growing at rate g: e^{2gt} times an oscillation (a factor
     4.3 deep) at a frequency far above the record rate (records at random phases, as

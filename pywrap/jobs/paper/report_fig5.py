@@ -124,7 +124,8 @@ class _Fig5:
                    np.isfinite(rel) and abs(rel) <= 0.25,
                    reason=(f"measured {g_meas:.4g}, predicted {g_pred:.4g} at mu = "
                            f"{reached.get('mu_fit', float('nan')):.4g}; no exponential window "
-                           "of >= 5 records between 10 x the jump and 1e-2 x max D"
+                           "of >= 5 records between 3 x the re-equilibration's largest D "
+                           "and 0.1 x max D"
                            if reached and not reached.get("window") else
                            f"measured {g_meas:.4g}, predicted {g_pred:.4g} at mu = "
                            f"{reached.get('mu_fit', float('nan')):.4g}" if reached else
