@@ -68,15 +68,16 @@ import math
 import os
 import time
 
+from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.jobfolder import add_job_arguments, job_overrides
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.jobs.ensemble.config import build_config
 from remote_trigger.pywrap.jobs.ensemble.report import (
     rows_of, statistics, write_table, plot, write_summary)
-from remote_trigger.pywrap.jobs.ensemble.task import run_packing, _jsonable
+from remote_trigger.pywrap.jobs.ensemble.task import run_packing, _jsonable, task_path, load_task
 
-__all__ = ["MANIFEST", "TABLE", "run_ensemble", "check_out", "load_task", "register",
+__all__ = ["MANIFEST", "TABLE", "run_ensemble", "combine_runs", "check_out", "register",
            "config_from_args", "main"]
 
 #: manifest of the job
@@ -101,22 +102,6 @@ def check_out(cfg, out, resume):
     from remote_trigger.pywrap.runtime.jobfolder import check_job_folder
 
     check_job_folder(out, cfg.to_dict(), resume, "an ensemble")
-
-
-def _task_path(out, key):
-    return os.path.join(out, "tasks", key + ".json")
-
-
-def load_task(out, task):
-    """The finished result of a packing, or None (missing, unreadable, other task)."""
-    try:
-        with open(_task_path(out, task["key"])) as fh:
-            d = json.load(fh)
-    except (OSError, ValueError):
-        return None
-    if d.get("status") != "complete" or d.get("task") != task:
-        return None
-    return d["result"]
 
 
 def _packing_task(t, cfg, out, resume):
@@ -180,7 +165,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
     computed = []
 
     def done(t, res, wall):
-        write_json(_task_path(out, t["key"]), {"task": t, "status": "complete",
+        write_json(task_path(out, t["key"]), {"task": t, "status": "complete",
                                                "result": _jsonable(res)})
         computed.append(t["key"])
         d = res["default"]
@@ -203,7 +188,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
                 res = load_task(out, t)
                 if res is None:
                     raise RuntimeError(f"packing {t['key']} has no result in "
-                                       f"{_task_path(out, t['key'])}")
+                                       f"{task_path(out, t['key'])}")
                 rows.extend(rows_of(t, res, cfg))
             st = statistics(rows, cfg)
             write_table(os.path.join(out, TABLE), rows, cfg)
@@ -232,6 +217,49 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
     return path
 
 
+def combine_runs(dirs, out, speak=True):
+    """``ensemble --combine``: the finished packings of several runs in one new folder.
+
+    :func:`~remote_trigger.pywrap.jobs.ensemble.combine.collect_runs` writes
+    ``out/config.json`` (every size and finished seed) and copies the result
+    files; the job is then completed in ``out`` as :func:`run_ensemble` with
+    ``resume`` (nothing to compute), and ``ensemble.json`` records
+    ``combined_from`` and ``left_out``.
+
+    Parameters
+    ----------
+    dirs : sequence of str
+        Ensemble folders, at least two, agreeing in every key but ``n``,
+        ``seeds`` and ``np``.
+    out : str
+        A new or empty folder.
+    speak : bool
+        Progress lines.
+
+    Returns
+    -------
+    str
+        Path of ``out/ensemble.md``.
+
+    Raises
+    ------
+    ConfigError
+        From :func:`~remote_trigger.pywrap.jobs.ensemble.combine.collect_runs`
+        (nothing written then).
+    """
+    from mpi4py import MPI
+    from remote_trigger.pywrap.jobs.ensemble.combine import collect_runs
+    from remote_trigger.pywrap.runtime.jobfolder import write_json
+
+    cfg, dirs, missing = collect_runs(dirs, out, speak)
+    path = run_ensemble(cfg, out, comm=MPI.COMM_SELF, speak=speak, resume=True)
+    mpath = os.path.join(os.path.abspath(out), MANIFEST)
+    with open(mpath) as fh:
+        manifest = json.load(fh)
+    write_json(mpath, dict(manifest, combined_from=dirs, left_out=missing))
+    return path
+
+
 # --------------------------------------------------------------------------- command line
 def register(subparsers):
     """Add the ``ensemble`` subcommand."""
@@ -249,6 +277,11 @@ def register(subparsers):
                       "small test variant (3 packings of N = 16 and 20, coarse ramps)",
                       "continue an interrupted ensemble in --out (same configuration; "
                       "finished packings and the finished stages of a started one are kept)", "--set n=[100] --set seeds=[1,2,3]")
+    p.add_argument("--combine", nargs="+", metavar="DIR", default=None,
+                   help="instead of running: put the finished packings of these ensemble "
+                        "folders (runs of other sizes or seeds, the same other keys) into "
+                        "the new folder --out and write its table, figure and fits over "
+                        "every size; nothing is recomputed")
     p.set_defaults(func=main)
 
 
@@ -260,6 +293,15 @@ def config_from_args(args):
 
 def main(args):
     """``remote-trigger ensemble``; returns the exit status."""
+    if args.combine is not None:
+        given = [o for o, v in (("--config", args.config), ("--quick", args.quick),
+                                ("--resume", args.resume), ("--np", args.np),
+                                ("--set", args.set), ("--dim", args.dim)) if v]
+        if given:
+            raise ConfigError(f"--combine takes its configuration from the folders; "
+                              f"drop {given[0]}")
+        print(f"ensemble: {combine_runs(args.combine, args.out, speak=not args.quiet)}")
+        return 0
     cfg = config_from_args(args)
     from mpi4py import MPI
 

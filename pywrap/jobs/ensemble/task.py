@@ -23,7 +23,7 @@ from remote_trigger.pywrap.jobs.ensemble.onset import (
     spectrum, read_ramp, bracket, onset_numbers, reanalyse)
 from remote_trigger.analysis.stability.verdict import Decision
 
-__all__ = ["PROGRESS", "run_packing", "inertia_points"]
+__all__ = ["PROGRESS", "run_packing", "inertia_points", "task_path", "load_task"]
 
 
 def _new_point(eng, rcfg, start_dump, F_x, prefix, I0):
@@ -350,3 +350,20 @@ def _np_default(o):
     if dataclasses.is_dataclass(o) and not isinstance(o, type):    # e.g. a PowerLawFit
         return dataclasses.asdict(o)
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def task_path(out, key):
+    """``<out>/tasks/<key>.json``: the result file of packing ``key``."""
+    return os.path.join(out, "tasks", key + ".json")
+
+
+def load_task(out, task):
+    """The finished result of a packing, or None (missing, unreadable, other task)."""
+    try:
+        with open(task_path(out, task["key"])) as fh:
+            d = json.load(fh)
+    except (OSError, ValueError):
+        return None
+    if d.get("status") != "complete" or d.get("task") != task:
+        return None
+    return d["result"]

@@ -1,0 +1,114 @@
+"""``remote-trigger ensemble --combine DIR [DIR ...] --out OUT``: one table from several runs.
+
+An F_x^c(N) study is naturally run size by size (one run per N, resumed as
+often as needed, perhaps on different machines). :func:`collect_runs` puts
+the finished packings of several ensemble folders into a new one: its
+``config.json`` lists every size and seed taken, ``tasks/`` holds copies of
+the packings' result files. :func:`~remote_trigger.pywrap.jobs.ensemble.job.combine_runs`
+then completes the job there with ``--resume`` semantics (nothing is
+recomputed), so the table, figure and summary (fits over every size
+included) are those a single run with the combined configuration writes.
+"""
+import json
+import os
+
+from remote_trigger.pywrap.config import ConfigError
+
+__all__ = ["collect_runs"]
+
+#: keys that may differ between the runs: the sizes, the seeds, the ranks used
+_FREE = ("n", "seeds", "np")
+
+
+def _read_run(path):
+    """(config dict, EnsembleConfig) of the ensemble folder ``path``."""
+    from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
+
+    cfgfile = os.path.join(path, "config.json")
+    try:
+        with open(cfgfile) as fh:
+            d = json.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"--combine {path!r}: no config.json there (not an ensemble "
+                          "folder)") from None
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"--combine {path!r}: config.json unreadable ({exc})") from None
+    try:
+        return d, EnsembleConfig.from_dict(d)
+    except ConfigError as exc:
+        raise ConfigError(f"--combine {path!r}: {exc}") from None
+
+
+def collect_runs(dirs, out, speak=True):
+    """The finished packings of ensemble folders ``dirs``, put into the new folder ``out``.
+
+    Parameters
+    ----------
+    dirs : sequence of str
+        Ensemble output folders (each with ``config.json`` and ``tasks/``),
+        at least two. Their configurations must agree in every key but
+        ``n``, ``seeds`` and ``np``.
+    out : str
+        A new (or empty) folder.
+    speak : bool
+        Progress lines (which packings are taken, which are left out).
+
+    Returns
+    -------
+    (EnsembleConfig, list of str, list of str)
+        The combined configuration (written to ``out/config.json``), the
+        folders (absolute paths), the packings left out (not finished), as
+        ``'<key> (<folder>)'``.
+
+    Raises
+    ------
+    ConfigError
+        Fewer than two folders; a folder without a readable ``config.json``;
+        configurations that differ in another key (named, with both values);
+        a packing finished in two folders; no finished packing at all; an
+        ``out`` that is a file or not empty. Nothing is written then.
+    """
+    from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
+    from remote_trigger.pywrap.jobs.ensemble.task import load_task, task_path
+    from remote_trigger.pywrap.runtime.jobfolder import check_job_folder, write_json
+
+    dirs = [os.path.abspath(d) for d in dirs]
+    if len(dirs) < 2:
+        raise ConfigError(f"--combine needs at least two ensemble folders, got {len(dirs)}")
+    runs = [(d,) + _read_run(d) for d in dirs]
+    d0, c0, _ = runs[0]
+    for d, c, _ in runs[1:]:
+        for k in sorted((set(c0) | set(c)) - set(_FREE)):
+            if c0.get(k) != c.get(k):
+                raise ConfigError(f"--combine: {d0!r} and {d!r} differ in {k} "
+                                  f"({c0.get(k)!r} vs {c.get(k)!r}); only n, seeds and np "
+                                  "may differ")
+    found, missing = {}, []
+    for d, _, cfg in runs:
+        for t in cfg.packings():
+            res = load_task(d, t)
+            if res is None:
+                missing.append(f"{t['key']} ({d})")
+            elif t["key"] in found:
+                raise ConfigError(f"--combine: packing {t['key']} is finished in both "
+                                  f"{found[t['key']][0]!r} and {d!r}")
+            else:
+                found[t["key"]] = (d, t)
+    if not found:
+        raise ConfigError("--combine: no finished packing in " + ", ".join(map(repr, dirs)))
+    sizes = sorted({t["n"] for _, t in found.values()})
+    seeds = [sorted(t["seed"] for _, t in found.values() if t["n"] == n) for n in sizes]
+    merged = dict(c0, n=sizes, seeds=seeds, np=1)
+    cfg = EnsembleConfig.from_dict(merged)
+    out = os.path.abspath(out)
+    check_job_folder(out, cfg.to_dict(), False, "an ensemble")     # writes config.json
+    os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
+    for key, (d, t) in sorted(found.items()):
+        with open(task_path(d, key)) as fh:
+            write_json(task_path(out, key), json.load(fh))
+    if speak:
+        print(f"[ensemble] combined {len(found)} finished packing(s) of {len(dirs)} runs: "
+              + ", ".join(f"N = {n}: {len(s)}" for n, s in zip(sizes, seeds)), flush=True)
+        for m in missing:
+            print(f"[ensemble] left out (not finished): {m}", flush=True)
+    return cfg, dirs, missing

@@ -1,0 +1,88 @@
+"""``ensemble --combine``: the finished packings of several runs in one table.
+
+The reference ``--quick`` run of tests/data/ensemble_quick2d (N = 16 seeds
+1, 2 and N = 20 seed 1, made in one run) is split into two runs, one per
+size; combined again, they give that run's configuration and table.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.jobs.ensemble import report as er
+from remote_trigger.pywrap.jobs.ensemble.job import combine_runs
+
+REF = os.path.join(os.path.dirname(__file__), "..", "data", "ensemble_quick2d")
+
+
+def _run_folder(path, n, seeds, keys, **change):
+    """An ensemble folder of the reference run's packings ``keys``, with its
+    configuration restricted to size n and ``seeds`` (and ``change``)."""
+    with open(os.path.join(REF, "config.json")) as fh:
+        cfg = dict(json.load(fh), n=[n], seeds=[seeds], **change)
+    os.makedirs(path / "tasks")
+    (path / "config.json").write_text(json.dumps(cfg))
+    for k in keys:
+        shutil.copyfile(os.path.join(REF, k + ".json"), path / "tasks" / (k + ".json"))
+    return str(path)
+
+
+@pytest.fixture
+def runs(tmp_path):
+    a = _run_folder(tmp_path / "a", 16, [1, 2], ["N16_s1", "N16_s2"])
+    # a run of N = 20 whose seed 2 did not finish
+    b = _run_folder(tmp_path / "b", 20, [1, 2], ["N20_s1"])
+    return a, b
+
+
+def test_combined_runs_give_the_single_runs_table(runs, tmp_path, capsys):
+    out = tmp_path / "both"
+    combine_runs(runs, str(out))
+    with open(os.path.join(REF, "config.json")) as fh:
+        assert json.loads((out / "config.json").read_text()) == json.load(fh)
+    with open(os.path.join(REF, "table.json")) as fh:
+        ref = json.load(fh)
+    got = er.read_table(str(out / "ensemble.h5"))
+    assert sorted(got) == sorted(ref["columns"])
+    for c, want in ref["columns"].items():
+        if c in er.STR_COLS:
+            assert list(got[c]) == want, c
+        else:
+            assert np.array_equal(got[c], np.array(want, float), equal_nan=True), c
+    man = json.loads((out / "ensemble.json").read_text())
+    assert man["combined_from"] == [os.path.abspath(r) for r in runs]
+    assert man["left_out"] == [f"N20_s2 ({os.path.abspath(runs[1])})"]
+    assert man["sessions"][-1]["computed"] == []          # nothing recomputed
+    said = capsys.readouterr().out
+    assert "combined 3 finished packing(s) of 2 runs: N = 16: 2, N = 20: 1" in said
+    assert "left out (not finished): N20_s2" in said
+    assert (out / "ensemble.md").is_file() and (out / "ensemble.png").is_file()
+
+
+def test_refusals_name_the_value(runs, tmp_path):
+    a, b = runs
+    c = _run_folder(tmp_path / "c", 20, [1], ["N20_s1"], tol=1e-3)
+    with pytest.raises(ConfigError, match=r"differ in tol \(0.002 vs 0.001\)"):
+        combine_runs([a, c], str(tmp_path / "o1"))
+    with pytest.raises(ConfigError, match="packing N16_s1 is finished in both"):
+        combine_runs([a, b, a], str(tmp_path / "o2"))
+    with pytest.raises(ConfigError, match="at least two ensemble folders, got 1"):
+        combine_runs([a], str(tmp_path / "o3"))
+    with pytest.raises(ConfigError, match="no config.json there"):
+        combine_runs([a, str(tmp_path)], str(tmp_path / "o4"))
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "x.txt").write_text("x")
+    with pytest.raises(ConfigError, match="holds other files"):
+        combine_runs([a, b], str(tmp_path / "full"))
+    for o in ("o1", "o2", "o3", "o4"):
+        assert not (tmp_path / o).exists()            # nothing written
+    r = subprocess.run([sys.executable, "-m", "remote_trigger.pywrap.cli", "ensemble",
+                        "--combine", a, b, "--out", str(tmp_path / "o5"), "--set", "tol=1"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "drop --set" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
