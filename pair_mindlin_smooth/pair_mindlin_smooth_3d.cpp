@@ -53,9 +53,12 @@ enum { HAS_CONTACT = 1, LISTED = 2, IN_BAND = 4, HAS_SLOT = 8 };
 // that img & 1 tells only the second side of a pair)
 constexpr int ALONE = -2;
 
-// what one side of a contact reads
+// what one side of a contact reads: the per-atom vectors as the rows of one
+// block each (LAMMPS allocates x, v, omega with memory->grow(), a block of
+// nmax rows of 3 and a row pointer to each): x + 3 j is x[j], one load less
+// on the way to a neighbour's data
 struct Atoms3 {
-  double **x, **v, **omega;
+  const double *x, *v, *omega;
   const double *radius;
   const int *type;
   double dt;
@@ -84,7 +87,8 @@ contact_side(const Atoms3 &a, const Own3 &o, int j, const double del[3], double 
   const bool advance = a.update_history && !band;
   double slip[3] = {0.0, 0.0, 0.0};
   if (advance) {
-    const double *vi = o.v, *vj = a.v[j], *oi = o.omega, *oj = a.omega[j];
+    const double *vi = o.v, *vj = a.v + 3 * (size_t) j, *oi = o.omega,
+                 *oj = a.omega + 3 * (size_t) j;
     const double dv[3] = {vi[0] - vj[0], vi[1] - vj[1], vi[2] - vj[2]};
     const double ri = o.radius, rj = a.radius[j];
     const double w[3] = {ri * oi[0] + rj * oj[0], ri * oi[1] + rj * oj[1],
@@ -233,8 +237,13 @@ void PairMindlinSmooth::compute_3d()
   const int nlocal = atom->nlocal;
 
   const int update_history = (update->setupflag == 0);
-  const Atoms3 at = {x, atom->v, atom->omega, radius, atom->type, update->dt,
-                     update_history != 0, evflag != 0};
+  // (no rows at all before the first atom: nothing to read then)
+  const bool rows = (atom->nmax > 0);
+  const Atoms3 at = {rows ? x[0] : nullptr,
+                     rows ? atom->v[0] : nullptr,
+                     rows ? atom->omega[0] : nullptr,
+                     radius, atom->type, update->dt, update_history != 0, evflag != 0};
+  const double *xrow = at.x;
   const double tbase = touch_base(domain);
   int nslot = ncol;
 
@@ -261,10 +270,10 @@ void PairMindlinSmooth::compute_3d()
     const int *ipartner = partner[i];
     const double *const itc[3] = {tc[0][i], tc[1][i], tc[2][i]};
     const int itype = at.type[i];
-    const Own3 own = {at.v[i], at.omega[i], radi, kn[itype], kt[itype], mu[itype]};
+    const Own3 own = {at.v + 3 * (size_t) i, at.omega + 3 * (size_t) i, radi, kn[itype],
+                      kt[itype], mu[itype]};
     int nc = 0;
     int walk = 0;       // walk_slot() along i's history row
-    tagint dup = 0;     // a partner met twice (two periodic images), 0 if none
 
     int np = 0;         // contacts to compute here (pend)
 
@@ -272,7 +281,7 @@ void PairMindlinSmooth::compute_3d()
     // and with owned atoms later in the list, which get the image), or
     // the image of the side computed by an atom earlier in the list
     // (twins: a tag occurs twice among the neighbours, two periodic images
-    // of one atom; then each contact is checked against the last)
+    // of one atom; then the contacts are checked for it after this loop)
     const bool twins = twins3[ii] != 0;
     const int elast = first[ii + 1];
     for (int e = first[ii]; e < elast; e++) {
@@ -294,7 +303,6 @@ void PairMindlinSmooth::compute_3d()
                                     stored[2] == -im.stored[2]);
         if (mirror) {
           if (!(im.flags & HAS_CONTACT)) continue;
-          if (twins && nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
           Contact3 &c = cs[nc++];
           c.tag = jtag;
           c.listed = (im.flags & LISTED) != 0;
@@ -304,25 +312,26 @@ void PairMindlinSmooth::compute_3d()
             c.nxf[k] = im.nxf[k];    // n x F_t: both factors change sign
           }
           if (evflag) {
-            for (int k = 0; k < 3; k++) c.del[k] = xi[k] - x[j][k];
+            for (int k = 0; k < 3; k++) c.del[k] = xi[k] - xrow[3 * (size_t) j + k];
             c.en = im.en;
           }
           continue;
         }
         // the same geometry as j's (del negated exactly)
-        const double del[3] = {xi[0] - x[j][0], xi[1] - x[j][1], xi[2] - x[j][2]};
+        const double *xj = xrow + 3 * (size_t) j;
+        const double del[3] = {xi[0] - xj[0], xi[1] - xj[1], xi[2] - xj[2]};
         const double r = sqrt(MindlinSmooth::dot3(del, del));
         const double gap = (radi + radius[j]) - r;
         const bool listed = band ? (slot >= 0) : (gap > 0.0);
         if (!(listed || gap > 0.0)) continue;
-        if (twins && nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
         cs[nc].tag = jtag;
         pend[np++] = {j, nc++, ALONE, 0, {del[0], del[1], del[2]}, r, gap,
                       {stored[0], stored[1], stored[2]}, band, listed};
         continue;
       }
 
-      const double del[3] = {xi[0] - x[j][0], xi[1] - x[j][1], xi[2] - x[j][2]};
+      const double *xj = xrow + 3 * (size_t) j;
+      const double del[3] = {xi[0] - xj[0], xi[1] - xj[1], xi[2] - xj[2]};
       const double rsq = MindlinSmooth::dot3(del, del);
       const double radsum = radi + radius[j];
       const double tau = touch_band(tbase, radsum);
@@ -349,7 +358,6 @@ void PairMindlinSmooth::compute_3d()
       const int flags = (has ? HAS_CONTACT : 0) | (listed ? LISTED : 0) |
           (band ? IN_BAND : 0) | (slot >= 0 ? HAS_SLOT : 0);
       if (has) {
-        if (twins && nc > 0 && cs[nc - 1].tag == jtag && dup == 0) dup = jtag;
         cs[nc].tag = jtag;
         pend[np++] = {j, nc++, img, flags, {del[0], del[1], del[2]}, r, gap,
                       {stored[0], stored[1], stored[2]}, band, listed};
@@ -381,6 +389,13 @@ void PairMindlinSmooth::compute_3d()
       }
       if (evflag) im.en = c.en;
     }
+
+    // a partner met twice (two periodic images), 0 if none: the first
+    // contact whose partner is that of the one before
+    tagint dup = 0;
+    if (twins)
+      for (int a = 1; a < nc && dup == 0; a++)
+        if (cs[a].tag == cs[a - 1].tag) dup = cs[a].tag;
 
     // summed in registers: the same additions in the same order as into
     // f[i] and torque[i] directly, which the compiler would have to
