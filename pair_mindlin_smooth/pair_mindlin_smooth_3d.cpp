@@ -397,19 +397,44 @@ void PairMindlinSmooth::compute_3d()
       for (int a = 1; a < nc && dup == 0; a++)
         if (cs[a].tag == cs[a - 1].tag) dup = cs[a].tag;
 
-    // summed in registers: the same additions in the same order as into
-    // f[i] and torque[i] directly, which the compiler would have to
-    // reload after every store (they might alias the contacts)
-    double fi[3] = {f[i][0], f[i][1], f[i][2]};
-    double ti[3] = {torque[i][0], torque[i][1], torque[i][2]};
-    for (int a = 0; a < nc; a++)
-      for (int k = 0; k < 3; k++) {
-        fi[k] += cs[a].f[k];
-        ti[k] += -radi * cs[a].nxf[k];
-      }
-
     if (nc > nslot && !history) too_many_contacts(itag);
     if (dup > 0) two_images(itag, dup);
+    if (update_history && nc > nslot) {
+      history->reserve(nc);
+      find_history();
+      partner = atom->iarray[idx_partner];
+      for (int k = 0; k < 3; k++) tc[k] = atom->darray[idx_t3[k]];
+      nslot = ncol;
+    }
+
+    // summed in registers: the same additions in the same order as into
+    // f[i] and torque[i] directly, which the compiler would have to
+    // reload after every store (they might alias the contacts); in the
+    // same pass over the contacts, those kept in the history written to
+    // i's row in ascending tag
+    double fi[3] = {f[i][0], f[i][1], f[i][2]};
+    double ti[3] = {torque[i][0], torque[i][1], torque[i][2]};
+    int *prow = partner[i];
+    double *const trow[3] = {tc[0][i], tc[1][i], tc[2][i]};
+    int nl = 0;
+    if (update_history)
+      for (int a = 0; a < nc; a++) {
+        const Contact3 &c = cs[a];
+        for (int k = 0; k < 3; k++) {
+          fi[k] += c.f[k];
+          ti[k] += -radi * c.nxf[k];
+        }
+        if (!c.listed) continue;
+        prow[nl] = c.tag;
+        for (int k = 0; k < 3; k++) trow[k][nl] = c.t[k];
+        nl++;
+      }
+    else
+      for (int a = 0; a < nc; a++)
+        for (int k = 0; k < 3; k++) {
+          fi[k] += cs[a].f[k];
+          ti[k] += -radi * cs[a].nxf[k];
+        }
 
     for (int k = 0; k < 3; k++) {
       f[i][k] = fi[k];
@@ -421,32 +446,14 @@ void PairMindlinSmooth::compute_3d()
         ev_tally_xyz_full(i, c.en, 0.0, c.f[0], c.f[1], c.f[2], c.del[0], c.del[1], c.del[2]);
       }
 
-    if (update_history) {
-      if (nc > nslot) {
-        history->reserve(nc);
-        find_history();
-        partner = atom->iarray[idx_partner];
-        for (int k = 0; k < 3; k++) tc[k] = atom->darray[idx_t3[k]];
-        nslot = ncol;
-      }
-      int *prow = partner[i];
-      double *const trow[3] = {tc[0][i], tc[1][i], tc[2][i]};
-      int nl = 0;
-      for (int a = 0; a < nc; a++) {
-        const Contact3 &c = cs[a];
-        if (!c.listed) continue;
-        prow[nl] = c.tag;
-        for (int k = 0; k < 3; k++) trow[k][nl] = c.t[k];
-        nl++;
-      }
-      // the slots that held a contact and hold none now: slots are packed
-      // and, once cleared whole (packed3), zero from the first empty one on,
-      // so the old entries past nl end at the first zero
+    // the slots that held a contact and hold none now: slots are packed
+    // and, once cleared whole (packed3), zero from the first empty one on,
+    // so the old entries past nl end at the first zero
+    if (update_history)
       for (int a = nl; a < nslot && (!packed3 || prow[a] != 0); a++) {
         prow[a] = 0;
         for (int k = 0; k < 3; k++) trow[k][a] = 0.0;
       }
-    }
   }
   if (update_history) packed3 = true;
 }
