@@ -20,11 +20,12 @@ sparse LU above), write the equilibrium files, and the certified decision:
   shift (``classify_projected``), labelled so: no verdict.
 
 Above ``--relax-max`` (default 400) a relaxation takes too long here
-(N = 1600: ~30 min on one core). A packing relaxed once beforehand is used
-where there is one (``--relaxed N=DATAFILE``; by default the N = 1600
-packing kept in ``benchmarks/data/``, relaxed with the default protocol from
-the ensemble generator's seed 1): its two points are measured like the
-relaxed ones. Larger N (asked for with --sizes; not by default: such tiles have
+(N = 1600: 1-2 min, N = 1e4: ~18 min on one core). A packing relaxed once
+beforehand is used where there is one (``--relaxed N=DATAFILE``; by default
+the N = 1600, 6400 and 1e4 packings kept in ``benchmarks/data/``, relaxed
+with the default protocol from the ensemble generator's seed 1): its points
+are measured like the relaxed ones, two up to N = 1600 and one above
+(``ONE_POINT_ABOVE``: the verdict there takes minutes). Larger N (asked for with --sizes; not by default: such tiles have
 exactly degenerate Bloch sectors, docs/ensemble.md) are made of copies of the largest
 stored packing side by side (``tiled_packing``: 6 copies of N = 1600 =
 9600 disks; an exact equilibrium of the wider box but for a 1e-6 jitter of
@@ -73,8 +74,11 @@ FC_EXPONENT = -1.01
 #: packings relaxed once with the default protocol (ensemble generator, seed 1)
 #: and kept, so that a point is measured where a relaxation takes too long here
 DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
-STORED = {n: os.path.join(DATA, name) for n, name in ((1600, "relaxed_N1600_seed1.data"),)
-          if os.path.exists(os.path.join(DATA, name))}
+STORED = {n: os.path.join(DATA, f"relaxed_N{n}_seed1.data") for n in (1600, 6400, 10000)
+          if os.path.exists(os.path.join(DATA, f"relaxed_N{n}_seed1.data"))}
+#: above this N a stored packing gets one point (F_x = 0 -> dF_x), not two: its
+#: whole-spectrum verdict takes minutes (N = 6400 ~4, N = 1e4 ~12 on one core)
+ONE_POINT_ABOVE = 1600
 
 
 #: largest order of M^-1 K whose dense eigen-solve is timed beside the sliced verdict
@@ -396,9 +400,11 @@ def _per_point(r):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[100, 400, 1600],
-                    help="N values (default 100 400 1600; larger N are tiled copies of a stored "
-                         "packing, degenerate spectra that are no test systems for a verdict)")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[100, 400, 1600, 6400, 10000],
+                    help="N values (default 100 400 1600 6400 10000; N above 400 from the "
+                         "packings stored in benchmarks/data; other large N are tiled "
+                         "copies of a stored packing, degenerate spectra that are no test "
+                         "systems for a verdict)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--dF-x", dest="dF_x", type=float, default=2.5e-4)
     ap.add_argument("--quick", action="store_true", help="N = 100 and 400 only")
@@ -409,10 +415,10 @@ def main(argv=None):
                     help="packings relaxed beforehand: their points are measured without "
                          "relaxing (default: " + ", ".join(f"{n}={p}" for n, p in
                                                            STORED.items()) + ")")
-    ap.add_argument("--points", type=int, choices=(1, 2), default=2,
-                    help="ramp points measured from a stored packing: 2 (default; the "
-                         "second is reported) or 1 (F_x = dF_x only: for N whose verdict "
-                         "takes many minutes)")
+    ap.add_argument("--points", type=int, choices=(1, 2), default=None,
+                    help="ramp points measured from a stored packing: 2 (the second is "
+                         "reported) or 1 (F_x = dF_x only: for N whose verdict takes many "
+                         f"minutes); default 2 up to N = {ONE_POINT_ABOVE}, 1 above")
     ap.add_argument("--out", default=None, help="keep outputs here (default: temp dir)")
     args = ap.parse_args(argv)
     sizes = [n for n in args.sizes if n <= 400] if args.quick else args.sizes
@@ -428,7 +434,9 @@ def main(argv=None):
     for n in sizes:
         src = max((m for m in stored if m <= n), default=None)
         if n in stored and n > args.relax_max:
-            rows.append(stored_point(n, stored[n], args.dF_x, base, args.points))
+            pts = args.points or (2 if n <= ONE_POINT_ABOVE else 1)
+            rows.append(stored_point(n, stored[n], args.dF_x, base, pts))
+            rows[-1]["points"] = pts
         elif n <= args.relax_max:
             rows.append(one_point(n, args.seed, args.dF_x, base))
         elif src is not None:
@@ -490,8 +498,11 @@ def main(argv=None):
             dense = e100 * (r["dof"] / 300.0) ** 3
             print(f"{'':6} dense eigen-solve at this size, extrapolated as n^3 from N = 100: "
                   f"{dense:.0f} s per point")
-    print(f"point, cpu: the {'second' if args.points == 2 else 'first (--points 1, stored packings)'}"
-          " point; fine ramp, adaptive: points x the mean of the points measured above "
+    one = sorted(r["n"] for r in rows if r.get("points") == 1)
+    print("point, cpu: the second point"
+          + (f", the first (F_x = 0 -> {args.dF_x:g}) at N = "
+             + ", ".join(map(str, one)) + " (one point measured there)" if one else "")
+          + "; fine ramp, adaptive: points x the mean of the points measured above "
           "N = 400, x the second below")
     print(f"fine ramp: F_x^c / dF_x + 12 points, F_x^c the ensemble's median "
           f"({FC_MEDIAN[100]:g} at N = 100, {FC_MEDIAN[400]:g} at 400, {FC_MEDIAN[1600]:g} "
