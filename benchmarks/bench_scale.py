@@ -22,8 +22,9 @@ sparse LU above), write the equilibrium files, and the certified decision:
 Above ``--relax-max`` (default 400) a relaxation takes too long here
 (N = 1600: 1-2 min, N = 1e4: ~18 min on one core). A packing relaxed once
 beforehand is used where there is one (``--relaxed N=DATAFILE``; by default
-the N = 1600, 6400 and 1e4 packings kept in ``benchmarks/data/``, relaxed
-with the default protocol from the ensemble generator's seed 1): its points
+the N = 1600, 6400 and 1e4 packings kept in ``benchmarks/data/``, from the
+ensemble generator's seed 1, N = 1600 relaxed by the damped protocol of its
+day, 6400 and 1e4 by today's default): its points
 are measured like the relaxed ones, two up to N = 1600 and one above
 (``ONE_POINT_ABOVE``: the verdict there takes minutes). Larger N (asked for with --sizes; not by default: such tiles have
 exactly degenerate Bloch sectors, docs/ensemble.md) are made of copies of the largest
