@@ -174,9 +174,12 @@ def _bracket_attrs(rlog, lo, hi, tol, why=""):
                  tol_reached=bool(width <= tol), n_undecided=n_und)
     if why in ("undecided", "resolution"):
         _, _, _, unknown = ramp_bracket(rlog)
+        said = list(ramp_file.undecided_reasons(rlog.attrs).values())
+        cause = (f"{len(said)} undecided point(s), the last: {said[-1]}; each reason in "
+                 "ramp.h5 undecided_reasons" if said else "closer to the exceptional point "
+                 "than the float64 matrix resolves, or no equilibrium")
         zone = (f"the loads in [{unknown[0]:.10g}, {unknown[-1]:.10g}] could not be "
-                f"certified (closer to the exceptional point than the float64 matrix "
-                f"resolves, or no equilibrium)" if unknown else
+                f"certified ({cause})" if unknown else
                 "no float64 load is left strictly inside the bracket")
         attrs["message"] = (f"bisection stopped at width {width:.3g} > tol = {tol:.3g}: "
                             f"{zone}; F_x^c is certified only to [{lo:.10g}, {hi:.10g}]")

@@ -173,7 +173,8 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
             F = json.load(fh)["F_x"]
         if abs(F - F_c) < W:
             return dataclasses.replace(res, decision="undecided", complex_pair=False,
-                                       confidence=0.5, max_imag=0.0)
+                                       confidence=0.5, max_imag=0.0,
+                                       reason=f"strip of 9 eigenvalues (> 8) at {F:.6g}")
         return res
 
     monkeypatch.setattr(stability, "stability_of_dump", fuzzy)
@@ -195,6 +196,10 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
     assert np.all(np.abs(F[dec == -1] - F_c) < W) and np.all(np.abs(F[dec >= 0] - F_c) >= W)
     assert "bisection stopped at width" in attrs["message"]
     assert f"width {hi - lo:.3g}" in text and "could not be certified" in text
+    # the message names the undecided points' own reasons (the last one's in full)
+    last = json.loads(attrs["undecided_reasons"])
+    assert f"{len(last)} undecided point(s), the last: {list(last.values())[-1]}" \
+        in attrs["message"] and "strip of 9 eigenvalues" in text
 
 
 def test_ramp_file_layout_and_reader(full_ramp):
