@@ -175,7 +175,7 @@ def _bracket_attrs(rlog, lo, hi, tol, why=""):
     if why in ("undecided", "resolution"):
         _, _, _, unknown = ramp_bracket(rlog)
         said = list(ramp_file.undecided_reasons(rlog.attrs).values())
-        cause = (f"{len(said)} undecided point(s), the last: {said[-1]}; each reason in "
+        cause = (f"{n_und} undecided point(s), the last reason given: {said[-1]}; each in "
                  "ramp.h5 undecided_reasons" if said else "closer to the exceptional point "
                  "than the float64 matrix resolves, or no equilibrium")
         zone = (f"the loads in [{unknown[0]:.10g}, {unknown[-1]:.10g}] could not be "
