@@ -10,14 +10,12 @@ import shutil
 import subprocess
 import sys
 
-import numpy as np
 import pytest
 
 from remote_trigger.pywrap.config import ConfigError
-from remote_trigger.pywrap.jobs.ensemble import report as er
 from remote_trigger.pywrap.jobs.ensemble.job import combine_runs
 
-REF = os.path.join(os.path.dirname(__file__), "..", "data", "ensemble_quick2d")
+from .ensemble_reference import REF, assert_reference_columns
 
 
 def _run_folder(path, n, seeds, keys, **change):
@@ -45,15 +43,7 @@ def test_combined_runs_give_the_single_runs_table(runs, tmp_path, capsys):
     combine_runs(runs, str(out))
     with open(os.path.join(REF, "config.json")) as fh:
         assert json.loads((out / "config.json").read_text()) == json.load(fh)
-    with open(os.path.join(REF, "table.json")) as fh:
-        ref = json.load(fh)
-    got = er.read_table(str(out / "ensemble.h5"))
-    assert sorted(got) == sorted(ref["columns"])
-    for c, want in ref["columns"].items():
-        if c in er.STR_COLS:
-            assert list(got[c]) == want, c
-        else:
-            assert np.array_equal(got[c], np.array(want, float), equal_nan=True), c
+    assert_reference_columns(out / "ensemble.h5")
     man = json.loads((out / "ensemble.json").read_text())
     assert man["combined_from"] == [os.path.abspath(r) for r in runs]
     assert man["left_out"] == [f"N20_s2 ({os.path.abspath(runs[1])})"]

@@ -11,14 +11,13 @@ tests/data/ensemble_quick2d), today's configuration, table and
 import json
 import os
 
-import numpy as np
 import pytest
 
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.jobs.ensemble import config as ec
 from remote_trigger.pywrap.jobs.ensemble import report as er
 
-REF = os.path.join(os.path.dirname(__file__), "..", "data", "ensemble_quick2d")
+from .ensemble_reference import REF, assert_reference_columns, reference_table
 
 
 def test_sphere_defaults_and_quick():
@@ -59,21 +58,13 @@ def test_disks_unchanged(tmp_path):
     cfg = ec.build_config(quick=True)
     with open(os.path.join(REF, "config.json")) as fh:
         assert cfg.to_dict() == json.load(fh)
-    with open(os.path.join(REF, "table.json")) as fh:
-        ref = json.load(fh)
+    ref = reference_table()
     rows = []
     for t in cfg.packings():
         with open(os.path.join(REF, t["key"] + ".json")) as fh:
             rows.extend(er.rows_of(t, json.load(fh)["result"], cfg))
     er.write_table(str(tmp_path / "t.h5"), rows, cfg)
-    got = er.read_table(str(tmp_path / "t.h5"))
-    assert sorted(got) == sorted(ref["columns"])
-    for c, want in ref["columns"].items():
-        if c in er.STR_COLS:
-            assert list(got[c]) == want, c
-        else:
-            want = np.array(want, float)
-            assert np.array_equal(got[c], want, equal_nan=True), c
+    assert_reference_columns(tmp_path / "t.h5")
     with h5py.File(tmp_path / "t.h5", "r") as fh:
         attrs = {k: fh.attrs[k] for k in fh.attrs}
     assert sorted(attrs) == sorted(ref["attrs"])

@@ -1,0 +1,30 @@
+"""The reference ``ensemble --quick`` run kept in tests/data/ensemble_quick2d
+(made with the code before ``dim`` existed, commit a163038): its folder and
+a check of a table against it."""
+import json
+import os
+
+import numpy as np
+
+from remote_trigger.pywrap.jobs.ensemble import report as er
+
+REF = os.path.join(os.path.dirname(__file__), "..", "data", "ensemble_quick2d")
+
+
+def reference_table():
+    """The reference run's ``table.json`` (columns, attributes, session)."""
+    with open(os.path.join(REF, "table.json")) as fh:
+        return json.load(fh)
+
+
+def assert_reference_columns(h5path):
+    """The table at ``h5path`` has the reference run's columns, value for value
+    (NaN equal to NaN)."""
+    ref = reference_table()
+    got = er.read_table(str(h5path))
+    assert sorted(got) == sorted(ref["columns"])
+    for c, want in ref["columns"].items():
+        if c in er.STR_COLS:
+            assert list(got[c]) == want, c
+        else:
+            assert np.array_equal(got[c], np.array(want, float), equal_nan=True), c
