@@ -13,6 +13,7 @@
 ``enclosure``     its rigorous float64 bounds
 ``verdict``       the ramp's verdict: certified decision, its codes, growth rate
 ``eigtrack``      the coalescing eigenvalue pair through a ramp (Fig. 3)
+``modeshape``     the pair's mode: participation ratio, collective or local
 ``analyze``       the whole pipeline for one state or dump
 ``timestep``      the stable time step from the spectrum
 

@@ -114,6 +114,12 @@ def test_pair_position():
     assert p["pair_index"] == 3 and p["n_dof"] == 6
     assert p["pair_re_rel"] == pytest.approx(0.5)
     assert p["lambda_c"] == [5.0, 0.5]
+    # a negative real eigenvalue (a statically unstable equilibrium) grows faster
+    # (|Im sqrt(-9)| = 3 > |Im sqrt(5 + 0.5i)|) but is no pair
+    p = onset.pair_position([-9.0] + lam)
+    assert p["lambda_c"] == [5.0, 0.5] and p["pair_index"] == 4
+    none = onset.pair_position([-9.0, 1.0, 2.0])
+    assert none["pair_index"] == -1 and none["pair_re_rel"] != none["pair_re_rel"]
 
 
 def test_soft_mode_onsets_are_flagged_and_kept_out_of_the_stiff_statistics():

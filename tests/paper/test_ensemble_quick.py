@@ -75,6 +75,9 @@ def test_outputs_and_rows(serial):
         assert t["decision_at_zero"][i] == 0          # default protocol: real at F_x = 0
         assert 1 <= t["pair_index"][i] < t["n_dof"][i]
         assert 0 < t["pair_re_rel"][i] < 1
+        # the pair's mode: a participation ratio in [1/N, 1], N PR particles
+        assert 1 / t["n"][i] <= t["pair_pr"][i] <= 1
+        assert t["pair_particles"][i] == pytest.approx(t["n"][i] * t["pair_pr"][i], rel=1e-12)
         assert 0.5 < t["phi"][i] < 0.9
     # I0 = 1 rows: flagged, same packings and phi
     one = t["I0"] == 1.0
@@ -255,3 +258,25 @@ def test_packing_without_memory_for_the_verdict_is_recorded_and_others_finish(tm
     assert "TooLargeError" in reason and "dense verdict for n = " in reason, reason
     assert "available" in reason, reason
     assert t["status"][small][0] == "ok" and t["F_x_c_low"][small][0] > 0
+
+
+def test_a_part_recorded_without_the_pair_shape_is_completed_on_resume(serial):
+    """A ramp part recorded by a version without ``pair_pr`` (a resumed run of an
+    older version) gets its onset numbers again from its ramp.h5, the same as
+    recorded, and the pair's shape (NaN here: the quick run keeps no equilibria)."""
+    out, _, _ = serial
+    cfg = ec.build_config(quick=True)
+    key = f"I0_{cfg.I0_dynamics:g}"
+    with open(os.path.join(out, "packings", "N16_s1", et.PROGRESS)) as fh:
+        part = json.load(fh)["ramps"]["mu0"]
+    assert not et._shape_missing(cfg, part)
+    old = dict(part, **{key: {k: v for k, v in part[key].items()
+                              if k not in ("pair_pr", "pair_particles")}})
+    assert et._shape_missing(cfg, old)
+    new = et._with_shape(cfg, old)
+    assert not et._shape_missing(cfg, new)
+    for k, v in old[key].items():
+        assert new[key][k] == v or (v != v and new[key][k] != new[key][k]), k
+    assert math.isnan(new[key]["pair_pr"]) and math.isnan(new[key]["pair_particles"])
+    gone = et._with_shape(cfg, dict(old, h5=os.path.join(out, "no.h5")))
+    assert math.isnan(gone[key]["pair_pr"])

@@ -134,18 +134,66 @@ def pair_position(eigenvalues):
     Returns
     -------
     dict
-        ``lambda_c`` (the pair of largest |Im sqrt(lambda)|, [Re, |Im|]),
-        ``pair_re_rel`` = Re lambda_c / max Re lambda, ``pair_index`` (1-based
-        index of the pair counted from the softest mode: 1 + the number of
-        eigenvalues with smaller real part), ``n_dof`` (M).
+        ``lambda_c`` (of the eigenvalues off the real axis, the one of largest
+        |Im sqrt(lambda)|, [Re, |Im|]; a negative *real* eigenvalue, a static
+        instability, is not a pair), ``pair_re_rel`` = Re lambda_c / max Re
+        lambda, ``pair_index`` (1-based index of the pair counted from the
+        softest mode: 1 + the number of eigenvalues with smaller real part),
+        ``n_dof`` (M). NaN / -1 when no eigenvalue is off the real axis.
     """
     lam = np.asarray(eigenvalues, complex)
-    g = np.abs(np.sqrt(lam).imag)
-    c = lam[int(np.argmax(g))]
+    off = np.nonzero(lam.imag != 0)[0]
+    if off.size == 0:
+        return {"lambda_c": [math.nan, math.nan], "pair_re_rel": math.nan,
+                "pair_index": -1, "n_dof": int(lam.size)}
+    g = np.abs(np.sqrt(lam[off]).imag)
+    c = lam[off[int(np.argmax(g))]]
     below = int(np.count_nonzero(lam.real < c.real - 1e-12 * abs(c.real)))
     return {"lambda_c": [float(c.real), float(abs(c.imag))],
             "pair_re_rel": float(c.real / np.max(lam.real)), "pair_index": below + 1,
             "n_dof": int(lam.size)}
+
+
+#: a pair whose mode moves fewer particles than this (N PR) is a local onset
+LOCAL_PAIR_PARTICLES = 10.0
+
+
+def pair_shape(points, numbers, inertia_factor=None):
+    """Participation ratio of the pair's mode at the first load certified complex.
+
+    Parameters
+    ----------
+    points : list of dict
+        From :func:`read_ramp` (or :func:`reanalyse`), with ``dump``.
+    numbers : dict
+        :func:`onset_numbers` of the same points (``F_x_c_high``, ``lambda_c``).
+    inertia_factor : float, optional
+        I0 of the analysis convention (None: the dump's own).
+
+    Returns
+    -------
+    dict
+        ``pair_pr`` (participation ratio of the translations,
+        :func:`~remote_trigger.analysis.stability.modeshape.pair_mode`) and
+        ``pair_particles`` (N PR); NaN without a complex point or when its
+        dump is gone (a ramp finished by an older version).
+    """
+    import os
+    from remote_trigger.analysis.state.dumpfile import read_dump, read_equilibrium
+    from remote_trigger.analysis.stability.modeshape import pair_mode
+
+    out = {"pair_pr": math.nan, "pair_particles": math.nan}
+    hi, lam = numbers.get("F_x_c_high", math.nan), numbers.get("lambda_c", [math.nan] * 2)
+    if not (math.isfinite(hi) and math.isfinite(lam[0])):
+        return out
+    top = next((p for p in points if p["F_x"] == hi and p["decision"] == Decision.COMPLEX),
+               None)
+    if top is None or not os.path.isfile(top["dump"]):
+        return out
+    state = (read_equilibrium(top["dump"]) if inertia_factor is None else
+             read_dump(top["dump"], require_contacts=False, inertia_factor=inertia_factor))
+    m = pair_mode(state, complex(lam[0], lam[1]))
+    return {"pair_pr": m.participation_ratio, "pair_particles": m.n_particles}
 
 
 def growth_slope(F, g, lo, hi):

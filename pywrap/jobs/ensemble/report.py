@@ -10,6 +10,7 @@ from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 from remote_trigger.pywrap.jobs.paper.config import PAPER
 from remote_trigger.pywrap.jobs.ensemble.config import ONLY_2D
 from remote_trigger.analysis.stability.verdict import Decision
+from remote_trigger.pywrap.jobs.ensemble.onset import LOCAL_PAIR_PARTICLES
 
 #: the paper's bracket of F_x^c(mu = 1) for its N = 100 packing
 PAPER_BRACKET = (PAPER["F_x_c_mu1_low"], PAPER["F_x_c_mu1_high"])
@@ -30,7 +31,8 @@ COLUMNS = ("key", "n", "seed", "protocol", "I0", "dynamics_consistent", "status"
            "ratio", "ratio_low", "ratio_high", "order", "pair_re_rel", "pair_index", "n_dof",
            "lambda_c_re", "lambda_c_im", "growth_slope", "F_x_onset_fit", "slope_points",
            "n_undecided", "n_steps", "n_bisection", "n_extra", "ramp_status_mu0", "ramp_status_mu_ss",
-           "decision_at_zero", "n_pairs_at_zero", "growth_at_zero", "soft_onset", "wall")
+           "decision_at_zero", "n_pairs_at_zero", "growth_at_zero", "soft_onset", "wall",
+           "pair_pr", "pair_particles")
 
 
 def _mid(lo, hi):
@@ -126,7 +128,8 @@ def _default_row(task, result, I0, i0_dyn):
                    lambda_c_im=o["lambda_c"][1], growth_slope=o["slope"],
                    F_x_onset_fit=o["F_x_onset_fit"], slope_points=o["n_points"],
                    n_undecided=o["n_undecided"], n_steps=r0["n_steps"],
-                   n_bisection=r0["n_bisection"])
+                   n_bisection=r0["n_bisection"], pair_pr=o.get("pair_pr", math.nan),
+                   pair_particles=o.get("pair_particles", math.nan))
         if r0.get("at_zero") and I0 == i0_dyn:
             row.update(decision_at_zero=r0["at_zero"]["decision"], n_pairs_at_zero=math.nan,
                        growth_at_zero=r0["at_zero"]["growth"])
@@ -247,6 +250,8 @@ def statistics(rows, cfg):
                 "pair_re_rel": quartiles([r["pair_re_rel"] for r in sel]),
                 "pair_index": quartiles([r["pair_index"] for r in sel if r["pair_index"] > 0]),
                 "n_soft": sum(1 for r in sel if r["soft_onset"] == 1),
+                "pair_particles": quartiles([r["pair_particles"] for r in sel]),
+                "n_local": sum(1 for r in sel if r["pair_particles"] < LOCAL_PAIR_PARTICLES),
                 "F_x_c_stiff": quartiles([r["F_x_c"] for r in sel if r["soft_onset"] == 0])})
         codes = [r["order"] for r in select(rows, ft, I0, usable=False)]
         st["order"][I0] = {"holds": codes.count(1), "reversed": codes.count(0),
@@ -494,8 +499,20 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
           f"Soft-mode onset: the first certified complex pair has |Re lambda_c| < "
           f"{SOFT_MODE_REL:g} lambda_max -- two near-floppy modes, not two stiff ones (its "
           f"F_x^c is that of the soft pair; the ramp stops there, so the stiff pairs' onset "
-          f"is not measured for that packing).",
-          "", "## N dependence", ""]
+          f"is not measured for that packing)."]
+    shaped = [p for p in st["per_n"] if p["pair_particles"][0]]
+    if shaped:
+        # measured since the pair's mode shape exists (tables of older runs: none)
+        L += ["", "## The pair's mode: collective or local", "",
+              "| N | I0 | packings measured | particles that move, N PR | local onsets |",
+              "|---|---|---|---|---|"]
+        L += [f"| {p['n']} | {p['I0']:g} | {p['pair_particles'][0]} | "
+              f"{_q(p['pair_particles'], '.3g')} | {p['n_local']} |" for p in shaped]
+        L += ["", f"N PR: the participation ratio PR of the translations of the pair's right "
+              f"eigenvector at the first load certified complex of the mu0 ramp, times N. "
+              f"Local onset: N PR < {LOCAL_PAIR_PARTICLES:g}, a pair carried by a few weakly "
+              f"held particles rather than the collective mechanism."]
+    L += ["", "## N dependence", ""]
     for I0, e in st["n_exponent"].items():
         L.append(f"- I0 = {I0:g}: median F_x^c(mu0) ~ N^{e:.3g} between N = {min(cfg.n)} "
                  f"and N = {max(cfg.n)} (two medians).")

@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from remote_trigger.pywrap.jobs.ensemble.onset import (
-    spectrum, read_ramp, bracket, onset_numbers, reanalyse)
+    spectrum, read_ramp, bracket, onset_numbers, reanalyse, pair_shape)
 from remote_trigger.analysis.stability.verdict import Decision
 
 __all__ = ["PROGRESS", "run_packing", "inertia_points", "task_path", "load_task"]
@@ -174,7 +174,8 @@ def _ramp_part(cfg, relaxed, mu, folder, resume=False):
     pts = read_ramp(res.h5)
     part["at_zero"] = ({"decision": pts[0]["decision"], "growth": pts[0]["growth"]}
                        if pts and pts[0]["F_x"] == 0.0 else None)
-    part[f"I0_{cfg.I0_dynamics:g}"] = dict(onset_numbers(pts, cfg.dF_x), n_new=0,
+    o = onset_numbers(pts, cfg.dF_x)
+    part[f"I0_{cfg.I0_dynamics:g}"] = dict(o, **pair_shape(pts, o), n_new=0,
                                            tol_reached=bool(res.tol_reached))
     if cfg.inertia_I0 is not None and pts:
         I0 = float(cfg.inertia_I0)
@@ -182,10 +183,29 @@ def _ramp_part(cfg, relaxed, mu, folder, resume=False):
         shutil.rmtree(ifolder, ignore_errors=True)     # a killed run's points
         ipts = inertia_points(cfg, pts, mu, I0, ifolder)
         o = onset_numbers(ipts, cfg.dF_x)
-        o.update(n_new=sum(1 for p in ipts if p.get("new")),
+        o.update(pair_shape(ipts, o, inertia_factor=I0),
+                 n_new=sum(1 for p in ipts if p.get("new")),
                  tol_reached=bool(o["F_x_c_high"] - o["F_x_c_low"] <= cfg.tol))
         part[f"I0_{I0:g}"] = o
     return part
+
+
+def _shape_missing(cfg, part):
+    o = part.get(f"I0_{cfg.I0_dynamics:g}")
+    return o is not None and "pair_pr" not in o
+
+
+def _with_shape(cfg, part):
+    """The part with ``pair_pr``/``pair_particles`` of its default convention
+    (:func:`.onset.pair_shape`; NaN if the equilibria are gone), its onset
+    numbers recomputed from its ``ramp.h5`` (an older version took a negative
+    real eigenvalue for the pair)."""
+    key = f"I0_{cfg.I0_dynamics:g}"
+    if not os.path.isfile(part["h5"]):
+        return dict(part, **{key: dict(part[key], pair_pr=math.nan, pair_particles=math.nan)})
+    pts = read_ramp(part["h5"])
+    o = dict(part[key], **onset_numbers(pts, cfg.dF_x))
+    return dict(part, **{key: dict(o, **pair_shape(pts, o))})
 
 
 def _frictional_part(cfg, datafile, folder):
@@ -308,6 +328,10 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=()):
             if key not in done["ramps"]:
                 record("ramps", key, _ramp_part(cfg, done["relax"]["datafile"], mu,
                                                 os.path.join(folder, f"ramp_{key}"), resume))
+            elif _shape_missing(cfg, done["ramps"][key]):
+                # a part recorded by a version without the pair's shape: added
+                # from the ramp's equilibria while they are still on disk
+                record("ramps", key, _with_shape(cfg, done["ramps"][key]))
             d["ramps"][key] = done["ramps"][key]
     except Exception as exc:  # noqa: BLE001 - recorded: one packing does not stop the others
         d["error"] = _failure(exc)

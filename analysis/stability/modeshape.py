@@ -1,0 +1,144 @@
+r"""The shape of the coalescing pair's mode: collective or carried by a few particles.
+
+At the first load certified complex, the pair lambda_c, conj(lambda_c) has a
+right eigenvector q of M^-1 K (displacements and rotations of the kept
+particles, rattlers at zero). Its translations u_i (2 per disk, 3 per
+sphere; rotations left out) give the participation ratio
+
+.. math::
+
+    \mathrm{PR} = \frac{\left(\sum_i |u_i|^2\right)^2}{N \sum_i |u_i|^4},
+
+1 when every particle moves equally, 1/N when one particle carries the mode
+(Bell & Dean, Discuss. Faraday Soc. 50, 55 (1970), the measure of mode
+localization in glasses). N PR is the effective number of particles that
+move. A pair carried by one weakly held particle (a disk with two contacts
+whose own 3 x 3 block is near its exceptional point) is a *local* onset:
+it tells nothing about the collective mechanism of the paper, and its load
+is an extreme value over the particles of the packing.
+
+The eigenvector is computed by ARPACK shift-invert about lambda_c (complex
+shift, sparse LU of M^-1/2 K M^-1/2 - lambda_c), or densely for tiny
+systems; it is an approximation (its residual is returned), used to
+describe the mode, never to decide.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+__all__ = ["PairMode", "pair_mode", "participation_ratio"]
+
+#: below this many kept dofs the eigenvector comes from a dense eig
+_DENSE_BELOW = 64
+
+
+@dataclass
+class PairMode:
+    """The mode of a complex pair (:func:`pair_mode`).
+
+    Attributes
+    ----------
+    eigenvalue : complex
+        The eigenvalue of M^-1 K nearest the requested one (1/time^2).
+    translations : ndarray of complex, shape (N, 2) or (N, 3)
+        u_i of every particle (rattlers 0), normalised to sum |u_i|^2 = 1.
+    participation_ratio : float
+        PR of the translations (module docstring), in [1/N, 1].
+    n_particles : float
+        N PR: the effective number of particles that move.
+    residual : float
+        ||A v - lambda v|| / (||A||_1 ||v||) of the mass-weighted eigenvector v.
+    """
+
+    eigenvalue: complex
+    translations: np.ndarray
+    participation_ratio: float
+    n_particles: float
+    residual: float
+
+
+def participation_ratio(u):
+    """PR = (sum |u_i|^2)^2 / (N sum |u_i|^4) of per-particle vectors.
+
+    Parameters
+    ----------
+    u : array_like, shape (N, d)
+        One vector (real or complex) per particle.
+
+    Returns
+    -------
+    float
+        In [1/N, 1]; NaN for a zero vector.
+
+    Raises
+    ------
+    ValueError
+        If ``u`` is not two-dimensional or has no rows.
+    """
+    u = np.asarray(u)
+    if u.ndim != 2 or u.shape[0] == 0:
+        raise ValueError(f"participation_ratio needs an (N, d) array with N >= 1, "
+                         f"got shape {u.shape}")
+    w = np.sum(np.abs(u) ** 2, axis=1)
+    s4 = float(np.sum(w * w))
+    return float(np.sum(w) ** 2 / (u.shape[0] * s4)) if s4 > 0 else float("nan")
+
+
+def pair_mode(state, eigenvalue):
+    """Right eigenvector of M^-1 K at ``eigenvalue`` and its participation ratio.
+
+    Parameters
+    ----------
+    state : State or State3D
+        An equilibrium (disks: 3 dofs each; spheres: 6); rattlers removed as
+        by :func:`~remote_trigger.analysis.stability.analyze.analyze`.
+    eigenvalue : complex
+        lambda_c (1/time^2), e.g. ``[Re, Im]`` of the ensemble's
+        ``lambda_c`` as ``complex(re, im)``.
+
+    Returns
+    -------
+    PairMode
+
+    Raises
+    ------
+    ValueError
+        If every particle is a rattler or ``eigenvalue`` is not finite.
+    """
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability import eigen, jacobian
+    from remote_trigger.analysis.state.state3d import State3D
+
+    sigma = complex(eigenvalue)
+    if not np.isfinite(sigma):
+        raise ValueError(f"pair_mode needs a finite eigenvalue, got {eigenvalue!r}")
+    res = analyze(state, eigenvalues=False, decide=False)
+    keep = np.asarray(res.rattlers.keep_dofs, np.int64)
+    if keep.size == 0:
+        raise ValueError("pair_mode: every particle is a rattler")
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)
+    A = sp.csc_matrix(eigen.dynamical_matrix(Kr, mr))
+    n = A.shape[0]
+    if n < _DENSE_BELOW:
+        lam, V = np.linalg.eig(A.toarray())
+        j = int(np.argmin(np.abs(lam - sigma)))
+        lam_j, v = complex(lam[j]), V[:, j]
+    else:
+        lu = spla.splu((A - sigma * sp.identity(n, format="csc")).astype(complex).tocsc())
+        op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=complex)
+        nu, V = spla.eigs(op, k=min(4, n - 2), which="LM")
+        lam_all = sigma + 1.0 / nu
+        j = int(np.argmin(np.abs(lam_all - sigma)))
+        lam_j, v = complex(lam_all[j]), V[:, j]
+    v = v / np.linalg.norm(v)
+    resid = float(np.linalg.norm(A @ v - lam_j * v) / max(spla.norm(A, 1), 1e-300))
+    spheres = isinstance(state, State3D)
+    per = 6 if spheres else 3
+    full = np.zeros(per * state.n, complex)
+    full[keep] = v / np.sqrt(mr)          # displacements q = M^-1/2 v
+    u = full.reshape(state.n, per)[:, :(3 if spheres else 2)]
+    u = u / np.linalg.norm(u)
+    pr = participation_ratio(u)
+    return PairMode(lam_j, u, pr, pr * state.n, resid)

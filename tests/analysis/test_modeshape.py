@@ -1,0 +1,55 @@
+"""The pair's mode shape (analysis.stability.modeshape): the participation ratio
+of known vectors, and the ARPACK shift-invert eigenvector against LAPACK's."""
+import numpy as np
+import pytest
+
+from remote_trigger.analysis.stability import eigen, jacobian
+from remote_trigger.analysis.stability.analyze import analyze
+from remote_trigger.analysis.stability.modeshape import pair_mode, participation_ratio
+
+from .builders import random_packing
+
+
+def test_participation_ratio_of_known_vectors():
+    n = 50
+    one = np.zeros((n, 2))
+    one[7] = [0.3, -0.4]
+    assert participation_ratio(one) == pytest.approx(1 / n, rel=1e-15)
+    assert participation_ratio(np.ones((n, 2)) * (1 + 1j)) == pytest.approx(1.0, rel=1e-15)
+    half = np.zeros((n, 3))
+    half[: n // 2] = 1.0
+    assert participation_ratio(half) == pytest.approx(0.5, rel=1e-15)
+    assert np.isnan(participation_ratio(np.zeros((n, 2))))
+    with pytest.raises(ValueError, match=r"shape \(5,\)"):
+        participation_ratio(np.ones(5))
+
+
+def _dense_reference(state):
+    """The complex eigenvalue of largest |Im| and the PR of its LAPACK eigenvector."""
+    res = analyze(state, eigenvalues=False, decide=False)
+    keep = res.rattlers.keep_dofs
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)
+    lam, V = np.linalg.eig(eigen.dynamical_matrix(Kr, mr).toarray())
+    j = int(np.argmax(lam.imag))
+    full = np.zeros(3 * state.n, complex)
+    full[keep] = V[:, j] / np.sqrt(mr)
+    return lam[j], participation_ratio(full.reshape(state.n, 3)[:, :2])
+
+
+@pytest.mark.parametrize("nx, ny", [(4, 3), (12, 10)])      # 36 dofs: dense; 360: ARPACK
+def test_pair_mode_matches_lapack(nx, ny):
+    st = random_packing(5, nx=nx, ny=ny, cap_fraction=0.6)
+    lam, pr = _dense_reference(st)
+    assert lam.imag > 0                        # the random history makes K far from symmetric
+    m = pair_mode(st, lam * (1 + 1e-7))
+    assert m.eigenvalue == pytest.approx(lam, rel=1e-10)
+    assert m.participation_ratio == pytest.approx(pr, rel=1e-8)
+    assert m.n_particles == pytest.approx(st.n * pr, rel=1e-8)
+    assert m.translations.shape == (st.n, 2)
+    assert np.linalg.norm(m.translations) == pytest.approx(1.0, rel=1e-12)
+    assert m.residual < 1e-12
+
+
+def test_pair_mode_refuses_a_nonfinite_eigenvalue():
+    with pytest.raises(ValueError, match="nan"):
+        pair_mode(random_packing(1, nx=4, ny=3), complex(float("nan"), 1.0))
