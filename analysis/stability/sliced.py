@@ -67,7 +67,10 @@ rho_T the error of T). If sigma_min(T - x) > eta(x) on the whole strip, it
 holds no real eigenvalue: its m eigenvalues are complex pairs
 (**complex**, certified). If det(T - x) changes sign m times at points where
 sigma_min(T - x) > eta(x), there are m real roots (**real**). Otherwise the
-strip is **undecided** and says why.
+strip is **undecided** and says why, adding as a note marked "not certified"
+what ARPACK sees in it (how many of its m eigenvalues, how many complex
+pairs): a strip of real and complex eigenvalues together (a *mixed* strip)
+is neither all real nor free of real roots, so neither route decides it.
 
 The spectrum is *complex* if a strip is certified complex, *real* if every
 strip is certified real, else *undecided*. Every bound is rigorous with the
@@ -93,7 +96,7 @@ import scipy.sparse.linalg as spla
 from remote_trigger.analysis.stability.decision import PairDecision, SpectrumDecision
 from remote_trigger.analysis.stability.enclosure import U, _gamma, _sigma_min_lower
 from remote_trigger.analysis.stability.slicing import (
-    _INFLATE, SlicedStats, _Fail, _norm1, _norm2_skew, _slices)
+    _INFLATE, SlicedStats, _Fail, _arpack_hint, _norm1, _norm2_skew, _slices)
 
 __all__ = ["classify_sliced", "SlicedStats"]
 
@@ -494,7 +497,8 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
             undecided_margins.append(0.0)
             pairs.append(PairDecision(buf.th[I].astype(complex), False, False, 0.0,
                                       method="sliced-strip",
-                                      reason=f"strip of {m} eigenvalues (> {_MAX_STRIP})"))
+                                      reason=f"strip of {m} eigenvalues (> {_MAX_STRIP})"
+                                      + _arpack_hint(ctx.A, a_lo, a_hi, m)))
             return
         try:
             verdict, margin, lam_c, why = _decide_strip(
@@ -504,6 +508,8 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
             lam_c = buf.th[I].astype(complex)
         lam.extend(lam_c)
         ok = verdict != "undecided"
+        if not ok:
+            why += _arpack_hint(ctx.A, a_lo, a_hi, m)
         pairs.append(PairDecision(np.sort_complex(lam_c), verdict == "complex", ok,
                                   float(margin), method="sliced-strip", reason=why))
         (complex_margins if verdict == "complex" else margins if ok

@@ -4,7 +4,8 @@
 from a sparse factorization, with a rigorous bound of how far that count can
 be off (its *fuzz*); :func:`_slices` computes S's eigenpairs slice by slice
 with ARPACK shift-invert and checks every slice against two such counts, so
-that no eigenvalue is missed. The proof they serve and how they are used:
+that no eigenvalue is missed; :func:`_arpack_hint` says what ARPACK sees in
+a strip the verdict leaves undecided (a note, not certified). The proof they serve and how they are used:
 :mod:`remote_trigger.analysis.stability.sliced`.
 """
 from __future__ import annotations
@@ -303,3 +304,33 @@ def _slices(S, W, k, normS, normW, lo0, stats):
         width = float(theta[nkeep - 1] - theta[0]) * k / max(nkeep - 1, 1)
         yield _Slice(x, y, theta[keep], Q[:, keep], WQ[:, keep], radius, resid[keep], phi)
         x, cnt_x, fz_x = y, cnt_y, fz
+
+
+def _arpack_hint(A, a_lo, a_hi, m):
+    """What ARPACK sees in an undecided strip [a_lo, a_hi] of m eigenvalues: a
+    note for its reason, marked not certified ('' if ARPACK fails).
+
+    The 2 m + 6 eigenvalues of A nearest the strip's centre (shift-invert);
+    those with real part in the strip are counted (a complex pair far from the
+    real axis may be missed: the note says how many of the m were seen) and
+    the complex ones named. Nothing is decided from it.
+    """
+    n = A.shape[0]
+    k = min(2 * m + 6, n - 2)
+    if k < 1:
+        return ""
+    c = 0.5 * (a_lo + a_hi)
+    try:
+        lu = spla.splu(sp.csc_matrix(A - c * sp.identity(n, format="csr")))
+        op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=float)
+        nu = spla.eigs(op, k=k, which="LM", return_eigenvectors=False, maxiter=50 * n)
+    except (RuntimeError, spla.ArpackError):
+        return ""
+    lam = c + 1.0 / nu
+    inside = lam[(lam.real >= a_lo) & (lam.real <= a_hi)]
+    cx = inside[inside.imag > 0]
+    note = f"; ARPACK, not certified: {inside.size} of its {m} eigenvalues seen, "
+    if not cx.size:
+        return note + "none complex"
+    z = cx[int(np.argmax(cx.imag))]
+    return note + f"{cx.size} complex pair(s), e.g. {z.real:.6g} +- {z.imag:.4g}i"

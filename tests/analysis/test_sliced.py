@@ -152,3 +152,48 @@ def test_bad_input():
     bad = sp.csr_matrix(np.array([[1.0, np.nan], [0.0, 1.0]]))
     with pytest.raises(ValueError, match="non-finite"):
         classify_sliced(bad, np.ones(2))
+
+
+def _cluster(w_chain, w_pair, n=150, m=10, spacing=0.004):
+    """S diagonal with a cluster of m eigenvalues ``spacing`` apart at 50, W a
+    skew chain ``w_chain`` along it and ``w_pair`` between members 5 and 6."""
+    theta = np.linspace(1.0, 100.0, n)
+    c0 = 70
+    theta[c0:c0 + m] = 50.0 + spacing * np.arange(m)
+    W = sp.lil_matrix((n, n))
+    for a in range(c0, c0 + m - 1):
+        W[a, a + 1], W[a + 1, a] = w_chain, -w_chain
+    W[c0 + 4, c0 + 5], W[c0 + 5, c0 + 4] = w_pair, -w_pair
+    return sp.csr_matrix(sp.diags(theta) + W), np.ones(n)
+
+
+@pytest.mark.parametrize("w_chain, w_pair, strip", [
+    (0.0025, 0.01, "strip of 10 eigenvalues (> 8)"),           # larger than a block decides
+    (0.0019, 0.02, "strip of 4: no sign change of det"),       # 2 real + 1 pair: mixed
+])
+def test_undecided_strip_names_what_arpack_sees_and_stays_undecided(w_chain, w_pair, strip):
+    """A strip the verdict cannot decide says so, and adds ARPACK's view of it,
+    marked not certified: here one complex pair, as LAPACK finds it."""
+    K, mass = _cluster(w_chain, w_pair)
+    lam = np.linalg.eigvals(K.toarray())
+    pair = lam[lam.imag > 0]
+    assert pair.size == 1
+    res = classify_sliced(K, mass)
+    assert res.complex_present is None
+    assert strip in res.reason
+    m = int(strip.split()[2].rstrip(":"))
+    assert f"ARPACK, not certified: {m} of its {m} eigenvalues seen, 1 complex pair(s)" \
+        in res.reason
+    named = res.reason.split("e.g. ")[1]
+    re_, im_ = named.rstrip("i").split(" +- ")
+    assert float(re_) == pytest.approx(pair[0].real, rel=1e-6)
+    assert float(im_) == pytest.approx(pair[0].imag, rel=1e-3)
+
+
+def test_undecided_strip_without_a_pair_says_none_complex():
+    K, mass = _cluster(0.0022, 0.0022)
+    assert np.all(np.linalg.eigvals(K.toarray()).imag == 0)
+    res = classify_sliced(K, mass)
+    assert res.complex_present is None           # a real cluster of 10: not decided
+    assert res.reason.startswith("strip of 10 eigenvalues (> 8)")
+    assert "ARPACK, not certified: 10 of its 10 eigenvalues seen, none complex" in res.reason
