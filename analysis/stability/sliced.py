@@ -580,8 +580,11 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         return SpectrumDecision(True, max(complex_margins), pairs, eps, lam, timing,
                                 start="sliced", n_total=n)
     if undecided_margins:
-        bad = [p for p in pairs if not p.certified]
+        bad = [p.reason for p in pairs if not p.certified]
+        why = bad[0] if len(bad) == 1 else (
+            f"{len(bad)} undecided strips: " + " | ".join(bad[:3])
+            + (f" | and {len(bad) - 3} more" if len(bad) > 3 else ""))
         return SpectrumDecision(None, min(undecided_margins), pairs, eps, lam, timing,
-                                bad[0].reason, start="sliced", n_total=n)
+                                why, start="sliced", n_total=n)
     return SpectrumDecision(False, min(margins) if margins else math.inf, pairs, eps, lam,
                             timing, start="sliced", n_total=n)

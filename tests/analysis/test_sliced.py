@@ -154,16 +154,19 @@ def test_bad_input():
         classify_sliced(bad, np.ones(2))
 
 
-def _cluster(w_chain, w_pair, n=150, m=10, spacing=0.004):
-    """S diagonal with a cluster of m eigenvalues ``spacing`` apart at 50, W a
-    skew chain ``w_chain`` along it and ``w_pair`` between members 5 and 6."""
+def _cluster(w_chain, w_pair, n=150, m=10, spacing=0.004, clusters=((70, 50.0),)):
+    """S diagonal with clusters of m eigenvalues ``spacing`` apart (from index c0
+    at value x0 for each (c0, x0) of ``clusters``), W a skew chain ``w_chain``
+    along each and ``w_pair`` between its members 5 and 6 (a sequence: one per
+    cluster)."""
     theta = np.linspace(1.0, 100.0, n)
-    c0 = 70
-    theta[c0:c0 + m] = 50.0 + spacing * np.arange(m)
     W = sp.lil_matrix((n, n))
-    for a in range(c0, c0 + m - 1):
-        W[a, a + 1], W[a + 1, a] = w_chain, -w_chain
-    W[c0 + 4, c0 + 5], W[c0 + 5, c0 + 4] = w_pair, -w_pair
+    pair_w = np.broadcast_to(np.asarray(w_pair, float), (len(clusters),))
+    for (c0, x0), wp in zip(clusters, pair_w):
+        theta[c0:c0 + m] = x0 + spacing * np.arange(m)
+        for a in range(c0, c0 + m - 1):
+            W[a, a + 1], W[a + 1, a] = w_chain, -w_chain
+        W[c0 + 4, c0 + 5], W[c0 + 5, c0 + 4] = wp, -wp
     return sp.csr_matrix(sp.diags(theta) + W), np.ones(n)
 
 
@@ -197,3 +200,15 @@ def test_undecided_strip_without_a_pair_says_none_complex():
     assert res.complex_present is None           # a real cluster of 10: not decided
     assert res.reason.startswith("strip of 10 eigenvalues (> 8)")
     assert "ARPACK, not certified: 10 of its 10 eigenvalues seen, none complex" in res.reason
+
+
+def test_every_undecided_strip_is_named():
+    """Two undecided strips, a real one low and one with a pair higher up: the
+    reason names both, so the pair is not hidden behind the first."""
+    K, mass = _cluster(0.0022, [0.0022, 0.01], clusters=((30, 20.0), (70, 50.0)))
+    assert np.count_nonzero(np.linalg.eigvals(K.toarray()).imag > 0) == 1
+    res = classify_sliced(K, mass)
+    assert res.complex_present is None
+    assert res.reason.startswith("2 undecided strips: strip of 10 eigenvalues (> 8)")
+    low, high = res.reason.split(" | ")
+    assert low.endswith("none complex") and "1 complex pair(s), e.g. 50.018" in high
