@@ -10,6 +10,7 @@
 ``projected``     the decision on the k eigenvalues nearest a shift (sparse, partial)
 ``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse)
 ``slicing``       its Sylvester counts and Ritz slices of the symmetric part
+``strips``        its strips: coupling across an interval, a strip's decision
 ``enclosure``     its rigorous float64 bounds
 ``verdict``       the ramp's verdict: certified decision, its codes, growth rate
 ``eigtrack``      the coalescing eigenvalue pair through a ramp (Fig. 3)

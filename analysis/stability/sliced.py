@@ -84,19 +84,17 @@ and counts checked here.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 import math
 import time
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.linalg as sla
-import scipy.sparse.linalg as spla
 
 from remote_trigger.analysis.stability.decision import PairDecision, SpectrumDecision
-from remote_trigger.analysis.stability.enclosure import U, _gamma, _sigma_min_lower
+from remote_trigger.analysis.stability.enclosure import U, _gamma
 from remote_trigger.analysis.stability.slicing import (
     _INFLATE, SlicedStats, _Fail, _arpack_hint, _norm1, _norm2_skew, _slices)
+from remote_trigger.analysis.stability.strips import _Ctx, _coupling, _decide_strip
 
 __all__ = ["classify_sliced", "SlicedStats"]
 
@@ -166,222 +164,6 @@ class _Buffer:
         tot = sum(self.phis[i] ** 2 for i in used)
         tot += 2 * sum(self.cross[(i, j)] ** 2 for i in used for j in used if i < j)
         return math.sqrt(tot) * _INFLATE
-
-
-def _norm22(x11, x12, x22):
-    """2-norm of the symmetric 2 x 2 matrix of block norms."""
-    m = 0.5 * (x11 + x22)
-    return (m + math.sqrt(0.25 * (x11 - x22) ** 2 + x12 * x12)) * _INFLATE
-
-
-@dataclass
-class _Ctx:
-    normW: float
-    normS: float
-    eps: float
-    Delta: float
-    rnd: float                  # rounding of the W products (absolute, 2-norm)
-    A: object = None            # M^-1/2 K M^-1/2 (CSR)
-    normA1: float = 0.0         # ||A||_1 >= ||A||_2 bound of |A|
-    r_glob: float = 0.0         # largest Kahan radius so far
-
-
-def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
-    """kappa of the rest (all but ``exclude``) across the interval [lower, upper].
-
-    ``lo_edge``/``hi_edge``: below/above them Ritz values are not in the buffer
-    (None: no eigenvalue there). Returns kappa, g_min, Delta_eff, near indices,
-    their g (distance to the interval), the Xi bound and phi of the near set.
-    """
-    th, rs, wqn = buf.th, buf.rs, buf.wqn
-    dist = np.where(th < lower, lower - th, np.where(th > upper, th - upper, 0.0))
-    ex = np.zeros(th.size, bool)
-    ex[list(exclude)] = True
-    if np.any((dist == 0) & ~ex):
-        raise _Fail("a Ritz value of the rest inside the interval")
-    near = np.nonzero((dist < ctx.Delta) & ~ex)[0]
-    far_d = [lower - lo_edge if lo_edge is not None else math.inf,
-             hi_edge - upper if hi_edge is not None else math.inf]
-    out = np.nonzero((dist >= ctx.Delta) & ~ex)[0]
-    d_out = min(far_d + ([float(dist[out].min())] if out.size else []))
-    used = np.concatenate([near, np.asarray(list(exclude), int)])
-    phi = buf.phi(used) if used.size else 0.0
-    rhat = (math.sqrt(float(np.sum(rs[used] ** 2))) * (1 + phi)
-            + 2 * phi * float(np.max(np.abs(th[used])) if used.size else 0.0)) * _INFLATE
-    d_eff = d_out - ctx.r_glob - 4 * rhat
-    if not d_eff > 0:
-        raise _Fail("the window's complement is not separated from the interval")
-    g = dist[near]
-    g_min = min(float(g.min()) if g.size else math.inf, d_eff)
-    if not g_min > 2 * (ctx.r_glob + 4 * rhat):
-        # the count of S below the interval must equal that of the block-diagonal H
-        raise _Fail("a Ritz value within its radius of the interval")
-    xi = ctx.eps + 2 * rhat + (2 * phi + phi * phi) * ctx.normW + ctx.rnd * max(used.size, 1)
-    below = lo_edge is None and not np.any((th < lower) & ~ex)
-    above = hi_edge is None and not np.any((th > upper) & ~ex)
-    if below or above:
-        # one side empty: J = +-I, herm(J W') = 0 for the skew W
-        return xi / g_min, g_min, d_eff, near, dist[near], xi, phi
-    Ls, Us = near[th[near] < lower], near[th[near] > upper]
-    if Ls.size and Us.size:
-        B = buf.Wn[np.ix_(Ls, Us)]
-        x11 = float(np.linalg.norm((np.abs(B) + ctx.rnd) / np.sqrt(
-            np.outer(dist[Ls], dist[Us])))) * _INFLATE
-    else:
-        x11 = 0.0
-    x12 = ((math.sqrt(float(np.sum(wqn[near] ** 2 / g))) * (1 + phi) + ctx.rnd
-            * math.sqrt(near.size / g_min)) / math.sqrt(d_eff)) * _INFLATE if near.size else 0.0
-    x22 = ctx.normW / d_eff
-    kappa = _norm22(x11, x12, x22) + xi / g_min
-    return kappa, g_min, d_eff, near, g, xi, phi
-
-
-def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
-    """Decide one strip of m >= 2 eigenvalues (module docstring, *Strips*).
-
-    With Q_I the strip's Ritz vectors (orthonormalised) and Q_r the rest, for
-    real x in [a_lo, a_hi] the Schur complement of A - x onto span(Q_I) is
-    T(x) = Q_I^T A Q_I - x - Q_I^T A Y(x), Y(x) the solution in range(Q_r) of
-    P_r (A - x) Y = P_r A Q_I: a bordered sparse system. Its computed Y has a
-    residual Z; the true complement differs by at most b ||Z|| /
-    (sqrt(g_min) (1 - kappa_r)), and T is Lipschitz in x with constant
-    1 + b^2 / (g_min (1 - kappa_r)^2) (b, kappa_r, g_min bounded on the
-    whole strip by :func:`_coupling`).
-    """
-    m = I.size
-    kap, g_min, d_eff, near, g, xi, phi = _coupling(
-        ctx, buf, a_lo, a_hi, lo_edge, hi_edge, exclude=I)
-    lam0 = buf.th[I].astype(complex)
-    if not kap < 1:
-        return "undecided", 0.0, lam0, f"the rest is coupled across the strip (kappa {kap:.3g})"
-    WQI = buf.WQ[:, I]
-    cross = buf.Wn[np.ix_(near, I)]
-    bn = float(np.linalg.norm((np.abs(cross) + ctx.rnd) / np.sqrt(g)[:, None])) if near.size else 0.0
-    b = (math.sqrt(bn ** 2 + float(np.sum(WQI ** 2)) / d_eff) * (1 + phi)
-         + xi * math.sqrt(m) / math.sqrt(g_min)) * _INFLATE
-    # |T''(x)| <= 2 b^2 / (g_min^2 (1 - kappa_r)^3) on the strip
-    curv = 2 * b * b / (g_min ** 2 * (1 - kap) ** 3) * _INFLATE
-    A = ctx.A
-    n = A.shape[0]
-    Q, _ = np.linalg.qr(buf.Q[:, I])
-    phiI = (float(np.linalg.norm(Q.T @ Q - np.eye(m))) + _gamma(n) * m) * _INFLATE
-    AQ = A @ Q
-    Tc = Q.T @ AQ
-    # errors of Tc and of the set: rounding, the non-orthonormality of Q, F
-    rho = ((_gamma(n + 8) * m * ctx.normA1 + (2 * phiI + phiI ** 2) * ctx.normA1)
-           + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * _INFLATE
-    I_n = sp.identity(n, format="csr")
-    Qs = sp.csr_matrix(Q)
-
-    def schur(x, deriv=False):
-        M = sp.bmat([[A - x * I_n, Qs], [Qs.T, None]], format="csc")
-        try:
-            lu = spla.splu(M)
-        except RuntimeError:
-            return (None, math.inf) + ((None, math.inf) if deriv else ())
-        Y = lu.solve(np.vstack([AQ, np.zeros((m, m))]))[:n]
-        Y = Y - Q @ (Q.T @ Y)
-        Z = (A @ Y - x * Y) - AQ
-        Z = Z - Q @ (Q.T @ Z)
-        T = Tc - x * np.eye(m) - Q.T @ (A @ Y)
-        rY = _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y))
-        zn = float(np.linalg.norm(Z)) + 4 * rY
-        err = (b * zn / math.sqrt(g_min) / (1 - kap) + 2 * rY + rho) * _INFLATE
-        if not deriv:
-            return T, err
-        # T'(x) = -I - Q^T A (C_r - x)^-1 Y(x), from the same factorization
-        Y2 = lu.solve(np.vstack([Y, np.zeros((m, m))]))[:n]
-        Y2 = Y2 - Q @ (Q.T @ Y2)
-        Z2 = (A @ Y2 - x * Y2) - Y
-        Z2 = Z2 - Q @ (Q.T @ Z2)
-        D = -np.eye(m) - Q.T @ (A @ Y2)
-        rY2 = _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y2))
-        derr = (b * (float(np.linalg.norm(Z2)) + 4 * rY2 + zn / (g_min * (1 - kap)))
-                / math.sqrt(g_min) / (1 - kap) + 2 * rY2) * _INFLATE
-        return T, err, D, derr
-
-    def test(x):
-        T, err = schur(x)
-        if T is None:
-            return 0.0, 0.0, T
-        floor = 1e3 * _gamma(m + 2) * float(np.linalg.norm(T))
-        return _sigma_min_lower(T) - err, max(err, floor), T
-
-    # the strip's eigenvalues: fixed point of x = eig(T(x) + x) from the Ritz values
-    T0, _ = schur(0.5 * (a_lo + a_hi))
-    if T0 is None:
-        return "undecided", 0.0, lam0, "the bordered system of the strip is singular"
-    lam_c = np.linalg.eigvals(T0 + 0.5 * (a_lo + a_hi) * np.eye(m))
-    # the roots of det T(x) = 0, estimated from T linearised about the cluster's
-    # centre xc: det(T(xc) + (x - xc) T'(xc)) = 0, a generalized eigenproblem
-    for _ in range(4):
-        xc = float(np.clip(np.mean(lam_c.real), a_lo, a_hi))
-        T1, _, D1, _ = schur(xc, deriv=True)
-        if T1 is None:
-            break
-        try:
-            est = sla.eigvals(T1 - xc * D1, -D1)
-        except (np.linalg.LinAlgError, ValueError):
-            break
-        if not np.all(np.isfinite(est)):
-            break
-        lam_c = est
-
-    def all_real(roots):
-        """m real roots: det T changes sign between consecutive estimated roots."""
-        pts = np.concatenate([[a_lo], 0.5 * (roots[1:] + roots[:-1]), [a_hi]])
-        signs, margin = [], math.inf
-        for p in pts:
-            s, floor, T = test(float(p))
-            if not s > floor:
-                return "undecided", max(s, 0.0) / floor if floor else 0.0, (
-                    f"strip of {m}: det of its Schur complement not certified at x = {p:.9g}")
-            margin = min(margin, (s + floor) / floor if floor else math.inf)
-            signs.append(np.linalg.slogdet(T)[0])
-        if all(signs[i] != signs[i + 1] for i in range(m)):
-            return "real", margin, ""
-        return "undecided", 0.0, f"strip of {m}: no sign change of det between roots"
-
-    def no_real_root():
-        """Cover [a_lo, a_hi] by intervals [x - h, x + h] on which T(x + t) = T(x) +
-        t T'(x) + O(curv t^2 / 2) stays nonsingular; sigma_min of the explicit
-        linear part is sampled (Lipschitz constant ||T'||)."""
-        todo, margin, evals = [(a_lo, a_hi)], math.inf, 0
-        while todo:
-            lo, hi = todo.pop()
-            mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
-            T, err, D, derr = schur(mid, deriv=True)
-            evals += 1
-            if T is None:
-                return "undecided", 0.0, "the bordered system of the strip is singular"
-            ts = np.linspace(-h, h, 33)
-            smin = min(_sigma_min_lower(T + t * D) for t in ts)
-            low = smin - float(np.linalg.norm(D, 2)) * (ts[1] - ts[0]) / 2 * (1 + 1e-8)
-            floor = 1e3 * _gamma(m + 2) * float(np.linalg.norm(T))
-            slack = err + h * derr + 0.5 * curv * h * h + floor
-            if low > slack:
-                margin = min(margin, low / slack)
-                continue
-            if evals > 400 or h < 1e-12 * max(abs(mid), 1.0):
-                return "undecided", max(low, 0.0) / slack, (
-                    f"strip of {m}: a real root cannot be excluded near x = {mid:.9g}")
-            todo += [(lo, mid), (mid, hi)]
-        return "complex", margin, ""
-
-    # the route the estimates suggest first, then the other one
-    roots = np.sort(lam_c.real)
-    distinct = bool(np.all(np.diff(roots) > 0))
-    first_real = bool(np.all(lam_c.imag == 0))
-    tries = ([all_real] if first_real else []) + [no_real_root] + \
-        ([all_real] if distinct and not first_real else [])
-    result = ("undecided", 0.0, f"strip of {m}: no distinct root estimates")
-    for route in tries:
-        result = route(roots) if route is all_real else route()
-        if result[0] != "undecided":
-            break
-    if result[0] == "real":
-        lam_c = roots.astype(complex)       # certified real: the estimates' real parts
-    return result[0], result[1], lam_c, result[2]
 
 
 # --------------------------------------------------------------------------- the verdict
