@@ -11,6 +11,7 @@
 ``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse)
 ``slicing``       its Sylvester counts and Ritz slices of the symmetric part
 ``strips``        its strips: coupling across an interval, a strip's decision
+``winding``       its count of eigenvalues in a box off the real axis
 ``enclosure``     its rigorous float64 bounds
 ``verdict``       the ramp's verdict: certified decision, its codes, growth rate
 ``eigtrack``      the coalescing eigenvalue pair through a ramp (Fig. 3)

@@ -67,10 +67,16 @@ rho_T the error of T). If sigma_min(T - x) > eta(x) on the whole strip, it
 holds no real eigenvalue: its m eigenvalues are complex pairs
 (**complex**, certified). If det(T - x) changes sign m times at points where
 sigma_min(T - x) > eta(x), there are m real roots (**real**). Otherwise the
-strip is **undecided** and says why, adding as a note marked "not certified"
-what ARPACK sees in it (how many of its m eigenvalues, how many complex
-pairs): a strip of real and complex eigenvalues together (a *mixed* strip)
-is neither all real nor free of real roots, so neither route decides it.
+strip is tried once more off the real axis: a strip of real and complex
+eigenvalues together (a *mixed* strip), or one of more than 8, is neither
+all real nor free of real roots. ARPACK's estimates of the eigenvalues of A
+in the strip propose a box about a complex one, strictly above the real
+axis; the box's eigenvalues are counted by the winding number of det T(z)
+along its edge (:mod:`~remote_trigger.analysis.stability.winding`, rigorous
+with the same error bounds, which hold for complex z with Re z in the
+strip). One or more: **complex**, certified. Otherwise the strip is
+**undecided** and says why, adding as a note marked "not certified" what
+ARPACK sees in it (how many of its m eigenvalues, how many complex pairs).
 
 The spectrum is *complex* if a strip is certified complex, *real* if every
 strip is certified real, else *undecided*. Every bound is rigorous with the
@@ -274,24 +280,30 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         if m == 1:
             lam.append(complex(buf.th[I[0]]))
             return
-        if m > _MAX_STRIP:
-            lam.extend(complex(t) for t in buf.th[I])
-            undecided_margins.append(0.0)
-            pairs.append(PairDecision(buf.th[I].astype(complex), False, False, 0.0,
-                                      method="sliced-strip",
-                                      reason=f"strip of {m} eigenvalues (> {_MAX_STRIP})"
-                                      + _arpack_hint(ctx.A, a_lo, a_hi, m)))
-            return
+        edges = (buf.lo if dropped else None, None if final else buf.hi)
+        hint = {}
+
+        def arpack():
+            """ARPACK's view of the strip, once: (note, complex estimates)."""
+            if not hint:
+                hint["v"] = _arpack_hint(ctx.A, a_lo, a_hi, m)
+            return hint["v"]
+
+        big = m > _MAX_STRIP
         try:
+            # a strip larger than a block decides: only the box route (winding)
             verdict, margin, lam_c, why = _decide_strip(
-                ctx, buf, I, a_lo, a_hi, buf.lo if dropped else None, None if final else buf.hi)
+                ctx, buf, I, a_lo, a_hi, *edges, estimates=arpack, real_routes=not big)
         except _Fail as exc:
             verdict, margin, why = "undecided", 0.0, str(exc)
             lam_c = buf.th[I].astype(complex)
+        if big and verdict == "undecided":
+            lam_c = buf.th[I].astype(complex)
+            why = f"strip of {m} eigenvalues (> {_MAX_STRIP})" + (f"; {why}" if why else "")
         lam.extend(lam_c)
         ok = verdict != "undecided"
         if not ok:
-            why += _arpack_hint(ctx.A, a_lo, a_hi, m)
+            why += arpack()[0]
         pairs.append(PairDecision(np.sort_complex(lam_c), verdict == "complex", ok,
                                   float(margin), method="sliced-strip", reason=why))
         (complex_margins if verdict == "complex" else margins if ok

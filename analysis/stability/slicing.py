@@ -308,7 +308,8 @@ def _slices(S, W, k, normS, normW, lo0, stats):
 
 def _arpack_hint(A, a_lo, a_hi, m):
     """What ARPACK sees in an undecided strip [a_lo, a_hi] of m eigenvalues: a
-    note for its reason, marked not certified ('' if ARPACK fails).
+    note for its reason, marked not certified ('' if ARPACK fails), and the
+    estimates with Im > 0 in the strip (ndarray of complex, largest Im first).
 
     The 2 m + 6 eigenvalues of A nearest the strip's centre (shift-invert);
     those with real part in the strip are counted (a complex pair far from the
@@ -317,20 +318,22 @@ def _arpack_hint(A, a_lo, a_hi, m):
     """
     n = A.shape[0]
     k = min(2 * m + 6, n - 2)
+    none = np.zeros(0, complex)
     if k < 1:
-        return ""
+        return "", none
     c = 0.5 * (a_lo + a_hi)
     try:
         lu = spla.splu(sp.csc_matrix(A - c * sp.identity(n, format="csr")))
         op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=float)
         nu = spla.eigs(op, k=k, which="LM", return_eigenvectors=False, maxiter=50 * n)
     except (RuntimeError, spla.ArpackError):
-        return ""
+        return "", none
     lam = c + 1.0 / nu
     inside = lam[(lam.real >= a_lo) & (lam.real <= a_hi)]
     cx = inside[inside.imag > 0]
     note = f"; ARPACK, not certified: {inside.size} of its {m} eigenvalues seen, "
     if not cx.size:
-        return note + "none complex"
-    z = cx[int(np.argmax(cx.imag))]
-    return note + f"{cx.size} complex pair(s), e.g. {z.real:.6g} +- {z.imag:.4g}i"
+        return note + "none complex", none
+    cx = cx[np.argsort(-cx.imag)]
+    z = cx[0]
+    return note + f"{cx.size} complex pair(s), e.g. {z.real:.6g} +- {z.imag:.4g}i", cx

@@ -17,6 +17,7 @@ import scipy.sparse.linalg as spla
 
 from remote_trigger.analysis.stability.enclosure import _gamma, _sigma_min_lower
 from remote_trigger.analysis.stability.slicing import _INFLATE, _Fail
+from remote_trigger.analysis.stability.winding import box_zero_count
 
 
 def _norm22(x11, x12, x22):
@@ -87,7 +88,8 @@ def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
     return kappa, g_min, d_eff, near, g, xi, phi
 
 
-def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
+def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
+                  real_routes=True):
     """Decide one strip of m >= 2 eigenvalues (module docstring, *Strips*).
 
     With Q_I the strip's Ritz vectors (orthonormalised) and Q_r the rest, for
@@ -98,6 +100,13 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
     (sqrt(g_min) (1 - kappa_r)), and T is Lipschitz in x with constant
     1 + b^2 / (g_min (1 - kappa_r)^2) (b, kappa_r, g_min bounded on the
     whole strip by :func:`_coupling`).
+
+    ``estimates``: a callable returning (note, complex estimates with Im > 0
+    in the strip), asked only when the real-axis routes fail (or are
+    skipped: ``real_routes`` False); a box about each estimate, off the real
+    axis, is then counted by winding
+    (:func:`~remote_trigger.analysis.stability.winding.box_zero_count`): one
+    eigenvalue or more in it certifies the strip complex.
     """
     m = I.size
     kap, g_min, d_eff, near, g, xi, phi = _coupling(
@@ -125,6 +134,9 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
     Qs = sp.csr_matrix(Q)
 
     def schur(x, deriv=False):
+        # x real, or complex with Re x in the strip (the box route): the same
+        # bounds (module winding), the rounding terms doubled for complex
+        cplx = 2.0 if isinstance(x, complex) else 1.0
         M = sp.bmat([[A - x * I_n, Qs], [Qs.T, None]], format="csc")
         try:
             lu = spla.splu(M)
@@ -135,7 +147,7 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
         Z = (A @ Y - x * Y) - AQ
         Z = Z - Q @ (Q.T @ Z)
         T = Tc - x * np.eye(m) - Q.T @ (A @ Y)
-        rY = _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y))
+        rY = cplx * _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y))
         zn = float(np.linalg.norm(Z)) + 4 * rY
         err = (b * zn / math.sqrt(g_min) / (1 - kap) + 2 * rY + rho) * _INFLATE
         if not deriv:
@@ -146,7 +158,7 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
         Z2 = (A @ Y2 - x * Y2) - Y
         Z2 = Z2 - Q @ (Q.T @ Z2)
         D = -np.eye(m) - Q.T @ (A @ Y2)
-        rY2 = _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y2))
+        rY2 = cplx * _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y2))
         derr = (b * (float(np.linalg.norm(Z2)) + 4 * rY2 + zn / (g_min * (1 - kap)))
                 / math.sqrt(g_min) / (1 - kap) + 2 * rY2) * _INFLATE
         return T, err, D, derr
@@ -157,6 +169,28 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
             return 0.0, 0.0, T
         floor = 1e3 * _gamma(m + 2) * float(np.linalg.norm(T))
         return _sigma_min_lower(T) - err, max(err, floor), T
+
+    def in_a_box():
+        """Complex if a box about an estimate, off the real axis, holds an
+        eigenvalue (winding count)."""
+        note, est = estimates() if estimates is not None else ("", ())
+        why = ""
+        for z0 in list(est)[:2]:
+            others = [abs(z0 - z) for z in est if z != z0]
+            r = 0.5 * min([z0.imag, z0.real - a_lo, a_hi - z0.real] + others)
+            if not r > 0:
+                continue
+            cnt, why, margin = box_zero_count(
+                schur, z0.real - r, z0.real + r, z0.imag - r, z0.imag + r, curv)
+            if cnt is not None and cnt >= 1:
+                return "complex", margin, ""
+            if cnt == 0:
+                why = f"winding count: no eigenvalue in the box about {z0:.6g}"
+        return "undecided", 0.0, why
+
+    if not real_routes:
+        verdict, margin, why = in_a_box()
+        return verdict, margin, lam0, why
 
     # the strip's eigenvalues: fixed point of x = eig(T(x) + x) from the Ritz values
     T0, _ = schur(0.5 * (a_lo + a_hi))
@@ -232,4 +266,10 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
             break
     if result[0] == "real":
         lam_c = roots.astype(complex)       # certified real: the estimates' real parts
+    if result[0] == "undecided" and estimates is not None:
+        box = in_a_box()
+        if box[0] == "complex":
+            return box[0], box[1], lam_c, ""
+        if box[2]:
+            result = (result[0], result[1], f"{result[2]}; {box[2]}")
     return result[0], result[1], lam_c, result[2]
