@@ -39,7 +39,7 @@ from remote_trigger.analysis.stability.enclosure import U, _gamma
 
 __all__ = ["box_zero_count"]
 
-#: most complement evaluations one box may take
+#: most evaluations of the complement (sparse bordered solves) one box may take
 MAX_EVALS = 600
 
 
@@ -109,14 +109,14 @@ def box_zero_count(schur, x0, x1, y0, y1, curv):
             cache[z] = schur(z, deriv=True)
         return cache[z]
 
-    total, slack, evals = 0.0, 0.0, 0
+    total, slack = 0.0, 0.0
     for k in range(4):
         todo = [(corners[k], corners[(k + 1) % 4])]
         while todo:
             za, zb = todo.pop()
-            evals += 1
-            if evals > MAX_EVALS:
-                return None, f"winding count: more than {MAX_EVALS} segments", 0.0
+            if len(cache) > MAX_EVALS:
+                return None, (f"winding count: more than {MAX_EVALS} evaluations of T "
+                              f"on the box's edge"), 0.0
             Ta, ea, Da, dea = at(za)
             Tb, eb, _, _ = at(zb)
             if Ta is None or Tb is None:
