@@ -309,7 +309,7 @@ def _slices(S, W, k, normS, normW, lo0, stats):
 def _arpack_hint(A, a_lo, a_hi, m):
     """What ARPACK sees in an undecided strip [a_lo, a_hi] of m eigenvalues: a
     note for its reason, marked not certified ('' if ARPACK fails), and the
-    estimates with Im > 0 in the strip (ndarray of complex, largest Im first).
+    estimates with real part in the strip (ndarray of complex, by real part).
 
     The 2 m + 6 eigenvalues of A nearest the strip's centre (shift-invert);
     those with real part in the strip are counted (a complex pair far from the
@@ -332,8 +332,8 @@ def _arpack_hint(A, a_lo, a_hi, m):
     inside = lam[(lam.real >= a_lo) & (lam.real <= a_hi)]
     cx = inside[inside.imag > 0]
     note = f"; ARPACK, not certified: {inside.size} of its {m} eigenvalues seen, "
+    inside = inside[np.lexsort((inside.imag, inside.real))]
     if not cx.size:
-        return note + "none complex", none
-    cx = cx[np.argsort(-cx.imag)]
-    z = cx[0]
-    return note + f"{cx.size} complex pair(s), e.g. {z.real:.6g} +- {z.imag:.4g}i", cx
+        return note + "none complex", inside
+    z = cx[int(np.argmax(cx.imag))]
+    return note + f"{cx.size} complex pair(s), e.g. {z.real:.6g} +- {z.imag:.4g}i", inside

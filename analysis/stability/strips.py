@@ -170,12 +170,15 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         floor = 1e3 * _gamma(m + 2) * float(np.linalg.norm(T))
         return _sigma_min_lower(T) - err, max(err, floor), T
 
-    def in_a_box():
+    def in_a_box(approx):
         """Complex if a box about an estimate, off the real axis, holds an
-        eigenvalue (winding count)."""
-        note, est = estimates() if estimates is not None else ("", ())
+        eigenvalue (winding count); returns (verdict, margin, why, the strip's
+        eigenvalue approximations: ARPACK's if it saw all m, else ``approx``
+        with the two nearest the pair replaced by it)."""
+        _, inside = estimates() if estimates is not None else ("", np.zeros(0, complex))
+        est = sorted(inside[inside.imag > 0], key=lambda z: -z.imag)
         why = ""
-        for z0 in list(est)[:2]:
+        for z0 in est[:2]:
             others = [abs(z0 - z) for z in est if z != z0]
             r = 0.5 * min([z0.imag, z0.real - a_lo, a_hi - z0.real] + others)
             if not r > 0:
@@ -183,14 +186,19 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
             cnt, why, margin = box_zero_count(
                 schur, z0.real - r, z0.real + r, z0.imag - r, z0.imag + r, curv)
             if cnt is not None and cnt >= 1:
-                return "complex", margin, ""
+                if inside.size == m:
+                    return "complex", margin, "", inside.astype(complex)
+                out = np.asarray(approx, complex).copy()
+                j = np.argsort(np.abs(out.real - z0.real))[:2]
+                out[j] = [z0, np.conj(z0)]
+                return "complex", margin, "", out
             if cnt == 0:
                 why = f"winding count: no eigenvalue in the box about {z0:.6g}"
-        return "undecided", 0.0, why
+        return "undecided", 0.0, why, approx
 
     if not real_routes:
-        verdict, margin, why = in_a_box()
-        return verdict, margin, lam0, why
+        verdict, margin, why, lam_b = in_a_box(lam0)
+        return verdict, margin, lam_b, why
 
     # the strip's eigenvalues: fixed point of x = eig(T(x) + x) from the Ritz values
     T0, _ = schur(0.5 * (a_lo + a_hi))
@@ -267,9 +275,9 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     if result[0] == "real":
         lam_c = roots.astype(complex)       # certified real: the estimates' real parts
     if result[0] == "undecided" and estimates is not None:
-        box = in_a_box()
+        box = in_a_box(lam_c)
         if box[0] == "complex":
-            return box[0], box[1], lam_c, ""
+            return box[0], box[1], box[3], ""
         if box[2]:
             result = (result[0], result[1], f"{result[2]}; {box[2]}")
     return result[0], result[1], lam_c, result[2]

@@ -180,11 +180,17 @@ def test_strip_with_a_pair_is_certified_complex_by_winding(w_chain, w_pair, m):
     10 eigenvalues (> 8)", "strip of 4: no sign change of det between roots"):
     a box about ARPACK's estimate, off the real axis, holds an eigenvalue."""
     K, mass = _cluster(w_chain, w_pair)
-    assert np.count_nonzero(np.linalg.eigvals(K.toarray()).imag > 0) >= 1
+    lam = np.linalg.eigvals(K.toarray())
+    assert np.count_nonzero(lam.imag > 0) >= 1
     st = SlicedStats()
     res = classify_sliced(K, mass, stats=st)
     assert res.complex_present is True, res.reason
     assert st.strips.get(m) == 1
+    # the strip's approximations carry the pair (for the growth rate and the
+    # pair's place downstream), as LAPACK has it
+    got = np.asarray(res.eigenvalues)
+    for z in lam[lam.imag > 0]:
+        assert np.min(np.abs(got - z)) < 1e-8 * abs(z)
     assert full_spectrum(eigen.dynamical_matrix(K, mass).toarray()) == "complex"
 
 
