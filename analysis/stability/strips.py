@@ -101,10 +101,11 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     1 + b^2 / (g_min (1 - kappa_r)^2) (b, kappa_r, g_min bounded on the
     whole strip by :func:`_coupling`).
 
-    ``estimates``: a callable returning (note, complex estimates with Im > 0
-    in the strip), asked only when the real-axis routes fail (or are
-    skipped: ``real_routes`` False); a box about each estimate, off the real
-    axis, is then counted by winding
+    ``estimates``: a callable returning (note, ARPACK's estimates of the
+    eigenvalues with real part in the strip), asked only when the real-axis
+    routes fail (or are skipped: ``real_routes`` False); a box about each of
+    the (at most two) complex estimates of largest Im, off the real axis,
+    is then counted by winding
     (:func:`~remote_trigger.analysis.stability.winding.box_zero_count`): one
     eigenvalue or more in it certifies the strip complex.
     """

@@ -151,3 +151,26 @@ def test_soft_mode_onsets_are_flagged_and_kept_out_of_the_stiff_statistics():
     assert fit.sizes == (100, 400) and fit.n_points == 4
     expected = (math.log(0.005 * 0.0005) - math.log(0.02 * 0.04)) / 2 / math.log(4)
     assert fit.exponent == pytest.approx(expected, rel=1e-12)
+
+
+def test_pair_shape_unmeasured_is_nan_never_a_failure(tmp_path, monkeypatch):
+    """No complex point, a dump that is gone, or an eigenvector ARPACK cannot
+    compute: NaN, and the packing goes on."""
+    import math
+
+    import remote_trigger.analysis.stability.modeshape as ms
+
+    nums = {"F_x_c_high": 0.1, "lambda_c": [5.0, 0.5]}
+    gone = [{"F_x": 0.1, "decision": 1, "dump": str(tmp_path / "gone.dump")}]
+    assert math.isnan(onset.pair_shape(gone, nums)["pair_pr"])
+    assert math.isnan(onset.pair_shape([], {"F_x_c_high": math.inf})["pair_particles"])
+
+    def fail(*a, **k):
+        raise RuntimeError("ARPACK error -1: No convergence")
+    monkeypatch.setattr(ms, "pair_mode", fail)
+    monkeypatch.setattr("remote_trigger.analysis.state.dumpfile.read_equilibrium",
+                        lambda path: object())
+    there = tmp_path / "there.dump"
+    there.write_text("x")
+    pts = [{"F_x": 0.1, "decision": 1, "dump": str(there)}]
+    assert math.isnan(onset.pair_shape(pts, nums)["pair_pr"])

@@ -175,8 +175,9 @@ def pair_shape(points, numbers, inertia_factor=None):
     dict
         ``pair_pr`` (participation ratio of the translations,
         :func:`~remote_trigger.analysis.stability.modeshape.pair_mode`) and
-        ``pair_particles`` (N PR); NaN without a complex point or when its
-        dump is gone (a ramp finished by an older version).
+        ``pair_particles`` (N PR); NaN without a complex point, when its
+        dump is gone (a ramp finished by an older version) or when the
+        eigenvector cannot be computed.
     """
     import os
     from remote_trigger.analysis.state.dumpfile import read_dump, read_equilibrium
@@ -192,7 +193,12 @@ def pair_shape(points, numbers, inertia_factor=None):
         return out
     state = (read_equilibrium(top["dump"]) if inertia_factor is None else
              read_dump(top["dump"], require_contacts=False, inertia_factor=inertia_factor))
-    m = pair_mode(state, complex(lam[0], lam[1]))
+    try:
+        m = pair_mode(state, complex(lam[0], lam[1]))
+    except (ValueError, RuntimeError, np.linalg.LinAlgError):
+        # a description, not a result: ARPACK's failure (it is a RuntimeError)
+        # or a singular shift leaves it unmeasured, never the packing failed
+        return out
     return {"pair_pr": m.participation_ratio, "pair_particles": m.n_particles}
 
 
