@@ -184,21 +184,31 @@ def _sigma_min_2x2_lower(a, b, c, d):
     return np.where(fro > 0, out * (1 - 4 * U), 0.0)
 
 
+def _inverse_residual(K):
+    """Z ~ K^{-1} of a small square matrix and a rigorous e >= ||I - Z K||_F
+    (the rounding of Z K bounded by gamma |Z||K|, doubled for complex
+    arithmetic); None if the inverse is not finite."""
+    p = K.shape[0]
+    try:
+        Z = np.linalg.inv(K)
+    except np.linalg.LinAlgError:
+        return None
+    if not np.all(np.isfinite(Z)):
+        return None
+    c = 2.0 if np.iscomplexobj(Z) else 1.0
+    E = np.abs(np.eye(p) - Z @ K) * (1 + 2 * c * U) + c * _gamma(p + 2) * (np.abs(Z) @ np.abs(K))
+    return Z, _up(float(np.linalg.norm(E)), p * p)
+
+
 def _sigma_min_lower(K):
     """Rigorous lower bound of sigma_min(K) for a small square float matrix.
 
     Z ~ K^{-1}; with E = I - Z K bounded (gamma_p |Z||K| for the product),
     ||E||_F = e < 1 gives ||K^{-1}||_2 <= ||Z||_F / (1 - e).
     """
+    inv = _inverse_residual(K)
+    if inv is None or not inv[1] < 1.0:
+        return 0.0
+    Z, e = inv
     p = K.shape[0]
-    try:
-        Z = np.linalg.inv(K)
-    except np.linalg.LinAlgError:
-        return 0.0
-    if not np.all(np.isfinite(Z)):
-        return 0.0
-    E = np.abs(np.eye(p) - Z @ K) * (1 + 2 * U) + _gamma(p + 2) * (np.abs(Z) @ np.abs(K))
-    e = _up(float(np.linalg.norm(E)), p * p)
-    if not e < 1.0:
-        return 0.0
     return (1.0 - e) / _up(float(np.linalg.norm(Z)), p * p) * (1 - 4 * U)

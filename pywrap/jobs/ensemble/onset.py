@@ -5,6 +5,7 @@ docs/ensemble.md "What is measured"). Reads ``ramp.h5`` and equilibrium
 dumps; no LAMMPS.
 """
 import math
+import os
 
 import numpy as np
 from remote_trigger.analysis.stability.verdict import Decision
@@ -179,7 +180,6 @@ def pair_shape(points, numbers, inertia_factor=None):
         dump is gone (a ramp finished by an older version) or when the
         eigenvector cannot be computed.
     """
-    import os
     from remote_trigger.analysis.state.dumpfile import read_dump, read_equilibrium
     from remote_trigger.analysis.stability.modeshape import pair_mode
 
