@@ -8,6 +8,7 @@ each answer certifies: :mod:`remote_trigger.analysis.stability.exceptional`.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 import warnings
 
@@ -123,6 +124,20 @@ class SpectrumDecision:
         ``'partial'``, ``eigenvalues.size`` of ``n_total`` are covered.
     sigma : float
         The shift of a partial decision (NaN for a whole one).
+    scanned_below : float
+        ``eigenvalues`` lists every eigenvalue with real part below this
+        (1/time^2) and none above it; +inf when it lists all of them. Finite
+        only for a sliced verdict *complex* whose scan stopped above its first
+        certified complex strip
+        (:func:`~remote_trigger.analysis.stability.sliced.classify_sliced`,
+        ``stop_at_complex``, or a slicing that failed higher up): the verdict
+        still covers the whole matrix (a certified complex pair exists), but
+        the growth rate of ``eigenvalues`` is that of the pairs below, not
+        necessarily the spectrum's largest.
+    lambda_max : float
+        With a finite ``scanned_below``: ARPACK's largest eigenvalue of the
+        symmetric part (an approximation, for Re lambda / lambda_max); NaN
+        otherwise.
     """
 
     complex_present: bool | None
@@ -137,6 +152,8 @@ class SpectrumDecision:
     coverage: str = "whole"
     n_total: int = 0
     sigma: float = float("nan")
+    scanned_below: float = float("inf")
+    lambda_max: float = float("nan")
 
     @property
     def is_verdict(self):
@@ -154,7 +171,9 @@ class SpectrumDecision:
         """
         if self.is_verdict:
             what = {True: "yes", False: "no", None: "undecided"}[self.complex_present]
-            return f"complex pair: {what} (confidence margin {self.confidence:.3g})"
+            scan = ("" if math.isinf(self.scanned_below) else
+                    f"; eigenvalues computed below Re lambda = {self.scanned_below:.6g} only")
+            return f"complex pair: {what} (confidence margin {self.confidence:.3g}{scan})"
         k = 0 if self.eigenvalues is None else len(self.eigenvalues)
         what = {True: "a complex pair among them", False: "no complex pair among them",
                 None: "undecided among them"}[self.complex_present]

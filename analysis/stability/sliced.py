@@ -173,6 +173,20 @@ class _Buffer:
 
 
 # --------------------------------------------------------------------------- the verdict
+class _Stop(Exception):
+    """A strip is certified complex and the scan stops (args: its upper boundary)."""
+
+
+def _top_eigenvalue(S):
+    """ARPACK's largest eigenvalue of the symmetric S (an approximation)."""
+    from scipy.sparse.linalg import eigsh
+
+    if S.shape[0] < 10:
+        return float(np.linalg.eigvalsh(S.toarray())[-1])
+    v0 = np.random.default_rng(0).standard_normal(S.shape[0])
+    return float(eigsh(S, k=1, which="LA", v0=v0, return_eigenvectors=False)[0])
+
+
 def _scaled(K, mass):
     """A = M^-1/2 K M^-1/2 (CSR), its symmetric part S (CSC) and skew part W (CSR)."""
     K = sp.csr_matrix(K, dtype=np.float64)
@@ -195,7 +209,8 @@ def _scaled(K, mass):
     return A, S, W
 
 
-def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=None):
+def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=None,
+                    stop_at_complex=False):
     """Certified complex-pair verdict on the whole spectrum of M^-1 K, by slicing.
 
     Parameters
@@ -214,6 +229,14 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         Ritz pairs per shift-invert slice (default 60).
     stats : SlicedStats, optional
         Filled with what was done.
+    stop_at_complex : bool, optional
+        Stop the scan (which runs up from the bottom of the spectrum) at the
+        first strip certified complex (default False: scan to the top). The
+        verdict is the same certified *complex*; ``eigenvalues`` then lists
+        those below the strip's upper boundary (``scanned_below``) and
+        ``lambda_max`` is ARPACK's largest eigenvalue of the symmetric part.
+        What a ramp needs (its decision), at a fraction of the cost when the
+        pair is low in the spectrum.
 
     Returns
     -------
@@ -224,7 +247,9 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         per strip of two or more eigenvalues; ``eigenvalues`` are the Ritz
         values of S for single strips (the eigenvalue of A in such a strip is
         real and within the strip) and the block eigenvalues of larger strips:
-        approximations, not enclosures.
+        approximations, not enclosures. A strip certified complex decides the
+        whole matrix, even if the slicing fails higher up: the verdict is then
+        *complex* with a finite ``scanned_below`` (the reason kept as a note).
 
     Raises
     ------
@@ -264,6 +289,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     if slice_size is None:
         slice_size = _SLICE_SIZE
     pairs, lam, reason = [], [], ""
+    scanned_below = math.inf
     certified = [lo0]           # certified boundaries
     cert_count = [0]            # Ritz values below each
     n_done = 0                  # global index of the next gap to test
@@ -308,6 +334,8 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
                                   float(margin), method="sliced-strip", reason=why))
         (complex_margins if verdict == "complex" else margins if ok
          else undecided_margins).append(float(margin))
+        if verdict == "complex" and stop_at_complex:
+            raise _Stop(a_hi)
 
     try:
         gen = _slices(S, W, slice_size, normS, normW, lo0, stats)
@@ -361,12 +389,22 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
                     dropped += before - buf.th.size
         if cert_count[-1] != n:
             raise _Fail("the top of the spectrum has no certified boundary")
+    except _Stop as stop:
+        scanned_below = stop.args[0]
     except _Fail as exc:
         reason = str(exc)
+        if complex_margins:     # the strips below the last boundary are decided
+            scanned_below = certified[-1]
     stats.strips = dict(sorted(strips.items()))
     lam = np.asarray(lam, complex)
     lam = lam[np.lexsort((lam.imag, lam.real))] if lam.size else lam
     timing = {"eigen": t_slices, "decision": time.perf_counter() - t0 - t_slices}
+    if complex_margins and math.isfinite(scanned_below):
+        note = ("the scan stopped at the first strip certified complex" if not reason
+                else f"the slicing failed above a strip certified complex: {reason}")
+        return SpectrumDecision(True, max(complex_margins), pairs, eps, lam, timing, note,
+                                start="sliced", n_total=n, scanned_below=float(scanned_below),
+                                lambda_max=_top_eigenvalue(S))
     if reason:
         return SpectrumDecision(None, 0.0, pairs, 0.0, lam, timing, reason, start="sliced",
                                 n_total=n)

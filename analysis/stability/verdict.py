@@ -20,6 +20,7 @@ recorded (``decision`` = -1 with its margin) in ramp.h5, and the bisection
 works around it (``pywrap.stages.ramp_bracket``, ``next_bisection_point``).
 """
 from dataclasses import dataclass
+import math
 import enum
 import os
 
@@ -130,6 +131,17 @@ class StabilityResult:
     reason : str
         Why the decision is ``'undecided'`` (the decision's own words, e.g.
         which strip and where); empty otherwise.
+    n_dof : int
+        Order of the matrix decided (the kept dofs; -1 if not recorded).
+    scanned_below : float
+        ``eigenvalues`` holds every eigenvalue with real part below this and
+        none above (+inf: all of them; finite for a sliced verdict *complex*
+        that stopped at its first complex strip, ``stop_at_complex``).
+        ``max_imag`` and ``growth_rate`` are then those of the pairs below.
+    lambda_max : float
+        Largest real part of the spectrum: of ``eigenvalues``, or with a
+        finite ``scanned_below`` ARPACK's largest eigenvalue of the symmetric
+        part (an approximation); NaN for an empty spectrum.
     """
 
     eigenvalues: np.ndarray
@@ -145,6 +157,9 @@ class StabilityResult:
     basis: object = None
     start: str = "dgeev"
     reason: str = ""
+    n_dof: int = -1
+    scanned_below: float = float("inf")
+    lambda_max: float = float("nan")
 
     @property
     def decision_code(self):
@@ -228,7 +243,7 @@ def _amount(nbytes):
     return f"{nbytes / 2**10:.1f} KiB"
 
 
-def stability_of(state, basis=None):
+def stability_of(state, basis=None, stop_at_complex=False):
     """Eigen-analysis of an analysis ``State`` with the analyzer.
 
     Up to ``eigen.DENSE_MAX`` dofs the dense certified decision (from
@@ -246,6 +261,10 @@ def stability_of(state, basis=None):
         stopped being a rattler), it is carried over by
         :meth:`~remote_trigger.analysis.stability.decision.SpectrumBasis.on_dofs`.
         The returned basis records this state's kept dofs.
+    stop_at_complex : bool, optional
+        Sliced path only: stop the scan at the first strip certified complex
+        (the same certified verdict; the eigenvalues above it are not
+        computed, see ``StabilityResult.scanned_below``). Default False.
 
     Returns
     -------
@@ -270,11 +289,11 @@ def stability_of(state, basis=None):
     if rat.keep_dofs.size == 0:      # every disk a rattler: nothing to decide
         return StabilityResult(np.zeros(0, complex), False, 0.0, 0.0, int(rat.ids.size),
                                np.asarray(rat.ids, np.int64), "real", float("inf"),
-                               res.max_residual)
+                               res.max_residual, n_dof=0)
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
     if Kr.shape[0] > eigen.DENSE_MAX:
         # the whole-spectrum verdict by slicing: no dense matrix, no basis
-        dec = classify_sliced(Kr, mr)
+        dec = classify_sliced(Kr, mr, stop_at_complex=stop_at_complex)
     else:
         check_dense_fits(Kr.shape[0])
         if basis is not None and basis.dofs is not None:
@@ -292,19 +311,22 @@ def stability_of(state, basis=None):
     lam = lam[np.lexsort((lam.imag, lam.real))]
     cplx = decision == "complex"
     max_imag = float(np.max(np.abs(lam.imag))) if (cplx and lam.size) else 0.0
+    whole = math.isinf(dec.scanned_below)
+    lam_max = (float(np.max(lam.real)) if lam.size else math.nan) if whole else dec.lambda_max
     return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
                            int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
                            float(dec.confidence), res.max_residual, dict(dec.timing),
                            dec.basis, dec.start,
-                           str(dec.reason or "") if decision == "undecided" else "")
+                           str(dec.reason or "") if decision == "undecided" else "",
+                           int(Kr.shape[0]), float(dec.scanned_below), float(lam_max))
 
 
-def stability_of_dump(path, basis=None):
+def stability_of_dump(path, basis=None, stop_at_complex=False):
     """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
 
     A dump of spheres (``dump_dimension``) is read by ``read_dump3d``.
 
-    ``basis``: as in :func:`stability_of`.
+    ``basis``, ``stop_at_complex``: as in :func:`stability_of`.
 
     Raises
     ------
@@ -318,4 +340,4 @@ def stability_of_dump(path, basis=None):
         state = read_equilibrium(path)      # spheres: 6 dofs each, rattlers below 3 contacts
     except (OSError, KeyError, IndexError, ValueError) as exc:
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
-    return stability_of(state, basis)
+    return stability_of(state, basis, stop_at_complex)

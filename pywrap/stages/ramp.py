@@ -38,8 +38,7 @@ class RampResult:
     bisection_F_x, bisection_complex : ndarray
     F_x_c_low, F_x_c_high : float
         Certified bracket of F_x^c: the largest F_x certified real below the
-        smallest F_x certified complex (undecided points are neither); NaN
-        if not found.
+        smallest F_x certified complex (undecided: neither); NaN if none.
     status : str
         ``'complete'``, ``'no_complex_pair'``, ``'no_equilibrium'`` or
         ``'complex_at_start'``.
@@ -191,21 +190,23 @@ def _ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
 
     ``basis``: the previous point's verified spectrum basis (rank 0), tried
     first by the certified decision; ``dim``: 3 for spheres (their history
-    comes from the dump beside ``start_file``). Returns (values dict,
-    StabilityResult).
+    comes from the dump beside ``start_file``). A ramp needs the decision
+    only: a sliced scan stops at its first complex strip. Returns (values
+    dict, StabilityResult).
     """
     t0 = time.perf_counter()
     load_equilibrium_scene(eng, cfg, start_file, F_x, dim)
     r, t_sim, rec = eq.equilibrate(eng, cfg, F_x, newton_first=True)
     save_equilibrium(eng, cfg, F_x, prefix)
-    res = _analyze(eng, prefix + ".dump", basis)
+    res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True)
     vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
-            "from_basis": float(res.start == "basis"),
-            "decision": float(res.decision_code), "confidence": float(res.confidence),
-            "growth_rate": res.growth_rate, "max_imag": res.max_imag,
-            "n_rattlers": float(res.n_rattlers), "wall_time": time.perf_counter() - t0,
-            "damped_time": t_sim,
-            "newton_steps": float(max(0, sum(p == "newton" for p in rec.phase) - 1))}
+            "from_basis": float(res.start == "basis"), "decision": float(res.decision_code),
+            "confidence": float(res.confidence), "growth_rate": res.growth_rate,
+            "max_imag": res.max_imag, "n_rattlers": float(res.n_rattlers),
+            "wall_time": time.perf_counter() - t0, "damped_time": t_sim,
+            "newton_steps": float(max(0, sum(p == "newton" for p in rec.phase) - 1)),
+            "n_dof": float(res.n_dof), "lambda_max": res.lambda_max,
+            "scanned_below": res.scanned_below}
     return vals, res
 
 

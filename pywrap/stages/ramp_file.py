@@ -12,7 +12,10 @@ decision left it undecided) once a point is undecided. Groups:
     the same name with ``.dump``).
 ``eigenvalues/steps/step_NNNNN``, ``eigenvalues/bisection/bisect_NNN``
     The eigenvalues (complex128) of each equilibrium (:data:`POINT_PREFIX`;
-    NNNNN is the row index in ``steps``, NNN in ``bisection``).
+    NNNNN is the row index in ``steps``, NNN in ``bisection``): all
+    ``n_dof`` of them, or, where the column ``scanned_below`` is finite (a
+    sliced verdict *complex* that stopped at its first complex strip), those
+    with real part below it; ``lambda_max`` is the spectrum's top either way.
 
 Readers use these names, never string literals.
 """
@@ -36,10 +39,12 @@ EIGENVALUES = "eigenvalues"
 #: float64 columns of every row group (plus ``datafile``)
 COLUMNS = ("F_x", "residual", "complex", "decision", "confidence", "growth_rate",
            "max_imag", "n_rattlers", "wall_time", "damped_time", "newton_steps",
-           "from_basis")
+           "from_basis", "n_dof", "lambda_max", "scanned_below")
 #: columns added after version 1 files were written, with the value a
-#: resumed older file gets for its existing rows
-LATER_COLUMNS = {"from_basis": 0.0}
+#: resumed older file gets for its existing rows (its spectra are whole:
+#: ``scanned_below`` = inf; the order and the top eigenvalue were not kept)
+LATER_COLUMNS = {"from_basis": 0.0, "n_dof": float("nan"), "lambda_max": float("nan"),
+                 "scanned_below": float("inf")}
 DATAFILE = "datafile"
 #: root attribute: why each undecided point is undecided (JSON object, point
 #: name -> the decision's reason, e.g. the strip and where)

@@ -213,3 +213,50 @@ def test_every_undecided_strip_is_named():
     low, high = res.reason.split(" | ")
     assert low.endswith("none complex") and high.endswith("none complex")
     assert "10 of its 10 eigenvalues seen" in high
+
+
+def test_stop_at_complex_lists_the_spectrum_below_the_first_complex_strip():
+    """Two complex pairs planted (modes 30 and 120 of 150): the full scan
+    certifies both strips; the stopped scan gives the same verdict from the
+    first, with exactly the full scan's eigenvalues below its upper boundary
+    (as many as LAPACK has there), ARPACK's top eigenvalue, and fewer slices."""
+    K, mass = planted(pairs=[(30, 1.5), (120, 1.5)], seed=5)
+    full_st, stop_st = SlicedStats(), SlicedStats()
+    full = classify_sliced(K, mass, stats=full_st)
+    stop = classify_sliced(K, mass, stats=stop_st, stop_at_complex=True)
+    assert full.complex_present is True and stop.complex_present is True, stop.reason
+    assert np.isinf(full.scanned_below) and np.isnan(full.lambda_max)
+    assert sum(p.is_complex and p.certified for p in full.pairs) == 2
+    assert sum(p.is_complex and p.certified for p in stop.pairs) == 1
+    lam = np.linalg.eigvals(eigen.dynamical_matrix(K, mass).toarray())
+    pairs_re = np.sort(lam[lam.imag > 0].real)
+    assert pairs_re[0] < stop.scanned_below < pairs_re[1]
+    below = full.eigenvalues[full.eigenvalues.real < stop.scanned_below]
+    np.testing.assert_array_equal(stop.eigenvalues, below)
+    assert stop.eigenvalues.size == np.count_nonzero(lam.real < stop.scanned_below)
+    assert abs(stop.lambda_max - np.max(full.eigenvalues.real)) < 1e-9 * stop.lambda_max
+    assert stop_st.slices < full_st.slices
+    assert "only" in stop.describe() and "only" not in full.describe()
+
+
+@pytest.mark.parametrize("pair, want", [(20, True), (None, None)])
+def test_slicing_that_fails_above_a_complex_strip_is_complex(monkeypatch, pair, want):
+    """The slices stop after the third (a planted failure): with a complex
+    strip below, the verdict is complex (the strip decides the whole matrix)
+    with the failure as its note; without one, undecided."""
+    from remote_trigger.analysis.stability import sliced, slicing
+
+    real_slices = sliced._slices
+
+    def failing(*args, **kwargs):
+        for k, sl in enumerate(real_slices(*args, **kwargs)):
+            if k == 3:
+                raise slicing._Fail("planted failure")
+            yield sl
+
+    monkeypatch.setattr(sliced, "_slices", failing)
+    K, mass = planted(pairs=[(pair, 1.5)] if pair is not None else [], seed=6)
+    res = classify_sliced(K, mass, slice_size=20)
+    assert res.complex_present is want
+    assert "planted failure" in res.reason
+    assert bool(np.isfinite(res.scanned_below)) is (want is True)

@@ -167,8 +167,8 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
     W = 0.3 * min(F_c - full.F_x[-2], full.F_x[-1] - F_c)
     real = stability.stability_of_dump
 
-    def fuzzy(path, basis=None):
-        res = real(path, basis)
+    def fuzzy(path, basis=None, **kw):
+        res = real(path, basis, **kw)
         with open(path + ".json") as fh:
             F = json.load(fh)["F_x"]
         if abs(F - F_c) < W:
@@ -387,8 +387,8 @@ def test_undecided_points_keep_their_reason_in_ramp_h5(full_ramp, tmp_path, monk
     real = verdict.stability_of_dump
     why = "strip of 9 eigenvalues (> 8)"
 
-    def forced(path, basis=None):
-        res = real(path, basis)
+    def forced(path, basis=None, **kw):
+        res = real(path, basis, **kw)
         if os.path.basename(path) == "step_00001.dump":
             return dataclasses.replace(res, decision="undecided", complex_pair=False,
                                        reason=why)
@@ -420,3 +420,43 @@ def test_undecided_points_keep_their_reason_in_ramp_h5(full_ramp, tmp_path, monk
         in row["reason"]
     # a ramp with no undecided point has no such attribute
     assert "undecided_reasons" not in read_all(full.h5)[0]
+
+
+def test_sliced_ramp_stops_at_the_pair_and_measures_the_same_onset(full_ramp, monkeypatch,
+                                                                   tmp_path):
+    """The same ramp decided by slicing (the switch lowered below its n): its
+    scans stop at the first complex strip (ramp.h5's ``scanned_below`` finite
+    at complex points only, fewer eigenvalues there), its certified answers
+    agree with the dense ramp's bracket, and the onset numbers from the
+    stopped scan -- the pair's place and index, the spectrum's size and top
+    -- are those of the dense whole spectrum of the same equilibrium."""
+    from remote_trigger.analysis.stability import eigen, verdict
+    from remote_trigger.pywrap.jobs.ensemble.onset import (onset_numbers, pair_position,
+                                                           read_ramp)
+
+    cfg, full = full_ramp
+    monkeypatch.setattr(eigen, "DENSE_MAX", 10)
+    res = stages.ramp(cfg, str(tmp_path), quiet=True)
+    monkeypatch.undo()
+    assert res.status == "complete", res.message
+    assert res.F_x_c_low <= full.F_x_c_low and res.F_x_c_high >= full.F_x_c_high
+    pts = read_ramp(res.h5)
+    assert all(p["F_x"] > full.F_x_c_low for p in pts if p["decision"] == 1)
+    assert all(p["F_x"] < full.F_x_c_high for p in pts if p["decision"] == 0)
+    _, data = read_all(res.h5)
+    for kind in ("steps", "bisection"):
+        cplx = data[f"{kind}/decision"] == 1
+        assert np.all(np.isfinite(data[f"{kind}/scanned_below"][cplx]))
+        assert np.all(np.isinf(data[f"{kind}/scanned_below"][~cplx]))
+    hi = next(p for p in pts if p["F_x"] == res.F_x_c_high and p["decision"] == 1)
+    assert 0 < len(hi["eigenvalues"]) < hi["n_dof"]
+    dense = verdict.stability_of_dump(hi["dump"])
+    assert dense.decision == "complex" and dense.n_dof == hi["n_dof"]
+    want = pair_position(dense.eigenvalues)
+    got = onset_numbers(pts, cfg.dF_x)
+    assert got["n_dof"] == want["n_dof"] and got["pair_index"] == want["pair_index"]
+    assert got["lambda_c"] == pytest.approx(want["lambda_c"], rel=1e-9)
+    # the top: ARPACK's of the symmetric part S, as the sliced scan lists it for
+    # a one-eigenvalue strip; W moves A's at second order (6e-5 here, N = 20)
+    assert hi["lambda_max"] == pytest.approx(dense.lambda_max, rel=1e-4)
+    assert got["pair_re_rel"] == pytest.approx(want["pair_re_rel"], rel=1e-4)

@@ -66,10 +66,13 @@ def read_ramp(h5):
     list of dict
         ``F_x``, ``decision`` (1, 0, -1), ``growth`` (1/time), ``dump``
         (equilibrium dump), ``eigenvalues`` (complex, sorted by real part,
-        the dynamics' I0: 1/2 disks, 2/5 spheres), ``reason`` (why an
-        undecided point is undecided, from the file's ``undecided_reasons``;
-        '' otherwise or where the file has none). Bisection points without
-        an equilibrium are left out.
+        the dynamics' I0: 1/2 disks, 2/5 spheres; all of them, or those below
+        the column ``scanned_below`` where a sliced scan stopped at its first
+        complex strip), ``lambda_max`` and ``n_dof`` (the spectrum's top and
+        size; NaN and -1 in files that predate these columns), ``reason``
+        (why an undecided point is undecided, from the file's
+        ``undecided_reasons``; '' otherwise or where the file has none).
+        Bisection points without an equilibrium are left out.
     """
     import h5py
 
@@ -84,6 +87,9 @@ def read_ramp(h5):
             F = fh[f"{kind}/F_x"][()]
             dec = fh[f"{kind}/decision"][()]
             g = fh[f"{kind}/growth_rate"][()]
+            nan = np.full(len(F), np.nan)
+            top = fh[f"{kind}/lambda_max"][()] if f"{kind}/lambda_max" in fh else nan
+            ndof = fh[f"{kind}/n_dof"][()] if f"{kind}/n_dof" in fh else nan
             files = [x.decode() if isinstance(x, bytes) else str(x)
                      for x in fh[f"{kind}/datafile"][()]]
             for k in range(len(F)):
@@ -94,6 +100,8 @@ def read_ramp(h5):
                 lam = lam[np.lexsort((lam.imag, lam.real))]
                 pts.append({"F_x": float(F[k]), "decision": int(dec[k]), "growth": float(g[k]),
                             "dump": files[k][:-len(".data")] + ".dump", "eigenvalues": lam,
+                            "lambda_max": float(top[k]),
+                            "n_dof": int(ndof[k]) if np.isfinite(ndof[k]) else -1,
                             "reason": str(why.get(stem.format(k), ""))})
     pts.sort(key=lambda p: p["F_x"])
     return pts
@@ -124,35 +132,42 @@ def bracket(points):
     return float(lo), float(hi)
 
 
-def pair_position(eigenvalues):
+def pair_position(eigenvalues, lambda_max=math.nan, n_dof=-1):
     """Where the coalesced pair sits in the spectrum.
 
     Parameters
     ----------
     eigenvalues : ndarray of complex, shape (M,)
-        Spectrum of M^-1 K with a complex pair.
+        Spectrum of M^-1 K with a complex pair: all of it, or every
+        eigenvalue below some real part (a sliced scan stopped at its first
+        complex strip; then give ``lambda_max`` and ``n_dof``).
+    lambda_max : float, optional
+        The spectrum's largest real part (default: that of ``eigenvalues``).
+    n_dof : int, optional
+        The spectrum's size (default: M).
 
     Returns
     -------
     dict
         ``lambda_c`` (of the eigenvalues off the real axis, the one of largest
         |Im sqrt(lambda)|, [Re, |Im|]; a negative *real* eigenvalue, a static
-        instability, is not a pair), ``pair_re_rel`` = Re lambda_c / max Re
-        lambda, ``pair_index`` (1-based index of the pair counted from the
-        softest mode: 1 + the number of eigenvalues with smaller real part),
-        ``n_dof`` (M). NaN / -1 when no eigenvalue is off the real axis.
+        instability, is not a pair), ``pair_re_rel`` = Re lambda_c /
+        lambda_max, ``pair_index`` (1-based index of the pair counted from
+        the softest mode: 1 + the number of eigenvalues with smaller real
+        part), ``n_dof``. NaN / -1 when no eigenvalue is off the real axis.
     """
     lam = np.asarray(eigenvalues, complex)
+    n_dof = int(lam.size) if n_dof < 0 else int(n_dof)
     off = np.nonzero(lam.imag != 0)[0]
     if off.size == 0:
         return {"lambda_c": [math.nan, math.nan], "pair_re_rel": math.nan,
-                "pair_index": -1, "n_dof": int(lam.size)}
+                "pair_index": -1, "n_dof": n_dof}
+    top = float(np.max(lam.real)) if math.isnan(lambda_max) else float(lambda_max)
     g = np.abs(np.sqrt(lam[off]).imag)
     c = lam[off[int(np.argmax(g))]]
     below = int(np.count_nonzero(lam.real < c.real - 1e-12 * abs(c.real)))
     return {"lambda_c": [float(c.real), float(abs(c.imag))],
-            "pair_re_rel": float(c.real / np.max(lam.real)), "pair_index": below + 1,
-            "n_dof": int(lam.size)}
+            "pair_re_rel": float(c.real / top), "pair_index": below + 1, "n_dof": n_dof}
 
 
 #: a pair whose mode moves fewer particles than this (N PR) is a local onset
@@ -265,7 +280,8 @@ def onset_numbers(points, dF_x):
            "n_dof": -1, "slope": math.nan, "F_x_onset_fit": math.nan, "n_points": 0}
     if math.isfinite(hi):
         top = next(p for p in points if p["F_x"] == hi and p["decision"] == Decision.COMPLEX)
-        out.update(pair_position(top["eigenvalues"]))
+        out.update(pair_position(top["eigenvalues"], top.get("lambda_max", math.nan),
+                                 top.get("n_dof", -1)))
         near = [p for p in points if p["decision"] == Decision.COMPLEX and p["F_x"] <= hi + dF_x * (1 + 1e-9)]
         out.update(growth_slope([p["F_x"] for p in near], [p["growth"] for p in near], lo, hi))
     return out
@@ -296,6 +312,8 @@ def reanalyse(points, I0):
     for p in points:
         s = spectrum(read_dump(p["dump"], require_contacts=False, inertia_factor=I0), basis)
         basis = s.pop("basis")
+        # a whole dense spectrum: its own top and size (M changed with I0)
         out.append(dict(p, decision=s["decision"], growth=s["growth"],
-                        eigenvalues=s["eigenvalues"], reason=s["reason"]))
+                        eigenvalues=s["eigenvalues"], reason=s["reason"],
+                        lambda_max=math.nan, n_dof=-1))
     return out
