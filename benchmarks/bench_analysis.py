@@ -103,7 +103,7 @@ def bench_eigen(st, k):
 
 def bench_decision(loads, repeat=5):
     """Eigen-solve and decision times of classify_spectrum at N = 100 (default job, mu = 1)."""
-    from remote_trigger.pywrap.stages.ramp import _ramp_point
+    from remote_trigger.pywrap.stages.point import ramp_point
     from remote_trigger.pywrap.bindings.engine import Engine
     from remote_trigger.pywrap.jobs.paper import ramp_config
     from remote_trigger.pywrap.jobs.paper.config import PaperConfig
@@ -117,7 +117,7 @@ def bench_decision(loads, repeat=5):
         with Engine(log="none") as eng:
             for k, F in enumerate(loads):
                 prefix = os.path.join(d, f"eq{k}")
-                _ramp_point(eng, cfg, start, F, prefix)
+                ramp_point(eng, cfg, start, F, prefix)
                 A = matrix(prefix + ".dump")
                 best = None
                 for _ in range(repeat):

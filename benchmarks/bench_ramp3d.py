@@ -8,7 +8,7 @@ Issue 29 (performance). Two scenes, measured side by side in one run:
   --seed 1``, relaxed by ``relax``: FIRE, then Newton with the 3D Jacobian).
 
 Each is generated and relaxed once (time printed). Then ramp points as the
-ramp makes them (``stages.ramp._ramp_point``'s steps, timed one by one):
+ramp makes them (``stages.point.ramp_point``'s steps, timed one by one):
 F_x = dF_x from the relaxed equilibrium (warm-up; its verified basis starts
 the next decision), then F_x = 2 dF_x from that equilibrium, made
 ``--repeat`` times (medians reported), dF_x = 2.5e-4 (the paper job's
@@ -84,7 +84,7 @@ def relaxed(dim, n, seed, base):
 
 
 def point(eng, cfg, start, F_x, prefix, dim, basis):
-    """One ramp point, timed by part (the steps of ``ramp._ramp_point``)."""
+    """One ramp point, timed by part (the steps of ``stages.point.ramp_point``)."""
     from remote_trigger.analysis.stability.verdict import stability_of_dump
     from remote_trigger.pywrap.stages import equilibrium as eq
     from remote_trigger.pywrap.stages.common import load_equilibrium_scene, save_equilibrium

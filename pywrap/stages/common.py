@@ -307,7 +307,8 @@ def check_resume_config(path, cfg, attrs, skip=(), suffix=""):
         The result file (named in the message).
     cfg : StageConfig
         This run's configuration (``to_attrs()``; ``datafile`` is compared
-        by its contents elsewhere and skipped here).
+        by its contents elsewhere and skipped here). A key of its class's
+        ``LATER_FIELDS`` absent from the file has the value given there.
     attrs : dict
         The file's root attributes.
     skip : container of str
@@ -323,7 +324,7 @@ def check_resume_config(path, cfg, attrs, skip=(), suffix=""):
     for k, v in cfg.to_attrs().items():
         if k == "datafile" or k in skip:
             continue
-        old = attrs.get(k)
+        old = attrs.get(k, getattr(cfg, "LATER_FIELDS", {}).get(k))
         if isinstance(old, bytes):
             old = old.decode()
         if old is None and v == "None":

@@ -97,9 +97,10 @@ class StageConfig(Config):
 
     @classmethod
     def from_attrs(cls, attrs, check_file=True):
-        """Inverse of :meth:`to_attrs` (extra attributes are ignored)."""
+        """Inverse of :meth:`to_attrs` (extra attributes are ignored; a field of
+        ``LATER_FIELDS`` that the attributes lack has the value given there)."""
         names = {f.name for f in fields(cls)}
-        d = {}
+        d = {k: v for k, v in getattr(cls, "LATER_FIELDS", {}).items() if k not in attrs}
         for k in names:
             if k in attrs:
                 v = attrs[k]
@@ -269,13 +270,25 @@ class RampConfig(RelaxConfig):
         either way. For large N (docs/driver.md, "Disk use"). A storage
         choice, not part of the result: a ramp may be resumed with the
         other value.
+    saddle_escape : bool
+        True (default): a point whose Newton equilibrium screens as a saddle
+        (a negative eigenvalue, ``analysis.stability.analyze.negative_modes``)
+        is equilibrated again by damped dynamics from the same start
+        (:func:`remote_trigger.pywrap.stages.point.ramp_point`, docs/driver.md
+        "Saddles"). False: Newton's equilibrium is kept, saddle or not (the
+        behaviour of ramps written before this option; an older ramp.h5 is
+        resumed only with False).
     """
+
+    #: fields added after ramp files were written: the value an older file has
+    LATER_FIELDS = {"saddle_escape": False}
 
     dF_x: float = 1e-4
     F_x_max: float = 1.0
     tol: float = 1e-7
     dF_x_max: float = None
     keep_equilibria: bool = True
+    saddle_escape: bool = True
 
     def validate(self):
         super().validate()
@@ -290,9 +303,10 @@ class RampConfig(RelaxConfig):
             raise ConfigError(f"F_x_max must be > F_x = {self.F_x!r}, got "
                               f"F_x_max = {self.F_x_max!r}")
         _positive("tol", self.tol)
-        if not isinstance(self.keep_equilibria, bool):
-            raise ConfigError(f"keep_equilibria must be True or False, got "
-                              f"keep_equilibria = {self.keep_equilibria!r}")
+        for name in ("keep_equilibria", "saddle_escape"):
+            if not isinstance(getattr(self, name), bool):
+                raise ConfigError(f"{name} must be True or False, got "
+                                  f"{name} = {getattr(self, name)!r}")
 
 
 @dataclass(frozen=True)

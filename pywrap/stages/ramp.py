@@ -5,7 +5,6 @@ Part of :mod:`remote_trigger.pywrap.stages`; file layout in
 """
 from dataclasses import dataclass, field
 import os
-import time
 
 import numpy as np
 
@@ -17,8 +16,9 @@ from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.stages import ramp_file
 from remote_trigger.pywrap.stages.common import (
-    EQUILIBRIUM_EXTS, _analyze, _ensure_dir, _progress, check_spheres_ramp,
-    load_equilibrium_scene, save_equilibrium, start_sha256, start_timestep)
+    EQUILIBRIUM_EXTS, _ensure_dir, _progress, check_spheres_ramp, start_sha256,
+    start_timestep)
+from remote_trigger.pywrap.stages.point import ramp_point
 
 
 @dataclass
@@ -183,31 +183,6 @@ def _bracket_attrs(rlog, lo, hi, tol, why=""):
         attrs["message"] = (f"bisection stopped at width {width:.3g} > tol = {tol:.3g}: "
                             f"{zone}; F_x^c is certified only to [{lo:.10g}, {hi:.10g}]")
     return attrs
-
-
-def _ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
-    """Equilibrate at F_x from ``start_file``, save ``prefix.*``, analyse.
-
-    ``basis``: the previous point's verified spectrum basis (rank 0), tried
-    first by the certified decision; ``dim``: 3 for spheres (their history
-    comes from the dump beside ``start_file``). A ramp needs the decision
-    only: a sliced scan stops at its first complex strip. Returns (values
-    dict, StabilityResult).
-    """
-    t0 = time.perf_counter()
-    load_equilibrium_scene(eng, cfg, start_file, F_x, dim)
-    r, t_sim, rec = eq.equilibrate(eng, cfg, F_x, newton_first=True)
-    save_equilibrium(eng, cfg, F_x, prefix)
-    res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True)
-    vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
-            "from_basis": float(res.start == "basis"), "decision": float(res.decision_code),
-            "confidence": float(res.confidence), "growth_rate": res.growth_rate,
-            "max_imag": res.max_imag, "n_rattlers": float(res.n_rattlers),
-            "wall_time": time.perf_counter() - t0, "damped_time": t_sim,
-            "newton_steps": float(max(0, sum(p == "newton" for p in rec.phase) - 1)),
-            "n_dof": float(res.n_dof), "lambda_max": res.lambda_max,
-            "scanned_below": res.scanned_below}
-    return vals, res
 
 
 def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=None):
@@ -413,7 +388,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
         name = ramp_file.point_name(ramp_file.STEPS, k)
         prefix = os.path.join(folder, name)
         try:
-            vals, res = _ramp_point(eng, rcfg, start, F, prefix, basis, dim)
+            vals, res = ramp_point(eng, rcfg, start, F, prefix, basis, dim)
         except eq.NoEquilibriumError as exc:
             rlog.attrs["message"] = str(exc)
             _checkpoint(eng, rlog, folder, "no_equilibrium")
@@ -452,7 +427,7 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
         name = ramp_file.point_name(ramp_file.BISECTION, j)
         prefix = os.path.join(folder, name)
         try:
-            vals, res = _ramp_point(eng, rcfg, lo_file, mid, prefix,
+            vals, res = ramp_point(eng, rcfg, lo_file, mid, prefix,
                                     _load_basis(eng, lo_file), dim)
         except eq.NoEquilibriumError:
             vals = {c: np.nan for c in ramp_file.COLUMNS}

@@ -39,12 +39,14 @@ EIGENVALUES = "eigenvalues"
 #: float64 columns of every row group (plus ``datafile``)
 COLUMNS = ("F_x", "residual", "complex", "decision", "confidence", "growth_rate",
            "max_imag", "n_rattlers", "wall_time", "damped_time", "newton_steps",
-           "from_basis", "n_dof", "lambda_max", "scanned_below")
+           "from_basis", "n_dof", "lambda_max", "scanned_below", "saddle_escaped",
+           "n_negative")
 #: columns added after version 1 files were written, with the value a
 #: resumed older file gets for its existing rows (its spectra are whole:
-#: ``scanned_below`` = inf; the order and the top eigenvalue were not kept)
+#: ``scanned_below`` = inf; no saddle escape; the rest was not kept)
 LATER_COLUMNS = {"from_basis": 0.0, "n_dof": float("nan"), "lambda_max": float("nan"),
-                 "scanned_below": float("inf")}
+                 "scanned_below": float("inf"), "saddle_escaped": 0.0,
+                 "n_negative": float("nan")}
 DATAFILE = "datafile"
 #: root attribute: why each undecided point is undecided (JSON object, point
 #: name -> the decision's reason, e.g. the strip and where)

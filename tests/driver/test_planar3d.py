@@ -9,7 +9,7 @@ contact history t = xi s with s = (n_y, -n_x, 0), wall t = (xi_w, 0, 0),
 and saved as a 3D equilibrium (data file + dump) by the driver's own
 ``save_equilibrium``. Every point of the 2D ramp is then replayed, from the
 same start and in the same order, through the 3D ramp stage's point routine
-(``ramp._ramp_point``: ``load_equilibrium_scene`` of spheres, Newton with
+(``stages.point.ramp_point``: ``load_equilibrium_scene`` of spheres, Newton with
 the 3D Jacobian, ``save_equilibrium``, ``stability_of_dump``), and compared
 with the 2D point:
 
@@ -107,7 +107,7 @@ def planar(relaxed, tmp_path_factory):
     from remote_trigger.pywrap import stages
     from remote_trigger.pywrap.bindings.engine import Engine
     from remote_trigger.pywrap.stages.config import RampConfig
-    from remote_trigger.pywrap.stages.ramp import _ramp_point
+    from remote_trigger.pywrap.stages.point import ramp_point
 
     out = tmp_path_factory.mktemp("planar3d")
     cfg = RampConfig(datafile=relaxed.datafile, dF_x=DF, tol=TOL)
@@ -119,7 +119,7 @@ def planar(relaxed, tmp_path_factory):
         for kind, F, d2, file2 in _rows(ramp2.h5):
             start = prev if kind == "steps" else _bisection_start(done)
             prefix = str(out / (os.path.basename(file2)[:-len(".data")] + "_3d"))
-            vals, res = _ramp_point(eng, cfg3, start, F, prefix, None, 3)
+            vals, res = ramp_point(eng, cfg3, start, F, prefix, None, 3)
             done.append((F, d2, prefix + ".data"))
             prev = prefix + ".data" if kind == "steps" else prev
             points.append((F, d2, file2[:-len(".data")] + ".dump", prefix + ".dump", vals, res))

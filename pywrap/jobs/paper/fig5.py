@@ -67,9 +67,9 @@ def friction_drop(eng, rcfg, datafile, F_x, mu, prefix):
         ``datafile``.
     """
     from remote_trigger.pywrap.bindings.datafile import data_dimension
-    from remote_trigger.pywrap.stages.ramp import _ramp_point
+    from remote_trigger.pywrap.stages.point import ramp_point
 
-    vals, res = _ramp_point(eng, rcfg.replace(mu=float(mu)), datafile, float(F_x), prefix,
+    vals, res = ramp_point(eng, rcfg.replace(mu=float(mu)), datafile, float(F_x), prefix,
                             dim=data_dimension(datafile))
     return {"mu": float(mu), "decision": res.decision, "confidence": float(res.confidence),
             "growth_rate": float(res.growth_rate), "residual": float(vals["residual"]),

@@ -1,0 +1,117 @@
+"""One ramp point: the equilibrium at a load, saved, off saddles, and decided.
+
+Part of :mod:`remote_trigger.pywrap.stages`; used by the ramp
+(:func:`remote_trigger.pywrap.stages.ramp`) and the paper job's friction
+bisection.
+
+Newton from the previous equilibrium converges to whatever zero of the
+force is nearest, and past a fold of one weakly held particle that can be a
+*saddle*: an equilibrium with a negative eigenvalue, which the damped
+dynamics never stays in (measured: N = 400, seed 8, F_x = 0.001, the
+lowest eigenvalue -0.042 where the step before had 6.39; at N = 6400, 18
+of 66 ramp points; docs/driver.md "Saddles"). So after Newton the point is
+screened (``analysis.stability.analyze.negative_modes``, one LDL^T
+factorization) and, with ``cfg.saddle_escape``, a saddle is replaced by the
+equilibrium the damped dynamics reach from the same start, Newton only
+polishing at the end (first below 1e-4 newton_start, then, if that too is
+a saddle, below 1e-6). Disks only: a planar packing of spheres is
+unstable out of its plane by construction (tests/driver/test_planar3d.py),
+and saddles of sphere packings were not measured.
+"""
+import time
+
+from remote_trigger.pywrap.runtime.parallel import on_rank0
+from remote_trigger.pywrap.stages import equilibrium as eq
+from remote_trigger.pywrap.stages.common import (_analyze, load_equilibrium_scene,
+                                                 save_equilibrium)
+
+__all__ = ["ramp_point", "NEGATIVE_REL"]
+
+#: an eigenvalue below -NEGATIVE_REL lambda_max counts as negative
+NEGATIVE_REL = 1e-9
+#: the escapes from a saddle: damped dynamics from the start until the
+#: residual is below newton_start x factor, then Newton (one try per factor)
+ESCAPE_NEWTON_START = (1e-4, 1e-6)
+
+
+def _screen(eng, dump):
+    """Rank 0's count of negative modes of the equilibrium in ``dump``, on all ranks."""
+    def run():
+        from remote_trigger.analysis.stability.analyze import negative_modes
+        from remote_trigger.analysis.state.dumpfile import read_equilibrium
+
+        return negative_modes(read_equilibrium(dump), NEGATIVE_REL)
+
+    return on_rank0(eng.comm, run)
+
+
+def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
+    """Equilibrate at F_x from ``start_file``, save ``prefix.*``, analyse.
+
+    Parameters
+    ----------
+    eng : Engine
+    cfg : RampConfig
+        ``saddle_escape`` (default True where the config has none): redo a
+        Newton equilibrium of disks that screens as a saddle by damped
+        dynamics.
+    start_file : str
+        Equilibrium ``.data`` to start from (its history beside it).
+    F_x : float
+    prefix : str
+        Output ``prefix.{data,dump,dump.json}``.
+    basis : SpectrumBasis, optional
+        The previous point's verified spectrum basis (rank 0), tried first by
+        the certified decision.
+    dim : int
+        3 for spheres (their history comes from the dump beside
+        ``start_file``).
+
+    Returns
+    -------
+    vals : dict
+        The ramp.h5 row (:data:`remote_trigger.pywrap.stages.ramp_file.COLUMNS`).
+        ``saddle_escaped`` the number of escapes made (0: Newton's
+        equilibrium screened stable, or no escape tried), ``n_negative`` the
+        verdict's eigenvalues with Re lambda < -NEGATIVE_REL lambda_max (0
+        on a stable equilibrium).
+    res : StabilityResult
+        The decision; a ramp needs only that, so a sliced scan stops at its
+        first complex strip (``scanned_below``).
+
+    Raises
+    ------
+    NoEquilibriumError
+        From :func:`~remote_trigger.pywrap.stages.equilibrium.equilibrate`.
+    """
+    import numpy as np
+
+    t0 = time.perf_counter()
+    load_equilibrium_scene(eng, cfg, start_file, F_x, dim)
+    r, t_sim, rec = eq.equilibrate(eng, cfg, F_x, newton_first=True)
+    save_equilibrium(eng, cfg, F_x, prefix)
+    escaped = 0.0
+    if getattr(cfg, "saddle_escape", True) and dim == 2:
+        for factor in ESCAPE_NEWTON_START:
+            if _screen(eng, prefix + ".dump") <= 0:
+                break
+            load_equilibrium_scene(eng, cfg, start_file, F_x, dim)
+            r, t_damped, rec = eq.equilibrate(
+                eng, cfg.replace(newton_start=cfg.newton_start * factor), F_x)
+            t_sim += t_damped
+            save_equilibrium(eng, cfg, F_x, prefix)
+            escaped += 1.0
+    res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True)
+    lam = np.asarray(res.eigenvalues)
+    neg = (float(np.count_nonzero(lam.real < -NEGATIVE_REL * res.lambda_max))
+           if lam.size else 0.0)
+    vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
+            "from_basis": float(res.start == "basis"), "decision": float(res.decision_code),
+            "confidence": float(res.confidence), "growth_rate": res.growth_rate,
+            "max_imag": res.max_imag, "n_rattlers": float(res.n_rattlers),
+            "wall_time": time.perf_counter() - t0, "damped_time": t_sim,
+            "newton_steps": float(max(0, sum(p == "newton" for p in rec.phase) - 1)),
+            "n_dof": float(res.n_dof), "lambda_max": res.lambda_max,
+            "scanned_below": res.scanned_below, "saddle_escaped": escaped,
+            "n_negative": neg}
+    return vals, res
