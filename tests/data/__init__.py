@@ -12,9 +12,17 @@ name                                   what
 ``default_job_mu0.8_step_00234``       the same for mu = 0.8:
                                        ``ramp_mu0.8/ramp/step_00234.data``,
                                        F_x = 0.0585.
+``saddle_N400_s8_step_00003``          ``remote-trigger ensemble``'s N = 400
+                                       packing of seed 8 (relaxed by the
+                                       default protocol), ramped at mu = 1 in
+                                       steps of 2.5e-4 without the saddle
+                                       escape: the step at F_x = 0.00075;
+                                       Newton from it to F_x = 0.001 lands on
+                                       a saddle (lowest eigenvalue -0.042).
 =====================================  =========================================
 
-Files are stored gzip-compressed (LAMMPS ``write_data`` text, 21 kB each).
+Files are stored gzip-compressed (LAMMPS ``write_data`` text, 21 kB each at
+N = 100, 88 kB at N = 400).
 """
 import gzip
 import os
@@ -25,6 +33,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 FILES = {
     "default_job_mu1_step_00258": "default_job_mu1_step_00258.data.gz",
     "default_job_mu0.8_step_00234": "default_job_mu0.8_step_00234.data.gz",
+    "saddle_N400_s8_step_00003": "saddle_N400_s8_step_00003.data.gz",
 }
 
 

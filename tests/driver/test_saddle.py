@@ -1,0 +1,95 @@
+"""Saddles: a Newton ramp point that lands on one is equilibrated again by
+damped dynamics (``stages.point.ramp_point``, ``RampConfig.saddle_escape``),
+and the screen that finds it (``analysis.stability.analyze.negative_modes``)
+counts what the dense spectra count."""
+import numpy as np
+import pytest
+
+from remote_trigger.pywrap.stages.config import RampConfig
+
+
+def _dense_counts(dump):
+    """Negative eigenvalues of M^-1 K (LAPACK) and of the symmetric part of
+    M^-1/2 K M^-1/2 (eigvalsh), below -1e-9 of their scale, and the screen's."""
+    from remote_trigger.analysis.stability import jacobian
+    from remote_trigger.analysis.stability.analyze import analyze, negative_modes
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
+
+    state = read_equilibrium(dump)
+    res = analyze(state, eigenvalues=False, decide=False)
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
+    s = 1.0 / np.sqrt(mr)
+    A = (Kr.toarray() * s[:, None]) * s[None, :]
+    lam = np.linalg.eigvals(A)
+    theta = np.linalg.eigvalsh(0.5 * (A + A.T))
+    thr = 1e-9 * np.max(np.abs(theta))
+    return (int(np.count_nonzero(lam.real < -thr)), int(np.count_nonzero(theta < -thr)),
+            negative_modes(state), float(np.min(lam.real)))
+
+
+@pytest.fixture(scope="module")
+def saddle_points(tmp_path_factory):
+    """The step F_x = 0.00075 -> 0.001 of the N = 400 packing, with and without escape."""
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages.point import ramp_point
+    from tests.data import unpack
+
+    d = tmp_path_factory.mktemp("saddle")
+    start = unpack("saddle_N400_s8_step_00003", str(d))
+    cfg = RampConfig(datafile=start, F_x=0.00075, mu=1.0, dF_x=0.00025, tol=4e-6)
+    out = {}
+    with Engine() as eng:
+        for name, c in (("newton", cfg.replace(saddle_escape=False)), ("escape", cfg)):
+            vals, res = ramp_point(eng, c, start, 0.001, str(d / name))
+            out[name] = (vals, res, str(d / name) + ".dump")
+    return out
+
+
+def test_newton_lands_on_a_saddle_the_screen_sees_it(saddle_points):
+    vals, res, dump = saddle_points["newton"]
+    assert vals["saddle_escaped"] == 0 and vals["damped_time"] == 0
+    assert res.decision == "real" and vals["n_negative"] == 1
+    n_lapack, n_sym, n_screen, low = _dense_counts(dump)
+    assert n_lapack == n_sym == n_screen == 1
+    assert -0.1 < low < -0.01                   # -0.042: one weakly held disk
+
+
+def test_the_escape_reaches_a_stable_equilibrium(saddle_points):
+    """Damped dynamics from the same start: every eigenvalue positive, the
+    lowest that of the steps before (6.39), at the ramp's residual."""
+    vals, res, dump = saddle_points["escape"]
+    assert vals["saddle_escaped"] >= 1 and vals["damped_time"] > 0
+    assert vals["n_negative"] == 0 and res.decision == "real"
+    n_lapack, n_sym, n_screen, low = _dense_counts(dump)
+    assert n_lapack == n_sym == n_screen == 0
+    assert 6.0 < low < 7.0
+    assert vals["residual"] < 1e-10
+    assert saddle_points["newton"][0]["residual"] < 1e-10
+
+
+def test_an_older_ramp_resumes_only_without_the_escape(relaxed, tmp_path):
+    """A ramp.h5 written before the option (no saddle_escape attribute) is one
+    without escape: resumed with the default it is refused, naming the key;
+    with saddle_escape = False it completes."""
+    import h5py
+
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.config import ConfigError
+
+    cfg = RampConfig(datafile=relaxed.datafile, dF_x=0.01, tol=1e-3)
+    part = stages.ramp(cfg.replace(saddle_escape=False), str(tmp_path), quiet=True,
+                       stop_after=2)
+    assert part.status == "interrupted"
+    with h5py.File(part.h5, "a") as fh:
+        del fh.attrs["saddle_escape"]
+    with pytest.raises(ConfigError, match="saddle_escape = False"):
+        stages.ramp(cfg, str(tmp_path), quiet=True, resume=True)
+    done = stages.ramp(cfg.replace(saddle_escape=False), str(tmp_path), quiet=True,
+                       resume=True)
+    assert done.status == "complete"
+    with h5py.File(done.h5, "r") as fh:
+        attrs = dict(fh.attrs)
+    assert RampConfig.from_attrs(attrs).saddle_escape is False
+    old = {k: v for k, v in attrs.items() if k != "saddle_escape"}
+    assert RampConfig.from_attrs(old).saddle_escape is False
+    assert RampConfig.from_attrs(dict(old, saddle_escape=True)).saddle_escape is True
