@@ -37,7 +37,7 @@ from remote_trigger.analysis.state.dumpfile import dump_dimension, read_dump, re
 from remote_trigger.analysis.state.state3d import State3D
 
 __all__ = ["Analysis", "analyze", "analyze_dump", "roundoff_floor", "check_equilibrium",
-           "max_residual", "negative_modes"]
+           "max_residual", "negative_modes", "NEGATIVE_REL"]
 
 #: a residual this many times the round-off floor is "far above" it: the state
 #: is not the equilibrium of the parameters it is analysed with
@@ -296,7 +296,12 @@ def analyze_dump(path, **kwargs):
     return analyze(reader(path, **rk), **kwargs)
 
 
-def negative_modes(state, rel_threshold=1e-9):
+#: an eigenvalue below -NEGATIVE_REL x the spectrum's scale counts as negative
+#: (a saddle's); above it round-off and exact zero modes
+NEGATIVE_REL = 1e-9
+
+
+def negative_modes(state, rel_threshold=NEGATIVE_REL):
     """Number of statically unstable directions of an equilibrium: a saddle has one or more.
 
     Sylvester's count of the eigenvalues of the symmetric part S of
@@ -314,7 +319,7 @@ def negative_modes(state, rel_threshold=1e-9):
         An equilibrium.
     rel_threshold : float, optional
         Eigenvalues of S above -rel_threshold ||S||_1 (1/time^2) are not
-        counted (default 1e-9: round-off and exact zero modes).
+        counted (default :data:`NEGATIVE_REL`).
 
     Returns
     -------

@@ -20,15 +20,14 @@ and saddles of sphere packings were not measured.
 """
 import time
 
+from remote_trigger.analysis.stability.analyze import NEGATIVE_REL
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.stages.common import (_analyze, load_equilibrium_scene,
                                                  save_equilibrium)
 
-__all__ = ["ramp_point", "NEGATIVE_REL"]
+__all__ = ["ramp_point"]
 
-#: an eigenvalue below -NEGATIVE_REL lambda_max counts as negative
-NEGATIVE_REL = 1e-9
 #: the escapes from a saddle: damped dynamics from the start until the
 #: residual is below newton_start x factor, then Newton (one try per factor)
 ESCAPE_NEWTON_START = (1e-4, 1e-6)
@@ -40,7 +39,7 @@ def _screen(eng, dump):
         from remote_trigger.analysis.stability.analyze import negative_modes
         from remote_trigger.analysis.state.dumpfile import read_equilibrium
 
-        return negative_modes(read_equilibrium(dump), NEGATIVE_REL)
+        return negative_modes(read_equilibrium(dump))
 
     return on_rank0(eng.comm, run)
 

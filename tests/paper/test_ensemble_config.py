@@ -1,4 +1,5 @@
 """``ensemble`` configuration: bad input is refused, naming the value, nothing written."""
+import numpy as np
 import pytest
 
 from remote_trigger.pywrap.jobs.ensemble import config as ec
@@ -120,6 +121,29 @@ def test_pair_position():
     assert p["lambda_c"] == [5.0, 0.5] and p["pair_index"] == 4
     none = onset.pair_position([-9.0, 1.0, 2.0])
     assert none["pair_index"] == -1 and none["pair_re_rel"] != none["pair_re_rel"]
+
+
+def test_saddles_are_counted_and_a_saddle_at_a_bracket_end_is_named():
+    """Points with an eigenvalue below -NEGATIVE_REL lambda_max are saddles; the
+    bracket's lower end here is one, so it is listed; escapes are counted from
+    the column (0 where a file predates it)."""
+    stable = np.array([1.0, 2.0, 10.0], complex)
+    saddle = np.array([-0.04, 2.0, 10.0], complex)
+    roundoff = np.array([-1e-12, 2.0, 10.0], complex)
+    cplx = np.array([1.0, 5.0 + 0.5j, 5.0 - 0.5j, 10.0])
+    pts = [{"F_x": 0.0, "decision": 0, "growth": 0.0, "eigenvalues": stable},
+           {"F_x": 0.1, "decision": 0, "growth": 0.0, "eigenvalues": roundoff,
+            "saddle_escaped": 1.0},
+           {"F_x": 0.15, "decision": 0, "growth": 0.0, "eigenvalues": saddle},
+           {"F_x": 0.2, "decision": 1, "growth": 0.3, "eigenvalues": cplx,
+            "saddle_escaped": 2.0}]
+    o = onset.onset_numbers(pts, 0.1)
+    assert (o["F_x_c_low"], o["F_x_c_high"]) == (0.15, 0.2)
+    assert o["n_saddle"] == 1 and o["saddle_ends"] == [0.15] and o["n_escaped"] == 2
+    assert onset.is_saddle(pts[2]) and not onset.is_saddle(pts[1])
+    # a partial spectrum: the scale is the recorded lambda_max
+    assert onset.is_saddle({"eigenvalues": np.array([-1e-6, 1.0]), "lambda_max": 100.0})
+    assert not onset.is_saddle({"eigenvalues": np.array([-1e-6, 1.0]), "lambda_max": 1e4})
 
 
 def test_soft_mode_onsets_are_flagged_and_kept_out_of_the_stiff_statistics():

@@ -79,6 +79,10 @@ def test_outputs_and_rows(serial):
         assert 1 / t["n"][i] <= t["pair_pr"][i] <= 1
         assert t["pair_particles"][i] == pytest.approx(t["n"][i] * t["pair_pr"][i], rel=1e-12)
         assert 0.5 < t["phi"][i] < 0.9
+        # saddles counted: none left where every escape succeeded
+        assert t["n_saddle"][i] >= 0 and t["n_escaped"][i] >= 0
+        if "on a saddle" in t["reason"][i]:
+            assert t["n_saddle"][i] > 0
     # I0 = 1 rows: flagged, same packings and phi
     one = t["I0"] == 1.0
     assert one.sum() == 3 and np.all(t["dynamics_consistent"][one] == 0)

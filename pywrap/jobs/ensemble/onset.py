@@ -69,7 +69,8 @@ def read_ramp(h5):
         the dynamics' I0: 1/2 disks, 2/5 spheres; all of them, or those below
         the column ``scanned_below`` where a sliced scan stopped at its first
         complex strip), ``lambda_max`` and ``n_dof`` (the spectrum's top and
-        size; NaN and -1 in files that predate these columns), ``reason``
+        size; NaN and -1 in files that predate these columns),
+        ``saddle_escaped`` (escapes from a saddle made; 0 in older files), ``reason``
         (why an undecided point is undecided, from the file's
         ``undecided_reasons``; '' otherwise or where the file has none).
         Bisection points without an equilibrium are left out.
@@ -90,6 +91,8 @@ def read_ramp(h5):
             nan = np.full(len(F), np.nan)
             top = fh[f"{kind}/lambda_max"][()] if f"{kind}/lambda_max" in fh else nan
             ndof = fh[f"{kind}/n_dof"][()] if f"{kind}/n_dof" in fh else nan
+            esc = (fh[f"{kind}/saddle_escaped"][()] if f"{kind}/saddle_escaped" in fh
+                   else np.zeros(len(F)))
             files = [x.decode() if isinstance(x, bytes) else str(x)
                      for x in fh[f"{kind}/datafile"][()]]
             for k in range(len(F)):
@@ -102,6 +105,7 @@ def read_ramp(h5):
                             "dump": files[k][:-len(".data")] + ".dump", "eigenvalues": lam,
                             "lambda_max": float(top[k]),
                             "n_dof": int(ndof[k]) if np.isfinite(ndof[k]) else -1,
+                            "saddle_escaped": float(esc[k]),
                             "reason": str(why.get(stem.format(k), ""))})
     pts.sort(key=lambda p: p["F_x"])
     return pts
@@ -268,7 +272,11 @@ def onset_numbers(points, dF_x):
         ``undecided`` (a list of [F_x, reason] of the undecided points; the
         reason '' where none was recorded), ``F_x_last`` (largest F_x
         analysed), the keys of :func:`pair_position` (NaN without a complex
-        point) and of :func:`growth_slope`.
+        point) and of :func:`growth_slope`; ``n_saddle`` (points whose
+        equilibrium has an eigenvalue below -NEGATIVE_REL lambda_max: a
+        saddle), ``n_escaped`` (points whose Newton equilibrium was a saddle
+        and was replaced, ``RampConfig.saddle_escape``) and ``saddle_ends``
+        (the bracket's ends that are saddles, their F_x).
     """
     lo, hi = bracket(points)
     out = {"F_x_c_low": lo, "F_x_c_high": hi,
@@ -278,6 +286,10 @@ def onset_numbers(points, dF_x):
            "F_x_last": max((p["F_x"] for p in points), default=math.nan),
            "lambda_c": [math.nan, math.nan], "pair_re_rel": math.nan, "pair_index": -1,
            "n_dof": -1, "slope": math.nan, "F_x_onset_fit": math.nan, "n_points": 0}
+    saddles = [p["F_x"] for p in points if is_saddle(p)]
+    out.update(n_saddle=len(saddles),
+               n_escaped=sum(1 for p in points if p.get("saddle_escaped", 0) > 0),
+               saddle_ends=[F for F in (lo, hi) if F in saddles])
     if math.isfinite(hi):
         top = next(p for p in points if p["F_x"] == hi and p["decision"] == Decision.COMPLEX)
         out.update(pair_position(top["eigenvalues"], top.get("lambda_max", math.nan),
@@ -285,6 +297,20 @@ def onset_numbers(points, dF_x):
         near = [p for p in points if p["decision"] == Decision.COMPLEX and p["F_x"] <= hi + dF_x * (1 + 1e-9)]
         out.update(growth_slope([p["F_x"] for p in near], [p["growth"] for p in near], lo, hi))
     return out
+
+
+def is_saddle(point):
+    """Has the equilibrium of ``point`` (from :func:`read_ramp`) an eigenvalue
+    with Re lambda < -NEGATIVE_REL lambda_max (a saddle; the bottom of the
+    spectrum is listed even where a sliced scan stopped early)?"""
+    from remote_trigger.analysis.stability.analyze import NEGATIVE_REL
+
+    lam = np.asarray(point["eigenvalues"])
+    if lam.size == 0:
+        return False
+    top = point.get("lambda_max", math.nan)
+    top = float(np.max(lam.real)) if not math.isfinite(top) else top
+    return bool(np.min(lam.real) < -NEGATIVE_REL * top)
 
 
 def reanalyse(points, I0):

@@ -32,7 +32,7 @@ COLUMNS = ("key", "n", "seed", "protocol", "I0", "dynamics_consistent", "status"
            "lambda_c_re", "lambda_c_im", "growth_slope", "F_x_onset_fit", "slope_points",
            "n_undecided", "n_steps", "n_bisection", "n_extra", "ramp_status_mu0", "ramp_status_mu_ss",
            "decision_at_zero", "n_pairs_at_zero", "growth_at_zero", "soft_onset", "wall",
-           "pair_pr", "pair_particles")
+           "pair_pr", "pair_particles", "n_saddle", "n_escaped")
 
 
 def _mid(lo, hi):
@@ -119,6 +119,13 @@ def _default_row(task, result, I0, i0_dyn):
             F, what = und[0]
             why.append(f"{len(und)} undecided point(s) at {name}, the first at F_x = {F:.6g}"
                        + (f": {what}" if what else ""))
+        ends = r.get(ck, {}).get("saddle_ends") or []
+        if ends:
+            why.append(f"bracket end(s) on a saddle at {name}: F_x = "
+                       + ", ".join(f"{F:.6g}" for F in ends))
+    for c in ("n_saddle", "n_escaped"):      # both ramps; NaN where not recorded
+        got = [r.get(ck, {}).get(c, math.nan) for r in (r0, r1) if r is not None]
+        row[c] = sum(got) if got else math.nan
     if r0 is not None and ck in r0:
         o = r0[ck]
         row.update(F_x_c_low=o["F_x_c_low"], F_x_c_high=o["F_x_c_high"],
