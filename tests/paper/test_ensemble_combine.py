@@ -76,3 +76,43 @@ def test_refusals_name_the_value(runs, tmp_path):
                        capture_output=True, text=True)
     assert r.returncode == 2 and "drop --set" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
+
+
+def _record_escape(folder, key, value):
+    """Mark packing ``key`` of an ensemble folder as run with saddle_escape = value."""
+    path = os.path.join(folder, "tasks", key + ".json")
+    with open(path) as fh:
+        d = json.load(fh)
+    d["result"]["saddle_escape"] = value
+    with open(path, "w") as fh:
+        json.dump(d, fh)
+
+
+def test_packings_with_and_without_the_saddle_escape_are_not_mixed(runs, tmp_path):
+    """The reference packings record nothing (run before the escape: without
+    it); a run whose packings escaped saddles is not combined with them, and a
+    folder whose packing recorded False is not resumed with the escape on."""
+    from mpi4py import MPI
+
+    from remote_trigger.pywrap.jobs.ensemble import config as ec
+    from remote_trigger.pywrap.jobs.ensemble.job import run_ensemble
+
+    a, b = runs
+    _record_escape(b, "N20_s1", True)
+    with pytest.raises(ConfigError, match="packing N20_s1 .* was run with saddle_escape = "
+                                          "True, N16_s1 .* without it"):
+        combine_runs([a, b], str(tmp_path / "o1"))
+    assert not (tmp_path / "o1").exists()
+    # both recorded True: combined, and the combined configuration has the default
+    _record_escape(a, "N16_s1", True)
+    _record_escape(a, "N16_s2", True)
+    combine_runs([a, b], str(tmp_path / "o2"))
+    assert "saddle_escape" not in json.loads((tmp_path / "o2" / "config.json").read_text())
+    # a folder of the reference run whose packing N16_s2 recorded False
+    c = _run_folder(tmp_path / "c", 16, [1, 2], ["N16_s1", "N16_s2"])
+    _record_escape(c, "N16_s2", False)
+    cfg = ec.build_config(quick=True, overrides={"n": [16], "seeds": [[1, 2]]})
+    with pytest.raises(ConfigError, match="packing N16_s2 was run with saddle_escape = "
+                                          "False, this run has saddle_escape = True"):
+        run_ensemble(cfg, c, comm=MPI.COMM_SELF, speak=False, resume=True)
+    assert not os.path.exists(os.path.join(c, "ensemble.md"))

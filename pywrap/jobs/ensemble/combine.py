@@ -17,7 +17,8 @@ from remote_trigger.pywrap.config import ConfigError
 __all__ = ["collect_runs"]
 
 #: keys that may differ between the runs: the sizes, the seeds, the ranks used
-_FREE = ("n", "seeds", "np")
+#: (``saddle_escape`` is compared per packing, below)
+_FREE = ("n", "seeds", "np", "saddle_escape")
 
 
 def _read_run(path):
@@ -65,11 +66,12 @@ def collect_runs(dirs, out, speak=True):
     ConfigError
         Fewer than two folders; a folder without a readable ``config.json``;
         configurations that differ in another key (named, with both values);
-        a packing finished in two folders; no finished packing at all; an
+        packings run with and without the saddle escape (two named); a
+        packing finished in two folders; no finished packing at all; an
         ``out`` that is a file or not empty. Nothing is written then.
     """
     from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
-    from remote_trigger.pywrap.jobs.ensemble.task import load_task, task_path
+    from remote_trigger.pywrap.jobs.ensemble.task import load_task, saddle_escape_of, task_path
     from remote_trigger.pywrap.runtime.jobfolder import check_job_folder, write_json
 
     dirs = [os.path.abspath(d) for d in dirs]
@@ -93,17 +95,29 @@ def collect_runs(dirs, out, speak=True):
                 raise ConfigError(f"--combine: packing {t['key']} is finished in both "
                                   f"{found[t['key']][0]!r} and {d!r}")
             else:
-                found[t["key"]] = (d, t)
+                found[t["key"]] = (d, t, saddle_escape_of(res))
     if not found:
         raise ConfigError("--combine: no finished packing in " + ", ".join(map(repr, dirs)))
-    sizes = sorted({t["n"] for _, t in found.values()})
-    seeds = [sorted(t["seed"] for _, t in found.values() if t["n"] == n) for n in sizes]
+    # a packing without the record (None) ran before the escape existed: False
+    esc = {k: bool(v[2]) for k, v in found.items()}
+    if len(set(esc.values())) > 1:
+        a = min(k for k, v in esc.items() if v)
+        b = min(k for k, v in esc.items() if not v)
+        raise ConfigError(f"--combine: packing {a} ({found[a][0]!r}) was run with "
+                          f"saddle_escape = True, {b} ({found[b][0]!r}) without it "
+                          "(runs made before the saddle escape had none); combine runs of "
+                          "one protocol")
+    recorded = {v[2] for v in found.values()} - {None}
+    sizes = sorted({t["n"] for _, t, _ in found.values()})
+    seeds = [sorted(t["seed"] for _, t, _ in found.values() if t["n"] == n) for n in sizes]
     merged = dict(c0, n=sizes, seeds=seeds, np=1)
+    if recorded:                # packings of runs that record it: their setting
+        merged["saddle_escape"] = recorded.pop()
     cfg = EnsembleConfig.from_dict(merged)
     out = os.path.abspath(out)
     check_job_folder(out, cfg.to_dict(), False, "an ensemble")     # writes config.json
     os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
-    for key, (d, t) in sorted(found.items()):
+    for key, (d, t, _) in sorted(found.items()):
         with open(task_path(d, key)) as fh:
             write_json(task_path(out, key), json.load(fh))
     if speak:

@@ -93,6 +93,15 @@ class EnsembleConfig(Config):
         a packing is finished. Default False: only ``ramp.h5`` (every
         decision and eigenvalue) and the relaxed packings are kept (a ramp
         at N = 100 leaves ~25 MB of them).
+    saddle_escape : bool
+        Re-equilibrate by damped dynamics a ramp point whose Newton
+        equilibrium is a saddle (``RampConfig.saddle_escape``, docs/driver.md
+        "Saddles"). Default True. Recorded per packing (``tasks/<key>.json``,
+        result ``saddle_escape``): ``--resume`` refuses a folder whose
+        packings recorded the other value, and ``--combine`` refuses to mix
+        packings with and without the escape (packings of runs made before
+        the option record nothing and count as without; ``--resume`` does
+        not check those).
     np : int
         Ranks that run packings, >= 1 (default 1). Above 1 the job re-launches
         itself under ``mpirun -np np+1``: rank 0 hands out the packings
@@ -126,6 +135,7 @@ class EnsembleConfig(Config):
     inertia_I0: float = 1.0
     inertia_extra_steps: int = None
     keep_equilibria: bool = False
+    saddle_escape: bool = True
     np: int = 1
     quick: bool = False
 
@@ -164,7 +174,7 @@ class EnsembleConfig(Config):
         if self.dF_x_max is not None and not _num("dF_x_max", self.dF_x_max) > self.dF_x:
             raise ConfigError(f"dF_x_max must be > dF_x = {self.dF_x!r} (or null: fine "
                               f"ramps), got dF_x_max = {self.dF_x_max!r}")
-        for name in ("frictional", "keep_equilibria", "quick"):
+        for name in ("frictional", "keep_equilibria", "saddle_escape", "quick"):
             check_bool(name, getattr(self, name))
         if self.inertia_I0 is not None:
             _num("inertia_I0", self.inertia_I0, 0, lo_open=True)
@@ -230,13 +240,17 @@ class EnsembleConfig(Config):
         ``dim`` is there only for spheres: the configuration of disks is
         written as before ``dim`` existed, so a folder of disks written
         then resumes (``--resume`` compares ``config.json``) and its files
-        are unchanged.
+        are unchanged. Likewise ``saddle_escape`` only when False; whether
+        a packing escaped saddles is recorded in its result (``tasks/``,
+        missing: not) and checked by ``--resume`` and ``--combine``.
         """
         d = asdict(self)
         d["n"] = list(self.n)
         d["seeds"] = [list(s) for s in self.seeds]
         if self.dim == 2:
             del d["dim"]
+        if self.saddle_escape:
+            del d["saddle_escape"]
         return d
 
     @property

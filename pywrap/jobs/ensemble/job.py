@@ -75,7 +75,8 @@ from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.jobs.ensemble.config import build_config
 from remote_trigger.pywrap.jobs.ensemble.report import (
     rows_of, statistics, write_table, plot, write_summary)
-from remote_trigger.pywrap.jobs.ensemble.task import run_packing, _jsonable, task_path, load_task
+from remote_trigger.pywrap.jobs.ensemble.task import (run_packing, _jsonable, task_path,
+                                                      load_task, saddle_escape_of)
 
 __all__ = ["MANIFEST", "TABLE", "run_ensemble", "combine_runs", "check_out", "register",
            "config_from_args", "main"]
@@ -156,6 +157,12 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
         check_out(cfg, out, resume)
         os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
         os.makedirs(os.path.join(out, "packings"), exist_ok=True)
+        for t in tasks:
+            res = load_task(out, t)
+            if res is not None and saddle_escape_of(res) not in (None, cfg.saddle_escape):
+                raise ConfigError(f"cannot resume {out!r}: packing {t['key']} was run with "
+                                  f"saddle_escape = {saddle_escape_of(res)}, this run has "
+                                  f"saddle_escape = {cfg.saddle_escape}")
         return [t for t in (tasks[i] for i in order) if load_task(out, t) is None]
 
     tasks = cfg.packings()
@@ -165,6 +172,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
     computed = []
 
     def done(t, res, wall):
+        res = dict(res, saddle_escape=cfg.saddle_escape)
         write_json(task_path(out, t["key"]), {"task": t, "status": "complete",
                                                "result": _jsonable(res)})
         computed.append(t["key"])

@@ -381,6 +381,13 @@ def task_path(out, key):
     return os.path.join(out, "tasks", key + ".json")
 
 
+def saddle_escape_of(result):
+    """Whether a packing's ramps escaped saddles: its result's ``saddle_escape``,
+    or None for a result written before the option (its ramps had none)."""
+    v = result.get("saddle_escape")
+    return None if v is None else bool(v)
+
+
 def load_task(out, task):
     """The finished result of a packing, or None (missing, unreadable, other task)."""
     try:
