@@ -178,13 +178,17 @@ class _Stop(Exception):
 
 
 def _top_eigenvalue(S):
-    """ARPACK's largest eigenvalue of the symmetric S (an approximation)."""
-    from scipy.sparse.linalg import eigsh
+    """ARPACK's largest eigenvalue of the symmetric S (an approximation; NaN if
+    ARPACK does not converge)."""
+    from scipy.sparse.linalg import ArpackError, eigsh
 
     if S.shape[0] < 10:
         return float(np.linalg.eigvalsh(S.toarray())[-1])
     v0 = np.random.default_rng(0).standard_normal(S.shape[0])
-    return float(eigsh(S, k=1, which="LA", v0=v0, return_eigenvectors=False)[0])
+    try:
+        return float(eigsh(S, k=1, which="LA", v0=v0, return_eigenvectors=False)[0])
+    except ArpackError:         # ArpackNoConvergence included
+        return math.nan
 
 
 def _scaled(K, mass):

@@ -102,8 +102,8 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
             escaped += 1.0
     res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True)
     lam = np.asarray(res.eigenvalues)
-    neg = (float(np.count_nonzero(lam.real < -NEGATIVE_REL * res.lambda_max))
-           if lam.size else 0.0)
+    scale = res.lambda_max if np.isfinite(res.lambda_max) else np.max(lam.real, initial=0.0)
+    neg = float(np.count_nonzero(lam.real < -NEGATIVE_REL * scale))
     vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
             "from_basis": float(res.start == "basis"), "decision": float(res.decision_code),
             "confidence": float(res.confidence), "growth_rate": res.growth_rate,
