@@ -98,6 +98,14 @@ def test_outputs_and_rows(serial):
                  "## The paper's bracket", "## Frictional relaxation", "## Packings"):
         assert head in md, head
     assert "analysis convention only" in md
+    # the saddle counts of the default rows, summed per size
+    sad = md.split("## Saddles")[1].split("##")[0]
+    for n in (16, 20):
+        rows = ft & (t["n"] == n)
+        line = next(x for x in sad.splitlines() if x.startswith(f"| {n} |"))
+        assert line == (f"| {n} | {rows.sum()} | {t['n_escaped'][rows].sum():.0f} | "
+                        f"{t['n_saddle'][rows].sum():.0f} | "
+                        f"{sum('on a saddle' in r for r in t['reason'][rows])} |")
 
 
 def test_two_ranks_same_table(serial, tmp_path):

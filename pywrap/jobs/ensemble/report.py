@@ -519,6 +519,18 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
               f"eigenvector at the first load certified complex of the mu0 ramp, times N. "
               f"Local onset: N PR < {LOCAL_PAIR_PARTICLES:g}, a pair carried by a few weakly "
               f"held particles rather than the collective mechanism."]
+    sad = [(n, [r for r in select(rows, ft, cfg.I0_dynamics, n, usable=False)
+                if math.isfinite(r["n_saddle"])]) for n in cfg.n]
+    if any(rs for _, rs in sad):
+        # recorded since the saddle screen exists (tables of older runs: none)
+        L += ["", "## Saddles", "", "| N | packings | points escaped | points left on a saddle "
+              "| packings with a bracket end on one |", "|---|---|---|---|---|"]
+        L += [f"| {n} | {len(rs)} | {sum(r['n_escaped'] for r in rs):.0f} | "
+              f"{sum(r['n_saddle'] for r in rs):.0f} | "
+              f"{sum('on a saddle' in r['reason'] for r in rs)} |" for n, rs in sad if rs]
+        L += ["", "Both ramps of each packing. A saddle: an equilibrium with a negative "
+              "eigenvalue; escaped: Newton's equilibrium was one and damped dynamics replaced "
+              "it (docs/driver.md, \"Saddles\")."]
     L += ["", "## N dependence", ""]
     for I0, e in st["n_exponent"].items():
         L.append(f"- I0 = {I0:g}: median F_x^c(mu0) ~ N^{e:.3g} between N = {min(cfg.n)} "
