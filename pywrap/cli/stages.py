@@ -272,6 +272,9 @@ def run_ramp(args):
                 print(f"ramp: {res.message}")
         else:
             print(f"ramp: {res.status}: {res.message} -> {res.h5}")
+        if res.n_escaped or res.n_saddle:
+            print(f"ramp: {res.n_escaped} point(s) whose Newton equilibrium was a saddle, "
+                  f"equilibrated again by damped dynamics; {res.n_saddle} left on a saddle")
     return 0 if res.status == "complete" else 1
 
 

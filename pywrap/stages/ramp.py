@@ -57,6 +57,10 @@ class RampResult:
         The bracket is at most ``tol`` wide.
     n_undecided : int
         Equilibria (steps and bisection) the analyzer left undecided.
+    n_escaped, n_saddle : int
+        Points whose Newton equilibrium was a saddle and was replaced
+        (``RampConfig.saddle_escape``), and points left on a saddle
+        (``n_negative`` > 0); NaN rows (older files) count as 0.
     timestep : dict
         The time-step decision at the start (``dt_used``, ``dt_max``,
         ``dt_fraction``, ``dt_limit_source``, ``dt_auto``; also in ramp.h5).
@@ -79,6 +83,8 @@ class RampResult:
     timestep: dict = field(default_factory=dict)
     tol_reached: bool = False
     n_undecided: int = 0
+    n_escaped: int = 0
+    n_saddle: int = 0
 
     @property
     def F_x_c(self):
@@ -557,6 +563,11 @@ def _load_basis(eng, datafile):
 
 def _ramp_result(rlog, status):
     s, b = rlog.rows["steps"], rlog.rows["bisection"]
+
+    def count(col, test):
+        return int(sum(np.count_nonzero(test(np.asarray(rlog.rows[k][col], float)))
+                       for k in ("steps", "bisection")))
+
     return RampResult(
         F_x=np.asarray(s["F_x"]), residual=np.asarray(s["residual"]),
         complex_pair=np.asarray(s["complex"]) > 0, growth_rate=np.asarray(s["growth_rate"]),
@@ -568,8 +579,9 @@ def _ramp_result(rlog, status):
         bisection_decision=np.asarray(b["decision"]),
         timestep={k: v for k, v in rlog.attrs.items() if k.startswith("dt_")},
         tol_reached=bool(rlog.attrs.get("tol_reached", False)),
-        n_undecided=int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == Decision.UNDECIDED)
-                            for k in ("steps", "bisection"))))
+        n_undecided=count("decision", lambda d: d == Decision.UNDECIDED),
+        n_escaped=count("saddle_escaped", lambda e: e > 0),
+        n_saddle=count("n_negative", lambda m: m > 0))
 
 
 # --------------------------------------------------------------------------- undamped

@@ -93,3 +93,26 @@ def test_an_older_ramp_resumes_only_without_the_escape(relaxed, tmp_path):
     old = {k: v for k, v in attrs.items() if k != "saddle_escape"}
     assert RampConfig.from_attrs(old).saddle_escape is False
     assert RampConfig.from_attrs(dict(old, saddle_escape=True)).saddle_escape is True
+
+
+def test_the_ramp_counts_and_prints_its_escapes(tmp_path):
+    """``remote-trigger ramp`` from the stored step over the saddle (F_x_max just
+    above it): one escape, no point left on a saddle, said in one line."""
+    import subprocess
+
+    from remote_trigger.pywrap.runtime.results import read_all
+    from tests.data import unpack
+
+    from .conftest import CLI, cli_env
+
+    start = unpack("saddle_N400_s8_step_00003", str(tmp_path))
+    out = str(tmp_path / "r")
+    proc = subprocess.run([CLI, "ramp", "--datafile", start, "--out", out, "--F-x", "0.00075",
+                           "--dF-x", "0.00025", "--set", "F_x_max=0.0011", "--quiet"],
+                          capture_output=True, text=True, env=cli_env())
+    assert proc.returncode == 1, proc.stderr           # no complex pair up to F_x_max
+    assert ("ramp: 1 point(s) whose Newton equilibrium was a saddle, equilibrated again by "
+            "damped dynamics; 0 left on a saddle") in proc.stdout
+    _, data = read_all(out + "/ramp.h5")
+    assert list(data["steps/saddle_escaped"]) == [0.0, 1.0]
+    assert list(data["steps/n_negative"]) == [0.0, 0.0]
