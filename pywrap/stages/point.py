@@ -81,7 +81,8 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
     Raises
     ------
     NoEquilibriumError
-        From :func:`~remote_trigger.pywrap.stages.equilibrium.equilibrate`.
+        From :func:`~remote_trigger.pywrap.stages.equilibrium.equilibrate` of
+        the Newton-first equilibrium (a failed escape keeps the saved one).
     """
     import numpy as np
 
@@ -95,8 +96,11 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
             if _screen(eng, prefix + ".dump") <= 0:
                 break
             load_equilibrium_scene(eng, cfg, start_file, F_x, dim)
-            r, t_damped, rec = eq.equilibrate(
-                eng, cfg.replace(newton_start=cfg.newton_start * factor), F_x)
+            try:
+                r, t_damped, rec = eq.equilibrate(
+                    eng, cfg.replace(newton_start=cfg.newton_start * factor), F_x)
+            except eq.NoEquilibriumError:
+                break           # the saved equilibrium (Newton's or an escape's) stays
             t_sim += t_damped
             save_equilibrium(eng, cfg, F_x, prefix)
             escaped += 1.0

@@ -29,23 +29,37 @@ def _dense_counts(dump):
 
 @pytest.fixture(scope="module")
 def saddle_points(tmp_path_factory):
-    """The step F_x = 0.00075 -> 0.001 of the N = 400 packing, with and without escape."""
+    """The step F_x = 0.00075 -> 0.001 of the N = 400 packing: with the escape,
+    and with an escape whose damped dynamics fail (made to here), which keeps
+    Newton's equilibrium."""
     from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages import equilibrium as eq
     from remote_trigger.pywrap.stages.point import ramp_point
     from tests.data import unpack
+
+    real = eq.equilibrate
+
+    def no_damped(eng, cfg, F_x, *args, newton_first=False, **kw):
+        if not newton_first:
+            raise eq.NoEquilibriumError(f"no equilibrium at F_x = {F_x!r} (planted)")
+        return real(eng, cfg, F_x, *args, newton_first=newton_first, **kw)
 
     d = tmp_path_factory.mktemp("saddle")
     start = unpack("saddle_N400_s8_step_00003", str(d))
     cfg = RampConfig(datafile=start, F_x=0.00075, mu=1.0, dF_x=0.00025, tol=4e-6)
     out = {}
     with Engine() as eng:
-        for name, c in (("newton", cfg.replace(saddle_escape=False)), ("escape", cfg)):
-            vals, res = ramp_point(eng, c, start, 0.001, str(d / name))
-            out[name] = (vals, res, str(d / name) + ".dump")
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(eq, "equilibrate", no_damped)
+            vals, res = ramp_point(eng, cfg, start, 0.001, str(d / "newton"))
+        out["newton"] = (vals, res, str(d / "newton") + ".dump")
+        vals, res = ramp_point(eng, cfg, start, 0.001, str(d / "escape"))
+        out["escape"] = (vals, res, str(d / "escape") + ".dump")
     return out
 
 
 def test_newton_lands_on_a_saddle_the_screen_sees_it(saddle_points):
+    """Newton's equilibrium, kept by a failed escape (the point does not end)."""
     vals, res, dump = saddle_points["newton"]
     assert vals["saddle_escaped"] == 0 and vals["damped_time"] == 0
     assert res.decision == "real" and vals["n_negative"] == 1
@@ -116,3 +130,22 @@ def test_the_ramp_counts_and_prints_its_escapes(tmp_path):
     _, data = read_all(out + "/ramp.h5")
     assert list(data["steps/saddle_escaped"]) == [0.0, 1.0]
     assert list(data["steps/n_negative"]) == [0.0, 0.0]
+
+
+def test_without_the_escape_nothing_is_screened(relaxed, tmp_path, monkeypatch):
+    """saddle_escape = False: Newton's equilibrium is kept unscreened."""
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages import point
+
+    def screened(*args):
+        raise AssertionError("screened")
+
+    monkeypatch.setattr(point, "_screen", screened)
+    cfg = RampConfig(datafile=relaxed.datafile, saddle_escape=False)
+    with Engine() as eng:
+        vals, res = point.ramp_point(eng, cfg, relaxed.datafile, 0.01, str(tmp_path / "p"))
+    assert vals["saddle_escaped"] == 0 and res.decision in ("real", "complex")
+    with pytest.raises(AssertionError, match="screened"):
+        with Engine() as eng:
+            point.ramp_point(eng, cfg.replace(saddle_escape=True), relaxed.datafile, 0.01,
+                             str(tmp_path / "q"))
