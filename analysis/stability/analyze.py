@@ -304,29 +304,35 @@ NEGATIVE_REL = 1e-9
 def negative_modes(state, rel_threshold=NEGATIVE_REL):
     """Number of statically unstable directions of an equilibrium: a saddle has one or more.
 
-    Sylvester's count of the eigenvalues of the symmetric part S of
-    A = M^-1/2 K M^-1/2 (rattlers removed as in :func:`analyze`) below
-    -``rel_threshold`` ||S||_1, from one sparse LDL^T factorization
-    (:func:`~remote_trigger.analysis.stability.slicing.count_below`): no
-    eigen-solve, ~0.1 s at n = 28 836. For a symmetric K these are the
-    negative eigenvalues of M^-1 K; the skew part W (friction) moves an
-    isolated one at second order, so this is a cheap screen for saddles
-    (the ramp's), not the verdict, whose eigenvalues are M^-1 K's own.
+    The eigenvalues of A = M^-1/2 K M^-1/2 (similar to M^-1 K; rattlers
+    removed as in :func:`analyze`) with Re lambda < -t, t = ``rel_threshold``
+    ||S||_1, S the symmetric part of A. First Sylvester's count of the
+    eigenvalues of S below -t, from one sparse LDL^T factorization
+    (:func:`~remote_trigger.analysis.stability.slicing.count_below`, ~0.1 s
+    at n = 28 836): Re lambda = x^* S x for a unit eigenvector x of A, so a
+    count of 0 proves that A has none. Otherwise S alone says nothing (a
+    disk whose contacts all slide has a free rotation: a zero column of K,
+    an eigenvalue 0 of A and a negative one of S), and A's eigenvalues
+    nearest -t are computed and counted: LAPACK's up to ``eigen.DENSE_MAX``
+    dofs, ARPACK shift-invert about -t (the 2 c + 6 nearest, c the count of
+    S) above. A screen for the ramp, not a certificate.
 
     Parameters
     ----------
     state : State or State3D
         An equilibrium.
     rel_threshold : float, optional
-        Eigenvalues of S above -rel_threshold ||S||_1 (1/time^2) are not
-        counted (default :data:`NEGATIVE_REL`).
+        Eigenvalues above -t are not counted (default :data:`NEGATIVE_REL`:
+        round-off and exact zero modes).
 
     Returns
     -------
     int
         The count; 0 if every particle is a rattler, -1 if the factorization
-        met a zero pivot (no count).
+        or the eigen-solve failed (no count).
     """
+    from scipy.sparse.linalg import ArpackError, eigs
+
     from remote_trigger.analysis.stability.slicing import _norm1, count_below
 
     res = analyze(state, eigenvalues=False, decide=False)
@@ -334,8 +340,22 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
     if keep.size == 0:
         return 0
     Kr, mr = _jac.remove_dofs(res.K, res.mass, keep)
-    S = _sliced._scaled(Kr, mr)[1]
+    A, S, _ = _sliced._scaled(Kr, mr)
+    t = rel_threshold * _norm1(S)
     try:
-        return count_below(S, -rel_threshold * _norm1(S))[0]
+        c = count_below(S, -t)[0]
     except ValueError:
         return -1
+    n = A.shape[0]
+    if c == 0:
+        return 0
+    if n <= _eigen.DENSE_MAX:
+        lam = np.linalg.eigvals(A.toarray())
+    else:
+        try:
+            lam = eigs(A.tocsc(), k=min(n - 2, 2 * c + 6), sigma=-t, which="LM",
+                       return_eigenvectors=False,
+                       v0=np.random.default_rng(0).standard_normal(n))
+        except (ArpackError, RuntimeError):
+            return -1
+    return int(np.count_nonzero(lam.real < -t))

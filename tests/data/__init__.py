@@ -19,10 +19,19 @@ name                                   what
                                        escape: the step at F_x = 0.00075;
                                        Newton from it to F_x = 0.001 lands on
                                        a saddle (lowest eigenvalue -0.042).
+``free_rotation_N400_s5_step_00002``   the same ensemble's seed 5 at
+``..._step_00002.dump.json``           mu = 0.8, ramped without the escape:
+                                       the equilibrium dump (and sidecar) at
+                                       F_x = 0.0005. A disk whose contacts
+                                       all slide has a free rotation
+                                       (eigenvalue 0 of M^-1 K) and the
+                                       symmetric part a negative eigenvalue
+                                       (-0.097): no saddle. (Newton reaches
+                                       it only along the ramp's own path.)
 =====================================  =========================================
 
 Files are stored gzip-compressed (LAMMPS ``write_data`` text, 21 kB each at
-N = 100, 88 kB at N = 400).
+N = 100, 88 kB at N = 400; the dump 106 kB).
 """
 import gzip
 import os
@@ -34,6 +43,9 @@ FILES = {
     "default_job_mu1_step_00258": "default_job_mu1_step_00258.data.gz",
     "default_job_mu0.8_step_00234": "default_job_mu0.8_step_00234.data.gz",
     "saddle_N400_s8_step_00003": "saddle_N400_s8_step_00003.data.gz",
+    "free_rotation_N400_s5_step_00002": "free_rotation_N400_s5_step_00002.dump.gz",
+    "free_rotation_N400_s5_step_00002.dump.json":
+        "free_rotation_N400_s5_step_00002.dump.json.gz",
 }
 
 

@@ -22,7 +22,7 @@ def _dense_counts(dump):
     A = (Kr.toarray() * s[:, None]) * s[None, :]
     lam = np.linalg.eigvals(A)
     theta = np.linalg.eigvalsh(0.5 * (A + A.T))
-    thr = 1e-9 * np.max(np.abs(theta))
+    thr = 1e-9 * np.max(np.abs(0.5 * (A + A.T)).sum(axis=0))      # the screen's t
     return (int(np.count_nonzero(lam.real < -thr)), int(np.count_nonzero(theta < -thr)),
             negative_modes(state), float(np.min(lam.real)))
 
@@ -149,3 +149,37 @@ def test_without_the_escape_nothing_is_screened(relaxed, tmp_path, monkeypatch):
         with Engine() as eng:
             point.ramp_point(eng, cfg.replace(saddle_escape=True), relaxed.datafile, 0.01,
                              str(tmp_path / "q"))
+
+
+def test_a_free_rotation_is_no_saddle(tmp_path, monkeypatch):
+    """A disk whose contacts all slide (the stored equilibrium): its rotation is
+    free (eigenvalue 0 of M^-1 K) and the symmetric part has a negative
+    eigenvalue. No saddle, by both of the screen's eigen-solves (LAPACK; ARPACK
+    with the dense limit lowered), which still find the saddle of Newton's
+    N = 400 step."""
+    from remote_trigger.analysis.stability import eigen
+    from remote_trigger.analysis.stability.analyze import negative_modes
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
+    from tests.data import unpack
+
+    unpack("free_rotation_N400_s5_step_00002.dump.json", str(tmp_path))
+    dump = unpack("free_rotation_N400_s5_step_00002", str(tmp_path))
+    n_lapack, n_sym, n_screen, low = _dense_counts(dump)
+    assert (n_lapack, n_sym, n_screen) == (0, 1, 0)
+    assert abs(low) < 1e-9                      # the free rotation
+    monkeypatch.setattr(eigen, "DENSE_MAX", 10)
+    assert negative_modes(read_equilibrium(dump)) == 0
+    assert negative_modes(read_equilibrium(_saddle_dump(tmp_path))) == 1
+
+
+def _saddle_dump(tmp_path):
+    """Newton's saddle at F_x = 0.001 from the stored N = 400 step, escape off."""
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages.point import ramp_point
+    from tests.data import unpack
+
+    start = unpack("saddle_N400_s8_step_00003", str(tmp_path))
+    cfg = RampConfig(datafile=start, F_x=0.00075, mu=1.0, saddle_escape=False)
+    with Engine() as eng:
+        ramp_point(eng, cfg, start, 0.001, str(tmp_path / "s"))
+    return str(tmp_path / "s.dump")
