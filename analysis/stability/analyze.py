@@ -297,7 +297,9 @@ def analyze_dump(path, **kwargs):
 
 
 #: an eigenvalue below -NEGATIVE_REL x the spectrum's scale counts as negative
-#: (a saddle's); above it round-off and exact zero modes
+#: (a saddle's); above it round-off and exact zero modes. The scale: ||S||_1 in
+#: :func:`negative_modes`, lambda_max where a stored spectrum is counted (the
+#: ramp's ``n_negative``, the ensemble's ``n_saddle``), within a factor ~2
 NEGATIVE_REL = 1e-9
 
 
