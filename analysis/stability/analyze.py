@@ -296,10 +296,9 @@ def analyze_dump(path, **kwargs):
     return analyze(reader(path, **rk), **kwargs)
 
 
-#: an eigenvalue below -NEGATIVE_REL x the spectrum's scale counts as negative
-#: (a saddle's); above it round-off and exact zero modes. The scale: ||S||_1 in
-#: :func:`negative_modes`, lambda_max where a stored spectrum is counted (the
-#: ramp's ``n_negative``, the ensemble's ``n_saddle``), within a factor ~2
+#: an eigenvalue below -NEGATIVE_REL lambda_max counts as negative (a saddle's);
+#: above it round-off and exact zero modes (the screen :func:`negative_modes`,
+#: the ramp's ``n_negative``, the ensemble's ``n_saddle``)
 NEGATIVE_REL = 1e-9
 
 
@@ -307,17 +306,20 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
     """Number of statically unstable directions of an equilibrium: a saddle has one or more.
 
     The eigenvalues of A = M^-1/2 K M^-1/2 (similar to M^-1 K; rattlers
-    removed as in :func:`analyze`) with Re lambda < -t, t = ``rel_threshold``
-    ||S||_1, S the symmetric part of A. First Sylvester's count of the
-    eigenvalues of S below -t, from one sparse LDL^T factorization
+    removed as in :func:`analyze`) with Re lambda < -t, t =
+    ``rel_threshold`` lambda_max. First Sylvester's count of the eigenvalues
+    of the symmetric part S of A below -t0, t0 = ``rel_threshold`` max S_ii
+    <= t, from one sparse LDL^T factorization
     (:func:`~remote_trigger.analysis.stability.slicing.count_below`, ~0.1 s
     at n = 28 836): Re lambda = x^* S x for a unit eigenvector x of A, so a
     count of 0 proves that A has none. Otherwise S alone says nothing (a
     disk whose contacts all slide has a free rotation: a zero column of K,
     an eigenvalue 0 of A and a negative one of S), and A's eigenvalues
-    nearest -t are computed and counted: LAPACK's up to ``eigen.DENSE_MAX``
-    dofs, ARPACK shift-invert about -t (the 2 c + 6 nearest, c the count of
-    S) above. A screen for the ramp, not a certificate.
+    nearest -t0 are computed and counted: LAPACK's (lambda_max their
+    largest real part) up to ``eigen.DENSE_MAX`` dofs, above it ARPACK
+    shift-invert (the 2 c + 6 nearest, c the count of S; lambda_max
+    ARPACK's top eigenvalue of S, as the sliced verdict reports it). A
+    screen for the ramp, not a certificate.
 
     Parameters
     ----------
@@ -335,7 +337,7 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
     """
     from scipy.sparse.linalg import ArpackError, eigs
 
-    from remote_trigger.analysis.stability.slicing import _norm1, count_below
+    from remote_trigger.analysis.stability.slicing import count_below
 
     res = analyze(state, eigenvalues=False, decide=False)
     keep = res.rattlers.keep_dofs
@@ -343,9 +345,9 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
         return 0
     Kr, mr = _jac.remove_dofs(res.K, res.mass, keep)
     A, S, _ = _sliced._scaled(Kr, mr)
-    t = rel_threshold * _norm1(S)
+    t0 = rel_threshold * float(np.max(S.diagonal()))        # lambda_max(S) >= max S_ii
     try:
-        c = count_below(S, -t)[0]
+        c = count_below(S, -t0)[0]
     except ValueError:
         return -1
     n = A.shape[0]
@@ -353,11 +355,15 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
         return 0
     if n <= _eigen.DENSE_MAX:
         lam = np.linalg.eigvals(A.toarray())
+        top = float(np.max(lam.real))
     else:
         try:
-            lam = eigs(A.tocsc(), k=min(n - 2, 2 * c + 6), sigma=-t, which="LM",
+            lam = eigs(A.tocsc(), k=min(n - 2, 2 * c + 6), sigma=-t0, which="LM",
                        return_eigenvectors=False,
                        v0=np.random.default_rng(0).standard_normal(n))
         except (ArpackError, RuntimeError):
             return -1
-    return int(np.count_nonzero(lam.real < -t))
+        top = _sliced._top_eigenvalue(S)
+        if not np.isfinite(top):
+            return -1
+    return int(np.count_nonzero(lam.real < -rel_threshold * top))

@@ -22,7 +22,7 @@ def _dense_counts(dump):
     A = (Kr.toarray() * s[:, None]) * s[None, :]
     lam = np.linalg.eigvals(A)
     theta = np.linalg.eigvalsh(0.5 * (A + A.T))
-    thr = 1e-9 * np.max(np.abs(0.5 * (A + A.T)).sum(axis=0))      # the screen's t
+    thr = 1e-9 * np.max(lam.real)                                    # the screen's t
     return (int(np.count_nonzero(lam.real < -thr)), int(np.count_nonzero(theta < -thr)),
             negative_modes(state), float(np.min(lam.real)))
 
