@@ -73,8 +73,10 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
         The ramp.h5 row (:data:`remote_trigger.pywrap.stages.ramp_file.COLUMNS`).
         ``saddle_escaped`` the number of escapes made (0: Newton's
         equilibrium screened stable, or no escape tried), ``n_negative`` the
-        verdict's eigenvalues with Re lambda < -NEGATIVE_REL lambda_max (0
-        on a stable equilibrium).
+        eigenvalues of M^-1 K with Re lambda < -NEGATIVE_REL lambda_max (0
+        on a stable equilibrium): LAPACK's of the dense verdict, or the
+        screen's where the verdict is sliced (its list holds the symmetric
+        part's Ritz values); -1 if the screen could not count.
     res : StabilityResult
         The decision; a ramp needs only that, so a sliced scan stops at its
         first complex strip (``scanned_below``).
@@ -106,9 +108,15 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
             save_equilibrium(eng, cfg, F_x, prefix)
             escaped += 1.0
     res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True)
-    lam = np.asarray(res.eigenvalues)
-    scale = res.lambda_max if np.isfinite(res.lambda_max) else np.max(lam.real, initial=0.0)
-    neg = float(np.count_nonzero(lam.real < -NEGATIVE_REL * scale))
+    if res.start == "sliced":
+        # the sliced verdict lists the symmetric part's Ritz values for its
+        # one-eigenvalue strips: a free rotation would count; the screen counts
+        # M^-1 K's own eigenvalues (-1: no count)
+        neg = float(_screen(eng, prefix + ".dump"))
+    else:
+        lam = np.asarray(res.eigenvalues)
+        scale = np.max(lam.real, initial=0.0)
+        neg = float(np.count_nonzero(lam.real < -NEGATIVE_REL * scale))
     vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
             "from_basis": float(res.start == "basis"), "decision": float(res.decision_code),
             "confidence": float(res.confidence), "growth_rate": res.growth_rate,

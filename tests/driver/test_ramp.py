@@ -448,6 +448,7 @@ def test_sliced_ramp_stops_at_the_pair_and_measures_the_same_onset(full_ramp, mo
         cplx = data[f"{kind}/decision"] == 1
         assert np.all(np.isfinite(data[f"{kind}/scanned_below"][cplx]))
         assert np.all(np.isinf(data[f"{kind}/scanned_below"][~cplx]))
+        assert np.all(data[f"{kind}/n_negative"] == 0)      # the screen's count (sliced)
     hi = next(p for p in pts if p["F_x"] == res.F_x_c_high and p["decision"] == 1)
     assert 0 < len(hi["eigenvalues"]) < hi["n_dof"]
     dense = verdict.stability_of_dump(hi["dump"])

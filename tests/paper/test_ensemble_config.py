@@ -141,6 +141,11 @@ def test_saddles_are_counted_and_a_saddle_at_a_bracket_end_is_named():
     assert (o["F_x_c_low"], o["F_x_c_high"]) == (0.15, 0.2)
     assert o["n_saddle"] == 1 and o["saddle_ends"] == [0.15] and o["n_escaped"] == 2
     assert onset.is_saddle(pts[2]) and not onset.is_saddle(pts[1])
+    # the ramp's own count, where recorded, decides (a sliced list holds the
+    # symmetric part's Ritz values: a free rotation is negative there)
+    assert not onset.is_saddle(dict(pts[2], n_negative=0.0))
+    assert onset.is_saddle(dict(pts[0], n_negative=1.0))
+    assert onset.is_saddle(dict(pts[2], n_negative=-1.0))       # no count: the list
     # a partial spectrum: the scale is the recorded lambda_max
     assert onset.is_saddle({"eigenvalues": np.array([-1e-6, 1.0]), "lambda_max": 100.0})
     assert not onset.is_saddle({"eigenvalues": np.array([-1e-6, 1.0]), "lambda_max": 1e4})

@@ -70,7 +70,9 @@ def read_ramp(h5):
         the column ``scanned_below`` where a sliced scan stopped at its first
         complex strip), ``lambda_max`` and ``n_dof`` (the spectrum's top and
         size; NaN and -1 in files that predate these columns),
-        ``saddle_escaped`` (escapes from a saddle made; 0 in older files), ``reason``
+        ``saddle_escaped`` (escapes from a saddle made; 0 in older files),
+        ``n_negative`` (the ramp's count of negative eigenvalues; NaN in
+        older files), ``reason``
         (why an undecided point is undecided, from the file's
         ``undecided_reasons``; '' otherwise or where the file has none).
         Bisection points without an equilibrium are left out.
@@ -93,6 +95,7 @@ def read_ramp(h5):
             ndof = fh[f"{kind}/n_dof"][()] if f"{kind}/n_dof" in fh else nan
             esc = (fh[f"{kind}/saddle_escaped"][()] if f"{kind}/saddle_escaped" in fh
                    else np.zeros(len(F)))
+            nneg = fh[f"{kind}/n_negative"][()] if f"{kind}/n_negative" in fh else nan
             files = [x.decode() if isinstance(x, bytes) else str(x)
                      for x in fh[f"{kind}/datafile"][()]]
             for k in range(len(F)):
@@ -105,7 +108,7 @@ def read_ramp(h5):
                             "dump": files[k][:-len(".data")] + ".dump", "eigenvalues": lam,
                             "lambda_max": float(top[k]),
                             "n_dof": int(ndof[k]) if np.isfinite(ndof[k]) else -1,
-                            "saddle_escaped": float(esc[k]),
+                            "saddle_escaped": float(esc[k]), "n_negative": float(nneg[k]),
                             "reason": str(why.get(stem.format(k), ""))})
     pts.sort(key=lambda p: p["F_x"])
     return pts
@@ -301,10 +304,16 @@ def onset_numbers(points, dF_x):
 
 def is_saddle(point):
     """Has the equilibrium of ``point`` (from :func:`read_ramp`) an eigenvalue
-    with Re lambda < -NEGATIVE_REL lambda_max (a saddle; the bottom of the
-    spectrum is listed even where a sliced scan stopped early)?"""
+    with Re lambda < -NEGATIVE_REL lambda_max (a saddle)? The ramp's
+    ``n_negative`` where recorded; in older files the stored eigenvalues
+    (the bottom of the spectrum is listed even where a sliced scan stopped
+    early; but a sliced list holds the symmetric part's Ritz values, so
+    there a free rotation can count too)."""
     from remote_trigger.analysis.stability.analyze import NEGATIVE_REL
 
+    n = point.get("n_negative", math.nan)
+    if math.isfinite(n) and n >= 0:
+        return n > 0
     lam = np.asarray(point["eigenvalues"])
     if lam.size == 0:
         return False
