@@ -8,8 +8,8 @@ Newton from the previous equilibrium converges to whatever zero of the
 force is nearest, and past a fold of one weakly held particle that can be a
 *saddle*: an equilibrium with a negative eigenvalue, which the damped
 dynamics never stays in (measured: N = 400, seed 8, F_x = 0.001, the
-lowest eigenvalue -0.042 where the step before had 6.39; at N = 6400, 18
-of 66 ramp points; docs/driver.md "Saddles"). So after Newton the point is
+lowest eigenvalue -0.042 where the step before had 6.39; at N = 6400, up
+to 17 of 66 ramp points; docs/driver.md "Saddles"). So after Newton the point is
 screened (``analysis.stability.analyze.negative_modes``: one LDL^T
 factorization, and where that does not exclude it, the eigenvalues of
 M^-1 K nearest 0) and, with ``cfg.saddle_escape``, a saddle is replaced by the
