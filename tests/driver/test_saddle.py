@@ -151,7 +151,7 @@ def test_without_the_escape_nothing_is_screened(relaxed, tmp_path, monkeypatch):
                              str(tmp_path / "q"))
 
 
-def test_a_free_rotation_is_no_saddle(tmp_path, monkeypatch):
+def test_a_free_rotation_is_no_saddle(saddle_points, tmp_path, monkeypatch):
     """A disk whose contacts all slide (the stored equilibrium): its rotation is
     free (eigenvalue 0 of M^-1 K) and the symmetric part has a negative
     eigenvalue. No saddle, by both of the screen's eigen-solves (LAPACK; ARPACK
@@ -169,17 +169,4 @@ def test_a_free_rotation_is_no_saddle(tmp_path, monkeypatch):
     assert abs(low) < 1e-9                      # the free rotation
     monkeypatch.setattr(eigen, "DENSE_MAX", 10)
     assert negative_modes(read_equilibrium(dump)) == 0
-    assert negative_modes(read_equilibrium(_saddle_dump(tmp_path))) == 1
-
-
-def _saddle_dump(tmp_path):
-    """Newton's saddle at F_x = 0.001 from the stored N = 400 step, escape off."""
-    from remote_trigger.pywrap.bindings.engine import Engine
-    from remote_trigger.pywrap.stages.point import ramp_point
-    from tests.data import unpack
-
-    start = unpack("saddle_N400_s8_step_00003", str(tmp_path))
-    cfg = RampConfig(datafile=start, F_x=0.00075, mu=1.0, saddle_escape=False)
-    with Engine() as eng:
-        ramp_point(eng, cfg, start, 0.001, str(tmp_path / "s"))
-    return str(tmp_path / "s.dump")
+    assert negative_modes(read_equilibrium(saddle_points["newton"][2])) == 1
