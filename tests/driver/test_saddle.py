@@ -29,13 +29,19 @@ def _dense_counts(dump):
 
 @pytest.fixture(scope="module")
 def saddle_points(tmp_path_factory):
-    """The step F_x = 0.00075 -> 0.001 of the N = 400 packing: with the escape,
-    and with an escape whose damped dynamics fail (made to here), which keeps
-    Newton's equilibrium."""
+    """The step F_x = 0.00075 -> 0.001 of the N = 400 packing: with an escape
+    whose damped dynamics fail (made to here), which keeps Newton's
+    equilibrium; and with the escape, by ``remote-trigger ramp`` from the
+    stored step (F_x_max just above the saddle's load: two steps)."""
+    import subprocess
+
     from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.runtime.results import read_all
     from remote_trigger.pywrap.stages import equilibrium as eq
     from remote_trigger.pywrap.stages.point import ramp_point
     from tests.data import unpack
+
+    from .conftest import CLI, cli_env
 
     real = eq.equilibrate
 
@@ -53,8 +59,14 @@ def saddle_points(tmp_path_factory):
             mp.setattr(eq, "equilibrate", no_damped)
             vals, res = ramp_point(eng, cfg, start, 0.001, str(d / "newton"))
         out["newton"] = (vals, res, str(d / "newton") + ".dump")
-        vals, res = ramp_point(eng, cfg, start, 0.001, str(d / "escape"))
-        out["escape"] = (vals, res, str(d / "escape") + ".dump")
+    r = str(d / "r")
+    proc = subprocess.run([CLI, "ramp", "--datafile", start, "--out", r, "--F-x", "0.00075",
+                           "--dF-x", "0.00025", "--set", "F_x_max=0.0011", "--quiet"],
+                          capture_output=True, text=True, env=cli_env())
+    _, data = read_all(r + "/ramp.h5")
+    row = {c: float(data[f"steps/{c}"][-1]) for c in
+           ("saddle_escaped", "damped_time", "n_negative", "decision", "residual")}
+    out["escape"] = (row, proc, r + "/ramp/step_00001.dump", data)
     return out
 
 
@@ -71,9 +83,9 @@ def test_newton_lands_on_a_saddle_the_screen_sees_it(saddle_points):
 def test_the_escape_reaches_a_stable_equilibrium(saddle_points):
     """Damped dynamics from the same start: every eigenvalue positive, the
     lowest that of the steps before (6.39), at the ramp's residual."""
-    vals, res, dump = saddle_points["escape"]
+    vals, _, dump, _ = saddle_points["escape"]
     assert vals["saddle_escaped"] >= 1 and vals["damped_time"] > 0
-    assert vals["n_negative"] == 0 and res.decision == "real"
+    assert vals["n_negative"] == 0 and vals["decision"] == 0          # real
     n_lapack, n_sym, n_screen, low = _dense_counts(dump)
     assert n_lapack == n_sym == n_screen == 0
     assert 6.0 < low < 7.0
@@ -109,25 +121,13 @@ def test_an_older_ramp_resumes_only_without_the_escape(relaxed, tmp_path):
     assert RampConfig.from_attrs(dict(old, saddle_escape=True)).saddle_escape is True
 
 
-def test_the_ramp_counts_and_prints_its_escapes(tmp_path):
+def test_the_ramp_counts_and_prints_its_escapes(saddle_points):
     """``remote-trigger ramp`` from the stored step over the saddle (F_x_max just
     above it): one escape, no point left on a saddle, said in one line."""
-    import subprocess
-
-    from remote_trigger.pywrap.runtime.results import read_all
-    from tests.data import unpack
-
-    from .conftest import CLI, cli_env
-
-    start = unpack("saddle_N400_s8_step_00003", str(tmp_path))
-    out = str(tmp_path / "r")
-    proc = subprocess.run([CLI, "ramp", "--datafile", start, "--out", out, "--F-x", "0.00075",
-                           "--dF-x", "0.00025", "--set", "F_x_max=0.0011", "--quiet"],
-                          capture_output=True, text=True, env=cli_env())
+    _, proc, _, data = saddle_points["escape"]
     assert proc.returncode == 1, proc.stderr           # no complex pair up to F_x_max
     assert ("ramp: 1 point(s) whose Newton equilibrium was a saddle, equilibrated again by "
             "damped dynamics; 0 left on a saddle") in proc.stdout
-    _, data = read_all(out + "/ramp.h5")
     assert list(data["steps/saddle_escaped"]) == [0.0, 1.0]
     assert list(data["steps/n_negative"]) == [0.0, 0.0]
 
