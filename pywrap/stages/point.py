@@ -94,9 +94,11 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
     r, t_sim, rec = eq.equilibrate(eng, cfg, F_x, newton_first=True)
     save_equilibrium(eng, cfg, F_x, prefix)
     escaped = 0.0
+    counted = None              # the screen's count of the saved equilibrium, once made
     if getattr(cfg, "saddle_escape", True) and dim == 2:
         for factor in ESCAPE_NEWTON_START:
-            if _screen(eng, prefix + ".dump") <= 0:
+            counted = _screen(eng, prefix + ".dump")
+            if counted <= 0:
                 break
             load_equilibrium_scene(eng, cfg, start_file, F_x, dim)
             try:
@@ -107,12 +109,13 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
             t_sim += t_damped
             save_equilibrium(eng, cfg, F_x, prefix)
             escaped += 1.0
+            counted = None
     res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True)
     if res.start == "sliced":
         # the sliced verdict lists the symmetric part's Ritz values for its
         # one-eigenvalue strips: a free rotation would count; the screen counts
         # M^-1 K's own eigenvalues (-1: no count)
-        neg = float(_screen(eng, prefix + ".dump"))
+        neg = float(_screen(eng, prefix + ".dump") if counted is None else counted)
     else:
         lam = np.asarray(res.eigenvalues)
         scale = np.max(lam.real, initial=0.0)
