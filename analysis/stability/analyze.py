@@ -198,7 +198,7 @@ def check_equilibrium(state, factor=FAR_ABOVE_FLOOR, what=None):
 
 
 def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=None,
-            min_contacts=None):
+            min_contacts=None, progress=None):
     """Stiffness, rattlers, spectrum and complex-pair decision of one state.
 
     Parameters
@@ -224,6 +224,9 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
     min_contacts : int, optional
         Rattler criterion: fewer contacts than this (default 2 for frictional
         disks, 3 for spheres, docs/model.md section 9.1).
+    progress : callable, optional
+        Sliced path only: ``progress(done, n)`` after each slice (see
+        :func:`~remote_trigger.analysis.stability.sliced.classify_sliced`).
 
     Returns
     -------
@@ -251,7 +254,7 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
         if sliced:
             # the whole-spectrum verdict by slicing; its eigenvalues are the Ritz
             # values of the symmetric part and the strips' block eigenvalues
-            dec = _sliced.classify_sliced(Kr, mr)
+            dec = _sliced.classify_sliced(Kr, mr, progress=progress)
             eig = _eigen.EigenResult(np.asarray(dec.eigenvalues, np.complex128), method="sliced")
         elif dense:
             if decide:

@@ -214,7 +214,7 @@ def _scaled(K, mass):
 
 
 def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=None,
-                    stop_at_complex=False):
+                    stop_at_complex=False, progress=None):
     """Certified complex-pair verdict on the whole spectrum of M^-1 K, by slicing.
 
     Parameters
@@ -241,6 +241,11 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         ``lambda_max`` is ARPACK's largest eigenvalue of the symmetric part.
         What a ramp needs (its decision), at a fraction of the cost when the
         pair is low in the spectrum.
+    progress : callable, optional
+        Called as ``progress(done, n)`` after each slice: ``done`` of the n
+        eigenvalues of S lie below the slices computed so far (their
+        Sylvester count). For progress output only: it does not change the
+        verdict.
 
     Returns
     -------
@@ -351,6 +356,8 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
             t_slices += time.perf_counter() - ts
             buf.add(sl, sid)
             sid += 1
+            if progress is not None:
+                progress(dropped + buf.th.size, n)
             ctx.r_glob = max(ctx.r_glob, sl.radius)
             final = dropped + buf.th.size == n
             top = n if final else None

@@ -243,7 +243,7 @@ def _amount(nbytes):
     return f"{nbytes / 2**10:.1f} KiB"
 
 
-def stability_of(state, basis=None, stop_at_complex=False):
+def stability_of(state, basis=None, stop_at_complex=False, progress=None):
     """Eigen-analysis of an analysis ``State`` with the analyzer.
 
     Up to ``eigen.DENSE_MAX`` dofs the dense certified decision (from
@@ -265,6 +265,9 @@ def stability_of(state, basis=None, stop_at_complex=False):
         Sliced path only: stop the scan at the first strip certified complex
         (the same certified verdict; the eigenvalues above it are not
         computed, see ``StabilityResult.scanned_below``). Default False.
+    progress : callable, optional
+        Sliced path only: ``progress(done, n)`` after each slice (see
+        :func:`~remote_trigger.analysis.stability.sliced.classify_sliced`).
 
     Returns
     -------
@@ -293,7 +296,7 @@ def stability_of(state, basis=None, stop_at_complex=False):
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
     if Kr.shape[0] > eigen.DENSE_MAX:
         # the whole-spectrum verdict by slicing: no dense matrix, no basis
-        dec = classify_sliced(Kr, mr, stop_at_complex=stop_at_complex)
+        dec = classify_sliced(Kr, mr, stop_at_complex=stop_at_complex, progress=progress)
     else:
         check_dense_fits(Kr.shape[0])
         if basis is not None and basis.dofs is not None:
@@ -321,12 +324,12 @@ def stability_of(state, basis=None, stop_at_complex=False):
                            int(Kr.shape[0]), float(dec.scanned_below), float(lam_max))
 
 
-def stability_of_dump(path, basis=None, stop_at_complex=False):
+def stability_of_dump(path, basis=None, stop_at_complex=False, progress=None):
     """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
 
     A dump of spheres (``dump_dimension``) is read by ``read_dump3d``.
 
-    ``basis``, ``stop_at_complex``: as in :func:`stability_of`.
+    ``basis``, ``stop_at_complex``, ``progress``: as in :func:`stability_of`.
 
     Raises
     ------
@@ -340,4 +343,4 @@ def stability_of_dump(path, basis=None, stop_at_complex=False):
         state = read_equilibrium(path)      # spheres: 6 dofs each, rattlers below 3 contacts
     except (OSError, KeyError, IndexError, ValueError) as exc:
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
-    return stability_of(state, basis, stop_at_complex)
+    return stability_of(state, basis, stop_at_complex, progress)

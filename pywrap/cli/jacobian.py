@@ -114,9 +114,23 @@ def run(args):
             raise NotEquilibriumError(f"{exc}; --allow-residual analyses it anyway") from None
         warning = f"WARNING: {exc}; the eigenvalues below do not describe its motion"
         print(f"remote-trigger jacobian: {warning}", file=sys.stderr, flush=True)
-    res = analyze(state, eigenvalues=not args.no_eigen, decide=not args.no_eigen,
-                  method=args.method, k=args.k, sigma=args.sigma,
-                  min_contacts=args.min_contacts)
+    bar = []                    # a progress bar for a sliced verdict (minutes at N >= 6400)
+
+    def progress(done, n):
+        if not bar:
+            from tqdm import tqdm
+
+            bar.append(tqdm(total=n, desc="verdict", unit="eigenvalue", leave=False,
+                            dynamic_ncols=True))
+        bar[0].update(done - bar[0].n)
+
+    try:
+        res = analyze(state, eigenvalues=not args.no_eigen, decide=not args.no_eigen,
+                      method=args.method, k=args.k, sigma=args.sigma,
+                      min_contacts=args.min_contacts, progress=progress)
+    finally:
+        if bar:
+            bar[0].close()
     sigma = res.eigen.sigma if res.eigen is not None and res.eigen.sigma is not None \
         else np.nan
     K = res.K

@@ -193,20 +193,22 @@ def packing_fraction(state):
     return float(np.sum(np.pi * state.radii ** 2) / (L * h))
 
 
-def _analyze(eng, dump, basis=None, stop_at_complex=False):
+def _analyze(eng, dump, basis=None, stop_at_complex=False, progress=None):
     """Eigen-analysis of a dump on rank 0, broadcast to all ranks.
 
     ``basis``: the previous point's ``StabilityResult.basis`` (rank 0's;
     ignored elsewhere). The result's ``basis`` is kept on rank 0 only (None
     on the others: it is an n x n pair of matrices, not broadcast).
-    ``stop_at_complex``: as in ``analysis.stability.verdict.stability_of``.
+    ``stop_at_complex``, ``progress`` (called on rank 0 only): as in
+    ``analysis.stability.verdict.stability_of``.
     """
     from remote_trigger.analysis.stability.verdict import stability_of_dump
 
     kept = {}
 
     def run():
-        res = stability_of_dump(dump, basis, stop_at_complex=stop_at_complex)
+        res = stability_of_dump(dump, basis, stop_at_complex=stop_at_complex,
+                                progress=progress)
         kept["basis"], res.basis = res.basis, None
         return res
 

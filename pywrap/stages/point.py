@@ -27,11 +27,24 @@ from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.stages.common import (_analyze, load_equilibrium_scene,
                                                  save_equilibrium)
 
-__all__ = ["ramp_point"]
+__all__ = ["ramp_point", "verdict_progress"]
 
 #: the escapes from a saddle: damped dynamics from the start until the
 #: residual is below newton_start x factor, then Newton (one try per factor)
 ESCAPE_NEWTON_START = (1e-4, 1e-6)
+
+
+def verdict_progress(bar, F_x):
+    """A ``progress`` for :func:`ramp_point` that shows a sliced verdict's advance
+    in the postfix of the tqdm ``bar`` ("F_x 0.00025: verdict 11830/28836
+    eigenvalues"); None for a disabled bar (quiet, or not rank 0)."""
+    if bar.disable:
+        return None
+
+    def show(done, n):
+        bar.set_postfix_str(f"F_x {F_x:.6g}: verdict {done}/{n} eigenvalues", refresh=True)
+
+    return show
 
 
 def _screen(eng, dump):
@@ -45,7 +58,7 @@ def _screen(eng, dump):
     return on_rank0(eng.comm, run)
 
 
-def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
+def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=None):
     """Equilibrate at F_x from ``start_file``, save ``prefix.*``, analyse.
 
     Parameters
@@ -66,6 +79,9 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
     dim : int
         3 for spheres (their history comes from the dump beside
         ``start_file``).
+    progress : callable, optional
+        ``progress(done, n)`` on rank 0 after each slice of a sliced verdict
+        (``analysis.stability.sliced.classify_sliced``).
 
     Returns
     -------
@@ -110,7 +126,7 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2):
             save_equilibrium(eng, cfg, F_x, prefix)
             escaped += 1.0
             counted = None
-    res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True)
+    res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True, progress=progress)
     if res.start == "sliced":
         # the sliced verdict lists the symmetric part's Ritz values for its
         # one-eigenvalue strips: a free rotation would count; the screen counts

@@ -18,7 +18,7 @@ from remote_trigger.pywrap.stages import ramp_file
 from remote_trigger.pywrap.stages.common import (
     EQUILIBRIUM_EXTS, _ensure_dir, _progress, check_spheres_ramp, start_sha256,
     start_timestep)
-from remote_trigger.pywrap.stages.point import ramp_point
+from remote_trigger.pywrap.stages.point import ramp_point, verdict_progress
 
 
 @dataclass
@@ -394,7 +394,8 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
         name = ramp_file.point_name(ramp_file.STEPS, k)
         prefix = os.path.join(folder, name)
         try:
-            vals, res = ramp_point(eng, rcfg, start, F, prefix, basis, dim)
+            vals, res = ramp_point(eng, rcfg, start, F, prefix, basis, dim,
+                                   verdict_progress(bar, F))
         except eq.NoEquilibriumError as exc:
             rlog.attrs["message"] = str(exc)
             _checkpoint(eng, rlog, folder, "no_equilibrium")
@@ -434,7 +435,7 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
         prefix = os.path.join(folder, name)
         try:
             vals, res = ramp_point(eng, rcfg, lo_file, mid, prefix,
-                                    _load_basis(eng, lo_file), dim)
+                                    _load_basis(eng, lo_file), dim, verdict_progress(bar, mid))
         except eq.NoEquilibriumError:
             vals = {c: np.nan for c in ramp_file.COLUMNS}
             vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer

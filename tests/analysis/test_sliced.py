@@ -239,6 +239,25 @@ def test_stop_at_complex_lists_the_spectrum_below_the_first_complex_strip():
     assert "only" in stop.describe() and "only" not in full.describe()
 
 
+def test_progress_counts_the_scan_and_changes_nothing():
+    """``progress(done, n)`` after each slice: done rises with every slice to n
+    for a whole scan (real) and stops below n for a scan stopped at a complex
+    strip; the verdicts and eigenvalues are those of the same calls without it."""
+    n = 150
+    for pairs, stop, want in (((), False, False), (((40, 1.5),), True, True)):
+        K, mass = planted(n=n, pairs=pairs, seed=7)
+        calls, st = [], SlicedStats()
+        got = classify_sliced(K, mass, stop_at_complex=stop, slice_size=20, stats=st,
+                              progress=lambda done, m: calls.append((done, m)))
+        ref = classify_sliced(K, mass, stop_at_complex=stop, slice_size=20)
+        assert got.complex_present is want and ref.complex_present is want, got.reason
+        np.testing.assert_array_equal(got.eigenvalues, ref.eigenvalues)
+        done = [d for d, _ in calls]
+        assert all(m == n for _, m in calls) and len(calls) == st.slices > 1
+        assert all(a < b for a, b in zip(done, done[1:])) and done[0] > 0
+        assert (done[-1] == n) is (not stop)
+
+
 @pytest.mark.parametrize("pair, want", [(20, True), (None, None)])
 def test_slicing_that_fails_above_a_complex_strip_is_complex(monkeypatch, pair, want):
     """The slices stop after the third (a planted failure): with a complex

@@ -65,10 +65,15 @@ def test_above_the_dense_switch_the_default_is_the_sliced_verdict(capsys, tmp_pa
         eq.equilibrate(eng, cfg, F_x, newton_first=True)
         prefix = str(tmp_path / "n1600")
         save_equilibrium(eng, cfg, F_x, prefix)
-    status, out = _jacobian(capsys, prefix + ".dump", "-o", tmp_path / "K.npz")
+    status = main(["jacobian", prefix + ".dump", "-o", str(tmp_path / "K.npz")])
+    cap = capsys.readouterr()
+    out = cap.out
     d = np.load(tmp_path / "K.npz")
     assert status == 0
     assert d["keep_dofs"].size > eigen.DENSE_MAX            # above the switch
+    # the sliced verdict's progress bar (stderr), up to every eigenvalue
+    n = d["keep_dofs"].size
+    assert "verdict" in cap.err and f"{n}/{n}" in cap.err
     assert "complex pair: no" in out and "partial decision" not in out
     assert "eigenvalues (sliced)" in out
     # whole spectrum, certified real (the N = 1600 ramp turns complex above F_x = 0.0025)

@@ -423,22 +423,25 @@ def test_undecided_points_keep_their_reason_in_ramp_h5(full_ramp, tmp_path, monk
 
 
 def test_sliced_ramp_stops_at_the_pair_and_measures_the_same_onset(full_ramp, monkeypatch,
-                                                                   tmp_path):
+                                                                   tmp_path, capsys):
     """The same ramp decided by slicing (the switch lowered below its n): its
     scans stop at the first complex strip (ramp.h5's ``scanned_below`` finite
     at complex points only, fewer eigenvalues there), its certified answers
     agree with the dense ramp's bracket, and the onset numbers from the
     stopped scan -- the pair's place and index, the spectrum's size and top
-    -- are those of the dense whole spectrum of the same equilibrium."""
+    -- are those of the dense whole spectrum of the same equilibrium. The
+    progress bar shows each point's verdict as it scans."""
     from remote_trigger.analysis.stability import eigen, verdict
     from remote_trigger.pywrap.jobs.ensemble.onset import (onset_numbers, pair_position,
                                                            read_ramp)
 
     cfg, full = full_ramp
     monkeypatch.setattr(eigen, "DENSE_MAX", 10)
-    res = stages.ramp(cfg, str(tmp_path), quiet=True)
+    res = stages.ramp(cfg, str(tmp_path), quiet=False)
     monkeypatch.undo()
     assert res.status == "complete", res.message
+    err = capsys.readouterr().err
+    assert ": verdict " in err and " eigenvalues" in err
     assert res.F_x_c_low <= full.F_x_c_low and res.F_x_c_high >= full.F_x_c_high
     pts = read_ramp(res.h5)
     assert all(p["F_x"] > full.F_x_c_low for p in pts if p["decision"] == 1)
