@@ -21,6 +21,17 @@ The eigenvector is computed by ARPACK shift-invert about lambda_c (complex
 shift, sparse LU of M^-1/2 K M^-1/2 - lambda_c), or densely for tiny
 systems; it is an approximation (its residual is returned), used to
 describe the mode, never to decide.
+
+Whether the mode is a long plane wave is measured by its *long-wave
+fraction*: the part of sum |u_i|^2 that lies, component by component, in
+the span of the plane waves exp(i k x_i), k = 2 pi m / L_x, |m| <= m_max
+(default 3: the longest waves the box, periodic in x, holds). For a
+random vector on N particles it is (2 m_max + 1) / N on average (the
+dimension of the span over that of the space); a mode made of those waves
+has 1. A candidate mechanism for F_x^c falling with N is the near
+degeneracy of long-wavelength modes (exact in tiled packings,
+docs/results/ensemble.md); this fraction tells whether the first pair is
+such a mode.
 """
 from dataclasses import dataclass
 
@@ -28,7 +39,10 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["PairMode", "pair_mode", "participation_ratio"]
+__all__ = ["PairMode", "pair_mode", "participation_ratio", "long_wave_fraction"]
+
+#: the longest plane waves of the long-wave fraction: |m| <= LONG_WAVE_M
+LONG_WAVE_M = 3
 
 #: below this many kept dofs the eigenvector comes from a dense eig
 _DENSE_BELOW = 64
@@ -50,6 +64,9 @@ class PairMode:
         N PR: the effective number of particles that move.
     residual : float
         ||A v - lambda v|| / (||A||_1 ||v||) of the mass-weighted eigenvector v.
+    long_wave : float
+        :func:`long_wave_fraction` of the translations (|m| <= LONG_WAVE_M),
+        in [0, 1]; a random vector has (2 LONG_WAVE_M + 1) / N on average.
     """
 
     eigenvalue: complex
@@ -57,6 +74,7 @@ class PairMode:
     participation_ratio: float
     n_particles: float
     residual: float
+    long_wave: float = float("nan")
 
 
 def participation_ratio(u):
@@ -84,6 +102,52 @@ def participation_ratio(u):
     w = np.sum(np.abs(u) ** 2, axis=1)
     s4 = float(np.sum(w * w))
     return float(np.sum(w) ** 2 / (u.shape[0] * s4)) if s4 > 0 else float("nan")
+
+
+def long_wave_fraction(u, x, L_x, m_max=LONG_WAVE_M):
+    """Fraction of sum |u_i|^2 in the span of the plane waves exp(i k x_i).
+
+    Parameters
+    ----------
+    u : array_like, shape (N, d)
+        One vector (real or complex) per particle.
+    x : array_like, shape (N,)
+        The particles' x coordinates (length).
+    L_x : float
+        The periodic box length along x (length), > 0.
+    m_max : int, optional
+        Waves k = 2 pi m / L_x with |m| <= m_max (default 3).
+
+    Returns
+    -------
+    float
+        sum over the d components of ||P u_a||^2 / sum |u_i|^2, P the
+        orthogonal projector onto the span of the 2 m_max + 1 vectors
+        (exp(i k x_i))_i: in [0, 1], 1 for a combination of those waves,
+        (2 m_max + 1) / N on average for a random vector. NaN for a zero
+        ``u``.
+
+    Raises
+    ------
+    ValueError
+        If the shapes disagree, ``L_x`` is not positive and finite, or
+        2 m_max + 1 > N (the waves span everything).
+    """
+    u = np.asarray(u)
+    x = np.asarray(x, np.float64).reshape(-1)
+    if u.ndim != 2 or u.shape[0] != x.size:
+        raise ValueError(f"long_wave_fraction needs u of shape (N, d) and x of N values, "
+                         f"got {u.shape} and {x.size}")
+    if not (np.isfinite(L_x) and L_x > 0):
+        raise ValueError(f"long_wave_fraction needs a positive box length, got L_x = {L_x!r}")
+    m = np.arange(-int(m_max), int(m_max) + 1)
+    if m.size > x.size:
+        raise ValueError(f"long_wave_fraction: {m.size} waves for {x.size} particles")
+    norm2 = float(np.sum(np.abs(u) ** 2))
+    if norm2 == 0.0:
+        return float("nan")
+    Q, _ = np.linalg.qr(np.exp(1j * np.outer(x, 2.0 * np.pi * m / L_x)))
+    return float(np.sum(np.abs(Q.conj().T @ u) ** 2) / norm2)
 
 
 def pair_mode(state, eigenvalue):
@@ -141,4 +205,5 @@ def pair_mode(state, eigenvalue):
     u = full.reshape(state.n, per)[:, :(3 if spheres else 2)]
     u = u / np.linalg.norm(u)
     pr = participation_ratio(u)
-    return PairMode(lam_j, u, pr, pr * state.n, resid)
+    lw = long_wave_fraction(u, state.positions[:, 0], float(state.box_length[0]))
+    return PairMode(lam_j, u, pr, pr * state.n, resid, lw)

@@ -5,7 +5,8 @@ import pytest
 
 from remote_trigger.analysis.stability import eigen, jacobian
 from remote_trigger.analysis.stability.analyze import analyze
-from remote_trigger.analysis.stability.modeshape import pair_mode, participation_ratio
+from remote_trigger.analysis.stability.modeshape import (long_wave_fraction, pair_mode,
+                                                        participation_ratio)
 
 from .builders import random_packing
 
@@ -22,6 +23,33 @@ def test_participation_ratio_of_known_vectors():
     assert np.isnan(participation_ratio(np.zeros((n, 2))))
     with pytest.raises(ValueError, match=r"shape \(5,\)"):
         participation_ratio(np.ones(5))
+
+
+def test_long_wave_fraction_of_known_vectors():
+    """1 for a combination of the long waves (any positions), 0 for a shorter
+    wave on a lattice (orthogonal there), (2 m_max + 1)/N on average for random
+    vectors, and refusals that name the value."""
+    rng = np.random.default_rng(3)
+    n, L = 60, 30.0
+    x = rng.uniform(0.0, L, n)
+    k2, k3 = 2 * np.pi * 2 / L, 2 * np.pi * -3 / L
+    u = np.column_stack([np.exp(1j * k2 * x), 0.5 * np.exp(1j * k3 * x) - 2j])
+    assert long_wave_fraction(u, x, L) == pytest.approx(1.0, rel=1e-12)
+    assert long_wave_fraction(u.real, x, L) == pytest.approx(1.0, rel=1e-12)  # cos = sum of two
+    lattice = np.arange(n) * (L / n)
+    short = np.column_stack([np.exp(1j * 2 * np.pi * 5 / L * lattice), np.zeros(n)])
+    assert long_wave_fraction(short, lattice, L) < 1e-25
+    assert long_wave_fraction(short, lattice, L, m_max=5) == pytest.approx(1.0, rel=1e-12)
+    got = [long_wave_fraction(rng.standard_normal((n, 2)) + 1j * rng.standard_normal((n, 2)),
+                              x, L) for _ in range(400)]
+    assert np.mean(got) == pytest.approx(7 / n, rel=0.1)
+    assert np.isnan(long_wave_fraction(np.zeros((n, 2)), x, L))
+    with pytest.raises(ValueError, match="L_x = -1.0"):
+        long_wave_fraction(u, x, -1.0)
+    with pytest.raises(ValueError, match=r"\(60, 2\) and 59"):
+        long_wave_fraction(u, x[:-1], L)
+    with pytest.raises(ValueError, match="7 waves for 5 particles"):
+        long_wave_fraction(u[:5], x[:5], L)
 
 
 def _dense_reference(state):
@@ -48,6 +76,9 @@ def test_pair_mode_matches_lapack(nx, ny):
     assert m.translations.shape == (st.n, 2)
     assert np.linalg.norm(m.translations) == pytest.approx(1.0, rel=1e-12)
     assert m.residual < 1e-12
+    assert m.long_wave == long_wave_fraction(m.translations, st.positions[:, 0],
+                                             st.box_length[0])
+    assert 0 <= m.long_wave <= 1
 
 
 def test_pair_mode_refuses_a_nonfinite_eigenvalue():

@@ -464,3 +464,34 @@ def test_sliced_ramp_stops_at_the_pair_and_measures_the_same_onset(full_ramp, mo
     # a one-eigenvalue strip; W moves A's at second order (6e-5 here, N = 20)
     assert hi["lambda_max"] == pytest.approx(dense.lambda_max, rel=1e-4)
     assert got["pair_re_rel"] == pytest.approx(want["pair_re_rel"], rel=1e-4)
+
+
+def test_a_finished_packing_without_the_long_wave_fraction_gets_it_from_its_equilibria(
+        full_ramp):
+    """``ensemble.task.add_missing_shape`` on a ramp part recorded before the
+    long-wave fraction existed: it is computed from the ramp's kept
+    equilibria (the first complex point's pair mode, as a fresh run records
+    it), the recorded onset numbers unchanged; a part that has it is left alone."""
+    import math
+
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
+    from remote_trigger.analysis.stability.modeshape import pair_mode
+    from remote_trigger.pywrap.jobs.ensemble import config as ec
+    from remote_trigger.pywrap.jobs.ensemble.onset import onset_numbers, read_ramp
+    from remote_trigger.pywrap.jobs.ensemble.task import add_missing_shape
+
+    cfg, res = full_ramp
+    ecfg = ec.build_config(quick=True)
+    key = f"I0_{ecfg.I0_dynamics:g}"
+    pts = read_ramp(res.h5)
+    o = onset_numbers(pts, ecfg.dF_x)
+    result = {"default": {"ramps": {"mu0": {"h5": res.h5, key: dict(o)}, "mu_ss": None}}}
+    assert add_missing_shape(ecfg, result) == (1, 1)
+    got = result["default"]["ramps"]["mu0"][key]
+    top = next(p for p in pts if p["F_x"] == o["F_x_c_high"] and p["decision"] == 1)
+    want = pair_mode(read_equilibrium(top["dump"]), complex(*o["lambda_c"]))
+    assert got["pair_longwave"] == want.long_wave and 0 <= want.long_wave <= 1
+    assert got["pair_pr"] == want.participation_ratio
+    for k, v in o.items():
+        assert got[k] == v or (isinstance(v, float) and math.isnan(v)), k
+    assert add_missing_shape(ecfg, result) == (0, 0)

@@ -17,9 +17,9 @@ def reference_table():
         return json.load(fh)
 
 
-#: columns added to the table after the reference run: the pair's mode shape,
-#: the saddle counts
-ADDED_COLUMNS = {"pair_pr", "pair_particles", "n_saddle", "n_escaped"}
+#: columns added to the table after the reference run: the pair's mode shape
+#: (participation, long-wave fraction), the saddle counts
+ADDED_COLUMNS = {"pair_pr", "pair_particles", "n_saddle", "n_escaped", "pair_longwave"}
 
 
 def assert_reference_columns(h5path):

@@ -78,6 +78,7 @@ def test_outputs_and_rows(serial):
         # the pair's mode: a participation ratio in [1/N, 1], N PR particles
         assert 1 / t["n"][i] <= t["pair_pr"][i] <= 1
         assert t["pair_particles"][i] == pytest.approx(t["n"][i] * t["pair_pr"][i], rel=1e-12)
+        assert 0 <= t["pair_longwave"][i] <= 1
         assert 0.5 < t["phi"][i] < 0.9
         # saddles counted: none left where every escape succeeded
         assert t["n_saddle"][i] >= 0 and t["n_escaped"][i] >= 0
@@ -95,7 +96,8 @@ def test_outputs_and_rows(serial):
             assert r
     md = open(os.path.join(out, "ensemble.md")).read()
     for head in ("## F_x^c by size", "## N dependence", "hold for every packing",
-                 "## The paper's bracket", "## Frictional relaxation", "## Packings"):
+                 "## The paper's bracket", "## Frictional relaxation", "## Packings",
+                 "| long-wave fraction, abs(m) <= 3 | a random vector's, 7/N |"):
         assert head in md, head
     assert "analysis convention only" in md
     # the saddle counts of the default rows, summed per size
@@ -283,12 +285,23 @@ def test_a_part_recorded_without_the_pair_shape_is_completed_on_resume(serial):
         part = json.load(fh)["ramps"]["mu0"]
     assert not et._shape_missing(cfg, part)
     old = dict(part, **{key: {k: v for k, v in part[key].items()
-                              if k not in ("pair_pr", "pair_particles")}})
+                              if k not in ("pair_pr", "pair_particles", "pair_longwave")}})
     assert et._shape_missing(cfg, old)
     new = et._with_shape(cfg, old)
     assert not et._shape_missing(cfg, new)
     for k, v in old[key].items():
         assert new[key][k] == v or (v != v and new[key][k] != new[key][k]), k
     assert math.isnan(new[key]["pair_pr"]) and math.isnan(new[key]["pair_particles"])
+    assert math.isnan(new[key]["pair_longwave"])
     gone = et._with_shape(cfg, dict(old, h5=os.path.join(out, "no.h5")))
     assert math.isnan(gone[key]["pair_pr"])
+    # recorded before the long-wave fraction: the measured numbers are kept
+    # where the equilibria are gone (ramp.h5 there or not)
+    assert math.isfinite(part[key]["pair_pr"]) and math.isfinite(part[key]["pair_particles"])
+    older = dict(part, **{key: {k: v for k, v in part[key].items() if k != "pair_longwave"}})
+    assert et._shape_missing(cfg, older)
+    for h5 in (part["h5"], os.path.join(out, "no.h5")):
+        got = et._with_shape(cfg, dict(older, h5=h5))[key]
+        assert got["pair_pr"] == part[key]["pair_pr"], h5
+        assert got["pair_particles"] == part[key]["pair_particles"], h5
+        assert math.isnan(got["pair_longwave"]), h5

@@ -73,10 +73,12 @@ from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.jobfolder import add_job_arguments, job_overrides
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.jobs.ensemble.config import build_config
+from remote_trigger.pywrap.jobs.ensemble.figure import plot
 from remote_trigger.pywrap.jobs.ensemble.report import (
-    rows_of, statistics, write_table, plot, write_summary)
+    rows_of, statistics, write_table, write_summary)
 from remote_trigger.pywrap.jobs.ensemble.task import (run_packing, _jsonable, task_path,
-                                                      load_task, saddle_escape_of)
+                                                      load_task, saddle_escape_of,
+                                                      add_missing_shape)
 
 __all__ = ["MANIFEST", "TABLE", "run_ensemble", "combine_runs", "check_out", "register",
            "config_from_args", "main"]
@@ -191,13 +193,25 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
     if rank == 0:
         try:
             computed = sorted(computed)
-            rows = []
+            rows, shaped, measured = [], [], 0
             for t in tasks:
                 res = load_task(out, t)
                 if res is None:
                     raise RuntimeError(f"packing {t['key']} has no result in "
                                        f"{task_path(out, t['key'])}")
+                added, got = add_missing_shape(cfg, res)
+                if added:
+                    # recorded by a version without the pair's long-wave
+                    # fraction: measured on the ramp's kept equilibria, else NaN
+                    write_json(task_path(out, t["key"]), {"task": t, "status": "complete",
+                                                           "result": _jsonable(res)})
+                    shaped.append(t["key"])
+                    measured += got
                 rows.extend(rows_of(t, res, cfg))
+            if shaped:
+                say(f"{len(shaped)} packing(s) recorded without the pair's long-wave fraction: "
+                    f"measured for {measured} ramp(s) from their kept equilibria, the others "
+                    f"NaN (equilibria gone)")
             st = statistics(rows, cfg)
             write_table(os.path.join(out, TABLE), rows, cfg)
             plot(os.path.join(out, "ensemble.png"), rows, cfg,

@@ -198,14 +198,17 @@ def pair_shape(points, numbers, inertia_factor=None):
     dict
         ``pair_pr`` (participation ratio of the translations,
         :func:`~remote_trigger.analysis.stability.modeshape.pair_mode`) and
-        ``pair_particles`` (N PR); NaN without a complex point, when its
+        ``pair_particles`` (N PR) and ``pair_longwave`` (the long-wave
+        fraction of the translations,
+        :func:`~remote_trigger.analysis.stability.modeshape.long_wave_fraction`);
+        NaN without a complex point, when its
         dump is gone (a ramp finished by an older version) or when the
         eigenvector cannot be computed.
     """
     from remote_trigger.analysis.state.dumpfile import read_dump, read_equilibrium
     from remote_trigger.analysis.stability.modeshape import pair_mode
 
-    out = {"pair_pr": math.nan, "pair_particles": math.nan}
+    out = {"pair_pr": math.nan, "pair_particles": math.nan, "pair_longwave": math.nan}
     hi, lam = numbers.get("F_x_c_high", math.nan), numbers.get("lambda_c", [math.nan] * 2)
     if not (math.isfinite(hi) and math.isfinite(lam[0])):
         return out
@@ -221,7 +224,8 @@ def pair_shape(points, numbers, inertia_factor=None):
         # a description, not a result: ARPACK's failure (it is a RuntimeError)
         # or a singular shift leaves it unmeasured, never the packing failed
         return out
-    return {"pair_pr": m.participation_ratio, "pair_particles": m.n_particles}
+    return {"pair_pr": m.participation_ratio, "pair_particles": m.n_particles,
+            "pair_longwave": m.long_wave}
 
 
 def growth_slope(F, g, lo, hi):

@@ -6,10 +6,11 @@ import math
 
 import numpy as np
 
-from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
+from remote_trigger.analysis.output import write_text_atomic
 from remote_trigger.pywrap.jobs.paper.config import PAPER
 from remote_trigger.pywrap.jobs.ensemble.config import ONLY_2D
 from remote_trigger.analysis.stability.verdict import Decision
+from remote_trigger.analysis.stability.modeshape import LONG_WAVE_M
 from remote_trigger.pywrap.jobs.ensemble.onset import LOCAL_PAIR_PARTICLES
 
 #: the paper's bracket of F_x^c(mu = 1) for its N = 100 packing
@@ -32,7 +33,7 @@ COLUMNS = ("key", "n", "seed", "protocol", "I0", "dynamics_consistent", "status"
            "lambda_c_re", "lambda_c_im", "growth_slope", "F_x_onset_fit", "slope_points",
            "n_undecided", "n_steps", "n_bisection", "n_extra", "ramp_status_mu0", "ramp_status_mu_ss",
            "decision_at_zero", "n_pairs_at_zero", "growth_at_zero", "soft_onset", "wall",
-           "pair_pr", "pair_particles", "n_saddle", "n_escaped")
+           "pair_pr", "pair_particles", "n_saddle", "n_escaped", "pair_longwave")
 
 
 def _mid(lo, hi):
@@ -136,7 +137,8 @@ def _default_row(task, result, I0, i0_dyn):
                    F_x_onset_fit=o["F_x_onset_fit"], slope_points=o["n_points"],
                    n_undecided=o["n_undecided"], n_steps=r0["n_steps"],
                    n_bisection=r0["n_bisection"], pair_pr=o.get("pair_pr", math.nan),
-                   pair_particles=o.get("pair_particles", math.nan))
+                   pair_particles=o.get("pair_particles", math.nan),
+                   pair_longwave=o.get("pair_longwave", math.nan))
         if r0.get("at_zero") and I0 == i0_dyn:
             row.update(decision_at_zero=r0["at_zero"]["decision"], n_pairs_at_zero=math.nan,
                        growth_at_zero=r0["at_zero"]["growth"])
@@ -259,6 +261,7 @@ def statistics(rows, cfg):
                 "n_soft": sum(1 for r in sel if r["soft_onset"] == 1),
                 "pair_particles": quartiles([r["pair_particles"] for r in sel]),
                 "n_local": sum(1 for r in sel if r["pair_particles"] < LOCAL_PAIR_PARTICLES),
+                "pair_longwave": quartiles([r["pair_longwave"] for r in sel]),
                 "F_x_c_stiff": quartiles([r["F_x_c"] for r in sel if r["soft_onset"] == 0])})
         codes = [r["order"] for r in select(rows, ft, I0, usable=False)]
         st["order"][I0] = {"holds": codes.count(1), "reversed": codes.count(0),
@@ -349,111 +352,6 @@ def read_table(path):
     return cols
 
 
-def plot(path, rows, cfg, fits=None):
-    """``ensemble.png``: F_x^c(mu0) histograms per N, the ratio, F_x^c vs N, and
-    F_x^c(mu0), F_x^c(mu_ss mu0) and the window width vs N with their fits
-    (``fits``: :func:`size_fits` of the dynamics' convention, as in
-    :func:`statistics`; computed here if not given)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ft = "frictionless-then-friction"
-    convs = cfg.conventions()
-    i0_dyn = cfg.I0_dynamics
-    paper = cfg.dim == 2          # the paper's bracket is of disks
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    fig, ax = plt.subplots(1, 4, figsize=(18.5, 4.2))
-    allx = [r["F_x_c"] for r in rows if math.isfinite(r["F_x_c"]) and r["F_x_c"] > 0
-            and r["status"] != "failed"]
-    ref = list(PAPER_BRACKET) if paper else []
-    lo_b = min(allx + ref[:1] or [1e-3]) / 1.3
-    hi_b = max(allx + ref[1:] or [1e-3]) * 1.3
-    bins = np.geomspace(lo_b, hi_b, 25)
-    allr = [r["ratio"] for r in rows if math.isfinite(r["ratio"]) and r["status"] != "failed"]
-    rbins = np.linspace(min(allr + [1.0]) - 0.05, max(allr + [1.0]) + 0.05, 25)
-    for k, n in enumerate(cfg.n):
-        for I0, ls, fill in ((i0_dyn, "-", True), (cfg.inertia_I0, "--", False)):
-            if I0 is None:
-                continue
-            sel = select(rows, ft, float(I0), n)
-            for a_, col, b_ in ((ax[0], "F_x_c", bins), (ax[1], "ratio", rbins)):
-                x = [r[col] for r in sel if math.isfinite(r[col])]
-                if x:
-                    a_.hist(x, bins=b_, histtype="stepfilled" if fill else "step",
-                            alpha=0.35 if fill else 1.0, ls=ls, color=colors[k % len(colors)],
-                            label=f"N = {n}, I0 = {I0:g}")
-    if paper:
-        ax[0].axvspan(*PAPER_BRACKET, color="k", alpha=0.15, label="paper (N = 100)")
-    ax[0].set_xscale("log")
-    ax[0].set_xlabel("F_x^c(mu0) (bracket midpoint)" + ("" if paper else ", spheres"))
-    ax[0].set_ylabel("packings")
-    ax[0].legend(fontsize=7)
-    ax[1].axvline(1.0, color="k", lw=0.8)
-    ax[1].set_xlabel(f"F_x^c(mu_ss mu0) / F_x^c(mu0), mu_ss = {cfg.mu_ss:g}")
-    if ax[1].get_legend_handles_labels()[0]:     # no usable packing: no legend
-        ax[1].legend(fontsize=7)
-    for j, I0 in enumerate(convs):
-        for n in cfg.n:
-            x = [r["F_x_c"] for r in select(rows, ft, I0, n) if math.isfinite(r["F_x_c"])]
-            if not x:
-                continue
-            shift = 1.0 + 0.04 * j
-            ax[2].plot([n * shift] * len(x), x, ".", color=colors[j], alpha=0.5)
-            soft = [r["F_x_c"] for r in select(rows, ft, I0, n)
-                    if math.isfinite(r["F_x_c"]) and r["soft_onset"] == 1]
-            if soft:
-                ax[2].plot([n * shift] * len(soft), soft, "x", color=colors[j], ms=7,
-                           label="soft-mode onset" if j == 0 else None)
-            c, q1, m, q3 = quartiles(x)
-            ax[2].errorbar([n * shift], [m], yerr=[[m - q1], [q3 - m]], fmt="o",
-                           color=colors[j], capsize=4,
-                           label=f"I0 = {I0:g}" + (" (analysis only)" if I0 != i0_dyn
-                                                   else "") if n == cfg.n[0] else None)
-    if paper:
-        ax[2].fill_between([90, 110], *PAPER_BRACKET, color="k", alpha=0.15, label="paper")
-    ax[2].set_xscale("log")
-    ax[2].set_yscale("log")
-    ax[2].set_xlabel("N")
-    ax[2].set_ylabel("F_x^c(mu0): packings, median and quartiles")
-    if ax[2].get_legend_handles_labels()[0]:
-        ax[2].legend(fontsize=7)
-    _plot_window(ax[3], select(rows, ft, float(i0_dyn)), cfg, colors, fits)
-    fig.tight_layout()
-    savefig_atomic(fig, path, dpi=110)
-    plt.close(fig)
-
-
-def _plot_window(ax, rows, cfg, colors, fits=None):
-    """F_x^c(mu0), F_x^c(mu_ss mu0) and the window width vs N (the dynamics'
-    convention): median and quartiles per N, the power-law fit over every
-    packing (:func:`size_fits`) as a line where there are two sizes or more."""
-    fits = size_fits(rows) if fits is None else fits
-    n = np.array([r["n"] for r in rows], float)
-    a = np.array([r["F_x_c"] for r in rows], float)
-    b = np.array([r["F_x_c_ss"] for r in rows], float)
-    for j, (key, y, label) in enumerate((("F_x_c", a, "F_x^c(mu0)"),
-                                         ("F_x_c_ss", b, f"F_x^c({cfg.mu_ss:g} mu0)"),
-                                         ("width", a - b, "window F_x^c(mu0) - "
-                                                          f"F_x^c({cfg.mu_ss:g} mu0) > 0"))):
-        ok = np.isfinite(y) & (y > 0)
-        for k, size in enumerate(sorted(set(n[ok].tolist()))):
-            c, q1, m, q3 = quartiles(y[ok & (n == size)])
-            ax.errorbar([size * (1.0 + 0.04 * j)], [m], yerr=[[m - q1], [q3 - m]], fmt="os^"[j],
-                        color=colors[j], capsize=4, label=label if k == 0 else None)
-        fit = fits.get(key)
-        if fit is not None:
-            x = np.geomspace(fit.sizes[0], fit.sizes[-1], 20)
-            ax.plot(x, fit.prefactor * x ** fit.exponent, "-", lw=0.8, color=colors[j],
-                    label=f"fit: N^{fit.exponent:.2f} +- {fit.stderr:.2f}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("N")
-    ax.set_ylabel(f"median and quartiles (I0 = {cfg.I0_dynamics:g})")
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7)
-
-
 def skipped_in_3d():
     """What the ensemble of spheres leaves out, and why (one line, from
     :data:`~remote_trigger.pywrap.jobs.ensemble.config.ONLY_2D`)."""
@@ -510,15 +408,22 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
     shaped = [p for p in st["per_n"] if p["pair_particles"][0]]
     if shaped:
         # measured since the pair's mode shape exists (tables of older runs: none)
+        waves = 2 * LONG_WAVE_M + 1
         L += ["", "## The pair's mode: collective or local", "",
-              "| N | I0 | packings measured | particles that move, N PR | local onsets |",
-              "|---|---|---|---|---|"]
+              "| N | I0 | packings measured | particles that move, N PR | local onsets "
+              f"| long-wave fraction, abs(m) <= {LONG_WAVE_M} | a random vector's, {waves}/N |",
+              "|---|---|---|---|---|---|---|"]
         L += [f"| {p['n']} | {p['I0']:g} | {p['pair_particles'][0]} | "
-              f"{_q(p['pair_particles'], '.3g')} | {p['n_local']} |" for p in shaped]
+              f"{_q(p['pair_particles'], '.3g')} | {p['n_local']} | "
+              f"{_q(p['pair_longwave'], '.3g')} | {waves / p['n']:.3g} |" for p in shaped]
         L += ["", f"N PR: the participation ratio PR of the translations of the pair's right "
               f"eigenvector at the first load certified complex of the mu0 ramp, times N. "
               f"Local onset: N PR < {LOCAL_PAIR_PARTICLES:g}, a pair carried by a few weakly "
-              f"held particles rather than the collective mechanism."]
+              f"held particles rather than the collective mechanism. Long-wave fraction: the "
+              f"part of the same translations in the span of the plane waves exp(i k x), "
+              f"k = 2 pi m / L_x, abs(m) <= {LONG_WAVE_M}; 1 for a long plane wave, "
+              f"{waves}/N on average for a random vector ('-': not measured, e.g. a run "
+              f"whose equilibria are gone)."]
     sad = [(n, [r for r in select(rows, ft, cfg.I0_dynamics, n, usable=False)
                 if math.isfinite(r["n_saddle"])]) for n in cfg.n]
     if any(rs for _, rs in sad):

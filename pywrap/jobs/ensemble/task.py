@@ -190,22 +190,50 @@ def _ramp_part(cfg, relaxed, mu, folder, resume=False):
     return part
 
 
+#: what :func:`.onset.pair_shape` measures of the pair's mode
+SHAPE_KEYS = ("pair_pr", "pair_particles", "pair_longwave")
+
+
 def _shape_missing(cfg, part):
     o = part.get(f"I0_{cfg.I0_dynamics:g}")
-    return o is not None and "pair_pr" not in o
+    return o is not None and "pair_longwave" not in o
 
 
 def _with_shape(cfg, part):
-    """The part with ``pair_pr``/``pair_particles`` of its default convention
-    (:func:`.onset.pair_shape`; NaN if the equilibria are gone), its onset
-    numbers recomputed from its ``ramp.h5`` (an older version took a negative
-    real eigenvalue for the pair)."""
+    """The part with ``pair_pr``/``pair_particles``/``pair_longwave`` of its default
+    convention (:func:`.onset.pair_shape`; NaN where the equilibria are gone,
+    a value already recorded kept), its onset numbers recomputed from its
+    ``ramp.h5`` (an older version took a negative real eigenvalue for the
+    pair)."""
     key = f"I0_{cfg.I0_dynamics:g}"
     if not os.path.isfile(part["h5"]):
-        return dict(part, **{key: dict(part[key], pair_pr=math.nan, pair_particles=math.nan)})
+        return dict(part, **{key: dict({k: math.nan for k in SHAPE_KEYS}, **part[key])})
     pts = read_ramp(part["h5"])
     o = dict(part[key], **onset_numbers(pts, cfg.dF_x))
-    return dict(part, **{key: dict(o, **pair_shape(pts, o))})
+    shape = {k: v for k, v in pair_shape(pts, o).items()
+             if not (math.isnan(v) and math.isfinite(part[key].get(k, math.nan)))}
+    return dict(part, **{key: dict(o, **shape)})
+
+
+def add_missing_shape(cfg, result):
+    """Add the pair's shape to the ramp parts of a finished packing's ``result``
+    that a version without it recorded (:func:`_with_shape`, in place; NaN
+    where the ramp's equilibria are gone).
+
+    Returns
+    -------
+    added, measured : int
+        Ramp parts completed, and among them those whose long-wave fraction
+        could be measured (their equilibria still on disk).
+    """
+    ramps = (result.get("default") or {}).get("ramps") or {}
+    key = f"I0_{cfg.I0_dynamics:g}"
+    missing = [k for k, part in ramps.items() if part is not None
+               and _shape_missing(cfg, part)]
+    for k in missing:
+        ramps[k] = _with_shape(cfg, ramps[k])
+    return len(missing), sum(1 for k in missing
+                             if math.isfinite(ramps[k][key].get("pair_longwave", math.nan)))
 
 
 def _frictional_part(cfg, datafile, folder):
