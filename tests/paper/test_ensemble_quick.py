@@ -305,3 +305,48 @@ def test_a_part_recorded_without_the_pair_shape_is_completed_on_resume(serial):
         assert got["pair_pr"] == part[key]["pair_pr"], h5
         assert got["pair_particles"] == part[key]["pair_particles"], h5
         assert math.isnan(got["pair_longwave"]), h5
+
+
+def test_status_reads_how_far_each_packing_has_come(serial, tmp_path):
+    """``ensemble --status`` on a copy of the finished run made to look
+    interrupted: a finished packing with its bracket, a packing whose mu0
+    ramp is recorded and whose mu_ss ramp is running (its points so far and
+    the bracket they give: the finished one), a packing not started; the
+    folder is left as it was; a folder that is no ensemble is refused."""
+    import shutil
+
+    out, _, t = serial
+    cfg = ec.build_config(quick=True)
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    keys = [p["key"] for p in cfg.packings()]
+    done, running, absent = keys
+    os.remove(et.task_path(str(copy), running))
+    os.remove(et.task_path(str(copy), absent))
+    shutil.rmtree(copy / "packings" / absent)
+    prog_file = copy / "packings" / running / et.PROGRESS
+    prog = json.loads(prog_file.read_text())
+    del prog["ramps"]["mu_ss"]
+    prog_file.write_text(json.dumps(prog))
+    before = sorted(str(p) for p in copy.rglob("*"))
+    proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(copy)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.strip().splitlines()
+    assert lines[0] == f"ensemble {copy}: 3 packing(s), 1 finished, 1 started, 1 not started"
+    ft = (t["protocol"] == "frictionless-then-friction") & (t["I0"] == cfg.I0_dynamics)
+
+    def bracket(key, col="F_x_c"):
+        i = int(np.flatnonzero(ft & (t["key"] == key))[0])
+        return f"[{t[col + '_low'][i]:.6g}, {t[col + '_high'][i]:.6g}]"
+
+    assert lines[1] == f"{done}: finished, F_x^c(mu0) in {bracket(done)}"
+    assert lines[2].startswith(f"{running}: relaxed (phi ")
+    assert f"mu0 complete, F_x^c in {bracket(running)}" in lines[2]
+    assert ("mu_ss running: " in lines[2]
+            and f" point(s), F_x^c in {bracket(running, 'F_x_c_ss')}" in lines[2]), lines[2]
+    assert lines[3] == f"{absent}: not started"
+    assert sorted(str(p) for p in copy.rglob("*")) == before
+    proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(tmp_path)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode != 0 and "--status" in proc.stderr and "no config.json" in proc.stderr

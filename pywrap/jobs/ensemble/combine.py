@@ -21,8 +21,9 @@ __all__ = ["collect_runs"]
 _FREE = ("n", "seeds", "np", "saddle_escape")
 
 
-def _read_run(path):
-    """(config dict, EnsembleConfig) of the ensemble folder ``path``."""
+def read_run(path, flag="--combine"):
+    """(config dict, EnsembleConfig) of the ensemble folder ``path``; errors name
+    ``flag`` and the folder."""
     from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
 
     cfgfile = os.path.join(path, "config.json")
@@ -30,14 +31,14 @@ def _read_run(path):
         with open(cfgfile) as fh:
             d = json.load(fh)
     except FileNotFoundError:
-        raise ConfigError(f"--combine {path!r}: no config.json there (not an ensemble "
+        raise ConfigError(f"{flag} {path!r}: no config.json there (not an ensemble "
                           "folder)") from None
     except (OSError, ValueError) as exc:
-        raise ConfigError(f"--combine {path!r}: config.json unreadable ({exc})") from None
+        raise ConfigError(f"{flag} {path!r}: config.json unreadable ({exc})") from None
     try:
         return d, EnsembleConfig.from_dict(d)
     except ConfigError as exc:
-        raise ConfigError(f"--combine {path!r}: {exc}") from None
+        raise ConfigError(f"{flag} {path!r}: {exc}") from None
 
 
 def collect_runs(dirs, out, speak=True):
@@ -77,7 +78,7 @@ def collect_runs(dirs, out, speak=True):
     dirs = [os.path.abspath(d) for d in dirs]
     if len(dirs) < 2:
         raise ConfigError(f"--combine needs at least two ensemble folders, got {len(dirs)}")
-    runs = [(d,) + _read_run(d) for d in dirs]
+    runs = [(d,) + read_run(d) for d in dirs]
     d0, c0, _ = runs[0]
     for d, c, _ in runs[1:]:
         for k in sorted((set(c0) | set(c)) - set(_FREE)):

@@ -304,6 +304,10 @@ def register(subparsers):
                         "folders (runs of other sizes or seeds, the same other keys) into "
                         "the new folder --out and write its table, figure and fits over "
                         "every size; nothing is recomputed")
+    p.add_argument("--status", action="store_true",
+                   help="instead of running: say how far the ensemble in --out has come "
+                        "(per packing: finished, relaxing, or each ramp's points and "
+                        "bracket so far); reads the folder only, safe beside the running job")
     p.set_defaults(func=main)
 
 
@@ -315,6 +319,17 @@ def config_from_args(args):
 
 def main(args):
     """``remote-trigger ensemble``; returns the exit status."""
+    if args.status:
+        given = [o for o, v in (("--config", args.config), ("--quick", args.quick),
+                                ("--resume", args.resume), ("--np", args.np),
+                                ("--set", args.set), ("--dim", args.dim),
+                                ("--combine", args.combine)) if v]
+        if given:
+            raise ConfigError(f"--status reads the folder --out only; drop {given[0]}")
+        from remote_trigger.pywrap.jobs.ensemble.status import ensemble_status
+
+        print("\n".join(ensemble_status(args.out)))
+        return 0
     if args.combine is not None:
         given = [o for o, v in (("--config", args.config), ("--quick", args.quick),
                                 ("--resume", args.resume), ("--np", args.np),

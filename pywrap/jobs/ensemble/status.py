@@ -1,0 +1,108 @@
+"""``ensemble --status``: how far an ensemble has come, read from its folder.
+
+Part of :mod:`remote_trigger.pywrap.jobs.ensemble` (docs/ensemble.md). A job
+at N = 10^4 runs for hours with one progress line per finished packing;
+this reads what the job has already written -- ``config.json``, the
+finished packings' ``tasks/<key>.json``, each started packing's
+``progress.json`` and its ramps' ``ramp.h5`` (all written atomically, at
+every ramp point) -- and says for each packing where it is. It writes
+nothing and starts no LAMMPS or MPI, so it is safe beside the running job
+(on a cluster, from a login node on the shared file system).
+"""
+import math
+import os
+
+__all__ = ["ensemble_status"]
+
+
+def _bracket(points):
+    """(lo, hi): the largest certified-real load below the smallest certified-complex one."""
+    hi = min((p["F_x"] for p in points if p["decision"] == 1), default=math.nan)
+    lo = max((p["F_x"] for p in points if p["decision"] == 0
+              and not p["F_x"] >= hi), default=math.nan)
+    return lo, hi
+
+
+def _ramp_line(name, folder, part):
+    """One ramp's state: finished (its part), running (its ramp.h5), or not started."""
+    from remote_trigger.pywrap.jobs.ensemble.onset import read_ramp
+
+    if part is not None:
+        o = next((v for k, v in part.items() if k.startswith("I0_")), {})
+        return (f"{name} {part.get('ramp_status', '?')}, F_x^c in "
+                f"[{o.get('F_x_c_low', math.nan):.6g}, {o.get('F_x_c_high', math.nan):.6g}]")
+    h5 = os.path.join(folder, f"ramp_{name}", "ramp.h5")
+    if not os.path.isfile(h5):
+        return f"{name} not started"
+    try:
+        pts = read_ramp(h5)
+    except (OSError, KeyError, ValueError) as exc:
+        return f"{name} ramp.h5 unreadable ({exc})"
+    if not pts:
+        return f"{name} started, no point yet"
+    lo, hi = _bracket(pts)
+    where = (f"F_x^c in [{lo:.6g}, {hi:.6g}]" if math.isfinite(hi) else
+             f"real up to F_x = {lo:.6g}" if math.isfinite(lo) else "no certified point yet")
+    return f"{name} running: {len(pts)} point(s), {where}"
+
+
+def ensemble_status(out):
+    """How far the ensemble in ``out`` has come, one line per packing.
+
+    Parameters
+    ----------
+    out : str
+        An ensemble output folder (``config.json`` there), running, killed
+        or finished.
+
+    Returns
+    -------
+    list of str
+        A header (packings finished / started / not started), then per
+        packing its key and state: ``finished`` with its F_x^c(mu0)
+        bracket (or its error); ``relaxing`` (no relaxed packing yet); or
+        relaxed (phi) with each ramp finished (its bracket), running (its
+        points so far and the certified bracket they give) or not started.
+
+    Raises
+    ------
+    ConfigError
+        If ``out`` has no readable ensemble ``config.json`` (the message
+        names ``--status`` and the folder).
+    """
+    from remote_trigger.pywrap.jobs.ensemble.combine import read_run
+    from remote_trigger.pywrap.jobs.ensemble.task import PROGRESS, _load_progress, load_task
+
+    out = os.path.abspath(out)
+    _, cfg = read_run(out, flag="--status")
+    key0 = f"I0_{cfg.I0_dynamics:g}"
+    lines, counts = [], {"finished": 0, "started": 0, "not started": 0}
+    for t in cfg.packings():
+        folder = os.path.join(out, "packings", t["key"])
+        res = load_task(out, t)
+        if res is not None:
+            counts["finished"] += 1
+            d = res.get("default", {})
+            o = ((d.get("ramps") or {}).get("mu0") or {}).get(key0, {})
+            lines.append(f"{t['key']}: finished, F_x^c(mu0) in "
+                         f"[{o.get('F_x_c_low', math.nan):.6g}, "
+                         f"{o.get('F_x_c_high', math.nan):.6g}]"
+                         + (f"; error: {d['error']}" if d.get("error") else ""))
+            continue
+        prog = _load_progress(folder) if os.path.isfile(os.path.join(folder, PROGRESS)) \
+            else None
+        if prog is None and not os.path.isdir(folder):
+            counts["not started"] += 1
+            lines.append(f"{t['key']}: not started")
+            continue
+        counts["started"] += 1
+        relax = (prog or {}).get("relax")
+        if not relax:
+            lines.append(f"{t['key']}: relaxing")
+            continue
+        ramps = prog.get("ramps") or {}
+        lines.append(f"{t['key']}: relaxed (phi {relax.get('phi', math.nan):.4f}); "
+                     + "; ".join(_ramp_line(k, folder, ramps.get(k)) for k in ("mu0", "mu_ss")))
+    head = (f"ensemble {out}: {len(lines)} packing(s), " + ", ".join(
+        f"{v} {k}" for k, v in counts.items()))
+    return [head] + lines
