@@ -234,6 +234,14 @@ def _guarded(args, debug):
                 traceback.print_exc()
             print(_interrupt_message(args), file=sys.stderr, flush=True)
         return 130
+    except BrokenPipeError:
+        # the reader of stdout went away (``... | head``): not an error of the
+        # command; stdout goes to /dev/null so that the exit flush cannot fail
+        # again, and the status is the shell's for SIGPIPE
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except Exception as exc:  # noqa: BLE001 - the command line's last resort
         status, msg, internal = classify(exc)
         if rank == 0 or internal:

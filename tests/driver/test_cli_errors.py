@@ -108,6 +108,21 @@ def test_classify_statuses():
     assert status == 1 and internal and "--debug" in msg and "TypeError: boom" in msg
 
 
+def test_a_reader_that_stops_early_is_no_error():
+    """stdout piped into ``head``: the command's write fails with EPIPE; that is
+    no error message, and the status is 141 (SIGPIPE's, as a shell gives)."""
+    import shlex
+    import sys
+
+    code = ("import argparse, sys; from remote_trigger.pywrap import cli; "
+            "args = argparse.Namespace(command='x', func=lambda a: "
+            "[print('y' * 99) for _ in range(100000)]); sys.exit(cli._guarded(args, False))")
+    proc = subprocess.run(f"{shlex.quote(sys.executable)} -c {shlex.quote(code)} | head -c 3; "
+                          "exit ${PIPESTATUS[0]}", shell=True, executable="/bin/bash",
+                          capture_output=True, text=True, timeout=120)
+    assert proc.stdout == "yyy" and proc.stderr == "" and proc.returncode == 141, proc.stderr
+
+
 def test_version(capsys):
     with pytest.raises(SystemExit) as exc:
         cli.main(["--version"])
