@@ -123,6 +123,8 @@ def run(args):
             bar.append(tqdm(total=n, desc="verdict", unit="eigenvalue", leave=False,
                             dynamic_ncols=True))
         bar[0].update(done - bar[0].n)
+        if done == n:
+            bar[0].refresh()        # the last count shown, whatever tqdm's interval
 
     try:
         res = analyze(state, eigenvalues=not args.no_eigen, decide=not args.no_eigen,

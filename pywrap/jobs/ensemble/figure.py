@@ -1,7 +1,8 @@
 """``ensemble.png``: the figure of the ensemble job (docs/ensemble.md).
 
 Part of :mod:`remote_trigger.pywrap.jobs.ensemble`; the table, statistics
-and fits it draws are those of :mod:`.report`.
+and fits it draws are those of
+:mod:`remote_trigger.pywrap.jobs.ensemble.report`.
 """
 import math
 
