@@ -495,3 +495,7 @@ def test_a_finished_packing_without_the_long_wave_fraction_gets_it_from_its_equi
     for k, v in o.items():
         assert got[k] == v or (isinstance(v, float) and math.isnan(v)), k
     assert add_missing_shape(ecfg, result) == (0, 0)
+    # recorded onset numbers are kept as they are (not recomputed)
+    marked = {"default": {"ramps": {"mu0": {"h5": res.h5, key: dict(o, pair_index=-7)}}}}
+    assert add_missing_shape(ecfg, marked) == (1, 1)
+    assert marked["default"]["ramps"]["mu0"][key]["pair_index"] == -7

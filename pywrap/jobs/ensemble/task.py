@@ -199,17 +199,18 @@ def _shape_missing(cfg, part):
     return o is not None and "pair_longwave" not in o
 
 
-def _with_shape(cfg, part):
+def _with_shape(cfg, part, onset=True):
     """The part with ``pair_pr``/``pair_particles``/``pair_longwave`` of its default
     convention (:func:`.onset.pair_shape`; NaN where the equilibria are gone,
-    a value already recorded kept), its onset numbers recomputed from its
-    ``ramp.h5`` (an older version took a negative real eigenvalue for the
-    pair)."""
+    a value already recorded kept), and with ``onset`` its onset numbers
+    recomputed from its ``ramp.h5`` (an older version took a negative real
+    eigenvalue for the pair; a resumed packing's ramp part); without, the
+    recorded ones are kept (a finished packing's)."""
     key = f"I0_{cfg.I0_dynamics:g}"
     if not os.path.isfile(part["h5"]):
         return dict(part, **{key: dict({k: math.nan for k in SHAPE_KEYS}, **part[key])})
     pts = read_ramp(part["h5"])
-    o = dict(part[key], **onset_numbers(pts, cfg.dF_x))
+    o = dict(part[key], **onset_numbers(pts, cfg.dF_x)) if onset else dict(part[key])
     shape = {k: v for k, v in pair_shape(pts, o).items()
              if not (math.isnan(v) and math.isfinite(part[key].get(k, math.nan)))}
     return dict(part, **{key: dict(o, **shape)})
@@ -218,7 +219,8 @@ def _with_shape(cfg, part):
 def add_missing_shape(cfg, result):
     """Add the pair's shape to the ramp parts of a finished packing's ``result``
     that a version without it recorded (:func:`_with_shape`, in place; NaN
-    where the ramp's equilibria are gone).
+    where the ramp's equilibria are gone). Its onset numbers are left as
+    recorded.
 
     Returns
     -------
@@ -231,7 +233,7 @@ def add_missing_shape(cfg, result):
     missing = [k for k, part in ramps.items() if part is not None
                and _shape_missing(cfg, part)]
     for k in missing:
-        ramps[k] = _with_shape(cfg, ramps[k])
+        ramps[k] = _with_shape(cfg, ramps[k], onset=False)
     return len(missing), sum(1 for k in missing
                              if math.isfinite(ramps[k][key].get("pair_longwave", math.nan)))
 
