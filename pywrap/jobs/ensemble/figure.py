@@ -18,8 +18,10 @@ __all__ = ["plot"]
 def plot(path, rows, cfg, fits=None):
     """``ensemble.png``: F_x^c(mu0) histograms per N, the ratio, F_x^c vs N, and
     F_x^c(mu0), F_x^c(mu_ss mu0) and the window width vs N with their fits
-    (``fits``: :func:`size_fits` of the dynamics' convention, as in
-    :func:`statistics`; computed here if not given)."""
+    (``fits``: :func:`~remote_trigger.pywrap.jobs.ensemble.report.size_fits` of the
+    dynamics' convention, as in
+    :func:`~remote_trigger.pywrap.jobs.ensemble.report.statistics`; computed here if
+    not given)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -93,7 +95,8 @@ def plot(path, rows, cfg, fits=None):
 def _plot_window(ax, rows, cfg, colors, fits=None):
     """F_x^c(mu0), F_x^c(mu_ss mu0) and the window width vs N (the dynamics'
     convention): median and quartiles per N, the power-law fit over every
-    packing (:func:`size_fits`) as a line where there are two sizes or more."""
+    packing (:func:`~remote_trigger.pywrap.jobs.ensemble.report.size_fits`) as a line
+    where there are two sizes or more."""
     fits = size_fits(rows) if fits is None else fits
     n = np.array([r["n"] for r in rows], float)
     a = np.array([r["F_x_c"] for r in rows], float)
