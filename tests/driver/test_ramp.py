@@ -499,3 +499,70 @@ def test_a_finished_packing_without_the_long_wave_fraction_gets_it_from_its_equi
     marked = {"default": {"ramps": {"mu0": {"h5": res.h5, key: dict(o, pair_index=-7)}}}}
     assert add_missing_shape(ecfg, marked) == (1, 1)
     assert marked["default"]["ramps"]["mu0"][key]["pair_index"] == -7
+
+
+def test_onset_bisection_closes_the_same_bracket_with_fewer_points(full_ramp, tmp_path):
+    """``bisection = 'onset'`` (decide next to the onset predicted by the
+    square-root law from the complex points' growth rates) on the fixture's
+    ramp: the same steps, a certified bracket at most tol wide around the
+    same onset as the midpoint's (their intervals overlap), from fewer
+    bisection points and no more real ones; the rule is in ramp.h5 and a
+    resume with the other rule is refused."""
+    from remote_trigger.pywrap.config import ConfigError
+    from remote_trigger.pywrap.jobs.ensemble.onset import read_ramp
+
+    cfg, mid = full_ramp
+    res = stages.ramp(cfg.replace(bisection="onset"), str(tmp_path), quiet=True)
+    assert res.status == "complete" and res.tol_reached, res.message
+    np.testing.assert_array_equal(res.F_x, mid.F_x)
+    assert res.F_x_c_high - res.F_x_c_low <= TOL
+    assert res.F_x_c_low < mid.F_x_c_high and mid.F_x_c_low < res.F_x_c_high
+    pts = {p["F_x"]: p["decision"] for p in read_ramp(res.h5)}
+    assert pts[res.F_x_c_low] == 0 and pts[res.F_x_c_high] == 1
+    assert res.bisection_F_x.size < mid.bisection_F_x.size
+    assert (np.count_nonzero(res.bisection_decision == 0)
+            <= np.count_nonzero(mid.bisection_decision == 0))
+    attrs, _ = read_all(res.h5)
+    assert attrs["bisection"] == "onset"
+    with pytest.raises(ConfigError, match="bisection"):
+        stages.ramp(cfg, str(tmp_path), quiet=True, resume=True)
+    with pytest.raises(ConfigError, match="bisection must be one of midpoint, onset, got "
+                                          "bisection = 'secant'"):
+        cfg.replace(bisection="secant")
+
+
+def test_onset_rule_on_a_square_root_law_and_its_fallbacks():
+    """next_bisection_point('onset'): on an exact g^2 = s^2 (F - F*) it closes a
+    bracket of width 0.1 around F* to tol in two points (one real, one
+    complex), where halving takes 14; it halves when the prediction is
+    outside the bracket, the growth rates do not increase, or there is one
+    complex point; an unknown rule is refused."""
+    from remote_trigger.pywrap.stages.bracket import next_bisection_point
+
+    Fs, s, tol = 0.3137, 0.2, 1e-5
+
+    def close(rule):
+        lo, hi, pts, n_real, n = 0.25, 0.35, [(0.35, s * (0.35 - Fs) ** 0.5),
+                                              (0.4, s * (0.4 - Fs) ** 0.5)], 0, 0
+        while True:
+            x, why = next_bisection_point(lo, hi, [], tol, rule, sorted(pts))
+            if x is None:
+                return lo, hi, n, n_real, why
+            n += 1
+            if x > Fs:
+                hi = x
+                pts.append((x, s * (x - Fs) ** 0.5))
+            else:
+                lo, n_real = x, n_real + 1
+
+    lo, hi, n, n_real, why = close("onset")
+    assert why == "tol" and lo < Fs < hi and hi - lo <= tol and (n, n_real) == (2, 1)
+    lo, hi, n, n_real, why = close("midpoint")
+    assert why == "tol" and lo < Fs < hi and n == 14
+    halve = next_bisection_point(0.25, 0.35, [], tol)[0]
+    assert halve == pytest.approx(0.3)
+    for pts in ([(0.35, 0.1)], [(0.35, 0.1), (0.4, 0.05)], [(0.35, 0.0), (0.4, 0.1)],
+                [(0.35, 0.0999), (0.4, 0.1)]):         # the last predicts far below lo
+        assert next_bisection_point(0.25, 0.35, [], tol, "onset", pts)[0] == halve, pts
+    with pytest.raises(ValueError, match="'secant'"):
+        next_bisection_point(0.25, 0.35, [], tol, "secant")
