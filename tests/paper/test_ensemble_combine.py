@@ -59,9 +59,6 @@ def test_refusals_name_the_value(runs, tmp_path):
     c = _run_folder(tmp_path / "c", 20, [1], ["N20_s1"], tol=1e-3)
     with pytest.raises(ConfigError, match=r"differ in tol \(0.002 vs 0.001\)"):
         combine_runs([a, c], str(tmp_path / "o1"))
-    onset = _run_folder(tmp_path / "onset", 20, [1], ["N20_s1"], bisection="onset")
-    with pytest.raises(ConfigError, match=r"differ in bisection"):
-        combine_runs([a, onset], str(tmp_path / "o1"))
     with pytest.raises(ConfigError, match="packing N16_s1 is finished in both"):
         combine_runs([a, b, a], str(tmp_path / "o2"))
     with pytest.raises(ConfigError, match="at least two ensemble folders, got 1"):

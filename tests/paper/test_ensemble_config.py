@@ -32,7 +32,6 @@ from remote_trigger.pywrap.config import ConfigError
     ("relax", {"settle_steps": -5}, "settle_steps = -5"),
     ("frictional_relax", {"protocol": "frictional"}, "frictional_relax.protocol"),
     ("np", 0, "np = 0"),
-    ("bisection", "secant", "bisection = 'secant'"),
 ])
 def test_bad_values_name_the_value(key, val, words):
     d = {"n": [100, 400]}
@@ -40,15 +39,6 @@ def test_bad_values_name_the_value(key, val, words):
     with pytest.raises(ConfigError) as err:
         ec.EnsembleConfig.from_dict(d)
     assert words in str(err.value)
-
-
-def test_bisection_is_in_config_json_only_when_not_midpoint():
-    """The default rule leaves config.json as before the key existed (older
-    folders resume); 'onset' is written and read back."""
-    assert "bisection" not in ec.EnsembleConfig.from_dict({"n": [100], "seeds": [1]}).to_dict()
-    d = ec.EnsembleConfig.from_dict({"n": [100], "seeds": [1], "bisection": "onset"}).to_dict()
-    assert d["bisection"] == "onset"
-    assert ec.EnsembleConfig.from_dict(d).bisection == "onset"
 
 
 def test_unknown_key():
