@@ -35,8 +35,7 @@ from remote_trigger.pywrap.stages.common import (
 from remote_trigger.pywrap.stages.relax import (
     RelaxResult, antisymmetry, compact_bulk, place_top, press_top, relax, set_friction,
     top_clearance)
-from remote_trigger.pywrap.stages.bracket import next_bisection_point, ramp_bracket
-from remote_trigger.pywrap.stages.ramp import RampResult, ramp
+from remote_trigger.pywrap.stages.ramp import RampResult, next_bisection_point, ramp, ramp_bracket
 from remote_trigger.pywrap.stages.runs import (
     PERTURB_RUNS, SeriesResult, check_runs, instability, perturb)
 

@@ -278,17 +278,10 @@ class RampConfig(RelaxConfig):
         "Saddles"). False: Newton's equilibrium is kept, saddle or not (the
         behaviour of ramps written before this option; an older ramp.h5 is
         resumed only with False).
-    bisection : {'midpoint', 'onset'}
-        Where the bisection decides next inside the certified bracket:
-        'midpoint' (default) halves it; 'onset' decides next to the onset
-        predicted from the complex points' growth rates by the square-root
-        law, fewer points and fewer real ones (the costly ones at large N)
-        for the same certified bracket width
-        (:mod:`remote_trigger.pywrap.stages.bracket`, docs/driver.md).
     """
 
     #: fields added after ramp files were written: the value an older file has
-    LATER_FIELDS = {"saddle_escape": False, "bisection": "midpoint"}
+    LATER_FIELDS = {"saddle_escape": False}
 
     dF_x: float = 1e-4
     F_x_max: float = 1.0
@@ -296,7 +289,6 @@ class RampConfig(RelaxConfig):
     dF_x_max: float = None
     keep_equilibria: bool = True
     saddle_escape: bool = True
-    bisection: str = "midpoint"
 
     def validate(self):
         super().validate()
@@ -315,11 +307,6 @@ class RampConfig(RelaxConfig):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be True or False, got "
                                   f"{name} = {getattr(self, name)!r}")
-        from remote_trigger.pywrap.stages.bracket import BISECTION_RULES
-
-        if self.bisection not in BISECTION_RULES:
-            raise ConfigError(f"bisection must be one of {', '.join(BISECTION_RULES)}, got "
-                              f"bisection = {self.bisection!r}")
 
 
 @dataclass(frozen=True)

@@ -18,8 +18,6 @@ from remote_trigger.pywrap.stages import ramp_file
 from remote_trigger.pywrap.stages.common import (
     EQUILIBRIUM_EXTS, _ensure_dir, _progress, check_spheres_ramp, start_sha256,
     start_timestep)
-from remote_trigger.pywrap.stages.bracket import (complex_growth, next_bisection_point,
-                                                  ramp_bracket)
 from remote_trigger.pywrap.stages.point import ramp_point, verdict_progress
 
 
@@ -104,6 +102,74 @@ class RampResult:
         return [Decision.of(d) for d in (() if self.decision is None else self.decision)]
 
 
+def ramp_bracket(rlog):
+    """The certified bracket of F_x^c from every row of a ramp (steps and bisection).
+
+    Only certified answers count: ``hi`` is the smallest F_x certified
+    complex (decision 1), ``lo`` the largest F_x certified real (decision 0)
+    below it. Undecided points (decision -1) and points without an
+    equilibrium (``complex`` = 2) are neither stable nor unstable.
+
+    Returns
+    -------
+    lo, hi : float
+        NaN where there is no such point.
+    lo_file : str or None
+        Data file of the ``lo`` equilibrium (start of the next bisection point).
+    unknown : list of float
+        Loads strictly inside (lo, hi) without a certified answer.
+    """
+    F, dec, files = [], [], []
+    for kind in ("steps", "bisection"):
+        rows = rlog.rows[kind]
+        F.extend(rows["F_x"])
+        dec.extend(rows["decision"])
+        files.extend(rlog.files[kind])
+    F, dec = np.asarray(F, float), np.asarray(dec, float)
+    cx = F[dec == Decision.COMPLEX]
+    hi = float(cx.min()) if cx.size else float("nan")
+    real = np.flatnonzero((dec == 0) & (F < hi)) if cx.size else np.flatnonzero(dec == 0)
+    if real.size:
+        k = int(real[np.argmax(F[real])])
+        lo, lo_file = float(F[k]), files[k]
+    else:
+        lo, lo_file = float("nan"), None
+    unknown = sorted(float(f) for f, d in zip(F, dec)
+                     if not (d == Decision.REAL or d == Decision.COMPLEX) and lo < f < hi)
+    return lo, hi, lo_file, unknown
+
+
+def next_bisection_point(lo, hi, unknown, tol):
+    """Next load to decide inside the certified bracket, or why there is none.
+
+    Without undecided points inside, the midpoint. With some, they are
+    taken to mark the exceptional point's neighbourhood: the larger of the
+    two uncertified gaps [lo, min(unknown)] and [max(unknown), hi] is
+    halved, until both are at most tol/2.
+
+    Returns
+    -------
+    F : float or None
+    why : str
+        ``''`` (F given), ``'tol'`` (hi - lo <= tol), ``'undecided'`` (no
+        gap wider than tol/2 is left beside the undecided points) or
+        ``'resolution'`` (no float64 number strictly inside the gap).
+    """
+    if hi - lo <= tol:
+        return None, "tol"
+    if unknown:
+        g_lo, g_hi = unknown[0] - lo, hi - unknown[-1]
+        if max(g_lo, g_hi) <= 0.5 * tol:
+            return None, "undecided"
+        a, b = (lo, unknown[0]) if g_lo >= g_hi else (unknown[-1], hi)
+    else:
+        a, b = lo, hi
+    mid = 0.5 * (a + b)
+    if not a < mid < b:
+        return None, "resolution"
+    return mid, ""
+
+
 def _bracket_attrs(rlog, lo, hi, tol, why=""):
     """ramp.h5 attributes of the certified bracket; a message when it is wider than tol."""
     n_und = int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == Decision.UNDECIDED)
@@ -138,12 +204,9 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     "Complex" and "real" are the analyzer's certified decisions; an
     ``'undecided'`` point is neither (recorded with ``decision`` = -1 and its
     margin). The bracket of F_x^c is [largest load certified real, smallest
-    load certified complex]
-    (:func:`~remote_trigger.pywrap.stages.bracket.ramp_bracket`); bisection
-    works inside it, each point starting from the ``lo`` equilibrium, at the
-    loads of :func:`~remote_trigger.pywrap.stages.bracket.next_bisection_point`
-    (``cfg.bisection``: the midpoint, or next to the predicted onset), until
-    it is at most ``cfg.tol`` wide or
+    load certified complex] (:func:`ramp_bracket`); bisection works inside
+    it, each point starting from the ``lo`` equilibrium
+    (:func:`next_bisection_point`), until it is at most ``cfg.tol`` wide or
     no further point can be certified next to the undecided ones. Then the
     ramp is ``'complete'`` with ``tol_reached`` False and a message giving the
     width reached; nothing narrower than what was certified is reported.
@@ -364,8 +427,7 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
     bis = rlog.rows["bisection"]
     while True:
         lo, hi, lo_file, unknown = ramp_bracket(rlog)
-        mid, why = next_bisection_point(lo, hi, unknown, cfg.tol, cfg.bisection,
-                                        complex_growth(rlog))
+        mid, why = next_bisection_point(lo, hi, unknown, cfg.tol)
         if mid is None:
             break
         j = len(bis["F_x"])

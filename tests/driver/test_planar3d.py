@@ -96,7 +96,7 @@ def _rows(h5):
 
 def _bisection_start(done):
     """The start of a bisection point: the largest load certified real below the
-    smallest certified complex (``bracket.ramp_bracket``), from the points so far."""
+    smallest certified complex (``ramp.ramp_bracket``), from the points so far."""
     hi = min(F for F, d, _ in done if d == 1)
     return max((F, f) for F, d, f in done if d == 0 and F < hi)[1]
 

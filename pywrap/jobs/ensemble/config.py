@@ -102,12 +102,6 @@ class EnsembleConfig(Config):
         packings with and without the escape (packings of runs made before
         the option record nothing and count as without; ``--resume`` does
         not check those).
-    bisection : {'midpoint', 'onset'}
-        Where a ramp's bisection decides next (``RampConfig.bisection``):
-        'midpoint' (default) or next to the onset predicted from the growth
-        rates (fewer real points, the costly ones at large N). Part of the
-        configuration (``config.json`` holds it when not 'midpoint'), so
-        ``--resume`` and ``--combine`` refuse to mix the two.
     np : int
         Ranks that run packings, >= 1 (default 1). Above 1 the job re-launches
         itself under ``mpirun -np np+1``: rank 0 hands out the packings
@@ -142,7 +136,6 @@ class EnsembleConfig(Config):
     inertia_extra_steps: int = None
     keep_equilibria: bool = False
     saddle_escape: bool = True
-    bisection: str = "midpoint"
     np: int = 1
     quick: bool = False
 
@@ -183,11 +176,6 @@ class EnsembleConfig(Config):
                               f"ramps), got dF_x_max = {self.dF_x_max!r}")
         for name in ("frictional", "keep_equilibria", "saddle_escape", "quick"):
             check_bool(name, getattr(self, name))
-        from remote_trigger.pywrap.stages.bracket import BISECTION_RULES
-
-        if self.bisection not in BISECTION_RULES:
-            raise ConfigError(f"bisection must be one of {', '.join(BISECTION_RULES)}, got "
-                              f"bisection = {self.bisection!r}")
         if self.inertia_I0 is not None:
             _num("inertia_I0", self.inertia_I0, 0, lo_open=True)
             if float(self.inertia_I0) == I0_DYNAMICS:
@@ -254,8 +242,7 @@ class EnsembleConfig(Config):
         then resumes (``--resume`` compares ``config.json``) and its files
         are unchanged. Likewise ``saddle_escape`` only when False; whether
         a packing escaped saddles is recorded in its result (``tasks/``,
-        missing: not) and checked by ``--resume`` and ``--combine``; and
-        ``bisection`` only when not 'midpoint'.
+        missing: not) and checked by ``--resume`` and ``--combine``.
         """
         d = asdict(self)
         d["n"] = list(self.n)
@@ -264,8 +251,6 @@ class EnsembleConfig(Config):
             del d["dim"]
         if self.saddle_escape:
             del d["saddle_escape"]
-        if self.bisection == "midpoint":
-            del d["bisection"]
         return d
 
     @property
