@@ -15,17 +15,9 @@ import os
 __all__ = ["ensemble_status"]
 
 
-def _bracket(points):
-    """(lo, hi): the largest certified-real load below the smallest certified-complex one."""
-    hi = min((p["F_x"] for p in points if p["decision"] == 1), default=math.nan)
-    lo = max((p["F_x"] for p in points if p["decision"] == 0
-              and not p["F_x"] >= hi), default=math.nan)
-    return lo, hi
-
-
 def _ramp_line(name, folder, part):
     """One ramp's state: finished (its part), running (its ramp.h5), or not started."""
-    from remote_trigger.pywrap.jobs.ensemble.onset import read_ramp
+    from remote_trigger.pywrap.jobs.ensemble.onset import bracket, read_ramp
 
     if part is not None:
         o = next((v for k, v in part.items() if k.startswith("I0_")), {})
@@ -40,7 +32,7 @@ def _ramp_line(name, folder, part):
         return f"{name} ramp.h5 unreadable ({exc})"
     if not pts:
         return f"{name} started, no point yet"
-    lo, hi = _bracket(pts)
+    lo, hi = bracket(pts)       # hi = inf: no certified complex point yet
     where = (f"F_x^c in [{lo:.6g}, {hi:.6g}]" if math.isfinite(hi) else
              f"real up to F_x = {lo:.6g}" if math.isfinite(lo) else "no certified point yet")
     return f"{name} running: {len(pts)} point(s), {where}"
