@@ -317,13 +317,17 @@ def config_from_args(args):
                         quick=bool(args.quick))
 
 
+def _run_options_given(args):
+    """The options of a run that were given (``--status`` and ``--combine`` take none)."""
+    return [o for o, v in (("--config", args.config), ("--quick", args.quick),
+                           ("--resume", args.resume), ("--np", args.np),
+                           ("--set", args.set), ("--dim", args.dim)) if v]
+
+
 def main(args):
     """``remote-trigger ensemble``; returns the exit status."""
     if args.status:
-        given = [o for o, v in (("--config", args.config), ("--quick", args.quick),
-                                ("--resume", args.resume), ("--np", args.np),
-                                ("--set", args.set), ("--dim", args.dim),
-                                ("--combine", args.combine)) if v]
+        given = _run_options_given(args) + (["--combine"] if args.combine else [])
         if given:
             raise ConfigError(f"--status reads the folder --out only; drop {given[0]}")
         from remote_trigger.pywrap.jobs.ensemble.status import ensemble_status
@@ -331,9 +335,7 @@ def main(args):
         print("\n".join(ensemble_status(args.out)))
         return 0
     if args.combine is not None:
-        given = [o for o, v in (("--config", args.config), ("--quick", args.quick),
-                                ("--resume", args.resume), ("--np", args.np),
-                                ("--set", args.set), ("--dim", args.dim)) if v]
+        given = _run_options_given(args)
         if given:
             raise ConfigError(f"--combine takes its configuration from the folders; "
                               f"drop {given[0]}")
