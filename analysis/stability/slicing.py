@@ -216,8 +216,34 @@ def _ritz(S, W, Q, normS, normW):
     return theta, Q, W @ Q, radius, resid, phi
 
 
-def _slices(S, W, k, normS, normW, lo0, stats):
-    """Yield the Ritz slices of S from ``lo0`` (below the spectrum) upwards.
+@dataclass
+class _Position:
+    """Where the slicing stands between two slices (pickled at a checkpoint).
+
+    x is the next slice's lower edge, ``count`` the Sylvester count of S
+    below it and ``fuzz`` that count's fuzz; ``rng`` draws ARPACK's start
+    vectors; ``width`` is the estimated width of a slice (None before the
+    first).
+    """
+
+    x: float
+    count: int
+    fuzz: float
+    rng: np.random.Generator
+    width: float | None = None
+
+
+def _start(S, lo0, stats):
+    """The position below the spectrum: no eigenvalue of S below ``lo0``, counted."""
+    cnt, fz, _ = count_below(S, lo0)
+    if cnt != 0:
+        raise _Fail(f"{cnt} eigenvalues of S below the Gershgorin bound {lo0:.6g}")
+    stats.fuzz = max(stats.fuzz, fz)
+    return _Position(lo0, 0, fz, np.random.default_rng(12345))
+
+
+def _slices(S, W, k, normS, normW, pos, stats):
+    """Yield the Ritz slices of S from ``pos`` (a :class:`_Position`) upwards.
 
     Each slice: the k eigenvalues of S nearest a shift sigma (ARPACK
     shift-invert), sigma placed about a third of a slice above the previous upper
@@ -225,18 +251,15 @@ def _slices(S, W, k, normS, normW, lo0, stats):
     count below proves it); the new upper edge y lies in the widest gap of
     the slice's upper part whose distance to its Ritz values exceeds the
     Ritz radius and the inertia fuzz; the inertia count of (x, y) must equal
-    the number of Ritz values kept.
+    the number of Ritz values kept. ``pos`` is advanced to y before each
+    slice is yielded, so that a scan saved after a slice resumes from it
+    (:func:`~remote_trigger.analysis.stability.sliced.classify_sliced`,
+    ``checkpoint_dir``) exactly as it would have gone on.
     """
     n = S.shape[0]
-    x = lo0
-    cnt_x, fz, _ = count_below(S, x)
-    if cnt_x != 0:
-        raise _Fail(f"{cnt_x} eigenvalues of S below the Gershgorin bound {x:.6g}")
-    stats.fuzz = max(stats.fuzz, fz)
-    fz_x = fz
-    rng = np.random.default_rng(12345)
-    width = None                # estimated width of k eigenvalues
-    while cnt_x < n:
+    rng = pos.rng
+    while pos.count < n:
+        x, cnt_x, fz_x, width = pos.x, pos.count, pos.fuzz, pos.width
         kk = min(k, n - 2)
         # the k nearest to sigma reach below x unless (x, sigma) holds more than
         # k/2 of them: sigma a third of a slice above x leaves a margin for the
@@ -301,9 +324,9 @@ def _slices(S, W, k, normS, normW, lo0, stats):
         stats.slices += 1
         stats.ritz_radius = max(stats.ritz_radius, radius)
         keep = slice(0, nkeep)
-        width = float(theta[nkeep - 1] - theta[0]) * k / max(nkeep - 1, 1)
+        pos.width = float(theta[nkeep - 1] - theta[0]) * k / max(nkeep - 1, 1)
+        pos.x, pos.count, pos.fuzz = y, cnt_y, fz
         yield _Slice(x, y, theta[keep], Q[:, keep], WQ[:, keep], radius, resid[keep], phi)
-        x, cnt_x, fz_x = y, cnt_y, fz
 
 
 def _arpack_hint(A, a_lo, a_hi, m):
@@ -325,7 +348,9 @@ def _arpack_hint(A, a_lo, a_hi, m):
     try:
         lu = spla.splu(sp.csc_matrix(A - c * sp.identity(n, format="csr")))
         op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=float)
-        nu = spla.eigs(op, k=k, which="LM", return_eigenvectors=False, maxiter=50 * n)
+        # a fixed start vector: the note does not depend on earlier ARPACK calls
+        nu = spla.eigs(op, k=k, which="LM", return_eigenvectors=False, maxiter=50 * n,
+                       v0=np.random.default_rng(0).standard_normal(n))
     except (RuntimeError, spla.ArpackError):
         return "", none
     lam = c + 1.0 / nu

@@ -243,7 +243,8 @@ def _amount(nbytes):
     return f"{nbytes / 2**10:.1f} KiB"
 
 
-def stability_of(state, basis=None, stop_at_complex=False, progress=None):
+def stability_of(state, basis=None, stop_at_complex=False, progress=None,
+                 checkpoint_dir=None):
     """Eigen-analysis of an analysis ``State`` with the analyzer.
 
     Up to ``eigen.DENSE_MAX`` dofs the dense certified decision (from
@@ -268,6 +269,10 @@ def stability_of(state, basis=None, stop_at_complex=False, progress=None):
     progress : callable, optional
         Sliced path only: ``progress(done, n)`` after each slice (see
         :func:`~remote_trigger.analysis.stability.sliced.classify_sliced`).
+    checkpoint_dir : str, optional
+        Sliced path only: the folder where the scan saves its state and its
+        verdict, so that a killed scan resumes and a repeated one is not redone
+        (``classify_sliced``'s ``checkpoint_dir``). Default None: nothing saved.
 
     Returns
     -------
@@ -296,7 +301,8 @@ def stability_of(state, basis=None, stop_at_complex=False, progress=None):
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
     if Kr.shape[0] > eigen.DENSE_MAX:
         # the whole-spectrum verdict by slicing: no dense matrix, no basis
-        dec = classify_sliced(Kr, mr, stop_at_complex=stop_at_complex, progress=progress)
+        dec = classify_sliced(Kr, mr, stop_at_complex=stop_at_complex, progress=progress,
+                              checkpoint_dir=checkpoint_dir)
     else:
         check_dense_fits(Kr.shape[0])
         if basis is not None and basis.dofs is not None:
@@ -324,12 +330,14 @@ def stability_of(state, basis=None, stop_at_complex=False, progress=None):
                            int(Kr.shape[0]), float(dec.scanned_below), float(lam_max))
 
 
-def stability_of_dump(path, basis=None, stop_at_complex=False, progress=None):
+def stability_of_dump(path, basis=None, stop_at_complex=False, progress=None,
+                      checkpoint_dir=None):
     """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
 
     A dump of spheres (``dump_dimension``) is read by ``read_dump3d``.
 
-    ``basis``, ``stop_at_complex``, ``progress``: as in :func:`stability_of`.
+    ``basis``, ``stop_at_complex``, ``progress``, ``checkpoint_dir``: as in
+    :func:`stability_of`.
 
     Raises
     ------
@@ -343,4 +351,4 @@ def stability_of_dump(path, basis=None, stop_at_complex=False, progress=None):
         state = read_equilibrium(path)      # spheres: 6 dofs each, rattlers below 3 contacts
     except (OSError, KeyError, IndexError, ValueError) as exc:
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
-    return stability_of(state, basis, stop_at_complex, progress)
+    return stability_of(state, basis, stop_at_complex, progress, checkpoint_dir)

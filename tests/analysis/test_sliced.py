@@ -1,6 +1,8 @@
 """The whole-spectrum verdict by slicing (analysis.stability.sliced) against the
 dense certified decision and against Arb, on hand-built matrices with planted
 pairs and on frictional packings."""
+import dataclasses
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -279,3 +281,80 @@ def test_slicing_that_fails_above_a_complex_strip_is_complex(monkeypatch, pair, 
     assert res.complex_present is want
     assert "planted failure" in res.reason
     assert bool(np.isfinite(res.scanned_below)) is (want is True)
+
+
+class _Killed(Exception):
+    """Stands for a kill in the middle of a scan."""
+
+
+def _fields(res, st):
+    """Every number of a verdict and its statistics, as text (floats exact, NaN == NaN)."""
+    return repr((res.complex_present, res.confidence, res.reason, res.scanned_below,
+            res.lambda_max, res.eigenvalues.tobytes(), res.backward_error,
+            [(p.eigenvalues.tobytes(), repr(dataclasses.replace(p, eigenvalues=None)))
+             for p in res.pairs],
+            {k: v for k, v in vars(st).items()}))
+
+
+@pytest.mark.parametrize("pairs, stop", [((), False), (((100, 1.5),), True)])
+def test_a_scan_killed_after_any_slice_resumes_to_the_same_bits(tmp_path, pairs, stop):
+    """``checkpoint_dir``: a scan saved after every slice and killed after
+    slice k (k = 2, 4, ...; the state saved after slice k - 1) resumes, in a fresh call, to the verdict, pairs,
+    margins, eigenvalues and statistics of the uninterrupted scan, bit for
+    bit; a second call returns the saved verdict without scanning; the scan's
+    state is removed when the verdict is saved; a different matrix (one bit
+    of one entry) does not find it."""
+    K, mass = planted(n=150, pairs=pairs, seed=11)
+    ref_st = SlicedStats()
+    ref = classify_sliced(K, mass, slice_size=20, stats=ref_st, stop_at_complex=stop)
+    assert ref.complex_present is bool(pairs), ref.reason
+    assert ref_st.slices >= 4
+    want = _fields(ref, ref_st)
+    for k in range(2, ref_st.slices + 1, 2):
+        folder = tmp_path / f"k{k}"
+        seen = []
+
+        def kill(done, n):
+            seen.append(done)
+            if len(seen) == k:
+                raise _Killed
+
+        with pytest.raises(_Killed):
+            classify_sliced(K, mass, slice_size=20, stop_at_complex=stop, progress=kill,
+                            checkpoint_dir=folder, checkpoint_seconds=0)
+        assert [p.name.endswith(".scan.pkl") for p in folder.iterdir()] == [True]
+        more, st = [], SlicedStats()
+        got = classify_sliced(K, mass, slice_size=20, stats=st, stop_at_complex=stop,
+                              progress=lambda done, n: more.append(done),
+                              checkpoint_dir=folder, checkpoint_seconds=0)
+        assert _fields(got, st) == want
+        assert len(more) == ref_st.slices - (k - 1)  # the killed slice again, then the rest
+        assert [p.name.endswith(".done.pkl") for p in folder.iterdir()] == [True]
+    st = SlicedStats()
+    again = classify_sliced(K, mass, slice_size=20, stats=st, stop_at_complex=stop,
+                            checkpoint_dir=folder,
+                            progress=lambda *a: pytest.fail("scanned again"))
+    assert _fields(again, st) == want
+    K2 = K.copy()
+    K2.data[0] = np.nextafter(K2.data[0], np.inf)
+    seen2 = []
+    classify_sliced(K2, mass, slice_size=20, stop_at_complex=stop, checkpoint_dir=folder,
+                    progress=lambda done, n: seen2.append(done))
+    assert len(seen2) > 0
+    assert len(list(folder.iterdir())) == 2
+
+
+def test_a_stale_scan_state_is_removed_and_bad_input_refused(tmp_path):
+    """A saved scan of another matrix is left alone until a verdict is saved
+    in the folder, then removed; an unreadable state is scanned over; a
+    negative or NaN ``checkpoint_seconds`` is refused by name."""
+    K, mass = planted(n=60, seed=2)
+    (tmp_path / "sliced-0123.scan.pkl").write_bytes(b"not a pickle")
+    (tmp_path / "notes.txt").write_text("kept")
+    res = classify_sliced(K, mass, slice_size=20, checkpoint_dir=tmp_path)
+    assert res.complex_present is False
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert names[0] == "notes.txt" and len(names) == 2 and names[1].endswith(".done.pkl")
+    for bad in (-1.0, float("nan")):
+        with pytest.raises(ValueError, match="checkpoint_seconds"):
+            classify_sliced(K, mass, checkpoint_dir=tmp_path, checkpoint_seconds=bad)
