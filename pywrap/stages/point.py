@@ -58,7 +58,8 @@ def _screen(eng, dump):
     return on_rank0(eng.comm, run)
 
 
-def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=None):
+def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=None,
+               checkpoint_dir=None):
     """Equilibrate at F_x from ``start_file``, save ``prefix.*``, analyse.
 
     Parameters
@@ -82,6 +83,12 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
     progress : callable, optional
         ``progress(done, n)`` on rank 0 after each slice of a sliced verdict
         (``analysis.stability.sliced.classify_sliced``).
+    checkpoint_dir : str, optional
+        Folder of a sliced verdict's saved scan and verdict (rank 0; see
+        ``classify_sliced``): a point redone after a kill resumes its scan,
+        and a point whose equilibrium is bitwise one already decided there
+        (the F_x = 0 point of a second ramp from the same packing) is not
+        decided again.
 
     Returns
     -------
@@ -126,7 +133,8 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
             save_equilibrium(eng, cfg, F_x, prefix)
             escaped += 1.0
             counted = None
-    res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True, progress=progress)
+    res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True, progress=progress,
+                   checkpoint_dir=checkpoint_dir)
     if res.start == "sliced":
         # the sliced verdict lists the symmetric part's Ritz values for its
         # one-eigenvalue strips: a free rotation would count; the screen counts

@@ -13,11 +13,9 @@ from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.stages.config import RampConfig
 from remote_trigger.pywrap.bindings.engine import Engine
 from remote_trigger.pywrap.stages import equilibrium as eq
-from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.stages import ramp_file
 from remote_trigger.pywrap.stages.common import (
-    EQUILIBRIUM_EXTS, _ensure_dir, _progress, check_spheres_ramp, start_sha256,
-    start_timestep)
+    EQUILIBRIUM_EXTS, _ensure_dir, _progress, start_timestep)
 from remote_trigger.pywrap.stages.point import ramp_point, verdict_progress
 
 
@@ -191,7 +189,8 @@ def _bracket_attrs(rlog, lo, hi, tol, why=""):
     return attrs
 
 
-def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=None):
+def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=None,
+         verdict_dir=None):
     """Ramp F_x until a complex eigenvalue pair appears, then bisect F_x^c.
 
     Step k has F_x = cfg.F_x + k dF_x (k = 0 re-equilibrates the data file at
@@ -228,6 +227,10 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     stop_after : int, optional
         Testing aid: return (status ``'interrupted'``) after this many new
         equilibria, as if killed.
+    verdict_dir : str, optional
+        Where a sliced verdict saves its scan (every 5 min) and its verdict
+        (``ramp_point``'s ``checkpoint_dir``). Default ``<out>/ramp/verdicts``,
+        removed when the ramp ends; a folder given is left to the caller.
 
     Returns
     -------
@@ -244,7 +247,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     h5 = os.path.join(out, "ramp.h5")
     folder = os.path.join(out, "ramp")
     with Engine(comm=comm, log=log) as eng:
-        rlog = _open_ramp_log(eng, cfg, out, h5, resume)
+        rlog = ramp_file.open_ramp_log(eng, cfg, out, h5, resume)
         _BASES.clear()
         _ensure_dir(eng, folder)
         rcfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "ramp")
@@ -258,11 +261,12 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
             return _ramp_result(rlog, status)
         budget = _Budget(stop_after)
         bar = _progress(None, "ramp", quiet, eng.rank, unit="step")
+        vdir = verdict_dir or os.path.join(folder, "verdicts")
         try:
-            ended = _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim)
+            ended = _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim, vdir)
             if ended is not None:
                 return ended
-            return _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim)
+            return _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim, vdir)
         finally:
             bar.close()
             if rlog.dirty:
@@ -280,30 +284,6 @@ class _Budget:
         """Count one equilibrium; True when the budget is used up."""
         self.new += 1
         return self.stop_after is not None and self.new >= self.stop_after
-
-
-def _open_ramp_log(eng, cfg, out, h5, resume):
-    """The ramp's log: new, or ``ramp.h5`` to resume (refused without ``resume``)."""
-    exists = eng.comm.bcast(os.path.exists(h5) if eng.rank == 0 else None, root=0)
-    if exists and not resume:
-        raise ConfigError(f"{h5} exists: use resume (--resume) to continue it, or "
-                          f"another output folder (nothing was overwritten)")
-
-    def open_log():
-        from remote_trigger.analysis.output import output_dir
-        from remote_trigger.pywrap.bindings.datafile import check_datafile
-
-        try:
-            check_datafile(cfg.datafile)
-            check_spheres_ramp(cfg)
-            output_dir(out, "--out")
-            log_ = ramp_file.RampLog.load(cfg, h5) if (resume and exists) else ramp_file.RampLog(cfg, h5)
-        except ValueError as exc:
-            raise ConfigError(str(exc)) from None
-        log_.attrs.setdefault("datafile_sha256", start_sha256(cfg.datafile))
-        return log_
-
-    return on_rank0(eng.comm, open_log)
 
 
 #: the adaptive ramp steps by this fraction of the predicted distance to the
@@ -370,7 +350,7 @@ def adaptive_step(dF_x, dF_x_max, prev, last):
     return min(max(ADAPTIVE_SAFETY * d, dF_x), dF_x_max)
 
 
-def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
+def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
     """The ramp: steps of dF_x until one is certified complex.
 
     Returns the :class:`RampResult` of a ramp that ends here (no complex pair
@@ -395,7 +375,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
         prefix = os.path.join(folder, name)
         try:
             vals, res = ramp_point(eng, rcfg, start, F, prefix, basis, dim,
-                                   verdict_progress(bar, F))
+                                   verdict_progress(bar, F), vdir)
         except eq.NoEquilibriumError as exc:
             rlog.attrs["message"] = str(exc)
             _checkpoint(eng, rlog, folder, "no_equilibrium")
@@ -421,7 +401,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
     return None
 
 
-def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
+def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
     """Bisection of F_x^c on certified answers only (docs/driver.md); returns the
     :class:`RampResult` (``'complete'``, or ``'interrupted'``)."""
     bis = rlog.rows["bisection"]
@@ -435,7 +415,8 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2):
         prefix = os.path.join(folder, name)
         try:
             vals, res = ramp_point(eng, rcfg, lo_file, mid, prefix,
-                                    _load_basis(eng, lo_file), dim, verdict_progress(bar, mid))
+                                    _load_basis(eng, lo_file), dim, verdict_progress(bar, mid),
+                                    vdir)
         except eq.NoEquilibriumError:
             vals = {c: np.nan for c in ramp_file.COLUMNS}
             vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
@@ -522,8 +503,10 @@ def _checkpoint(eng, rlog, folder, status, force=False):
     ``force``), the bases of its start points saved just before it, the other
     saved bases removed after it (all of them for a final status), and, with
     ``keep_equilibria`` False, the equilibria no longer needed
-    (:func:`_prune_equilibria`), also only once ramp.h5 names every row."""
+    (:func:`_prune_equilibria`), also only once ramp.h5 names every row; at a
+    final status the ramp's own saved verdicts (``ramp/verdicts``) go too."""
     import glob
+    import shutil
     from remote_trigger.analysis.output import atomic_path
 
     if eng.rank != 0:
@@ -538,6 +521,8 @@ def _checkpoint(eng, rlog, folder, status, force=False):
                     _BASES[f].save(tmp)
 
     rlog.write(status, force=force, before=None if final else save)
+    if final:
+        shutil.rmtree(os.path.join(folder, "verdicts"), ignore_errors=True)
     if final or not rlog.dirty:         # the file on disk names only these starts
         for path in glob.glob(os.path.join(folder, "*.basis.npz")):
             if path not in keep:

@@ -29,7 +29,9 @@ from remote_trigger.analysis.output import atomic_path
 
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.runtime.results import read_all
-from remote_trigger.pywrap.stages.common import RESULT_VERSION, check_resume_config, start_sha256
+from remote_trigger.pywrap.runtime.parallel import on_rank0
+from remote_trigger.pywrap.stages.common import (RESULT_VERSION, check_resume_config,
+                                                 check_spheres_ramp, start_sha256)
 
 #: row groups of ramp.h5
 STEPS = "steps"
@@ -299,3 +301,35 @@ class RampLog:
         log.status = attrs.get("status", "running")
         log._synced = False          # rewrite in full once (older files: fixed-size)
         return log
+
+
+def open_ramp_log(eng, cfg, out, h5, resume):
+    """The ramp's log (:class:`RampLog`, on every rank): new, or ``ramp.h5`` to
+    resume (refused without ``resume``); the start file and ``out`` checked.
+
+    Raises
+    ------
+    ConfigError
+        ``ramp.h5`` exists without ``resume``; a bad start file, output
+        folder or file to resume (the message names it).
+    """
+    exists = eng.comm.bcast(os.path.exists(h5) if eng.rank == 0 else None, root=0)
+    if exists and not resume:
+        raise ConfigError(f"{h5} exists: use resume (--resume) to continue it, or "
+                          f"another output folder (nothing was overwritten)")
+
+    def open_log():
+        from remote_trigger.analysis.output import output_dir
+        from remote_trigger.pywrap.bindings.datafile import check_datafile
+
+        try:
+            check_datafile(cfg.datafile)
+            check_spheres_ramp(cfg)
+            output_dir(out, "--out")
+            log_ = RampLog.load(cfg, h5) if (resume and exists) else RampLog(cfg, h5)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+        log_.attrs.setdefault("datafile_sha256", start_sha256(cfg.datafile))
+        return log_
+
+    return on_rank0(eng.comm, open_log)

@@ -150,24 +150,27 @@ def _relax(cfg, datafile, folder, protocol):
     return stages.relax(rcfg, folder, comm=MPI.COMM_SELF, quiet=True, overwrite=True)
 
 
-def _ramp(cfg, datafile, mu, folder, resume=False):
+def _ramp(cfg, datafile, mu, folder, resume=False, verdict_dir=None):
     """Ramp at friction ``mu`` from ``datafile`` (``resume``: continue the
     ramp.h5 a killed run left, bitwise as uninterrupted); returns the
     RampResult. Unless ``keep_equilibria`` (or the I0 re-analysis, which
     reads every point's dump), the ramp keeps only the equilibria it still
-    needs while it runs (``RampConfig.keep_equilibria``)."""
+    needs while it runs (``RampConfig.keep_equilibria``). ``verdict_dir``:
+    the sliced verdicts' folder (``stages.ramp``), shared by a packing's
+    ramps."""
     from mpi4py import MPI
     from remote_trigger.pywrap import stages
     from remote_trigger.pywrap.jobs.paper import ramp_config
 
     keep = bool(cfg.keep_equilibria or cfg.inertia_I0 is not None)
     rcfg = ramp_config(cfg, datafile, mu).replace(keep_equilibria=keep)
-    return stages.ramp(rcfg, folder, comm=MPI.COMM_SELF, quiet=True, resume=resume)
+    return stages.ramp(rcfg, folder, comm=MPI.COMM_SELF, quiet=True, resume=resume,
+                       verdict_dir=verdict_dir)
 
 
-def _ramp_part(cfg, relaxed, mu, folder, resume=False):
+def _ramp_part(cfg, relaxed, mu, folder, resume=False, verdict_dir=None):
     """One ramp and the onset numbers under both conventions (dict, JSON-ready)."""
-    res = _ramp(cfg, relaxed, mu, folder, resume)
+    res = _ramp(cfg, relaxed, mu, folder, resume, verdict_dir)
     part = {"mu": float(mu), "ramp_status": res.status, "message": res.message,
             "n_steps": int(len(res.F_x)), "n_bisection": int(len(res.bisection_F_x)),
             "tol_reached": bool(res.tol_reached), "h5": res.h5}
@@ -354,15 +357,21 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=()):
                                    "antisymmetry": rel.antisymmetry,
                                    "datafile": rel.datafile})
         d.update({k: v for k, v in done["relax"].items() if k != "datafile"})
+        # the ramps' sliced verdicts, in one folder: a killed scan resumes, and
+        # the second ramp's F_x = 0 point, bitwise the first's (the friction
+        # does not enter K at zero tangential displacement), is not decided again
+        vdir = os.path.join(folder, "verdicts")
         for key, mu in (("mu0", cfg.mu), ("mu_ss", cfg.mu * cfg.mu_ss)):
             if key not in done["ramps"]:
                 record("ramps", key, _ramp_part(cfg, done["relax"]["datafile"], mu,
-                                                os.path.join(folder, f"ramp_{key}"), resume))
+                                                os.path.join(folder, f"ramp_{key}"), resume,
+                                                vdir))
             elif _shape_missing(cfg, done["ramps"][key]):
                 # a part recorded by a version without the pair's shape: added
                 # from the ramp's equilibria while they are still on disk
                 record("ramps", key, _with_shape(cfg, done["ramps"][key]))
             d["ramps"][key] = done["ramps"][key]
+        shutil.rmtree(vdir, ignore_errors=True)
     except Exception as exc:  # noqa: BLE001 - recorded: one packing does not stop the others
         d["error"] = _failure(exc)
     if cfg.frictional:

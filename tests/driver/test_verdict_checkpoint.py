@@ -1,0 +1,117 @@
+"""Sliced verdicts saved by a ramp (``stages.ramp``'s ``verdict_dir``): a ramp
+killed inside a point's scan resumes it, to the same ramp.h5 bit for bit, and
+a second ramp from the same packing at another friction takes its F_x = 0
+verdict from the first's (the same K to the last bit), changing nothing.
+
+The verdict is sliced by lowering the dense-path switch below the packing's
+size (as in test_ramp.py), in slices of 12 eigenvalues (a few per scan); a kill is an exception raised from inside the
+slicing, which leaves the files a SIGKILL at that moment would (every file is
+written atomically)."""
+import os
+
+import numpy as np
+import pytest
+
+from remote_trigger.analysis.stability import eigen, sliced
+from remote_trigger.pywrap import stages
+from remote_trigger.pywrap.runtime.results import read_all
+from remote_trigger.pywrap.stages.config import RampConfig
+
+from .test_kill import compare_ramp
+
+DF, TOL = 0.01, 1e-5
+_SLICES = sliced._slices        # the real one (the counters below wrap it)
+
+
+class _Killed(Exception):
+    """Stands for a kill inside a scan."""
+
+
+class _CountScans:
+    """Wraps ``sliced._slices``: counts scans and slices; raises _Killed at slice
+    ``kill_at`` (counted over the whole run)."""
+
+    def __init__(self, kill_at=None):
+        self.scans, self.slices, self.kill_at = 0, 0, kill_at
+
+    def __call__(self, *args, **kwargs):
+        self.scans += 1
+        for sl in _SLICES(*args, **kwargs):
+            self.slices += 1
+            if self.slices == self.kill_at:
+                raise _Killed
+            yield sl
+
+
+def _sliced_small(mp):
+    mp.setattr(eigen, "DENSE_MAX", 10)
+    mp.setattr(sliced, "_SLICE_SIZE", 12)
+
+
+@pytest.fixture(scope="module")
+def sliced_refs(relaxed, tmp_path_factory):
+    """Uninterrupted sliced ramps at mu0 and 0.8 mu0, each on its own."""
+    out = {}
+    with pytest.MonkeyPatch.context() as mp:
+        _sliced_small(mp)
+        for name, f in (("mu0", 1.0), ("mu_ss", 0.8)):
+            cfg = RampConfig(datafile=relaxed.datafile, dF_x=DF, tol=TOL)
+            cfg = cfg.replace(mu=cfg.mu * f)
+            folder = tmp_path_factory.mktemp(f"sliced_{name}")
+            count = _CountScans()
+            mp.setattr(sliced, "_slices", count)
+            res = stages.ramp(cfg, str(folder), quiet=True)
+            assert res.status == "complete", res.message
+            assert not os.path.exists(folder / "ramp" / "verdicts")   # removed at the end
+            out[name] = (cfg, read_all(res.h5), count)
+    return out
+
+
+def test_a_ramp_killed_inside_a_scan_resumes_it_bitwise(sliced_refs, tmp_path, monkeypatch):
+    cfg, ref, ref_count = sliced_refs["mu0"]
+    npts = sum(ref[1][f"{k}/F_x"].size for k in ("steps", "bisection"))
+    assert ref_count.scans == npts and ref_count.slices > 2 * npts
+    _sliced_small(monkeypatch)
+    monkeypatch.setattr(sliced, "CHECKPOINT_SECONDS", 0.0)
+    # killed halfway through the ramp's slices, inside a scan
+    killer = _CountScans(kill_at=ref_count.slices // 2)
+    monkeypatch.setattr(sliced, "_slices", killer)
+    with pytest.raises(_Killed):
+        stages.ramp(cfg, str(tmp_path), quiet=True)
+    saved = os.listdir(tmp_path / "ramp" / "verdicts")
+    assert sum(f.endswith(".scan.pkl") for f in saved) == 1, saved
+    resumed = _CountScans()
+    monkeypatch.setattr(sliced, "_slices", resumed)
+    res = stages.ramp(cfg, str(tmp_path), quiet=True, resume=True)
+    assert res.status == "complete"
+    assert compare_ramp(ref, res.h5) == []
+    # the killed scan went on from its last saved slice, not from the start
+    assert killer.slices - 1 + resumed.slices == ref_count.slices
+    assert not os.path.exists(tmp_path / "ramp" / "verdicts")
+
+
+def test_the_second_ramp_of_a_packing_takes_its_F_x_0_verdict_from_the_first(
+        sliced_refs, tmp_path, monkeypatch):
+    """Two ramps sharing a verdict folder, as an ensemble packing's: the 0.8 mu0
+    ramp scans one point fewer than on its own (its F_x = 0 equilibrium has
+    zero tangential displacement, so K does not depend on mu), and both
+    ramp.h5 are bitwise those of the ramps on their own."""
+    _sliced_small(monkeypatch)
+    shared = tmp_path / "verdicts"
+    for name in ("mu0", "mu_ss"):
+        cfg, ref, ref_count = sliced_refs[name]
+        count = _CountScans()
+        monkeypatch.setattr(sliced, "_slices", count)
+        res = stages.ramp(cfg, str(tmp_path / name), quiet=True, verdict_dir=str(shared))
+        assert compare_ramp(ref, res.h5) == []
+        assert count.scans == ref_count.scans - (name == "mu_ss")
+    done = [f for f in os.listdir(shared) if f.endswith(".done.pkl")]
+    assert len(done) == sliced_refs["mu0"][2].scans + sliced_refs["mu_ss"][2].scans - 1
+    # the premise, from the ramps on their own: the same F_x = 0 verdict
+    first = [sorted(k for k in sliced_refs[m][1][1] if k.startswith("eigenvalues/steps/"))[0]
+             for m in ("mu0", "mu_ss")]
+    assert first[0] == first[1]
+    np.testing.assert_array_equal(sliced_refs["mu0"][1][1][first[0]],
+                                  sliced_refs["mu_ss"][1][1][first[0]])
+    for m in ("mu0", "mu_ss"):
+        assert sliced_refs[m][1][1]["steps/F_x"][0] == 0.0
