@@ -70,7 +70,13 @@ def world_rank():
 
 
 class Parser(argparse.ArgumentParser):
-    """ArgumentParser that prints (help, usage errors, --version) on rank 0 only."""
+    """ArgumentParser that prints (help, usage errors, --version) on rank 0 only
+    and takes options by their whole name only (no abbreviations: ``generate
+    --out DIR`` would otherwise be taken for ``--output FILE``)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def _print_message(self, message, file=None):
         if world_rank() == 0:

@@ -236,7 +236,8 @@ def run_relax(args):
     if _rank() == 0:
         print(f"relax: residual {res.residual:.3e} ({'< f_min' if res.converged else 'round-off floor'}), "
               f"{res.newton_iterations} Newton steps, damped time {res.damped_time:.4g}, "
-              f"wall {res.wall_time:.2f} s, phi {res.packing_fraction:.4f} -> {res.h5}")
+              f"wall {res.wall_time:.2f} s, phi {res.packing_fraction:.4f} -> {res.h5}; "
+              f"a ramp starts from {res.datafile}")
     return 0
 
 

@@ -139,6 +139,17 @@ def test_usage_error_is_one_line(capsys):
     assert_one_line_error(capsys.readouterr().err, "--datafile", "--help")
 
 
+def test_options_are_taken_by_their_whole_name_only(capsys, tmp_path):
+    """``generate --out DIR`` (the folder option of the other commands) is
+    refused, not taken for an abbreviation of ``--output FILE``, and nothing is
+    written."""
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["generate", "--n", "20", "--out", str(tmp_path / "p")])
+    assert exc.value.code == 2
+    assert_one_line_error(capsys.readouterr().err, "unrecognized arguments: --out")
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("runs,bad", [("C", "'C'"), ("xyz", "'x', 'y', 'z'"), ("abd", "'d'")])
 def test_unknown_run_letters(capsys, relaxed, runs, bad):
     with pytest.raises(SystemExit) as exc:
@@ -233,8 +244,12 @@ def test_full_disk_is_one_line_status_1(capsys, tmp_path, monkeypatch):
 
 def test_relax_and_perturb_refuse_a_folder_with_their_results(capsys, relaxed, tmp_path):
     out = tmp_path / "o"
-    assert run_cli(capsys, "relax", "--datafile", relaxed.datafile, "--out", out, "--quiet",
-                   "--set", "settle_steps=0")[0] == 0
+    status, stdout, _ = run_cli(capsys, "relax", "--datafile", relaxed.datafile, "--out", out,
+                                "--quiet", "--set", "settle_steps=0")
+    assert status == 0
+    # the line names the file the next stage starts from (``ramp --datafile``)
+    start = str(out / "relax" / "equilibrium.data")
+    assert stdout.rstrip().endswith(f"a ramp starts from {start}") and os.path.isfile(start)
     before = (out / "relax.h5").read_bytes()
     status, _, err = run_cli(capsys, "relax", "--datafile", relaxed.datafile, "--out", out,
                              "--quiet", "--set", "settle_steps=0")
