@@ -65,6 +65,8 @@ def test_refusals_name_the_value(runs, tmp_path):
         combine_runs([a], str(tmp_path / "o3"))
     with pytest.raises(ConfigError, match="no config.json there"):
         combine_runs([a, str(tmp_path)], str(tmp_path / "o4"))
+    with pytest.raises(ConfigError, match="'.*missing': no such folder"):
+        combine_runs([a, str(tmp_path / "missing")], str(tmp_path / "o4"))
     (tmp_path / "full").mkdir()
     (tmp_path / "full" / "x.txt").write_text("x")
     with pytest.raises(ConfigError, match="holds other files"):

@@ -27,6 +27,8 @@ def read_run(path, flag="--combine"):
     from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
 
     cfgfile = os.path.join(path, "config.json")
+    if not os.path.isdir(path):
+        raise ConfigError(f"{flag} {path!r}: no such folder")
     try:
         with open(cfgfile) as fh:
             d = json.load(fh)
