@@ -92,7 +92,10 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import hashlib
 import math
+import os
+import pickle
 import time
 
 import numpy as np
@@ -248,8 +251,6 @@ _CHECKPOINT_FORMAT = 1
 def _checkpoint_key(A, rel_error, window, slice_size, stop_at_complex):
     """sha256 of everything a scan depends on: A = M^-1/2 K M^-1/2 (canonical CSR,
     bitwise), the options and the checkpoint format."""
-    import hashlib
-
     h = hashlib.sha256()
     h.update(repr((_CHECKPOINT_FORMAT, A.shape, float(rel_error), float(window),
                    int(slice_size), bool(stop_at_complex))).encode())
@@ -262,8 +263,6 @@ def _load_checkpoint(path, key):
     """The object saved at ``path`` for ``key`` (a _Scan, or a finished
     (SpectrumDecision, SlicedStats)); None if there is none, or it is
     unreadable or of another key (a scan from the start then replaces it)."""
-    import pickle
-
     try:
         with open(path, "rb") as fh:
             saved = pickle.load(fh)
@@ -276,9 +275,6 @@ def _load_checkpoint(path, key):
 
 def _save_checkpoint(path, key, obj):
     """Save (key, obj) to ``path`` atomically (pickle), creating its folder."""
-    import os
-    import pickle
-
     from remote_trigger.analysis.output import atomic_path
 
     os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
@@ -364,8 +360,6 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     -----
     Module docstring: what is certified and how.
     """
-    import os
-
     t0 = time.perf_counter()
     stats = stats if stats is not None else SlicedStats()
     A, S, W = _scaled(K, mass)
