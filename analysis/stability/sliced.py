@@ -107,7 +107,7 @@ from remote_trigger.analysis.stability.slicing import (
     _INFLATE, SlicedStats, _Fail, _arpack_hint, _norm1, _norm2_skew, _slices, _start)
 from remote_trigger.analysis.stability.strips import _Ctx, _coupling, _decide_strip
 
-__all__ = ["classify_sliced", "SlicedStats", "CHECKPOINT_SECONDS"]
+__all__ = ["classify_sliced", "SlicedStats", "CHECKPOINT_SECONDS", "saved_scans"]
 
 _MAX_STRIP = 8                  # largest cluster decided from its block
 # Ritz pairs per slice: ARPACK's work per pair grows with it (orthogonalization
@@ -271,6 +271,43 @@ def _load_checkpoint(path, key):
     if not (isinstance(saved, tuple) and len(saved) == 2 and saved[0] == key):
         return None
     return saved[1]
+
+
+def saved_scans(folder):
+    """The scans saved in ``folder`` (``classify_sliced``'s ``checkpoint_dir``)
+    and how far each had come at its last save, for progress reports.
+
+    Parameters
+    ----------
+    folder : str
+        A checkpoint folder; missing is the same as empty.
+
+    Returns
+    -------
+    list of (str, int, int, float)
+        Per ``sliced-*.scan.pkl``, sorted by name: its path; the eigenvalues
+        of the symmetric part listed by then (the count ``progress`` reports);
+        the order n; the save's time (the file's mtime, seconds since the
+        epoch). A file that cannot be read (being replaced, or of other code)
+        is left out. It is only read: safe beside the running scan.
+    """
+    try:
+        names = sorted(os.listdir(folder))
+    except FileNotFoundError:
+        return []
+    out = []
+    for name in names:
+        if not (name.startswith("sliced-") and name.endswith(".scan.pkl")):
+            continue
+        path = os.path.join(folder, name)
+        try:
+            mtime = os.path.getmtime(path)
+            with open(path, "rb") as fh:
+                _, sc = pickle.load(fh)
+            out.append((path, int(sc.dropped + sc.buf.th.size), int(sc.stats.n), mtime))
+        except Exception:       # noqa: BLE001 - replaced meanwhile, truncated or other code
+            continue
+    return out
 
 
 def _save_checkpoint(path, key, obj):

@@ -8,7 +8,7 @@ import pytest
 import scipy.sparse as sp
 
 from remote_trigger.analysis.stability import eigen, exceptional
-from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced
+from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced, saved_scans
 from remote_trigger.analysis.stability.slicing import count_below
 
 from .arb_oracle import full_spectrum
@@ -323,6 +323,9 @@ def test_a_scan_killed_after_any_slice_resumes_to_the_same_bits(tmp_path, pairs,
             classify_sliced(K, mass, slice_size=20, stop_at_complex=stop, progress=kill,
                             checkpoint_dir=folder, checkpoint_seconds=0)
         assert [p.name.endswith(".scan.pkl") for p in folder.iterdir()] == [True]
+        # how far the saved scan had come: the count after slice k - 1
+        (path, done, n_saved, _), = saved_scans(folder)
+        assert (done, n_saved) == (seen[-2], K.shape[0]) and path.endswith(".scan.pkl")
         more, st = [], SlicedStats()
         got = classify_sliced(K, mass, slice_size=20, stats=st, stop_at_complex=stop,
                               progress=lambda done, n: more.append(done),
@@ -330,6 +333,7 @@ def test_a_scan_killed_after_any_slice_resumes_to_the_same_bits(tmp_path, pairs,
         assert _fields(got, st) == want
         assert len(more) == ref_st.slices - (k - 1)  # the killed slice again, then the rest
         assert [p.name.endswith(".done.pkl") for p in folder.iterdir()] == [True]
+        assert saved_scans(folder) == []
     st = SlicedStats()
     again = classify_sliced(K, mass, slice_size=20, stats=st, stop_at_complex=stop,
                             checkpoint_dir=folder,
@@ -351,10 +355,12 @@ def test_a_stale_scan_state_is_removed_and_bad_input_refused(tmp_path):
     K, mass = planted(n=60, seed=2)
     (tmp_path / "sliced-0123.scan.pkl").write_bytes(b"not a pickle")
     (tmp_path / "notes.txt").write_text("kept")
+    assert saved_scans(tmp_path) == []          # the unreadable state is left out
     res = classify_sliced(K, mass, slice_size=20, checkpoint_dir=tmp_path)
     assert res.complex_present is False
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names[0] == "notes.txt" and len(names) == 2 and names[1].endswith(".done.pkl")
+    assert saved_scans(tmp_path / "missing") == []
     for bad in (-1.0, float("nan")):
         with pytest.raises(ValueError, match="checkpoint_seconds"):
             classify_sliced(K, mass, checkpoint_dir=tmp_path, checkpoint_seconds=bad)

@@ -307,12 +307,38 @@ def test_a_part_recorded_without_the_pair_shape_is_completed_on_resume(serial):
         assert math.isnan(got["pair_longwave"]), h5
 
 
+def _killed_scan(folder):
+    """A sliced verdict's scan (n = 80, a symmetric chain: real) saved in
+    ``folder`` after each slice and killed in its third; the progress counts."""
+    import scipy.sparse as sp
+    from remote_trigger.analysis.stability.sliced import classify_sliced
+
+    n = 80
+    K = sp.diags([np.full(n - 1, -1.0), np.linspace(3.0, 90.0, n), np.full(n - 1, -1.0)],
+                 [-1, 0, 1]).tocsr()
+    seen = []
+
+    class Killed(Exception):
+        pass
+
+    def kill(done, _):
+        seen.append(done)
+        if len(seen) == 3:
+            raise Killed
+
+    with pytest.raises(Killed):
+        classify_sliced(K, np.ones(n), slice_size=20, progress=kill, checkpoint_dir=folder,
+                        checkpoint_seconds=0)
+    return seen
+
+
 def test_status_reads_how_far_each_packing_has_come(serial, tmp_path):
     """``ensemble --status`` on a copy of the finished run made to look
     interrupted: a finished packing with its bracket, a packing whose mu0
     ramp is recorded and whose mu_ss ramp is running (its points so far and
-    the bracket they give: the finished one), a packing not started; the
-    folder is left as it was; a folder that is no ensemble is refused."""
+    the bracket they give: the finished one) and whose point's sliced
+    verdict was killed after a save (its count then), a packing not started;
+    the folder is left as it was; a folder that is no ensemble is refused."""
     import shutil
 
     out, _, t = serial
@@ -328,6 +354,8 @@ def test_status_reads_how_far_each_packing_has_come(serial, tmp_path):
     prog = json.loads(prog_file.read_text())
     del prog["ramps"]["mu_ss"]
     prog_file.write_text(json.dumps(prog))
+    # the running point's sliced verdict, killed after its third slice (saved after the second)
+    seen = _killed_scan(copy / "packings" / running / "verdicts")
     before = sorted(str(p) for p in copy.rglob("*"))
     proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(copy)],
                           capture_output=True, text=True, timeout=300)
@@ -346,6 +374,9 @@ def test_status_reads_how_far_each_packing_has_come(serial, tmp_path):
     assert ("mu_ss running: " in lines[2]
             and f" point(s), F_x^c in {bracket(running, 'F_x_c_ss')}" in lines[2]), lines[2]
     assert lines[3] == f"{absent}: not started"
+    assert lines[2].endswith(")") and (
+        f"; a point's verdict in progress: {seen[1]}/80 eigenvalues at its last save ("
+        in lines[2]), lines[2]
     assert sorted(str(p) for p in copy.rglob("*")) == before
     proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(tmp_path)],
                           capture_output=True, text=True, timeout=300)

@@ -4,8 +4,9 @@ Part of :mod:`remote_trigger.pywrap.jobs.ensemble` (docs/ensemble.md). A job
 at N = 10^4 runs for hours with one progress line per finished packing;
 this reads what the job has already written -- ``config.json``, the
 finished packings' ``tasks/<key>.json``, each started packing's
-``progress.json`` and its ramps' ``ramp.h5`` (all written atomically, at
-every ramp point) -- and says for each packing where it is. It writes
+``progress.json``, its ramps' ``ramp.h5`` (all written atomically, at
+every ramp point) and the scan a sliced verdict saves every 5 min -- and
+says for each packing where it is. It writes
 nothing and starts no LAMMPS or MPI, so it is safe beside the running job
 (on a cluster, from a login node on the shared file system).
 """
@@ -38,6 +39,19 @@ def _ramp_line(name, folder, part):
     return f"{name} running: {len(pts)} point(s), {where}"
 
 
+def _scan_note(folder):
+    """A running point's sliced verdict as its last save left it (the
+    packing's ``verdicts`` folder, N >= 1600), or ''."""
+    import time
+
+    from remote_trigger.analysis.stability.sliced import saved_scans
+
+    return "".join(
+        f"; a point's verdict in progress: {done}/{n} eigenvalues at its last save "
+        f"({time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime(mtime))})"
+        for _, done, n, mtime in saved_scans(os.path.join(folder, "verdicts")))
+
+
 def ensemble_status(out):
     """How far the ensemble in ``out`` has come, one line per packing.
 
@@ -54,7 +68,9 @@ def ensemble_status(out):
         packing its key and state: ``finished`` with its F_x^c(mu0)
         bracket (or its error); ``relaxing`` (no relaxed packing yet); or
         relaxed (phi) with each ramp finished (its bracket), running (its
-        points so far and the certified bracket they give) or not started.
+        points so far and the certified bracket they give) or not started,
+        and a sliced verdict in progress with its count of eigenvalues at
+        its last save (``analysis.stability.sliced.saved_scans``).
 
     Raises
     ------
@@ -94,7 +110,8 @@ def ensemble_status(out):
             continue
         ramps = prog.get("ramps") or {}
         lines.append(f"{t['key']}: relaxed (phi {relax.get('phi', math.nan):.4f}); "
-                     + "; ".join(_ramp_line(k, folder, ramps.get(k)) for k in ("mu0", "mu_ss")))
+                     + "; ".join(_ramp_line(k, folder, ramps.get(k)) for k in ("mu0", "mu_ss"))
+                     + _scan_note(folder))
     head = (f"ensemble {out}: {len(lines)} packing(s), " + ", ".join(
         f"{v} {k}" for k, v in counts.items()))
     return [head] + lines
