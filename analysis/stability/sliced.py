@@ -116,8 +116,8 @@ _MAX_STRIP = 8                  # largest cluster decided from its block
 # 124 -> 274 s of CPU (docs/results/analysis.md)
 _SLICE_SIZE = 60
 #: seconds between two saves of a scan's state (``classify_sliced``'s
-#: ``checkpoint_dir``): at N = 10^4 a save writes ~22 MB, a scan takes
-#: 10-45 min (docs/results/analysis.md, "Checkpoint of a sliced scan")
+#: ``checkpoint_dir``): a save writes 20-100 MB at N = 6400-10^4, a scan
+#: there takes 5-45 min (docs/results/analysis.md, "Checkpoint of a sliced scan")
 CHECKPOINT_SECONDS = 300.0
 
 
@@ -367,8 +367,10 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         ``timing`` adds the times before the resume). Saving a finished
         verdict removes every ``sliced-*.scan.pkl`` of the folder (a folder
         serves one scan at a time; another scan's state is stale). The state
-        holds the buffer of Ritz vectors: 21.6 MB measured at N = 10^4 (n =
-        28 836); the saved verdict 0.46 MB there.
+        holds the buffer of Ritz vectors, 8 n bytes each (the more, the
+        longer no boundary could be certified): 21.6 MB measured at N = 10^4
+        (n = 28 836, F_x = 0), 104.6 MB at N = 6400 (n = 18 492, F_x =
+        5e-4); the saved verdict 16 n bytes.
     checkpoint_seconds : float, optional
         Seconds between two saves (default :data:`CHECKPOINT_SECONDS`, 300; 0:
         after every slice).
