@@ -86,9 +86,9 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
     checkpoint_dir : str, optional
         Folder of a sliced verdict's saved scan and verdict (rank 0; see
         ``classify_sliced``): a point redone after a kill resumes its scan,
-        and a point whose equilibrium is bitwise one already decided there
-        (the F_x = 0 point of a second ramp from the same packing) is not
-        decided again.
+        and a point whose matrix is bitwise one already decided there
+        (possibly the F_x = 0 point of a second ramp from the same packing)
+        is not decided again.
 
     Returns
     -------

@@ -1,7 +1,8 @@
 """Sliced verdicts saved by a ramp (``stages.ramp``'s ``verdict_dir``): a ramp
 killed inside a point's scan resumes it, to the same ramp.h5 bit for bit, and
 a second ramp from the same packing at another friction takes its F_x = 0
-verdict from the first's (the same K to the last bit), changing nothing.
+verdict from the first's (the same K to the last bit in this packing; not in
+every one), changing nothing.
 
 The verdict is sliced by lowering the dense-path switch below the packing's
 size (as in test_ramp.py), in slices of 12 eigenvalues (a few per scan); a kill is an exception raised from inside the
@@ -93,9 +94,9 @@ def test_a_ramp_killed_inside_a_scan_resumes_it_bitwise(sliced_refs, tmp_path, m
 def test_the_second_ramp_of_a_packing_takes_its_F_x_0_verdict_from_the_first(
         sliced_refs, tmp_path, monkeypatch):
     """Two ramps sharing a verdict folder, as an ensemble packing's: the 0.8 mu0
-    ramp scans one point fewer than on its own (its F_x = 0 equilibrium has
-    zero tangential displacement, so K does not depend on mu), and both
-    ramp.h5 are bitwise those of the ramps on their own."""
+    ramp scans one point fewer than on its own (in this packing its F_x = 0
+    K is the mu0 ramp's to the last bit: asserted below from the ramps on
+    their own), and both ramp.h5 are bitwise those of the ramps on their own."""
     _sliced_small(monkeypatch)
     shared = tmp_path / "verdicts"
     for name in ("mu0", "mu_ss"):

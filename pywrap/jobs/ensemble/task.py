@@ -358,8 +358,9 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=()):
                                    "datafile": rel.datafile})
         d.update({k: v for k, v in done["relax"].items() if k != "datafile"})
         # the ramps' sliced verdicts, in one folder: a killed scan resumes, and
-        # the second ramp's F_x = 0 point, bitwise the first's (the friction
-        # does not enter K at zero tangential displacement), is not decided again
+        # the second ramp's F_x = 0 point takes the first's verdict where the
+        # two K agree to the last bit (not where Newton left round-off
+        # tangential displacements, whose stiffness depends on mu)
         vdir = os.path.join(folder, "verdicts")
         for key, mu in (("mu0", cfg.mu), ("mu_ss", cfg.mu * cfg.mu_ss)):
             if key not in done["ramps"]:
