@@ -11,6 +11,7 @@
 ``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse)
 ``slicing``       its Sylvester counts and Ritz slices of the symmetric part
 ``strips``        its strips: coupling across an interval, a strip's decision
+``scan_state``    its saved scan and verdict (checkpoint files, progress)
 ``winding``       its count of eigenvalues in a box off the real axis
 ``enclosure``     its rigorous float64 bounds
 ``verdict``       the ramp's verdict: certified decision, its codes, growth rate

@@ -92,10 +92,8 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import hashlib
 import math
 import os
-import pickle
 import time
 
 import numpy as np
@@ -105,9 +103,10 @@ from remote_trigger.analysis.stability.decision import PairDecision, SpectrumDec
 from remote_trigger.analysis.stability.enclosure import U, _gamma
 from remote_trigger.analysis.stability.slicing import (
     _INFLATE, SlicedStats, _Fail, _arpack_hint, _norm1, _norm2_skew, _slices, _start)
+from remote_trigger.analysis.stability import scan_state
 from remote_trigger.analysis.stability.strips import _Ctx, _coupling, _decide_strip
 
-__all__ = ["classify_sliced", "SlicedStats", "CHECKPOINT_SECONDS", "saved_scans"]
+__all__ = ["classify_sliced", "SlicedStats", "CHECKPOINT_SECONDS"]
 
 _MAX_STRIP = 8                  # largest cluster decided from its block
 # Ritz pairs per slice: ARPACK's work per pair grows with it (orthogonalization
@@ -244,82 +243,6 @@ class _Scan:
         self.t_scan = 0.0               # seconds in the scan, before a resume
 
 
-#: checkpoint format; a file of another format (or code) is not resumed
-_CHECKPOINT_FORMAT = 1
-
-
-def _checkpoint_key(A, rel_error, window, slice_size, stop_at_complex):
-    """sha256 of everything a scan depends on: A = M^-1/2 K M^-1/2 (canonical CSR,
-    bitwise), the options and the checkpoint format."""
-    h = hashlib.sha256()
-    h.update(repr((_CHECKPOINT_FORMAT, A.shape, float(rel_error), float(window),
-                   int(slice_size), bool(stop_at_complex))).encode())
-    for arr in (A.indptr, A.indices, A.data):
-        h.update(np.ascontiguousarray(arr).view(np.uint8))
-    return h.hexdigest()[:32]
-
-
-def _load_checkpoint(path, key):
-    """The object saved at ``path`` for ``key`` (a _Scan, or a finished
-    (SpectrumDecision, SlicedStats)); None if there is none, or it is
-    unreadable or of another key (a scan from the start then replaces it)."""
-    try:
-        with open(path, "rb") as fh:
-            saved = pickle.load(fh)
-    except Exception:           # missing, truncated or from other code
-        return None
-    if not (isinstance(saved, tuple) and len(saved) == 2 and saved[0] == key):
-        return None
-    return saved[1]
-
-
-def saved_scans(folder):
-    """The scans saved in ``folder`` (``classify_sliced``'s ``checkpoint_dir``)
-    and how far each had come at its last save, for progress reports.
-
-    Parameters
-    ----------
-    folder : str
-        A checkpoint folder; missing is the same as empty.
-
-    Returns
-    -------
-    list of (str, int, int, float)
-        Per ``sliced-*.scan.pkl``, sorted by name: its path; the eigenvalues
-        of the symmetric part listed by then (the count ``progress`` reports);
-        the order n; the save's time (the file's mtime, seconds since the
-        epoch). A file that cannot be read (being replaced, or of other code)
-        is left out. It is only read: safe beside the running scan.
-    """
-    try:
-        names = sorted(os.listdir(folder))
-    except FileNotFoundError:
-        return []
-    out = []
-    for name in names:
-        if not (name.startswith("sliced-") and name.endswith(".scan.pkl")):
-            continue
-        path = os.path.join(folder, name)
-        try:
-            mtime = os.path.getmtime(path)
-            with open(path, "rb") as fh:
-                _, sc = pickle.load(fh)
-            out.append((path, int(sc.dropped + sc.buf.th.size), int(sc.stats.n), mtime))
-        except Exception:       # noqa: BLE001 - replaced meanwhile, truncated or other code
-            continue
-    return out
-
-
-def _save_checkpoint(path, key, obj):
-    """Save (key, obj) to ``path`` atomically (pickle), creating its folder."""
-    from remote_trigger.analysis.output import atomic_path
-
-    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            pickle.dump((key, obj), fh, protocol=pickle.HIGHEST_PROTOCOL)
-
-
 def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=None,
                     stop_at_complex=False, progress=None, checkpoint_dir=None,
                     checkpoint_seconds=None):
@@ -411,15 +334,15 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
                                    else checkpoint_seconds)
         if not checkpoint_seconds >= 0:
             raise ValueError(f"checkpoint_seconds must be >= 0, got {checkpoint_seconds!r}")
-        key = _checkpoint_key(A, rel_error, window, slice_size, stop_at_complex)
+        key = scan_state.scan_key(A, rel_error, window, slice_size, stop_at_complex)
         ckpt = os.path.join(os.fspath(checkpoint_dir), f"sliced-{key}")
-        done = _load_checkpoint(ckpt + ".done.pkl", key)
+        done = scan_state.load(ckpt + ".done.pkl", key)
         if done is not None:
             dec, st = done
             for f in dataclasses.fields(st):
                 setattr(stats, f.name, getattr(st, f.name))
             return dec
-        saved = _load_checkpoint(ckpt + ".scan.pkl", key)
+        saved = scan_state.load(ckpt + ".scan.pkl", key)
     stats.n = n
     absA = abs(A)
     nA = math.sqrt(_norm1(absA) * _norm1(absA.T))
@@ -550,7 +473,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
                 t_now = time.perf_counter()
                 sc.t_scan += t_now - t0
                 t0 = t_now
-                _save_checkpoint(ckpt + ".scan.pkl", key, sc)
+                scan_state.save(ckpt + ".scan.pkl", key, sc)
                 t_saved = time.monotonic()
         if sc.cert_count[-1] != n:
             raise _Fail("the top of the spectrum has no certified boundary")
@@ -565,7 +488,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
                      "decision": (sc.t_scan if sc else 0.0) + time.perf_counter() - t0
                      - (sc.t_slices if sc else 0.0)})
     if ckpt is not None:
-        _save_checkpoint(ckpt + ".done.pkl", key, (dec, dataclasses.replace(stats)))
+        scan_state.save(ckpt + ".done.pkl", key, (dec, dataclasses.replace(stats)))
         folder = os.path.dirname(ckpt)
         for name in os.listdir(folder):     # one scan at a time: the others are stale
             if name.startswith("sliced-") and name.endswith(".scan.pkl"):

@@ -8,7 +8,8 @@ import pytest
 import scipy.sparse as sp
 
 from remote_trigger.analysis.stability import eigen, exceptional
-from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced, saved_scans
+from remote_trigger.analysis.stability.scan_state import saved_scans
+from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced
 from remote_trigger.analysis.stability.slicing import count_below
 
 from .arb_oracle import full_spectrum

@@ -44,7 +44,7 @@ def _scan_note(folder):
     packing's ``verdicts`` folder, N >= 1600), or ''."""
     import time
 
-    from remote_trigger.analysis.stability.sliced import saved_scans
+    from remote_trigger.analysis.stability.scan_state import saved_scans
 
     return "".join(
         f"; a point's verdict in progress: {done}/{n} eigenvalues at its last save "
@@ -70,7 +70,7 @@ def ensemble_status(out):
         relaxed (phi) with each ramp finished (its bracket), running (its
         points so far and the certified bracket they give) or not started,
         and a sliced verdict in progress with its count of eigenvalues at
-        its last save (``analysis.stability.sliced.saved_scans``).
+        its last save (``analysis.stability.scan_state.saved_scans``).
 
     Raises
     ------

@@ -1,0 +1,92 @@
+"""The saved state of a sliced verdict's scan: files, keys, and progress.
+
+Part of :mod:`remote_trigger.analysis.stability.sliced` (docs/analysis.md,
+"Checkpoint of a scan"): ``classify_sliced(..., checkpoint_dir=D)`` saves
+its scan (the ``_Scan`` of that module) as ``D/sliced-<key>.scan.pkl`` and its
+finished verdict as ``D/sliced-<key>.done.pkl``, each a pickle of
+``(key, object)`` written atomically; ``key`` (:func:`scan_key`) is a
+sha256 of the scaled matrix to the last bit and of the options, so a call
+only ever finds its own state.
+"""
+import hashlib
+import os
+import pickle
+
+import numpy as np
+
+__all__ = ["CHECKPOINT_FORMAT", "scan_key", "load", "save", "saved_scans"]
+
+#: checkpoint format; a file of another format (or code) is not resumed
+CHECKPOINT_FORMAT = 1
+
+
+def scan_key(A, rel_error, window, slice_size, stop_at_complex):
+    """sha256 of everything a scan depends on: A = M^-1/2 K M^-1/2 (canonical CSR,
+    bitwise), the options and the checkpoint format."""
+    h = hashlib.sha256()
+    h.update(repr((CHECKPOINT_FORMAT, A.shape, float(rel_error), float(window),
+                   int(slice_size), bool(stop_at_complex))).encode())
+    for arr in (A.indptr, A.indices, A.data):
+        h.update(np.ascontiguousarray(arr).view(np.uint8))
+    return h.hexdigest()[:32]
+
+
+def load(path, key):
+    """The object saved at ``path`` for ``key`` (a _Scan, or a finished
+    (SpectrumDecision, SlicedStats)); None if there is none, or it is
+    unreadable or of another key (a scan from the start then replaces it)."""
+    try:
+        with open(path, "rb") as fh:
+            saved = pickle.load(fh)
+    except Exception:           # missing, truncated or from other code
+        return None
+    if not (isinstance(saved, tuple) and len(saved) == 2 and saved[0] == key):
+        return None
+    return saved[1]
+
+
+def saved_scans(folder):
+    """The scans saved in ``folder`` (``classify_sliced``'s ``checkpoint_dir``)
+    and how far each had come at its last save, for progress reports.
+
+    Parameters
+    ----------
+    folder : str
+        A checkpoint folder; missing is the same as empty.
+
+    Returns
+    -------
+    list of (str, int, int, float)
+        Per ``sliced-*.scan.pkl``, sorted by name: its path; the eigenvalues
+        of the symmetric part listed by then (the count ``progress`` reports);
+        the order n; the save's time (the file's mtime, seconds since the
+        epoch). A file that cannot be read (being replaced, or of other code)
+        is left out. It is only read: safe beside the running scan.
+    """
+    try:
+        names = sorted(os.listdir(folder))
+    except FileNotFoundError:
+        return []
+    out = []
+    for name in names:
+        if not (name.startswith("sliced-") and name.endswith(".scan.pkl")):
+            continue
+        path = os.path.join(folder, name)
+        try:
+            mtime = os.path.getmtime(path)
+            with open(path, "rb") as fh:
+                _, sc = pickle.load(fh)
+            out.append((path, int(sc.dropped + sc.buf.th.size), int(sc.stats.n), mtime))
+        except Exception:       # noqa: BLE001 - replaced meanwhile, truncated or other code
+            continue
+    return out
+
+
+def save(path, key, obj):
+    """Save (key, obj) to ``path`` atomically (pickle), creating its folder."""
+    from remote_trigger.analysis.output import atomic_path
+
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            pickle.dump((key, obj), fh, protocol=pickle.HIGHEST_PROTOCOL)
