@@ -418,7 +418,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         if sc is None:
             sc = _Scan(n, _start(S, lo0, stats), stats)
         gen = _slices(S, W, slice_size, normS, normW, sc.pos, stats)
-        final = sc.cert_count[-1] == n      # a scan saved after its last slice
+        final = sc.cert_count[-1] == n      # only for n = 0 (a scan is saved before its end)
         while not final:
             buf = sc.buf
             ts = time.perf_counter()
