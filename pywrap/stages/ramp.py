@@ -100,6 +100,11 @@ class RampResult:
         return [Decision.of(d) for d in (() if self.decision is None else self.decision)]
 
 
+#: the ramp's own folder of sliced verdicts, under ``<out>/ramp`` (removed when
+#: the ramp ends; ``ramp(..., verdict_dir=D)`` uses D instead)
+VERDICTS = "verdicts"
+
+
 def ramp_bracket(rlog):
     """The certified bracket of F_x^c from every row of a ramp (steps and bisection).
 
@@ -261,7 +266,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
             return _ramp_result(rlog, status)
         budget = _Budget(stop_after)
         bar = _progress(None, "ramp", quiet, eng.rank, unit="step")
-        vdir = verdict_dir or os.path.join(folder, "verdicts")
+        vdir = verdict_dir or os.path.join(folder, VERDICTS)
         try:
             ended = _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim, vdir)
             if ended is not None:
@@ -522,7 +527,7 @@ def _checkpoint(eng, rlog, folder, status, force=False):
 
     rlog.write(status, force=force, before=None if final else save)
     if final:
-        shutil.rmtree(os.path.join(folder, "verdicts"), ignore_errors=True)
+        shutil.rmtree(os.path.join(folder, VERDICTS), ignore_errors=True)
     if final or not rlog.dirty:         # the file on disk names only these starts
         for path in glob.glob(os.path.join(folder, "*.basis.npz")):
             if path not in keep:

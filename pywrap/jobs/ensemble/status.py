@@ -45,11 +45,12 @@ def _scan_note(folder):
     import time
 
     from remote_trigger.analysis.stability.scan_state import saved_scans
+    from remote_trigger.pywrap.jobs.ensemble.task import VERDICTS
 
     return "".join(
         f"; a point's verdict in progress: {done}/{n} eigenvalues at its last save "
         f"({time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime(mtime))})"
-        for _, done, n, mtime in saved_scans(os.path.join(folder, "verdicts")))
+        for _, done, n, mtime in saved_scans(os.path.join(folder, VERDICTS)))
 
 
 def ensemble_status(out):

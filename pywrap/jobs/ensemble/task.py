@@ -305,6 +305,9 @@ def run_packing(cfg, n, seed, folder, resume=False):
 
 
 PROGRESS = "progress.json"
+#: a packing's folder of sliced verdicts, shared by its two ramps (``stages.ramp``'s
+#: ``verdict_dir``; read by ``ensemble --status``)
+VERDICTS = "verdicts"
 
 
 def _warning_lines(caught, earlier=()):
@@ -361,7 +364,7 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=()):
         # the second ramp's F_x = 0 point takes the first's verdict where the
         # two K agree to the last bit (not where Newton left round-off
         # tangential displacements, whose stiffness depends on mu)
-        vdir = os.path.join(folder, "verdicts")
+        vdir = os.path.join(folder, VERDICTS)
         for key, mu in (("mu0", cfg.mu), ("mu_ss", cfg.mu * cfg.mu_ss)):
             if key not in done["ramps"]:
                 record("ramps", key, _ramp_part(cfg, done["relax"]["datafile"], mu,
