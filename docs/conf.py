@@ -42,7 +42,9 @@ API_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "api", "gener
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
+# results/runs: the result files of finished ensemble runs (data, read by
+# `ensemble --combine`), not pages
+exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "results/runs"]
 
 # Markdown: "## Heading" gets an anchor, so pages can link to
 # "driver.md#adaptive-ramp"; $...$ is not math (the pages write F_x^c in plain text)
