@@ -115,7 +115,29 @@ def build_parser():
     sub.required = True
     for name in SUBCOMMANDS:
         importlib.import_module(name).register(sub)
+    parser.commands = sub.choices        # name -> the subcommand's parser
     return parser
+
+
+def unrecognized(parser, command, extra):
+    """Refuse the words ``extra`` that ``command`` does not take (exit 2).
+
+    The one line names the subcommand (``remote-trigger generate: error:
+    unrecognized arguments: --out p (did you mean --output?) (see
+    remote-trigger generate --help)``): an option close to one of the
+    subcommand's own (:func:`difflib.get_close_matches`) is named as the
+    likely meant one.
+    """
+    import difflib
+
+    sub = parser.commands.get(command, parser)
+    known = [o for a in sub._actions for o in a.option_strings if o.startswith("--")]
+    hints = []
+    for word in extra:
+        if word.startswith("--"):
+            hints += difflib.get_close_matches(word.split("=", 1)[0], known, n=1)
+    hint = f" (did you mean {', '.join(dict.fromkeys(hints))}?)" if hints else ""
+    sub.error(f"unrecognized arguments: {' '.join(extra)}{hint}")
 
 
 def preprocess(argv):
@@ -296,7 +318,9 @@ def main(argv=None):
     command_line = argv is None
     argv, debug = preprocess(sys.argv[1:] if argv is None else list(argv))
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        unrecognized(parser, args.command, extra)
     debug = debug or args.debug
     if command_line:
         exit_on_interrupt(args, debug)

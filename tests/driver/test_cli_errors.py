@@ -146,8 +146,25 @@ def test_options_are_taken_by_their_whole_name_only(capsys, tmp_path):
     with pytest.raises(SystemExit) as exc:
         cli.main(["generate", "--n", "20", "--out", str(tmp_path / "p")])
     assert exc.value.code == 2
-    assert_one_line_error(capsys.readouterr().err, "unrecognized arguments: --out")
+    assert_one_line_error(capsys.readouterr().err, "unrecognized arguments: --out",
+                          "remote-trigger generate: error", "did you mean --output?",
+                          "see remote-trigger generate --help")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("argv,needles", [
+    (["ramp", "--datafile", "x", "--dFx", "1"], ["remote-trigger ramp: error",
+                                                 "--dFx 1 (did you mean --dF-x?)"]),
+    (["generate", "--n", "20", "more"], ["remote-trigger generate: error",
+                                         "unrecognized arguments: more (see"])])
+def test_unknown_words_name_the_subcommand(capsys, argv, needles):
+    """A word the subcommand does not take is refused by that subcommand,
+    with the closest of its options where one is close (none for a stray
+    positional word)."""
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code == 2
+    assert_one_line_error(capsys.readouterr().err, *needles)
 
 
 @pytest.mark.parametrize("runs,bad", [("C", "'C'"), ("xyz", "'x', 'y', 'z'"), ("abd", "'d'")])
