@@ -166,7 +166,11 @@ def run(args):
         f"{' ...' if res.rattlers.ids.size > 20 else ''}",
     ]
     if res.eigen is not None and lam.size:
-        lines.append(f"  eigenvalues ({res.eigen.method}): {lam.size}, Re in "
+        # the sliced verdict's list: S's Ritz values where a strip holds one
+        # eigenvalue (A's own is real, in the strip, moved by W at second order)
+        what = (" approximate (the symmetric part's Ritz values outside pairs)"
+                if res.eigen.method == "sliced" else "")
+        lines.append(f"  eigenvalues ({res.eigen.method}): {lam.size}{what}, Re in "
                      f"[{lam.real.min():.6g}, {lam.real.max():.6g}], growth rate max Im omega "
                      f"= {res.growth_rate:.6g}")
         lines.append(f"  {dec.describe()}" if dec is not None else "  complex pair: not tested")

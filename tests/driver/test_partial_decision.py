@@ -76,6 +76,7 @@ def test_above_the_dense_switch_the_default_is_the_sliced_verdict(capsys, tmp_pa
     assert "verdict" in cap.err and f"{n}/{n}" in cap.err
     assert "complex pair: no" in out and "partial decision" not in out
     assert "eigenvalues (sliced)" in out
+    assert "approximate (the symmetric part's Ritz values outside pairs)" in out
     # whole spectrum, certified real (the N = 1600 ramp turns complex above F_x = 0.0025)
     assert str(d["coverage"]) == "whole" and int(d["complex_pair"]) == 0
     assert str(d["method"]) == "sliced" and d["eigenvalues"].size == d["keep_dofs"].size
