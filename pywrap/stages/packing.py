@@ -177,7 +177,9 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     ----------
     n : int
         Total number of disks, even, >= 6 (bulk plus top line); spheres: even
-        and larger than the top layer + 2.
+        and larger than the top layer + 2. The periodic width L must exceed
+        4 R2, so that no particle can touch two periodic images of another
+        (spheres at the default phi: n >= 82, L = 5).
     seed : int
         Seed of :func:`numpy.random.default_rng`; the same seed gives the same
         packing bit for bit.
@@ -202,7 +204,7 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     Raises
     ------
     ValueError
-        If ``n`` is odd or too small, ``dim`` is not 2 or 3, a fraction is
+        If ``n`` is odd or too small (top line, or L <= 4 R2), ``dim`` is not 2 or 3, a fraction is
         outside its range, or the random placement fails.
     """
     if dim not in (2, 3):
@@ -230,6 +232,11 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     if n_top >= n - 2:
         raise ValueError(f"n = {n} is too small for a top {'layer' if dim == 3 else 'line'} "
                          f"of {n_top} {'spheres' if dim == 3 else 'disks'}")
+    if width <= 4.0 * r2:
+        # the pair style refuses a contact with two periodic images of one partner
+        raise ValueError(f"n = {n} is too small: the periodic width L = {width:.4g} is not "
+                         f"above 4 R2 = {4.0 * r2:g}, so a {'sphere' if dim == 3 else 'disk'} "
+                         f"could touch two periodic images of another (take a larger n)")
     n_bulk_each = n // 2 - n_top // 2
     bulk_r = np.array([r2] * n_bulk_each + [r1] * n_bulk_each)
     if dim == 2:

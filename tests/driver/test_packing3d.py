@@ -97,6 +97,9 @@ def test_generate_command(tmp_path, capsys):
     (["--dim", "3", "--phi", "0.8"], "phi = 0.8"),          # above random close packing
     (["--dim", "3", "--n", "7"], "n = 7"),
     (["--dim", "4"], "invalid choice: 4"),
+    # a box of 2 x 2 top spheres (L = 2.5): a sphere could touch two images of another
+    (["--dim", "3", "--n", "40"], "n = 40 is too small: the periodic width L = 2.5 is not "
+                                  "above 4 R2 = 2.8"),
 ])
 def test_generate_bad_input(tmp_path, capsys, argv, needle):
     try:
@@ -112,7 +115,9 @@ def test_generate_bad_input(tmp_path, capsys, argv, needle):
 @pytest.mark.parametrize("kw, msg", [
     (dict(n=20, dim=4), "dim = 4"), (dict(n=20, dim=3, phi=0.75), "phi = 0.75"),
     (dict(n=20, dim=3, phi_loose=0.5), "phi_loose = 0.5"),
-    (dict(n=6, dim=3), "top layer of 4 spheres")])
+    (dict(n=6, dim=3), "top layer of 4 spheres"),
+    (dict(n=80, dim=3), "n = 80 is too small: the periodic width L = 2.5"),
+    (dict(n=6, dim=2, phi=0.9), "n = 6 is too small: the periodic width L = 2.784")])
 def test_bad_arguments(kw, msg):
     with pytest.raises(ValueError, match=msg):
         generate(**kw)
