@@ -116,13 +116,19 @@ def test_two_ranks_same_table(serial, tmp_path):
     proc = _run(["--quick", "--np", "2", "--out", out, "--quiet"])
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     with open(os.path.join(out, en.MANIFEST)) as fh:
-        assert json.load(fh)["sessions"][-1]["n_ranks"] == 2
+        session = json.load(fh)["sessions"][-1]
+    assert session["n_ranks"] == 2
+    import numpy
     _same(t1, er.read_table(os.path.join(out, en.TABLE)))
     # warnings of the analysis are recorded per packing, not printed by any rank
     assert "Warning" not in proc.stderr, proc.stderr[-2000:]
     for name in os.listdir(os.path.join(out, "tasks")):
         with open(os.path.join(out, "tasks", name)) as fh:
-            assert isinstance(json.load(fh)["result"]["warnings"], list), name
+            result = json.load(fh)["result"]
+        assert isinstance(result["warnings"], list), name
+        # what the worker rank computed with: this environment's versions
+        assert result["environment"]["packages"]["numpy"] == numpy.__version__, name
+    assert session["environment"]["packages"]["numpy"] == numpy.__version__
 
 
 def _started(out):

@@ -70,6 +70,7 @@ import time
 
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.runtime.parallel import on_rank0
+from remote_trigger.pywrap.runtime.environment import environment
 from remote_trigger.pywrap.runtime.jobfolder import add_job_arguments, job_overrides
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.jobs.ensemble.config import build_config
@@ -224,7 +225,8 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
                 with open(mpath) as fh:
                     sessions = json.load(fh).get("sessions", [])
             sessions.append({"n_ranks": n_workers(comm), "mpi_size": size,
-                             "computed": computed, "wall": wall, "resume": bool(resume)})
+                             "computed": computed, "wall": wall, "resume": bool(resume),
+                             "environment": environment()})
             write_json(mpath, {"config": cfg.to_dict(), "out": out, "status": "complete",
                                "n_packings": len(tasks), "sessions": sessions,
                                "statistics": _jsonable(

@@ -290,9 +290,13 @@ def run_packing(cfg, n, seed, folder, resume=False):
         each with ``error`` (None or the reason), ``wall`` (s) and
         ``warnings`` (the distinct warnings raised meanwhile, recorded, not
         printed; for a resumed packing also those its kept stages recorded).
-        ``wall`` is this run's time for the packing.
+        ``wall`` is this run's time for the packing. ``environment``: the
+        versions, BLAS kernels and CPU of the rank that ran this run's part
+        (:func:`~remote_trigger.pywrap.runtime.environment.environment`).
     """
     import warnings
+
+    from remote_trigger.pywrap.runtime.environment import environment
 
     # the analysis warns per equilibrium (e.g. a history entry without overlap);
     # on a rank other than 0 that would print, so every rank records them in the
@@ -301,6 +305,7 @@ def run_packing(cfg, n, seed, folder, resume=False):
         warnings.simplefilter("always")
         result = _run_packing(cfg, n, seed, folder, resume, caught)
     result["warnings"] = _warning_lines(caught, result.pop("earlier_warnings"))
+    result["environment"] = environment()
     return result
 
 

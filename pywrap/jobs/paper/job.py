@@ -5,6 +5,7 @@ import time
 
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.jobs.paper.config import PAPER
+from remote_trigger.pywrap.runtime.environment import environment
 from remote_trigger.pywrap.runtime.jobfolder import write_json
 from remote_trigger.pywrap.jobs.paper.manifest import (
     MANIFEST, prepare_out, load_manifest, finished_phases, _normalised, _report_done,
@@ -61,7 +62,8 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
     The manifest ``paper.json`` (written by rank 0 only, atomically) holds
     the resolved configuration, ``status`` (``'running'``, ``'complete'``),
     ``out``, one entry per session in ``sessions`` (start time, resumed or
-    not, ranks, elapsed seconds at its last checkpoint, phases reused), the
+    not, ranks, elapsed seconds at its last checkpoint, phases reused, the
+    environment: :func:`~remote_trigger.pywrap.runtime.environment.environment`), the
     wall time of every finished phase in ``phases``, and the summary of each
     finished phase: ``relax``, ``ramps`` (``[main mu, mu_low]``, ``null``
     until done), ``instability``, ``perturb``, ``normal_form``; at the end
@@ -136,7 +138,8 @@ class _PaperJob:
                            "sessions": sessions + [{"started": _utc_now(),
                                                     "resume": man is not None,
                                                     "n_ranks": size, "elapsed": 0.0,
-                                                    "reused": sorted(done)}],
+                                                    "reused": sorted(done),
+                                                    "environment": environment()}],
                            "ramps": [done.get("ramp0"), done.get("ramp1")]}
                 for k in ("relax", "instability", "perturb", "normal_form"):
                     if k in done:

