@@ -32,16 +32,16 @@ def _cpu_model():
 
 
 def _blas():
-    """The first BLAS loaded in this process, as :mod:`threadpoolctl` sees it."""
-    import numpy  # noqa: F401 - loads numpy's BLAS, so that threadpoolctl finds it
+    """Every BLAS loaded in this process, as :mod:`threadpoolctl` sees them
+    (numpy and scipy each bring their own OpenBLAS)."""
+    import numpy  # noqa: F401 - loads numpy's BLAS
+    import scipy.linalg  # noqa: F401 - and scipy's
     from threadpoolctl import threadpool_info
 
-    for lib in threadpool_info():
-        if lib.get("user_api") == "blas":
-            return {"library": lib.get("internal_api"), "version": lib.get("version"),
-                    "architecture": lib.get("architecture"),
-                    "coretype_forced": os.environ.get("OPENBLAS_CORETYPE")}
-    return None
+    return [{"library": lib.get("internal_api"), "version": lib.get("version"),
+             "architecture": lib.get("architecture"),
+             "file": os.path.basename(lib.get("filepath") or "")}
+            for lib in threadpool_info() if lib.get("user_api") == "blas"]
 
 
 def environment():
@@ -51,10 +51,11 @@ def environment():
     -------
     dict
         ``python`` (version string), ``packages`` ({distribution: version,
-        None if not installed}, :data:`PACKAGES`), ``blas`` ({``library``,
-        ``version``, ``architecture``: the kernel set OpenBLAS chose,
-        ``coretype_forced``: ``OPENBLAS_CORETYPE`` if set}, or None),
-        ``cpu`` (model name or None), ``machine`` (:func:`platform.machine`).
+        None if not installed}, :data:`PACKAGES`), ``blas`` (one dict per
+        BLAS loaded: ``library``, ``version``, ``architecture``: the kernel
+        set OpenBLAS chose, ``file``), ``openblas_coretype`` (the
+        ``OPENBLAS_CORETYPE`` that forced the kernel set, or None), ``cpu``
+        (model name or None), ``machine`` (:func:`platform.machine`).
         JSON-serializable.
     """
     from importlib.metadata import PackageNotFoundError, version
@@ -66,4 +67,5 @@ def environment():
         except PackageNotFoundError:
             packages[name] = None
     return {"python": platform.python_version(), "packages": packages, "blas": _blas(),
+            "openblas_coretype": os.environ.get("OPENBLAS_CORETYPE"),
             "cpu": _cpu_model(), "machine": platform.machine()}

@@ -31,11 +31,13 @@ def test_versions_are_the_installed_ones():
 @pytest.mark.skipif(platform.machine() != "x86_64", reason="OpenBLAS core types of x86_64")
 def test_forced_core_type_is_recorded():
     env = environment()
-    if not env["blas"] or env["blas"]["library"] != "openblas":
-        pytest.skip("numpy's BLAS is not OpenBLAS")
+    if not env["blas"] or any(b["library"] != "openblas" for b in env["blas"]):
+        pytest.skip("numpy's or scipy's BLAS is not OpenBLAS")
     code = ("import json; from remote_trigger.pywrap.runtime.environment import environment; "
-            "print(json.dumps(environment()['blas']))")
+            "print(json.dumps(environment()))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env=dict(os.environ, OPENBLAS_CORETYPE="Haswell"), check=True)
-    blas = json.loads(proc.stdout)
-    assert blas["architecture"] == "Haswell" and blas["coretype_forced"] == "Haswell"
+    forced = json.loads(proc.stdout)
+    assert len(forced["blas"]) == len(env["blas"]) >= 1
+    assert all(b["architecture"] == "Haswell" for b in forced["blas"])
+    assert forced["openblas_coretype"] == "Haswell"
