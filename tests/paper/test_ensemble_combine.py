@@ -118,3 +118,36 @@ def test_packings_with_and_without_the_saddle_escape_are_not_mixed(runs, tmp_pat
                                           "False, this run has saddle_escape = True"):
         run_ensemble(cfg, c, comm=MPI.COMM_SELF, speak=False, resume=True)
     assert not os.path.exists(os.path.join(c, "ensemble.md"))
+
+
+RUNS = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "results", "runs")
+
+
+def test_the_kept_runs_combine(tmp_path):
+    """The result files of the runs kept in docs/results/runs (the runs of
+    docs/results/ensemble.md) combine into one table whose brackets are the
+    packings' own, with nothing left out."""
+    from remote_trigger.pywrap.jobs.ensemble import report as er
+
+    runs = [os.path.join(RUNS, d) for d in ("N100_1600", "N6400_escape")]
+    out = tmp_path / "all"
+    combine_runs(runs, str(out), speak=False)
+    cfg = json.loads((out / "config.json").read_text())
+    assert cfg["n"] == [100, 400, 1600, 6400] and cfg["tol"] == 4e-6
+    man = json.loads((out / "ensemble.json").read_text())
+    assert man["left_out"] == [] and man["n_packings"] == 40
+    t = er.read_table(str(out / "ensemble.h5"))
+    assert t["key"].size == 40
+    compared = 0
+    for run in runs:
+        for name in os.listdir(os.path.join(run, "tasks")):
+            with open(os.path.join(run, "tasks", name)) as fh:
+                mu0 = json.load(fh)["result"]["default"]["ramps"]["mu0"]["I0_0.5"]
+            if not all(isinstance(mu0.get(k), float) and mu0[k] == mu0[k]
+                       for k in ("F_x_c_low", "F_x_c_high")):
+                continue                # no bracket (N = 6400 seed 3: complex at F_x = 0)
+            row = list(t["key"]).index(name[:-5])
+            assert (t["F_x_c_low"][row], t["F_x_c_high"][row]) == (
+                mu0["F_x_c_low"], mu0["F_x_c_high"]), name
+            compared += 1
+    assert compared >= 39
