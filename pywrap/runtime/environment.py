@@ -4,9 +4,12 @@ A ramp's equilibria are Newton iterates; their last bits depend on the
 round-off of the BLAS and sparse kernels, and at a marginal packing (a disk
 at the edge of rattling, a fold of its equilibrium) the same start can end
 on another branch, with another F_x^c. OpenBLAS picks its kernels at run
-time from the CPU (``DYNAMIC_ARCH``: SkylakeX on an AVX-512 Xeon, Haswell
-on an AMD EPYC), so the same wheels give bitwise different results on two
-machines (measured: docs/results/ensemble.md). Jobs therefore record this
+time from the CPU (``DYNAMIC_ARCH``: ``SkylakeX`` on an AVX-512 Xeon,
+``Haswell`` kernels on CPUs without AVX-512 such as AMD's Zen 2/3; the
+environment variable ``OPENBLAS_CORETYPE`` forces a set), so the same
+wheels can give bitwise different results on two machines (measured on
+one machine with a forced kernel set: docs/results/ensemble.md, "N = 1600
+on another CPU"). Jobs therefore record this
 dictionary with their results (``ensemble.json`` per session and each
 packing's result file; the ``paper`` job's manifest per session).
 """
