@@ -338,6 +338,28 @@ def _killed_scan(folder):
     return seen
 
 
+def test_status_of_a_relaxing_packing_says_since_when(serial, tmp_path):
+    """A packing with its generated file and no relaxed state yet is
+    ``relaxing`` since that file's time."""
+    import shutil
+    import time
+
+    out, _, _ = serial
+    cfg = ec.build_config(quick=True)
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    key = cfg.packings()[0]["key"]
+    os.remove(et.task_path(str(copy), key))
+    os.remove(copy / "packings" / key / et.PROGRESS)
+    stamp = time.time() - 3600
+    os.utime(copy / "packings" / key / "packing.data", (stamp, stamp))
+    proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(copy)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    when = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(stamp))
+    assert f"{key}: relaxing since {when} (60 min)" in proc.stdout.splitlines(), proc.stdout
+
+
 def test_status_reads_how_far_each_packing_has_come(serial, tmp_path):
     """``ensemble --status`` on a copy of the finished run made to look
     interrupted: a finished packing with its bracket, a packing whose mu0

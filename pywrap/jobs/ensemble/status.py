@@ -53,6 +53,19 @@ def _scan_note(folder):
         for _, done, n, mtime in saved_scans(os.path.join(folder, VERDICTS)))
 
 
+def _since(packing):
+    """' since <time>' of a relaxation: its packing file's time (written when
+    the packing's stages start, and again when a killed one starts afresh)."""
+    import time
+
+    try:
+        mtime = os.path.getmtime(packing)
+    except OSError:
+        return ""
+    return (f" since {time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime(mtime))} "
+            f"({(time.time() - mtime) / 60:.0f} min)")
+
+
 def ensemble_status(out):
     """How far the ensemble in ``out`` has come, one line per packing.
 
@@ -67,7 +80,8 @@ def ensemble_status(out):
     list of str
         A header (packings finished / started / not started), then per
         packing its key and state: ``finished`` with its F_x^c(mu0)
-        bracket (or its error); ``relaxing`` (no relaxed packing yet); or
+        bracket (or its error); ``relaxing`` (no relaxed packing yet; since
+        when, from the time of its ``packing.data``); or
         relaxed (phi) with each ramp finished (its bracket), running (its
         points so far and the certified bracket they give) or not started,
         and a sliced verdict in progress with its count of eigenvalues at
@@ -107,7 +121,7 @@ def ensemble_status(out):
         counts["started"] += 1
         relax = (prog or {}).get("relax")
         if not relax:
-            lines.append(f"{t['key']}: relaxing")
+            lines.append(f"{t['key']}: relaxing" + _since(os.path.join(folder, "packing.data")))
             continue
         ramps = prog.get("ramps") or {}
         lines.append(f"{t['key']}: relaxed (phi {relax.get('phi', math.nan):.4f}); "
