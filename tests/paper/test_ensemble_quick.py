@@ -360,6 +360,31 @@ def test_status_of_a_relaxing_packing_says_since_when(serial, tmp_path):
     assert f"{key}: relaxing since {when} (60 min)" in proc.stdout.splitlines(), proc.stdout
 
 
+def test_status_of_a_ramp_before_its_first_point(serial, tmp_path):
+    """A ramp whose folder exists and whose ramp.h5 does not yet (its first
+    point is being computed: at N = 10^4 for half an hour) is running, not
+    'not started'."""
+    import shutil
+
+    out, _, _ = serial
+    cfg = ec.build_config(quick=True)
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    key = cfg.packings()[0]["key"]
+    os.remove(et.task_path(str(copy), key))
+    prog_file = copy / "packings" / key / et.PROGRESS
+    prog = json.loads(prog_file.read_text())
+    prog["ramps"] = {}
+    prog_file.write_text(json.dumps(prog))
+    os.remove(copy / "packings" / key / "ramp_mu0" / "ramp.h5")
+    shutil.rmtree(copy / "packings" / key / "ramp_mu_ss")
+    proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(copy)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    line = next(x for x in proc.stdout.splitlines() if x.startswith(f"{key}: "))
+    assert "mu0 running, no point recorded yet; mu_ss not started" in line, line
+
+
 def test_status_reads_how_far_each_packing_has_come(serial, tmp_path):
     """``ensemble --status`` on a copy of the finished run made to look
     interrupted: a finished packing with its bracket, a packing whose mu0

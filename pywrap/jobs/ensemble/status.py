@@ -26,7 +26,9 @@ def _ramp_line(name, folder, part):
                 f"[{o.get('F_x_c_low', math.nan):.6g}, {o.get('F_x_c_high', math.nan):.6g}]")
     h5 = os.path.join(folder, f"ramp_{name}", "ramp.h5")
     if not os.path.isfile(h5):
-        return f"{name} not started"
+        # the ramp's folder is made at its start, ramp.h5 at its first point
+        return (f"{name} running, no point recorded yet"
+                if os.path.isdir(os.path.join(folder, f"ramp_{name}")) else f"{name} not started")
     try:
         pts = read_ramp(h5)
     except (OSError, KeyError, ValueError) as exc:
