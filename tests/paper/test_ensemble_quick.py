@@ -351,7 +351,7 @@ def test_status_of_a_relaxing_packing_says_since_when(serial, tmp_path):
     key = cfg.packings()[0]["key"]
     os.remove(et.task_path(str(copy), key))
     os.remove(copy / "packings" / key / et.PROGRESS)
-    stamp = time.time() - 3600
+    stamp = time.time() - 3570          # "60 min" for the next minute
     os.utime(copy / "packings" / key / "packing.data", (stamp, stamp))
     proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(copy)],
                           capture_output=True, text=True, timeout=300)
