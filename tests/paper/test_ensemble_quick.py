@@ -338,26 +338,39 @@ def _killed_scan(folder):
     return seen
 
 
-def test_status_of_a_relaxing_packing_says_since_when(serial, tmp_path):
-    """A packing with its generated file and no relaxed state yet is
-    ``relaxing`` since that file's time."""
+def _unfinished(serial, tmp_path):
+    """A copy of the finished quick run whose first packing has no result
+    file; returns (copy, that packing's key, its folder)."""
     import shutil
-    import time
 
     out, _, _ = serial
-    cfg = ec.build_config(quick=True)
     copy = tmp_path / "copy"
     shutil.copytree(out, copy)
-    key = cfg.packings()[0]["key"]
+    key = ec.build_config(quick=True).packings()[0]["key"]
     os.remove(et.task_path(str(copy), key))
-    os.remove(copy / "packings" / key / et.PROGRESS)
-    stamp = time.time() - 3570          # "60 min" for the next minute
-    os.utime(copy / "packings" / key / "packing.data", (stamp, stamp))
+    return copy, key, copy / "packings" / key
+
+
+def _status_line(copy, key):
+    """``ensemble --status``'s line of packing ``key``."""
     proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(copy)],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
+    return next(x for x in proc.stdout.splitlines() if x.startswith(f"{key}: "))
+
+
+def test_status_of_a_relaxing_packing_says_since_when(serial, tmp_path):
+    """A packing with its generated file and no relaxed state yet is
+    ``relaxing`` since that file's time."""
+    import time
+
+    copy, key, folder = _unfinished(serial, tmp_path)
+    os.remove(folder / et.PROGRESS)
+    stamp = time.time() - 3570          # "60 min" for the next minute
+    os.utime(folder / "packing.data", (stamp, stamp))
     when = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(stamp))
-    assert f"{key}: relaxing since {when} (60 min)" in proc.stdout.splitlines(), proc.stdout
+    line = _status_line(copy, key)
+    assert line == f"{key}: relaxing since {when} (60 min)", line
 
 
 def test_status_of_a_ramp_before_its_first_point(serial, tmp_path):
@@ -366,22 +379,13 @@ def test_status_of_a_ramp_before_its_first_point(serial, tmp_path):
     'not started'."""
     import shutil
 
-    out, _, _ = serial
-    cfg = ec.build_config(quick=True)
-    copy = tmp_path / "copy"
-    shutil.copytree(out, copy)
-    key = cfg.packings()[0]["key"]
-    os.remove(et.task_path(str(copy), key))
-    prog_file = copy / "packings" / key / et.PROGRESS
-    prog = json.loads(prog_file.read_text())
+    copy, key, folder = _unfinished(serial, tmp_path)
+    prog = json.loads((folder / et.PROGRESS).read_text())
     prog["ramps"] = {}
-    prog_file.write_text(json.dumps(prog))
-    os.remove(copy / "packings" / key / "ramp_mu0" / "ramp.h5")
-    shutil.rmtree(copy / "packings" / key / "ramp_mu_ss")
-    proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(copy)],
-                          capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    line = next(x for x in proc.stdout.splitlines() if x.startswith(f"{key}: "))
+    (folder / et.PROGRESS).write_text(json.dumps(prog))
+    os.remove(folder / "ramp_mu0" / "ramp.h5")
+    shutil.rmtree(folder / "ramp_mu_ss")
+    line = _status_line(copy, key)
     assert "mu0 running, no point recorded yet; mu_ss not started" in line, line
 
 
