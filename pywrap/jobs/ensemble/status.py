@@ -12,6 +12,7 @@ nothing and starts no LAMMPS or MPI, so it is safe beside the running job
 """
 import math
 import os
+import time
 
 __all__ = ["ensemble_status"]
 
@@ -41,31 +42,34 @@ def _ramp_line(name, folder, part):
     return f"{name} running: {len(pts)} point(s), {where}"
 
 
+def _utc(t):
+    """A file time as the status lines write it."""
+    return time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(t))
+
+
 def _scan_note(folder):
     """A running point's sliced verdict as its last save left it (the
     packing's ``verdicts`` folder, N >= 1600), or ''."""
-    import time
-
     from remote_trigger.analysis.stability.scan_state import saved_scans
     from remote_trigger.pywrap.jobs.ensemble.task import VERDICTS
 
     return "".join(
         f"; a point's verdict in progress: {done}/{n} eigenvalues at its last save "
-        f"({time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime(mtime))})"
+        f"({_utc(mtime)})"
         for _, done, n, mtime in saved_scans(os.path.join(folder, VERDICTS)))
 
 
-def _since(packing):
-    """' since <time>' of a relaxation: its packing file's time (written when
-    the packing's stages start, and again when a killed one starts afresh)."""
-    import time
+def _since(folder):
+    """' since <time>' of a packing's relaxation: the time of its generated
+    file (written when the packing's stages start, and again when a killed
+    one starts afresh), or ''."""
+    from remote_trigger.pywrap.jobs.ensemble.task import PACKING
 
     try:
-        mtime = os.path.getmtime(packing)
+        mtime = os.path.getmtime(os.path.join(folder, PACKING))
     except OSError:
         return ""
-    return (f" since {time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime(mtime))} "
-            f"({(time.time() - mtime) / 60:.0f} min)")
+    return f" since {_utc(mtime)} ({(time.time() - mtime) / 60:.0f} min)"
 
 
 def ensemble_status(out):
@@ -123,7 +127,7 @@ def ensemble_status(out):
         counts["started"] += 1
         relax = (prog or {}).get("relax")
         if not relax:
-            lines.append(f"{t['key']}: relaxing" + _since(os.path.join(folder, "packing.data")))
+            lines.append(f"{t['key']}: relaxing" + _since(folder))
             continue
         ramps = prog.get("ramps") or {}
         lines.append(f"{t['key']}: relaxed (phi {relax.get('phi', math.nan):.4f}); "

@@ -313,6 +313,9 @@ PROGRESS = "progress.json"
 #: a packing's folder of sliced verdicts, shared by its two ramps (``stages.ramp``'s
 #: ``verdict_dir``; read by ``ensemble --status``)
 VERDICTS = "verdicts"
+#: a packing's generated data file (its time: when its relaxation began; read
+#: by ``ensemble --status``)
+PACKING = "packing.data"
 
 
 def _warning_lines(caught, earlier=()):
@@ -351,7 +354,7 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=()):
         done["warnings"] = _warning_lines(caught, earlier)
         write_json(os.path.join(folder, PROGRESS), done)
 
-    datafile = os.path.join(folder, "packing.data")
+    datafile = os.path.join(folder, PACKING)
     result = {"n": n, "seed": seed, "default": {"error": None, "ramps": {}},
               "frictional": None, "earlier_warnings": earlier}
     d = result["default"]
