@@ -118,10 +118,9 @@ def run(args):
 
     def progress(done, n):
         if not bar:
-            from tqdm import tqdm
+            from remote_trigger.pywrap.stages.common import progress_bar
 
-            bar.append(tqdm(total=n, desc="verdict", unit="eigenvalue", leave=False,
-                            dynamic_ncols=True))
+            bar.append(progress_bar(n, "verdict", False, 0, unit="eigenvalue"))
         bar[0].update(done - bar[0].n)
         if done == n:
             bar[0].refresh()        # the last count shown, whatever tqdm's interval

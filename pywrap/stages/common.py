@@ -20,11 +20,43 @@ class StableStartError(ConfigError):
 
 
 # --------------------------------------------------------------------------- helpers
-def _progress(total, desc, quiet, rank, unit="it"):
+#: off a terminal, a progress bar writes one line at most this often [s]
+PROGRESS_LINE_INTERVAL = 60.0
+
+
+class _LogLines:
+    """A stream for tqdm where stderr is not a terminal (a batch job's log):
+    each of the bar's updates, at most one per :data:`PROGRESS_LINE_INTERVAL`,
+    becomes one line, instead of carriage-return updates that pile up on one
+    line of the log."""
+
+    def __init__(self, fp):
+        self.fp, self.last = fp, None
+
+    def write(self, s):
+        import time
+
+        s = s.replace("\r", "").strip()      # tqdm's "\r" + bar, and its blanking
+        now = time.monotonic()
+        if s and (self.last is None or now - self.last >= PROGRESS_LINE_INTERVAL):
+            self.fp.write(s + "\n")
+            self.fp.flush()
+            self.last = now
+
+    def flush(self):
+        self.fp.flush()
+
+
+def progress_bar(total, desc, quiet, rank, unit="it"):
+    """A tqdm bar on rank 0's stderr (none with ``quiet`` or on other ranks);
+    where stderr is not a terminal, one plain line a minute (:class:`_LogLines`)."""
+    import sys
     from tqdm import tqdm
 
+    tty = hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
     return tqdm(total=total, desc=desc, disable=quiet or rank != 0, unit=unit,
-                leave=False, dynamic_ncols=True)
+                leave=False, dynamic_ncols=tty,
+                file=sys.stderr if tty else _LogLines(sys.stderr))
 
 
 #: deck variable <- configuration field, passed when the configuration has it

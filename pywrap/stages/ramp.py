@@ -15,7 +15,7 @@ from remote_trigger.pywrap.bindings.engine import Engine
 from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.stages import ramp_file
 from remote_trigger.pywrap.stages.common import (
-    EQUILIBRIUM_EXTS, _ensure_dir, _progress, start_timestep)
+    EQUILIBRIUM_EXTS, _ensure_dir, progress_bar, start_timestep)
 from remote_trigger.pywrap.stages.point import ramp_point, verdict_progress
 
 
@@ -265,7 +265,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         if status in ("complete", "no_complex_pair", "no_equilibrium", "complex_at_start"):
             return _ramp_result(rlog, status)
         budget = _Budget(stop_after)
-        bar = _progress(None, "ramp", quiet, eng.rank, unit="step")
+        bar = progress_bar(None, "ramp", quiet, eng.rank, unit="step")
         vdir = verdict_dir or os.path.join(folder, VERDICTS)
         try:
             ended = _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim, vdir)

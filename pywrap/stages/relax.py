@@ -19,8 +19,8 @@ from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.stages.newton_solve import stiffness
 from remote_trigger.pywrap.runtime.results import write_atomic
 from remote_trigger.pywrap.stages.common import (
-    RESULT_VERSION, _ensure_dir, _equilibrium_files, _progress, load_relax_scene, packing_fraction,
-    prepare_out, save_equilibrium, start_timestep)
+    RESULT_VERSION, _ensure_dir, _equilibrium_files, progress_bar, load_relax_scene,
+    packing_fraction, prepare_out, save_equilibrium, start_timestep)
 
 
 @dataclass
@@ -499,7 +499,7 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
             check_spheres_config(cfg)
         prepare_out(eng, out, ["relax.h5"] + _equilibrium_files("relax"), overwrite, "relax")
         _ensure_dir(eng, os.path.join(out, "relax"))
-        bar = _progress(None, "relax", quiet, eng.rank, unit="chk")
+        bar = progress_bar(None, "relax", quiet, eng.rank, unit="chk")
 
         def prog(r):
             bar.update(1)

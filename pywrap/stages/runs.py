@@ -16,7 +16,7 @@ from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.analysis.dynamics.series import growth_fit
 from remote_trigger.pywrap.stages.common import (
     RESULT_VERSION, StableStartError, _DECK_FIELDS, _analyze, _deck_vars, _ensure_dir,
-    _equilibrium_files, _progress, _relax_cfg, check_resume_config, load_equilibrium_scene,
+    _equilibrium_files, progress_bar, _relax_cfg, check_resume_config, load_equilibrium_scene,
     load_relax_scene, prepare_out, restore_saved_history3d, save_equilibrium, start_sha256,
     start_timestep)
 
@@ -90,7 +90,7 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
             writer.append(row)
 
     add({"t": 0.0, "D": 0.0, "v_top": 0.0, "mu": eng.equal("mu_now"), "v_top_max": 0.0})
-    bar = _progress(nrec, desc, quiet, eng.rank, unit="rec")
+    bar = progress_bar(nrec, desc, quiet, eng.rank, unit="rec")
     status = "failed"               # until the loop ends normally
     vmax = 0.0
     try:
