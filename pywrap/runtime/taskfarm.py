@@ -11,6 +11,7 @@ The same launch works on one machine and on k nodes (``mpirun -np P`` /
 hand out tasks, only MPI messages; the job's output folder must be visible
 to every rank, since a task writes its own files there.
 """
+import collections
 import time
 
 __all__ = ["run_tasks", "n_workers"]
@@ -54,7 +55,10 @@ def run_tasks(comm, tasks, fn, args=(), done=None):
     done : callable, optional
         ``done(task, result, wall)`` on rank 0 as each task ends (in the
         order they end): where the job writes the task's result file and
-        prints its progress line.
+        prints its progress line. It may return an iterable of new tasks
+        (follow-ups, e.g. the parts of a task that can run side by side),
+        run like the others: on one rank after those already queued, under
+        MPI handed to the next free rank.
 
     Returns
     -------
@@ -72,14 +76,16 @@ def run_tasks(comm, tasks, fn, args=(), done=None):
     """
     ended = []
     if comm is None or comm.Get_size() == 1:
-        for task in tasks:
+        queue = collections.deque(tasks)
+        while queue:
+            task = queue.popleft()
             t0 = time.perf_counter()
             res = fn(task, *args)
             ended.append((task, res))
             if done is not None:
-                done(task, res, time.perf_counter() - t0)
+                queue.extend(done(task, res, time.perf_counter() - t0) or ())
         return ended
-    from concurrent.futures import as_completed
+    from concurrent.futures import FIRST_COMPLETED, wait
 
     from mpi4py.futures import MPICommExecutor
 
@@ -89,15 +95,19 @@ def run_tasks(comm, tasks, fn, args=(), done=None):
     with MPICommExecutor(comm, root=0) as pool:
         if pool is not None:             # rank 0; the workers run tasks meanwhile
             futures = {pool.submit(_timed, fn, task, args): task for task in tasks}
-            for fut in as_completed(futures):
-                task = futures[fut]
-                try:
-                    res, wall = fut.result()
-                    ended.append((task, res))
-                    if done is not None:
-                        done(task, res, wall)
-                except Exception as exc:  # noqa: BLE001 - raised on every rank below
-                    error = error or _portable(exc)
+            while futures:
+                finished, _ = wait(futures, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    task = futures.pop(fut)
+                    try:
+                        res, wall = fut.result()
+                        ended.append((task, res))
+                        more = done(task, res, wall) if done is not None else None
+                        if error is None:     # after a failure no new work is started
+                            futures.update({pool.submit(_timed, fn, t, args): t
+                                            for t in (more or ())})
+                    except Exception as exc:  # noqa: BLE001 - raised on every rank below
+                        error = error or _portable(exc)
     error = comm.bcast(error, root=0)
     if error is not None:
         raise error

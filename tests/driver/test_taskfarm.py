@@ -41,6 +41,20 @@ def fail(task):
         raise ValueError(f"bad task {task}")
     return task
 
+# follow-ups: each task t < 100 returned by `done` two more, 100 t + 1 and 100 t + 2,
+# which run on the workers like the first ones (every one exactly once)
+def parts(t, r, w):
+    return [100 * t + 1, 100 * t + 2] if t < 100 else None
+
+res = run_tasks(comm, [1, 2, 3], square, (0,), parts)
+if rank == 0:
+    want = [1, 2, 3] + [100 * t + k for t in (1, 2, 3) for k in (1, 2)]
+    assert sorted(t for t, _ in res) == want, res
+    assert all(r["x"] == t * t for t, r in res)
+    assert all(r["rank"] != 0 for _, r in res)
+    order = [t for t, _ in res]
+    assert all(order.index(100 * t + k) > order.index(t) for t in (1, 2, 3) for k in (1, 2))
+
 try:
     run_tasks(comm, list(range(8)), fail)
 except ValueError as exc:
@@ -59,6 +73,13 @@ def test_one_rank_runs_the_tasks_in_order_here():
     assert n_workers(None) == 1
     with pytest.raises(ZeroDivisionError):
         run_tasks(None, [1, 0], lambda t: 1 / t)
+
+
+def test_one_rank_runs_follow_ups_after_the_queue():
+    """Tasks that ``done`` returns run after those already queued, and theirs after them."""
+    res = run_tasks(None, [1, 2], lambda t: t, (),
+                    lambda t, r, w: [10 * t] if t < 100 else None)
+    assert [t for t, _ in res] == [1, 2, 10, 20, 100, 200]
 
 
 @pytest.mark.mpi

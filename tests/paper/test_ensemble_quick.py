@@ -192,6 +192,53 @@ def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
     _same(t1, er.read_table(os.path.join(out, en.TABLE)))
 
 
+def _one_ramp_recorded(out):
+    """Packings with exactly one ramp part recorded and no result yet."""
+    packs = os.path.join(out, "packings")
+    found = []
+    for key in (os.listdir(packs) if os.path.isdir(packs) else []):
+        try:
+            with open(os.path.join(packs, key, et.PROGRESS)) as fh:
+                ramps = json.load(fh)["ramps"]
+        except (OSError, ValueError):
+            continue
+        if len(ramps) == 1 and not os.path.exists(os.path.join(out, "tasks", key + ".json")):
+            found.append(key)
+    return found
+
+
+def test_two_ranks_ramps_apart_killed_and_resumed(serial, tmp_path):
+    """On two worker ranks a relaxed packing's ramps are two tasks: kill -9 once
+    one ramp part of a packing is recorded and the other is not; --resume on two
+    ranks keeps the recorded part and the relaxation and gives the serial table."""
+    _, _, t1 = serial
+    out = str(tmp_path / "apart")
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    proc = subprocess.Popen([CLI, "ensemble", "--quick", "--np", "2", "--out", out], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                            start_new_session=True, text=True)
+    t0 = time.monotonic()
+    try:
+        while not (mid := _one_ramp_recorded(out)):
+            assert proc.poll() is None, "finished before it could be killed"
+            assert time.monotonic() - t0 < 600, "no ramp part recorded in 600 s"
+            time.sleep(0.02)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        stdout = proc.communicate()[0]
+    assert "its ramps mu0, mu_ss as tasks of their own" in stdout, stdout
+    relaxed = os.path.join(out, "packings", mid[0], "default", "relax.h5")
+    stamp = os.stat(relaxed).st_mtime_ns
+    with open(os.path.join(out, "packings", mid[0], et.PROGRESS)) as fh:
+        (recorded, part), = json.load(fh)["ramps"].items()
+    r = _run(["--quick", "--np", "2", "--out", out, "--resume"])
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    assert os.stat(relaxed).st_mtime_ns == stamp, "the recorded relaxation was redone"
+    with open(et.task_path(out, mid[0])) as fh:
+        assert json.load(fh)["result"]["default"]["ramps"][recorded] == part
+    _same(t1, er.read_table(os.path.join(out, en.TABLE)))
+
+
 def test_failure_is_recorded_and_others_finish(tmp_path, monkeypatch):
     from mpi4py import MPI
     from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
@@ -413,6 +460,8 @@ def test_status_reads_how_far_each_packing_has_come(serial, tmp_path):
     prog_file.write_text(json.dumps(prog))
     # the running point's sliced verdict, killed after its third slice (saved after the second)
     seen = _killed_scan(copy / "packings" / running / "verdicts")
+    # and one of a ramp run as a task of its own (its own folder)
+    seen_ss = _killed_scan(copy / "packings" / running / "verdicts" / "mu_ss")
     before = sorted(str(p) for p in copy.rglob("*"))
     proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(copy)],
                           capture_output=True, text=True, timeout=300)
@@ -434,6 +483,8 @@ def test_status_reads_how_far_each_packing_has_come(serial, tmp_path):
     assert lines[2].endswith(")") and (
         f"; a point's verdict in progress: {seen[1]}/80 eigenvalues at its last save ("
         in lines[2]), lines[2]
+    assert (f"; a point's verdict in progress (mu_ss): {seen_ss[1]}/80 eigenvalues at its "
+            "last save (" in lines[2]), lines[2]
     assert sorted(str(p) for p in copy.rglob("*")) == before
     proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(tmp_path)],
                           capture_output=True, text=True, timeout=300)

@@ -50,7 +50,15 @@ them out, gathers the results and holds the subcommand.
 Work is spread over MPI ranks with ``mpi4py.futures``
 (:func:`remote_trigger.pywrap.runtime.taskfarm.run_tasks`): rank 0 hands
 out the packings (largest N first) and a free rank takes the next one,
-running its own LAMMPS instances on ``MPI.COMM_SELF``. Rank 0 writes a
+running its own LAMMPS instances on ``MPI.COMM_SELF``. With two or more
+worker ranks a packing's task ends once it is relaxed, and its two ramps
+(mu0, mu_ss mu0) become two tasks (:func:`.task.run_ramp`) that free ranks
+take side by side; rank 0 records each ramp part in the packing's
+``progress.json`` and, once both are there, hands out the packing's end
+(the frictional part, the onset numbers, the result). A packing's results
+are those of the sequential path (one process, the ramps one after the
+other), except that each ramp has its own folder of sliced verdicts, so the
+second ramp does not take the first's verdict at F_x = 0. Rank 0 writes a
 packing's result atomically to ``tasks/<key>.json`` when it is finished; a job killed (also ``kill -9``) and run again with ``--resume``
 keeps every finished packing, and of a packing it had started every
 finished stage (relaxation, ramp part, frictional part; an interrupted
@@ -77,9 +85,9 @@ from remote_trigger.pywrap.jobs.ensemble.config import build_config
 from remote_trigger.pywrap.jobs.ensemble.figure import plot
 from remote_trigger.pywrap.jobs.ensemble.report import (
     rows_of, statistics, write_table, write_summary)
-from remote_trigger.pywrap.jobs.ensemble.task import (run_packing, _jsonable, task_path,
-                                                      load_task, saddle_escape_of,
-                                                      add_missing_shape)
+from remote_trigger.pywrap.jobs.ensemble.task import (run_packing, run_ramp, record_ramp,
+                                                      _jsonable, task_path, load_task,
+                                                      saddle_escape_of, add_missing_shape)
 
 __all__ = ["MANIFEST", "TABLE", "run_ensemble", "combine_runs", "check_out", "register",
            "config_from_args", "main"]
@@ -108,10 +116,23 @@ def check_out(cfg, out, resume):
     check_job_folder(out, cfg.to_dict(), resume, "an ensemble")
 
 
-def _packing_task(t, cfg, out, resume):
-    """One task of :func:`run_ensemble` (on a worker rank): :func:`run_packing`."""
-    return run_packing(cfg, t["n"], t["seed"], os.path.join(out, "packings", t["key"]),
-                       resume=resume)
+def _packing_task(t, cfg, out, resume, ramps_apart):
+    """One task of :func:`run_ensemble` (on a worker rank): a packing
+    (:func:`run_packing`; ``ramps_apart``: up to its relaxation), one of its
+    ramps (``t["ramp"]``, :func:`run_ramp`), or its end once its ramps are
+    recorded (``t["final"]``)."""
+    folder = os.path.join(out, "packings", t["key"])
+    if "ramp" in t:
+        return run_ramp(cfg, folder, t["ramp"])
+    final = bool(t.get("final"))
+    return run_packing(cfg, t["n"], t["seed"], folder, resume=resume or final,
+                       ramps_apart=ramps_apart and not final)
+
+
+def _packing_of(t):
+    """The packing of a task (its ``key``, ``n``, ``seed``: what ``tasks/<key>.json``
+    records)."""
+    return {k: v for k, v in t.items() if k not in ("ramp", "final")}
 
 
 def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
@@ -173,9 +194,28 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
     todo = on_rank0(comm, prepare)
     say(f"{len(tasks)} packings ({len(todo)} to run) on {n_workers(comm)} rank(s)")
     computed = []
+    # with two or more worker ranks, a relaxed packing's two ramps are two tasks
+    # (side by side); rank 0 records each part and then hands out the packing's end
+    apart = n_workers(comm) > 1
+    waiting, part_wall = {}, {}
 
     def done(t, res, wall):
-        res = dict(res, saddle_escape=cfg.saddle_escape)
+        key = t["key"]
+        if "ramp" in t:
+            part_wall[key] = part_wall.get(key, 0.0) + wall
+            record_ramp(os.path.join(out, "packings", key), t["ramp"], res)
+            waiting[key].discard(t["ramp"])
+            return [dict(_packing_of(t), final=True)] if not waiting[key] else None
+        if "ramps_apart" in res:
+            part_wall[key] = part_wall.get(key, 0.0) + res["wall"]
+            waiting[key] = set(res["ramps_apart"])
+            say(f"{key}: relaxed; its ramps {', '.join(res['ramps_apart'])} as tasks of "
+                f"their own")
+            return [dict(_packing_of(t), ramp=k) for k in res["ramps_apart"]]
+        t = _packing_of(t)
+        # a packing run in parts: its wall time is that of its tasks, summed
+        res = dict(res, saddle_escape=cfg.saddle_escape,
+                   wall=res["wall"] + part_wall.pop(key, 0.0))
         write_json(task_path(out, t["key"]), {"task": t, "status": "complete",
                                                "result": _jsonable(res)})
         computed.append(t["key"])
@@ -188,7 +228,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
             + (f"; {len(res['warnings'])} distinct warning(s) in tasks/{t['key']}.json"
                if res["warnings"] else "") + ")")
 
-    run_tasks(comm, todo, _packing_task, (cfg, out, resume), done)
+    run_tasks(comm, todo, _packing_task, (cfg, out, resume, apart), done)
     path = os.path.join(out, "ensemble.md")
     err = None
     if rank == 0:

@@ -53,10 +53,15 @@ def _scan_note(folder):
     from remote_trigger.analysis.stability.scan_state import saved_scans
     from remote_trigger.pywrap.jobs.ensemble.task import VERDICTS
 
+    vdir = os.path.join(folder, VERDICTS)
+    # the packing's folder, or one per ramp where its ramps run side by side
+    dirs = [vdir] + sorted(os.path.join(vdir, d) for d in
+                           (os.listdir(vdir) if os.path.isdir(vdir) else ())
+                           if os.path.isdir(os.path.join(vdir, d)))
     return "".join(
-        f"; a point's verdict in progress: {done}/{n} eigenvalues at its last save "
-        f"({_utc(mtime)})"
-        for _, done, n, mtime in saved_scans(os.path.join(folder, VERDICTS)))
+        f"; a point's verdict in progress{' (' + os.path.basename(d) + ')' if d != vdir else ''}"
+        f": {done}/{n} eigenvalues at its last save ({_utc(mtime)})"
+        for d in dirs for _, done, n, mtime in saved_scans(d))
 
 
 def _since(folder):

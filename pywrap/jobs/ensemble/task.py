@@ -23,7 +23,8 @@ from remote_trigger.pywrap.jobs.ensemble.onset import (
     spectrum, read_ramp, bracket, onset_numbers, reanalyse, pair_shape)
 from remote_trigger.analysis.stability.verdict import Decision
 
-__all__ = ["PROGRESS", "run_packing", "inertia_points", "task_path", "load_task"]
+__all__ = ["PROGRESS", "run_packing", "run_ramp", "record_ramp", "ramp_frictions",
+           "inertia_points", "task_path", "load_task"]
 
 
 def _new_point(eng, rcfg, start_dump, F_x, prefix, I0):
@@ -258,12 +259,76 @@ def _failure(exc):
     return f"{type(exc).__name__}: {exc}"
 
 
-def run_packing(cfg, n, seed, folder, resume=False):
+def ramp_frictions(cfg):
+    """A packing's ramps: (key, friction) for mu0 and mu_ss mu0, in that order."""
+    return (("mu0", float(cfg.mu)), ("mu_ss", float(cfg.mu * cfg.mu_ss)))
+
+
+def run_ramp(cfg, folder, key):
+    """One ramp part of a relaxed packing, as a task of its own (``ramps_apart``
+    of :func:`run_packing`); failures are returned, not raised.
+
+    The ramp continues a ``ramp.h5`` a killed run left (bitwise as
+    uninterrupted). Its sliced verdicts go to ``verdicts/<key>`` (the other
+    ramp may run at the same time; a folder serves one scan). Nothing is
+    recorded here: the job records the part with :func:`record_ramp`.
+
+    Parameters
+    ----------
+    cfg : EnsembleConfig
+    folder : str
+        The packing's folder, its relaxation recorded in ``progress.json``.
+    key : {'mu0', 'mu_ss'}
+
+    Returns
+    -------
+    dict
+        ``part`` (:func:`_ramp_part`; None after a failure), ``error`` (None
+        or the reason; the packing's final call then runs the ramp again and
+        records the error as the sequential path does), ``warnings`` (the
+        distinct warnings raised meanwhile).
+    """
+    import warnings
+
+    mu = dict(ramp_frictions(cfg))[key]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            relaxed = _load_progress(folder)["relax"]["datafile"]
+            part = _jsonable(_ramp_part(cfg, relaxed, mu, os.path.join(folder, f"ramp_{key}"),
+                                        True, os.path.join(folder, VERDICTS, key)))
+            err = None
+        except Exception as exc:  # noqa: BLE001 - returned: the final call records it
+            part, err = None, _failure(exc)
+    return {"part": part, "error": err, "warnings": _warning_lines(caught)}
+
+
+def record_ramp(folder, key, res):
+    """Record a :func:`run_ramp` result in the packing's ``progress.json`` (the
+    job's rank 0, one result at a time; its warnings kept, a failed part not
+    recorded)."""
+    from remote_trigger.pywrap.runtime.jobfolder import write_json
+
+    done = _load_progress(folder)
+    done["warnings"] = sorted(set(done["warnings"]) | set(res["warnings"]))
+    if res["part"] is not None:
+        done["ramps"][key] = res["part"]
+    write_json(os.path.join(folder, PROGRESS), done)
+
+
+def run_packing(cfg, n, seed, folder, resume=False, ramps_apart=False):
     """Everything measured on one packing; failures are recorded, not raised.
 
     Each finished stage (the default relaxation, each friction's ramp part,
     the frictional part) is recorded in ``folder/progress.json`` (atomically)
     as soon as it is done.
+
+    With ``ramps_apart`` the ramps not yet recorded are left to
+    :func:`run_ramp` (one task each, so that a packing's two ramps run side
+    by side on two ranks): the call ends after the relaxation and returns
+    ``{"ramps_apart": [keys], "wall": s}``; once the job has recorded both
+    parts (:func:`record_ramp`), a second call (``resume``, without
+    ``ramps_apart``) finds them and finishes the packing.
 
     Parameters
     ----------
@@ -290,7 +355,7 @@ def run_packing(cfg, n, seed, folder, resume=False):
         each with ``error`` (None or the reason), ``wall`` (s) and
         ``warnings`` (the distinct warnings raised meanwhile, recorded, not
         printed; for a resumed packing also those its kept stages recorded).
-        ``wall`` is this run's time for the packing. ``environment``: the
+        ``wall`` is this call's time for the packing. ``environment``: the
         versions, BLAS kernels and CPU of the rank that ran this run's part
         (:func:`~remote_trigger.pywrap.runtime.environment.environment`).
     """
@@ -303,7 +368,9 @@ def run_packing(cfg, n, seed, folder, resume=False):
     # packing's result (tasks/<key>.json) instead
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = _run_packing(cfg, n, seed, folder, resume, caught)
+        result = _run_packing(cfg, n, seed, folder, resume, caught, ramps_apart)
+    if "ramps_apart" in result:
+        return result
     result["warnings"] = _warning_lines(caught, result.pop("earlier_warnings"))
     result["environment"] = environment()
     return result
@@ -331,7 +398,7 @@ def _load_progress(folder):
         return None
 
 
-def _run_packing(cfg, n, seed, folder, resume=False, caught=()):
+def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=False):
     """:func:`run_packing` without the warning capture."""
     from remote_trigger.pywrap.stages.packing import generate, write_data
     from remote_trigger.pywrap.runtime.jobfolder import write_json
@@ -373,7 +440,10 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=()):
         # two K agree to the last bit (not where Newton left round-off
         # tangential displacements, whose stiffness depends on mu)
         vdir = os.path.join(folder, VERDICTS)
-        for key, mu in (("mu0", cfg.mu), ("mu_ss", cfg.mu * cfg.mu_ss)):
+        apart = [key for key, _ in ramp_frictions(cfg) if key not in done["ramps"]]
+        if ramps_apart and apart:
+            return {"ramps_apart": apart, "wall": time.perf_counter() - t0}
+        for key, mu in ramp_frictions(cfg):
             if key not in done["ramps"]:
                 record("ramps", key, _ramp_part(cfg, done["relax"]["datafile"], mu,
                                                 os.path.join(folder, f"ramp_{key}"), resume,
