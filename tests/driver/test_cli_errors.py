@@ -499,3 +499,19 @@ def test_ramp_without_memory_for_the_verdict_stops_with_the_reason(capsys, relax
                              tmp_path / "p", "--dF-x", "0.02", "--quiet")
     assert status == 2
     assert_one_line_error(err, "REMOTE_TRIGGER_MEMORY_GB = 'lots': not a positive number")
+
+
+def test_ramp_from_an_unrelaxed_packing_says_so(capsys, tmp_path, packing_file, relaxed):
+    """A ramp started from ``generate``'s loose packing (not an equilibrium) ends
+    with a note that its first point was settled by damped dynamics with friction,
+    not by the relax protocol; from relax's equilibrium there is no such note."""
+    args = ("--quiet", "--dF-x", "0.05", "--set", "F_x_max=0.05")
+    status, out, _ = run_cli(capsys, "ramp", "--datafile", packing_file,
+                             "--out", tmp_path / "loose", *args)
+    assert status in (0, 1)
+    note = [ln for ln in out.splitlines() if "note:" in ln]
+    assert len(note) == 1 and f"{packing_file} was not an equilibrium" in note[0], out
+    assert "relax/equilibrium.data" in note[0], note
+    status, out, _ = run_cli(capsys, "ramp", "--datafile", relaxed.datafile,
+                             "--out", tmp_path / "relaxed", *args)
+    assert "note:" not in out, out
