@@ -20,28 +20,19 @@ class StableStartError(ConfigError):
 
 
 # --------------------------------------------------------------------------- helpers
-#: off a terminal, a progress bar writes one line at most this often [s]
-PROGRESS_LINE_INTERVAL = 60.0
-
-
 class _LogLines:
     """A stream for tqdm where stderr is not a terminal (a batch job's log):
-    each of the bar's updates, at most one per :data:`PROGRESS_LINE_INTERVAL`,
-    becomes one line, instead of carriage-return updates that pile up on one
-    line of the log."""
+    each of the bar's updates becomes a line of its own, instead of a
+    carriage-return update that piles up with the others on one line of the
+    log; the bar's blanking on close writes nothing."""
 
     def __init__(self, fp):
-        self.fp, self.last = fp, None
+        self.fp = fp
 
     def write(self, s):
-        import time
-
         s = s.replace("\r", "").strip()      # tqdm's "\r" + bar, and its blanking
-        now = time.monotonic()
-        if s and (self.last is None or now - self.last >= PROGRESS_LINE_INTERVAL):
+        if s:
             self.fp.write(s + "\n")
-            self.fp.flush()
-            self.last = now
 
     def flush(self):
         self.fp.flush()
@@ -49,7 +40,7 @@ class _LogLines:
 
 def progress_bar(total, desc, quiet, rank, unit="it"):
     """A tqdm bar on rank 0's stderr (none with ``quiet`` or on other ranks);
-    where stderr is not a terminal, one plain line a minute (:class:`_LogLines`)."""
+    where stderr is not a terminal, one line per update (:class:`_LogLines`)."""
     import sys
     from tqdm import tqdm
 
