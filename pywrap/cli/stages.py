@@ -276,29 +276,12 @@ def run_ramp(args):
         if res.n_escaped or res.n_saddle:
             print(f"ramp: {res.n_escaped} point(s) whose Newton equilibrium was a saddle, "
                   f"equilibrated again by damped dynamics; {res.n_saddle} left on a saddle")
-        note = _unsettled_start(res.h5, cfg.datafile)
-        if note:
-            print(note)
+        if res.start_damped_time > 0:   # the start file was not an equilibrium
+            print(f"ramp: note: {cfg.datafile} was not an equilibrium at the start load: "
+                  f"the first point came to rest by damped dynamics with friction on (time "
+                  f"{res.start_damped_time:.4g}), not by the relax protocol; a ramp usually "
+                  f"starts from `remote-trigger relax`'s relax/equilibrium.data")
     return 0 if res.status == "complete" else 1
-
-
-def _unsettled_start(h5, datafile):
-    """A note when the ramp's first point needed damped dynamics: its start file
-    was not an equilibrium at the start load (e.g. a ``generate`` packing, which
-    the first point then settles with friction on, not by the relax protocol)."""
-    import h5py
-
-    try:
-        with h5py.File(h5, "r") as fh:
-            t = float(fh["steps/damped_time"][0])
-    except (OSError, KeyError, IndexError):
-        return None
-    if not t > 0:
-        return None
-    return (f"ramp: note: {datafile} was not an equilibrium at the start load: the first "
-            f"point came to rest by damped dynamics with friction on (time {t:.4g}), not by "
-            f"the relax protocol; a ramp usually starts from `remote-trigger relax`'s "
-            f"relax/equilibrium.data")
 
 
 def run_perturb(args):

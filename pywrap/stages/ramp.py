@@ -59,6 +59,10 @@ class RampResult:
         Points whose Newton equilibrium was a saddle and was replaced
         (``RampConfig.saddle_escape``), and points left on a saddle
         (``n_negative`` > 0); NaN rows (older files) count as 0.
+    start_damped_time : float
+        Damped-dynamics time the first step needed to come to rest: > 0 when
+        the start file was not an equilibrium at the start load (e.g. a
+        loose ``generate`` packing, settled with friction on); NaN if none.
     timestep : dict
         The time-step decision at the start (``dt_used``, ``dt_max``,
         ``dt_fraction``, ``dt_limit_source``, ``dt_auto``; also in ramp.h5).
@@ -83,6 +87,7 @@ class RampResult:
     n_undecided: int = 0
     n_escaped: int = 0
     n_saddle: int = 0
+    start_damped_time: float = float("nan")
 
     @property
     def F_x_c(self):
@@ -572,7 +577,8 @@ def _ramp_result(rlog, status):
         tol_reached=bool(rlog.attrs.get("tol_reached", False)),
         n_undecided=count("decision", lambda d: d == Decision.UNDECIDED),
         n_escaped=count("saddle_escaped", lambda e: e > 0),
-        n_saddle=count("n_negative", lambda m: m > 0))
+        n_saddle=count("n_negative", lambda m: m > 0),
+        start_damped_time=float(s["damped_time"][0]) if len(s["damped_time"]) else np.nan)
 
 
 # --------------------------------------------------------------------------- undamped

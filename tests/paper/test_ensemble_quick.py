@@ -132,19 +132,26 @@ def test_two_ranks_same_table(serial, tmp_path):
 
 
 def _started(out):
-    """(finished packings, packings with a recorded ramp part but no result)."""
+    """(finished packings, {unfinished packing: its recorded ramp parts})."""
     tasks, packs = os.path.join(out, "tasks"), os.path.join(out, "packings")
     done = sorted(n[:-len(".json")] for n in os.listdir(tasks) if n.endswith(".json")) \
         if os.path.isdir(tasks) else []
-    mid = []
+    parts = {}
     for key in (os.listdir(packs) if os.path.isdir(packs) else []):
         try:
             with open(os.path.join(packs, key, et.PROGRESS)) as fh:
-                if "mu0" in json.load(fh)["ramps"] and key not in done:
-                    mid.append(key)
-        except OSError:
-            pass
-    return done, mid
+                ramps = json.load(fh)["ramps"]
+        except (OSError, ValueError):
+            continue
+        if key not in done:
+            parts[key] = sorted(ramps)
+    return done, parts
+
+
+def _mu0_recorded(out):
+    """(finished packings, packings with the mu0 ramp part recorded but no result)."""
+    done, parts = _started(out)
+    return done, [k for k, r in parts.items() if "mu0" in r]
 
 
 def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
@@ -161,7 +168,7 @@ def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
     t0 = time.monotonic()
     try:
         while True:
-            kept, mid = _started(out)
+            kept, mid = _mu0_recorded(out)
             assert proc.poll() is None, "finished before it could be killed"
             assert time.monotonic() - t0 < 600, "no packing finished in 600 s"
             if kept and mid:
@@ -171,7 +178,7 @@ def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
     tasks = os.path.join(out, "tasks")
-    kept, mid = _started(out)
+    kept, mid = _mu0_recorded(out)
     assert 0 < len(kept) < len(set(t1["key"])) and mid, (kept, mid)
     assert not [n for n in os.listdir(tasks) if n.endswith(".claim")]   # MPI hands out tasks
     relaxed = os.path.join(out, "packings", mid[0], "default", "relax.h5")
@@ -194,17 +201,7 @@ def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
 
 def _one_ramp_recorded(out):
     """Packings with exactly one ramp part recorded and no result yet."""
-    packs = os.path.join(out, "packings")
-    found = []
-    for key in (os.listdir(packs) if os.path.isdir(packs) else []):
-        try:
-            with open(os.path.join(packs, key, et.PROGRESS)) as fh:
-                ramps = json.load(fh)["ramps"]
-        except (OSError, ValueError):
-            continue
-        if len(ramps) == 1 and not os.path.exists(os.path.join(out, "tasks", key + ".json")):
-            found.append(key)
-    return found
+    return [k for k, r in _started(out)[1].items() if len(r) == 1]
 
 
 def test_two_ranks_ramps_apart_killed_and_resumed(serial, tmp_path):

@@ -310,7 +310,7 @@ def record_ramp(folder, key, res):
     from remote_trigger.pywrap.runtime.jobfolder import write_json
 
     done = _load_progress(folder)
-    done["warnings"] = sorted(set(done["warnings"]) | set(res["warnings"]))
+    done["warnings"] = _warning_lines((), done["warnings"] + res["warnings"])
     if res["part"] is not None:
         done["ramps"][key] = res["part"]
     write_json(os.path.join(folder, PROGRESS), done)
