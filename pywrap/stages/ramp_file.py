@@ -9,7 +9,10 @@ decision left it undecided) once a point is undecided. Groups:
     One row per equilibrium of the ramp (in ramp order) and of the bisection
     (in evaluation order); columns :data:`COLUMNS` (float64) and
     ``datafile`` (UTF-8 strings: the equilibrium's ``.data``; its dump is
-    the same name with ``.dump``).
+    the same name with ``.dump``). A file inside the ramp file's folder is
+    stored relative to that folder (so the folder can be moved or copied
+    and resumed there); older files hold absolute paths. Readers resolve
+    both with :func:`point_file`.
 ``eigenvalues/steps/step_NNNNN``, ``eigenvalues/bisection/bisect_NNN``
     The eigenvalues (complex128) of each equilibrium (:data:`POINT_PREFIX`;
     NNNNN is the row index in ``steps``, NNN in ``bisection``): all
@@ -74,6 +77,32 @@ def _text(x):
     return x.decode() if isinstance(x, bytes) else str(x)
 
 
+def point_file(h5, stored):
+    """The path of an equilibrium file as a ``ramp.h5`` stores it, usable from here.
+
+    Parameters
+    ----------
+    h5 : str
+        Path of the ramp file.
+    stored : str or bytes
+        A ``datafile`` entry: relative to the ramp file's folder, or absolute
+        (files written before the relative form, and files outside that folder).
+
+    Returns
+    -------
+    str
+        ``stored`` joined to the ramp file's folder, or ``stored`` if absolute.
+    """
+    stored = _text(stored)
+    return stored if os.path.isabs(stored) else os.path.join(os.path.dirname(h5), stored)
+
+
+def _stored_form(h5, path):
+    """``path`` as ``ramp.h5`` stores it: relative to its folder if inside it."""
+    rel = os.path.relpath(os.path.abspath(str(path)), os.path.abspath(os.path.dirname(h5)))
+    return str(path) if rel == os.pardir or rel.startswith(os.pardir + os.sep) else rel
+
+
 def read_points(h5, kind=STEPS):
     """Loads and equilibrium files of one row group of a ``ramp.h5``.
 
@@ -95,7 +124,7 @@ def read_points(h5, kind=STEPS):
         if kind not in fh:
             return np.zeros(0), []
         F = np.asarray(fh[column(kind, "F_x")][()], dtype=np.float64)
-        files = [_text(x) for x in fh[column(kind, DATAFILE)][()]]
+        files = [point_file(h5, x) for x in fh[column(kind, DATAFILE)][()]]
     return F, files
 
 
@@ -226,8 +255,8 @@ class RampLog:
                 for kind in (STEPS, BISECTION):
                     cols = {c: np.asarray(self.rows[kind][c], dtype=np.float64)
                             for c in self.COLS}
-                    cols[DATAFILE] = np.asarray([str(f) for f in self.files[kind]],
-                                                dtype=object)
+                    cols[DATAFILE] = np.asarray(
+                        [_stored_form(self.path, f) for f in self.files[kind]], dtype=object)
                     for c, arr in cols.items():
                         name = column(kind, c)
                         if name not in fh:
@@ -288,7 +317,7 @@ class RampLog:
                 if key not in data:
                     raise ConfigError(f"cannot resume: {path} lacks dataset {key}")
                 log.rows[kind][c] = [float(x) for x in data[key]]
-            log.files[kind] = [str(s) for s in
+            log.files[kind] = [point_file(path, s) for s in
                                data.get(column(kind, DATAFILE), [])]
         eig = EIGENVALUES + "/"
         for k, v in data.items():

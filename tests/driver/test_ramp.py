@@ -8,6 +8,7 @@ import pytest
 from remote_trigger.pywrap.stages.config import RampConfig
 from remote_trigger.pywrap import stages
 from remote_trigger.pywrap.runtime.results import read_all
+from remote_trigger.pywrap.stages.ramp_file import point_file, read_points
 
 DF = 0.01
 TOL = 1e-5
@@ -57,7 +58,9 @@ def test_ramp_h5_layout(full_ramp):
     assert np.all(data["steps/confidence"] > 1)
     np.testing.assert_array_equal(data["steps/complex"], data["steps/decision"] == 1)
     np.testing.assert_array_equal(res.decision, data["steps/decision"])
-    assert all(os.path.exists(f) for f in data["steps/datafile"])
+    # stored relative to the ramp file's folder (it can be moved)
+    assert not any(os.path.isabs(f) for f in data["steps/datafile"])
+    assert all(os.path.exists(point_file(res.h5, f)) for f in data["steps/datafile"])
     last = f"eigenvalues/steps/step_{n - 1:05d}"
     assert np.any(np.abs(data[last].imag) > 0)
 
@@ -103,7 +106,7 @@ def test_decisions_from_a_previous_basis_are_dgeev_s(full_ramp):
     assert fbb.sum() >= fbb.size // 2, fbb
     for kind, stem in (("steps", "step_{:05d}"), ("bisection", "bisect_{:03d}")):
         for k, f in enumerate(data[f"{kind}/datafile"]):
-            cold = stability_of_dump(_dump(f))
+            cold = stability_of_dump(_dump(point_file(res.h5, f)))
             assert cold.start == "dgeev", (kind, k)
             assert cold.decision_code == data[f"{kind}/decision"][k], (kind, k)
             lam = data[f"eigenvalues/{kind}/{stem.format(k)}"]
@@ -111,7 +114,30 @@ def test_decisions_from_a_previous_basis_are_dgeev_s(full_ramp):
                                        np.sort_complex(cold.eigenvalues), rtol=0,
                                        atol=1e-10 * np.abs(cold.eigenvalues).max(),
                                        err_msg=f"{kind} {k} {f}")
-    assert not [f for f in os.listdir(os.path.dirname(_dump(f))) if f.endswith(".basis.npz")]
+    assert not [f for f in os.listdir(os.path.dirname(_dump(point_file(res.h5, f))))
+                if f.endswith(".basis.npz")]
+
+
+def test_a_moved_ramp_folder_resumes_there(full_ramp, tmp_path):
+    """An interrupted ramp's folder, moved: --resume there continues from the
+    equilibria its ramp.h5 names (relative to the file's folder) and saved
+    spectrum basis, with the uninterrupted ramp's numbers."""
+    cfg, full = full_ramp
+    first, moved = tmp_path / "first", tmp_path / "moved"
+    part = stages.ramp(cfg, str(first), quiet=True, stop_after=3)
+    assert part.status == "interrupted"
+    os.rename(first, moved)
+    res = stages.ramp(cfg, str(moved), quiet=True, resume=True)
+    assert res.status == "complete"
+    assert (res.F_x_c_low, res.F_x_c_high) == (full.F_x_c_low, full.F_x_c_high)
+    np.testing.assert_array_equal(res.residual, full.residual)
+    _, a = read_all(res.h5)
+    _, b = read_all(full.h5)
+    for key in ("steps/confidence", "steps/from_basis", "bisection/confidence"):
+        np.testing.assert_array_equal(a[key], b[key], err_msg=key)
+    for kind in ("steps", "bisection"):
+        files = read_points(res.h5, kind)[1]
+        assert files and all(f.startswith(str(moved)) and os.path.isfile(f) for f in files)
 
 
 def test_resume_starts_from_the_saved_basis(full_ramp, tmp_path):
@@ -368,7 +394,8 @@ def test_keep_equilibria_false_keeps_only_the_bracket_and_the_same_numbers(full_
     _, a = read_all(res.h5)
     rows = {f: (F, d) for kind in ("steps", "bisection")
             for F, d, f in zip(a[f"{kind}/F_x"], a[f"{kind}/decision"],
-                               (_dump(x)[:-len(".dump")] for x in a[f"{kind}/datafile"]))}
+                               (_dump(point_file(res.h5, x))[:-len(".dump")]
+                                for x in a[f"{kind}/datafile"]))}
     kept = _stored_points(out / "ramp")
     assert all(exts == set(EQUILIBRIUM_EXTS) for exts in kept.values()), kept
     kept_rows = sorted(rows[str(out / "ramp" / stem)] for stem in kept)
@@ -486,7 +513,7 @@ def test_a_finished_packing_without_the_long_wave_fraction_gets_it_from_its_equi
     pts = read_ramp(res.h5)
     o = onset_numbers(pts, ecfg.dF_x)
     result = {"default": {"ramps": {"mu0": {"h5": res.h5, key: dict(o)}, "mu_ss": None}}}
-    assert add_missing_shape(ecfg, result) == (1, 1)
+    assert add_missing_shape(ecfg, result, os.path.dirname(res.h5)) == (1, 1)
     got = result["default"]["ramps"]["mu0"][key]
     top = next(p for p in pts if p["F_x"] == o["F_x_c_high"] and p["decision"] == 1)
     want = pair_mode(read_equilibrium(top["dump"]), complex(*o["lambda_c"]))
@@ -494,8 +521,8 @@ def test_a_finished_packing_without_the_long_wave_fraction_gets_it_from_its_equi
     assert got["pair_pr"] == want.participation_ratio
     for k, v in o.items():
         assert got[k] == v or (isinstance(v, float) and math.isnan(v)), k
-    assert add_missing_shape(ecfg, result) == (0, 0)
+    assert add_missing_shape(ecfg, result, os.path.dirname(res.h5)) == (0, 0)
     # recorded onset numbers are kept as they are (not recomputed)
     marked = {"default": {"ramps": {"mu0": {"h5": res.h5, key: dict(o, pair_index=-7)}}}}
-    assert add_missing_shape(ecfg, marked) == (1, 1)
+    assert add_missing_shape(ecfg, marked, os.path.dirname(res.h5)) == (1, 1)
     assert marked["default"]["ramps"]["mu0"][key]["pair_index"] == -7

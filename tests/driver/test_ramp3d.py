@@ -22,6 +22,7 @@ from remote_trigger.analysis.stability.jacobian import remove_dofs
 from remote_trigger.analysis.stability.jacobian3d import generalized_forces3d
 from remote_trigger.analysis.stability.verdict import stability_of
 from remote_trigger.analysis.state.dumpfile import read_dump3d
+from remote_trigger.pywrap.stages.ramp_file import point_file
 
 from .test_cli_errors import assert_one_line_error, run_cli
 from . import test_kill
@@ -68,8 +69,7 @@ def _points(h5):
             g = fh[kind]
             for F, d, r, f in zip(g["F_x"][()], g["decision"][()], g["residual"][()],
                                   g["datafile"][()]):
-                rows.append((kind, float(F), float(d), float(r),
-                             f.decode() if isinstance(f, bytes) else str(f)))
+                rows.append((kind, float(F), float(d), float(r), point_file(h5, f)))
     return rows
 
 

@@ -156,9 +156,10 @@ def _mu0_recorded(out):
 
 def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
     """kill -9 once a packing is finished and another has recorded its first
-    ramp part: --resume keeps the finished packing, continues the other from
-    its recorded stages (its relaxation is not redone), runs the rest and
-    gives the serial run's table."""
+    ramp part; the folder is then moved: --resume there keeps the finished
+    packing, continues the other from its recorded stages (its relaxation is
+    not redone; the records name files relative to the packing's folder and
+    its ramp.h5's), runs the rest and gives the serial run's table."""
     _, _, t1 = serial
     out = str(tmp_path / "killed")
     env = dict(os.environ, OMP_NUM_THREADS="1")
@@ -181,6 +182,13 @@ def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
     kept, mid = _mu0_recorded(out)
     assert 0 < len(kept) < len(set(t1["key"])) and mid, (kept, mid)
     assert not [n for n in os.listdir(tasks) if n.endswith(".claim")]   # MPI hands out tasks
+    with open(os.path.join(out, "packings", mid[0], et.PROGRESS)) as fh:
+        progress = json.load(fh)
+    assert not os.path.isabs(progress["relax"]["datafile"])
+    assert not os.path.isabs(progress["ramps"]["mu0"]["h5"])
+    moved = str(tmp_path / "moved")
+    os.rename(out, moved)
+    out, tasks = moved, os.path.join(moved, "tasks")
     relaxed = os.path.join(out, "packings", mid[0], "default", "relax.h5")
     stamp = os.stat(relaxed).st_mtime_ns
     r = _run(["--quick", "--out", out])                         # no --resume: refused
@@ -331,19 +339,20 @@ def test_a_part_recorded_without_the_pair_shape_is_completed_on_resume(serial):
     out, _, _ = serial
     cfg = ec.build_config(quick=True)
     key = f"I0_{cfg.I0_dynamics:g}"
-    with open(os.path.join(out, "packings", "N16_s1", et.PROGRESS)) as fh:
+    folder = os.path.join(out, "packings", "N16_s1")
+    with open(os.path.join(folder, et.PROGRESS)) as fh:
         part = json.load(fh)["ramps"]["mu0"]
     assert not et._shape_missing(cfg, part)
     old = dict(part, **{key: {k: v for k, v in part[key].items()
                               if k not in ("pair_pr", "pair_particles", "pair_longwave")}})
     assert et._shape_missing(cfg, old)
-    new = et._with_shape(cfg, old)
+    new = et._with_shape(cfg, old, folder)
     assert not et._shape_missing(cfg, new)
     for k, v in old[key].items():
         assert new[key][k] == v or (v != v and new[key][k] != new[key][k]), k
     assert math.isnan(new[key]["pair_pr"]) and math.isnan(new[key]["pair_particles"])
     assert math.isnan(new[key]["pair_longwave"])
-    gone = et._with_shape(cfg, dict(old, h5=os.path.join(out, "no.h5")))
+    gone = et._with_shape(cfg, dict(old, h5=os.path.join(out, "no.h5")), folder)
     assert math.isnan(gone[key]["pair_pr"])
     # recorded before the long-wave fraction: the measured numbers are kept
     # where the equilibria are gone (ramp.h5 there or not)
@@ -351,7 +360,7 @@ def test_a_part_recorded_without_the_pair_shape_is_completed_on_resume(serial):
     older = dict(part, **{key: {k: v for k, v in part[key].items() if k != "pair_longwave"}})
     assert et._shape_missing(cfg, older)
     for h5 in (part["h5"], os.path.join(out, "no.h5")):
-        got = et._with_shape(cfg, dict(older, h5=h5))[key]
+        got = et._with_shape(cfg, dict(older, h5=h5), folder)[key]
         assert got["pair_pr"] == part[key]["pair_pr"], h5
         assert got["pair_particles"] == part[key]["pair_particles"], h5
         assert math.isnan(got["pair_longwave"]), h5

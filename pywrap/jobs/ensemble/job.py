@@ -240,7 +240,8 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
                 if res is None:
                     raise RuntimeError(f"packing {t['key']} has no result in "
                                        f"{task_path(out, t['key'])}")
-                added, got = add_missing_shape(cfg, res)
+                added, got = add_missing_shape(cfg, res,
+                                               os.path.join(out, "packings", t["key"]))
                 if added:
                     # recorded by a version without the pair's long-wave
                     # fraction: measured on the ramp's kept equilibria, else NaN

@@ -79,7 +79,7 @@ def read_ramp(h5):
     """
     import h5py
 
-    from remote_trigger.pywrap.stages.ramp_file import undecided_reasons
+    from remote_trigger.pywrap.stages.ramp_file import point_file, undecided_reasons
 
     pts = []
     with h5py.File(h5, "r") as fh:
@@ -96,8 +96,7 @@ def read_ramp(h5):
             esc = (fh[f"{kind}/saddle_escaped"][()] if f"{kind}/saddle_escaped" in fh
                    else np.zeros(len(F)))
             nneg = fh[f"{kind}/n_negative"][()] if f"{kind}/n_negative" in fh else nan
-            files = [x.decode() if isinstance(x, bytes) else str(x)
-                     for x in fh[f"{kind}/datafile"][()]]
+            files = [point_file(h5, x) for x in fh[f"{kind}/datafile"][()]]
             for k in range(len(F)):
                 if not np.isfinite(dec[k]):
                     continue

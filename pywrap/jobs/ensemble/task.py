@@ -203,28 +203,30 @@ def _shape_missing(cfg, part):
     return o is not None and "pair_longwave" not in o
 
 
-def _with_shape(cfg, part, onset=True):
+def _with_shape(cfg, part, folder, onset=True):
     """The part with ``pair_pr``/``pair_particles``/``pair_longwave`` of its default
     convention (:func:`.onset.pair_shape`; NaN where the equilibria are gone,
     a value already recorded kept), and with ``onset`` its onset numbers
     recomputed from its ``ramp.h5`` (an older version took a negative real
     eigenvalue for the pair; a resumed packing's ramp part); without, the
-    recorded ones are kept (a finished packing's)."""
+    recorded ones are kept (a finished packing's). ``folder``: the packing's
+    (``part["h5"]`` is relative to it, :func:`in_folder`)."""
     key = f"I0_{cfg.I0_dynamics:g}"
-    if not os.path.isfile(part["h5"]):
+    h5 = from_folder(folder, part["h5"])
+    if not os.path.isfile(h5):
         return dict(part, **{key: dict({k: math.nan for k in SHAPE_KEYS}, **part[key])})
-    pts = read_ramp(part["h5"])
+    pts = read_ramp(h5)
     o = dict(part[key], **onset_numbers(pts, cfg.dF_x)) if onset else dict(part[key])
     shape = {k: v for k, v in pair_shape(pts, o).items()
              if not (math.isnan(v) and math.isfinite(part[key].get(k, math.nan)))}
     return dict(part, **{key: dict(o, **shape)})
 
 
-def add_missing_shape(cfg, result):
+def add_missing_shape(cfg, result, folder):
     """Add the pair's shape to the ramp parts of a finished packing's ``result``
     that a version without it recorded (:func:`_with_shape`, in place; NaN
     where the ramp's equilibria are gone). Its onset numbers are left as
-    recorded.
+    recorded. ``folder``: the packing's folder.
 
     Returns
     -------
@@ -237,7 +239,7 @@ def add_missing_shape(cfg, result):
     missing = [k for k, part in ramps.items() if part is not None
                and _shape_missing(cfg, part)]
     for k in missing:
-        ramps[k] = _with_shape(cfg, ramps[k], onset=False)
+        ramps[k] = _with_shape(cfg, ramps[k], folder, onset=False)
     return len(missing), sum(1 for k in missing
                              if math.isfinite(ramps[k][key].get("pair_longwave", math.nan)))
 
@@ -294,9 +296,10 @@ def run_ramp(cfg, folder, key):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            relaxed = _load_progress(folder)["relax"]["datafile"]
+            relaxed = from_folder(folder, _load_progress(folder)["relax"]["datafile"])
             part = _jsonable(_ramp_part(cfg, relaxed, mu, os.path.join(folder, f"ramp_{key}"),
                                         True, os.path.join(folder, VERDICTS, key)))
+            part["h5"] = in_folder(folder, part["h5"])
             err = None
         except Exception as exc:  # noqa: BLE001 - returned: the final call records it
             part, err = None, _failure(exc)
@@ -389,6 +392,21 @@ def _warning_lines(caught, earlier=()):
     return sorted(set(earlier) | {f"{w.category.__name__}: {w.message}" for w in caught})
 
 
+def in_folder(folder, path):
+    """``path`` as a packing's records keep it: relative to the packing's
+    ``folder`` when inside it (the run folder can be moved and resumed
+    there), else absolute."""
+    rel = os.path.relpath(os.path.abspath(path), os.path.abspath(folder))
+    return os.path.abspath(path) if rel == os.pardir or rel.startswith(os.pardir + os.sep) else rel
+
+
+def from_folder(folder, stored):
+    """A path of a packing's records (``progress.json``, ``tasks/<key>.json``)
+    usable from here: relative ones are joined to the packing's ``folder``;
+    absolute ones (older runs) are kept."""
+    return stored if os.path.isabs(stored) else os.path.join(folder, stored)
+
+
 def _load_progress(folder):
     """The stages a killed run finished (``progress.json``), or None."""
     try:
@@ -433,7 +451,7 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
                          "frictionless-then-friction")
             record("relax", None, {"phi": rel.packing_fraction, "residual": rel.residual,
                                    "antisymmetry": rel.antisymmetry,
-                                   "datafile": rel.datafile})
+                                   "datafile": in_folder(folder, rel.datafile)})
         d.update({k: v for k, v in done["relax"].items() if k != "datafile"})
         # the ramps' sliced verdicts, in one folder: a killed scan resumes, and
         # the second ramp's F_x = 0 point takes the first's verdict where the
@@ -445,13 +463,13 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
             return {"ramps_apart": apart, "wall": time.perf_counter() - t0}
         for key, mu in ramp_frictions(cfg):
             if key not in done["ramps"]:
-                record("ramps", key, _ramp_part(cfg, done["relax"]["datafile"], mu,
-                                                os.path.join(folder, f"ramp_{key}"), resume,
-                                                vdir))
+                part = _ramp_part(cfg, from_folder(folder, done["relax"]["datafile"]), mu,
+                                  os.path.join(folder, f"ramp_{key}"), resume, vdir)
+                record("ramps", key, dict(part, h5=in_folder(folder, part["h5"])))
             elif _shape_missing(cfg, done["ramps"][key]):
                 # a part recorded by a version without the pair's shape: added
                 # from the ramp's equilibria while they are still on disk
-                record("ramps", key, _with_shape(cfg, done["ramps"][key]))
+                record("ramps", key, _with_shape(cfg, done["ramps"][key], folder))
             d["ramps"][key] = done["ramps"][key]
         shutil.rmtree(vdir, ignore_errors=True)
     except Exception as exc:  # noqa: BLE001 - recorded: one packing does not stop the others
