@@ -182,6 +182,33 @@ def test_soft_mode_onsets_are_flagged_and_kept_out_of_the_stiff_statistics():
     assert fit.exponent == pytest.approx(expected, rel=1e-12)
 
 
+def test_a_packing_without_f_x_c_is_counted_in_the_summary(tmp_path):
+    """A usable packing whose ramp has no F_x^c (complex at its first point):
+    the per-size cells say how many of the usable packings the median is of."""
+    import math
+
+    from remote_trigger.pywrap.jobs.ensemble import report as er
+
+    cfg = ec.EnsembleConfig.from_dict({"n": [100], "seeds": [[1, 2, 3]],
+                                       "inertia_I0": None, "frictional": False})
+    rows = []
+    for seed, fc, fss in ((1, 0.02, 0.01), (2, 0.04, math.nan), (3, 0.03, 0.02)):
+        row = er._empty_row({"key": f"N100_s{seed}", "n": 100, "seed": seed},
+                            "frictionless-then-friction", 0.5, cfg.I0_dynamics)
+        row.update(status="ok", F_x_c=fc, F_x_c_ss=fss, ratio=fss / fc, phi=0.81)
+        rows.append(row)
+    path = tmp_path / "e.md"
+    er.write_summary(str(path), rows, cfg, er.statistics(rows, cfg), 1.0, 0, [])
+    line = next(L for L in path.read_text().splitlines() if L.startswith("| 100 | 0.5 |"))
+    cells = [c.strip() for c in line.split("|")[1:-1]]
+    assert cells[2] == "3 (3)"
+    assert cells[3] == "0.03 [0.025, 0.035]"                    # all three: no count
+    assert cells[4] == "0.015 [0.0125, 0.0175] (2 of 3)"
+    assert cells[5].endswith("(2 of 3)") and cells[6] == "0.81 [0.81, 0.81]"
+    assert "(k of m): only k of the m usable packings have the value" in path.read_text()
+    assert er._q(er.quartiles([]), of=2) == "-"
+
+
 def test_pair_shape_unmeasured_is_nan_never_a_failure(tmp_path, monkeypatch):
     """No complex point, a dump that is gone, or an eigenvector ARPACK cannot
     compute: NaN, and the packing goes on."""

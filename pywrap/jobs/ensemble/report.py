@@ -365,9 +365,15 @@ def _f(x, f=".4g"):
     return format(x, f)
 
 
-def _q(q, f=".4g"):
+def _q(q, f=".4g", of=None):
+    """``median [q25, q75]``, ``-`` if no value; with ``of`` (the packings the
+    value is asked of), ``(count of of)`` added where fewer had one (e.g. a
+    ramp complex at its start has no F_x^c)."""
     c, a, m, b = q
-    return "-" if not c else f"{_f(m, f)} [{_f(a, f)}, {_f(b, f)}]"
+    if not c:
+        return "-"
+    more = f" ({c} of {of})" if of is not None and c < of else ""
+    return f"{_f(m, f)} [{_f(a, f)}, {_f(b, f)}]{more}"
 
 
 def write_summary(path, rows, cfg, st, wall, size, computed):
@@ -396,11 +402,17 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for p in st["per_n"]:
         L.append(f"| {p['n']} | {p['I0']:g} | {p['n_packings']} ({p['n_usable']}) | "
-                 f"{_q(p['F_x_c'])} | {_q(p['F_x_c_ss'])} | {_q(p['ratio'])} | "
+                 f"{_q(p['F_x_c'], of=p['n_usable'])} | {_q(p['F_x_c_ss'], of=p['n_usable'])} | "
+                 f"{_q(p['ratio'], of=p['n_usable'])} | "
                  f"{_q(p['phi'])} | {_q(p['slope'])} | {_q(p['pair_re_rel'], '.3g')} | "
                  f"{_q(p['pair_index'], '.3g')} | {p['n_soft']} | "
                  f"{_q(p['F_x_c_stiff'])} ({p['F_x_c_stiff'][0]}) |")
-    L += ["", "slope s: g = s sqrt(F_x - F_x^c) just above onset (g = max Im sqrt(lambda)).",
+    L.append("")
+    if any(0 < p[k][0] < p["n_usable"] for p in st["per_n"] for k in ("F_x_c", "F_x_c_ss")):
+        L.append("(k of m): only k of the m usable packings have the value (a ramp complex "
+                 "at its first point or undecided throughout has a bracket with one end "
+                 "only, and no F_x^c).")
+    L += ["slope s: g = s sqrt(F_x - F_x^c) just above onset (g = max Im sqrt(lambda)).",
           f"Soft-mode onset: the first certified complex pair has |Re lambda_c| < "
           f"{SOFT_MODE_REL:g} lambda_max -- two near-floppy modes, not two stiff ones (its "
           f"F_x^c is that of the soft pair; the ramp stops there, so the stiff pairs' onset "
