@@ -66,10 +66,10 @@ coupling of the strip to the rest, kappa_r the rest's boundary bound at x,
 rho_T the error of T). If sigma_min(T - x) > eta(x) on the whole strip, it
 holds no real eigenvalue: its m eigenvalues are complex pairs
 (**complex**, certified). If det(T - x) changes sign m times at points where
-sigma_min(T - x) > eta(x), there are m real roots (**real**). Otherwise the
-strip is tried once more off the real axis: a strip of real and complex
-eigenvalues together (a *mixed* strip), or one of more than 8, is neither
-all real nor free of real roots. ARPACK's estimates of the eigenvalues of A
+sigma_min(T - x) > eta(x), there are m real roots (**real**). Otherwise
+the strip is tried once more off the real axis (a strip of real and complex
+eigenvalues together, a *mixed* strip, is neither all real nor free of real
+roots); a strip of more than 24 is tried there only. ARPACK's estimates of the eigenvalues of A
 in the strip propose a box about a complex one, strictly above the real
 axis; the box's eigenvalues are counted by the winding number of det T(z)
 along its edge (:mod:`~remote_trigger.analysis.stability.winding`, rigorous
@@ -108,7 +108,12 @@ from remote_trigger.analysis.stability.strips import _Ctx, _coupling, _decide_st
 
 __all__ = ["classify_sliced", "SlicedStats", "CHECKPOINT_SECONDS"]
 
-_MAX_STRIP = 8                  # largest cluster decided from its block
+# largest cluster tried on the real axis (above it: the box route only); each
+# real-axis evaluation of its Schur complement is a sparse LU of n + m rows,
+# about m + 5 of them for a real strip (docs/results/analysis.md, "Strips of
+# up to 24 on the real axis": 8 before; 4 more of 2268 points decided at
+# N = 40, none contradicting the dense decision)
+_MAX_STRIP = 24
 # Ritz pairs per slice: ARPACK's work per pair grows with it (orthogonalization
 # against 2k + 1 Lanczos vectors), the number of factorizations falls with it;
 # measured at N = 6400 (n = 18 582): 40 -> 216 s, 60 -> 201 s, 85 -> 222 s,

@@ -174,7 +174,7 @@ def _cluster(w_chain, w_pair, n=150, m=10, spacing=0.004, clusters=((70, 50.0),)
 
 
 @pytest.mark.parametrize("w_chain, w_pair, m", [
-    (0.0025, 0.01, 10),     # a strip larger than a block decides, one pair in it
+    (0.0025, 0.01, 10),     # one pair in a strip of 10
     (0.0019, 0.02, 4),      # 2 real + 1 pair: a mixed strip, no real-axis route decides it
     (0.003, 0.01, 10),      # 5 pairs in a strip of 10
 ])
@@ -198,24 +198,42 @@ def test_strip_with_a_pair_is_certified_complex_by_winding(w_chain, w_pair, m):
 
 
 def test_undecided_strip_without_a_pair_says_none_complex():
-    K, mass = _cluster(0.0022, 0.0022)
+    K, mass = _cluster(0.0022, 0.0022, n=200, m=26)
     assert np.all(np.linalg.eigvals(K.toarray()).imag == 0)
     res = classify_sliced(K, mass)
-    assert res.complex_present is None           # a real cluster of 10: not decided
-    assert res.reason.startswith("strip of 10 eigenvalues (> 8)")
-    assert "ARPACK, not certified: 10 of its 10 eigenvalues seen, none complex" in res.reason
+    assert res.complex_present is None           # a real cluster of 26: not decided
+    assert res.reason.startswith("strip of 26 eigenvalues (> 24)")
+    assert "ARPACK, not certified: 26 of its 26 eigenvalues seen, none complex" in res.reason
 
 
 def test_every_undecided_strip_is_named():
-    """Two undecided strips (two real clusters of 10): the reason names both."""
-    K, mass = _cluster(0.0022, 0.0022, clusters=((30, 20.0), (70, 50.0)))
+    """Two undecided strips (two real clusters of 26): the reason names both."""
+    K, mass = _cluster(0.0022, 0.0022, n=200, m=26, clusters=((30, 20.0), (100, 50.0)))
     assert np.all(np.linalg.eigvals(K.toarray()).imag == 0)
     res = classify_sliced(K, mass)
     assert res.complex_present is None
-    assert res.reason.startswith("2 undecided strips: strip of 10 eigenvalues (> 8)")
+    assert res.reason.startswith("2 undecided strips: strip of 26 eigenvalues (> 24)")
     low, high = res.reason.split(" | ")
     assert low.endswith("none complex") and high.endswith("none complex")
-    assert "10 of its 10 eigenvalues seen" in high
+    assert "26 of its 26 eigenvalues seen" in high
+
+
+@pytest.mark.parametrize("m, clusters", [
+    (10, ((70, 50.0),)),
+    (10, ((30, 20.0), (70, 50.0))),
+    (14, ((70, 50.0),)),
+    (24, ((70, 50.0),)),
+])
+def test_real_clusters_of_up_to_24_are_certified_real(m, clusters):
+    """Real clusters of 10-24 strongly coupled eigenvalues (left undecided
+    while only strips of up to 8 were tried on the real axis): m sign
+    changes of det T, certified real, as the Arb oracle says."""
+    K, mass = _cluster(0.0022, 0.0022, n=200, m=m, clusters=clusters)
+    st = SlicedStats()
+    res = classify_sliced(K, mass, stats=st)
+    assert res.complex_present is False, res.reason
+    assert st.strips.get(m) == len(clusters)
+    assert full_spectrum(eigen.dynamical_matrix(K, mass).toarray()) == "real"
 
 
 def test_stop_at_complex_lists_the_spectrum_below_the_first_complex_strip():
