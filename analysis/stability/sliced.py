@@ -69,10 +69,10 @@ holds no real eigenvalue: its m eigenvalues are complex pairs
 sigma_min(T - x) > eta(x), there are m real roots (**real**). Otherwise
 the strip is tried once more off the real axis (a strip of real and complex
 eigenvalues together, a *mixed* strip, is neither all real nor free of real
-roots); a strip of more than 24 is tried there only. ARPACK's estimates of the eigenvalues of A
-in the strip propose a box about a complex one, strictly above the real
-axis; the box's eigenvalues are counted by the winding number of det T(z)
-along its edge (:mod:`~remote_trigger.analysis.stability.winding`, rigorous
+roots); a strip of more than 24 is tried there only. ARPACK's estimates of
+the eigenvalues of A in the strip propose a box about a complex one,
+strictly above the real axis; the box's eigenvalues are counted by the
+winding number of det T(z) along its edge (:mod:`~remote_trigger.analysis.stability.winding`, rigorous
 with the same error bounds, which hold for complex z with Re z in the
 strip). One or more: **complex**, certified. Otherwise the strip is
 **undecided** and says why, adding as a note marked "not certified" what

@@ -94,6 +94,32 @@ def job_overrides(args, **more):
     return over
 
 
+def stored_path(folder, path):
+    """``path`` as a job's records keep it: relative to ``folder`` when inside
+    it (so that the folder can be moved or copied and resumed there), else
+    absolute.
+
+    Parameters
+    ----------
+    folder, path : str
+        Absolute or relative to the working directory.
+
+    Returns
+    -------
+    str
+    """
+    path = os.path.abspath(str(path))
+    rel = os.path.relpath(path, os.path.abspath(folder))
+    return path if rel == os.pardir or rel.startswith(os.pardir + os.sep) else rel
+
+
+def resolved_path(folder, stored):
+    """A path of a job's records usable from here: a relative one (written by
+    :func:`stored_path`) joined to ``folder``, an absolute one (records of
+    older versions, or files outside ``folder``) as it is."""
+    return stored if os.path.isabs(stored) else os.path.join(folder, stored)
+
+
 def write_json(path, data):
     """Write JSON atomically (temporary file + rename), NumPy scalars and arrays as JSON.
 

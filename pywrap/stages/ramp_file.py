@@ -31,6 +31,7 @@ import numpy as np
 from remote_trigger.analysis.output import atomic_path
 
 from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.runtime.jobfolder import resolved_path, stored_path
 from remote_trigger.pywrap.runtime.results import read_all
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.stages.common import (RESULT_VERSION, check_resume_config,
@@ -93,14 +94,7 @@ def point_file(h5, stored):
     str
         ``stored`` joined to the ramp file's folder, or ``stored`` if absolute.
     """
-    stored = _text(stored)
-    return stored if os.path.isabs(stored) else os.path.join(os.path.dirname(h5), stored)
-
-
-def _stored_form(h5, path):
-    """``path`` as ``ramp.h5`` stores it: relative to its folder if inside it."""
-    rel = os.path.relpath(os.path.abspath(str(path)), os.path.abspath(os.path.dirname(h5)))
-    return str(path) if rel == os.pardir or rel.startswith(os.pardir + os.sep) else rel
+    return resolved_path(os.path.dirname(h5), _text(stored))
 
 
 def read_points(h5, kind=STEPS):
@@ -256,7 +250,8 @@ class RampLog:
                     cols = {c: np.asarray(self.rows[kind][c], dtype=np.float64)
                             for c in self.COLS}
                     cols[DATAFILE] = np.asarray(
-                        [_stored_form(self.path, f) for f in self.files[kind]], dtype=object)
+                        [stored_path(os.path.dirname(self.path), f) for f in self.files[kind]],
+                        dtype=object)
                     for c, arr in cols.items():
                         name = column(kind, c)
                         if name not in fh:

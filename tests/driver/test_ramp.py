@@ -469,7 +469,10 @@ def test_sliced_ramp_stops_at_the_pair_and_measures_the_same_onset(full_ramp, mo
     assert res.status == "complete", res.message
     err = capsys.readouterr().err
     assert ": verdict " in err and " eigenvalues" in err
-    assert res.F_x_c_low <= full.F_x_c_low and res.F_x_c_high >= full.F_x_c_high
+    # the two certified brackets overlap, and no certified answer of the sliced
+    # ramp contradicts the dense bracket (an undecided point sends the bisection
+    # elsewhere, so the sliced bracket may also be narrower on one side)
+    assert max(res.F_x_c_low, full.F_x_c_low) < min(res.F_x_c_high, full.F_x_c_high)
     pts = read_ramp(res.h5)
     assert all(p["F_x"] > full.F_x_c_low for p in pts if p["decision"] == 1)
     assert all(p["F_x"] < full.F_x_c_high for p in pts if p["decision"] == 0)

@@ -22,6 +22,7 @@ import numpy as np
 from remote_trigger.pywrap.jobs.ensemble.onset import (
     spectrum, read_ramp, bracket, onset_numbers, reanalyse, pair_shape)
 from remote_trigger.analysis.stability.verdict import Decision
+from remote_trigger.pywrap.runtime.jobfolder import resolved_path, stored_path
 
 __all__ = ["PROGRESS", "run_packing", "run_ramp", "record_ramp", "ramp_frictions",
            "inertia_points", "task_path", "load_task"]
@@ -210,9 +211,10 @@ def _with_shape(cfg, part, folder, onset=True):
     recomputed from its ``ramp.h5`` (an older version took a negative real
     eigenvalue for the pair; a resumed packing's ramp part); without, the
     recorded ones are kept (a finished packing's). ``folder``: the packing's
-    (``part["h5"]`` is relative to it, :func:`in_folder`)."""
+    (``part["h5"]`` is relative to it,
+    :func:`~remote_trigger.pywrap.runtime.jobfolder.stored_path`)."""
     key = f"I0_{cfg.I0_dynamics:g}"
-    h5 = from_folder(folder, part["h5"])
+    h5 = resolved_path(folder, part["h5"])
     if not os.path.isfile(h5):
         return dict(part, **{key: dict({k: math.nan for k in SHAPE_KEYS}, **part[key])})
     pts = read_ramp(h5)
@@ -296,10 +298,10 @@ def run_ramp(cfg, folder, key):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            relaxed = from_folder(folder, _load_progress(folder)["relax"]["datafile"])
+            relaxed = resolved_path(folder, _load_progress(folder)["relax"]["datafile"])
             part = _jsonable(_ramp_part(cfg, relaxed, mu, os.path.join(folder, f"ramp_{key}"),
                                         True, os.path.join(folder, VERDICTS, key)))
-            part["h5"] = in_folder(folder, part["h5"])
+            part["h5"] = stored_path(folder, part["h5"])
             err = None
         except Exception as exc:  # noqa: BLE001 - returned: the final call records it
             part, err = None, _failure(exc)
@@ -392,21 +394,6 @@ def _warning_lines(caught, earlier=()):
     return sorted(set(earlier) | {f"{w.category.__name__}: {w.message}" for w in caught})
 
 
-def in_folder(folder, path):
-    """``path`` as a packing's records keep it: relative to the packing's
-    ``folder`` when inside it (the run folder can be moved and resumed
-    there), else absolute."""
-    rel = os.path.relpath(os.path.abspath(path), os.path.abspath(folder))
-    return os.path.abspath(path) if rel == os.pardir or rel.startswith(os.pardir + os.sep) else rel
-
-
-def from_folder(folder, stored):
-    """A path of a packing's records (``progress.json``, ``tasks/<key>.json``)
-    usable from here: relative ones are joined to the packing's ``folder``;
-    absolute ones (older runs) are kept."""
-    return stored if os.path.isabs(stored) else os.path.join(folder, stored)
-
-
 def _load_progress(folder):
     """The stages a killed run finished (``progress.json``), or None."""
     try:
@@ -451,7 +438,7 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
                          "frictionless-then-friction")
             record("relax", None, {"phi": rel.packing_fraction, "residual": rel.residual,
                                    "antisymmetry": rel.antisymmetry,
-                                   "datafile": in_folder(folder, rel.datafile)})
+                                   "datafile": stored_path(folder, rel.datafile)})
         d.update({k: v for k, v in done["relax"].items() if k != "datafile"})
         # the ramps' sliced verdicts, in one folder: a killed scan resumes, and
         # the second ramp's F_x = 0 point takes the first's verdict where the
@@ -463,9 +450,9 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
             return {"ramps_apart": apart, "wall": time.perf_counter() - t0}
         for key, mu in ramp_frictions(cfg):
             if key not in done["ramps"]:
-                part = _ramp_part(cfg, from_folder(folder, done["relax"]["datafile"]), mu,
+                part = _ramp_part(cfg, resolved_path(folder, done["relax"]["datafile"]), mu,
                                   os.path.join(folder, f"ramp_{key}"), resume, vdir)
-                record("ramps", key, dict(part, h5=in_folder(folder, part["h5"])))
+                record("ramps", key, dict(part, h5=stored_path(folder, part["h5"])))
             elif _shape_missing(cfg, done["ramps"][key]):
                 # a part recorded by a version without the pair's shape: added
                 # from the ramp's equilibria while they are still on disk
