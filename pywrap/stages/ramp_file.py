@@ -9,10 +9,12 @@ decision left it undecided) once a point is undecided. Groups:
     One row per equilibrium of the ramp (in ramp order) and of the bisection
     (in evaluation order); columns :data:`COLUMNS` (float64) and
     ``datafile`` (UTF-8 strings: the equilibrium's ``.data``; its dump is
-    the same name with ``.dump``). A file inside the ramp file's folder is
-    stored relative to that folder (so the folder can be moved or copied
-    and resumed there); older files hold absolute paths. Readers resolve
-    both with :func:`point_file`.
+    the same name with ``.dump``). In files with the root attribute
+    :data:`RELATIVE_PATHS` a file inside the ramp file's folder is named
+    relative to that folder (so the folder can be moved or copied and
+    resumed there); older files name it as their run was given it
+    (absolute, or relative to its working directory). Readers resolve both
+    with :func:`point_file`.
 ``eigenvalues/steps/step_NNNNN``, ``eigenvalues/bisection/bisect_NNN``
     The eigenvalues (complex128) of each equilibrium (:data:`POINT_PREFIX`;
     NNNNN is the row index in ``steps``, NNN in ``bisection``): all
@@ -54,6 +56,9 @@ LATER_COLUMNS = {"from_basis": 0.0, "n_dof": float("nan"), "lambda_max": float("
                  "scanned_below": float("inf"), "saddle_escaped": 0.0,
                  "n_negative": float("nan")}
 DATAFILE = "datafile"
+#: root attribute (True): the ``datafile`` entries inside the file's folder are
+#: relative to it (:func:`point_file`)
+RELATIVE_PATHS = "datafile_relative"
 #: root attribute: why each undecided point is undecided (JSON object, point
 #: name -> the decision's reason, e.g. the strip and where)
 UNDECIDED_REASONS = "undecided_reasons"
@@ -78,7 +83,7 @@ def _text(x):
     return x.decode() if isinstance(x, bytes) else str(x)
 
 
-def point_file(h5, stored):
+def point_file(h5, stored, attrs):
     """The path of an equilibrium file as a ``ramp.h5`` stores it, usable from here.
 
     Parameters
@@ -86,15 +91,21 @@ def point_file(h5, stored):
     h5 : str
         Path of the ramp file.
     stored : str or bytes
-        A ``datafile`` entry: relative to the ramp file's folder, or absolute
-        (files written before the relative form, and files outside that folder).
+        A ``datafile`` entry.
+    attrs : mapping
+        The file's root attributes: with :data:`RELATIVE_PATHS` true, a
+        relative entry is relative to the ramp file's folder; without (files
+        of older versions) it is taken as written (absolute, or relative to
+        the working directory of the run that wrote it).
 
     Returns
     -------
     str
-        ``stored`` joined to the ramp file's folder, or ``stored`` if absolute.
     """
-    return resolved_path(os.path.dirname(h5), _text(stored))
+    stored = _text(stored)
+    if not bool(attrs.get(RELATIVE_PATHS, False)):
+        return stored
+    return resolved_path(os.path.dirname(h5), stored)
 
 
 def read_points(h5, kind=STEPS):
@@ -118,7 +129,7 @@ def read_points(h5, kind=STEPS):
         if kind not in fh:
             return np.zeros(0), []
         F = np.asarray(fh[column(kind, "F_x")][()], dtype=np.float64)
-        files = [point_file(h5, x) for x in fh[column(kind, DATAFILE)][()]]
+        files = [point_file(h5, x, fh.attrs) for x in fh[column(kind, DATAFILE)][()]]
     return F, files
 
 
@@ -235,7 +246,7 @@ class RampLog:
         if before is not None:
             before()
         a = dict(self.cfg.to_attrs(), stage="ramp", status=status, version=RESULT_VERSION,
-                 **self.attrs)
+                 **{RELATIVE_PATHS: True}, **self.attrs)
         fresh = not getattr(self, "_synced", False) or not os.path.exists(self.path)
         with atomic_path(self.path) as tmp:
             if fresh:
@@ -312,7 +323,7 @@ class RampLog:
                 if key not in data:
                     raise ConfigError(f"cannot resume: {path} lacks dataset {key}")
                 log.rows[kind][c] = [float(x) for x in data[key]]
-            log.files[kind] = [point_file(path, s) for s in
+            log.files[kind] = [point_file(path, s, attrs) for s in
                                data.get(column(kind, DATAFILE), [])]
         eig = EIGENVALUES + "/"
         for k, v in data.items():

@@ -89,7 +89,7 @@ def lift_to_spheres(cfg, datafile, F_x, prefix):
 def _rows(h5):
     """(kind, F_x, decision, data file) of every point of a ramp.h5, in ramp order."""
     with h5py.File(h5, "r") as fh:
-        return [(kind, float(F), float(d), point_file(h5, f))
+        return [(kind, float(F), float(d), point_file(h5, f, fh.attrs))
                 for kind in ("steps", "bisection")
                 for F, d, f in zip(fh[kind]["F_x"][()], fh[kind]["decision"][()],
                                    fh[kind]["datafile"][()])]
@@ -236,7 +236,7 @@ def test_3d_ramp_of_the_planar_packing(planar):
     assert ramp3.status == "complete" and ramp3.tol_reached, ramp3.message
     np.testing.assert_array_equal(ramp3.F_x, ramp2.F_x)
     with h5py.File(ramp3.h5, "r") as fh:
-        files3 = [point_file(ramp3.h5, f) for f in fh["steps"]["datafile"][()]]
+        files3 = [point_file(ramp3.h5, f, fh.attrs) for f in fh["steps"]["datafile"][()]]
     for F, file3 in zip(ramp3.F_x, files3):
         a = read_dump([p[2] for p in points if p[0] == F][0])
         b = read_dump3d(file3[:-len(".data")] + ".dump")

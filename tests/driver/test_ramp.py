@@ -60,7 +60,8 @@ def test_ramp_h5_layout(full_ramp):
     np.testing.assert_array_equal(res.decision, data["steps/decision"])
     # stored relative to the ramp file's folder (it can be moved)
     assert not any(os.path.isabs(f) for f in data["steps/datafile"])
-    assert all(os.path.exists(point_file(res.h5, f)) for f in data["steps/datafile"])
+    assert attrs["datafile_relative"]
+    assert all(os.path.exists(point_file(res.h5, f, attrs)) for f in data["steps/datafile"])
     last = f"eigenvalues/steps/step_{n - 1:05d}"
     assert np.any(np.abs(data[last].imag) > 0)
 
@@ -99,14 +100,14 @@ def test_decisions_from_a_previous_basis_are_dgeev_s(full_ramp):
     from remote_trigger.analysis.stability.verdict import stability_of_dump
 
     cfg, res = full_ramp
-    _, data = read_all(res.h5)
+    attrs, data = read_all(res.h5)
     fb = data["steps/from_basis"]
     assert fb[0] == 0 and fb.sum() >= (fb.size - 1) // 2, fb     # the path is taken
     fbb = data["bisection/from_basis"]
     assert fbb.sum() >= fbb.size // 2, fbb
     for kind, stem in (("steps", "step_{:05d}"), ("bisection", "bisect_{:03d}")):
         for k, f in enumerate(data[f"{kind}/datafile"]):
-            cold = stability_of_dump(_dump(point_file(res.h5, f)))
+            cold = stability_of_dump(_dump(point_file(res.h5, f, attrs)))
             assert cold.start == "dgeev", (kind, k)
             assert cold.decision_code == data[f"{kind}/decision"][k], (kind, k)
             lam = data[f"eigenvalues/{kind}/{stem.format(k)}"]
@@ -114,7 +115,7 @@ def test_decisions_from_a_previous_basis_are_dgeev_s(full_ramp):
                                        np.sort_complex(cold.eigenvalues), rtol=0,
                                        atol=1e-10 * np.abs(cold.eigenvalues).max(),
                                        err_msg=f"{kind} {k} {f}")
-    assert not [f for f in os.listdir(os.path.dirname(_dump(point_file(res.h5, f))))
+    assert not [f for f in os.listdir(os.path.dirname(_dump(point_file(res.h5, f, attrs))))
                 if f.endswith(".basis.npz")]
 
 
@@ -247,6 +248,12 @@ def test_ramp_file_layout_and_reader(full_ramp):
         for k in range(F.size):
             assert f"{rf.EIGENVALUES}/{kind}/{rf.point_name(kind, k)}" in data
     np.testing.assert_array_equal(rf.read_points(res.h5)[0], res.F_x)
+    # entries relative to the file's folder where the file says so; files of
+    # older versions name them as their run was given them
+    rel = {rf.RELATIVE_PATHS: True}
+    assert rf.point_file("a/ramp.h5", "ramp/x.data", rel) == os.path.join("a", "ramp/x.data")
+    assert rf.point_file("a/ramp.h5", b"a/ramp/x.data", {}) == "a/ramp/x.data"
+    assert rf.point_file("a/ramp.h5", "/b/x.data", rel) == "/b/x.data"
     assert rf.point_name(rf.STEPS, 12) == "step_00012"
     assert rf.point_name(rf.BISECTION, 3) == "bisect_003"
 
@@ -391,10 +398,10 @@ def test_keep_equilibria_false_keeps_only_the_bracket_and_the_same_numbers(full_
     # a whole ramp without the equilibria: the ends of the bracket stay
     out = tmp_path / "pruned"
     res = stages.ramp(pcfg, str(out), quiet=True)
-    _, a = read_all(res.h5)
+    attrs, a = read_all(res.h5)
     rows = {f: (F, d) for kind in ("steps", "bisection")
             for F, d, f in zip(a[f"{kind}/F_x"], a[f"{kind}/decision"],
-                               (_dump(point_file(res.h5, x))[:-len(".dump")]
+                               (_dump(point_file(res.h5, x, attrs))[:-len(".dump")]
                                 for x in a[f"{kind}/datafile"]))}
     kept = _stored_points(out / "ramp")
     assert all(exts == set(EQUILIBRIUM_EXTS) for exts in kept.values()), kept

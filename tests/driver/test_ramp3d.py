@@ -69,7 +69,7 @@ def _points(h5):
             g = fh[kind]
             for F, d, r, f in zip(g["F_x"][()], g["decision"][()], g["residual"][()],
                                   g["datafile"][()]):
-                rows.append((kind, float(F), float(d), float(r), point_file(h5, f)))
+                rows.append((kind, float(F), float(d), float(r), point_file(h5, f, fh.attrs)))
     return rows
 
 

@@ -96,7 +96,7 @@ def read_ramp(h5):
             esc = (fh[f"{kind}/saddle_escaped"][()] if f"{kind}/saddle_escaped" in fh
                    else np.zeros(len(F)))
             nneg = fh[f"{kind}/n_negative"][()] if f"{kind}/n_negative" in fh else nan
-            files = [point_file(h5, x) for x in fh[f"{kind}/datafile"][()]]
+            files = [point_file(h5, x, fh.attrs) for x in fh[f"{kind}/datafile"][()]]
             for k in range(len(F)):
                 if not np.isfinite(dec[k]):
                     continue

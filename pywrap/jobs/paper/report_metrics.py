@@ -65,7 +65,8 @@ def spectrum_at_zero(h5path):
         cplx, dec, conf, F0 = (float(first(fh, c))
                                for c in ("complex", "decision", "confidence", "F_x"))
         datafile = first(fh, rf.DATAFILE)
-    datafile = rf.point_file(h5path, datafile) if isinstance(datafile, (str, bytes)) else ""
+        datafile = (rf.point_file(h5path, datafile, fh.attrs)
+                    if isinstance(datafile, (str, bytes)) else "")
     asym = float("nan")
     dump = datafile[:-len(".data")] + ".dump"
     if os.path.isfile(dump):
