@@ -171,11 +171,15 @@ def _ramp(cfg, datafile, mu, folder, resume=False, verdict_dir=None):
 
 
 def _ramp_part(cfg, relaxed, mu, folder, resume=False, verdict_dir=None):
-    """One ramp and the onset numbers under both conventions (dict, JSON-ready)."""
+    """One ramp and the onset numbers under both conventions (dict, JSON-ready);
+    ``folder``: the ramp's, inside the packing's folder; ``h5`` is stored
+    relative to the packing's folder
+    (:func:`~remote_trigger.pywrap.runtime.jobfolder.stored_path`)."""
     res = _ramp(cfg, relaxed, mu, folder, resume, verdict_dir)
     part = {"mu": float(mu), "ramp_status": res.status, "message": res.message,
             "n_steps": int(len(res.F_x)), "n_bisection": int(len(res.bisection_F_x)),
-            "tol_reached": bool(res.tol_reached), "h5": res.h5}
+            "tol_reached": bool(res.tol_reached),
+            "h5": stored_path(os.path.dirname(os.path.abspath(folder)), res.h5)}
     pts = read_ramp(res.h5)
     part["at_zero"] = ({"decision": pts[0]["decision"], "growth": pts[0]["growth"]}
                        if pts and pts[0]["F_x"] == 0.0 else None)
@@ -301,7 +305,6 @@ def run_ramp(cfg, folder, key):
             relaxed = resolved_path(folder, _load_progress(folder)["relax"]["datafile"])
             part = _jsonable(_ramp_part(cfg, relaxed, mu, os.path.join(folder, f"ramp_{key}"),
                                         True, os.path.join(folder, VERDICTS, key)))
-            part["h5"] = stored_path(folder, part["h5"])
             err = None
         except Exception as exc:  # noqa: BLE001 - returned: the final call records it
             part, err = None, _failure(exc)
@@ -450,9 +453,9 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
             return {"ramps_apart": apart, "wall": time.perf_counter() - t0}
         for key, mu in ramp_frictions(cfg):
             if key not in done["ramps"]:
-                part = _ramp_part(cfg, resolved_path(folder, done["relax"]["datafile"]), mu,
-                                  os.path.join(folder, f"ramp_{key}"), resume, vdir)
-                record("ramps", key, dict(part, h5=stored_path(folder, part["h5"])))
+                record("ramps", key, _ramp_part(
+                    cfg, resolved_path(folder, done["relax"]["datafile"]), mu,
+                    os.path.join(folder, f"ramp_{key}"), resume, vdir))
             elif _shape_missing(cfg, done["ramps"][key]):
                 # a part recorded by a version without the pair's shape: added
                 # from the ramp's equilibria while they are still on disk
