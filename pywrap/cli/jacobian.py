@@ -1,10 +1,11 @@
-"""``remote-trigger jacobian DUMP -o OUT.npz``: stiffness matrix and spectrum of a dump.
+"""``remote-trigger jacobian DUMP [-o OUT.npz]``: stiffness matrix and spectrum of a dump.
 
 Reads an equilibrium dump (``docs/conventions.md`` section 3, with its
 sidecar ``DUMP.json``), assembles K = -dG/dq (paper Appendix C), removes
 rattlers, computes the eigenvalues of M^-1 K and decides whether a complex
 pair is present; writes everything to a NumPy ``.npz`` file (keys in
-``docs/analysis.md``) and prints a one-screen summary.
+``docs/analysis.md``; default: the dump's name with ``.npz`` for its
+extension, beside it) and prints a one-screen summary.
 
 A dump of spheres (docs/driver.md "Spheres": the columns z, fz, tqx ...,
 d2_mindlin_tx[*], ...) is read as such
@@ -19,10 +20,12 @@ the spectrum of a state that is not an equilibrium means nothing.
 ``--k-t`` or ``--mu`` that contradicts the sidecar is refused unless
 ``--override``. Under ``mpirun`` it runs on rank 0 only.
 
-Above 3000 dofs (``--method auto``) or with ``--method sparse`` the decision
-covers only the ``--k`` eigenvalues nearest a shift: it is printed and stored
-as a **partial** decision (``coverage = 'partial'``, ``complex_pair = -1``,
-its own answer in ``partial_complex_pair``), never as the stability verdict.
+``--method auto`` decides on the whole spectrum: dense LAPACK up to 3000
+dofs, spectrum slicing above (:mod:`~remote_trigger.analysis.stability.sliced`).
+Only ``--method sparse`` decides on the ``--k`` eigenvalues nearest a shift:
+that is printed and stored as a **partial** decision (``coverage =
+'partial'``, ``complex_pair = -1``, its own answer in
+``partial_complex_pair``), never as the stability verdict.
 """
 from __future__ import annotations
 
@@ -45,7 +48,9 @@ def register(subparsers):
                     "write them to an .npz file.")
     p.add_argument("dump", help="text dump (dump custom, %%.17g, sorted by id) with the "
                                 "history columns; parameters from DUMP.json")
-    p.add_argument("-o", "--output", required=True, help="output .npz file")
+    p.add_argument("-o", "--output", default=None,
+                   help="output .npz file (default: DUMP with its extension replaced by "
+                        ".npz, e.g. out/relax/equilibrium.npz)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace an existing output file (default: refuse, exit status 2)")
     p.add_argument("--frame", type=int, default=-1, help="snapshot index (default: last)")
@@ -77,6 +82,14 @@ def register(subparsers):
     p.set_defaults(func=run, serial=True)
 
 
+def default_output(dump):
+    """The ``-o`` of a ``jacobian`` run without one: ``DUMP`` with ``.npz``
+    for its last extension (``a/equilibrium.dump`` -> ``a/equilibrium.npz``;
+    a name without an extension gets ``.npz`` appended)."""
+    root, ext = os.path.splitext(dump)
+    return (root if ext and ext != ".npz" else dump) + ".npz"
+
+
 def run(args):
     """Execute the subcommand; returns the exit status.
 
@@ -93,6 +106,8 @@ def run(args):
     from remote_trigger.analysis.errors import InputError, NotEquilibriumError
     from remote_trigger.analysis.state.sidecar import merge_model
 
+    if args.output is None:
+        args.output = default_output(args.dump)
     output = output_file(args.output, "-o/--output", suffix=".npz")
     if os.path.exists(output) and not args.overwrite:
         raise InputError(f"-o/--output {args.output!r} exists; choose another file or add "

@@ -2,6 +2,7 @@
 
 Part of :mod:`remote_trigger.pywrap.stages` (docs/driver.md).
 """
+import math
 import os
 
 import numpy as np
@@ -20,34 +21,56 @@ class StableStartError(ConfigError):
 
 
 # --------------------------------------------------------------------------- helpers
+#: seconds between two progress lines in a log (stderr not a terminal)
+LOG_INTERVAL = 10.0
+
+
 class _LogLines:
     """A stream for tqdm where stderr is not a terminal (a batch job's log):
-    each of the bar's updates becomes a line of its own, instead of a
-    carriage-return update that piles up with the others on one line of the
-    log; the bar's blanking on close writes nothing."""
+    the bar's updates become lines of their own, instead of carriage-return
+    updates that pile up on one line of the log, at most one per ``interval``
+    seconds (the first at once); the last update held back is written when
+    the bar closes (its blanking writes nothing else)."""
 
-    def __init__(self, fp):
-        self.fp = fp
+    def __init__(self, fp, interval=LOG_INTERVAL, clock=None):
+        import time
+
+        self.fp, self.interval = fp, float(interval)
+        self.clock = clock or time.monotonic
+        self.last, self.pending = -math.inf, None
+
+    def _emit(self, s, now):
+        self.fp.write(s + "\n")
+        self.last, self.pending = now, None
 
     def write(self, s):
         s = s.replace("\r", "").strip()      # tqdm's "\r" + bar, and its blanking
-        if s:
-            self.fp.write(s + "\n")
+        if not s:
+            if self.pending is not None:     # the bar closes: its last state
+                self._emit(self.pending, self.clock())
+            return
+        now = self.clock()
+        if now - self.last >= self.interval:
+            self._emit(s, now)
+        else:
+            self.pending = s
 
     def flush(self):
         self.fp.flush()
 
 
-def progress_bar(total, desc, quiet, rank, unit="it"):
+def progress_bar(total, desc, quiet, rank, unit="it", log_interval=None):
     """A tqdm bar on rank 0's stderr (none with ``quiet`` or on other ranks);
-    where stderr is not a terminal, one line per update (:class:`_LogLines`)."""
+    where stderr is not a terminal, a line per update at most every
+    ``log_interval`` seconds (default :data:`LOG_INTERVAL`; :class:`_LogLines`)."""
     import sys
     from tqdm import tqdm
 
     tty = hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
+    every = LOG_INTERVAL if log_interval is None else log_interval
     return tqdm(total=total, desc=desc, disable=quiet or rank != 0, unit=unit,
                 leave=False, dynamic_ncols=tty,
-                file=sys.stderr if tty else _LogLines(sys.stderr))
+                file=sys.stderr if tty else _LogLines(sys.stderr, every))
 
 
 #: deck variable <- configuration field, passed when the configuration has it

@@ -133,8 +133,9 @@ def test_version(capsys):
 
 
 def test_usage_error_is_one_line(capsys):
+    # perturb has no default start (relax and ramp have: test_stages_chain_by_their_defaults)
     with pytest.raises(SystemExit) as exc:
-        cli.main(["ramp", "--out", "x"])
+        cli.main(["perturb", "--out", "x"])
     assert exc.value.code == 2
     assert_one_line_error(capsys.readouterr().err, "--datafile", "--help")
 
@@ -470,6 +471,45 @@ def test_generate_refuses_to_overwrite(capsys, tmp_path):
     assert status == 2 and out.read_bytes() != before
     assert run_cli(capsys, "generate", "--n", 20, "--seed", 3, "-o", tmp_path / "q.data")[0] == 0
     assert (tmp_path / "q.data").exists()
+
+
+def test_stages_chain_by_their_defaults(capsys, tmp_path, monkeypatch):
+    """generate -> relax -> ramp -> jacobian with no file named: relax starts
+    from generate's packing.data, ramp from OUT/relax/equilibrium.data, and
+    jacobian writes DUMP's name with .npz beside it (a second run refuses to
+    overwrite it). Without the file, the one-line error names the default."""
+    monkeypatch.chdir(tmp_path)
+    status, _, err = run_cli(capsys, "relax", "--quiet")
+    assert status == 2
+    assert_one_line_error(err, "'packing.data'")
+    status, _, err = run_cli(capsys, "ramp", "--quiet", "--out", "o2")
+    assert status == 2
+    assert_one_line_error(err, repr(os.path.join("o2", "relax", "equilibrium.data")))
+    assert list(tmp_path.iterdir()) == []
+    assert run_cli(capsys, "generate", "--n", 20, "--seed", 1)[0] == 0
+    status, out, _ = run_cli(capsys, "relax", "--quiet")
+    assert status == 0 and "a ramp starts from out/relax/equilibrium.data" in out
+    status, out, _ = run_cli(capsys, "ramp", "--quiet", "--dF-x", 0.05, "--tol", 0.01,
+                             "--set", "F_x_max=0.1")
+    with h5py.File(tmp_path / "out" / "ramp.h5", "r") as f:
+        start = f.attrs["datafile"]
+    assert os.path.samefile(start, tmp_path / "out" / "relax" / "equilibrium.data"), start
+    dump = os.path.join("out", "relax", "equilibrium.dump")
+    status, out, _ = run_cli(capsys, "jacobian", dump)
+    assert status == 0 and "written: out/relax/equilibrium.npz" in out
+    assert (tmp_path / "out" / "relax" / "equilibrium.npz").is_file()
+    status, _, err = run_cli(capsys, "jacobian", dump)
+    assert status == 2
+    assert_one_line_error(err, "'out/relax/equilibrium.npz' exists", "--overwrite")
+
+
+def test_jacobian_default_output_name():
+    from remote_trigger.pywrap.cli.jacobian import default_output
+
+    assert default_output("a/equilibrium.dump") == "a/equilibrium.npz"
+    assert default_output("a/step_00001.dump") == "a/step_00001.npz"
+    assert default_output("state") == "state.npz"
+    assert default_output("K.npz") == "K.npz.npz"      # never the input itself
 
 
 def test_jacobian_refuses_to_overwrite(capsys, ramp_run, tmp_path):

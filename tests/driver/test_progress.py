@@ -1,12 +1,16 @@
-"""The stages' progress bar off a terminal: a line per update, not carriage returns."""
-from remote_trigger.pywrap.stages.common import progress_bar
+"""The stages' progress bar off a terminal: lines, not carriage returns, at
+most one per LOG_INTERVAL seconds."""
+import io
+
+from remote_trigger.pywrap.stages.common import _LogLines, progress_bar
 
 
 def test_bar_off_a_terminal_writes_lines(capsys):
     """Under pytest's capture stderr is not a terminal, as in a batch job's log:
     each forced update is a line of its own (the last one too), no carriage
-    return, and closing the bar writes no blank line."""
-    bar = progress_bar(None, "relax", False, 0, unit="chk")
+    return, and closing the bar writes no blank line (log_interval=0: no rate
+    limit; test_lines_are_rate_limited_and_the_last_is_kept)."""
+    bar = progress_bar(None, "relax", False, 0, unit="chk", log_interval=0)
     for k in range(5):
         bar.update(1)
         bar.set_postfix_str(f"residual {10.0 ** -k:.2e}", refresh=True)
@@ -25,3 +29,19 @@ def test_quiet_and_other_ranks_write_nothing(capsys):
         bar.update(5)
         bar.close()
     assert capsys.readouterr().err == ""
+
+
+def test_lines_are_rate_limited_and_the_last_is_kept():
+    """With a 10 s interval (a fake clock), updates 3 s apart give a line at
+    0, 12, 24 s ... and the state held back at closing is written then."""
+    clock = [0.0]
+    fp = io.StringIO()
+    log = _LogLines(fp, 10.0, clock=lambda: clock[0])
+    for k in range(10):                      # updates at 0, 3, ..., 27 s
+        clock[0] = 3.0 * k
+        log.write(f"\rrelax: {k}chk")
+    assert fp.getvalue().splitlines() == ["relax: 0chk", "relax: 4chk", "relax: 8chk"]
+    log.write("\r    \r")                   # tqdm's blanking when the bar closes
+    assert fp.getvalue().splitlines()[-1] == "relax: 9chk"
+    log.write("\r")                          # nothing pending: nothing written
+    assert len(fp.getvalue().splitlines()) == 4
