@@ -25,6 +25,8 @@ PROTOCOLS = ("frictionless-then-friction", "frictional")
 RELAX_DYNAMICS = ("auto", "damped", "fire")
 #: ``relax_dynamics = 'auto'`` is ``'damped'`` up to this many disks, ``'fire'`` above
 RELAX_DYNAMICS_AUTO_N = 400
+#: when a placement of the top line is clear (``RelaxConfig.clearance``)
+CLEARANCE_RULES = ("auto", "all", "local")
 
 
 @dataclass(frozen=True)
@@ -173,11 +175,21 @@ class RelaxConfig(StageConfig):
         highest point of the compacted bulk, > 0. Default 0.05.
     top_attempts : int
         Placements of the ``top`` line tried, >= 1 (default 4): if after the
-        frictionless relaxation some bulk disk centre is above a top disk
-        centre, the relaxation is repeated from the same compacted bulk with
-        the line shifted along x by k/top_attempts of its spacing; the first
-        placement that keeps every top centre above every bulk centre is
-        kept (else the one with the largest clearance, reported).
+        frictionless relaxation the placement is not clear (``clearance``),
+        the relaxation is repeated from the same compacted bulk with the
+        line shifted along x by k/top_attempts of its spacing; the first
+        clear placement is kept (else the one with the largest clearance,
+        reported).
+    clearance : {'auto', 'all', 'local'}
+        When a placement is clear (the test of ``top_attempts``,
+        :func:`~remote_trigger.pywrap.stages.relax.top_clearance`):
+        ``'all'``, every top centre above every bulk centre (min over top of
+        y minus max over bulk of y > 0); ``'local'``, every bulk centre
+        below the highest top centre within a horizontal distance 1.25 of
+        it (no bulk disk came up through or over the line, wherever the
+        line's height varies along the box). ``'auto'`` (default):
+        ``'all'`` for N <= 400 disks (the results of N <= 400 are those of
+        ``'all'``, bitwise), ``'local'`` above and for spheres.
     check_every : int
         Damped steps between residual checks, >= 1. Default 1000.
     max_steps : int
@@ -206,6 +218,7 @@ class RelaxConfig(StageConfig):
     g_settle: float = 0.5
     top_gap: float = 0.05
     top_attempts: int = 4
+    clearance: str = "auto"
     check_every: int = 1000
     max_steps: int = 5_000_000
     newton: bool = True
@@ -232,6 +245,9 @@ class RelaxConfig(StageConfig):
         _int("settle_steps", self.settle_steps, 0)
         _positive("top_gap", self.top_gap)
         _int("top_attempts", self.top_attempts, 1)
+        if self.clearance not in CLEARANCE_RULES:
+            raise ConfigError(f"clearance must be one of {', '.join(CLEARANCE_RULES)}, "
+                              f"got clearance = {self.clearance!r}")
         _nonneg("mu_settle", self.mu_settle)
         _nonneg("g_settle", self.g_settle)
         _int("check_every", self.check_every, 1)
@@ -281,7 +297,8 @@ class RampConfig(RelaxConfig):
     """
 
     #: fields added after ramp files were written: the value an older file has
-    LATER_FIELDS = {"saddle_escape": False}
+    #: (``clearance``, a relax field, plays no part in a ramp)
+    LATER_FIELDS = {"saddle_escape": False, "clearance": "auto"}
 
     dF_x: float = 1e-4
     F_x_max: float = 1.0

@@ -51,8 +51,11 @@ class RelaxResult:
         ||K - K^T||_F / ||K||_F of the final equilibrium (0 when every
         tangential displacement is zero).
     top_clearance : float
-        min over top disks of y minus max over bulk disks of y (> 0: every
-        top disk centre is above every bulk disk centre).
+        Clearance of the final state by the rule of :func:`clearance_rule`
+        (:func:`top_clearance`; > 0: clear).
+    clearance_rule : str
+        That rule, ``'all'`` or ``'local'`` (relax.h5 attribute
+        ``clearance_rule``).
     compaction_time : float
         Wall seconds of the compaction (and piston) phases.
     top_attempts : int
@@ -78,6 +81,7 @@ class RelaxResult:
     protocol: str = "frictionless-then-friction"
     antisymmetry: float = float("nan")
     top_clearance: float = float("nan")
+    clearance_rule: str = ""
     compaction_time: float = 0.0
     top_attempts: int = 0
     timestep: dict = field(default_factory=dict)
@@ -276,26 +280,47 @@ def press_top_fire(eng, cfg):
     return steps
 
 
-def top_clearance(state):
-    """min over top disks of y minus max over bulk disks of y (centres).
+def clearance_rule(cfg, n, dim=2):
+    """The clearance test of a placement for ``n`` disks: 'all' or 'local'.
 
-    Spheres (a layer, not a line: its height varies more than a disk's
-    across the box): min over bulk spheres b of (the highest top centre
-    within a horizontal distance :data:`~remote_trigger.pywrap.stages.packing.
-    TOP_SPACING_3D` of b, minus y_b); > 0 when no bulk sphere has come up
-    through or over the layer; -inf where the layer has opened (no top
-    sphere within that distance).
+    ``cfg.clearance`` unless it is ``'auto'``: then ``'all'`` for n <=
+    :data:`~remote_trigger.pywrap.stages.config.RELAX_DYNAMICS_AUTO_N` (400)
+    disks, ``'local'`` above and for spheres (``dim`` = 3).
     """
-    y = state.positions[:, 1]
-    if state.dim == 2:
-        return float(np.min(y[state.top]) - np.max(y[~state.top]))
+    if cfg.clearance != "auto":
+        return cfg.clearance
+    return "all" if n <= RELAX_DYNAMICS_AUTO_N and dim == 2 else "local"
+
+
+def top_clearance(state, rule=None):
+    """Clearance of the top line (or layer) above the bulk; > 0: clear.
+
+    ``rule = 'all'``: min over top disks of y minus max over bulk disks of y
+    (centres). ``rule = 'local'``: min over bulk disks b of (the highest
+    top centre within a horizontal distance :data:`~remote_trigger.pywrap.
+    stages.packing.TOP_SPACING_3D` (1.25) of b, minus y_b), minimum images
+    along the periodic x (and z); > 0 when no bulk disk has come up through
+    or over the line, whatever the line's height does along the box; -inf
+    where the line has opened (no top centre within that distance).
+    Default (None): 'all' for disks, 'local' for spheres (a layer's height
+    varies across the box more than a line's).
+    """
     from remote_trigger.analysis.state.contacts import minimum_image
     from remote_trigger.pywrap.stages.packing import TOP_SPACING_3D
 
-    xz = state.positions[:, [0, 2]]
-    L = (state.box_hi - state.box_lo)[[0, 2]]
-    d = minimum_image(xz[~state.top][:, None, :] - xz[state.top][None, :, :], L, (True, True))
-    near = np.hypot(d[..., 0], d[..., 1]) < TOP_SPACING_3D
+    rule = rule or ("all" if state.dim == 2 else "local")
+    y = state.positions[:, 1]
+    if rule == "all":
+        return float(np.min(y[state.top]) - np.max(y[~state.top]))
+    if rule != "local":
+        raise ValueError(f"rule must be 'all' or 'local', got rule = {rule!r}")
+    cols = [0] if state.dim == 2 else [0, 2]
+    h = state.positions[:, cols]
+    L = (state.box_hi - state.box_lo)[cols]
+    d = minimum_image(h[~state.top][:, None, :] - h[state.top][None, :, :], L,
+                      (True,) * len(cols))
+    dist = np.abs(d[..., 0]) if state.dim == 2 else np.hypot(d[..., 0], d[..., 1])
+    near = dist < TOP_SPACING_3D
     above = np.where(near, y[state.top][None, :], -np.inf).max(axis=1)
     return float(np.min(above - y[~state.top]))
 
@@ -384,6 +409,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
     cfg0 = cfg.replace(mu=0.0)
     load_relax_scene(eng, cfg0, cfg.datafile, cfg.F_x)
     fire = relax_dynamics(cfg, eng.natoms, eng.dimension) == "fire"
+    rule = clearance_rule(cfg, eng.natoms, eng.dimension)
     t_comp = 0.0
     offsets = [0.0]
     if cfg.settle_steps > 0:
@@ -423,7 +449,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
             raise eq.NoEquilibriumError(
                 f"frictionless stage of protocol {cfg.protocol!r}: {exc}") from None
         st = eng.gather_state()
-        clear = top_clearance(st)
+        clear = top_clearance(st, rule)
         if best is None or clear > best[0]:
             best = (clear, st, r, t_sim, rec, k)
         if clear > 0:
@@ -528,7 +554,8 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
         phi = packing_fraction(state)
         asym = antisymmetry(state, cfg, cfg.F_x) if eng.rank == 0 else None
         asym = eng.comm.bcast(asym, root=0)
-        clear = top_clearance(state)
+        rule = clearance_rule(cfg, state.n, state.dim)
+        clear = top_clearance(state, rule)
         wall = time.perf_counter() - t0
         nnewton = max(0, sum(1 for p in rec.phase if p == "newton") - 1)
         h5 = os.path.join(out, "relax.h5")
@@ -543,8 +570,8 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
             attrs = dict(cfg_in.to_attrs(), **dtinfo, stage="relax", status="complete",
                          version=RESULT_VERSION, residual=r, converged=bool(r < cfg.f_min),
                          wall_time=wall, damped_time=t_sim, packing_fraction=phi,
-                         antisymmetry=asym, top_clearance=clear, compaction_time=t_comp,
-                         top_attempts=attempts,
+                         antisymmetry=asym, top_clearance=clear, clearance_rule=rule,
+                         compaction_time=t_comp, top_attempts=attempts,
                          n_ranks=eng.size, datafile_out=prefix + ".data",
                          dumpfile=prefix + ".dump")
             write_atomic(h5, attrs, {
@@ -554,7 +581,8 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
         eng.comm.Barrier()
     return RelaxResult(r, bool(r < cfg.f_min), wall, t_sim, nnewton, phi, rec,
                        prefix + ".data", prefix + ".dump", h5, protocol=cfg.protocol,
-                       antisymmetry=asym, top_clearance=clear, compaction_time=t_comp,
+                       antisymmetry=asym, top_clearance=clear, clearance_rule=rule,
+                       compaction_time=t_comp,
                        top_attempts=attempts, timestep=dict(dtinfo))
 
 

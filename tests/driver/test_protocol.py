@@ -72,3 +72,79 @@ def test_bad_protocol_named():
         RelaxConfig.from_dict({"datafile": __file__, "protocol": "sticky"})
     with pytest.raises(ConfigError, match="top_gap = -0.1"):
         RelaxConfig.from_dict({"datafile": __file__, "top_gap": -0.1})
+
+
+# --------------------------------------------------------------------------- clearance rules
+def _line_state(x, y, top, L=10.0, dim=2):
+    from types import SimpleNamespace
+
+    pos = np.column_stack([x, y] + ([np.zeros(len(x))] if dim == 3 else []))
+    lo = np.zeros(dim)
+    hi = np.array([L, 100.0] + ([L] if dim == 3 else []))
+    return SimpleNamespace(positions=pos, top=np.asarray(top, bool), dim=dim, box_lo=lo,
+                           box_hi=hi, n=len(x))
+
+
+def test_local_clearance_of_a_tilted_line():
+    """A line that climbs along x, over a bulk that climbs with it: no bulk
+    disk is above the line where it is, so 'local' is clear, while 'all'
+    compares the line's low end with the bulk's high end and is not.
+    Values by hand."""
+    from remote_trigger.pywrap.stages.relax import top_clearance
+
+    top_x, top_y = [1.0, 3.0, 5.0, 7.0, 9.0], [10.0, 10.5, 11.0, 11.5, 12.0]
+    bulk_x, bulk_y = [1.2, 5.0, 8.9], [9.0, 10.0, 11.0]
+    st = _line_state(top_x + bulk_x, top_y + bulk_y, [1] * 5 + [0] * 3)
+    assert top_clearance(st, "all") == pytest.approx(10.0 - 11.0)
+    # bulk at 1.2: top within 1.25 are 1.0 (10.0): 1.0; at 5.0: 5.0 (11.0): 1.0;
+    # at 8.9: 9.0 (12.0) and 7.0 is 1.9 away: 1.0 -> min 1.0
+    assert top_clearance(st, "local") == pytest.approx(1.0)
+    assert top_clearance(st) == top_clearance(st, "all")        # disks: 'all' by default
+
+
+def test_local_clearance_finds_a_disk_through_the_line_and_an_open_line():
+    from remote_trigger.pywrap.stages.relax import top_clearance
+
+    top_x, top_y = [1.0, 3.0, 5.0, 7.0, 9.0], [10.0] * 5
+    # a bulk disk at x = 4.0 with its centre 0.3 above the line's (through it)
+    st = _line_state(top_x + [4.0, 8.0], top_y + [10.3, 9.0], [1] * 5 + [0] * 2)
+    assert top_clearance(st, "local") == pytest.approx(-0.3)
+    # the periodic image: a bulk disk at x = 9.9 sees the top disk at 1.0
+    # (0.9 + 0.1 = 1.1 < 1.25 across the boundary) and at 9.0
+    st = _line_state([1.0, 9.0, 9.9], [10.0, 9.5, 9.8], [1, 1, 0])
+    assert top_clearance(st, "local") == pytest.approx(0.2)
+    # the line opened: no top centre within 1.25 of the bulk disk at 5.0
+    st = _line_state([1.0, 9.0, 5.0], [10.0, 10.0, 5.0], [1, 1, 0])
+    assert top_clearance(st, "local") == -np.inf
+    with pytest.raises(ValueError, match="'some'"):
+        top_clearance(st, "some")
+
+
+def test_spheres_keep_their_local_rule():
+    """Spheres: the default rule is 'local', over the horizontal (x, z) distance."""
+    from remote_trigger.pywrap.stages.relax import top_clearance
+
+    st = _line_state([1.0, 1.5, 6.0], [10.0, 9.0, 12.0], [1, 0, 1], dim=3)
+    assert top_clearance(st) == top_clearance(st, "local") == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("n,dim,rule", [(40, 2, "all"), (400, 2, "all"), (401, 2, "local"),
+                                        (10000, 2, "local"), (160, 3, "local")])
+def test_clearance_rule_auto(n, dim, rule):
+    from remote_trigger.pywrap.stages.relax import clearance_rule
+
+    assert clearance_rule(RelaxConfig(datafile=__file__), n, dim) == rule
+    for given in ("all", "local"):
+        assert clearance_rule(RelaxConfig(datafile=__file__, clearance=given), n, dim) == given
+
+
+def test_clearance_rule_named_in_the_error():
+    with pytest.raises(ConfigError, match="clearance = 'line'"):
+        RelaxConfig(datafile=__file__, clearance="line")
+
+
+def test_relax_records_its_clearance_rule(relaxed40):
+    import h5py
+
+    with h5py.File(relaxed40.h5, "r") as f:
+        assert f.attrs["clearance_rule"] == "all" and f.attrs["clearance"] == "auto"

@@ -441,6 +441,7 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
                          "frictionless-then-friction")
             record("relax", None, {"phi": rel.packing_fraction, "residual": rel.residual,
                                    "antisymmetry": rel.antisymmetry,
+                                   "clearance_rule": rel.clearance_rule,
                                    "datafile": stored_path(folder, rel.datafile)})
         d.update({k: v for k, v in done["relax"].items() if k != "datafile"})
         # the ramps' sliced verdicts, in one folder: a killed scan resumes, and
