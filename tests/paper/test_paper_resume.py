@@ -10,7 +10,8 @@ side:
   random one of the Fig. 5 runs (a), (b), (c) wrote its file (the kills wait for
   files, never for a time: a faster step cannot move them out of their phase), and while the figures and the report are being
   written -- with the normal form's file deleted before the last run, and
-  resumed with ``--resume`` after each kill.
+  resumed with ``--resume`` after each kill; the folder is moved after the
+  second kill, and the job resumes in its new place.
 
 Both reports must state the same numbers (report.json: every check and
 every extra value, compared exactly), report.md may differ only in its
@@ -119,6 +120,11 @@ def jobs(tmp_path_factory):
               and os.path.exists(os.path.join(res, f"perturb_{run}.h5")),
               f"Fig. 5 run ({run}) written")
     states.append(manifest(res))
+    # the killed job's folder is moved (its log with it): the rest resumes there
+    moved = str(base / "moved")
+    os.rename(res, moved)
+    os.rename(res + ".log", moved + ".log")
+    res = moved
     # run 3: killed while the figures and the report are written
     p = start(res, "--resume")
     kill_when(p, lambda: bool(manifest(res).get("normal_form")), "the figures")
@@ -257,8 +263,12 @@ def test_config_difference_names_every_key(tmp_path):
     assert "n = 40 in paper.json, n = 100 now" in msg and "quick = True" in msg
     moved = tmp_path / "moved"
     os.rename(out, moved)
-    with pytest.raises(ConfigError, match="written to out"):
-        paper.load_manifest(str(moved), cfg)
+    # a moved folder: its manifest's paths are moved with it
+    man = paper.load_manifest(str(moved), cfg)
+    assert man["out"] == str(moved) and man["status"] == "running"
+    assert paper.manifest.rebased({"h5": [str(out / "ramp_mu1" / "ramp.h5"), str(out) + "x"]},
+                                  str(out), str(moved)) == \
+        {"h5": [str(moved / "ramp_mu1" / "ramp.h5"), str(out) + "x"]}
     (moved / "paper.json").write_text("{not json")
     with pytest.raises(ConfigError, match="unreadable manifest"):
         paper.load_manifest(str(moved), cfg)

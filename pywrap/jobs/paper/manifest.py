@@ -123,10 +123,11 @@ def load_manifest(out, cfg):
     Raises
     ------
     ConfigError
-        If ``paper.json`` is unreadable, was written for another folder
-        (the HDF5 files hold absolute paths), or its configuration differs
-        from ``cfg`` (the message names every differing key with both values).
-        Nothing is deleted.
+        If ``paper.json`` is unreadable or its configuration differs from
+        ``cfg`` (the message names every differing key with both values).
+        Nothing is deleted. A manifest written in another folder (the job's
+        folder was moved) is returned with its paths moved to ``out``
+        (:func:`rebased`).
     """
     path = os.path.join(out, MANIFEST)
     try:
@@ -137,11 +138,6 @@ def load_manifest(out, cfg):
     except (OSError, ValueError) as exc:
         raise ConfigError(f"cannot resume from {path}: unreadable manifest ({exc}); "
                           f"run without --resume to start the job over") from None
-    old_out = man.get("out")
-    if old_out is not None and os.path.realpath(old_out) != os.path.realpath(out):
-        raise ConfigError(f"cannot resume from {path}: the job was written to out = "
-                          f"{old_out!r} and its files refer to it; resume it there or start "
-                          f"over without --resume")
     diff = config_difference(man["config"], cfg)
     if diff:
         what = "; ".join(f"{k} = {old!r} in {MANIFEST}, {k} = {new!r} now"
@@ -149,7 +145,24 @@ def load_manifest(out, cfg):
         raise ConfigError(f"cannot resume {out}: its configuration differs: {what}. Resume "
                           f"with the options of the interrupted job, or drop --resume to "
                           f"start over (nothing was deleted)")
+    old_out = man.get("out")
+    if isinstance(old_out, str) and os.path.realpath(old_out) != os.path.realpath(out):
+        man = rebased(man, old_out, out)
     return man
+
+
+def rebased(obj, old, new):
+    """``obj`` (a manifest, or any part of one) with every path under the folder
+    ``old`` moved under ``new``: a job folder moved (or mounted elsewhere)
+    after it was killed resumes there. The files inside a phase's folder
+    name theirs relative to it (``ramp.h5``: ``ramp_file.RELATIVE_PATHS``)."""
+    if isinstance(obj, dict):
+        return {k: rebased(v, old, new) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [rebased(v, old, new) for v in obj]
+    if isinstance(obj, str) and (obj == old or obj.startswith(old.rstrip(os.sep) + os.sep)):
+        return new + obj[len(old.rstrip(os.sep)):]
+    return obj
 
 
 def _files_of(out, name, entry):
