@@ -339,7 +339,8 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
                                    else checkpoint_seconds)
         if not checkpoint_seconds >= 0:
             raise ValueError(f"checkpoint_seconds must be >= 0, got {checkpoint_seconds!r}")
-        key = scan_state.scan_key(A, rel_error, window, slice_size, stop_at_complex)
+        key = scan_state.scan_key(A, rel_error, window, slice_size, stop_at_complex,
+                                  _MAX_STRIP)
         ckpt = os.path.join(os.fspath(checkpoint_dir), f"sliced-{key}")
         done = scan_state.load(ckpt + ".done.pkl", key)
         if done is not None:

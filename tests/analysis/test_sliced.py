@@ -367,6 +367,26 @@ def test_a_scan_killed_after_any_slice_resumes_to_the_same_bits(tmp_path, pairs,
     assert len(list(folder.iterdir())) == 2
 
 
+def test_a_verdict_saved_under_another_strip_limit_is_not_taken(tmp_path, monkeypatch):
+    """The saved state is keyed by the largest strip decided on the real axis
+    too: a verdict (or a scan) saved under another limit is scanned over, so
+    no verdict mixes strips decided by two rules."""
+    from remote_trigger.analysis.stability import sliced
+
+    K, mass = planted(n=60, seed=2)
+    monkeypatch.setattr(sliced, "_MAX_STRIP", 8)
+    classify_sliced(K, mass, slice_size=20, checkpoint_dir=tmp_path)
+    monkeypatch.setattr(sliced, "_MAX_STRIP", 24)
+    seen = []
+    classify_sliced(K, mass, slice_size=20, checkpoint_dir=tmp_path,
+                    progress=lambda done, n: seen.append(done))
+    assert seen, "the verdict saved under the limit 8 was taken"
+    seen.clear()
+    classify_sliced(K, mass, slice_size=20, checkpoint_dir=tmp_path,
+                    progress=lambda done, n: seen.append(done))
+    assert not seen                     # its own saved verdict is taken
+
+
 def test_a_stale_scan_state_is_removed_and_bad_input_refused(tmp_path):
     """A saved scan of another matrix is left alone until a verdict is saved
     in the folder, then removed; an unreadable state is scanned over; a
