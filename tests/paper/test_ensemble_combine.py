@@ -129,15 +129,15 @@ def test_the_kept_runs_combine(tmp_path):
     packings' own, with nothing left out."""
     from remote_trigger.pywrap.jobs.ensemble import report as er
 
-    runs = [os.path.join(RUNS, d) for d in ("N100_1600", "N6400_escape")]
+    runs = [os.path.join(RUNS, d) for d in ("N100_1600", "N6400_escape", "N10000")]
     out = tmp_path / "all"
     combine_runs(runs, str(out), speak=False)
     cfg = json.loads((out / "config.json").read_text())
-    assert cfg["n"] == [100, 400, 1600, 6400] and cfg["tol"] == 4e-6
+    assert cfg["n"] == [100, 400, 1600, 6400, 10000] and cfg["tol"] == 4e-6
     man = json.loads((out / "ensemble.json").read_text())
-    assert man["left_out"] == [] and man["n_packings"] == 40
+    assert man["left_out"] == [] and man["n_packings"] == 42
     t = er.read_table(str(out / "ensemble.h5"))
-    assert t["key"].size == 40
+    assert t["key"].size == 42
     compared = 0
     for run in runs:
         for name in os.listdir(os.path.join(run, "tasks")):
@@ -150,4 +150,4 @@ def test_the_kept_runs_combine(tmp_path):
             assert (t["F_x_c_low"][row], t["F_x_c_high"][row]) == (
                 mu0["F_x_c_low"], mu0["F_x_c_high"]), name
             compared += 1
-    assert compared >= 39
+    assert compared >= 41
