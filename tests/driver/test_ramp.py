@@ -469,8 +469,13 @@ def test_sliced_ramp_stops_at_the_pair_and_measures_the_same_onset(full_ramp, mo
     from remote_trigger.pywrap.jobs.ensemble.onset import (onset_numbers, pair_position,
                                                            read_ramp)
 
+    from remote_trigger.pywrap.stages import common
+
     cfg, full = full_ramp
     monkeypatch.setattr(eigen, "DENSE_MAX", 10)
+    # every update of the bar a line of the log (a line per 10 s would hide
+    # the verdict's updates of a ramp that takes a few seconds)
+    monkeypatch.setattr(common, "LOG_INTERVAL", 0.0)
     res = stages.ramp(cfg, str(tmp_path), quiet=False)
     monkeypatch.undo()
     assert res.status == "complete", res.message
