@@ -14,18 +14,14 @@ import json
 import os
 
 
-#: ``ramp``'s default start: relax's equilibrium in the same ``--out``
-RELAXED = os.path.join("{out}", "relax", "equilibrium.data")
-
-
-def _add_model(p, datafile=None):
-    """The options every stage takes; ``datafile``: the default of
-    ``--datafile`` (``{out}`` stands for ``--out``), None: required."""
-    if datafile is None:
+def _add_model(p, default=None, shown=None):
+    """The options every stage takes. ``shown``: the default of ``--datafile``
+    as its help names it (None: the option is required); ``default``: its
+    value (None for ``ramp``: OUT/relax/equilibrium.data, set in :func:`_config`)."""
+    if shown is None:
         p.add_argument("--datafile", required=True, help="LAMMPS data file to start from")
     else:
-        shown = datafile.replace("{out}", "OUT")
-        p.add_argument("--datafile", default=datafile,
+        p.add_argument("--datafile", default=default,
                        help=f"LAMMPS data file to start from (default {shown})")
     p.add_argument("--out", default="out", help="output folder (default ./out)")
     p.add_argument("--mu", type=float, help="friction coefficient (default: the start "
@@ -77,8 +73,8 @@ def _config(cls, args, extra=()):
     from remote_trigger.analysis.state.sidecar import MODEL_KEYS, merge_model
     from remote_trigger.pywrap.config import ConfigError
 
-    if args.datafile == RELAXED:            # ramp's default: relax's equilibrium in --out
-        args.datafile = RELAXED.format(out=args.out)
+    if args.datafile is None:               # ramp's default: relax's equilibrium in --out
+        args.datafile = os.path.join(args.out, "relax", "equilibrium.data")
     d = {"datafile": args.datafile}
     for key in ("mu", "F_x", "F_y", "dt") + tuple(extra):
         val = getattr(args, key, None)
@@ -154,7 +150,7 @@ def register(subparsers):
     g.set_defaults(func=run_generate, serial=True)
 
     r = subparsers.add_parser("relax", help="settle / relax to equilibrium (f_min)")
-    _add_model(r, datafile="packing.data")      # generate's default --output
+    _add_model(r, "packing.data", shown="packing.data")     # generate's default --output
     r.add_argument("--dim", type=int, choices=(2, 3), default=None,
                    help="2 or 3 (default: that of the data file; a contradicting value "
                         "is an error)")
@@ -166,7 +162,7 @@ def register(subparsers):
     r.set_defaults(func=run_relax, resume_hint=INTERRUPT_HINTS["relax"])
 
     m = subparsers.add_parser("ramp", help="F_x ramp, eigenvalues, bisection of F_x^c")
-    _add_model(m, datafile=RELAXED)
+    _add_model(m, shown="OUT/relax/equilibrium.data")
     m.add_argument("--dim", type=int, choices=(2, 3), default=None,
                    help="2 or 3 (default: that of the data file; a contradicting value "
                         "is an error)")
