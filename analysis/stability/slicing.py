@@ -95,6 +95,40 @@ def _ldl(H, what):
         raise _Fail(f"no LDL^T factorization of {what}: {exc}") from None
 
 
+class _Shifts:
+    """Factorizations of S - a I for many shifts a, for counting, the ordering
+    computed once.
+
+    S - a I has the same pattern for every a, so QDLDL's AMD ordering and
+    elimination tree are those of the first factorization; ``Solver.update``
+    redoes only the numerical factorization, with factors bitwise those of a
+    new ``Solver`` (the same permutation, L, D and solves: checked on the
+    N = 10^4 matrices and in the tests) in ~0.75 of its time at n = 28 800.
+    ``update`` does not report a zero pivot (a new ``Solver`` raises): D then
+    holds a zero, which :func:`count_below` refuses. Each call overwrites the
+    previous factorization.
+    """
+
+    def __init__(self, S):
+        self.H = _shifted(S, 0.0)
+        # where the diagonal sits in H's data (every diagonal entry is stored)
+        H = self.H
+        cols = np.repeat(np.arange(H.shape[0]), np.diff(H.indptr))
+        on = H.indices == cols
+        self.diag_at = np.nonzero(on)[0][np.argsort(cols[on], kind="stable")]
+        self.diag = H.data[self.diag_at].copy()
+        self.solver = None
+
+    def count_below(self, S, a):
+        """:func:`count_below` of S (the matrix of the constructor) at a."""
+        self.H.data[self.diag_at] = self.diag - a
+        if self.solver is None:
+            self.solver = _ldl(self.H, "S - a I")
+        else:
+            self.solver.update(self.H)
+        return count_below(S, a, self.solver)
+
+
 def count_below(S, a, factor=None):
     """Sylvester count of the eigenvalues of the symmetric S below a, with its fuzz.
 
@@ -258,6 +292,7 @@ def _slices(S, W, k, normS, normW, pos, stats):
     """
     n = S.shape[0]
     rng = pos.rng
+    shifts = _Shifts(S)
     while pos.count < n:
         x, cnt_x, fz_x, width = pos.x, pos.count, pos.fuzz, pos.width
         kk = min(k, n - 2)
@@ -310,8 +345,8 @@ def _slices(S, W, k, normS, normW, pos, stats):
                           for j in np.argsort(gaps)[::-1][:8]]
         for y, nkeep in cands:
             try:
-                cnt_y, fz, _ = count_below(S, y)
-            except ValueError:
+                cnt_y, fz, _ = shifts.count_below(S, y)
+            except (ValueError, _Fail):
                 continue
             d = min(abs(theta - y))
             if d > 2 * (radius + fz) and cnt_y - cnt_x == nkeep:

@@ -88,6 +88,54 @@ def test_count_below_inside_a_packing_spectrum():
         assert np.max(np.abs(Z).sum(axis=1)) <= fuzz
 
 
+
+def test_refactorized_counts_are_bitwise_new_factorizations():
+    """The slices count at many shifts a with one ordering (slicing._Shifts,
+    QDLDL's update): permutation, L, D, counts, fuzz and solves bitwise those
+    of a new factorization at each shift; a zero pivot, which update() does
+    not report, is refused as a new factorization refuses it, and the next
+    count is again bitwise."""
+    import qdldl
+
+    from remote_trigger.analysis.stability import jacobian
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability.sliced import _scaled
+    from remote_trigger.analysis.stability.slicing import _Shifts, _shifted
+
+    from .builders import random_packing
+
+    res = analyze(random_packing(5, nx=20, ny=15), eigenvalues=False, decide=False)
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
+    S = _scaled(Kr, mr)[1]
+    shifts = _Shifts(S)
+    b = np.random.default_rng(1).standard_normal(S.shape[0])
+    lam = np.linalg.eigvalsh(S.toarray())
+    # the first pivot of the ordering is S_pp - a: zero at a = S_pp
+    shifts.count_below(S, lam[3])
+    p0 = int(shifts.solver.factors()[2][0])
+    tried = failed = 0
+    for a in [lam[3], float(S.diagonal()[p0]), *np.linspace(lam[3], lam[-3], 7)]:
+        try:
+            got = shifts.count_below(S, a)
+        except ValueError as exc:
+            assert "zero pivot" in str(exc)
+            with pytest.raises(RuntimeError):
+                qdldl.Solver(_shifted(S, a))
+            with pytest.raises(ValueError):
+                count_below(S, a)
+            failed += 1
+            continue
+        fac, new = shifts.solver, qdldl.Solver(_shifted(S, a))
+        (L1, d1, p1), (L2, d2, p2) = fac.factors(), new.factors()
+        assert np.array_equal(p1, p2) and np.array_equal(d1, d2)
+        assert np.array_equal(L1.indptr, L2.indptr) and np.array_equal(L1.indices, L2.indices)
+        assert np.array_equal(L1.data, L2.data)
+        assert np.array_equal(fac.solve(b), new.solve(b))
+        assert got[:2] == count_below(S, a)[:2]
+        tried += 1
+    assert (tried, failed) == (8, 1)
+
+
 @pytest.mark.parametrize("where", [2, 75, 146])
 @pytest.mark.parametrize("ratio", [1.5, 1.02, 0.97, 0.7])
 def test_planted_pair_bottom_middle_top(where, ratio):
