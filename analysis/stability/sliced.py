@@ -47,9 +47,12 @@ gamma_k |L||D||L^T| of the Cholesky-type elimination, k the longest
 inner product, Higham Thm. 10.3), so #neg(D) lies
 between the counts of S below a - fuzz and a + fuzz. Ritz pairs of S are
 computed slice by slice (ARPACK shift-invert about a shift inside the
-slice), each slice's Rayleigh-Ritz residual R bounding
+slice; a slice whose Kahan radius exceeds 1e-3 of its mean Ritz spacing,
+as ARPACK's stopping test can leave it, gets one block step of inverse
+iteration), each slice's Rayleigh-Ritz residual R bounding
 its values by Kahan's theorem (|theta_i - lambda| <= ||R||_2, distinct
-eigenvalues). The slices' edges x_j lie in gaps; if every slice's count
+eigenvalues); a boundary's test subtracts the largest radius of the slices
+in memory (the eigenvalues of the slices dropped lie below their edges). The slices' edges x_j lie in gaps; if every slice's count
 #neg(x_{j+1}) - #neg(x_j) equals its number of Ritz values and the counts
 run from 0 to n, every eigenvalue of S is matched to a Ritz value and lies
 inside a slice, so none is near an edge, and the window and Delta_eff of
@@ -139,6 +142,7 @@ class _Buffer:
         self.Wn = np.zeros((0, 0))
         self.wqn = np.zeros(0)   # ||W q_i||
         self.phis = {}          # slice id -> phi
+        self.radii = {}         # slice id -> Kahan radius
         self.cross = {}         # (i, j), i < j -> ||Q_i^T Q_j||_F
         self.edges = []         # (id, lo, hi)
 
@@ -155,6 +159,7 @@ class _Buffer:
         self.rs = np.concatenate([self.rs, sl.resid])
         self.sid = np.concatenate([self.sid, np.full(sl.theta.size, sid)])
         self.phis[sid] = sl.phi
+        self.radii[sid] = sl.radius
         self.edges.append((sid, sl.lo, sl.hi))
 
     def drop_below(self, x):
@@ -168,6 +173,13 @@ class _Buffer:
         self.Q, self.WQ = self.Q[:, keep], self.WQ[:, keep]
         self.Wn = self.Wn[np.ix_(keep, keep)]
         self.edges = self.edges[len(gone):]
+
+    @property
+    def radius(self):
+        """Largest Kahan radius of the slices in the buffer: each eigenvalue of S
+        matched to a Ritz value here lies within it of that value (those of the
+        slices dropped lie below ``lo``)."""
+        return max(self.radii[e[0]] for e in self.edges) if self.edges else 0.0
 
     @property
     def lo(self):
@@ -243,7 +255,6 @@ class _Scan:
         self.margins, self.complex_margins, self.undecided_margins = [], [], []
         self.strips = {}
         self.sid = 0                    # slices added
-        self.r_glob = 0.0               # largest Kahan radius so far
         self.t_slices = 0.0             # seconds in the slicing
         self.t_scan = 0.0               # seconds in the scan, before a resume
 
@@ -378,7 +389,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         for f in dataclasses.fields(sc.stats):
             setattr(stats, f.name, getattr(sc.stats, f.name))
         sc.stats = stats
-        ctx.r_glob = sc.r_glob
+        ctx.r_buf = sc.buf.radius
     t_saved = time.monotonic()
 
     def finish_strip(lo_idx, hi_idx, a_lo, a_hi, final):
@@ -434,7 +445,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
             sc.sid += 1
             if progress is not None:
                 progress(sc.dropped + buf.th.size, n)
-            ctx.r_glob = sc.r_glob = max(ctx.r_glob, sl.radius)
+            ctx.r_buf = buf.radius
             final = sc.dropped + buf.th.size == n
             top = n if final else None
             # test the gaps between Ritz values whose window lies in the buffer
@@ -474,6 +485,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
                     before = buf.th.size
                     buf.drop_below(low)
                     sc.dropped += before - buf.th.size
+                    ctx.r_buf = buf.radius
             if ckpt is not None and not final and \
                     time.monotonic() - t_saved >= checkpoint_seconds:
                 t_now = time.perf_counter()

@@ -187,6 +187,72 @@ def test_strong_coupling_is_never_called_real():
         assert res.reason
 
 
+def test_a_slice_left_at_arpacks_tolerance_is_refined(monkeypatch):
+    """A slice whose Ritz vectors carry residuals spread over the whole
+    spectrum (as ARPACK's stopping test leaves at large N, where its bound is
+    tol ||S - sigma I||) gets one step of inverse iteration: its Kahan radius
+    falls ~9 x and the strips it had made of neighbouring eigenvalues are
+    single again. Without the step (_REFINE = inf) the same scan keeps the
+    large radius and strips of 2. Both verdicts are the dense one."""
+    from remote_trigger.analysis.stability import slicing
+
+    K, M = planted(n=400, pairs=[(200, 0.7)])
+    eigsh = slicing.spla.eigsh
+    calls = []
+
+    def noisy(*args, **kwargs):
+        lam, V = eigsh(*args, **kwargs)
+        calls.append(1)
+        if len(calls) == 3:         # the third slice's vectors, perturbed by 1e-6
+            V = V + 1e-6 * np.random.default_rng(0).standard_normal(V.shape)
+        return lam, V
+
+    monkeypatch.setattr(slicing.spla, "eigsh", noisy)
+    got, default = {}, slicing._REFINE
+    for refine in (default, np.inf):
+        monkeypatch.setattr(slicing, "_REFINE", refine)
+        calls.clear()
+        st = SlicedStats()
+        got[refine] = (classify_sliced(K, M, stats=st), st)
+    (dec, st), (dec0, st0) = got[default], got[np.inf]
+    assert st.refined == 1 and st0.refined == 0
+    assert st.ritz_radius < st0.ritz_radius / 5
+    assert st.strips == {1: 400} and st0.strips.get(2, 0) > 0
+    want = dense_decision(K, M).complex_present
+    assert dec.complex_present is want is False and dec0.complex_present is False
+
+
+def test_a_poor_slice_weakens_only_the_boundaries_near_it(monkeypatch):
+    """The radius that a boundary's test subtracts is the largest of the
+    slices still in the buffer, not of every slice so far: one slice with
+    residuals 1e-5 (not refined) leaves strips of several eigenvalues in its
+    own range and its neighbour's, and every eigenvalue of S above them in a
+    strip of its own. (With the largest radius so far, the same scan made
+    strips of 2-6 up to the top of the spectrum.)"""
+    from remote_trigger.analysis.stability import slicing
+
+    K, M = planted(n=400, pairs=[(200, 0.7)])
+    eigsh = slicing.spla.eigsh
+    seen = []
+
+    def noisy(*args, **kwargs):
+        lam, V = eigsh(*args, **kwargs)
+        seen.append(lam)
+        if len(seen) == 2:
+            V = V + 1e-5 * np.random.default_rng(0).standard_normal(V.shape)
+        return lam, V
+
+    monkeypatch.setattr(slicing.spla, "eigsh", noisy)
+    monkeypatch.setattr(slicing, "_REFINE", np.inf)
+    st = SlicedStats()
+    dec = classify_sliced(K, M, stats=st)
+    top = float(np.max(seen[1]))            # the poor slice reaches up to here
+    groups = [p.eigenvalues.real for p in dec.pairs]
+    assert groups and min(g.min() for g in groups) < top     # the poor slice's strips
+    assert max(g.max() for g in groups) < top + 2 * st.window
+    assert sum(st.strips.get(m, 0) * m for m in st.strips if m > 1) < 80
+
+
 def test_too_narrow_window_is_undecided_with_a_reason():
     K, mass = planted(pairs=[(75, 1.5)])
     res = classify_sliced(K, mass, window=1e-3)
