@@ -48,8 +48,8 @@ inner product, Higham Thm. 10.3), so #neg(D) lies
 between the counts of S below a - fuzz and a + fuzz. Ritz pairs of S are
 computed slice by slice (ARPACK shift-invert about a shift inside the
 slice; a slice whose Kahan radius exceeds 1e-3 of its mean Ritz spacing,
-as ARPACK's stopping test can leave it, gets one block step of inverse
-iteration), each slice's Rayleigh-Ritz residual R bounding
+as inexact solves at a shift with a tiny pivot leave it, is computed again
+about a shift moved by 1 % of its span), each slice's Rayleigh-Ritz residual R bounding
 its values by Kahan's theorem (|theta_i - lambda| <= ||R||_2, distinct
 eigenvalues); a boundary's test subtracts the largest radius of the slices
 in memory (the eigenvalues of the slices dropped lie below their edges). The slices' edges x_j lie in gaps; if every slice's count

@@ -187,13 +187,16 @@ def test_strong_coupling_is_never_called_real():
         assert res.reason
 
 
-def test_a_slice_left_at_arpacks_tolerance_is_refined(monkeypatch):
-    """A slice whose Ritz vectors carry residuals spread over the whole
-    spectrum (as ARPACK's stopping test leaves at large N, where its bound is
-    tol ||S - sigma I||) gets one step of inverse iteration: its Kahan radius
-    falls ~9 x and the strips it had made of neighbouring eigenvalues are
-    single again. Without the step (_REFINE = inf) the same scan keeps the
-    large radius and strips of 2. Both verdicts are the dense one."""
+def test_a_slice_with_inexact_vectors_is_computed_again(monkeypatch):
+    """A slice whose Ritz vectors are inexact in every direction (as ARPACK
+    leaves them when the solves are: a shift at a tiny pivot of the
+    factorization, docs/results/analysis.md "A shift at a tiny pivot"; here
+    simulated by perturbing the third slice's vectors by 1e-6) is computed
+    again about a shift 1 % of its span lower: the scan's largest Kahan
+    radius is then that of the clean slices and every eigenvalue is in a
+    strip of its own. Without the second computation (_REFINE = inf) the
+    same scan keeps the large radius and strips of 2. Both verdicts are the
+    dense one."""
     from remote_trigger.analysis.stability import slicing
 
     K, M = planted(n=400, pairs=[(200, 0.7)])
@@ -215,8 +218,9 @@ def test_a_slice_left_at_arpacks_tolerance_is_refined(monkeypatch):
         st = SlicedStats()
         got[refine] = (classify_sliced(K, M, stats=st), st)
     (dec, st), (dec0, st0) = got[default], got[np.inf]
-    assert st.refined == 1 and st0.refined == 0
-    assert st.ritz_radius < st0.ritz_radius / 5
+    assert st.reshifted == 1 and st0.reshifted == 0
+    assert st.arpack_runs == st0.arpack_runs + 1
+    assert st.ritz_radius < st0.ritz_radius / 100
     assert st.strips == {1: 400} and st0.strips.get(2, 0) > 0
     want = dense_decision(K, M).complex_present
     assert dec.complex_present is want is False and dec0.complex_present is False
@@ -225,7 +229,7 @@ def test_a_slice_left_at_arpacks_tolerance_is_refined(monkeypatch):
 def test_a_poor_slice_weakens_only_the_boundaries_near_it(monkeypatch):
     """The radius that a boundary's test subtracts is the largest of the
     slices still in the buffer, not of every slice so far: one slice with
-    residuals 1e-5 (not refined) leaves strips of several eigenvalues in its
+    residuals 1e-5 (not computed again) leaves strips of several eigenvalues in its
     own range and its neighbour's, and every eigenvalue of S above them in a
     strip of its own. (With the largest radius so far, the same scan made
     strips of 2-6 up to the top of the spectrum.)"""
