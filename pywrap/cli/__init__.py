@@ -102,7 +102,7 @@ def build_parser():
     """Return the argument parser with every subcommand registered."""
     parser = Parser(
         prog="remote-trigger",
-        description="Frictional disks with smoothed Mindlin contacts in LAMMPS: "
+        description="Frictional disks and spheres with smoothed Mindlin contacts in LAMMPS: "
                     "remote triggering of earthquakes (Charan, Pomyalov, Procaccia).",
         epilog="Exit status: 0 success, 1 no result, 2 bad input, 3 no equilibrium, "
                "130 interrupted (docs/driver.md). Errors are one line; --debug (anywhere "

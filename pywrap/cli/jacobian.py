@@ -135,7 +135,7 @@ def run(args):
         if not bar:
             from remote_trigger.pywrap.stages.common import progress_bar
 
-            bar.append(progress_bar(n, "verdict", False, 0, unit="eigenvalue"))
+            bar.append(progress_bar(n, "verdict", False, 0, unit=" eigenvalues"))
         bar[0].update(done - bar[0].n)
         if done == n:
             bar[0].refresh()        # the last count shown, whatever tqdm's interval

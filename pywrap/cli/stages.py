@@ -136,7 +136,12 @@ INTERRUPT_HINTS = {
 
 def register(subparsers):
     """Add the driver's subcommands to the ``remote-trigger`` parser."""
-    g = subparsers.add_parser("generate", help="write a loose bidisperse packing data file")
+    g = subparsers.add_parser(
+        "generate", help="write a loose bidisperse packing data file",
+        description="Write a loose, non-overlapping bidisperse packing (radii 0.5 and 0.7) "
+                    "above a flat floor wall with a top line of disks (spheres: a top "
+                    "layer), periodic in x (and z), as a LAMMPS data file. Next: "
+                    "`remote-trigger relax`.")
     g.add_argument("--dim", type=int, choices=(2, 3), default=2,
                    help="2: disks (default); 3: spheres, periodic in x and z")
     g.add_argument("--n", type=int, default=None,
@@ -149,7 +154,13 @@ def register(subparsers):
                    help="replace an existing --output file (default: refuse, exit status 2)")
     g.set_defaults(func=run_generate, serial=True)
 
-    r = subparsers.add_parser("relax", help="settle / relax to equilibrium (f_min)")
+    r = subparsers.add_parser(
+        "relax", help="settle / relax to equilibrium (f_min)",
+        description="Relax a packing to a force-balanced equilibrium under the loads "
+                    "F_y (and F_x) by the default protocol (docs/driver.md): compaction "
+                    "without friction, then friction, then a Newton polish to the "
+                    "round-off floor. Writes OUT/relax.h5 and OUT/relax/equilibrium.* "
+                    "(.data, .dump, .dump.json), where `remote-trigger ramp` starts.")
     _add_model(r, "packing.data", shown="packing.data")     # generate's default --output
     r.add_argument("--dim", type=int, choices=(2, 3), default=None,
                    help="2 or 3 (default: that of the data file; a contradicting value "
@@ -161,7 +172,15 @@ def register(subparsers):
                    help="over-damped dynamics only")
     r.set_defaults(func=run_relax, resume_hint=INTERRUPT_HINTS["relax"])
 
-    m = subparsers.add_parser("ramp", help="F_x ramp, eigenvalues, bisection of F_x^c")
+    m = subparsers.add_parser(
+        "ramp", help="F_x ramp, eigenvalues, bisection of F_x^c",
+        description="Raise F_x on the top disks step by step from an equilibrium, "
+                    "re-equilibrate at each load and decide whether M^-1 K has a "
+                    "complex eigenvalue pair (certified: real, complex or undecided, "
+                    "on the whole spectrum), then bisect F_x^c between the last real "
+                    "and the first complex point. Writes OUT/ramp.h5 (every point, "
+                    "its eigenvalues and the bracket of F_x^c) and OUT/ramp/ (the "
+                    "equilibria).")
     _add_model(m, shown="OUT/relax/equilibrium.data")
     m.add_argument("--dim", type=int, choices=(2, 3), default=None,
                    help="2 or 3 (default: that of the data file; a contradicting value "
@@ -174,7 +193,14 @@ def register(subparsers):
                    help="continue an interrupted ramp from its last equilibrium")
     m.set_defaults(func=run_ramp, resume_hint=INTERRUPT_HINTS["ramp"])
 
-    p = subparsers.add_parser("perturb", help="undamped runs (a), (b) f(t), (c) f(t)+mu(v)")
+    p = subparsers.add_parser(
+        "perturb", help="undamped runs (a), (b) f(t), (c) f(t)+mu(v)",
+        description="The three undamped runs of the paper's Fig. 5 from the equilibrium "
+                    "at --F-x (below F_x^c): (a) unperturbed, (b) with f(t) = a "
+                    "cos(omega_p t) added to F_x on the top disks, (c) like (b) with the "
+                    "velocity-dependent friction mu(v) of Eq. (4). Writes "
+                    "OUT/perturb_a.h5, perturb_b.h5, perturb_c.h5 (time series of the MSD "
+                    "D(t), the top's mean x-velocity and mu).")
     _add_model(p)
     p.add_argument("--t-max", dest="t_max", type=float, help="time of each run (1000)")
     p.add_argument("--a", type=float, help="amplitude of f(t) (1e-12)")
@@ -186,7 +212,13 @@ def register(subparsers):
                         "equilibrium and finished runs are kept")
     p.set_defaults(func=run_perturb, resume_hint=INTERRUPT_HINTS["perturb"])
 
-    i = subparsers.add_parser("instability", help="undamped run above F_x^c until D saturates")
+    i = subparsers.add_parser(
+        "instability", help="undamped run above F_x^c until D saturates",
+        description="An undamped run from the equilibrium at --F-x above F_x^c (the "
+                    "paper's Fig. 4) until the MSD D(t) exceeds --d-sat; the measured "
+                    "growth rate of D ~ exp(2 g t) beside the one predicted from the "
+                    "complex pair, max Im sqrt(lambda) (Eq. 6). Writes "
+                    "OUT/instability.h5 and OUT/instability/equilibrium.*.")
     _add_model(i)
     i.add_argument("--t-max", dest="t_max", type=float, help="maximum time (1000)")
     i.add_argument("--d-sat", dest="d_sat", type=float, help="stop when D exceeds (1e-2)")

@@ -1,7 +1,7 @@
 """``remote-trigger demo``: a small settle of frictional disks with the new styles.
 
-Until the main job (``remote-trigger paper``) exists, this is what
-``make demo`` runs: it builds a loose bidisperse packing above the flat wall,
+A check of the plugin in a few seconds (``make demo`` runs the main job,
+``remote-trigger paper``): it builds a loose bidisperse packing above the flat wall,
 lets it settle under a downward load with viscous damping using
 ``pair_style mindlin/smooth`` and ``fix wall/mindlin/smooth``, and prints
 what it did (contacts, Coulomb usage u = |t|/t*, wall load, residual force).
@@ -14,7 +14,13 @@ import time
 
 def register(subparsers):
     """Add the ``demo`` subcommand."""
-    p = subparsers.add_parser("demo", help="settle a small packing with mindlin/smooth")
+    p = subparsers.add_parser(
+        "demo", help="settle a small packing with mindlin/smooth",
+        description="A check of the plugin in a few seconds: a loose bidisperse packing "
+                    "settles above the flat wall under a downward load with viscous "
+                    "damping (pair_style mindlin/smooth, fix wall/mindlin/smooth); prints "
+                    "its contacts, the Coulomb usage u = |t|/t*, the wall load and the "
+                    "residual force. The paper end to end is `remote-trigger paper`.")
     p.add_argument("--n", type=int, default=100, help="number of disks (default 100)")
     p.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
     p.add_argument("--steps", type=int, default=40000, help="damped MD steps (default 40000)")

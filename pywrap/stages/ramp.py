@@ -270,7 +270,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         if status in ("complete", "no_complex_pair", "no_equilibrium", "complex_at_start"):
             return _ramp_result(rlog, status)
         budget = _Budget(stop_after)
-        bar = progress_bar(None, "ramp", quiet, eng.rank, unit="step")
+        bar = progress_bar(None, "ramp", quiet, eng.rank, unit=" points")
         vdir = verdict_dir or os.path.join(folder, VERDICTS)
         try:
             ended = _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim, vdir)

@@ -525,7 +525,7 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
             check_spheres_config(cfg)
         prepare_out(eng, out, ["relax.h5"] + _equilibrium_files("relax"), overwrite, "relax")
         _ensure_dir(eng, os.path.join(out, "relax"))
-        bar = progress_bar(None, "relax", quiet, eng.rank, unit="chk")
+        bar = progress_bar(None, "relax", quiet, eng.rank, unit=" checks")
 
         def prog(r):
             bar.update(1)

@@ -90,7 +90,7 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
             writer.append(row)
 
     add({"t": 0.0, "D": 0.0, "v_top": 0.0, "mu": eng.equal("mu_now"), "v_top_max": 0.0})
-    bar = progress_bar(nrec, desc, quiet, eng.rank, unit="rec")
+    bar = progress_bar(nrec, desc, quiet, eng.rank, unit=" records")
     status = "failed"               # until the loop ends normally
     vmax = 0.0
     try:

@@ -555,3 +555,16 @@ def test_ramp_from_an_unrelaxed_packing_says_so(capsys, tmp_path, packing_file, 
     status, out, _ = run_cli(capsys, "ramp", "--datafile", relaxed.datafile,
                              "--out", tmp_path / "relaxed", *args)
     assert "note:" not in out, out
+
+
+def test_every_command_says_what_it_does_and_writes():
+    """``remote-trigger COMMAND --help`` starts with what the command does (a
+    description, not only its options), and every stage names its output."""
+    import argparse
+
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, p in sub.choices.items():
+        assert p.description and len(p.description) > 60, name
+    for name in ("relax", "ramp", "perturb", "instability"):
+        assert "OUT/" in sub.choices[name].description, name
