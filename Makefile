@@ -53,7 +53,7 @@ demo: install
 
 # one BLAS thread per test worker: the workers already fill the cores, and a
 # threaded BLAS beside another worker made the suite take 13.5 min of CPU
-# instead of 7.4 (wall 7:17 against 6:41, 2 cores)
+# instead of 7.4 (wall 7:17 against 4:31-6:41, 2 cores)
 test: install
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 \
 	  $(PY) -m pytest -q -ra -n $(NP) --dist loadfile
