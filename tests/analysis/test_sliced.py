@@ -88,7 +88,6 @@ def test_count_below_inside_a_packing_spectrum():
         assert np.max(np.abs(Z).sum(axis=1)) <= fuzz
 
 
-
 def test_refactorized_counts_are_bitwise_new_factorizations():
     """The slices count at many shifts a with one ordering (slicing._Shifts,
     QDLDL's update): permutation, L, D, counts, fuzz and solves bitwise those
