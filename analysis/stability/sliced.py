@@ -389,7 +389,6 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         for f in dataclasses.fields(sc.stats):
             setattr(stats, f.name, getattr(sc.stats, f.name))
         sc.stats = stats
-        ctx.r_buf = sc.buf.radius
     t_saved = time.monotonic()
 
     def finish_strip(lo_idx, hi_idx, a_lo, a_hi, final):
@@ -445,7 +444,6 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
             sc.sid += 1
             if progress is not None:
                 progress(sc.dropped + buf.th.size, n)
-            ctx.r_buf = buf.radius
             final = sc.dropped + buf.th.size == n
             top = n if final else None
             # test the gaps between Ritz values whose window lies in the buffer
@@ -485,7 +483,6 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
                     before = buf.th.size
                     buf.drop_below(low)
                     sc.dropped += before - buf.th.size
-                    ctx.r_buf = buf.radius
             if ckpt is not None and not final and \
                     time.monotonic() - t_saved >= checkpoint_seconds:
                 t_now = time.perf_counter()

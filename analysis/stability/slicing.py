@@ -121,6 +121,7 @@ class _Shifts:
     """
 
     def __init__(self, S):
+        self.S = S
         self.H = _shifted(S, 0.0)
         # where the diagonal sits in H's data (every diagonal entry is stored)
         H = self.H
@@ -130,14 +131,14 @@ class _Shifts:
         self.diag = H.data[self.diag_at].copy()
         self.solver = None
 
-    def count_below(self, S, a):
+    def count_below(self, a):
         """:func:`count_below` of S (the matrix of the constructor) at a."""
         self.H.data[self.diag_at] = self.diag - a
         if self.solver is None:
             self.solver = _ldl(self.H, "S - a I")
         else:
             self.solver.update(self.H)
-        return count_below(S, a, self.solver)
+        return count_below(self.S, a, self.solver)
 
 
 def count_below(S, a, factor=None):
@@ -287,6 +288,19 @@ def _start(S, lo0, stats):
     return _Position(lo0, 0, fz, np.random.default_rng(12345))
 
 
+def _shift_invert(S, sigma, k, rng, stats):
+    """ARPACK's k eigenpairs of S nearest sigma (shift-invert with QDLDL's
+    factorization of S - sigma I, start vector drawn from ``rng``)."""
+    n = S.shape[0]
+    fac = _ldl(_shifted(S, sigma), f"S - sigma I at sigma = {sigma:.9g}")
+    op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=np.float64)
+    lam, V = spla.eigsh(S, k=k, sigma=sigma, which="LM", OPinv=op, tol=_ARPACK_TOL,
+                        v0=rng.standard_normal(n), ncv=min(n, 2 * k + 1))
+    stats.arpack_runs += 1
+    stats.computed += lam.size
+    return lam, V
+
+
 def _slices(S, W, k, normS, normW, pos, stats):
     """Yield the Ritz slices of S from ``pos`` (a :class:`_Position`) upwards.
 
@@ -318,13 +332,8 @@ def _slices(S, W, k, normS, normW, pos, stats):
                 lam, V = lam[sel], V[:, sel]
                 whole = True
             else:
-                fac = _ldl(_shifted(S, sigma), f"S - sigma I at sigma = {sigma:.9g}")
-                op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=np.float64)
-                lam, V = spla.eigsh(S, k=kk, sigma=sigma, which="LM", OPinv=op, tol=_ARPACK_TOL,
-                                    v0=rng.standard_normal(n), ncv=min(n, 2 * kk + 1))
+                lam, V = _shift_invert(S, sigma, kk, rng, stats)
                 whole = False
-                stats.arpack_runs += 1
-                stats.computed += lam.size
             if whole or sigma == x or np.min(lam) < x:
                 break
             sigma = x + 0.5 * (sigma - x) if attempt < 10 else x   # a hole above x: lower
@@ -339,13 +348,8 @@ def _slices(S, W, k, normS, normW, pos, stats):
             # tolerance (residuals ~1e-3 on all 60). The slice is computed again
             # about a shift 1 % of its span lower (the window still reaches below
             # x), kept if its radius is smaller
-            sigma2 = sigma - 0.01 * float(theta[-1] - theta[0])
-            fac = _ldl(_shifted(S, sigma2), f"S - sigma I at sigma = {sigma2:.9g}")
-            op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=np.float64)
-            lam2, V = spla.eigsh(S, k=kk, sigma=sigma2, which="LM", OPinv=op, tol=_ARPACK_TOL,
-                                 v0=rng.standard_normal(n), ncv=min(n, 2 * kk + 1))
-            stats.arpack_runs += 1
-            stats.computed += lam2.size
+            lam2, V = _shift_invert(S, sigma - 0.01 * float(theta[-1] - theta[0]), kk, rng,
+                                    stats)
             stats.reshifted += 1
             better = _ritz(S, W, V, normS, normW)
             if better[3] < radius:
@@ -376,7 +380,7 @@ def _slices(S, W, k, normS, normW, pos, stats):
                           for j in np.argsort(gaps)[::-1][:8]]
         for y, nkeep in cands:
             try:
-                cnt_y, fz, _ = shifts.count_below(S, y)
+                cnt_y, fz, _ = shifts.count_below(y)
             except (ValueError, _Fail):
                 continue
             d = min(abs(theta - y))

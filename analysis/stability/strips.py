@@ -35,7 +35,6 @@ class _Ctx:
     rnd: float                  # rounding of the W products (absolute, 2-norm)
     A: object = None            # M^-1/2 K M^-1/2 (CSR)
     normA1: float = 0.0         # ||A||_1 >= ||A||_2 bound of |A|
-    r_buf: float = 0.0          # largest Kahan radius of the buffer's slices
 
 
 def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
@@ -60,12 +59,13 @@ def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
     phi = buf.phi(used) if used.size else 0.0
     rhat = (math.sqrt(float(np.sum(rs[used] ** 2))) * (1 + phi)
             + 2 * phi * float(np.max(np.abs(th[used])) if used.size else 0.0)) * _INFLATE
-    d_eff = d_out - ctx.r_buf - 4 * rhat
+    r = buf.radius              # largest Kahan radius of the buffer's slices
+    d_eff = d_out - r - 4 * rhat
     if not d_eff > 0:
         raise _Fail("the window's complement is not separated from the interval")
     g = dist[near]
     g_min = min(float(g.min()) if g.size else math.inf, d_eff)
-    if not g_min > 2 * (ctx.r_buf + 4 * rhat):
+    if not g_min > 2 * (r + 4 * rhat):
         # the count of S below the interval must equal that of the block-diagonal H
         raise _Fail("a Ritz value within its radius of the interval")
     xi = ctx.eps + 2 * rhat + (2 * phi + phi * phi) * ctx.normW + ctx.rnd * max(used.size, 1)
