@@ -123,22 +123,23 @@ _MAX_STRIP = 24
 # 124 -> 274 s of CPU (docs/results/analysis.md)
 _SLICE_SIZE = 60
 #: seconds between two saves of a scan's state (``classify_sliced``'s
-#: ``checkpoint_dir``): a save writes 20-100 MB at N = 6400-10^4, a scan
+#: ``checkpoint_dir``): a save writes 10-260 MB at N = 6400-10^4, a scan
 #: there takes 5-45 min (docs/results/analysis.md, "Checkpoint of a sliced scan")
 CHECKPOINT_SECONDS = 300.0
 
 
 # --------------------------------------------------------------------------- buffer
 class _Buffer:
-    """The Ritz pairs of the slices in memory: values, residuals, vectors, W Q and
-    Q^T W Q (skew), and the norms of the overlaps Q_i^T Q_j of different slices."""
+    """The Ritz pairs of the slices in memory: values, residuals, vectors, Q^T W Q
+    (skew), ||W q_i||, and the norms of the overlaps Q_i^T Q_j of different
+    slices. W Q itself is not kept (as many columns of n as Q): a strip's
+    W Q_I is computed where it is needed, column for column the same numbers."""
 
     def __init__(self, n):
         self.th = np.zeros(0)
         self.rs = np.zeros(0)
         self.sid = np.zeros(0, int)
         self.Q = np.zeros((n, 0))
-        self.WQ = np.zeros((n, 0))
         self.Wn = np.zeros((0, 0))
         self.wqn = np.zeros(0)   # ||W q_i||
         self.phis = {}          # slice id -> phi
@@ -153,7 +154,6 @@ class _Buffer:
             self.cross[(int(j), sid)] = float(np.linalg.norm(self.Q[:, self.sid == j].T @ sl.Q))
         self.Wn = np.block([[self.Wn, C], [-C.T, D]])
         self.Q = np.hstack([self.Q, sl.Q])
-        self.WQ = np.hstack([self.WQ, sl.WQ])
         self.th = np.concatenate([self.th, sl.theta])
         self.wqn = np.concatenate([self.wqn, np.linalg.norm(sl.WQ, axis=0)])
         self.rs = np.concatenate([self.rs, sl.resid])
@@ -170,7 +170,7 @@ class _Buffer:
         keep = ~np.isin(self.sid, [e[0] for e in gone])
         self.th, self.rs, self.sid = self.th[keep], self.rs[keep], self.sid[keep]
         self.wqn = self.wqn[keep]
-        self.Q, self.WQ = self.Q[:, keep], self.WQ[:, keep]
+        self.Q = self.Q[:, keep]
         self.Wn = self.Wn[np.ix_(keep, keep)]
         self.edges = self.edges[len(gone):]
 
@@ -306,10 +306,10 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         ``timing`` adds the times before the resume). Saving a finished
         verdict removes every ``sliced-*.scan.pkl`` of the folder (a folder
         serves one scan at a time; another scan's state is stale). The state
-        holds the buffer of Ritz vectors, 8 n bytes each (the more, the
-        longer no boundary could be certified): 21.6 MB measured at N = 10^4
-        (n = 28 836, F_x = 0), 104.6 MB at N = 6400 (n = 18 492, F_x =
-        5e-4); the saved verdict 16 n bytes.
+        is the buffer's Ritz vectors, 8 n bytes each, and little else; the
+        buffer grows while no boundary can be certified: measured at N =
+        10^4 (n = 28 800, ||W|| = 18.3) 12.2 MB after 2 slices, 74.6 MB
+        after 8; the saved verdict 16 n bytes.
     checkpoint_seconds : float, optional
         Seconds between two saves (default :data:`CHECKPOINT_SECONDS`, 300; 0:
         after every slice).
@@ -371,7 +371,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     rows = int(np.max(np.diff(A.indptr))) if n else 0
     rnd = _gamma(n + rows + 4) * _norm1(abs(W)) * 4
     ctx = _Ctx(normW, normS, eps, window * normW if normW > 0 else 1e-3 * max(normS, 1.0), rnd,
-               A, nA)
+               A, nA, W)
     stats.window = ctx.Delta
     absS = abs(S)
     gersh = float(np.min(S.diagonal() - (np.asarray(absS.sum(axis=1)).ravel()

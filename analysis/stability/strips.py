@@ -35,6 +35,7 @@ class _Ctx:
     rnd: float                  # rounding of the W products (absolute, 2-norm)
     A: object = None            # M^-1/2 K M^-1/2 (CSR)
     normA1: float = 0.0         # ||A||_1 >= ||A||_2 bound of |A|
+    W: object = None            # the skew part (A - A^T) / 2 of A (CSR)
 
 
 def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
@@ -115,7 +116,8 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     lam0 = buf.th[I].astype(complex)
     if not kap < 1:
         return "undecided", 0.0, lam0, f"the rest is coupled across the strip (kappa {kap:.3g})"
-    WQI = buf.WQ[:, I]
+    # column-major, as a column selection of W Q is (np.sum's last bit depends on it)
+    WQI = np.asfortranarray(ctx.W @ buf.Q[:, I])
     cross = buf.Wn[np.ix_(near, I)]
     bn = float(np.linalg.norm((np.abs(cross) + ctx.rnd) / np.sqrt(g)[:, None])) if near.size else 0.0
     b = (math.sqrt(bn ** 2 + float(np.sum(WQI ** 2)) / d_eff) * (1 + phi)

@@ -2,6 +2,7 @@
 dense certified decision and against Arb, on hand-built matrices with planted
 pairs and on frictional packings."""
 import dataclasses
+import pickle
 
 import numpy as np
 import pytest
@@ -439,7 +440,8 @@ def test_a_scan_killed_after_any_slice_resumes_to_the_same_bits(tmp_path, pairs,
     margins, eigenvalues and statistics of the uninterrupted scan, bit for
     bit; a second call returns the saved verdict without scanning; the scan's
     state is removed when the verdict is saved; a different matrix (one bit
-    of one entry) does not find it."""
+    of one entry) does not find it. The state holds the buffer's Ritz vectors
+    and no other array of n rows."""
     K, mass = planted(n=150, pairs=pairs, seed=11)
     ref_st = SlicedStats()
     ref = classify_sliced(K, mass, slice_size=20, stats=ref_st, stop_at_complex=stop)
@@ -462,6 +464,11 @@ def test_a_scan_killed_after_any_slice_resumes_to_the_same_bits(tmp_path, pairs,
         # how far the saved scan had come: the count after slice k - 1
         (path, done, n_saved, _), = saved_scans(folder)
         assert (done, n_saved) == (seen[-2], K.shape[0]) and path.endswith(".scan.pkl")
+        # the state keeps one array of n rows, the Ritz vectors (W Q is not saved)
+        with open(path, "rb") as fh:
+            _, sc = pickle.load(fh)
+        assert [name for name, v in vars(sc.buf).items()
+                if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[0] == K.shape[0]] == ["Q"]
         more, st = [], SlicedStats()
         got = classify_sliced(K, mass, slice_size=20, stats=st, stop_at_complex=stop,
                               progress=lambda done, n: more.append(done),
