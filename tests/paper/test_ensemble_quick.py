@@ -274,6 +274,40 @@ def test_failure_is_recorded_and_others_finish(tmp_path, monkeypatch):
     assert "top layer slid away" in md
 
 
+def test_a_packing_failed_in_a_ramp_keeps_its_equilibria_and_can_be_continued(tmp_path,
+                                                                              monkeypatch):
+    """A packing whose 0.8 mu0 ramp fails part-way (an OSError after 3
+    equilibria, forced) is recorded with that reason and keeps that ramp's
+    equilibria; with its task file removed, ``resume`` continues the ramp
+    from its ``ramp.h5`` to the table of a run that never failed."""
+    from mpi4py import MPI
+    from remote_trigger.pywrap import stages
+
+    cfg = ec.build_config(None, {"n": [16], "seeds": [1], "inertia_I0": None,
+                                 "frictional": False}, quick=True)
+    ref = str(tmp_path / "ref")
+    en.run_ensemble(cfg, ref, comm=MPI.COMM_SELF, speak=False)
+    real = stages.ramp
+
+    def ramp(rcfg, out, **kw):
+        if out.endswith("ramp_mu_ss"):
+            real(rcfg, out, stop_after=3, **kw)
+            raise OSError("the scratch disk went away (forced by the test)")
+        return real(rcfg, out, **kw)
+
+    monkeypatch.setattr(stages, "ramp", ramp)
+    out = str(tmp_path / "failed")
+    en.run_ensemble(cfg, out, comm=MPI.COMM_SELF, speak=False)
+    t = er.read_table(os.path.join(out, en.TABLE))
+    assert t["status"][0] == "incomplete" and "scratch disk went away" in t["reason"][0]
+    kept = os.listdir(os.path.join(out, "packings", "N16_s1", "ramp_mu_ss", "ramp"))
+    assert sum(f.endswith(".data") for f in kept) >= 1, kept
+    monkeypatch.undo()
+    os.remove(et.task_path(out, "N16_s1"))
+    en.run_ensemble(cfg, out, comm=MPI.COMM_SELF, speak=False, resume=True)
+    _same(er.read_table(os.path.join(ref, en.TABLE)), er.read_table(os.path.join(out, en.TABLE)))
+
+
 def test_adaptive_ramps_and_continuation(tmp_path):
     """``dF_x_max``: the ramps take adaptive steps (some larger than dF_x, none
     outside [dF_x, dF_x_max]) and the I0 = 1 continuation above the ramp's end (it

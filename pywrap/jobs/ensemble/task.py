@@ -475,7 +475,8 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
             result["frictional"] = done["frictional"]
         except Exception as exc:  # noqa: BLE001 - recorded
             result["frictional"] = {"error": _failure(exc)}
-    if not cfg.keep_equilibria:
+    if not cfg.keep_equilibria and d["error"] is None:
+        # (a packing that failed keeps them: its ramp can be continued, below)
         for key in ("mu0", "mu_ss"):
             shutil.rmtree(os.path.join(folder, f"ramp_{key}", "ramp"), ignore_errors=True)
             if cfg.inertia_I0 is not None:
