@@ -10,6 +10,7 @@ import shutil
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from remote_trigger.pywrap.config import ConfigError
@@ -125,8 +126,10 @@ RUNS = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "results", "r
 
 def test_the_kept_runs_combine(tmp_path):
     """The result files of the runs kept in docs/results/runs (the runs of
-    docs/results/ensemble.md) combine into one table whose brackets are the
-    packings' own, with nothing left out."""
+    docs/results/ensemble.md) combine into one table whose brackets, of both
+    frictions, are the packings' own, with nothing left out, and whose
+    orders are those docs/results/ensemble.md counts (30 hold, 11 reversed,
+    1 not decided; N = 10^4: 1, 1, 0)."""
     from remote_trigger.pywrap.jobs.ensemble import report as er
 
     runs = [os.path.join(RUNS, d) for d in ("N100_1600", "N6400_escape", "N10000")]
@@ -150,4 +153,12 @@ def test_the_kept_runs_combine(tmp_path):
             assert (t["F_x_c_low"][row], t["F_x_c_high"][row]) == (
                 mu0["F_x_c_low"], mu0["F_x_c_high"]), name
             compared += 1
+            with open(os.path.join(run, "tasks", name)) as fh:
+                ss = json.load(fh)["result"]["default"]["ramps"]["mu_ss"]["I0_0.5"]
+            got = (t["F_x_c_ss_low"][row], t["F_x_c_ss_high"][row])
+            assert np.array_equal(got, (ss["F_x_c_low"], ss["F_x_c_high"]), equal_nan=True), name
     assert compared >= 41
+    order = t["order"][t["I0"] == 0.5]
+    assert [int(np.sum(order == c)) for c in (1, 0, -1)] == [30, 11, 1]
+    big = t["order"][(t["I0"] == 0.5) & (t["n"] == 10000)]
+    assert sorted(big.tolist()) == [0, 1]
