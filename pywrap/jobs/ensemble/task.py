@@ -476,7 +476,8 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
         except Exception as exc:  # noqa: BLE001 - recorded
             result["frictional"] = {"error": _failure(exc)}
     if not cfg.keep_equilibria and d["error"] is None:
-        # (a packing that failed keeps them: its ramp can be continued, below)
+        # (a packing that failed keeps them, so that its ramp can be continued:
+        # docs/ensemble.md, "Parallelism, checkpoints, resume")
         for key in ("mu0", "mu_ss"):
             shutil.rmtree(os.path.join(folder, f"ramp_{key}", "ramp"), ignore_errors=True)
             if cfg.inertia_I0 is not None:
