@@ -10,6 +10,7 @@ finish; the I0 = 1 rows are flagged as inconsistent with the dynamics.
 import json
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -18,6 +19,7 @@ import time
 import numpy as np
 import pytest
 
+from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.jobs.ensemble import config as ec
 from remote_trigger.pywrap.jobs.ensemble import job as en
 from remote_trigger.pywrap.jobs.ensemble import report as er
@@ -278,8 +280,9 @@ def test_a_packing_failed_in_a_ramp_keeps_its_equilibria_and_can_be_continued(tm
                                                                               monkeypatch):
     """A packing whose 0.8 mu0 ramp fails part-way (an OSError after 3
     equilibria, forced) is recorded with that reason and keeps that ramp's
-    equilibria; with its task file removed, ``resume`` continues the ramp
-    from its ``ramp.h5`` to the table of a run that never failed."""
+    equilibria; ``resume`` alone leaves it as it is; ``resume`` with
+    ``retry_failed`` (or with its task file removed) continues the ramp from
+    its ``ramp.h5`` to the table of a run that never failed."""
     from mpi4py import MPI
     from remote_trigger.pywrap import stages
 
@@ -303,9 +306,30 @@ def test_a_packing_failed_in_a_ramp_keeps_its_equilibria_and_can_be_continued(tm
     kept = os.listdir(os.path.join(out, "packings", "N16_s1", "ramp_mu_ss", "ramp"))
     assert sum(f.endswith(".data") for f in kept) >= 1, kept
     monkeypatch.undo()
+    retry = str(tmp_path / "retry")
+    shutil.copytree(out, retry)
     os.remove(et.task_path(out, "N16_s1"))
     en.run_ensemble(cfg, out, comm=MPI.COMM_SELF, speak=False, resume=True)
     _same(er.read_table(os.path.join(ref, en.TABLE)), er.read_table(os.path.join(out, en.TABLE)))
+    # the same without removing the task file: --resume keeps the failure,
+    # --resume --retry-failed continues it
+    en.run_ensemble(cfg, retry, comm=MPI.COMM_SELF, speak=False, resume=True)
+    assert er.read_table(os.path.join(retry, en.TABLE))["status"][0] == "incomplete"
+    with pytest.raises(ConfigError, match="resume"):
+        en.run_ensemble(cfg, retry, comm=MPI.COMM_SELF, speak=False, retry_failed=True)
+    en.run_ensemble(cfg, retry, comm=MPI.COMM_SELF, speak=False, resume=True,
+                    retry_failed=True)
+    _same(er.read_table(os.path.join(ref, en.TABLE)),
+          er.read_table(os.path.join(retry, en.TABLE)))
+    with open(os.path.join(retry, en.MANIFEST)) as fh:
+        sessions = json.load(fh)["sessions"]
+    assert [(s["computed"], s["retry_failed"]) for s in sessions] == \
+        [(["N16_s1"], False), ([], False), (["N16_s1"], True)]
+    r = subprocess.run([sys.executable, "-m", "remote_trigger.pywrap.cli", "ensemble",
+                        "--quick", "--out", retry, "--retry-failed"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "give --resume too" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
 
 
 def test_adaptive_ramps_and_continuation(tmp_path):

@@ -85,9 +85,9 @@ from remote_trigger.pywrap.jobs.ensemble.config import build_config
 from remote_trigger.pywrap.jobs.ensemble.figure import plot
 from remote_trigger.pywrap.jobs.ensemble.report import (
     rows_of, statistics, write_table, write_summary)
-from remote_trigger.pywrap.jobs.ensemble.task import (run_packing, run_ramp, record_ramp,
-                                                      _jsonable, task_path, load_task,
-                                                      saddle_escape_of, add_missing_shape)
+from remote_trigger.pywrap.jobs.ensemble.task import (
+    run_packing, run_ramp, record_ramp, _jsonable, task_path, load_task, packing_failed,
+    saddle_escape_of, add_missing_shape)
 
 __all__ = ["MANIFEST", "TABLE", "run_ensemble", "combine_runs", "check_out", "register",
            "config_from_args", "main"]
@@ -135,7 +135,7 @@ def _packing_of(t):
     return {k: v for k, v in t.items() if k not in ("ramp", "final")}
 
 
-def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
+def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=False):
     """The whole ensemble; every rank of ``comm`` calls it.
 
     Parameters
@@ -154,6 +154,12 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
         (``tasks/<key>.json``) are kept; a packing a killed run had
         started keeps its finished stages (:func:`run_packing`), the others
         run from their start.
+    retry_failed : bool
+        With ``resume``: a finished packing whose result records an error
+        (of the default protocol or of the frictional part) is run again,
+        with ``resume`` semantics: its recorded stages are kept and an
+        interrupted ramp goes on from its ``ramp.h5`` and kept equilibria.
+        Default False: such a packing counts as finished.
 
     Returns
     -------
@@ -163,7 +169,8 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
     Raises
     ------
     ConfigError
-        From :func:`check_out` (on every rank; nothing written).
+        From :func:`check_out` (on every rank; nothing written); if
+        ``retry_failed`` is given without ``resume``.
     """
     from mpi4py import MPI
     from remote_trigger.pywrap.runtime.jobfolder import write_json
@@ -171,6 +178,9 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
     comm = comm or MPI.COMM_WORLD
     rank, size = comm.Get_rank(), comm.Get_size()
     out = os.path.abspath(out)
+    if retry_failed and not resume:
+        raise ConfigError("retry_failed runs the failed packings of a run again: it needs "
+                          "resume (--resume)")
     t_start = time.perf_counter()
 
     def say(msg):
@@ -187,12 +197,18 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
                 raise ConfigError(f"cannot resume {out!r}: packing {t['key']} was run with "
                                   f"saddle_escape = {saddle_escape_of(res)}, this run has "
                                   f"saddle_escape = {cfg.saddle_escape}")
-        return [t for t in (tasks[i] for i in order) if load_task(out, t) is None]
+        todo = []
+        for t in (tasks[i] for i in order):
+            res = load_task(out, t)
+            if res is None or (retry_failed and packing_failed(res)):
+                todo.append(t)
+        return todo
 
     tasks = cfg.packings()
     order = sorted(range(len(tasks)), key=lambda i: (-tasks[i]["n"], i))
     todo = on_rank0(comm, prepare)
-    say(f"{len(tasks)} packings ({len(todo)} to run) on {n_workers(comm)} rank(s)")
+    say(f"{len(tasks)} packings ({len(todo)} to run"
+        + (", failed ones again" if retry_failed else "") + f") on {n_workers(comm)} rank(s)")
     computed = []
     # with two or more worker ranks, a relaxed packing's two ramps are two tasks
     # (side by side); rank 0 records each part and then hands out the packing's end
@@ -267,6 +283,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False):
                     sessions = json.load(fh).get("sessions", [])
             sessions.append({"n_ranks": n_workers(comm), "mpi_size": size,
                              "computed": computed, "wall": wall, "resume": bool(resume),
+                             "retry_failed": bool(retry_failed),
                              "environment": environment()})
             write_json(mpath, {"config": cfg.to_dict(), "out": out, "status": "complete",
                                "n_packings": len(tasks), "sessions": sessions,
@@ -342,6 +359,9 @@ def register(subparsers):
                       "small test variant (3 packings of N = 16 and 20, coarse ramps)",
                       "continue an interrupted ensemble in --out (same configuration; "
                       "finished packings and the finished stages of a started one are kept)", "--set n=[100] --set seeds=[1,2,3]")
+    p.add_argument("--retry-failed", action="store_true",
+                   help="with --resume: run again the packings recorded with an error "
+                        "(their finished stages kept, an interrupted ramp continued)")
     p.add_argument("--combine", nargs="+", metavar="DIR", default=None,
                    help="instead of running: put the finished packings of these ensemble "
                         "folders (runs of other sizes or seeds, the same other keys) into "
@@ -363,7 +383,8 @@ def config_from_args(args):
 def _run_options_given(args):
     """The options of a run that were given (``--status`` and ``--combine`` take none)."""
     return [o for o, v in (("--config", args.config), ("--quick", args.quick),
-                           ("--resume", args.resume), ("--np", args.np),
+                           ("--resume", args.resume), ("--retry-failed", args.retry_failed),
+                           ("--np", args.np),
                            ("--set", args.set), ("--dim", args.dim)) if v]
 
 
@@ -384,6 +405,9 @@ def main(args):
                               f"drop {given[0]}")
         print(f"ensemble: {combine_runs(args.combine, args.out, speak=not args.quiet)}")
         return 0
+    if args.retry_failed and not args.resume:
+        raise ConfigError("--retry-failed runs the failed packings of a run again: "
+                          "give --resume too")
     cfg = config_from_args(args)
     from mpi4py import MPI
 
@@ -394,9 +418,11 @@ def main(args):
             check_out(cfg, out, args.resume)       # refuse before mpirun starts
         from remote_trigger.pywrap.runtime.relaunch import relaunch
 
-        return relaunch("ensemble", args, cfg.np + 1, "REMOTE_TRIGGER_ENS_CHILD",
-                        extra=("--dim", str(args.dim)) if args.dim is not None else ())
-    path = run_ensemble(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)
+        extra = (("--dim", str(args.dim)) if args.dim is not None else ()) + \
+            (("--retry-failed",) if args.retry_failed else ())
+        return relaunch("ensemble", args, cfg.np + 1, "REMOTE_TRIGGER_ENS_CHILD", extra=extra)
+    path = run_ensemble(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume,
+                        retry_failed=args.retry_failed)
     if world.Get_rank() == 0:
         print(f"ensemble: {path}")
     return 0

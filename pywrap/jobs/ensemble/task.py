@@ -520,6 +520,13 @@ def saddle_escape_of(result):
     return None if v is None else bool(v)
 
 
+def packing_failed(result):
+    """True if a finished packing's result records an error (of the default
+    protocol or of the frictional part): what ``--retry-failed`` runs again."""
+    return bool(result["default"].get("error")
+                or (result.get("frictional") or {}).get("error"))
+
+
 def load_task(out, task):
     """The finished result of a packing, or None (missing, unreadable, other task)."""
     try:
