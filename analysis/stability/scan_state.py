@@ -17,7 +17,7 @@ import numpy as np
 __all__ = ["CHECKPOINT_FORMAT", "scan_key", "load", "save", "saved_scans"]
 
 #: checkpoint format; a file of another format (or code) is not resumed
-CHECKPOINT_FORMAT = 2
+CHECKPOINT_FORMAT = 3
 
 
 def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip):

@@ -94,7 +94,9 @@ and counts checked here.
 from __future__ import annotations
 
 import contextlib
+import copy
 import dataclasses
+import hashlib
 import math
 import os
 import time
@@ -123,8 +125,9 @@ _MAX_STRIP = 24
 # 124 -> 274 s of CPU (docs/results/analysis.md)
 _SLICE_SIZE = 60
 #: seconds between two saves of a scan's state (``classify_sliced``'s
-#: ``checkpoint_dir``): a save writes 10-260 MB at N = 6400-10^4, a scan
-#: there takes 5-45 min (docs/results/analysis.md, "Checkpoint of a sliced scan")
+#: ``checkpoint_dir``): a save writes 1-15 MB at N = 6400-10^4 (no Ritz
+#: vector: a resume computes the buffer's slices again), a scan there takes
+#: 5-45 min (docs/results/analysis.md, "Checkpoint of a sliced scan")
 CHECKPOINT_SECONDS = 300.0
 
 
@@ -133,7 +136,11 @@ class _Buffer:
     """The Ritz pairs of the slices in memory: values, residuals, vectors, Q^T W Q
     (skew), ||W q_i||, and the norms of the overlaps Q_i^T Q_j of different
     slices. W Q itself is not kept (as many columns of n as Q): a strip's
-    W Q_I is computed where it is needed, column for column the same numbers."""
+    W Q_I is computed where it is needed, column for column the same numbers.
+
+    Pickled (a scan's checkpoint) without Q, its only array of n rows: the
+    sha256 of Q's bytes and its shape are saved instead, and a resumed scan
+    computes the buffer's slices again (:func:`_restore_ritz`)."""
 
     def __init__(self, n):
         self.th = np.zeros(0)
@@ -146,6 +153,12 @@ class _Buffer:
         self.radii = {}         # slice id -> Kahan radius
         self.cross = {}         # (i, j), i < j -> ||Q_i^T Q_j||_F
         self.edges = []         # (id, lo, hi)
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        if self.Q is not None:      # (None: a loaded state, its vectors not restored)
+            state.update(Q=None, q_shape=self.Q.shape, q_sha=_sha(self.Q))
+        return state
 
     def add(self, sl, sid):
         C = self.Q.T @ sl.WQ
@@ -173,6 +186,10 @@ class _Buffer:
         self.Q = self.Q[:, keep]
         self.Wn = self.Wn[np.ix_(keep, keep)]
         self.edges = self.edges[len(gone):]
+        ids = {e[0] for e in self.edges}
+        self.phis = {i: v for i, v in self.phis.items() if i in ids}
+        self.radii = {i: v for i, v in self.radii.items() if i in ids}
+        self.cross = {ij: v for ij, v in self.cross.items() if ij[0] in ids and ij[1] in ids}
 
     @property
     def radius(self):
@@ -195,6 +212,46 @@ class _Buffer:
         tot = sum(self.phis[i] ** 2 for i in used)
         tot += 2 * sum(self.cross[(i, j)] ** 2 for i in used for j in used if i < j)
         return math.sqrt(tot) * _INFLATE
+
+
+def _sha(a):
+    """sha256 of an array's bytes (C order), hex."""
+    return hashlib.sha256(np.ascontiguousarray(a).view(np.uint8)).hexdigest()
+
+
+def _restore_ritz(sc, S, W, slice_size, normS, normW):
+    """Put the Ritz vectors back into a scan loaded from its checkpoint.
+
+    The buffer's slices are computed again from the position saved before the
+    first of them (``sc.starts``), with statistics of their own (the scan's
+    are those of the uninterrupted scan already). The slicing is
+    deterministic, so they are the slices the scan had: checked by their
+    edges, their Ritz values and the sha256 of the vectors. Returns False
+    where they are not (the scan then starts from the beginning).
+    """
+    buf = sc.buf
+    shape, sha = buf.__dict__.pop("q_shape", None), buf.__dict__.pop("q_sha", None)
+    if shape is None or (buf.edges and buf.edges[0][0] not in sc.starts):
+        return False
+    Qs, th = [np.zeros((shape[0], 0))], [np.zeros(0)]
+    if buf.edges:
+        gen = _slices(S, W, slice_size, normS, normW,
+                      copy.deepcopy(sc.starts[buf.edges[0][0]]), SlicedStats())
+        try:
+            for _, lo, hi in buf.edges:
+                sl = next(gen)
+                if (sl.lo, sl.hi) != (lo, hi):
+                    return False
+                Qs.append(sl.Q)
+                th.append(sl.theta)
+        except (StopIteration, _Fail):
+            return False
+    Q = np.hstack(Qs)
+    if Q.shape != tuple(shape) or _sha(Q) != sha or \
+            np.concatenate(th).tobytes() != buf.th.tobytes():
+        return False
+    buf.Q = Q
+    return True
 
 
 # --------------------------------------------------------------------------- the verdict
@@ -255,6 +312,7 @@ class _Scan:
         self.margins, self.complex_margins, self.undecided_margins = [], [], []
         self.strips = {}
         self.sid = 0                    # slices added
+        self.starts = {}                # slice id -> the position before it (buffered ones)
         self.t_slices = 0.0             # seconds in the slicing
         self.t_scan = 0.0               # seconds in the scan, before a resume
 
@@ -306,10 +364,14 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         ``timing`` adds the times before the resume). Saving a finished
         verdict removes every ``sliced-*.scan.pkl`` of the folder (a folder
         serves one scan at a time; another scan's state is stale). The state
-        is the buffer's Ritz vectors, 8 n bytes each, and little else; the
-        buffer grows while no boundary can be certified: measured at N =
-        10^4 (n = 28 800, ||W|| = 18.3) 12.2 MB after 2 slices, 74.6 MB
-        after 8; the saved verdict 16 n bytes.
+        holds no vector of n: the buffer's Ritz vectors are computed again on
+        resume from the position saved before their first slice (checked
+        against the saved sha256 of their bytes; where they differ, the scan
+        starts over), which costs about the time of the buffer's slices. It
+        holds the buffer's k x k coupling matrix (8 k^2 bytes, k the Ritz
+        vectors in the buffer): measured at N = 10^4 (n = 28 800) 2.2 MB
+        with 514 vectors in the buffer (restored in 32 s); the saved verdict
+        16 n bytes.
     checkpoint_seconds : float, optional
         Seconds between two saves (default :data:`CHECKPOINT_SECONDS`, 300; 0:
         after every slice).
@@ -384,8 +446,10 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     reason = ""
     scanned_below = math.inf
     sc = None
-    if saved is not None:       # a saved scan: its state, statistics included
-        sc = saved
+    t_restore = time.perf_counter()
+    if saved is not None and _restore_ritz(saved, S, W, slice_size, normS, normW):
+        sc = saved              # a saved scan: its state, statistics included
+        sc.t_slices += time.perf_counter() - t_restore     # (slices computed again)
         for f in dataclasses.fields(sc.stats):
             setattr(stats, f.name, getattr(sc.stats, f.name))
         sc.stats = stats
@@ -438,6 +502,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         while not final:
             buf = sc.buf
             ts = time.perf_counter()
+            sc.starts[sc.sid] = copy.deepcopy(sc.pos)
             sl = next(gen)
             sc.t_slices += time.perf_counter() - ts
             buf.add(sl, sc.sid)
@@ -483,6 +548,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
                     before = buf.th.size
                     buf.drop_below(low)
                     sc.dropped += before - buf.th.size
+                    sc.starts = {e[0]: sc.starts[e[0]] for e in buf.edges}
             if ckpt is not None and not final and \
                     time.monotonic() - t_saved >= checkpoint_seconds:
                 t_now = time.perf_counter()

@@ -440,8 +440,8 @@ def test_a_scan_killed_after_any_slice_resumes_to_the_same_bits(tmp_path, pairs,
     margins, eigenvalues and statistics of the uninterrupted scan, bit for
     bit; a second call returns the saved verdict without scanning; the scan's
     state is removed when the verdict is saved; a different matrix (one bit
-    of one entry) does not find it. The state holds the buffer's Ritz vectors
-    and no other array of n rows."""
+    of one entry) does not find it. The state holds no array of n rows (the
+    buffer's Ritz vectors are computed again on resume)."""
     K, mass = planted(n=150, pairs=pairs, seed=11)
     ref_st = SlicedStats()
     ref = classify_sliced(K, mass, slice_size=20, stats=ref_st, stop_at_complex=stop)
@@ -464,11 +464,13 @@ def test_a_scan_killed_after_any_slice_resumes_to_the_same_bits(tmp_path, pairs,
         # how far the saved scan had come: the count after slice k - 1
         (path, done, n_saved, _), = saved_scans(folder)
         assert (done, n_saved) == (seen[-2], K.shape[0]) and path.endswith(".scan.pkl")
-        # the state keeps one array of n rows, the Ritz vectors (W Q is not saved)
+        # the state keeps no array of n rows: neither W Q nor the Ritz vectors
+        # (computed again on resume)
         with open(path, "rb") as fh:
             _, sc = pickle.load(fh)
-        assert [name for name, v in vars(sc.buf).items()
-                if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[0] == K.shape[0]] == ["Q"]
+        assert sc.buf.Q is None and sc.buf.q_shape[0] == K.shape[0]
+        assert not [name for obj in (sc, sc.buf) for name, v in vars(obj).items()
+                    if isinstance(v, np.ndarray) and v.ndim == 2 and v.shape[0] == K.shape[0]]
         more, st = [], SlicedStats()
         got = classify_sliced(K, mass, slice_size=20, stats=st, stop_at_complex=stop,
                               progress=lambda done, n: more.append(done),
@@ -489,6 +491,46 @@ def test_a_scan_killed_after_any_slice_resumes_to_the_same_bits(tmp_path, pairs,
                     progress=lambda done, n: seen2.append(done))
     assert len(seen2) > 0
     assert len(list(folder.iterdir())) == 2
+
+
+def test_a_scan_whose_slices_do_not_come_again_starts_over(tmp_path):
+    """A resumed scan computes its buffer's slices again from the saved
+    position and checks them against the saved hash of the Ritz vectors: a
+    state whose hash, or whose position, does not match what comes out is not
+    resumed but scanned from the beginning, to the same bits. (A window of
+    40 ||W|| keeps three slices in the buffer at the kill.)"""
+    K, mass = planted(n=150, seed=11)
+    ref_st = SlicedStats()
+    ref = classify_sliced(K, mass, slice_size=20, stats=ref_st, window=40.0)
+    want = _fields(ref, ref_st)
+    for spoil in ("hash", "position", None):
+        folder = tmp_path / str(spoil)
+        seen = []
+
+        def kill(done, n):
+            seen.append(done)
+            if len(seen) == 4:
+                raise _Killed
+
+        with pytest.raises(_Killed):
+            classify_sliced(K, mass, slice_size=20, progress=kill, checkpoint_dir=folder,
+                            checkpoint_seconds=0, window=40.0)
+        (path, *_), = saved_scans(folder)
+        with open(path, "rb") as fh:
+            key, sc = pickle.load(fh)
+        assert len(sc.buf.edges) == 3 and set(sc.starts) == {e[0] for e in sc.buf.edges}
+        if spoil == "hash":
+            sc.buf.q_sha = "0" * 64
+        elif spoil == "position":
+            sc.starts[sc.buf.edges[0][0]].rng = np.random.default_rng(1)
+        with open(path, "wb") as fh:
+            pickle.dump((key, sc), fh)
+        more, st = [], SlicedStats()
+        got = classify_sliced(K, mass, slice_size=20, stats=st, checkpoint_dir=folder,
+                              checkpoint_seconds=0, progress=lambda d, n: more.append(d),
+                              window=40.0)
+        assert _fields(got, st) == want
+        assert len(more) == (ref_st.slices - 3 if spoil is None else ref_st.slices)
 
 
 def test_a_verdict_saved_under_another_strip_limit_is_not_taken(tmp_path, monkeypatch):

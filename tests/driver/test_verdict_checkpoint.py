@@ -9,6 +9,7 @@ size (as in test_ramp.py), in slices of 12 eigenvalues (a few per scan); a kill 
 slicing, which leaves the files a SIGKILL at that moment would (every file is
 written atomically)."""
 import os
+import pickle
 
 import numpy as np
 import pytest
@@ -81,13 +82,19 @@ def test_a_ramp_killed_inside_a_scan_resumes_it_bitwise(sliced_refs, tmp_path, m
         stages.ramp(cfg, str(tmp_path), quiet=True)
     saved = os.listdir(tmp_path / "ramp" / "verdicts")
     assert sum(f.endswith(".scan.pkl") for f in saved) == 1, saved
+    # the slices of the saved buffer, computed again on resume (no vectors saved)
+    state, = [f for f in saved if f.endswith(".scan.pkl")]
+    with open(tmp_path / "ramp" / "verdicts" / state, "rb") as fh:
+        again = len(pickle.load(fh)[1].buf.edges)
+    assert again >= 1
     resumed = _CountScans()
     monkeypatch.setattr(sliced, "_slices", resumed)
     res = stages.ramp(cfg, str(tmp_path), quiet=True, resume=True)
     assert res.status == "complete"
     assert compare_ramp(ref, res.h5) == []
     # the killed scan went on from its last saved slice, not from the start
-    assert killer.slices - 1 + resumed.slices == ref_count.slices
+    # (the buffer's slices computed again besides)
+    assert killer.slices - 1 + resumed.slices == ref_count.slices + again
     assert not os.path.exists(tmp_path / "ramp" / "verdicts")
 
 
