@@ -24,6 +24,7 @@ from remote_trigger.pywrap.jobs.ensemble import config as ec
 from remote_trigger.pywrap.jobs.ensemble import job as en
 from remote_trigger.pywrap.jobs.ensemble import report as er
 from remote_trigger.pywrap.jobs.ensemble import task as et
+from remote_trigger.pywrap.jobs.ensemble.status import ensemble_status
 
 CLI = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
 
@@ -315,6 +316,8 @@ def test_a_packing_failed_in_a_ramp_keeps_its_equilibria_and_can_be_continued(tm
     # --resume --retry-failed continues it
     en.run_ensemble(cfg, retry, comm=MPI.COMM_SELF, speak=False, resume=True)
     assert er.read_table(os.path.join(retry, en.TABLE))["status"][0] == "incomplete"
+    line, = [s for s in ensemble_status(retry) if s.startswith("N16_s1:")]
+    assert "scratch disk went away" in line and "--retry-failed" in line
     with pytest.raises(ConfigError, match="resume"):
         en.run_ensemble(cfg, retry, comm=MPI.COMM_SELF, speak=False, retry_failed=True)
     en.run_ensemble(cfg, retry, comm=MPI.COMM_SELF, speak=False, resume=True,

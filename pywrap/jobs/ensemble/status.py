@@ -91,7 +91,7 @@ def ensemble_status(out):
     list of str
         A header (packings finished / started / not started), then per
         packing its key and state: ``finished`` with its F_x^c(mu0)
-        bracket (or its error); ``relaxing`` (no relaxed packing yet; since
+        bracket (or its error, and how to run it again); ``relaxing`` (no relaxed packing yet; since
         when, from the time of its ``packing.data``); or
         relaxed (phi) with each ramp finished (its bracket), running (its
         points so far and the certified bracket they give) or not started,
@@ -105,7 +105,8 @@ def ensemble_status(out):
         names ``--status`` and the folder).
     """
     from remote_trigger.pywrap.jobs.ensemble.combine import read_run
-    from remote_trigger.pywrap.jobs.ensemble.task import PROGRESS, _load_progress, load_task
+    from remote_trigger.pywrap.jobs.ensemble.task import (
+        PROGRESS, _load_progress, load_task, packing_failed)
 
     out = os.path.abspath(out)
     _, cfg = read_run(out, flag="--status")
@@ -118,10 +119,14 @@ def ensemble_status(out):
             counts["finished"] += 1
             d = res.get("default", {})
             o = ((d.get("ramps") or {}).get("mu0") or {}).get(key0, {})
+            fr = (res.get("frictional") or {}).get("error")
             lines.append(f"{t['key']}: finished, F_x^c(mu0) in "
                          f"[{o.get('F_x_c_low', math.nan):.6g}, "
                          f"{o.get('F_x_c_high', math.nan):.6g}]"
-                         + (f"; error: {d['error']}" if d.get("error") else ""))
+                         + (f"; error: {d['error']}" if d.get("error") else "")
+                         + (f"; frictional part's error: {fr}" if fr else "")
+                         + (" (--resume --retry-failed runs it again)"
+                            if packing_failed(res) else ""))
             continue
         prog = _load_progress(folder) if os.path.isfile(os.path.join(folder, PROGRESS)) \
             else None
