@@ -6,15 +6,17 @@ its scan (the ``_Scan`` of that module) as ``D/sliced-<key>.scan.pkl`` and its
 finished verdict as ``D/sliced-<key>.done.pkl``, each a pickle of
 ``(key, object)`` written atomically; ``key`` (:func:`scan_key`) is a
 sha256 of the scaled matrix to the last bit and of the options, so a call
-only ever finds its own state.
+only ever finds its own state. A saved scan holds no Ritz vector: a resume
+computes its buffer's slices again (:func:`restore_ritz`).
 """
+import copy
 import hashlib
 import os
 import pickle
 
 import numpy as np
 
-__all__ = ["CHECKPOINT_FORMAT", "scan_key", "load", "save", "saved_scans"]
+__all__ = ["CHECKPOINT_FORMAT", "scan_key", "load", "save", "saved_scans", "sha", "restore_ritz"]
 
 #: checkpoint format; a file of another format (or code) is not resumed
 CHECKPOINT_FORMAT = 3
@@ -93,3 +95,52 @@ def save(path, key, obj):
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:
             pickle.dump((key, obj), fh, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def sha(a):
+    """sha256 of an array's bytes (C order), hex: what a saved scan keeps of its
+    Ritz vectors."""
+    return hashlib.sha256(np.ascontiguousarray(a).view(np.uint8)).hexdigest()
+
+
+def restore_ritz(sc, slices):
+    """Put the Ritz vectors back into a scan loaded from its checkpoint.
+
+    The saved buffer (``sliced._Buffer``) has no vectors, only their shape and
+    :func:`sha`. Its slices are computed again from the position saved before
+    the first of them (``sc.starts``) by ``slices(position)``, the slicing's
+    generator with statistics of its own (the scan's are those of the
+    uninterrupted scan already). The slicing is deterministic, so they are
+    the slices the scan had: checked by their edges, their Ritz values and
+    the sha256 of the vectors.
+
+    Returns
+    -------
+    bool
+        False where they are not the saved ones (another BLAS thread count,
+        a damaged state): the scan then starts from the beginning.
+    """
+    from remote_trigger.analysis.stability.slicing import _Fail
+
+    buf = sc.buf
+    shape, digest = buf.__dict__.pop("q_shape", None), buf.__dict__.pop("q_sha", None)
+    if shape is None or (buf.edges and buf.edges[0][0] not in sc.starts):
+        return False
+    Qs, th = [np.zeros((shape[0], 0))], [np.zeros(0)]
+    if buf.edges:
+        gen = slices(copy.deepcopy(sc.starts[buf.edges[0][0]]))
+        try:
+            for _, lo, hi in buf.edges:
+                sl = next(gen)
+                if (sl.lo, sl.hi) != (lo, hi):
+                    return False
+                Qs.append(sl.Q)
+                th.append(sl.theta)
+        except (StopIteration, _Fail):
+            return False
+    Q = np.hstack(Qs)
+    if Q.shape != tuple(shape) or sha(Q) != digest or \
+            np.concatenate(th).tobytes() != buf.th.tobytes():
+        return False
+    buf.Q = Q
+    return True

@@ -96,7 +96,6 @@ from __future__ import annotations
 import contextlib
 import copy
 import dataclasses
-import hashlib
 import math
 import os
 import time
@@ -125,7 +124,7 @@ _MAX_STRIP = 24
 # 124 -> 274 s of CPU (docs/results/analysis.md)
 _SLICE_SIZE = 60
 #: seconds between two saves of a scan's state (``classify_sliced``'s
-#: ``checkpoint_dir``): a save writes 1-15 MB at N = 6400-10^4 (no Ritz
+#: ``checkpoint_dir``): a save writes 1-17 MB at N = 6400-10^4 (no Ritz
 #: vector: a resume computes the buffer's slices again), a scan there takes
 #: 5-45 min (docs/results/analysis.md, "Checkpoint of a sliced scan")
 CHECKPOINT_SECONDS = 300.0
@@ -140,7 +139,7 @@ class _Buffer:
 
     Pickled (a scan's checkpoint) without Q, its only array of n rows: the
     sha256 of Q's bytes and its shape are saved instead, and a resumed scan
-    computes the buffer's slices again (:func:`_restore_ritz`)."""
+    computes the buffer's slices again (:func:`.scan_state.restore_ritz`)."""
 
     def __init__(self, n):
         self.th = np.zeros(0)
@@ -157,7 +156,7 @@ class _Buffer:
     def __getstate__(self):
         state = self.__dict__.copy()
         if self.Q is not None:      # (None: a loaded state, its vectors not restored)
-            state.update(Q=None, q_shape=self.Q.shape, q_sha=_sha(self.Q))
+            state.update(Q=None, q_shape=self.Q.shape, q_sha=scan_state.sha(self.Q))
         return state
 
     def add(self, sl, sid):
@@ -212,46 +211,6 @@ class _Buffer:
         tot = sum(self.phis[i] ** 2 for i in used)
         tot += 2 * sum(self.cross[(i, j)] ** 2 for i in used for j in used if i < j)
         return math.sqrt(tot) * _INFLATE
-
-
-def _sha(a):
-    """sha256 of an array's bytes (C order), hex."""
-    return hashlib.sha256(np.ascontiguousarray(a).view(np.uint8)).hexdigest()
-
-
-def _restore_ritz(sc, S, W, slice_size, normS, normW):
-    """Put the Ritz vectors back into a scan loaded from its checkpoint.
-
-    The buffer's slices are computed again from the position saved before the
-    first of them (``sc.starts``), with statistics of their own (the scan's
-    are those of the uninterrupted scan already). The slicing is
-    deterministic, so they are the slices the scan had: checked by their
-    edges, their Ritz values and the sha256 of the vectors. Returns False
-    where they are not (the scan then starts from the beginning).
-    """
-    buf = sc.buf
-    shape, sha = buf.__dict__.pop("q_shape", None), buf.__dict__.pop("q_sha", None)
-    if shape is None or (buf.edges and buf.edges[0][0] not in sc.starts):
-        return False
-    Qs, th = [np.zeros((shape[0], 0))], [np.zeros(0)]
-    if buf.edges:
-        gen = _slices(S, W, slice_size, normS, normW,
-                      copy.deepcopy(sc.starts[buf.edges[0][0]]), SlicedStats())
-        try:
-            for _, lo, hi in buf.edges:
-                sl = next(gen)
-                if (sl.lo, sl.hi) != (lo, hi):
-                    return False
-                Qs.append(sl.Q)
-                th.append(sl.theta)
-        except (StopIteration, _Fail):
-            return False
-    Q = np.hstack(Qs)
-    if Q.shape != tuple(shape) or _sha(Q) != sha or \
-            np.concatenate(th).tobytes() != buf.th.tobytes():
-        return False
-    buf.Q = Q
-    return True
 
 
 # --------------------------------------------------------------------------- the verdict
@@ -370,8 +329,10 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         starts over), which costs about the time of the buffer's slices. It
         holds the buffer's k x k coupling matrix (8 k^2 bytes, k the Ritz
         vectors in the buffer): measured at N = 10^4 (n = 28 800) 2.2 MB
-        with 514 vectors in the buffer (restored in 32 s); the saved verdict
-        16 n bytes.
+        with 514 vectors (restored in 32 s), 16.4 MB with 1421 near F_x^c
+        (338 MB as vectors); the saved verdict 16 n bytes. Under another
+        BLAS thread count than the saved scan's the vectors differ in their
+        last bits and the scan starts over.
     checkpoint_seconds : float, optional
         Seconds between two saves (default :data:`CHECKPOINT_SECONDS`, 300; 0:
         after every slice).
@@ -447,7 +408,8 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     scanned_below = math.inf
     sc = None
     t_restore = time.perf_counter()
-    if saved is not None and _restore_ritz(saved, S, W, slice_size, normS, normW):
+    if saved is not None and scan_state.restore_ritz(
+            saved, lambda pos: _slices(S, W, slice_size, normS, normW, pos, SlicedStats())):
         sc = saved              # a saved scan: its state, statistics included
         sc.t_slices += time.perf_counter() - t_restore     # (slices computed again)
         for f in dataclasses.fields(sc.stats):
