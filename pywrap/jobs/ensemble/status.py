@@ -91,8 +91,9 @@ def ensemble_status(out):
     list of str
         A header (packings finished / started / not started), then per
         packing its key and state: ``finished`` with its F_x^c(mu0)
-        bracket (or its error, and how to run it again); ``relaxing`` (no relaxed packing yet; since
-        when, from the time of its ``packing.data``); or
+        bracket (or its error, and how to run it again); ``relaxing`` (no
+        relaxed packing yet; since when, from the time of its
+        ``packing.data``); or
         relaxed (phi) with each ramp finished (its bracket), running (its
         points so far and the certified bracket they give) or not started,
         and a sliced verdict in progress with its count of eigenvalues at

@@ -523,7 +523,7 @@ def saddle_escape_of(result):
 def packing_failed(result):
     """True if a finished packing's result records an error (of the default
     protocol or of the frictional part): what ``--retry-failed`` runs again."""
-    return bool(result["default"].get("error")
+    return bool((result.get("default") or {}).get("error")
                 or (result.get("frictional") or {}).get("error"))
 
 
