@@ -124,9 +124,9 @@ _MAX_STRIP = 24
 # 124 -> 274 s of CPU (docs/results/analysis.md)
 _SLICE_SIZE = 60
 #: seconds between two saves of a scan's state (``classify_sliced``'s
-#: ``checkpoint_dir``): a save writes 1-18 MB at N = 6400-10^4 (no Ritz
-#: vector: a resume computes the buffer's slices again), a scan there takes
-#: 5-45 min (docs/results/analysis.md, "Checkpoint of a sliced scan")
+#: ``checkpoint_dir``): a save writes 2.2-16.4 MB at N = 10^4 (measured; no
+#: Ritz vector: a resume computes the buffer's slices again), a scan there
+#: takes 5-45 min (docs/results/analysis.md, "Checkpoint of a sliced scan")
 CHECKPOINT_SECONDS = 300.0
 
 
