@@ -135,6 +135,13 @@ def _packing_of(t):
     return {k: v for k, v in t.items() if k not in ("ramp", "final")}
 
 
+def _check_retry(resume, retry_failed):
+    """Refuse ``retry_failed`` without ``resume`` (ConfigError)."""
+    if retry_failed and not resume:
+        raise ConfigError("--retry-failed runs the failed packings of a run again: "
+                          "give --resume too")
+
+
 def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=False):
     """The whole ensemble; every rank of ``comm`` calls it.
 
@@ -178,9 +185,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
     comm = comm or MPI.COMM_WORLD
     rank, size = comm.Get_rank(), comm.Get_size()
     out = os.path.abspath(out)
-    if retry_failed and not resume:
-        raise ConfigError("retry_failed runs the failed packings of a run again: it needs "
-                          "resume (--resume)")
+    _check_retry(resume, retry_failed)
     t_start = time.perf_counter()
 
     def say(msg):
@@ -405,9 +410,7 @@ def main(args):
                               f"drop {given[0]}")
         print(f"ensemble: {combine_runs(args.combine, args.out, speak=not args.quiet)}")
         return 0
-    if args.retry_failed and not args.resume:
-        raise ConfigError("--retry-failed runs the failed packings of a run again: "
-                          "give --resume too")
+    _check_retry(args.resume, args.retry_failed)      # (before a relaunch under mpirun)
     cfg = config_from_args(args)
     from mpi4py import MPI
 
