@@ -145,6 +145,15 @@ def box_width(n, phi=0.82, radii=RADII, dim=2):
     return math.sqrt(n * math.pi * (radii[0] ** 2 + radii[1] ** 2) / 2.0 / phi)
 
 
+def _smallest_n(phi, radii, dim):
+    """'the smallest n that works at phi = ... is ...' for :func:`generate`'s errors."""
+    for m in range(6, 10 ** 6, 2):
+        width = box_width(m, phi, radii, dim)
+        if width > 4.0 * radii[1] and top_count(width, radii, dim) < m - 2:
+            return f"the smallest n that works at phi = {phi:g} is {m}"
+    return "no n up to 10^6 works at this phi"
+
+
 def top_count(width, radii=RADII, dim=2):
     """Number of top disks for a box of width L.
 
@@ -231,12 +240,14 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     n_top = top_count(width, (r1, r2), dim)
     if n_top >= n - 2:
         raise ValueError(f"n = {n} is too small for a top {'layer' if dim == 3 else 'line'} "
-                         f"of {n_top} {'spheres' if dim == 3 else 'disks'}")
+                         f"of {n_top} {'spheres' if dim == 3 else 'disks'} "
+                         f"({_smallest_n(phi, (r1, r2), dim)})")
     if width <= 4.0 * r2:
         # the pair style refuses a contact with two periodic images of one partner
         raise ValueError(f"n = {n} is too small: the periodic width L = {width:.4g} is not "
                          f"above 4 R2 = {4.0 * r2:g}, so a {'sphere' if dim == 3 else 'disk'} "
-                         f"could touch two periodic images of another (take a larger n)")
+                         f"could touch two periodic images of another "
+                         f"({_smallest_n(phi, (r1, r2), dim)})")
     n_bulk_each = n // 2 - n_top // 2
     bulk_r = np.array([r2] * n_bulk_each + [r1] * n_bulk_each)
     if dim == 2:

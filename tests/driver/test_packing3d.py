@@ -1,4 +1,6 @@
 """``generate --dim 3``: the seeded sphere packing, its data file, read by LAMMPS (in.relax3d)."""
+import re
+
 import numpy as np
 import pytest
 
@@ -121,3 +123,17 @@ def test_generate_bad_input(tmp_path, capsys, argv, needle):
 def test_bad_arguments(kw, msg):
     with pytest.raises(ValueError, match=msg):
         generate(**kw)
+
+
+@pytest.mark.parametrize("kw", [dict(n=40, dim=3), dict(n=6, dim=2, phi=0.9),
+                                dict(n=6, dim=3)])
+def test_too_small_n_names_the_smallest_that_works(kw):
+    """The error names the smallest n: it generates, the even n below it does not."""
+    with pytest.raises(ValueError) as exc:
+        generate(**kw)
+    m = re.search(r"the smallest n that works at phi = \S+ is (\d+)\)$", str(exc.value))
+    assert m, str(exc.value)
+    smallest = int(m.group(1))
+    assert generate(**dict(kw, n=smallest)).n == smallest
+    with pytest.raises(ValueError, match=f"n = {smallest - 2} is too small"):
+        generate(**dict(kw, n=smallest - 2))
