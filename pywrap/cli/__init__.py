@@ -126,7 +126,8 @@ def unrecognized(parser, command, extra):
     unrecognized arguments: --out p (did you mean --output?) (see
     remote-trigger generate --help)``): an option close to one of the
     subcommand's own (:func:`difflib.get_close_matches`) is named as the
-    likely meant one.
+    likely meant one; a stray word that is a file, for a subcommand that reads
+    its start file from ``--datafile``, as ``--datafile WORD``.
     """
     import difflib
 
@@ -136,6 +137,8 @@ def unrecognized(parser, command, extra):
     for word in extra:
         if word.startswith("--"):
             hints += difflib.get_close_matches(word.split("=", 1)[0], known, n=1)
+        elif "--datafile" in known and os.path.isfile(word):
+            hints.append(f"--datafile {word}")
     hint = f" (did you mean {', '.join(dict.fromkeys(hints))}?)" if hints else ""
     sub.error(f"unrecognized arguments: {' '.join(extra)}{hint}")
 

@@ -168,6 +168,20 @@ def test_unknown_words_name_the_subcommand(capsys, argv, needles):
     assert_one_line_error(capsys.readouterr().err, *needles)
 
 
+def test_a_start_file_given_without_its_option(capsys, tmp_path):
+    """``relax packing.data`` (a file where --datafile is meant) names
+    --datafile with the file; a stray word that is no file gets no hint."""
+    data = tmp_path / "p.data"
+    data.write_text("")
+    for argv, needle in ((["relax", str(data)], f"(did you mean --datafile {data}?)"),
+                         (["relax", str(tmp_path / "none.data")], "none.data (see")):
+        with pytest.raises(SystemExit) as exc:
+            cli.main(argv)
+        assert exc.value.code == 2
+        assert_one_line_error(capsys.readouterr().err, "remote-trigger relax: error", needle)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.data"]
+
+
 @pytest.mark.parametrize("runs,bad", [("C", "'C'"), ("xyz", "'x', 'y', 'z'"), ("abd", "'d'")])
 def test_unknown_run_letters(capsys, relaxed, runs, bad):
     with pytest.raises(SystemExit) as exc:
