@@ -124,8 +124,8 @@ def unrecognized(parser, command, extra):
 
     The one line names the subcommand (``remote-trigger generate: error:
     unrecognized arguments: --out p (did you mean --output?) (see
-    remote-trigger generate --help)``): an option close to one of the
-    subcommand's own (:func:`difflib.get_close_matches`) is named as the
+    remote-trigger generate --help)``): an option (``--x`` or ``-x``, not a
+    negative number) close to one of the subcommand's own (:func:`difflib.get_close_matches`) is named as the
     likely meant one; a stray word that is a file, for a subcommand that reads
     its start file from ``--datafile``, as ``--datafile WORD``.
     """
@@ -135,7 +135,7 @@ def unrecognized(parser, command, extra):
     known = [o for a in sub._actions for o in a.option_strings if o.startswith("--")]
     hints = []
     for word in extra:
-        if word.startswith("--"):
+        if word.startswith("-") and not _NEGATIVE.match(word):
             hints += difflib.get_close_matches(word.split("=", 1)[0], known, n=1)
         elif "--datafile" in known and os.path.isfile(word):
             hints.append(f"--datafile {word}")

@@ -157,7 +157,10 @@ def test_options_are_taken_by_their_whole_name_only(capsys, tmp_path):
     (["ramp", "--datafile", "x", "--dFx", "1"], ["remote-trigger ramp: error",
                                                  "--dFx 1 (did you mean --dF-x?)"]),
     (["generate", "--n", "20", "more"], ["remote-trigger generate: error",
-                                         "unrecognized arguments: more (see"])])
+                                         "unrecognized arguments: more (see"]),
+    # one dash where two are meant
+    (["generate", "-n", "20"], ["remote-trigger generate: error",
+                                "unrecognized arguments: -n 20 (did you mean --n?)"])])
 def test_unknown_words_name_the_subcommand(capsys, argv, needles):
     """A word the subcommand does not take is refused by that subcommand,
     with the closest of its options where one is close (none for a stray
