@@ -14,7 +14,8 @@ Usage::
     python benchmarks/bench_pair.py --quick         # N = 10^4 only, 1 repeat
     python benchmarks/bench_pair.py --json out.json # also save every measurement
     python benchmarks/bench_pair.py --plugin PATH   # time another build of the plugin
-                                                    # (from a venv without the project)
+                                                    # (LAMMPS then loads no plugin folder
+                                                    # at start-up, only PATH)
 
 The packing is generated on first use (seeded, about 1 min) and cached under
 ``build/bench/`` next to this project; ``--regen`` rebuilds it.  The 10^4-disk
@@ -87,8 +88,8 @@ BASE_N = 10000
 #: 2 (disks) or 3 (spheres, --dim 3)
 DIM = 2
 
-#: plugin file to load explicitly (--plugin), for measuring a prototype build
-#: in an environment where the project is not installed; None = auto-load
+#: plugin file to load instead of the installed one (--plugin), for measuring a
+#: prototype build; None = the plugin LAMMPS loads at start-up
 PLUGIN = None
 
 
@@ -520,8 +521,9 @@ def main(argv=None):
     p.add_argument("--styles", default="ours,stock")
     p.add_argument("--quick", action="store_true", help="N = 10^4 only, 1 repeat")
     p.add_argument("--json", help="write all measurements to this file")
-    p.add_argument("--plugin", help="load this mindlin_smoothplugin.so explicitly (to time a "
-                   "prototype build from a Python environment without the project installed)")
+    p.add_argument("--plugin", help="load this mindlin_smoothplugin.so instead of the installed "
+                   "plugin (to time a prototype build; LAMMPS loads no plugin folder at start-up "
+                   "then, and a run where it did is refused)")
     # worker mode (internal)
     p.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--data", help=argparse.SUPPRESS)
