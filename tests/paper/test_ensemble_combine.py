@@ -121,6 +121,33 @@ def test_packings_with_and_without_the_saddle_escape_are_not_mixed(runs, tmp_pat
     assert not os.path.exists(os.path.join(c, "ensemble.md"))
 
 
+def test_packings_of_one_n_relaxed_by_two_clearance_tests_are_not_mixed(runs, tmp_path):
+    """The reference packings record no clearance test (relaxed before 'local'
+    existed: 'all'); a packing of the same N recorded 'local' is not combined
+    with them, one of another N is."""
+    a, b = runs
+    c = _run_folder(tmp_path / "c", 16, [3], [])
+    with open(os.path.join(REF, "N16_s1.json")) as fh:
+        d = json.load(fh)
+    d["task"] = dict(d["task"], key="N16_s3", seed=3)
+    d["result"] = dict(d["result"], seed=3)
+    d["result"]["default"]["clearance_rule"] = "local"
+    (tmp_path / "c" / "tasks" / "N16_s3.json").write_text(json.dumps(d))
+    with pytest.raises(ConfigError, match=r"packing N16_s1 \('.*a'\) was relaxed with the "
+                                          r"clearance test 'all', N16_s3 \('.*c'\) with "
+                                          r"'local'"):
+        combine_runs([a, c], str(tmp_path / "o1"))
+    assert not (tmp_path / "o1").exists()
+    _record_rule = os.path.join(b, "tasks", "N20_s1.json")
+    with open(_record_rule) as fh:
+        e = json.load(fh)
+    e["result"]["default"]["clearance_rule"] = "local"
+    with open(_record_rule, "w") as fh:
+        json.dump(e, fh)
+    combine_runs([a, b], str(tmp_path / "o2"), speak=False)       # N = 20 alone is 'local'
+    assert (tmp_path / "o2" / "ensemble.md").is_file()
+
+
 RUNS = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "results", "runs")
 
 

@@ -21,6 +21,15 @@ __all__ = ["collect_runs"]
 _FREE = ("n", "seeds", "np", "saddle_escape")
 
 
+def clearance_rule_of(result):
+    """The clearance test ('all' or 'local') a finished packing's relaxation used.
+
+    A result without the record was relaxed before the test ``'local'``
+    existed, by ``'all'``.
+    """
+    return (result.get("default") or {}).get("clearance_rule") or "all"
+
+
 def read_run(path, flag="--combine"):
     """(config dict, EnsembleConfig) of the ensemble folder ``path``; errors name
     ``flag`` and the folder."""
@@ -69,7 +78,8 @@ def collect_runs(dirs, out, speak=True):
     ConfigError
         Fewer than two folders; a folder without a readable ``config.json``;
         configurations that differ in another key (named, with both values);
-        packings run with and without the saddle escape (two named); a
+        packings run with and without the saddle escape (two named); packings
+        of one N relaxed by different clearance tests (two named); a
         packing finished in two folders; no finished packing at all; an
         ``out`` that is a file or not empty. Nothing is written then.
     """
@@ -98,7 +108,7 @@ def collect_runs(dirs, out, speak=True):
                 raise ConfigError(f"--combine: packing {t['key']} is finished in both "
                                   f"{found[t['key']][0]!r} and {d!r}")
             else:
-                found[t["key"]] = (d, t, saddle_escape_of(res))
+                found[t["key"]] = (d, t, saddle_escape_of(res), clearance_rule_of(res))
     if not found:
         raise ConfigError("--combine: no finished packing in " + ", ".join(map(repr, dirs)))
     # a packing without the record (None) ran before the escape existed: False
@@ -110,9 +120,18 @@ def collect_runs(dirs, out, speak=True):
                           f"saddle_escape = True, {b} ({found[b][0]!r}) without it "
                           "(runs made before the saddle escape had none); combine runs of "
                           "one protocol")
+    for n in sorted({v[1]["n"] for v in found.values()}):
+        rules = {k: v[3] for k, v in found.items() if v[1]["n"] == n}
+        if len(set(rules.values())) > 1:
+            order = sorted(rules, key=lambda k: (rules[k], k))
+            a, b = order[0], order[-1]          # two of different rules
+            raise ConfigError(f"--combine: packing {a} ({found[a][0]!r}) was relaxed with the "
+                              f"clearance test {rules[a]!r}, {b} ({found[b][0]!r}) with "
+                              f"{rules[b]!r} (runs made before 'local' existed used 'all'); "
+                              "combine packings of one N relaxed by one rule")
     recorded = {v[2] for v in found.values()} - {None}
-    sizes = sorted({t["n"] for _, t, _ in found.values()})
-    seeds = [sorted(t["seed"] for _, t, _ in found.values() if t["n"] == n) for n in sizes]
+    sizes = sorted({v[1]["n"] for v in found.values()})
+    seeds = [sorted(v[1]["seed"] for v in found.values() if v[1]["n"] == n) for n in sizes]
     merged = dict(c0, n=sizes, seeds=seeds, np=1)
     if recorded:                # packings of runs that record it: their setting
         merged["saddle_escape"] = recorded.pop()
@@ -120,7 +139,7 @@ def collect_runs(dirs, out, speak=True):
     out = os.path.abspath(out)
     check_job_folder(out, cfg.to_dict(), False, "an ensemble")     # writes config.json
     os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
-    for key, (d, t, _) in sorted(found.items()):
+    for key, (d, t, _, _) in sorted(found.items()):
         with open(task_path(d, key)) as fh:
             write_json(task_path(out, key), json.load(fh))
     if speak:
