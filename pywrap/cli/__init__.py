@@ -125,9 +125,10 @@ def unrecognized(parser, command, extra):
     The one line names the subcommand (``remote-trigger generate: error:
     unrecognized arguments: --out p (did you mean --output?) (see
     remote-trigger generate --help)``): an option (``--x`` or ``-x``, not a
-    negative number) close to one of the subcommand's own (:func:`difflib.get_close_matches`) is named as the
-    likely meant one; a stray word that is a file, for a subcommand that reads
-    its start file from ``--datafile``, as ``--datafile WORD``.
+    negative number) close to one of the subcommand's own
+    (:func:`difflib.get_close_matches`) is named as the likely meant one; a
+    stray word that is a file, for a subcommand that reads its start file
+    from ``--datafile``, as ``--datafile WORD``.
     """
     import difflib
 

@@ -138,11 +138,11 @@ def test_packings_of_one_n_relaxed_by_two_clearance_tests_are_not_mixed(runs, tm
                                           r"'local'"):
         combine_runs([a, c], str(tmp_path / "o1"))
     assert not (tmp_path / "o1").exists()
-    _record_rule = os.path.join(b, "tasks", "N20_s1.json")
-    with open(_record_rule) as fh:
+    path = os.path.join(b, "tasks", "N20_s1.json")
+    with open(path) as fh:
         e = json.load(fh)
     e["result"]["default"]["clearance_rule"] = "local"
-    with open(_record_rule, "w") as fh:
+    with open(path, "w") as fh:
         json.dump(e, fh)
     combine_runs([a, b], str(tmp_path / "o2"), speak=False)       # N = 20 alone is 'local'
     assert (tmp_path / "o2" / "ensemble.md").is_file()
