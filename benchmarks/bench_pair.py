@@ -17,7 +17,7 @@ Usage::
                                                     # (LAMMPS then loads no plugin folder
                                                     # at start-up, only PATH)
 
-The packing is generated on first use (seeded, about 1 min) and cached under
+The packing (``packing2d.py``) is generated on first use (seeded, about 1 min) and cached under
 ``build/bench/`` next to this project; ``--regen`` rebuilds it.  The 10^4-disk
 base is settled once, frictionless, under the load with viscous damping (so it
 is force-balanced with zero tangential history); 10^5 disks are ten copies of
@@ -69,9 +69,6 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 PROJECT = os.path.dirname(HERE)
 DEFAULT_CACHE = os.path.join(PROJECT, "build", "bench")
 
-#: version of the packing recipe; bump to invalidate cached data files
-PACKING_VERSION = 1
-
 # model parameters (docs/model.md defaults)
 KN = 2.0e5
 KT = 2.0 * KN / 7.0
@@ -81,9 +78,6 @@ DT = 5.0e-4
 LOAD = 1.0          # downward force per disk during the timed runs
 SKIN = 0.3
 SORT_BIN = 0.5 * (2 * max(RADII.values()) + SKIN)
-
-#: base packing, relaxed once; larger N are periodic copies of it along x
-BASE_N = 10000
 
 #: 2 (disks) or 3 (spheres, --dim 3)
 DIM = 2
@@ -220,142 +214,15 @@ def parse_last_run(log):
 
 
 # ----------------------------------------------------------------------------
-# the packing
+# the packing (packing2d.py, packing3d.py)
 # ----------------------------------------------------------------------------
 
 def packing_path(cache, n, seed):
-    """Cached data file of the N-disk packing (n = 'base' for the relaxed base)."""
-    if DIM == 3:
-        import packing3d
-        return packing3d.packing_path(cache, n, seed)
-    return os.path.join(cache, f"packing_v{PACKING_VERSION}_s{seed}_n{n}.data")
+    """Cached data file of the N-particle packing (n = 'base' for the relaxed base)."""
+    import packing2d
+    import packing3d
 
-
-def make_base(cache, seed, verbose=True):
-    """Relax the base packing of BASE_N disks and write it to the cache.
-
-    Disks start on staggered rows (spacing 1.45 x 1.26, no overlaps, jitter
-    +-0.01, types shuffled), fall under a downward force 1 with viscous
-    damping, frictionless (k_t = 0) so that the final state is a force-balanced
-    packing with no tangential history, then are relaxed with stronger
-    damping until the kinetic energy is tiny.  Serial.
-    """
-    import numpy as np
-
-    rng = np.random.default_rng(seed)
-    n = BASE_N
-    ncols = 80
-    dx, dy = 1.45, 1.26
-    width = ncols * dx
-    nrows = -(-n // ncols)
-    top = 0.75 + dy * nrows
-    types = np.where(rng.permutation(n) % 2 == 0, 1, 2)
-    k = np.arange(n)
-    row, col = k // ncols, k % ncols
-    x = (col + 0.5 * (row % 2) + 0.25) * dx + rng.uniform(-0.01, 0.01, n)
-    y = 0.75 + dy * row + rng.uniform(-0.01, 0.01, n)
-
-    tmp = tempfile.mkdtemp(prefix="bench-pack-", dir=cache)
-    raw = os.path.join(tmp, "raw.data")
-    with open(raw, "w") as fh:
-        fh.write(f"bench_pair.py base packing, seed {seed}\n\n{n} atoms\n2 atom types\n\n")
-        fh.write(f"0 {width!r} xlo xhi\n-1 {top + 5.0!r} ylo yhi\n-0.5 0.5 zlo zhi\n\n")
-        fh.write("Atoms # sphere\n\n")
-        for a in range(n):
-            t = int(types[a])
-            fh.write(f"{a + 1} {t} {2 * RADII[t]!r} 1.0 {float(x[a])!r} {float(y[a])!r} 0.0\n")
-    # density column is mass/volume for spheres in data files; the mass is
-    # reset below with 'set ... mass 1'
-
-    log = os.path.join(tmp, "log.lammps")
-    lmp = new_lammps(log)
-    t0 = time.perf_counter()
-    try:
-        lmp.commands_list(header_commands() + [
-            HIST_FIX,
-            f"read_data {raw} fix hist NULL hist",
-            "set group all mass 1.0",
-            f"neighbor {SKIN} bin",
-            "neigh_modify delay 0 every 1 check yes",
-            "pair_style mindlin/smooth",
-            f"pair_coeff * * {KN!r} 0.0 0.0",
-            f"fix wall all wall/mindlin/smooth {KN!r} 0.0 0.0 yplane 0.0",
-            "fix load all addforce 0.0 -1.0 0.0",
-            "fix nve all nve/sphere disc",
-            "fix 2d all enforce2d",
-            "fix damp all viscous 0.5",
-            "timestep 1e-3",
-            "thermo_style custom step ke f_wall[2]",
-            "thermo 2000",
-        ])
-        # fall: terminal speed 2, about 20 time units for the top to land
-        lmp.command("run 25000")
-        if verbose:
-            print(f"  base packing: fall done, ke/atom = {lmp.get_thermo('ke'):.3g}"
-                  f" ({time.perf_counter() - t0:.0f} s)", flush=True)
-        lmp.commands_list(["unfix damp", "fix damp all viscous 5.0", "run 10000"])
-        ke = lmp.get_thermo("ke")
-        if verbose:
-            print(f"  base packing: relaxed, ke/atom = {ke:.3g}, wall load "
-                  f"{lmp.extract_fix('wall', 0, 1, 1):.6g} (expected {n})"
-                  f" ({time.perf_counter() - t0:.0f} s)", flush=True)
-        ytop = float(np.max(lmp.numpy.extract_atom("x")[:, 1]))
-        lmp.commands_list([
-            f"change_box all y final -1.0 {ytop + 3.0!r} units box",
-            "velocity all set 0.0 0.0 0.0",
-            "set group all omega 0.0 0.0 0.0",
-            f"write_data {packing_path(cache, 'base', seed)} nocoeff",
-        ])
-    finally:
-        lmp.close()
-    shutil.rmtree(tmp, ignore_errors=True)
-
-
-def make_packing(cache, n, seed, verbose=True):
-    """Data file of the N-disk packing: N/BASE_N copies of the base along x.
-
-    The base is periodic in x, so copies side by side are again a relaxed
-    packing.  The file has no history section (history starts at zero) and
-    small seeded random velocities (|v| ~ 1e-3, omega = 0), the same for both
-    styles, so that the run is not trivially static.
-    """
-    import numpy as np
-
-    if n % BASE_N:
-        raise ValueError(f"N must be a multiple of {BASE_N}, got {n}")
-    base = packing_path(cache, "base", seed)
-    if not os.path.exists(base):
-        make_base(cache, seed, verbose)
-    reps = n // BASE_N
-    with open(base) as fh:
-        lines = fh.read().splitlines()
-    xlo, xhi = (float(v) for v in next(s for s in lines if s.endswith("xlo xhi")).split()[:2])
-    ylo, yhi = (float(v) for v in next(s for s in lines if s.endswith("ylo yhi")).split()[:2])
-    ia = next(k for k, s in enumerate(lines) if s.startswith("Atoms"))
-    atoms = []
-    for line in lines[ia + 2:ia + 2 + BASE_N]:
-        w = line.split()
-        # id type diameter density x y z ix iy iz
-        atoms.append((int(w[0]), int(w[1]), w[2], w[3], float(w[4]), w[5]))
-    atoms.sort()
-    width = xhi - xlo
-    rng = np.random.default_rng(seed + 1000 * reps)
-    vel = rng.normal(0.0, 1e-3, size=(n, 2))
-    path = packing_path(cache, n, seed)
-    tmp = path + ".tmp"
-    with open(tmp, "w") as fh:
-        fh.write(f"bench_pair.py packing: {reps} copies along x of the relaxed base "
-                 f"packing (seed {seed})\n\n{n} atoms\n2 atom types\n\n")
-        fh.write(f"{xlo!r} {xlo + reps * width!r} xlo xhi\n{ylo!r} {yhi!r} ylo yhi\n"
-                 "-0.5 0.5 zlo zhi\n\nAtoms # sphere\n\n")
-        for c in range(reps):
-            for (tag, typ, diam, dens, x, y) in atoms:
-                fh.write(f"{tag + c * BASE_N} {typ} {diam} {dens} {x + c * width!r} {y} 0 "
-                         "0 0 0\n")
-        fh.write("\nVelocities\n\n")
-        for k in range(n):
-            fh.write(f"{k + 1} {float(vel[k, 0])!r} {float(vel[k, 1])!r} 0 0 0 0\n")
-    os.replace(tmp, path)
+    return (packing3d if DIM == 3 else packing2d).packing_path(cache, n, seed)
 
 
 def ensure_packing(cache, n, seed, regen=False, verbose=True):
@@ -369,13 +236,12 @@ def ensure_packing(cache, n, seed, regen=False, verbose=True):
                 os.remove(base)
         if verbose:
             print(f"generating packing N = {n} (seed {seed}) -> {path}", flush=True)
-        if DIM == 3:
-            import packing3d
-            packing3d.make_packing(cache, n, seed, {
-                "new_lammps": new_lammps, "header": header_commands(), "kn": KN,
-                "radii": RADII, "skin": SKIN}, verbose)
-        else:
-            make_packing(cache, n, seed, verbose)
+        import packing2d
+        import packing3d
+
+        setup = {"new_lammps": new_lammps, "header": header_commands(), "kn": KN,
+                 "radii": RADII, "skin": SKIN, "hist_fix": HIST_FIX}
+        (packing3d if DIM == 3 else packing2d).make_packing(cache, n, seed, setup, verbose)
     return path
 
 
