@@ -21,15 +21,6 @@ __all__ = ["collect_runs"]
 _FREE = ("n", "seeds", "np", "saddle_escape")
 
 
-def clearance_rule_of(result):
-    """The clearance test ('all' or 'local') a finished packing's relaxation used.
-
-    A result without the record was relaxed before the test ``'local'``
-    existed, by ``'all'``.
-    """
-    return (result.get("default") or {}).get("clearance_rule") or "all"
-
-
 def read_run(path, flag="--combine"):
     """(config dict, EnsembleConfig) of the ensemble folder ``path``; errors name
     ``flag`` and the folder."""
@@ -84,7 +75,8 @@ def collect_runs(dirs, out, speak=True):
         ``out`` that is a file or not empty. Nothing is written then.
     """
     from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
-    from remote_trigger.pywrap.jobs.ensemble.task import load_task, saddle_escape_of, task_path
+    from remote_trigger.pywrap.jobs.ensemble.task import (
+        clearance_rule_of, load_task, saddle_escape_of, task_path)
     from remote_trigger.pywrap.runtime.jobfolder import check_job_folder, write_json
 
     dirs = [os.path.abspath(d) for d in dirs]

@@ -520,6 +520,15 @@ def saddle_escape_of(result):
     return None if v is None else bool(v)
 
 
+def clearance_rule_of(result):
+    """The clearance test ('all' or 'local') a finished packing's relaxation used.
+
+    A result without the record was relaxed before the test ``'local'``
+    existed, by ``'all'``.
+    """
+    return (result.get("default") or {}).get("clearance_rule") or "all"
+
+
 def packing_failed(result):
     """True if a finished packing's result records an error (of the default
     protocol or of the frictional part): what ``--retry-failed`` runs again."""
