@@ -156,10 +156,12 @@ def register(subparsers):
 
     r = subparsers.add_parser(
         "relax", help="settle / relax to equilibrium (f_min)",
-        description="Relax a packing to a force-balanced equilibrium under the loads "
-                    "F_y (and F_x) by the default protocol (docs/driver.md): compaction "
+        description="Relax a packing to a force-balanced equilibrium under the load "
+                    "F_y by the default protocol (docs/driver.md): compaction "
                     "without friction, then friction, then a Newton polish to the "
-                    "round-off floor. Writes OUT/relax.h5 and OUT/relax/equilibrium.* "
+                    "round-off floor (no F_x: without friction nothing balances it; "
+                    "ramp to it from the result, or --set protocol=frictional). "
+                    "Writes OUT/relax.h5 and OUT/relax/equilibrium.* "
                     "(.data, .dump, .dump.json), where `remote-trigger ramp` starts.")
     _add_model(r, "packing.data", shown="packing.data")     # generate's default --output
     r.add_argument("--dim", type=int, choices=(2, 3), default=None,

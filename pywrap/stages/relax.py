@@ -512,10 +512,22 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
         ``overwrite``); the data file is empty, truncated, has non-finite
         values or coincident disks.
     NoEquilibriumError
-        If the top layer slides away or no equilibrium is reached.
+        If the top layer slides away or no equilibrium is reached; at once,
+        before any dynamics, for ``F_x != 0`` under the default protocol
+        (its frictionless step (iii) has no equilibrium under a horizontal
+        load).
     """
     if not isinstance(cfg, RelaxConfig):
         raise ConfigError(f"relax needs a RelaxConfig, got {type(cfg).__name__}")
+    if cfg.protocol == "frictionless-then-friction" and cfg.F_x != 0.0:
+        # step (iii) has mu = 0 on every contact and on the flat wall, whose
+        # force is along its normal only: nothing can balance N_top F_x along
+        # the periodic x axis, and the packing would drift until `slide`
+        raise eq.NoEquilibriumError(
+            f"no equilibrium at F_x = {cfg.F_x!r} in the frictionless step (iii) of "
+            "protocol 'frictionless-then-friction' (mu = 0 on every contact and on the "
+            "wall: nothing balances a horizontal load); relax at F_x = 0 and ramp to the "
+            "load (remote-trigger ramp), or use protocol 'frictional'")
     t0 = time.perf_counter()
     with Engine(comm=comm, log=log) as eng:
         cfg_in = cfg

@@ -29,7 +29,9 @@ def test_equilibrate_raises_clear_error_quickly(datafile, tmp_path):
     from remote_trigger.pywrap.stages.config import RelaxConfig
     from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
 
-    cfg = RelaxConfig(datafile=datafile, F_x=30.0, max_steps=200000)
+    # the frictional protocol: the default one refuses any F_x != 0 at once
+    # (test_default_protocol_refuses_a_horizontal_load)
+    cfg = RelaxConfig(datafile=datafile, F_x=30.0, max_steps=200000, protocol="frictional")
     with pytest.raises(NoEquilibriumError, match=r"no equilibrium at F_x = 30\.0: the top "
                                                  r"layer slid .* in t = ") as info:
         stages.relax(cfg, str(tmp_path / "out"), quiet=True)
@@ -46,7 +48,7 @@ def test_max_steps_bounds_a_slow_case(datafile, tmp_path):
     from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
 
     cfg = RelaxConfig(datafile=datafile, F_x=30.0, slide=1e9, max_steps=3000,
-                      check_every=1000)
+                      check_every=1000, protocol="frictional")
     # bounded by the step count the message names, not by a wall time
     with pytest.raises(NoEquilibriumError, match="within max_steps = 3000"):
         stages.relax(cfg, str(tmp_path / "out2"), quiet=True)
@@ -60,3 +62,27 @@ def test_command_line_exit_status_3(datafile, tmp_path):
                        env=env)
     assert p.returncode == 3, (p.returncode, p.stderr[-500:])
     assert "no equilibrium" in p.stderr + p.stdout
+
+
+def test_default_protocol_refuses_a_horizontal_load(datafile, tmp_path):
+    """The default protocol relaxes without friction (step iii), where a
+    horizontal load has no equilibrium (the flat wall pushes along y only):
+    F_x != 0 is refused before any dynamics, and nothing is written (it drifted
+    for minutes before the slide criterion stopped it)."""
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.stages.config import RelaxConfig
+    from remote_trigger.pywrap.stages.equilibrium import NoEquilibriumError
+
+    out = tmp_path / "o"
+    with pytest.raises(NoEquilibriumError, match=r"no equilibrium at F_x = 0\.005 in the "
+                                                 r"frictionless step .*protocol 'frictional'"):
+        stages.relax(RelaxConfig(datafile=datafile, F_x=0.005), str(out), quiet=True)
+    assert not out.exists()
+    cli = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
+    p = subprocess.run([cli, "relax", "--datafile", datafile, "--out", str(out),
+                        "--F-x", "0.005", "--quiet"], capture_output=True, text=True,
+                       timeout=60)
+    assert p.returncode == 3, (p.returncode, p.stderr[-500:])
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "F_x = 0.005" in lines[0], p.stderr
+    assert not out.exists()
