@@ -439,11 +439,16 @@ int PairMindlinSmooth::grow_scratch(int n)
 
 void PairMindlinSmooth::too_many_contacts(tagint itag)
 {
+  // the arrays of t by dimension: d2_mindlin_t, or d2_mindlin_tx, _ty, _tz
+  const std::string ts = (domain->dimension == 3)
+      ? fmt::format("d2_{}, d2_{} and d2_{}", FixMindlinHistory::T_3D[0],
+                    FixMindlinHistory::T_3D[1], FixMindlinHistory::T_3D[2])
+      : fmt::format("d2_{}", HISTORY_T);
   error->one(FLERR,
              "Pair style mindlin/smooth: atom {} has more than {} contacts; give i2_{} and "
-             "d2_{} more columns, or drop the fix property/atom that defines them so that "
+             "{} more columns, or drop the fix property/atom that defines them so that "
              "the pair keeps the history itself with no limit",
-             itag, ncol, HISTORY_PARTNER, HISTORY_T);
+             itag, ncol, HISTORY_PARTNER, ts);
 }
 
 /* ----------------------------------------------------------------------

