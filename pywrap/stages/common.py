@@ -395,8 +395,6 @@ def file_sha256(path):
     return h.hexdigest()
 
 
-
-
 def start_sha256(datafile):
     """SHA-256 (hex) of a ramp's start: the data file, and for spheres also the
     equilibrium dump beside it (their history; :func:`read_saved_history3d`)."""

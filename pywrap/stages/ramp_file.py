@@ -37,7 +37,8 @@ from remote_trigger.pywrap.runtime.jobfolder import resolved_path, stored_path
 from remote_trigger.pywrap.runtime.results import read_all
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.stages.common import (RESULT_VERSION, check_resume_config,
-                                                 check_spheres_ramp, start_sha256)
+                                                 check_spheres_ramp, equilibrium_dump,
+                                                 start_sha256)
 
 #: row groups of ramp.h5
 STEPS = "steps"
@@ -305,8 +306,17 @@ class RampLog:
             old_file is not None and os.path.abspath(str(old_file))
             == os.path.abspath(cfg.datafile))
         if not same:
-            other = ("with other contents (spheres: or another dump beside it) "
-                     if old_sha is not None else "")
+            if old_file is not None and os.path.abspath(str(old_file)) == \
+                    os.path.abspath(cfg.datafile):
+                # the same path: its contents changed since the ramp began
+                from remote_trigger.pywrap.bindings.datafile import data_dimension
+
+                what = (f"{cfg.datafile!r} (or another dump beside it: "
+                        f"{equilibrium_dump(cfg.datafile)!r})" if
+                        data_dimension(cfg.datafile) == 3 else f"{cfg.datafile!r}")
+                raise ConfigError(f"cannot resume {path}: the start file {what} differs "
+                                  "from the one the ramp began with (nothing was changed)")
+            other = "with other contents " if old_sha is not None else ""
             raise ConfigError(f"cannot resume {path}: it ramps from datafile = {old_file!r}, "
                               f"this run gives datafile = {cfg.datafile!r} {other}"
                               f"(nothing was changed)")

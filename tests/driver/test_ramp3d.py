@@ -222,8 +222,10 @@ def test_resume_refuses_another_dump_beside_the_start(relaxed3d, tmp_path):
         "interrupted"
     dump = tmp_path / "eq.dump"
     dump.write_text(dump.read_text() + "\n")       # the same numbers, other bytes
-    with pytest.raises(ConfigError, match="another dump beside it"):
+    with pytest.raises(ConfigError, match="another dump beside it") as err:
         stages.ramp(cfg, str(tmp_path / "o"), quiet=True, resume=True)
+    # the same path given: the message names the dump, and the path once
+    assert str(dump) in str(err.value) and str(err.value).count(str(start)) == 1
 
 
 # ------------------------------------------------------------------ bad input
