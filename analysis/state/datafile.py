@@ -13,6 +13,7 @@ driver's error type.
 from dataclasses import dataclass
 import math
 import os
+import re
 
 import numpy as np
 
@@ -52,7 +53,8 @@ class DataFile:
         z of each centre (``sphere`` style).
     dimension : int
         3 if some centre has z != 0 (spheres; a 2D LAMMPS data file has
-        z = 0 for every atom), else 2.
+        z = 0 for every atom), else 2. A file with z != 0 and the disks'
+        history section (``d_mindlin_t``) is refused (:func:`read_data`).
     """
 
     path: str
@@ -176,7 +178,9 @@ def read_data(path):
     Raises
     ------
     ValueError
-        Naming the file and what is wrong with it (one line).
+        Naming the file and what is wrong with it (one line); also a file
+        whose z (!= 0 somewhere: spheres) contradicts its disks' history
+        section.
     """
     path = os.fspath(path)
     lines = _lines(path)
@@ -207,6 +211,13 @@ def read_data(path):
     if style == "sphere" and natoms > 0 and all(len(r) >= 7 for r in rows):
         a = np.array([r[:7] for r in rows])
         out.dimension = 3 if np.any(a[:, 6] != 0.0) else 2
+        disk_history = [nm.split()[0] for nm, _ in sections
+                        if re.search(r"\bd_mindlin_t\b", nm.split("#", 1)[-1])]
+        if out.dimension == 3 and disk_history:
+            k = int(np.flatnonzero(a[:, 6] != 0.0)[0])
+            raise ValueError(f"data file {path!r}: atom {body[k][0]} has z = {float(a[k, 6])!r}, "
+                             f"but section {disk_history[0]!r} is the contact history of "
+                             "disks (d_mindlin_t): a 2D file has z = 0 for every atom")
         if natoms > 1:
             _check_coincident(path, a[:, 4:4 + out.dimension], [w[0] for w in body])
         a = a[order]

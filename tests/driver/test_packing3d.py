@@ -68,6 +68,29 @@ def test_data_file_round_trip(tmp_path):
     assert read_data(p2).dimension == 2
 
 
+def test_a_disk_file_with_z_is_refused_in_one_line(tmp_path, capsys):
+    """z != 0 makes a file three-dimensional, but a file with the disks' history
+    section is 2D: the contradiction is refused, naming the atom and its z (it
+    was taken as 3D, and LAMMPS stopped at the unknown section, exit status 1)."""
+    p2 = tmp_path / "p2.data"
+    write_data(generate(20, seed=2), p2)
+    lines = p2.read_text().splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("Atoms")) + 2
+    words = lines[k].split()
+    words[6] = "0.1"
+    lines[k] = " ".join(words)
+    bad = tmp_path / "z.data"
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ValueError, match=rf"atom {words[0]} has z = 0\.1, but section 'hist' "
+                                         r"is the contact history of disks"):
+        read_data(bad)
+    assert cli.main(["relax", "--datafile", str(bad), "--out", str(tmp_path / "o"),
+                     "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "z = 0.1" in err[0], err
+    assert not (tmp_path / "o").exists()
+
+
 def test_data_file_read_by_the_3d_deck(tmp_path):
     from remote_trigger.pywrap.bindings.engine import Engine
 
