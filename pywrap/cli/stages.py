@@ -26,10 +26,10 @@ def _add_model(p, default=None, shown=None):
     p.add_argument("--out", default="out", help="output folder (default ./out)")
     p.add_argument("--mu", type=float, help="friction coefficient (default: the start "
                    "file's sidecar, else 1)")
-    p.add_argument("--F-x", dest="F_x", type=float, help="horizontal load on top disks "
-                   "(default: the start file's sidecar, else 0)")
-    p.add_argument("--F-y", dest="F_y", type=float, help="downward load on top disks "
-                   "(default: the start file's sidecar, else 3)")
+    p.add_argument("--F-x", dest="F_x", type=float, help="horizontal load on each top disk "
+                   "or sphere (default: the start file's sidecar, else 0)")
+    p.add_argument("--F-y", dest="F_y", type=float, help="downward load on each top disk "
+                   "or sphere (default: the start file's sidecar, else 3)")
     p.add_argument("--override", action="store_true",
                    help="use --F-x/--F-y/--mu/--set k_n=/k_t= even where they contradict the "
                         "start file's sidecar (the state is re-equilibrated at them)")
@@ -145,7 +145,7 @@ def register(subparsers):
     g.add_argument("--dim", type=int, choices=(2, 3), default=2,
                    help="2: disks (default); 3: spheres, periodic in x and z")
     g.add_argument("--n", type=int, default=None,
-                   help="number of disks, even (default 100; spheres 160)")
+                   help="number of disks or spheres, even (default 100; spheres 160)")
     g.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     g.add_argument("--phi", type=float, default=None,
                    help="packing fraction for L (default 0.82; spheres 0.64)")
@@ -171,7 +171,7 @@ def register(subparsers):
                    help="compaction aid for a loose packing (frictionless + gravity), steps")
     r.add_argument("--f-min", dest="f_min", type=float, help="target residual (1e-15)")
     r.add_argument("--no-newton", dest="newton", action="store_false", default=None,
-                   help="over-damped dynamics only")
+                   help="over-damped dynamics only (disks only: spheres are refused)")
     r.set_defaults(func=run_relax, resume_hint=INTERRUPT_HINTS["relax"])
 
     m = subparsers.add_parser(
@@ -338,8 +338,11 @@ def run_perturb(args):
                          resume=args.resume)
     if _rank() == 0:
         for k, r in res.items():
+            # max |v_top| over every step (v0 of run (c) when not given), not
+            # only over the records
+            vmax = r.extra.get("v_top_max", float(abs(r.v_top).max()))
             print(f"perturb ({k}): max D {r.D.max():.3e}, max |v_top| "
-                  f"{abs(r.v_top).max():.3e}, min mu {r.mu.min():.4f} -> {r.h5}")
+                  f"{vmax:.3e} (every step), min mu {r.mu.min():.4f} -> {r.h5}")
     return 0
 
 

@@ -404,11 +404,16 @@ def check_packing_args(n, seed, phi=0.82, dim=2):
         If n is not an even integer >= 6, seed is not a non-negative integer,
         or phi is outside (0.1, 0.91) (spheres, ``dim`` = 3: (0.1, 0.74)).
     """
-    _int("n", n, 6)
-    if n % 2:
-        raise ConfigError(f"n must be even (equal numbers of both radii), got n = {n}")
-    _int("seed", seed, 0)
     top = 0.91 if dim == 2 else 0.74
     if not 0.1 < _num("phi", phi) < top:
         raise ConfigError(f"phi must be in (0.1, {top}){' for spheres' if dim == 3 else ''}, "
                           f"got phi = {phi!r}")
+    if not isinstance(n, bool) and isinstance(n, int) and n < 6:
+        from remote_trigger.pywrap.stages.packing import RADII, _smallest_n
+
+        raise ConfigError(f"n must be >= 6, got n = {n} "
+                          f"({_smallest_n(phi, RADII, dim)})")
+    _int("n", n, 6)
+    if n % 2:
+        raise ConfigError(f"n must be even (equal numbers of both radii), got n = {n}")
+    _int("seed", seed, 0)

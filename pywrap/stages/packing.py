@@ -223,15 +223,15 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     if isinstance(n, bool) or int(n) != n:
         raise ValueError(f"n must be an integer, got n = {n!r}")
     n = int(n)
-    if n < 6 or n % 2:
-        raise ValueError(f"n must be an even number >= 6 (equal numbers of both radii), "
-                         f"got n = {n}")
     r1, r2 = (float(r) for r in radii)
     if not (np.isfinite(r1) and np.isfinite(r2) and 0 < r1 < r2):
         raise ValueError(f"radii must satisfy 0 < R1 < R2, got radii = {tuple(radii)!r}")
     phi_max, loose_max = (0.91, 0.6) if dim == 2 else (0.74, 0.35)
     if not 0.1 < phi < phi_max:
         raise ValueError(f"phi must be in (0.1, {phi_max}) for dim = {dim}, got phi = {phi}")
+    if n < 6 or n % 2:
+        raise ValueError(f"n must be an even number >= 6 (equal numbers of both radii), "
+                         f"got n = {n} ({_smallest_n(phi, (r1, r2), dim)})")
     if not 0.05 < phi_loose <= loose_max:
         raise ValueError(f"phi_loose must be in (0.05, {loose_max}] for dim = {dim}, got "
                          f"phi_loose = {phi_loose}")

@@ -121,6 +121,7 @@ def test_generate_command(tmp_path, capsys):
 @pytest.mark.parametrize("argv, needle", [
     (["--dim", "3", "--phi", "0.8"], "phi = 0.8"),          # above random close packing
     (["--dim", "3", "--n", "7"], "n = 7"),
+    (["--dim", "3", "--n", "0"], "got n = 0 (the smallest n that works at phi = 0.64 is 82)"),
     (["--dim", "4"], "invalid choice: 4"),
     # a box of 2 x 2 top spheres (L = 2.5): a sphere could touch two images of another
     (["--dim", "3", "--n", "40"], "n = 40 is too small: the periodic width L = 2.5 is not "
@@ -149,7 +150,7 @@ def test_bad_arguments(kw, msg):
 
 
 @pytest.mark.parametrize("kw", [dict(n=40, dim=3), dict(n=6, dim=2, phi=0.9),
-                                dict(n=6, dim=3)])
+                                dict(n=6, dim=3), dict(n=0, dim=3)])
 def test_too_small_n_names_the_smallest_that_works(kw):
     """The error names the smallest n: it generates, the even n below it does not."""
     with pytest.raises(ValueError) as exc:
