@@ -47,6 +47,46 @@ DUMP_COLUMNS_3D = ("id type radius mass x y z vx vy vz omegax omegay omegaz fx f
                    "v_wall_tx v_wall_ty v_wall_tz")
 
 
+def check_log_path(log, comm=None):
+    """Refuse a LAMMPS log path that would overwrite anything but a LAMMPS log.
+
+    LAMMPS truncates its log file at start-up; a ``--log`` naming the data
+    file or a result file destroyed it. ``'none'`` is no log. A missing
+    folder of the log is made (rank 0).
+
+    Parameters
+    ----------
+    log : str or os.PathLike
+    comm : mpi4py communicator, optional
+
+    Raises
+    ------
+    ConfigError
+        If ``log`` is a folder, or an existing file that does not begin
+        like a LAMMPS log (``LAMMPS (``).
+    """
+    from remote_trigger.pywrap.config import ConfigError
+
+    log = os.fspath(log)
+    if log == "none":
+        return
+    if log == "" or os.path.isdir(log):
+        raise ConfigError(f"--log {log!r} is a folder, not a file")
+    if os.path.exists(log):
+        with open(log, "rb") as fh:
+            head = fh.read(8)
+        if head and head != b"LAMMPS (":
+            raise ConfigError(f"--log {log!r} exists and is not a LAMMPS log (LAMMPS would "
+                              "overwrite it); give another file (nothing was overwritten)")
+    folder = os.path.dirname(os.path.abspath(log))
+    if os.path.exists(folder) and not os.path.isdir(folder):
+        raise ConfigError(f"--log {log!r}: {folder!r} is a file, not a folder")
+    if comm is None or comm.Get_rank() == 0:
+        os.makedirs(folder, exist_ok=True)
+    if comm is not None:
+        comm.Barrier()
+
+
 class EngineError(RemoteTriggerError, RuntimeError):
     """LAMMPS refused a command or a run failed (message includes LAMMPS's).
 
@@ -202,6 +242,7 @@ class Engine:
         from mpi4py import MPI  # loads libmpi before liblammps
 
         self.comm = MPI.COMM_WORLD if comm is None else comm
+        check_log_path(log, self.comm)
         self._args = ["-log", str(log), "-nocite"]
         if not screen:
             self._args = ["-screen", "none"] + self._args

@@ -308,8 +308,11 @@ def run_ramp(args):
     res = stages.ramp(cfg, args.out, quiet=args.quiet, resume=args.resume, log=args.log)
     if _rank() == 0:
         if res.status == "complete":
-            print(f"ramp: F_x^c in [{res.F_x_c_low:.10g}, {res.F_x_c_high:.10g}] (certified, "
-                  f"width {res.F_x_c_width:.3g}; {len(res.F_x)} steps, "
+            # what is certified: the two ends; between two real points a
+            # complex window narrower than a step is not excluded (docs/driver.md)
+            print(f"ramp: F_x^c in [{res.F_x_c_low:.10g}, {res.F_x_c_high:.10g}] (certified "
+                  f"real at the lower end, complex at the upper end: the first complex load "
+                  f"at the loads sampled; width {res.F_x_c_width:.3g}; {len(res.F_x)} steps, "
                   f"{len(res.bisection_F_x)} bisections, {res.n_undecided} undecided) "
                   f"-> {res.h5}")
             if not res.tol_reached:

@@ -585,3 +585,27 @@ def test_every_command_says_what_it_does_and_writes():
         assert p.description and len(p.description) > 60, name
     for name in ("relax", "ramp", "perturb", "instability"):
         assert "OUT/" in sub.choices[name].description, name
+
+
+def test_log_never_overwrites_anything_but_a_lammps_log(capsys, relaxed, tmp_path):
+    """--log naming the start file (or any file that is not a LAMMPS log) is
+    refused before LAMMPS truncates it; a log in a folder still to be made
+    (inside --out) is written there, and a LAMMPS log may be written again."""
+    start = tmp_path / "start.data"
+    shutil.copyfile(relaxed.datafile, start)
+    for ext in (".dump", ".dump.json"):
+        shutil.copyfile(relaxed.datafile[:-len(".data")] + ext, str(start)[:-5] + ext)
+    before = start.read_bytes()
+    argv = ["perturb", "--datafile", start, "--quiet", "--runs", "a", "--t-max", "0.1"]
+    status, _, err = run_cli(capsys, *argv, "--out", tmp_path / "o1", "--log", start)
+    assert status == 2
+    assert_one_line_error(err, "--log", "start.data", "is not a LAMMPS log",
+                          "nothing was overwritten")
+    assert start.read_bytes() == before and not (tmp_path / "o1").exists()
+    log = tmp_path / "o2" / "logs" / "perturb.log"
+    assert run_cli(capsys, *argv, "--out", tmp_path / "o2", "--log", log)[0] == 0
+    assert log.read_bytes().startswith(b"LAMMPS (")
+    assert run_cli(capsys, *argv, "--out", tmp_path / "o3", "--log", log)[0] == 0
+    status, _, err = run_cli(capsys, *argv, "--out", tmp_path / "o4", "--log", tmp_path)
+    assert status == 2
+    assert_one_line_error(err, "is a folder")
