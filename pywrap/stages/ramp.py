@@ -259,8 +259,8 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     with Engine(comm=comm, log=log) as eng:
         rlog = ramp_file.open_ramp_log(eng, cfg, out, h5, resume)
         _BASES.clear()
-        _ensure_dir(eng, folder)
         rcfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "ramp")
+        _ensure_dir(eng, folder)        # after the refusals of the start (dt)
         dim = eng.dimension             # of the start file, whose scene is loaded
         if "dt_used" in rlog.attrs and cfg.dt == "auto":   # resume: the same step
             rcfg = cfg.replace(dt=float(rlog.attrs["dt_used"]))

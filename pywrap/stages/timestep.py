@@ -88,13 +88,13 @@ def limit_of(state, cfg, F_x, a_priori=False):
     F_x : float
         Horizontal load of the run.
     a_priori : bool
-        Combine with the a-priori Hertz bound (relax with compaction).
+        Combine with the a-priori Hertz bound (relax with compaction); a
+        state without any contact always gets that bound.
 
     Returns
     -------
     (float, str)
-        dt_max (``inf`` if there is no contact and no a-priori bound) and
-        its source (``'eigen'`` or ``'hertz a priori'``).
+        dt_max and its source (``'eigen'`` or ``'hertz a priori'``).
     """
     from remote_trigger.analysis.stability import timestep as ts
     from remote_trigger.pywrap.stages.newton_solve import analysis_state
@@ -105,7 +105,9 @@ def limit_of(state, cfg, F_x, a_priori=False):
     walls = st.wall_index.size if state.dim == 3 else np.count_nonzero(st.wall_delta > 0)
     if st.n_contacts + walls > 0:
         lim = ts.stability_limit(st, "eigen")
-    if a_priori:
+    # no contact yet (a loose packing): the contacts the loads will make are
+    # bounded a priori as for a compaction (an infinite limit let any dt through)
+    if a_priori or not math.isfinite(lim):
         kt = float(cfg.k_t) if mu > 0 else 0.0
         # spheres: up to 12 contacts, rotational mass 2/5 m
         shape = dict(contacts=12, inertia=0.4) if state.dim == 3 else {}

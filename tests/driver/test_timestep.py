@@ -128,3 +128,17 @@ def test_cli_refuses_dt_with_exit_2(relaxed, limit, tmp_path):
     bad = subprocess.run([CLI, "ramp", "--datafile", relaxed.datafile, "--dt", "fast"],
                          env=cli_env(), capture_output=True, text=True)
     assert bad.returncode == 2 and "'fast'" in bad.stderr
+
+
+@pytest.mark.parametrize("stage", ["relax", "ramp"])
+def test_a_start_without_contacts_gets_the_a_priori_limit(packing_file, tmp_path, stage):
+    """A loose packing has no contact, so no eigen limit: the a-priori Hertz
+    bound of the loads' contacts applies (the limit was infinite, any dt passed,
+    and the run lost atoms), and the refusal leaves no ramp/ folder behind."""
+    if stage == "relax":
+        cfg = RelaxConfig(datafile=packing_file, settle_steps=0, dt=0.05)
+    else:
+        cfg = RampConfig(datafile=packing_file, dt=0.05)
+    with pytest.raises(ts.TimestepError, match=r"dt = 0\.05 is at or above .*a-priori Hertz"):
+        getattr(stages, stage)(cfg, str(tmp_path / "o"), quiet=True)
+    assert not (tmp_path / "o" / "ramp").exists()
