@@ -178,6 +178,17 @@ def next_bisection_point(lo, hi, unknown, tol):
     return mid, ""
 
 
+def _open_bracket_attrs(rlog):
+    """ramp.h5 attributes of a ramp that ends without a bracket (no complex
+    point, no equilibrium, complex at the start): the same keys as a complete
+    ramp's, NaN for an end it has not got, ``tol_reached`` False."""
+    lo, hi, _, _ = ramp_bracket(rlog)
+    n_und = int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == Decision.UNDECIDED)
+                    for k in ("steps", "bisection")))
+    return dict(F_x_c_low=lo, F_x_c_high=hi, F_x_c_width=hi - lo, tol_reached=False,
+                n_undecided=n_und)
+
+
 def _bracket_attrs(rlog, lo, hi, tol, why=""):
     """ramp.h5 attributes of the certified bracket; a message when it is wider than tol."""
     n_und = int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == Decision.UNDECIDED)
@@ -378,6 +389,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
             rlog.attrs["message"] = (f"no complex pair certified up to F_x_max = "
                                      f"{cfg.F_x_max}" + (f" ({n_und} steps undecided)"
                                                          if n_und else ""))
+            rlog.attrs.update(_open_bracket_attrs(rlog))
             _checkpoint(eng, rlog, folder, "no_complex_pair")
             return _ramp_result(rlog, "no_complex_pair")
         start = cfg.datafile if k == 0 else rlog.files["steps"][-1]
@@ -388,6 +400,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
                                    verdict_progress(bar, F), vdir)
         except eq.NoEquilibriumError as exc:
             rlog.attrs["message"] = str(exc)
+            rlog.attrs.update(_open_bracket_attrs(rlog))
             _checkpoint(eng, rlog, folder, "no_equilibrium")
             return _ramp_result(rlog, "no_equilibrium")
         basis = res.basis
@@ -405,7 +418,7 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
             "complex pair already at the start value of F_x" if len(steps["F_x"]) == 1
             else f"no equilibrium certified real below the first certified complex "
                  f"one (F_x = {hi:.10g}); the steps before it are undecided")
-        rlog.attrs.update(F_x_c_high=hi)
+        rlog.attrs.update(_open_bracket_attrs(rlog))
         _checkpoint(eng, rlog, folder, "complex_at_start")
         return _ramp_result(rlog, "complex_at_start")
     return None

@@ -271,6 +271,10 @@ def test_dim_3_that_agrees_is_accepted(capsys, relaxed3d, tmp_path):
     with h5py.File(tmp_path / "o" / "ramp.h5", "r") as fh:
         assert fh.attrs["status"] == "no_complex_pair"
         assert list(fh["steps/decision"][()]) == [0.0]
+        # the bracket's keys of a complete ramp: the real end, no complex end
+        assert fh.attrs["F_x_c_low"] == 0.0 and np.isnan(fh.attrs["F_x_c_high"])
+        assert np.isnan(fh.attrs["F_x_c_width"]) and not fh.attrs["tol_reached"]
+        assert fh.attrs["n_undecided"] == 0
 
 
 # ------------------------------------------------------------------ undamped runs
