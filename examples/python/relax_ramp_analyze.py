@@ -25,9 +25,17 @@ def main(argv=None):
     p.add_argument("--dF-x", dest="dF_x", type=float, default=2e-3)
     p.add_argument("--out", default="run")
     a = p.parse_args(argv)
-    os.makedirs(a.out, exist_ok=False)
+    if a.steps < 1:
+        p.error(f"--steps must be >= 1, got {a.steps}")
+    if os.path.exists(a.out):
+        p.error(f"--out {a.out!r} exists; give a new folder (nothing was overwritten)")
+    try:
+        pk = packing.generate(a.n, seed=a.seed)
+    except ValueError as exc:
+        p.error(str(exc))
+    os.makedirs(a.out)
     data = os.path.join(a.out, "packing.data")
-    packing.write_data(packing.generate(a.n, seed=a.seed), data)
+    packing.write_data(pk, data)
     rel = stages.relax(RelaxConfig(datafile=data), os.path.join(a.out, "relax"), quiet=True)
     st = read_dump(rel.dumpfile)
     an = analyze(st)
@@ -38,7 +46,10 @@ def main(argv=None):
                        os.path.join(a.out, "ramp"), quiet=True)
     for F, d, g in zip(ramp.F_x, ramp.decisions, ramp.growth_rate):
         print(f"F_x = {F:.4g}: {d.label} (growth rate {g:.3g})")
-    print(f"ramp: {ramp.status}; F_x^c in [{ramp.F_x_c_low:.6g}, {ramp.F_x_c_high:.6g}]")
+    if ramp.status == "complete":
+        print(f"ramp: F_x^c in [{ramp.F_x_c_low:.6g}, {ramp.F_x_c_high:.6g}] (certified ends)")
+    else:                       # e.g. no_complex_pair up to F_x_max = steps x dF_x
+        print(f"ramp: {ramp.status}: {ramp.message}")
     return 0
 
 

@@ -230,8 +230,9 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     if not 0.1 < phi < phi_max:
         raise ValueError(f"phi must be in (0.1, {phi_max}) for dim = {dim}, got phi = {phi}")
     if n < 6 or n % 2:
+        hint = f" ({_smallest_n(phi, (r1, r2), dim)})" if n < 6 else ""
         raise ValueError(f"n must be an even number >= 6 (equal numbers of both radii), "
-                         f"got n = {n} ({_smallest_n(phi, (r1, r2), dim)})")
+                         f"got n = {n}{hint}")
     if not 0.05 < phi_loose <= loose_max:
         raise ValueError(f"phi_loose must be in (0.05, {loose_max}] for dim = {dim}, got "
                          f"phi_loose = {phi_loose}")

@@ -43,4 +43,10 @@ def test_python_driver_script(tmp_path):
     lines = p.stdout.splitlines()
     assert lines[0].startswith("relax: phi = ") and "complex pair at F_x = 0: False" in lines[0]
     assert sum(s.startswith("F_x = ") for s in lines) >= 3
-    assert lines[-1].startswith("ramp: ")
+    assert lines[-1].startswith("ramp: ") and "nan" not in lines[-1]
+    # a second run into the same folder: a one-line usage error, nothing touched
+    before = sorted(os.listdir(tmp_path / "run"))
+    p = subprocess.run([sys.executable, script, "--n", "20", "--out", str(tmp_path / "run")],
+                       env=_env(), capture_output=True, text=True, timeout=300)
+    assert p.returncode == 2 and "exists" in p.stderr and "Traceback" not in p.stderr
+    assert sorted(os.listdir(tmp_path / "run")) == before
