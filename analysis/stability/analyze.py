@@ -216,9 +216,10 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
         (:func:`~remote_trigger.analysis.stability.sliced.classify_sliced`;
         without ``decide``, ARPACK's k eigenvalues nearest ``sigma``).
     k : int
-        Sparse path: number of eigenvalues.
+        Sparse path: number of eigenvalues, >= 1 (the decision takes at
+        least 2).
     sigma : float, optional
-        Sparse path: shift (1/time^2); default
+        Sparse path: shift (1/time^2), finite; default
         :func:`~remote_trigger.analysis.stability.eigen.default_shift`, inside the band
         where pairs coalesce (``docs/analysis.md``).
     min_contacts : int, optional
@@ -231,6 +232,13 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
     Returns
     -------
     Analysis
+
+    Raises
+    ------
+    ValueError
+        An unknown ``method``, ``k`` not an integer >= 1, ``sigma`` not a
+        finite number (checked where eigenvalues are computed), or a shift
+        at an eigenvalue (sparse path).
     """
     if isinstance(state, State3D):
         K = _jac3.stiffness_matrix3d(state)
@@ -249,6 +257,11 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
         n = Kr.shape[0]
         if method not in ("auto", "dense", "sliced", "sparse"):
             raise ValueError(f"method must be 'auto', 'dense', 'sliced' or 'sparse', got {method!r}")
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+            raise ValueError(f"k must be an integer >= 1, got k = {k!r}")
+        if sigma is not None and not (isinstance(sigma, (int, float, np.floating))
+                                      and np.isfinite(sigma)):
+            raise ValueError(f"sigma must be a finite number, got sigma = {sigma!r}")
         dense = method == "dense" or (method == "auto" and n <= _eigen.DENSE_MAX)
         sliced = method == "sliced" or (method == "auto" and not dense and decide)
         if sliced:

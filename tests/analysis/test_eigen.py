@@ -152,3 +152,22 @@ def test_cli_sparse_path(tmp_path, system):
     dense = analyze_dump(str(path)).eigenvalues
     for lam in d["eigenvalues"]:
         assert np.min(np.abs(dense - lam)) <= 1e-9 * np.abs(dense).max()
+
+
+@pytest.mark.parametrize("opts, needle", [
+    (["--sigma", "nan"], "sigma must be a finite number, got sigma = nan"),
+    (["--sigma", "inf"], "sigma must be a finite number, got sigma = inf"),
+    (["--k", "0"], "k must be an integer >= 1, got k = 0"),
+    (["--k", "-3"], "k must be an integer >= 1, got k = -3"),
+])
+def test_cli_sparse_path_bad_options(tmp_path, system, capsys, opts, needle):
+    """--sigma nan was blamed on an eigenvalue, inf was an internal ARPACK
+    error, and k <= 0 was taken as 2: each is now a one-line error, status 2."""
+    st, _, _ = system
+    path = write_dump(tmp_path / "eq.dump", st)
+    out = tmp_path / "Ks.npz"
+    assert main(["jacobian", str(path), "-o", str(out), "--method", "sparse",
+                 "--allow-residual", *opts]) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]
+    assert len(err) == 1 and needle in err[0], err
+    assert not out.exists()
