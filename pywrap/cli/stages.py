@@ -171,7 +171,8 @@ def register(subparsers):
                    help="compaction aid for a loose packing (frictionless + gravity), steps")
     r.add_argument("--f-min", dest="f_min", type=float, help="target residual (1e-15)")
     r.add_argument("--no-newton", dest="newton", action="store_false", default=None,
-                   help="over-damped dynamics only (disks only: spheres are refused)")
+                   help="over-damped dynamics only, down to the acceptance level (the "
+                        "round-off floor, or --set f_accept=) instead of --f-min; disks only")
     r.set_defaults(func=run_relax, resume_hint=INTERRUPT_HINTS["relax"])
 
     m = subparsers.add_parser(

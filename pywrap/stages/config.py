@@ -195,7 +195,9 @@ class RelaxConfig(StageConfig):
     max_steps : int
         Give up after this many damped steps, >= 1. Default 5,000,000.
     newton : bool
-        Polish with Newton steps (analytic stiffness). Default True.
+        Polish with Newton steps (analytic stiffness). Default True. Without
+        them the damped dynamics stop at max(f_min, the acceptance level):
+        they stall near the round-off floor, above the default f_min.
     newton_start : float
         Newton is tried once the residual is below newton_start * F_y, > 0.
         Default 1e-3.

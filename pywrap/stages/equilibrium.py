@@ -466,7 +466,9 @@ def equilibrate(eng, cfg, F_x, record=None, progress=None, newton_first=False):
             r, stop = newton()
             if r < cfg.f_min or (stop and r < accept):
                 return r, t_sim, record
-        elif not cfg.newton and r < cfg.f_min:
+        elif not cfg.newton and r < max(cfg.f_min, accept):
+            # damped dynamics alone stall near the round-off floor, far above
+            # the default f_min = 1e-15: they stop at the acceptance level
             eng.unfix(*DAMPING_FIXES, *INTEGRATOR_FIXES)
             eng.command("velocity all set 0.0 0.0 0.0")
             eng.command("set group all omega 0.0 0.0 0.0")

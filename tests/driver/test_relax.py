@@ -121,3 +121,19 @@ def test_modified_newton_reuses_one_factorisation(relaxed, monkeypatch):
     # the chord step contracts like the Newton step: both reach the floor in two
     assert res_m[2] < accept and res_n[2] < accept, (res_m, res_n)
     assert np.all(np.diff(res_m) < 0) and np.all(np.diff(res_n) < 0)
+
+
+def test_damped_dynamics_alone_stop_at_the_acceptance_level(packing_file, tmp_path):
+    """newton = False (``relax --no-newton``) with the default f_min = 1e-15:
+    the damped dynamics stall near the round-off floor, so they stop at the
+    acceptance level (they ran until max_steps, minutes at N = 100)."""
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.stages.config import RelaxConfig
+
+    cfg = RelaxConfig(datafile=packing_file, newton=False, max_steps=2_000_000)
+    res = stages.relax(cfg, str(tmp_path), quiet=True)
+    with Engine() as eng:
+        eng.load_deck("in.relax", {"datafile": res.datafile}, ("scene",))
+        accept = eq.accept_level(cfg, eng.gather_state())
+    assert res.residual < accept and res.residual > cfg.f_min
+    assert "newton" not in res.history.phase and res.newton_iterations == 0
