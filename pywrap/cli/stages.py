@@ -12,6 +12,7 @@ error). Errors and exit statuses: :mod:`remote_trigger.pywrap.cli`.
 """
 import json
 import os
+import sys
 
 
 def _add_model(p, default=None, shown=None):
@@ -282,6 +283,15 @@ def run_relax(args):
               f"{res.newton_iterations} Newton steps, damped time {res.damped_time:.4g}, "
               f"wall {res.wall_time:.2f} s, phi {res.packing_fraction:.4f} -> {res.h5}; "
               f"a ramp starts from {res.datafile}")
+        if not res.top_clearance > 0:       # a bulk disk came up beside the top line
+            why = ("settle_steps = 0 skips the compaction and the placements of the top "
+                   "line: give a loose packing the default settle_steps" if
+                   cfg.settle_steps == 0 else
+                   f"none of the {res.top_attempts} placements was clear; the one with the "
+                   "largest clearance is kept")
+            print(f"relax: warning: the top line is not clear of the bulk (top_clearance = "
+                  f"{res.top_clearance:.3g} by rule {res.clearance_rule!r}, docs/driver.md "
+                  f"'Relax protocol'): {why}", file=sys.stderr)
     return 0
 
 

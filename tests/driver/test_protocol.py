@@ -148,3 +148,21 @@ def test_relax_records_its_clearance_rule(relaxed40):
 
     with h5py.File(relaxed40.h5, "r") as f:
         assert f.attrs["clearance_rule"] == "all" and f.attrs["clearance"] == "auto"
+
+
+def test_a_buried_top_line_is_reported(packing_file, tmp_path, capsys):
+    """relax --settle-steps 0 of a loose packing skips the compaction and the
+    placements: the top line sinks into the bulk. The result is kept (the
+    user asked for it) but the command line says so on stderr (it said
+    nothing, exit status 0)."""
+    from remote_trigger.pywrap import cli
+    from remote_trigger.pywrap.runtime.results import read_all
+
+    out = tmp_path / "o"
+    assert cli.main(["relax", "--datafile", packing_file, "--out", str(out), "--quiet",
+                     "--settle-steps", "0"]) == 0
+    clear = float(read_all(str(out / "relax.h5"))[0]["top_clearance"])
+    err = capsys.readouterr().err
+    assert clear < 0
+    assert "warning: the top line is not clear of the bulk" in err
+    assert "settle_steps = 0 skips the compaction" in err
