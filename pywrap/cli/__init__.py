@@ -82,8 +82,22 @@ class Parser(argparse.ArgumentParser):
         if world_rank() == 0:
             super()._print_message(message, file)
 
+    #: the words being parsed (set by :func:`main`), for the hint below
+    words = ()
+
     def error(self, message):
-        """Print one line, ``PROG: error: MESSAGE (see PROG --help)``, and exit 2."""
+        """Print one line, ``PROG: error: MESSAGE (see PROG --help)``, and exit 2.
+
+        A missing ``--datafile`` beside a word that is a file (not an
+        option's value) gets ``(did you mean --datafile WORD?)``, as
+        :func:`unrecognized` gives a stray file where --datafile is optional.
+        """
+        if "required: --datafile" in message:
+            files = [w for k, w in enumerate(Parser.words) if not w.startswith("-")
+                     and os.path.isfile(w) and not (k and Parser.words[k - 1].startswith("-")
+                                                    and "=" not in Parser.words[k - 1])]
+            if files:
+                message += f" (did you mean --datafile {files[0]}?)"
         self._print_message(f"{self.prog}: error: {one_line(message)} (see {self.prog} "
                             f"--help)\n", sys.stderr)
         self.exit(2)
@@ -322,6 +336,7 @@ def main(argv=None):
     command_line = argv is None
     argv, debug = preprocess(sys.argv[1:] if argv is None else list(argv))
     parser = build_parser()
+    Parser.words = tuple(argv)
     args, extra = parser.parse_known_args(argv)
     if extra:
         unrecognized(parser, args.command, extra)

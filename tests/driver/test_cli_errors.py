@@ -177,11 +177,17 @@ def test_a_start_file_given_without_its_option(capsys, tmp_path):
     data = tmp_path / "p.data"
     data.write_text("")
     for argv, needle in ((["relax", str(data)], f"(did you mean --datafile {data}?)"),
-                         (["relax", str(tmp_path / "none.data")], "none.data (see")):
+                         (["relax", str(tmp_path / "none.data")], "none.data (see"),
+                         # where --datafile is required (the missing option is named)
+                         (["perturb", str(data)], f"(did you mean --datafile {data}?)"),
+                         (["instability", "--out", str(tmp_path / "o"), str(data)],
+                          f"(did you mean --datafile {data}?)"),
+                         (["perturb", "--out", str(data)], "--datafile (see")):
         with pytest.raises(SystemExit) as exc:
             cli.main(argv)
         assert exc.value.code == 2
-        assert_one_line_error(capsys.readouterr().err, "remote-trigger relax: error", needle)
+        assert_one_line_error(capsys.readouterr().err, f"remote-trigger {argv[0]}: error",
+                              needle)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["p.data"]
 
 
