@@ -210,7 +210,8 @@ def register(subparsers):
     p.add_argument("--a", type=float, help="amplitude of f(t) (1e-12)")
     p.add_argument("--omega-p", dest="omega_p", type=float, help="frequency of f(t) (0.01)")
     p.add_argument("--runs", default="abc", type=_runs_arg,
-                   help="which runs, letters of a, b, c (default abc)")
+                   help="which runs, letters of a, b, c (default abc); c without "
+                        "--set v0= also runs a, whose largest |v_top| is v0")
     p.add_argument("--resume", action="store_true",
                    help="continue an interrupted perturb in --out (same options): its "
                         "equilibrium and finished runs are kept")
