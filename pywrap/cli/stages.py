@@ -11,6 +11,7 @@ given keep the defaults of :mod:`remote_trigger.pywrap.config`;
 error). Errors and exit statuses: :mod:`remote_trigger.pywrap.cli`.
 """
 import json
+import math
 import os
 import sys
 
@@ -61,6 +62,11 @@ _FLAGS = {"F_x": "--F-x", "F_y": "--F-y", "mu": "--mu", "k_n": "--set k_n=",
           "k_t": "--set k_t="}
 
 
+def _option_of(key):
+    """The command-line option of a configuration key (``dF_x`` -> ``--dF-x``)."""
+    return {"newton": "--no-newton", **_FLAGS}.get(key, "--" + key.replace("_", "-"))
+
+
 def _config(cls, args, extra=()):
     """The stage's configuration: options, ``--set``, and the start file's sidecar.
 
@@ -77,37 +83,55 @@ def _config(cls, args, extra=()):
     if args.datafile is None:               # ramp's default: relax's equilibrium in --out
         args.datafile = os.path.join(args.out, "relax", "equilibrium.data")
     d = {"datafile": args.datafile}
+    options = {}                            # key -> the option that gave it
     for key in ("mu", "F_x", "F_y", "dt") + tuple(extra):
         val = getattr(args, key, None)
         if val is not None:
             d[key] = val
+            options[key] = _option_of(key)
+    flags = dict(_FLAGS)
     for item in args.set:
         if "=" not in item:
             raise ConfigError(f"--set expects KEY=VALUE, got {item!r}")
         k, v = item.split("=", 1)
+        k = k.strip()
+        if k in options:
+            raise ConfigError(f"--set {item} and {options[k]} both set {k}; give one of them")
         try:
-            d[k.strip()] = json.loads(v)
+            d[k] = json.loads(v)
         except json.JSONDecodeError:
-            d[k.strip()] = v
+            d[k] = v
+        options[k] = flags[k] = f"--set {k}="
+    for k in MODEL_KEYS:                    # before they are compared with the sidecar
+        v = d.get(k)
+        if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool)
+                                  and math.isfinite(v)):
+            raise ConfigError(f"{k} must be a finite number, got {k} = {v!r} "
+                              f"({options.get(k, k)})")
     if os.path.isfile(args.datafile):
         given = {k: d[k] for k in MODEL_KEYS if d.get(k) is not None}
         try:
-            model, source = merge_model(given, args.datafile, _FLAGS,
+            model, source = merge_model(given, args.datafile, flags,
                                         override=getattr(args, "override", False))
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
         d.update(model)
         args.model_source = source
+        args.model_given = [options[k] for k in MODEL_KEYS if k in given]
     return cls.from_dict(d)
 
 
 def _note_model(args, cfg):
-    """On rank 0: one line naming the model taken from the start file's sidecar."""
+    """On rank 0 (not with --quiet): one line naming the run's model, taken from
+    the start file's sidecar but for the values given (with --override where
+    they differ from it)."""
     src = getattr(args, "model_source", None)
     if src and _rank() == 0 and not args.quiet:
-        print(f"{args.command}: model of the start state ({src}): F_x = {cfg.F_x!r}, "
-              f"F_y = {cfg.F_y!r}, mu = {cfg.mu!r}, k_n = {cfg.k_n!r}, k_t = {cfg.k_t!r}",
-              flush=True)
+        given = getattr(args, "model_given", [])
+        but = f"; {', '.join(given)} as given" if given else ""
+        print(f"{args.command}: model: F_x = {cfg.F_x!r}, F_y = {cfg.F_y!r}, mu = "
+              f"{cfg.mu!r}, k_n = {cfg.k_n!r}, k_t = {cfg.k_t!r} (the start state's sidecar "
+              f"{src}{but})", flush=True)
 
 
 def _runs_arg(text):

@@ -615,3 +615,20 @@ def test_log_never_overwrites_anything_but_a_lammps_log(capsys, relaxed, tmp_pat
     status, _, err = run_cli(capsys, *argv, "--out", tmp_path / "o4", "--log", tmp_path)
     assert status == 2
     assert_one_line_error(err, "is a folder")
+
+
+@pytest.mark.parametrize("extra, needles", [
+    (["--set", "mu=0.5", "--mu", "0.7"], ["--set mu=0.5 and --mu both set mu"]),
+    (["--set", "dF_x=1e-3", "--dF-x", "2e-3"], ["--set dF_x=1e-3 and --dF-x both set dF_x"]),
+    (["--set", "F_x=nan"], ["F_x must be a finite number, got F_x = 'nan' (--set F_x=)"]),
+    (["--F-x", "inf"], ["F_x must be a finite number, got F_x = inf (--F-x)"]),
+    (["--set", "mu=0.5"], ["--set mu=0.5 contradicts mu = 1.0", "leave --set mu= out"]),
+])
+def test_set_and_options_name_what_was_given(capsys, relaxed, tmp_path, extra, needles):
+    """--set KEY= beside the option of KEY was taken silently (--set won), and
+    the messages named the option for a --set value (``--mu 0.5`` contradicts)."""
+    status, _, err = run_cli(capsys, "ramp", "--datafile", relaxed.datafile, "--out",
+                             tmp_path / "o", "--quiet", *extra)
+    assert status == 2
+    assert_one_line_error(err, *needles)
+    assert not (tmp_path / "o").exists()
