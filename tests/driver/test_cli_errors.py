@@ -632,3 +632,20 @@ def test_set_and_options_name_what_was_given(capsys, relaxed, tmp_path, extra, n
     assert status == 2
     assert_one_line_error(err, *needles)
     assert not (tmp_path / "o").exists()
+
+
+def test_demo_keeps_an_earlier_result(capsys, tmp_path):
+    """demo into a folder holding its settled.data: refused (it was replaced),
+    --overwrite replaces it; a run too short for any contact says so (it
+    printed a median of nan)."""
+    out = tmp_path / "d"
+    status, text, _ = run_cli(capsys, "demo", "--n", 20, "--steps", 0, "--out", out)
+    assert status == 0 and "no disk-disk contact yet" in text and "median" not in text
+    before = (out / "settled.data").read_bytes()
+    status, _, err = run_cli(capsys, "demo", "--n", 20, "--steps", 10, "--out", out)
+    assert status == 2
+    assert_one_line_error(err, "already holds demo results", "nothing was overwritten")
+    assert (out / "settled.data").read_bytes() == before
+    status, text, _ = run_cli(capsys, "demo", "--n", 20, "--steps", 10, "--out", out,
+                              "--overwrite")
+    assert status == 0 and (out / "settled.data").read_bytes() != before
