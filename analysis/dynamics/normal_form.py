@@ -57,12 +57,12 @@ X0 = np.array([1.0, -1.0]) / math.sqrt(2.0)
 
 def _check(delta, eps, tau=math.inf, allow_negative_eps=False):
     if not (np.isfinite(delta) and 0.0 < delta < 1.0):
-        raise ValueError(f"delta must be in (0, 1), got {delta!r}")
+        raise ValueError(f"delta must be in (0, 1), got {float(delta)!r}")
     if not np.isfinite(eps) or eps > 1.0 or (eps <= 0.0 and not allow_negative_eps):
         bound = "<= 1" if allow_negative_eps else "in (0, 1]"
-        raise ValueError(f"eps must be {bound}, got {eps!r}")
+        raise ValueError(f"eps must be {bound}, got {float(eps)!r}")
     if not (tau > 0.0):
-        raise ValueError(f"tau must be > 0 (inf for no damping), got {tau!r}")
+        raise ValueError(f"tau must be > 0 (inf for no damping), got {float(tau)!r}")
 
 
 def normal_form_matrix(delta, eps):
@@ -283,15 +283,30 @@ def register(subparsers):
     p.add_argument("--force", type=float, default=0.0, help="forcing amplitude F (default 0)")
     p.add_argument("--omega", type=float, default=0.01, help="forcing frequency (default 0.01)")
     p.add_argument("-o", "--out", default="normal-form", help="output folder")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an earlier normal_form.h5 in --out (default: refuse, exit "
+                        "status 2)")
     p.set_defaults(func=main, serial=True)
 
 
 def main(args):
+    """``remote-trigger normal-form``; returns 0.
+
+    Raises
+    ------
+    InputError
+        ``--out`` is a file or cannot be made, or holds ``normal_form.h5``
+        (without ``--overwrite``).
+    """
     import os
 
+    from remote_trigger.analysis.errors import InputError
     from remote_trigger.analysis.output import output_dir, write_h5_atomic
 
     output_dir(args.out, "-o/--out")
+    if os.path.exists(os.path.join(args.out, "normal_form.h5")) and not args.overwrite:
+        raise InputError(f"-o/--out {args.out!r} already holds normal_form.h5; give another "
+                         "folder or --overwrite (nothing was overwritten)")
     eps = np.array(sorted(args.eps, reverse=True), dtype=np.float64)
     taus = np.array(args.tau, dtype=np.float64)
     amp = amplitude_scan(args.delta, eps, taus, force=args.force, omega=args.omega)

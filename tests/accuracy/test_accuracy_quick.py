@@ -63,3 +63,21 @@ def test_measured_numbers_are_sane(result):
     # Newton polishing reaches 1e-10, damped dynamics alone does not in the budget
     rel = (sec == "relaxation") & (val == 1e-10)
     assert np.isfinite(err[rel]).all()
+
+
+def test_an_earlier_result_is_kept(result):
+    """accuracy into a folder holding its results: refused before any run
+    (it replaced them), one line, exit status 2; the same for normal-form."""
+    out, _ = result
+    cli = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
+    before = (out / "accuracy.h5").read_bytes()
+    p = subprocess.run([cli, "accuracy", "--quick", "-o", str(out)], capture_output=True,
+                       text=True, timeout=60)
+    assert p.returncode == 2 and "already holds accuracy.md" in p.stderr, p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+    assert (out / "accuracy.h5").read_bytes() == before
+    nf = out / "nf"
+    argv = [cli, "normal-form", "-o", str(nf), "--eps", "0.1", "--tau", "inf"]
+    assert subprocess.run(argv, capture_output=True, timeout=60).returncode == 0
+    p = subprocess.run(argv, capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2 and "already holds normal_form.h5" in p.stderr, p.stderr

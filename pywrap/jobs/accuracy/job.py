@@ -501,10 +501,21 @@ def register(subparsers):
     p.add_argument("--seed", type=int, default=1, help="packing seed (default 1)")
     p.add_argument("--sections", default=",".join(SECTIONS),
                    help=f"comma-separated subset of {','.join(SECTIONS)}")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an earlier accuracy.md/.h5/.png in --out (default: refuse, "
+                        "exit status 2)")
     p.set_defaults(func=main)
 
 
 def main(args):
+    """``remote-trigger accuracy``; returns 0.
+
+    Raises
+    ------
+    InputError
+        Under mpirun; ``--out`` is a file or cannot be made, or holds an
+        earlier run's results (without ``--overwrite``).
+    """
     from mpi4py import MPI
 
     from remote_trigger.pywrap.errors import InputError
@@ -515,6 +526,11 @@ def main(args):
     from remote_trigger.analysis.output import output_dir
 
     output_dir(args.out, "-o/--out")
+    held = [f for f in ("accuracy.md", "accuracy.h5", "accuracy.png")
+            if os.path.exists(os.path.join(args.out, f))]
+    if held and not args.overwrite:
+        raise InputError(f"-o/--out {args.out!r} already holds {', '.join(held)}; give another "
+                         "folder or --overwrite (nothing was overwritten)")
     secs = tuple(s.strip() for s in args.sections.split(",") if s.strip())
     rows, paths = run_accuracy(args.out, quick=args.quick, n=args.n, seed=args.seed,
                                sections=secs)
