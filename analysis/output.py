@@ -134,7 +134,9 @@ def output_file(path, option="-o", suffix=None):
     from remote_trigger.analysis.errors import InputError
 
     text = os.fspath(path)
-    if not text or text.endswith(os.sep) or os.path.isdir(text):
+    if not text:
+        raise InputError(f"{option} must name a file, got an empty name")
+    if text.endswith(os.sep) or os.path.isdir(text):
         raise InputError(f"{option} must name a file, got a folder: {text!r}")
     if suffix and (not text.endswith(suffix) or os.path.basename(text) == suffix):
         raise InputError(f"{option} must name a {suffix} file, got {text!r}")

@@ -106,19 +106,19 @@ def run(args):
     from remote_trigger.analysis.errors import InputError, NotEquilibriumError
     from remote_trigger.analysis.state.sidecar import merge_model
 
+    if not os.path.exists(args.dump):
+        raise FileNotFoundError(f"dump file not found: {args.dump}")
+    spheres = dump_dimension(args.dump, args.frame) == 3    # a dump at all (its header)
     if args.output is None:
         args.output = default_output(args.dump)
     output = output_file(args.output, "-o/--output", suffix=".npz")
     if os.path.exists(output) and not args.overwrite:
         raise InputError(f"-o/--output {args.output!r} exists; choose another file or add "
                          f"--overwrite (nothing was written)")
-    if not os.path.exists(args.dump):
-        raise FileNotFoundError(f"dump file not found: {args.dump}")
     given = {"k_n": args.k_n, "k_t": args.k_t, "mu": args.mu, "wall_y": args.wall_y}
     merge_model(given, args.dump, flags={"k_n": "--k-n", "k_t": "--k-t", "mu": "--mu",
                                          "wall_y": "--wall-y"},
                 override=args.override, keys=("k_n", "k_t", "mu", "wall_y"))
-    spheres = dump_dimension(args.dump, args.frame) == 3
     state = (read_dump3d if spheres else read_dump)(
         args.dump, frame=args.frame, k_n=args.k_n, k_t=args.k_t, mu=args.mu, wall_y=args.wall_y)
     try:
@@ -127,7 +127,7 @@ def run(args):
     except NotEquilibriumError as exc:
         if not args.allow_residual:
             raise NotEquilibriumError(f"{exc}; --allow-residual analyses it anyway") from None
-        warning = f"WARNING: {exc}; the eigenvalues below do not describe its motion"
+        warning = f"WARNING: {exc}; the eigenvalues of this run do not describe its motion"
         print(f"remote-trigger jacobian: {warning}", file=sys.stderr, flush=True)
     bar = []                    # a progress bar for a sliced verdict (minutes at N >= 6400)
 

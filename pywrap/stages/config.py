@@ -65,6 +65,9 @@ class StageConfig(Config):
         if not isinstance(self.datafile, (str, os.PathLike)) or not str(self.datafile):
             raise ConfigError(f"datafile must be a file name, got datafile = {self.datafile!r}")
         object.__setattr__(self, "datafile", os.fspath(self.datafile))
+        if os.path.isdir(self.datafile):
+            raise ConfigError(f"datafile is a folder, not a data file: datafile = "
+                              f"{self.datafile!r}")
         if not os.path.isfile(self.datafile):
             raise ConfigError(f"datafile does not exist: datafile = {self.datafile!r}")
         object.__setattr__(self, "k_t", self.model.k_t)

@@ -520,9 +520,7 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
     if not isinstance(cfg, RelaxConfig):
         raise ConfigError(f"relax needs a RelaxConfig, got {type(cfg).__name__}")
     if cfg.protocol == "frictionless-then-friction" and cfg.F_x != 0.0:
-        # step (iii) has mu = 0 on every contact and on the flat wall, whose
-        # force is along its normal only: nothing can balance N_top F_x along
-        # the periodic x axis, and the packing would drift until `slide`
+        # (iii): the flat wall's force is along y; the packing would drift
         raise eq.NoEquilibriumError(
             f"no equilibrium at F_x = {cfg.F_x!r} in the frictionless step (iii) of "
             "protocol 'frictionless-then-friction' (mu = 0 on every contact and on the "

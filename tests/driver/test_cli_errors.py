@@ -649,3 +649,23 @@ def test_demo_keeps_an_earlier_result(capsys, tmp_path):
     status, text, _ = run_cli(capsys, "demo", "--n", 20, "--steps", 10, "--out", out,
                               "--overwrite")
     assert status == 0 and (out / "settled.data").read_bytes() != before
+
+
+def test_inputs_named_for_what_they_are(capsys, packing_file, tmp_path):
+    """A folder given as --datafile is called a folder (it "did not exist"); a
+    data file given to jacobian is refused as no dump even where the .npz it
+    would write exists (that was the error named); an empty --output is
+    called empty (it was "a folder: ''")."""
+    status, _, err = run_cli(capsys, "relax", "--datafile", tmp_path, "--out", tmp_path / "o")
+    assert status == 2
+    assert_one_line_error(err, "datafile is a folder, not a data file")
+    data = tmp_path / "p.data"
+    shutil.copyfile(packing_file, data)
+    (tmp_path / "p.npz").write_bytes(b"keep")
+    status, _, err = run_cli(capsys, "jacobian", data)
+    assert status == 2
+    assert_one_line_error(err, "expected 'ITEM: TIMESTEP'")
+    assert (tmp_path / "p.npz").read_bytes() == b"keep"
+    status, _, err = run_cli(capsys, "generate", "--output", "")
+    assert status == 2
+    assert_one_line_error(err, "--output must name a file, got an empty name")
