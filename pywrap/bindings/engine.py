@@ -70,7 +70,9 @@ def check_log_path(log, comm=None):
     log = os.fspath(log)
     if log == "none":
         return
-    if log == "" or os.path.isdir(log):
+    if log == "":
+        raise ConfigError("--log must name a file (or 'none'), got an empty name")
+    if os.path.isdir(log):
         raise ConfigError(f"--log {log!r} is a folder, not a file")
     if os.path.exists(log):
         with open(log, "rb") as fh:
