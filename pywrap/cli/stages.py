@@ -62,6 +62,22 @@ _FLAGS = {"F_x": "--F-x", "F_y": "--F-y", "mu": "--mu", "k_n": "--set k_n=",
           "k_t": "--set k_t="}
 
 
+def _resumed_start(out):
+    """``ramp --resume`` without --datafile: the start file OUT/ramp.h5 names,
+    if it is there (as given when the ramp began: relative to that working
+    folder), else None."""
+    h5 = os.path.join(out, "ramp.h5")
+    try:
+        import h5py
+
+        with h5py.File(h5, "r") as fh:
+            start = fh.attrs.get("datafile")
+    except (OSError, KeyError):
+        return None
+    start = start.decode() if isinstance(start, bytes) else start
+    return str(start) if start is not None and os.path.isfile(str(start)) else None
+
+
 def _option_of(key):
     """The command-line option of a configuration key (``dF_x`` -> ``--dF-x``)."""
     return {"newton": "--no-newton", **_FLAGS}.get(key, "--" + key.replace("_", "-"))
@@ -80,8 +96,9 @@ def _config(cls, args, extra=()):
     from remote_trigger.analysis.state.sidecar import MODEL_KEYS, merge_model
     from remote_trigger.pywrap.config import ConfigError
 
-    if args.datafile is None:               # ramp's default: relax's equilibrium in --out
-        args.datafile = os.path.join(args.out, "relax", "equilibrium.data")
+    if args.datafile is None:               # ramp's default: relax's equilibrium in --out,
+        args.datafile = (_resumed_start(args.out) if getattr(args, "resume", False)
+                         else None) or os.path.join(args.out, "relax", "equilibrium.data")
     d = {"datafile": args.datafile}
     options = {}                            # key -> the option that gave it
     for key in ("mu", "F_x", "F_y", "dt") + tuple(extra):
@@ -218,7 +235,8 @@ def register(subparsers):
     m.add_argument("--dF-x-max", dest="dF_x_max", type=float,
                    help="adaptive ramp: largest step (default: every step is dF_x)")
     m.add_argument("--resume", action="store_true",
-                   help="continue an interrupted ramp from its last equilibrium")
+                   help="continue an interrupted ramp from its last equilibrium (without "
+                        "--datafile: the start file OUT/ramp.h5 names)")
     m.set_defaults(func=run_ramp, resume_hint=INTERRUPT_HINTS["ramp"])
 
     p = subparsers.add_parser(

@@ -669,3 +669,19 @@ def test_inputs_named_for_what_they_are(capsys, packing_file, tmp_path):
     status, _, err = run_cli(capsys, "generate", "--output", "")
     assert status == 2
     assert_one_line_error(err, "--output must name a file, got an empty name")
+
+
+def test_ramp_resume_without_datafile_takes_the_recorded_start(capsys, relaxed, tmp_path):
+    """``ramp --out O --resume`` continues the ramp O/ramp.h5 began, from the
+    start file it names (it took O/relax/equilibrium.data, absent here)."""
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.stages.config import RampConfig
+
+    out = tmp_path / "o"
+    cfg = RampConfig(datafile=relaxed.datafile, dF_x=0.02, tol=1e-3)
+    assert stages.ramp(cfg, str(out), quiet=True, stop_after=1).status == "interrupted"
+    assert not (out / "relax").exists()
+    status, text, err = run_cli(capsys, "ramp", "--out", out, "--dF-x", 0.02, "--tol", 1e-3,
+                                "--resume", "--quiet")
+    assert status == 0, err
+    assert "F_x^c in [" in text
