@@ -58,12 +58,23 @@ def test_toml_unknown_keys_are_named(tmp_path, text, key):
     assert key in str(exc.value)
 
 
-def test_unknown_relax_key_is_named_by_relaxconfig(tmp_path):
-    data = tmp_path / "p.data"
-    data.write_text("x")
-    cfg = PaperConfig(relax={"settel_steps": 10})
+def test_unknown_relax_key_is_named_by_relaxconfig(tmp_path, capsys):
+    """Named by RelaxConfig when the job's configuration is built: before a
+    re-run into the folder of a finished job removes its outputs (the key was
+    found only at the relaxation, after they were gone)."""
     with pytest.raises(ConfigError, match="settel_steps"):
-        paper.relax_config(cfg, str(data))
+        PaperConfig(relax={"settel_steps": 10})
+    with pytest.raises(ConfigError, match="settle_steps must be >= 0"):
+        PaperConfig(relax={"settle_steps": -1})
+    old = tmp_path / "old"
+    old.mkdir()
+    for name in ("paper.json", "report.md", "relax.h5"):
+        (old / name).write_text("x")
+    toml = tmp_path / "typo.toml"
+    toml.write_text("[relax]\nsettel_steps = 100\n")
+    assert cli_main(["paper", "--out", str(old), "--quick", "--config", str(toml)]) == 2
+    assert "settel_steps" in capsys.readouterr().err
+    assert sorted(os.listdir(old)) == ["paper.json", "relax.h5", "report.md"]
 
 
 def test_toml_syntax_error_and_missing_file(tmp_path):

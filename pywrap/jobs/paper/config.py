@@ -19,7 +19,7 @@ import math
 from remote_trigger.pywrap.config import (
     Config, ConfigError, ContactModel, _int, check_bool, check_number as _num, check_numbers,
     check_table, layered_config)
-from remote_trigger.pywrap.stages.config import DynamicsConfig
+from remote_trigger.pywrap.stages.config import DynamicsConfig, RelaxConfig
 
 #: keys of the ``[relax]`` table that the job sets itself (top-level keys)
 RELAX_SET_BY_JOB = ("datafile", "k_n", "k_t", "mu", "F_y", "dt", "F_x")
@@ -282,8 +282,8 @@ class PaperConfig(Config):
             if not t > 0:
                 raise ConfigError(f"nf_tau values must be > 0 (inf: no damping), got "
                                   f"nf_tau = {list(self.nf_tau)!r}")
-        # the values are checked by RelaxConfig when the relaxation is configured
-        check_table("relax", self.relax, RELAX_SET_BY_JOB, "the paper job")
+        # checked now, before a re-run removes the outputs of the last one
+        check_table("relax", self.relax, RELAX_SET_BY_JOB, "the paper job", RelaxConfig)
         _int("np", self.np, 1)
         check_bool("quick", self.quick)
 
