@@ -113,3 +113,29 @@ def test_a_failed_point_is_a_row_with_its_reason(tmp_path):
     rows = tr.collect(str(tmp_path), tasks, setup)
     assert len(rows) == 1 and rows[0]["status"].startswith("failed: NoEquilibriumError")
     assert np.isnan(rows[0]["a_c"])
+
+
+def test_resume_refuses_a_paper_job_made_again(tmp_path):
+    """A map resumed after its paper job was run again in the same folder (another
+    seed, other brackets, another v0) is refused, naming what changed: the loads
+    of the first job were kept beside runs and ramp numbers of the second."""
+    import json
+    import types
+
+    from mpi4py import MPI
+
+    from remote_trigger.pywrap.jobs.paper.config import PaperConfig
+    from remote_trigger.pywrap.jobs.trigger_map.loads import paper_fingerprint, prepare_loads
+
+    man = {"ramps": [{"F_x_c_low": 0.1013, "F_x_c_high": 0.1014},
+                     {"F_x_c_low": 0.0915, "F_x_c_high": 0.0916}], "perturb": {"v0": 2.35e-11}}
+    kept = {"loads": [], "v0": 2.35e-11, "paper_job": paper_fingerprint(PaperConfig(), man)}
+    (tmp_path / "loads.json").write_text(json.dumps(kept))
+    cfg = types.SimpleNamespace(paper="q")
+    # the same job: the kept loads are used
+    assert prepare_loads(cfg, PaperConfig(), man, str(tmp_path), MPI.COMM_SELF)["v0"] == 2.35e-11
+    again = dict(man, perturb={"v0": 2.78e-11})
+    with pytest.raises(ConfigError, match=r"paper job 'q' changed since this map began "
+                                          r"\(seed = 1 then, 2 now; v0 = 2\.35e-11 then, "
+                                          r"2\.78e-11 now\)"):
+        prepare_loads(cfg, PaperConfig(seed=2), again, str(tmp_path), MPI.COMM_SELF)

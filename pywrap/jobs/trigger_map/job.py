@@ -462,9 +462,17 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
 
 def _check_out(cfg, out, resume):
     """Refuse an --out that is a file or holds other results; check --resume's config."""
-    from remote_trigger.pywrap.runtime.jobfolder import check_job_folder
+    from remote_trigger.pywrap.runtime.jobfolder import CONFIG_FILE, check_job_folder
 
-    check_job_folder(out, cfg.to_dict(), resume, "a trigger map")
+    config = cfg.to_dict()
+    try:                # the same paper folder named another way ('q', 'q/', /abs/q)
+        with open(os.path.join(out, CONFIG_FILE)) as fh:
+            then = json.load(fh).get("paper")
+        if resume and os.path.realpath(str(then)) == os.path.realpath(str(cfg.paper)):
+            config["paper"] = then
+    except (OSError, ValueError, AttributeError):
+        pass
+    check_job_folder(out, config, resume, "a trigger map")
 
 
 # --------------------------------------------------------------------------- command line

@@ -204,17 +204,41 @@ def prepare_loads(cfg, pcfg, man, out, comm):
         ``mu_ss``, ``g_ref``.
     """
     path = os.path.join(out, "loads.json")
+    job = paper_fingerprint(pcfg, man)
+
     def load_or_prepare():
         if os.path.isfile(path):
             with open(path) as fh:
-                return json.load(fh)
+                result = json.load(fh)
+            then = result.get("paper_job")          # None: a map of an older version
+            if then is not None and then != job:
+                flat = {**then.get("config", {}), "brackets": then.get("brackets"),
+                        "v0": then.get("v0")}
+                now = {**job["config"], "brackets": job["brackets"], "v0": job["v0"]}
+                what = [k for k in now if flat.get(k) != now[k]][:3]
+                raise ConfigError(
+                    f"cannot resume: the paper job {cfg.paper!r} changed since this map began "
+                    f"({'; '.join(f'{k} = {flat.get(k)!r} then, {now[k]!r} now' for k in what)})"
+                    f"; map it into another --out (nothing was changed)")
+            return result
         from remote_trigger.pywrap.runtime.jobfolder import write_json
 
-        result = _prepare_loads(cfg, pcfg, man, out)
+        result = dict(_prepare_loads(cfg, pcfg, man, out), paper_job=job)
         write_json(path, result)
         return result
 
     return on_rank0(comm, load_or_prepare)
+
+
+def paper_fingerprint(pcfg, man):
+    """What the map takes from its paper job: the job's configuration, the
+    brackets of its ramps and the v0 of its Fig. 5 (JSON values), compared on
+    ``--resume`` so that a paper job run again in its folder is not mixed in."""
+    cfg = json.loads(json.dumps(pcfg.to_dict(), default=str))
+    brackets = [[r.get("F_x_c_low"), r.get("F_x_c_high")] for r in man["ramps"]]
+    v0 = man.get("perturb", {}).get("v0")
+    return json.loads(json.dumps({"config": cfg, "brackets": brackets, "v0": v0},
+                                 default=str))
 
 
 def _prepare_loads(cfg, pcfg, man, out):
