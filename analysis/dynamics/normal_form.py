@@ -190,9 +190,10 @@ def integrate(delta, eps, tau=math.inf, force=0.0, omega=0.01, t_max=None,
     tau : float, optional
         Damping time; inf (default) for none.
     force : float, optional
-        F of f = F (1,-1)/sqrt 2 (Eq. 15); default 0.
+        F of f = F (1,-1)/sqrt 2 (Eq. 15), finite; default 0.
     omega : float, optional
-        Forcing frequency (default 0.01, far from the natural frequency 1).
+        Forcing frequency, finite, >= 0 (default 0.01, far from the natural
+        frequency 1).
     t_max : float, optional
         End time; default min(2 tau_d, 40 tau) + 20: the undamped maximum is
         reached near (pi/2) tau_d, and by 40 tau amplitudes have decayed by
@@ -216,6 +217,10 @@ def integrate(delta, eps, tau=math.inf, force=0.0, omega=0.01, t_max=None,
     from scipy.integrate import solve_ivp
 
     _check(delta, eps, tau)
+    if not math.isfinite(force):
+        raise ValueError(f"force must be a finite number, got force = {float(force)!r}")
+    if not (math.isfinite(omega) and omega >= 0.0):
+        raise ValueError(f"omega must be a finite number >= 0, got omega = {float(omega)!r}")
     J = normal_form_matrix(delta, eps)
     gamma = 0.0 if math.isinf(tau) else 1.0 / tau
     fvec = force * X0

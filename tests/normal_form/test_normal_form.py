@@ -72,3 +72,17 @@ def test_forcing_orthogonal_to_coalescing_vector_is_amplified():
 def test_bad_parameters(kw, match):
     with pytest.raises(ValueError, match=match):
         nf.integrate(**kw)
+
+
+@pytest.mark.parametrize("kw, msg", [
+    (dict(force=float("nan")), "force must be a finite number, got force = nan"),
+    (dict(omega=float("nan")), "omega must be a finite number >= 0, got omega = nan"),
+    (dict(omega=-1.0), "omega must be a finite number >= 0, got omega = -1.0"),
+])
+def test_forcing_out_of_range_is_refused(kw, msg):
+    """A NaN forcing amplitude or frequency made solve_ivp step forever (the
+    command hung with no output); refused by name before integrating."""
+    from remote_trigger.analysis.dynamics.normal_form import integrate
+
+    with pytest.raises(ValueError, match=msg):
+        integrate(0.1, 0.1, **kw)
