@@ -90,6 +90,9 @@ def job_overrides(args, **more):
     over = parse_set(args.set)
     for key, val in dict(more, np=args.np).items():
         if val is not None:
+            if key in over:         # the option silently won over --set
+                raise ConfigError(f"--set {key}={over[key]!r} and --{key.replace('_', '-')} "
+                                  f"{val!r} both set {key}; give one of them")
             over[key] = val
     return over
 

@@ -219,3 +219,15 @@ def test_one_numeric_validator():
             config.check_number("x", val, 0, lo_open=True)
     with pytest.raises(ConfigError, match="x must be <= 1, got x = 2"):
         config.check_number("x", 2, hi=1)
+
+
+def test_a_key_given_by_flag_and_set_is_refused(capsys):
+    """``--set n=60 --n 44``: the flag won silently and the --set value was
+    never checked (``--n 40 --set n=-5`` ran a whole job); the same in the
+    task-farm jobs (``--np`` and ``--set np=``)."""
+    for argv in (["paper", "--out", "unused", "--quick", "--set", "n=60", "--n", "44"],
+                 ["ensemble", "--out", "unused", "--quick", "--set", "np=2", "--np", "1"]):
+        assert cli_main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "both set" in err[0] and "give one of them" in err[0], err
+    assert not os.path.exists("unused")

@@ -5,7 +5,7 @@ import os
 import sys
 
 from remote_trigger.pywrap.jobs.paper.config import PaperConfig, build_config
-from remote_trigger.pywrap.config import parse_set
+from remote_trigger.pywrap.config import ConfigError, parse_set
 from remote_trigger.pywrap.jobs.paper.manifest import MANIFEST, load_manifest
 from remote_trigger.pywrap.jobs.paper.job import run_paper  # noqa: F401
 
@@ -75,6 +75,9 @@ def config_from_args(args):
     for f in PaperConfig.names():
         v = getattr(args, f"opt_{f}", None)
         if v is not None:
+            if f in over:           # the option silently won, and --set went unchecked
+                raise ConfigError(f"--set {f}={over[f]!r} and --{f.replace('_', '-')} {v!r} "
+                                  f"both set {f}; give one of them")
             over[f] = v
     return build_config(args.config, over, quick=bool(args.quick))
 
