@@ -81,3 +81,20 @@ def test_an_earlier_result_is_kept(result):
     assert subprocess.run(argv, capture_output=True, timeout=60).returncode == 0
     p = subprocess.run(argv, capture_output=True, text=True, timeout=60)
     assert p.returncode == 2 and "already holds normal_form.h5" in p.stderr, p.stderr
+
+
+@pytest.mark.parametrize("opts, needle", [
+    (["--sections", ""], "sections is empty"),
+    (["--n", "0", "--sections", "jacobian"], "n must be >= 6, got n = 0"),
+    (["--seed", "-1", "--sections", "jacobian"], "seed must be >= 0, got seed = -1"),
+])
+def test_bad_arguments_before_anything_is_written(tmp_path, opts, needle):
+    """--sections "" failed in matplotlib after writing half a folder, --n 0 ran
+    N = 20, --seed -1 named neither; each is now one line, and no --out."""
+    cli = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
+    out = tmp_path / "acc"
+    p = subprocess.run([cli, "accuracy", "--quick", "-o", str(out), *opts],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2 and needle in p.stderr, p.stderr
+    assert len(p.stderr.strip().splitlines()) == 1
+    assert not out.exists()

@@ -435,6 +435,22 @@ from remote_trigger.pywrap.jobs.accuracy.report import (  # noqa: E402
 
 
 # --------------------------------------------------------------------------- driver
+def check_arguments(sections, n, seed, quick):
+    """The number of disks of a run (default 20 quick, 100), after refusing
+    unknown or no ``sections`` and a bad ``n`` or ``seed`` (ValueError /
+    ConfigError naming the value; ``n = 0`` was taken as the default)."""
+    from remote_trigger.pywrap.stages.config import check_packing_args
+
+    bad = [s for s in sections if s not in SECTIONS]
+    if bad:
+        raise ValueError(f"unknown sections {bad}; choose from {list(SECTIONS)}")
+    if not sections:
+        raise ValueError(f"sections is empty; choose from {list(SECTIONS)}")
+    n = n if n is not None else (20 if quick else 100)
+    check_packing_args(n, seed)
+    return n
+
+
 def run_accuracy(out, quick=False, n=None, seed=1, sections=SECTIONS):
     """Run the measurements and write table, HDF5 and plot.
 
@@ -457,11 +473,9 @@ def run_accuracy(out, quick=False, n=None, seed=1, sections=SECTIONS):
     paths : dict
         ``md``, ``h5``, ``png``.
     """
-    bad = [s for s in sections if s not in SECTIONS]
-    if bad:
-        raise ValueError(f"unknown sections {bad}; choose from {list(SECTIONS)}")
+    n = check_arguments(sections, n, seed, quick)
     os.makedirs(out, exist_ok=True)
-    ctx = Context(out=out, n=n or (20 if quick else 100), seed=seed, quick=quick)
+    ctx = Context(out=out, n=n, seed=seed, quick=quick)
     rows = []
     t_all = time.perf_counter()
     needs_eq = any(s in sections for s in ("timestep", "relaxation", "jacobian", "eigen"))
@@ -525,13 +539,14 @@ def main(args):
                          f"(got {MPI.COMM_WORLD.Get_size()} ranks)")
     from remote_trigger.analysis.output import output_dir
 
+    secs = tuple(s.strip() for s in args.sections.split(",") if s.strip())
+    check_arguments(secs, args.n, args.seed, args.quick)      # before --out is made
     output_dir(args.out, "-o/--out")
     held = [f for f in ("accuracy.md", "accuracy.h5", "accuracy.png")
             if os.path.exists(os.path.join(args.out, f))]
     if held and not args.overwrite:
         raise InputError(f"-o/--out {args.out!r} already holds {', '.join(held)}; give another "
                          "folder or --overwrite (nothing was overwritten)")
-    secs = tuple(s.strip() for s in args.sections.split(",") if s.strip())
     rows, paths = run_accuracy(args.out, quick=args.quick, n=args.n, seed=args.seed,
                                sections=secs)
     print(markdown_table(rows))
