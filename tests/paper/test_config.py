@@ -231,3 +231,12 @@ def test_a_key_given_by_flag_and_set_is_refused(capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "both set" in err[0] and "give one of them" in err[0], err
     assert not os.path.exists("unused")
+
+
+def test_time_step_refusal_names_what_the_job_takes(tmp_path, capsys):
+    """The stages suggest dt = 'auto', which the paper job's dt refuses: its
+    message gives the safe value and asks for a number."""
+    assert cli_main(["paper", "--quick", "--out", str(tmp_path / "kn"), "--k-n", "2e7",
+                     "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "use dt <= 6.98" in err and "--dt VALUE" in err and "'auto'" not in err, err

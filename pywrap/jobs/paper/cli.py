@@ -119,7 +119,13 @@ def main(args):
         if args.resume and os.path.isfile(os.path.join(args.out, MANIFEST)):
             load_manifest(os.path.abspath(args.out), cfg)   # refuse before mpirun starts
         return _relaunch(cfg, args)
-    path = run_paper(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)
+    from remote_trigger.analysis.stability.timestep import TimestepError
+
+    try:
+        path = run_paper(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)
+    except TimestepError as exc:    # the stages' hint 'auto' is not a value of the job's dt
+        raise TimestepError(str(exc).replace(
+            ", or dt = 'auto'", " (the paper job takes a number: --dt VALUE)")) from None
     if world.Get_rank() == 0:
         print(f"report: {path}")
     return 0
