@@ -220,7 +220,10 @@ def _fig4_rows(out, summary, checks, info, extra):
                reason=(f"at t = {m['t_end']:.4g} D is only {m['below_exponential']:.3g} "
                        f"decades below the growth window's exponential (saturated: more "
                        f"than {SATURATION_DECADES:g}); a longer run (t_instability, "
-                       f"instability_span, d_sat) would show the saturation"),
+                       f"instability_span, d_sat) would show the saturation"
+                       if np.isfinite(m["below_exponential"]) else
+                       "not measured: the run has no growth window whose exponential D "
+                       "could be compared with"),
                note=(f"max D over the last 10 % of the run is {m['below_exponential']:.3g} "
                      f"decades below the growth window's exponential extrapolated to "
                      f"t = {m['t_end']:.4g} (> {SATURATION_DECADES:g}); growth rate over "

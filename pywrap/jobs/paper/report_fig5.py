@@ -122,10 +122,8 @@ class _Fig5:
                    "has settled, at the rate max Im sqrt(lambda) of M^-1 K at the friction "
                    "reached (measured / predicted - 1)", rel, "D ~ e^{2 Im(omega) t} (Eq. 6)",
                    np.isfinite(rel) and abs(rel) <= 0.25,
-                   reason=(f"measured {g_meas:.4g}, predicted {g_pred:.4g} at mu = "
-                           f"{reached.get('mu_fit', float('nan')):.4g}; no exponential window "
-                           "of >= 5 records between 3 x the re-equilibration's largest D "
-                           "and 0.1 x max D"
+                   reason=("not measured: no exponential window of >= 5 records between "
+                           "3 x the re-equilibration's largest D and 0.1 x max D"
                            if reached and not reached.get("window") else
                            f"measured {g_meas:.4g}, predicted {g_pred:.4g} at mu = "
                            f"{reached.get('mu_fit', float('nan')):.4g}" if reached else
@@ -208,7 +206,8 @@ class _Fig5:
                    f"mu0 = {mu0:g} throughout", ok,
                    reason=(f"noise alone switched mu(v) on at t = {re_['switch_time']:.4g}: "
                            f"v0's margin ({cfg['fig5_v0_margin']:g}) is too small"),
-                   note=(f"max |v_top| {re_['max_v']:.3g} < v0 = {pm['v0']:.3g} over "
+                   note=(f"max |v_top| {re_.get('v_top_max', re_['max_v']):.3g} (every "
+                         f"step) < v0 = {pm['v0']:.3g} over "
                          f"t = {re_['t_end']:.4g} (v0 was set from the first half of (a); "
                          "while |v| <= v0, (e) is step by step the same run as (a))"))
 

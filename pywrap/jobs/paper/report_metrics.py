@@ -184,6 +184,8 @@ def perturb_metrics(out, summary):
                 "max_D": float(np.max(D)), "decades": ser.decades_above(D, level),
                 "v_decades": ser.decades_above(v, v_level),
                 "max_v": float(np.max(np.abs(v))), "min_mu": float(np.min(mu)),
+                # over every step (the series file's running max), as v0 is
+                "v_top_max": float(s_["attrs"].get("v_top_max", np.max(np.abs(v)))),
                 "switch_time": ts, "post_switch_level": lvl,
                 "triggered": bool(np.isfinite(lvl) and np.max(D) >= 1e3 * lvl),
                 "late_growth": (float(np.log10(second.max() / first.max()))

@@ -488,7 +488,8 @@ def register(subparsers):
     p.add_argument("--paper", help="output folder of the paper job (required unless in "
                                    "--config)")
     add_job_arguments(p, "trigger-map", "MapConfig",
-                      "small test variant (2 loads, 2 frequencies, 1 damping time)",
+                      "small test variant (2 loads: window 0.6 and below; omega_p = 1; "
+                      "1 damping time)",
                       "continue an interrupted map in --out (same configuration; finished "
                       "runs are kept)", "--set omega_p=[0.01,1]")
     p.set_defaults(func=main)
