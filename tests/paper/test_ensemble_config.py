@@ -10,6 +10,14 @@ from remote_trigger.pywrap.cli import main
 from remote_trigger.pywrap.config import ConfigError
 
 
+def test_n_without_seeds_says_whose_default_the_seeds_are():
+    """``--set n=[100]`` alone: the two default seed lists belong to n =
+    [100, 400]; the message says so (it named seeds the user never set)."""
+    with pytest.raises(ConfigError, match=r"seeds holds 2 lists of seeds for 1 size\(s\) N: "
+                                          r"give one list per N.*n = \[100, 400\]"):
+        ec.EnsembleConfig.from_dict({"n": [100]})
+
+
 @pytest.mark.parametrize("key,val,words", [
     ("seeds", [], "seeds = []"),
     ("seeds", [[1, 2], []], "seeds = [[1, 2], []]"),

@@ -222,7 +222,10 @@ class EnsembleConfig(Config):
         nested = all(isinstance(s, (list, tuple)) for s in seeds)
         per_n = [list(s) for s in seeds] if nested else [seeds] * n_sizes
         if len(per_n) != n_sizes:
-            raise bad
+            raise ConfigError(
+                f"seeds holds {len(per_n)} lists of seeds for {n_sizes} size(s) N: give one "
+                f"list per N, or one list for every N (the default seeds, 1..20 and 1..5, "
+                f"are those of n = [100, 400]), got seeds = {seeds!r}")
         for lst in per_n:
             if not lst:
                 raise bad
