@@ -139,3 +139,18 @@ def test_resume_refuses_a_paper_job_made_again(tmp_path):
                                           r"\(seed = 1 then, 2 now; v0 = 2\.35e-11 then, "
                                           r"2\.78e-11 now\)"):
         prepare_loads(cfg, PaperConfig(seed=2), again, str(tmp_path), MPI.COMM_SELF)
+
+
+def test_a_paper_job_whose_second_ramp_is_not_at_mu_ss_is_refused(tmp_path):
+    """A paper job run with mu_low != mu_ss mu (and fig5_F_x) has no F_x^c(mu_ss
+    mu0): the map took F_x^c(mu_low) for it and placed its loads in the wrong
+    window. Refused by name when the paper job is read."""
+    import json
+
+    from remote_trigger.pywrap.jobs.paper.config import PaperConfig
+
+    cfg = dict(PaperConfig(mu_low=0.7, fig5_F_x=0.095).to_dict(), nf_tau=[None, 300.0])
+    man = {"status": "complete", "perturb": {"v0": 1e-11}, "ramps": [{}, {}], "config": cfg}
+    (tmp_path / "paper.json").write_text(json.dumps(man))
+    with pytest.raises(ConfigError, match=r"ramped mu_low = 0\.7, not mu_ss mu0 = 0\.8"):
+        loads.load_paper_job(str(tmp_path))

@@ -252,10 +252,15 @@ def run_fig5(cfg, out, ramps, comm, clock):
     below = np.flatnonzero(F_steps <= F5)
     start = files[int(below[-1])] if below.size else files[0]
     rcfg = ramp_config(cfg, start, mu0)
-    summ = {"F_x": F5, "window": [w_lo, w_hi], "window_fraction": cfg.fig5_window,
+    # the window is that of the second ramp, at mu_low (= mu_ss mu0 unless
+    # fig5_F_x is given); a given F_x has its own fraction of it
+    frac = (cfg.fig5_window if cfg.fig5_F_x is None else
+            (F5 - w_lo) / (w_hi - w_lo) if math.isfinite(w_lo) and w_hi > w_lo
+            else float("nan"))
+    summ = {"F_x": F5, "window": [w_lo, w_hi], "window_fraction": frac,
             "start": start, "mu0": mu0, "mu_ss": mu_ss}
     clock.say(f"Fig. 5: F_x = {F5:.7g} in the window [{w_lo:.7g}, {w_hi:.7g}] of "
-              f"F_x^c(mu = {mu_ss:g}) and F_x^c(mu = {mu0:g})")
+              f"F_x^c(mu = {float(cfg.mu_low):g}) and F_x^c(mu = {mu0:g})")
     with Engine(comm=comm) as eng:
         # ---- the equilibrium at F5 (mu0), its spectrum, the friction drop, mu*
         eq5, drop, ms = _load_analysis(eng, cfg, rcfg, start, F5, mu0, mu_ss, folder, clock)

@@ -57,7 +57,8 @@ class _Fig5:
         pz, checks, mu0, mu_ss, ms = self.pz, self.checks, self.mu0, self.mu_ss, self.ms
         eq5, drop = pz["equilibrium"], pz["drop"]
         _check(checks, "stable_fig5", f"Fig. 5: the equilibrium at F_x = {pz['F_x']:.7g} "
-               f"(window fraction {pz.get('window_fraction')}) is certified linearly stable "
+               f"(window fraction {float(pz.get('window_fraction', float('nan'))):.3g}) is "
+               f"certified linearly stable "
                f"with mu0 = {mu0:g} (all eigenvalues real)", eq5["decision"] == "real", "yes",
                eq5["decision"] == "real",
                reason=f"decision {eq5['decision']} (margin {eq5['confidence']:.3g})",
@@ -232,7 +233,9 @@ class _Fig5:
         pz, pm, info, ms = self.pz, self.pm, self.info, self.ms
         rc = pm.get("c")
         info.append(("F_x_fig5", "Fig. 5: F_x of the runs", pz["F_x"]))
-        info.append(("fig5_window", "Fig. 5: the window [F_x^c(mu_ss mu0), F_x^c(mu0)] "
+        low = ("mu_ss mu0" if abs(self.cfg["mu_low"] - self.cfg["mu_ss"] * self.cfg["mu"])
+               <= 1e-12 * self.cfg["mu"] else f"mu_low = {self.cfg['mu_low']:g}")
+        info.append(("fig5_window", f"Fig. 5: the window [F_x^c({low}), F_x^c(mu0)] "
                      f"= [{pz['window'][0]:.8g}, {pz['window'][1]:.8g}]; fraction",
                      pz.get("window_fraction")))
         info.append(("mu_star", "Fig. 5: mu* (pair turns complex below it), bracket midpoint"

@@ -395,8 +395,8 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
         if speak and rank == 0:
             print(f"[trigger-map {time.perf_counter() - t_start:7.1f} s] {msg}", flush=True)
 
+    pcfg, man = load_paper_job(cfg.paper)            # refused before --out is made
     on_rank0(comm, _check_out, cfg, out, resume)
-    pcfg, man = load_paper_job(cfg.paper)
     setup = prepare_loads(cfg, pcfg, man, out, comm)
     setup["omegas"] = map_omegas(cfg, setup["loads"])     # the current grid (resume)
     say(f"{len(setup['loads'])} loads, tau = "

@@ -25,7 +25,7 @@ def load_paper_job(folder):
     ------
     ConfigError
         If ``folder/paper.json`` is missing, unreadable, not complete, or
-        lacks the Fig. 5 phase.
+        lacks the Fig. 5 phase, or its second ramp is not at mu_ss mu0.
     """
     from remote_trigger.pywrap.jobs.paper.config import PaperConfig
 
@@ -42,7 +42,14 @@ def load_paper_job(folder):
                           f"`remote-trigger paper --out {folder} --resume`")
     d = dict(man["config"])
     d["nf_tau"] = [math.inf if v is None else v for v in d.get("nf_tau", [])]
-    return PaperConfig.from_dict(d), man
+    pcfg = PaperConfig.from_dict(d)
+    mu_ss = float(pcfg.mu_ss) * float(pcfg.mu)
+    if abs(float(pcfg.mu_low) - mu_ss) > 1e-12 * float(pcfg.mu):
+        # its second ramp is not at the friction the drop reaches
+        raise ConfigError(f"paper = {folder!r} ramped mu_low = {pcfg.mu_low:g}, not "
+                          f"mu_ss mu0 = {mu_ss:g}: the window [F_x^c(mu_ss mu0), F_x^c(mu0)] of "
+                          f"the map is not known; map a paper job with mu_low = mu_ss mu")
+    return pcfg, man
 
 
 def _msd(a, b):
