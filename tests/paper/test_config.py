@@ -240,3 +240,15 @@ def test_time_step_refusal_names_what_the_job_takes(tmp_path, capsys):
                      "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "use dt <= 6.98" in err and "--dt VALUE" in err and "'auto'" not in err, err
+
+
+def test_a_job_without_f_x_c_has_exit_status_1(tmp_path, capsys):
+    """--F-x-max below F_x^c: the ramps end without a bracket, Figs. 4-5 are
+    skipped; the report is written, and the exit status says there is no
+    result (it said 0, "complete")."""
+    out = tmp_path / "fmax"
+    assert cli_main(["paper", "--quick", "--out", str(out), "--F-x-max", "0.05",
+                     "--quiet"]) == 1
+    text = capsys.readouterr().out
+    assert "report: " in text and "ended without F_x^c" in text
+    assert (out / "report.md").is_file()

@@ -376,7 +376,8 @@ def register(subparsers):
                    help="instead of running: say how far the ensemble in --out has come "
                         "(per packing: finished, relaxing, or each ramp's points and "
                         "bracket so far); reads the folder only, safe beside the running job")
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, resume_hint=(
+        "every finished packing is kept: the same command with --resume continues the ensemble"))
 
 
 def config_from_args(args):

@@ -126,6 +126,13 @@ def main(args):
     except TimestepError as exc:    # the stages' hint 'auto' is not a value of the job's dt
         raise TimestepError(str(exc).replace(
             ", or dt = 'auto'", " (the paper job takes a number: --dt VALUE)")) from None
+    status = 0
     if world.Get_rank() == 0:
         print(f"report: {path}")
-    return 0
+        # a ramp without F_x^c (Figs. 4-5 skipped): a report, but no result
+        with open(os.path.join(os.path.dirname(path), MANIFEST)) as fh:
+            ramps = json.load(fh).get("ramps") or []
+        if any(r and r.get("status") != "complete" for r in ramps):
+            print("paper: a ramp ended without F_x^c (see the report): exit status 1")
+            status = 1
+    return world.bcast(status, root=0)

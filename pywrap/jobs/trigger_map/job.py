@@ -188,8 +188,12 @@ def _one_run(eng, setup, ld, task, a, muv, h5, d_run):
         return d_run is not None and o["D"][-1] > d_run
 
     t0 = time.perf_counter()
+    # the run's own forcing and mu(v) in its attributes (dc's are the defaults)
+    applied = {"a": v["a"], "omega_p": v["wp"], "muv": v["muv"]}
+    if muv:
+        applied.update(v0=v["v0"], v_ss=v["vss"])
     r = _undamped_run(eng, dc, ld["equilibrium"], h5, v, h5, True, stop=stop,
-                      attrs={"stage": "trigger-map", "d_run": d_run or 0.0},
+                      attrs=dict(applied, stage="trigger-map", d_run=d_run or 0.0),
                       dim=int(setup.get("dim", 2)))
     wall = time.perf_counter() - t0
     sw = np.flatnonzero(r.mu < mu0)
@@ -492,7 +496,8 @@ def register(subparsers):
                       "1 damping time)",
                       "continue an interrupted map in --out (same configuration; finished "
                       "runs are kept)", "--set omega_p=[0.01,1]")
-    p.set_defaults(func=main)
+    p.set_defaults(func=main, resume_hint=(
+        "every finished run is logged in tasks/: the same command with --resume continues the map"))
 
 
 def config_from_args(args):
