@@ -72,6 +72,15 @@ def test_refusals_name_the_value(runs, tmp_path):
     (tmp_path / "full" / "x.txt").write_text("x")
     with pytest.raises(ConfigError, match="holds other files"):
         combine_runs([a, b], str(tmp_path / "full"))
+    # a folder of another job: named as such (it said "unknown configuration key")
+    (tmp_path / "map").mkdir()
+    (tmp_path / "map" / "config.json").write_text('{"paper": "q", "a_max_factor": 2}')
+    with pytest.raises(ConfigError, match="'.*map' is not an ensemble folder"):
+        combine_runs([a, str(tmp_path / "map")], str(tmp_path / "o4"))
+    # a folder combined before: a new --out, not --resume (which --combine refuses)
+    combine_runs([a, b], str(tmp_path / "done"))
+    with pytest.raises(ConfigError, match="holds a job already: --combine writes a new folder"):
+        combine_runs([a, b], str(tmp_path / "done"))
     for o in ("o1", "o2", "o3", "o4"):
         assert not (tmp_path / o).exists()            # nothing written
     r = subprocess.run([sys.executable, "-m", "remote_trigger.pywrap.cli", "ensemble",

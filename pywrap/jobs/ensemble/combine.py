@@ -40,6 +40,9 @@ def read_run(path, flag="--combine"):
     try:
         return d, EnsembleConfig.from_dict(d)
     except ConfigError as exc:
+        if "unknown configuration key" in str(exc):   # e.g. a trigger map's folder
+            raise ConfigError(f"{flag} {path!r} is not an ensemble folder: its config.json "
+                              f"is another job's ({exc})") from None
         raise ConfigError(f"{flag} {path!r}: {exc}") from None
 
 
@@ -129,6 +132,9 @@ def collect_runs(dirs, out, speak=True):
         merged["saddle_escape"] = recorded.pop()
     cfg = EnsembleConfig.from_dict(merged)
     out = os.path.abspath(out)
+    if os.path.isfile(os.path.join(out, "config.json")):    # (--resume is no way out)
+        raise ConfigError(f"--out {out!r} holds a job already: --combine writes a new "
+                          "folder; choose another --out (nothing was changed)")
     check_job_folder(out, cfg.to_dict(), False, "an ensemble")     # writes config.json
     os.makedirs(os.path.join(out, "tasks"), exist_ok=True)
     for key, (d, t, _, _) in sorted(found.items()):
