@@ -41,7 +41,8 @@ class PowerLawFit:
     prefactor : float
         A (units of y).
     stderr : float
-        Standard error of b from least squares.
+        Standard error of b from least squares; nan with two values (no
+        degree of freedom left: least squares gives 0).
     ci : tuple of float
         (low, high): the stratified bootstrap's percentile interval of b at
         ``confidence`` (the values of each size resampled independently; a
@@ -84,9 +85,10 @@ class PowerLawFit:
         lo, hi = self.ci
         ci = (f"{self.confidence * 100:g} % bootstrap interval [{lo:.3g}, {hi:.3g}]"
               if math.isfinite(lo) else "no bootstrap interval: one value per size")
-        return (f"{name} ~ {self.prefactor:.3g} N^{self.exponent:.3g} ({ci}, least-squares "
-                f"s.e. {self.stderr:.2g}; {self.n_points} values at N = "
-                f"{', '.join(str(s) for s in self.sizes)})")
+        se = (f"least-squares s.e. {self.stderr:.2g}" if math.isfinite(self.stderr) else
+              "no least-squares s.e.: two values")
+        return (f"{name} ~ {self.prefactor:.3g} N^{self.exponent:.3g} ({ci}, {se}; "
+                f"{self.n_points} values at N = {', '.join(str(s) for s in self.sizes)})")
 
 
 def _slope(x, y):
@@ -161,7 +163,8 @@ def power_law_fit(n, y, confidence=0.95, n_resamples=2000, seed=0):
         ci = (float(res.confidence_interval.low), float(res.confidence_interval.high))
     return PowerLawFit(
         exponent=float(reg.slope), prefactor=float(np.exp(reg.intercept)),
-        stderr=float(reg.stderr), ci=ci, confidence=float(confidence),
+        stderr=float(reg.stderr) if ok.sum() > 2 else math.nan, ci=ci,
+        confidence=float(confidence),
         n_points=int(ok.sum()), n_dropped=int((~ok).sum()),
         sizes=tuple(int(s) for s in sizes), counts=tuple(int(g.size) for g in groups),
         medians=tuple(float(np.exp(np.median(g))) for g in groups))

@@ -52,6 +52,9 @@ def test_one_value_per_size_has_no_bootstrap_interval():
     assert fit.exponent == pytest.approx(math.log(0.2) / math.log(4))
     assert all(math.isnan(c) for c in fit.ci)
     assert "one value per size" in fit.describe()
+    # two values leave least squares no degree of freedom: no standard error
+    # (linregress gives 0, which read as an exact exponent)
+    assert math.isnan(fit.stderr) and "no least-squares s.e.: two values" in fit.describe()
 
 
 @pytest.mark.parametrize("n, y, match", [

@@ -114,7 +114,8 @@ def _plot_window(ax, rows, cfg, colors, fits=None):
         if fit is not None:
             x = np.geomspace(fit.sizes[0], fit.sizes[-1], 20)
             ax.plot(x, fit.prefactor * x ** fit.exponent, "-", lw=0.8, color=colors[j],
-                    label=f"fit: N^{fit.exponent:.2f} +- {fit.stderr:.2f}")
+                    label=f"fit: N^{fit.exponent:.2f}" + (f" +- {fit.stderr:.2f}" if
+                                                         np.isfinite(fit.stderr) else ""))
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("N")
