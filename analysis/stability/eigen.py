@@ -278,8 +278,16 @@ def sparse_eigen(K, mass, k=12, sigma=0.0, left=False, tol=0.0, maxiter=None, v0
     """
     A = dynamical_matrix(sp.csr_matrix(K) if not sp.issparse(K) else K, mass)
     n = A.shape[0]
-    if not (1 <= k < n - 1):
-        raise ValueError(f"k must satisfy 1 <= k < n - 1 = {n - 1}, got {k}")
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not (1 <= k < n - 1):
+        raise ValueError(f"k must be an integer with 1 <= k < n - 1 = {n - 1}, got {k!r}")
+    if isinstance(sigma, (complex, np.complexfloating)) or not np.isfinite(sigma):
+        raise ValueError(f"sigma must be a finite real number, got sigma = {sigma!r}")
+    if v0 is not None:
+        # (ARPACK reads n entries whatever v0 holds: a shorter one crashed the process)
+        v0 = np.asarray(v0, dtype=np.float64)
+        if v0.shape != (n,) or not np.all(np.isfinite(v0)):
+            raise ValueError(f"v0 must be a finite array of shape ({n},), got shape "
+                             f"{v0.shape}")
     shifted = (A - sigma * sp.identity(n, format="csr")).tocsc()
     try:
         lu = spla.splu(shifted)

@@ -505,8 +505,29 @@ def remove_dofs(K, mass, keep_dofs):
     -------
     K_red : same type as K, shape (m, m)
     mass_red : ndarray, shape (m,)
+
+    Raises
+    ------
+    ValueError
+        K not square, ``mass`` not of length n, or ``keep_dofs`` not distinct
+        integers in [0, n) (a negative index would wrap around silently).
     """
-    keep_dofs = np.asarray(keep_dofs, dtype=np.int64)
+    shape = K.shape if sp.issparse(K) else np.shape(K)
+    if len(shape) != 2 or shape[0] != shape[1]:
+        raise ValueError(f"K must be square, got shape {tuple(shape)}")
+    n = shape[0]
+    if np.shape(mass) != (n,):
+        raise ValueError(f"mass must have shape ({n},), got shape {np.shape(mass)}")
+    raw = np.asarray(keep_dofs)
+    if raw.ndim != 1 or (raw.size and not np.issubdtype(raw.dtype, np.integer)):
+        raise ValueError(f"keep_dofs must be a 1-d array of integers, got dtype {raw.dtype} "
+                         f"and shape {raw.shape}")
+    keep_dofs = raw.astype(np.int64)
+    if keep_dofs.size and (keep_dofs.min() < 0 or keep_dofs.max() >= n
+                           or np.unique(keep_dofs).size != keep_dofs.size):
+        raise ValueError(f"keep_dofs must be distinct indices in [0, {n}), got values in "
+                         f"[{keep_dofs.min()}, {keep_dofs.max()}] "
+                         f"({keep_dofs.size - np.unique(keep_dofs).size} repeated)")
     if sp.issparse(K):
         Kc = K.tocsr()
         return Kc[keep_dofs][:, keep_dofs].tocsr(), np.asarray(mass)[keep_dofs]

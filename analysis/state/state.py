@@ -319,17 +319,22 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     _check_params(params, wall_y)
     order = _check_atoms(ids, pos, radii, masses)
 
-    def srt(a, shape=None, dtype=np.float64):
+    def srt(a, shape=None, dtype=np.float64, name=None):
         if a is None:
             return None
         a = np.asarray(a, dtype=dtype)
         if shape is not None:
             a = a.reshape(shape)
+        if name is not None and not np.all(np.isfinite(a)):
+            # (a NaN load gave a NaN residual and a verdict on it)
+            raise ValueError(f"{name} must be finite, got {int(np.sum(~np.isfinite(a)))} "
+                             f"non-finite value(s)")
         return a[order].copy()
 
     ids = ids[order]
     pos, radii, masses = pos[order].copy(), radii[order].copy(), masses[order].copy()
-    external = np.zeros((n, 2)) if external is None else srt(external, (n, 2))
+    external = np.zeros((n, 2)) if external is None else srt(external, (n, 2),
+                                                               name="external")
     box_lo = np.asarray(box_lo, np.float64)[:2].copy()
     box_hi = np.asarray(box_hi, np.float64)[:2].copy()
     L = box_hi - box_lo
@@ -341,8 +346,11 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
 
     # ---- disk-disk history -> (i, j, xi) with the mirror check
     if partners is not None:
+        if partner_xi is None:
+            raise ValueError("partners needs partner_xi (the tangential displacement of "
+                             "each partner), got partner_xi = None")
         P = srt(partners, (n, -1), np.float64)
-        X = srt(partner_xi, P.shape, np.float64)
+        X = srt(partner_xi, P.shape, np.float64, name="partner_xi")
         hi_, hj, hxi, hdelta = _history_pairs(P, X, ids, pos, radii, L, periodic, params,
                                               mirror_rtol)
     else:
@@ -373,7 +381,7 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     ci, cj, cxi = ci[srt_c], cj[srt_c], cxi[srt_c]
 
     # ---- wall
-    wt = None if (wall_t is None or wall_y is None) else srt(wall_t, (n,))
+    wt = None if (wall_t is None or wall_y is None) else srt(wall_t, (n,), name="wall_t")
     widx, wxi, wdelta, notes["stale_wall_history"] = _wall_contacts(ids, pos, radii, wall_y,
                                                                      wt, wall_t)
 

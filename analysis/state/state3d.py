@@ -314,6 +314,9 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
     ids, pos, radii, masses = ids[order], pos[order], radii[order], masses[order]
     ext = (np.zeros((n, 3)) if external is None
            else np.asarray(external, np.float64).reshape(n, 3)[order])
+    if not np.all(np.isfinite(ext)):
+        raise ValueError(f"external must be finite, got {int(np.sum(~np.isfinite(ext)))} "
+                         f"non-finite value(s)")
     index = {int(a): k for k, a in enumerate(ids)}
 
     def idx(a):
@@ -324,6 +327,9 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
     pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
     C = pairs.shape[0]
     pt = np.zeros((C, 3)) if pair_t is None else np.asarray(pair_t, np.float64).reshape(C, 3)
+    if not np.all(np.isfinite(pt)):
+        raise ValueError(f"pair_t must be finite, got {int(np.sum(~np.isfinite(pt)))} "
+                         f"non-finite value(s)")
     ci = np.array([idx(a) for a in pairs[:, 0]], np.int64)
     cj = np.array([idx(b) for b in pairs[:, 1]], np.int64)
     swap = ids[ci] > ids[cj]
@@ -338,6 +344,9 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
     if W and not np.allclose(np.linalg.norm(wn, axis=1), 1.0, rtol=0, atol=1e-14):
         raise ValueError("wall normals must be unit vectors")
     wt = np.zeros((W, 3)) if wall_t is None else np.asarray(wall_t, np.float64).reshape(W, 3)
+    if not np.all(np.isfinite(wt)):
+        raise ValueError(f"wall_t must be finite, got {int(np.sum(~np.isfinite(wt)))} "
+                         f"non-finite value(s)")
     box_lo = np.asarray(box_lo, np.float64).reshape(3).copy()
     box_hi = np.asarray(box_hi, np.float64).reshape(3).copy()
     st = State3D(ids=ids, positions=pos, radii=radii, masses=masses,
