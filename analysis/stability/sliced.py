@@ -353,9 +353,11 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     Raises
     ------
     ValueError
-        If K is not square or finite, a mass is not positive, ``rel_error``
-        is so large that the set reaches below the Gershgorin bound, or
-        ``checkpoint_seconds`` is negative or not a number.
+        If K is empty, not square or not finite, a mass is not positive,
+        ``rel_error`` is outside [0, 0.01) or so large that the set reaches
+        below the Gershgorin bound, ``window`` is not a finite number > 0,
+        ``slice_size`` not an integer >= 2, or ``checkpoint_seconds`` is
+        negative or not a number.
 
     Notes
     -----
@@ -363,16 +365,30 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     """
     t0 = time.perf_counter()
     stats = stats if stats is not None else SlicedStats()
-    A, S, W = _scaled(K, mass)
-    n = A.shape[0]
+    # the options first (rel_error = -1 gave a verdict with a negative backward error)
+    if not (isinstance(rel_error, (int, float, np.floating)) and 0 <= rel_error < 0.01):
+        raise ValueError(f"rel_error must be in [0, 0.01), got rel_error = {rel_error!r}")
+    if not (isinstance(window, (int, float, np.floating)) and window > 0
+            and np.isfinite(window)):
+        raise ValueError(f"window must be a finite number > 0, got window = {window!r}")
     if slice_size is None:
         slice_size = _SLICE_SIZE
+    if isinstance(slice_size, bool) or not isinstance(slice_size, (int, np.integer)) or \
+            slice_size < 2:
+        raise ValueError(f"slice_size must be an integer >= 2, got slice_size = {slice_size!r}")
+    checkpoint_seconds = (CHECKPOINT_SECONDS if checkpoint_seconds is None
+                          else checkpoint_seconds)
+    if not (isinstance(checkpoint_seconds, (int, float, np.floating))
+            and checkpoint_seconds >= 0):
+        raise ValueError(f"checkpoint_seconds must be a number >= 0, got "
+                         f"{checkpoint_seconds!r}")
+    checkpoint_seconds = float(checkpoint_seconds)
+    if K.shape[0] == 0:
+        raise ValueError("K is empty (0 x 0): no degree of freedom to decide")
+    A, S, W = _scaled(K, mass)
+    n = A.shape[0]
     ckpt, saved = None, None
     if checkpoint_dir is not None:
-        checkpoint_seconds = float(CHECKPOINT_SECONDS if checkpoint_seconds is None
-                                   else checkpoint_seconds)
-        if not checkpoint_seconds >= 0:
-            raise ValueError(f"checkpoint_seconds must be >= 0, got {checkpoint_seconds!r}")
         key = scan_state.scan_key(A, rel_error, window, slice_size, stop_at_complex,
                                   _MAX_STRIP)
         ckpt = os.path.join(os.fspath(checkpoint_dir), f"sliced-{key}")

@@ -77,3 +77,22 @@ def test_remove_dofs_checks_its_indices(packing):
         remove_dofs(K.toarray()[:, :-1], m, [0, 1])
     Kr, mr = remove_dofs(K, m, [2, 0])
     assert Kr.shape == (2, 2) and mr.tolist() == [m[2], m[0]]
+
+
+@pytest.mark.parametrize("kw, msg", [
+    (dict(rel_error=-1.0), r"rel_error must be in \[0, 0.01\)"),
+    (dict(window=0.0), "window must be a finite number > 0"),
+    (dict(slice_size=0), "slice_size must be an integer >= 2"),
+    (dict(checkpoint_seconds=-1.0), "checkpoint_seconds must be a number >= 0"),
+    (dict(checkpoint_seconds="a"), "checkpoint_seconds must be a number >= 0"),
+])
+def test_sliced_verdict_options(packing, kw, msg):
+    """rel_error = -1 gave a verdict with a negative backward error, window = 0
+    and a checkpoint interval without a folder were taken, slice_size = 0 was
+    an ARPACK error."""
+    from remote_trigger.analysis.stability.sliced import classify_sliced
+
+    rat = find_rattlers(packing)
+    Kr, mr = remove_dofs(stiffness_matrix(packing), packing.mass_diagonal(), rat.keep_dofs)
+    with pytest.raises(ValueError, match=msg):
+        classify_sliced(Kr, mr, **kw)
