@@ -1,7 +1,8 @@
 """The exception hierarchy of remote-trigger (importable without LAMMPS or MPI).
 
-Every error the project raises on purpose derives from
-:class:`RemoteTriggerError`. Each class keeps the builtin base it had before
+Every error the driver and the command line raise on purpose derives from
+:class:`RemoteTriggerError` (the analysis library's input checks raise
+:class:`InputError` or plain ``ValueError``; both are exit status 2). Each class keeps the builtin base it had before
 (``ValueError`` for bad input, ``RuntimeError`` for a calculation that
 failed), so ``except ValueError`` and ``pytest.raises(ValueError)`` keep
 working, and carries the exit status of the ``remote-trigger`` command line

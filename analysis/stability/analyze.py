@@ -54,19 +54,22 @@ class Analysis:
 
     Attributes
     ----------
-    state : State
-    K : scipy.sparse.csr_matrix, shape (3N, 3N)
-        Full stiffness (rattlers kept).
-    mass : ndarray, shape (3N,)
+    state : State or State3D
+    K : scipy.sparse.csr_matrix, shape (n, n)
+        Full stiffness (rattlers kept); n = 3N for disks, 6N for spheres.
+    mass : ndarray, shape (n,)
         Diagonal of M.
     rattlers : RattlerResult
-        Removed disks (ids, indices) and the kept dofs.
+        Removed disks or spheres (ids, indices) and the kept dofs.
     eigen : EigenResult or None
         Eigenvalues of M^-1 K restricted to the kept dofs.
     decision : SpectrumDecision or None
         Certified complex-pair decision (None if not requested).
-    residual : ndarray, shape (3N,)
-        G = contact + external forces (zero at equilibrium).
+    residual : ndarray, shape (n,)
+        G = contact + external forces (zero at equilibrium). :func:`analyze`
+        does not check it: a state far from equilibrium gets a spectrum and
+        a verdict all the same; check first with :func:`check_equilibrium`
+        (what the command line does).
     """
 
     state: object

@@ -1,7 +1,7 @@
 """The driver stages: relax, ramp, perturb, instability (docs/model.md section 6).
 
 Each stage is one function taking a validated configuration
-(:mod:`remote_trigger.pywrap.config`) and an output folder, and returning a
+(:mod:`remote_trigger.pywrap.stages.config`) and an output folder, and returning a
 result object. All MPI ranks of the communicator call the function (LAMMPS
 runs domain-decomposed); rank 0 writes the files and runs the eigenvalue
 analysis, and broadcasts every decision so that all ranks follow the same path.

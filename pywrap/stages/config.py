@@ -281,7 +281,7 @@ class RampConfig(RelaxConfig):
     dF_x_max : float or None
         None (default): every step is dF_x. A number > dF_x: adaptive ramp,
         steps between dF_x and dF_x_max chosen from the predicted distance to
-        the nearest coalescence (``pywrap.ramp.next_step``, docs/driver.md).
+        the nearest coalescence (``pywrap.stages.ramp.next_step``, docs/driver.md).
     keep_equilibria : bool
         True (default): every point's equilibrium files stay in ``ramp/``.
         False: at each checkpoint the ramp removes the files of the points

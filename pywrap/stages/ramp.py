@@ -38,8 +38,8 @@ class RampResult:
         Certified bracket of F_x^c: the largest F_x certified real below the
         smallest F_x certified complex (undecided: neither); NaN if none.
     status : str
-        ``'complete'``, ``'no_complex_pair'``, ``'no_equilibrium'`` or
-        ``'complex_at_start'``.
+        ``'complete'``, ``'no_complex_pair'``, ``'no_equilibrium'``,
+        ``'complex_at_start'`` or (``stop_after`` reached) ``'interrupted'``.
     h5 : str
     message : str
         Set when the bracket stayed wider than ``tol`` (the points next to
