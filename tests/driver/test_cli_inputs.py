@@ -1,0 +1,103 @@
+"""The command line and its files, as a new user meets them: what a run would
+destroy or silently take is refused, naming the value (--log over a data
+file, --set beside the option of one key, a demo over its earlier result),
+inputs are named for what they are, and ``ramp --resume`` finds its start."""
+import shutil
+
+import pytest
+
+from .test_cli_errors import assert_one_line_error, run_cli
+
+
+def test_log_never_overwrites_anything_but_a_lammps_log(capsys, relaxed, tmp_path):
+    """--log naming the start file (or any file that is not a LAMMPS log) is
+    refused before LAMMPS truncates it; a log in a folder still to be made
+    (inside --out) is written there, and a LAMMPS log may be written again."""
+    start = tmp_path / "start.data"
+    shutil.copyfile(relaxed.datafile, start)
+    for ext in (".dump", ".dump.json"):
+        shutil.copyfile(relaxed.datafile[:-len(".data")] + ext, str(start)[:-5] + ext)
+    before = start.read_bytes()
+    argv = ["perturb", "--datafile", start, "--quiet", "--runs", "a", "--t-max", "0.1"]
+    status, _, err = run_cli(capsys, *argv, "--out", tmp_path / "o1", "--log", start)
+    assert status == 2
+    assert_one_line_error(err, "--log", "start.data", "is not a LAMMPS log",
+                          "nothing was overwritten")
+    assert start.read_bytes() == before and not (tmp_path / "o1").exists()
+    log = tmp_path / "o2" / "logs" / "perturb.log"
+    assert run_cli(capsys, *argv, "--out", tmp_path / "o2", "--log", log)[0] == 0
+    assert log.read_bytes().startswith(b"LAMMPS (")
+    assert run_cli(capsys, *argv, "--out", tmp_path / "o3", "--log", log)[0] == 0
+    status, _, err = run_cli(capsys, *argv, "--out", tmp_path / "o4", "--log", tmp_path)
+    assert status == 2
+    assert_one_line_error(err, "is a folder")
+
+
+@pytest.mark.parametrize("extra, needles", [
+    (["--set", "mu=0.5", "--mu", "0.7"], ["--set mu=0.5 and --mu both set mu"]),
+    (["--set", "dF_x=1e-3", "--dF-x", "2e-3"], ["--set dF_x=1e-3 and --dF-x both set dF_x"]),
+    (["--set", "F_x=nan"], ["F_x must be a finite number, got F_x = 'nan' (--set F_x=)"]),
+    (["--F-x", "inf"], ["F_x must be a finite number, got F_x = inf (--F-x)"]),
+    (["--set", "mu=0.5"], ["--set mu=0.5 contradicts mu = 1.0", "leave --set mu= out"]),
+])
+def test_set_and_options_name_what_was_given(capsys, relaxed, tmp_path, extra, needles):
+    """--set KEY= beside the option of KEY was taken silently (--set won), and
+    the messages named the option for a --set value (``--mu 0.5`` contradicts)."""
+    status, _, err = run_cli(capsys, "ramp", "--datafile", relaxed.datafile, "--out",
+                             tmp_path / "o", "--quiet", *extra)
+    assert status == 2
+    assert_one_line_error(err, *needles)
+    assert not (tmp_path / "o").exists()
+
+
+def test_demo_keeps_an_earlier_result(capsys, tmp_path):
+    """demo into a folder holding its settled.data: refused (it was replaced),
+    --overwrite replaces it; a run too short for any contact says so (it
+    printed a median of nan)."""
+    out = tmp_path / "d"
+    status, text, _ = run_cli(capsys, "demo", "--n", 20, "--steps", 0, "--out", out)
+    assert status == 0 and "no disk-disk contact yet" in text and "median" not in text
+    before = (out / "settled.data").read_bytes()
+    status, _, err = run_cli(capsys, "demo", "--n", 20, "--steps", 10, "--out", out)
+    assert status == 2
+    assert_one_line_error(err, "already holds demo results", "nothing was overwritten")
+    assert (out / "settled.data").read_bytes() == before
+    status, text, _ = run_cli(capsys, "demo", "--n", 20, "--steps", 10, "--out", out,
+                              "--overwrite")
+    assert status == 0 and (out / "settled.data").read_bytes() != before
+
+
+def test_inputs_named_for_what_they_are(capsys, packing_file, tmp_path):
+    """A folder given as --datafile is called a folder (it "did not exist"); a
+    data file given to jacobian is refused as no dump even where the .npz it
+    would write exists (that was the error named); an empty --output is
+    called empty (it was "a folder: ''")."""
+    status, _, err = run_cli(capsys, "relax", "--datafile", tmp_path, "--out", tmp_path / "o")
+    assert status == 2
+    assert_one_line_error(err, "datafile is a folder, not a data file")
+    data = tmp_path / "p.data"
+    shutil.copyfile(packing_file, data)
+    (tmp_path / "p.npz").write_bytes(b"keep")
+    status, _, err = run_cli(capsys, "jacobian", data)
+    assert status == 2
+    assert_one_line_error(err, "expected 'ITEM: TIMESTEP'")
+    assert (tmp_path / "p.npz").read_bytes() == b"keep"
+    status, _, err = run_cli(capsys, "generate", "--output", "")
+    assert status == 2
+    assert_one_line_error(err, "--output must name a file, got an empty name")
+
+
+def test_ramp_resume_without_datafile_takes_the_recorded_start(capsys, relaxed, tmp_path):
+    """``ramp --out O --resume`` continues the ramp O/ramp.h5 began, from the
+    start file it names (it took O/relax/equilibrium.data, absent here)."""
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.stages.config import RampConfig
+
+    out = tmp_path / "o"
+    cfg = RampConfig(datafile=relaxed.datafile, dF_x=0.02, tol=1e-3)
+    assert stages.ramp(cfg, str(out), quiet=True, stop_after=1).status == "interrupted"
+    assert not (out / "relax").exists()
+    status, text, err = run_cli(capsys, "ramp", "--out", out, "--dF-x", 0.02, "--tol", 1e-3,
+                                "--resume", "--quiet")
+    assert status == 0, err
+    assert "F_x^c in [" in text
