@@ -2,9 +2,9 @@
 
 Every error the driver and the command line raise on purpose derives from
 :class:`RemoteTriggerError` (the analysis library's input checks raise
-:class:`InputError` or plain ``ValueError``; both are exit status 2). Each class keeps the builtin base it had before
-(``ValueError`` for bad input, ``RuntimeError`` for a calculation that
-failed), so ``except ValueError`` and ``pytest.raises(ValueError)`` keep
+:class:`InputError` or plain ``ValueError``; both are exit status 2). Each
+class keeps the builtin base it had before (``ValueError`` for bad input,
+``RuntimeError`` for a calculation that failed), so ``except ValueError`` and ``pytest.raises(ValueError)`` keep
 working, and carries the exit status of the ``remote-trigger`` command line
 (docs/driver.md, "Exit status"):
 

@@ -183,8 +183,8 @@ def _open_bracket_attrs(rlog):
     point, no equilibrium, complex at the start): the same keys as a complete
     ramp's, NaN for an end it has not got, ``tol_reached`` False."""
     lo, hi, _, _ = ramp_bracket(rlog)
-    n_und = int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == Decision.UNDECIDED)
-                    for k in ("steps", "bisection")))
+    n_und = int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float)
+                                     == Decision.UNDECIDED) for k in ("steps", "bisection")))
     return dict(F_x_c_low=lo, F_x_c_high=hi, F_x_c_width=hi - lo, tol_reached=False,
                 n_undecided=n_und)
 
