@@ -178,21 +178,23 @@ def next_bisection_point(lo, hi, unknown, tol):
     return mid, ""
 
 
+def _n_undecided(rlog):
+    return int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float)
+                                    == Decision.UNDECIDED) for k in ("steps", "bisection")))
+
+
 def _open_bracket_attrs(rlog):
     """ramp.h5 attributes of a ramp that ends without a bracket (no complex
     point, no equilibrium, complex at the start): the same keys as a complete
     ramp's, NaN for an end it has not got, ``tol_reached`` False."""
     lo, hi, _, _ = ramp_bracket(rlog)
-    n_und = int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float)
-                                     == Decision.UNDECIDED) for k in ("steps", "bisection")))
     return dict(F_x_c_low=lo, F_x_c_high=hi, F_x_c_width=hi - lo, tol_reached=False,
-                n_undecided=n_und)
+                n_undecided=_n_undecided(rlog))
 
 
 def _bracket_attrs(rlog, lo, hi, tol, why=""):
     """ramp.h5 attributes of the certified bracket; a message when it is wider than tol."""
-    n_und = int(sum(np.count_nonzero(np.asarray(rlog.rows[k]["decision"], float) == Decision.UNDECIDED)
-                    for k in ("steps", "bisection")))
+    n_und = _n_undecided(rlog)
     width = hi - lo
     attrs = dict(F_x_c_low=lo, F_x_c_high=hi, F_x_c_width=width,
                  tol_reached=bool(width <= tol), n_undecided=n_und)
