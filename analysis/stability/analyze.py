@@ -305,11 +305,13 @@ def analyze_dump(path, **kwargs):
     ----------
     path : str
     **kwargs
-        ``k_n, k_t, mu, wall_y, F_x, F_y, dt, frame`` for
-        :func:`~remote_trigger.analysis.state.dumpfile.read_dump`; the rest for
-        :func:`analyze`.
+        ``k_n, k_t, mu, wall_y, F_x, F_y, dt, frame, no_wall, mirror_rtol``
+        (and for disks ``require_contacts, inertia_factor``) for
+        :func:`~remote_trigger.analysis.state.dumpfile.read_dump` /
+        ``read_dump3d``; the rest for :func:`analyze`.
     """
-    read_keys = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt", "frame", "no_wall")
+    read_keys = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt", "frame", "no_wall",
+                 "mirror_rtol", "require_contacts", "inertia_factor")
     rk = {key: kwargs.pop(key) for key in list(kwargs) if key in read_keys}
     reader = read_dump3d if dump_dimension(path, rk.get("frame", -1)) == 3 else read_dump
     return analyze(reader(path, **rk), **kwargs)

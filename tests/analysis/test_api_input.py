@@ -96,3 +96,14 @@ def test_sliced_verdict_options(packing, kw, msg):
     Kr, mr = remove_dofs(stiffness_matrix(packing), packing.mass_diagonal(), rat.keep_dofs)
     with pytest.raises(ValueError, match=msg):
         classify_sliced(Kr, mr, **kw)
+
+
+def test_analyze_dump_passes_the_readers_keywords(packing, tmp_path):
+    """mirror_rtol and inertia_factor went to analyze (TypeError)."""
+    from remote_trigger.analysis.stability.analyze import analyze_dump
+
+    from .builders import write_dump
+
+    path = write_dump(tmp_path / "eq.dump", packing)
+    a = analyze_dump(str(path), mirror_rtol=1e-6, inertia_factor=0.5, decide=False)
+    assert a.state.n == packing.n and a.eigen is not None
