@@ -360,6 +360,11 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
 
     from remote_trigger.analysis.stability.slicing import count_below
 
+    if not (isinstance(rel_threshold, (int, float, np.floating)) and rel_threshold >= 0
+            and np.isfinite(rel_threshold)):
+        # (a negative one counted every eigenvalue; nan returned -1, "failed")
+        raise ValueError(f"rel_threshold must be a finite number >= 0, got "
+                         f"rel_threshold = {rel_threshold!r}")
     res = analyze(state, eigenvalues=False, decide=False)
     keep = res.rattlers.keep_dofs
     if keep.size == 0:

@@ -140,7 +140,15 @@ def normal_form(d, eps):
     Returns
     -------
     ndarray, shape (2, 2)
+
+    Raises
+    ------
+    ValueError
+        ``d`` outside (0, 1) or ``eps`` not finite.
     """
+    if not (0.0 < d < 1.0) or not np.isfinite(eps):
+        raise ValueError(f"normal_form needs 0 < d < 1 and a finite eps, got d = {d!r}, "
+                         f"eps = {eps!r}")
     eta = d * (1.0 - eps)
     return np.array([[1.0 - d, eta], [-eta, 1.0 + d]])
 

@@ -163,9 +163,15 @@ def wall_terms(state):
     return contact_terms(state.params, state.wall_delta, state.wall_xi)
 
 
-def _check_state(state):
+def _require_disks(state):
+    """A State of disks, else a ValueError naming the type (spheres have jacobian3d)."""
     if not isinstance(state, State):
-        raise ValueError(f"expected a State, got {type(state).__name__}")
+        raise ValueError(f"expected a State of disks, got {type(state).__name__} (spheres: "
+                         f"remote_trigger.analysis.stability.jacobian3d)")
+
+
+def _check_state(state):
+    _require_disks(state)
     if state.n_contacts:
         _, rho, _, _, delta = _pair_geometry(state)
         if np.any(delta <= 0.0):
@@ -316,10 +322,12 @@ def displaced_state(state, dq):
     """
     import dataclasses
 
+    _require_disks(state)
     dq = np.asarray(dq, dtype=np.float64)
     if dq.shape != (state.ndof,) or not np.all(np.isfinite(dq)):
+        bad = int(np.sum(~np.isfinite(dq))) if dq.shape == (state.ndof,) else 0
         raise ValueError(f"dq must be a finite array of shape ({state.ndof},), got shape "
-                         f"{dq.shape}")
+                         f"{dq.shape}" + (f" with {bad} non-finite value(s)" if bad else ""))
     dq3 = dq.reshape(-1, 3)
     pos = state.positions + dq3[:, :2]
     new = dataclasses.replace(state, positions=pos)
@@ -362,6 +370,7 @@ def generalized_forces(state, dq=None, external=True):
     ndarray, shape (3N,)
         G in dof order 3k + c; force units.
     """
+    _require_disks(state)
     if dq is not None:
         state = displaced_state(state, dq)
     G = np.zeros((state.n, 3))

@@ -107,3 +107,23 @@ def test_analyze_dump_passes_the_readers_keywords(packing, tmp_path):
     path = write_dump(tmp_path / "eq.dump", packing)
     a = analyze_dump(str(path), mirror_rtol=1e-6, inertia_factor=0.5, decide=False)
     assert a.state.n == packing.n and a.eigen is not None
+
+
+def test_disk_functions_name_spheres_and_bad_arguments(packing):
+    """generalized_forces of spheres was an AttributeError; negative_modes with a
+    negative threshold counted every eigenvalue; normal_form took d = 2."""
+    from remote_trigger.analysis.stability.analyze import negative_modes
+    from remote_trigger.analysis.stability.exceptional import normal_form
+    from remote_trigger.analysis.stability.jacobian import displaced_state, generalized_forces
+
+    for f in (generalized_forces, lambda s: displaced_state(s, np.zeros(3))):
+        with pytest.raises(ValueError, match="expected a State of disks, got str"):
+            f("not a state")
+    dq = np.full(packing.ndof, np.nan)
+    with pytest.raises(ValueError, match=rf"with {packing.ndof} non-finite value"):
+        displaced_state(packing, dq)
+    with pytest.raises(ValueError, match="rel_threshold must be a finite number >= 0"):
+        negative_modes(packing, rel_threshold=-1.0)
+    for d, eps in ((0.0, 0.1), (2.0, 0.1), (0.5, np.nan)):
+        with pytest.raises(ValueError, match="normal_form needs 0 < d < 1"):
+            normal_form(d, eps)
