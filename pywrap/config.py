@@ -17,9 +17,12 @@ The model's four parameters have one type and one validator,
 Units are LAMMPS ``lj`` units of the model (mass m = 1, length 2 R1 = 1).
 """
 from dataclasses import dataclass, fields, asdict
+import functools
 import json
 import math
 import os
+
+import numpy as np
 
 from remote_trigger.analysis.errors import InputError
 from remote_trigger.analysis.state.sidecar import default_k_t
@@ -163,9 +166,55 @@ def check_table(name, extra, reserved, owner, config_class=None):
         config_class.from_dict(dict(extra, datafile=__file__))
 
 
+def plain_value(val):
+    """``val`` with NumPy scalars made Python scalars (``np.int64(3)`` -> ``3``),
+    inside lists, tuples and dicts too, and a NumPy array a list
+    (``np.arange(1, 4)`` -> ``[1, 2, 3]``); anything else unchanged.
+
+    So that a value taken from an array (a loop over ``np.arange``) passes
+    the checks as the same Python number would, and ``config.json`` holds
+    plain numbers.
+    """
+    if isinstance(val, np.generic):
+        return val.item()
+    if isinstance(val, np.ndarray):
+        return val.tolist()
+    if isinstance(val, (list, tuple)):
+        return type(val)(plain_value(v) for v in val)
+    if isinstance(val, dict):
+        return {k: plain_value(v) for k, v in val.items()}
+    return val
+
+
+def _plain_fields(obj):
+    """Set every field of the frozen dataclass ``obj`` to its :func:`plain_value`."""
+    for f in fields(obj):
+        val = getattr(obj, f.name)
+        new = plain_value(val)
+        if new is not val:
+            object.__setattr__(obj, f.name, new)
+
+
 class Config:
     """What every configuration dataclass shares: its field names, building
-    from a mapping that may not hold unknown keys, and a plain dict."""
+    from a mapping that may not hold unknown keys, and a plain dict.
+
+    NumPy scalars among the values are made Python scalars before the
+    subclass's checks run (:func:`plain_value`).
+    """
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        post = cls.__dict__.get("__post_init__")
+        if post is None:
+            return
+
+        @functools.wraps(post)
+        def __post_init__(self):
+            _plain_fields(self)
+            post(self)
+
+        cls.__post_init__ = __post_init__
 
     @classmethod
     def names(cls):
@@ -314,6 +363,7 @@ class ContactModel:
     F_y: float = 3.0
 
     def __post_init__(self):
+        _plain_fields(self)
         _positive("k_n", self.k_n)
         if self.k_t is None:
             object.__setattr__(self, "k_t", default_k_t(self.k_n))

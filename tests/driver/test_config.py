@@ -19,6 +19,24 @@ def test_bad_values_name_field_and_value(packing_file, key, val):
     assert key in str(exc.value) and repr(val) in str(exc.value)
 
 
+def test_numpy_values_are_taken_as_python_numbers(packing_file):
+    """A value from an array (np.int64 from a loop over np.arange, np.float32,
+    an array of seeds) is checked and stored as the Python number; a
+    non-integer stays refused."""
+    import json
+    from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
+    cfg = RelaxConfig(datafile=packing_file, settle_steps=np.int64(10), k_n=np.float32(2e5))
+    assert type(cfg.settle_steps) is int and cfg.settle_steps == 10
+    assert type(cfg.k_n) is float and cfg.k_n == 2e5
+    ens = EnsembleConfig(n=np.array([100, 400]), seeds=np.arange(1, 4))
+    assert ens.n == (100, 400) and ens.seeds == ((1, 2, 3), (1, 2, 3))
+    assert json.loads(json.dumps(ens.to_dict()))["n"] == [100, 400]
+    with pytest.raises(ConfigError, match="settle_steps = 1.5"):
+        RelaxConfig(datafile=packing_file, settle_steps=np.float64(1.5))
+    with pytest.raises(ConfigError, match="settle_steps = True"):
+        RelaxConfig(datafile=packing_file, settle_steps=np.bool_(True))
+
+
 def test_unknown_key(packing_file):
     with pytest.raises(ConfigError, match="fmin"):
         RampConfig.from_dict({"datafile": packing_file, "fmin": 1e-15})
