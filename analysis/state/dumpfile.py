@@ -34,7 +34,8 @@ import os
 import numpy as np
 
 from remote_trigger.analysis.state.contacts import PARTNER, XI
-from remote_trigger.analysis.state.state import DISC_INERTIA, ContactParams, build_state
+from remote_trigger.analysis.state.state import (
+    DISC_INERTIA, ContactParams, _check_options, build_state)
 
 __all__ = ["read_dump", "read_dump3d", "read_equilibrium", "read_history3d", "dump_dimension", "load_sidecar", "write_sidecar",
            "PARAM_KEYS", "REQUIRED_COLUMNS", "REQUIRED_COLUMNS_3D"]
@@ -121,9 +122,15 @@ def _parse_body(path, columns, body, first_line):
 def _frame(path, frame):
     """Snapshot ``frame`` of the dump at ``path`` as :func:`_read_frames` gives it.
 
-    Raises FileNotFoundError if the file does not exist, ValueError if the
-    frame does not (the message names the number of snapshots).
+    Raises FileNotFoundError if the file does not exist, ValueError if
+    ``frame`` is not an integer (Python or numpy; bool refused) or the frame
+    does not exist (the message names the number of snapshots).
     """
+    if isinstance(frame, (bool, np.bool_)) or not isinstance(frame, (int, np.integer)):
+        # (frame = 1.0 was a raw "list indices must be integers")
+        raise ValueError(f"frame must be an integer (Python indexing, -1 the last snapshot), "
+                         f"got frame = {frame!r}")
+    frame = int(frame)
     if not os.path.exists(path):
         raise FileNotFoundError(f"dump file not found: {path}")
     frames = _read_frames(path)
@@ -151,6 +158,15 @@ def _history_columns(columns, prefix):
         raise ValueError(f"history columns {prefix}{missing} are missing (have "
                          f"{sorted(found)})")
     return [found[k] for k in range(1, K + 1)]
+
+
+def _sphere_columns(columns):
+    """The columns only a dump of spheres has (``z``, ``d2_mindlin_tx[*]``, ``fz`` ...)
+    among ``columns``, as named in messages; empty for a dump of disks."""
+    hist = [f"{name}[*]" for name in T3_COLUMNS
+            if any(c.startswith(name + "[") for c in columns)]
+    return ([c for c in ("z",) if c in columns] + hist
+            + [c for c in ("fz", "tqx", "tqy", "v_fext_z") if c in columns])
 
 
 def load_sidecar(path):
@@ -232,7 +248,8 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
     path : str or os.PathLike
         Text ``dump custom`` file (docs/conventions.md section 3).
     frame : int, optional
-        Which snapshot, Python indexing (default the last one).
+        Which snapshot, Python indexing (default the last one); a Python or
+        numpy integer.
     k_n, k_t, mu, wall_y, F_x, F_y, dt : float, optional
         Model parameters; each overrides the sidecar ``<path>.json``. k_n, k_t,
         mu and wall_y are required from one of the two sources.
@@ -245,10 +262,12 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
         largest t* of the snapshot's contacts; the default 1e-9 only absorbs
         round-off (periodic-image rounding; spheres: each side advances its
         own t).
+        A finite number >= 0.
     require_contacts : bool, optional
         Raise if the packing has no contact at all (default True).
     inertia_factor : float, optional
-        I0 in I = I0 m R^2 (default 1/2, ``fix nve/sphere ... disc``).
+        I0 in I = I0 m R^2 (default 1/2, ``fix nve/sphere ... disc``); a
+        finite number > 0.
 
     Returns
     -------
@@ -259,12 +278,17 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        Truncated or malformed file, missing columns, NaN/inf values, ids not
-        unique, non-positive radius or mass, overlapping centres, history
-        naming an unknown atom, a contact listed on one side only or with
-        mirror values that differ, missing parameters, or no contacts.
+        ``frame`` not an integer or not a snapshot of the file, ``mirror_rtol``
+        negative or not finite, ``inertia_factor`` <= 0 or not finite (these
+        three before the file is read); a dump of spheres (the message says
+        to use ``read_dump3d``); truncated or malformed file, missing columns,
+        NaN/inf values, ids not unique, non-positive radius or mass,
+        overlapping centres, history naming an unknown atom, a contact listed
+        on one side only or with mirror values that differ, missing
+        parameters, or no contacts.
     """
     path = os.fspath(path)
+    _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
     step, natoms, bounds, flags, columns, body, first = _frame(path, frame)
     missing = [c for c in REQUIRED_COLUMNS if c not in columns]
     pcols = _history_columns(columns, PARTNER)
@@ -273,6 +297,12 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
         missing.append(PARTNER + "[*]")
     if xcols is None:
         missing.append(XI + "[*]")
+    spheres = _sphere_columns(columns)
+    if missing and spheres:
+        # (it said only "missing dump columns")
+        raise ValueError(f"{path}: a dump of spheres (it has columns {', '.join(spheres[:2])}); "
+                         f"read_dump reads disks: use read_dump3d, or read_equilibrium / "
+                         f"analyze_dump, which choose by the columns")
     if missing:
         raise ValueError(f"{path}: missing dump columns {missing}; the analyzer needs "
                          f"'{' '.join(REQUIRED_COLUMNS[:-1])} {PARTNER}[*] {XI}[*] "
@@ -345,7 +375,8 @@ def dump_dimension(path, frame=-1):
     Raises
     ------
     FileNotFoundError, ValueError
-        A missing or malformed file.
+        A missing or malformed file, or ``frame`` not an integer or not a
+        snapshot of the file.
     """
     columns = _frame(os.fspath(path), frame)[4]
     return 3 if "z" in columns and _history_columns(columns, T3_COLUMNS[0]) else 2
@@ -378,14 +409,15 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
     ----------
     path : str or os.PathLike
     frame : int, optional
-        Which snapshot (default the last one).
+        Which snapshot, Python indexing (default the last one); a Python or
+        numpy integer.
     k_n, k_t, mu, wall_y, F_x, F_y, dt : float, optional
         Override the sidecar's values; k_n, k_t, mu and wall_y are required
         from one of the two.
     no_wall : bool, optional
         No floor (its history columns must then be zero).
     mirror_rtol : float, optional
-        Tolerance of the check t_ji = -t_ij.
+        Tolerance of the check t_ji = -t_ij, a finite number >= 0.
 
     Returns
     -------
@@ -397,16 +429,24 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        Truncated or malformed file, missing columns (named), non-finite
-        values, duplicate ids, bad history, missing parameters.
+        ``frame`` not an integer or not a snapshot of the file, ``mirror_rtol``
+        negative or not finite; a dump of disks (the message says to use
+        ``read_dump``); truncated or malformed file, missing columns (named),
+        non-finite values, duplicate ids, bad history, missing parameters.
     """
     from remote_trigger.analysis.state.state3d import state3d_from_history
 
     path = os.fspath(path)
+    _check_options(mirror_rtol=mirror_rtol)
     step, natoms, bounds, flags, columns, body, first = _frame(path, frame)
     missing = [c for c in REQUIRED_COLUMNS_3D if c not in columns]
     hist = {name: _history_columns(columns, name) for name in (PARTNER,) + T3_COLUMNS}
     missing += [f"{name}[*]" for name, cols in hist.items() if cols is None]
+    if missing and not _sphere_columns(columns) and (
+            "d_mindlin_wall_t" in columns or _history_columns(columns, XI)):
+        raise ValueError(f"{path}: a dump of disks (no z column); read_dump3d reads spheres: "
+                         f"use read_dump, or read_equilibrium / analyze_dump, which choose "
+                         f"by the columns")
     if missing:
         raise ValueError(f"{path}: missing dump columns {missing} of a dump of spheres "
                          f"(docs/conventions.md section 3)")

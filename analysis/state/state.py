@@ -236,6 +236,28 @@ class State:
         return dataclasses.replace(self, contact_xi=cx.copy(), wall_xi=wx.copy())
 
 
+def _check_options(mirror_rtol=None, inertia_factor=None):
+    """A finite ``mirror_rtol`` >= 0 and a finite ``inertia_factor`` > 0 (None: unchecked).
+
+    Raises
+    ------
+    ValueError
+        Naming the argument and its value.
+    """
+    for name, val, strict in (("mirror_rtol", mirror_rtol, False),
+                              ("inertia_factor", inertia_factor, True)):
+        if val is None:
+            continue
+        ok = (not isinstance(val, (bool, np.bool_))
+              and isinstance(val, (int, float, np.integer, np.floating)) and np.isfinite(val)
+              and (val > 0 if strict else val >= 0))
+        if not ok:
+            # (a negative mirror_rtol was reported as a history disagreement; an
+            # inertia_factor <= 0 gave a state that failed later, in analyze)
+            raise ValueError(f"{name} must be a finite number {'>' if strict else '>='} 0, "
+                             f"got {name} = {val!r}")
+
+
 def _check_params(params, wall_y):
     if not isinstance(params, ContactParams):
         raise ValueError(f"params must be a ContactParams, got {type(params).__name__}")
@@ -296,9 +318,10 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
         External loads (zero if None).
     mirror_rtol : float
         Tolerance of the mirror check (see
-        :func:`~remote_trigger.analysis.state.dumpfile.read_dump`).
+        :func:`~remote_trigger.analysis.state.dumpfile.read_dump`), finite, >= 0.
     require_contacts : bool
     inertia_factor : float
+        I0 in I = I0 m R^2, finite, > 0.
 
     Other parameters are stored as given (see :class:`State`).
 
@@ -309,8 +332,11 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     Raises
     ------
     ValueError
-        See :func:`~remote_trigger.analysis.state.dumpfile.read_dump`.
+        ``mirror_rtol`` < 0 or ``inertia_factor`` <= 0 (or either not
+        finite); otherwise see
+        :func:`~remote_trigger.analysis.state.dumpfile.read_dump`.
     """
+    _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
     ids = np.asarray(ids).astype(np.int64)
     n = ids.size
     pos = np.asarray(positions, dtype=np.float64).reshape(n, 2)

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from remote_trigger.analysis.state.state import ContactParams
+from remote_trigger.analysis.state.state import ContactParams, _check_options
 
 __all__ = ["SPHERE_INERTIA", "State3D", "build_state3d", "state3d_from_history",
            "minimum_image3", "plane_wall"]
@@ -281,7 +281,7 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
     external : array_like, shape (N, 3), optional
         External forces (zero if None), in the order of ``ids``.
     inertia_factor : float
-        I0 in I = I0 m R^2 (default 2/5, solid spheres).
+        I0 in I = I0 m R^2 (default 2/5, solid spheres), finite, > 0.
 
     Returns
     -------
@@ -292,12 +292,13 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
     Raises
     ------
     ValueError
-        On non-finite or non-positive values, duplicate ids, an unknown id in
-        ``pairs`` or ``walls``, a contact without overlap, or wrong shapes;
-        the message names the ids.
+        On non-finite or non-positive values (``inertia_factor`` included),
+        duplicate ids, an unknown id in ``pairs`` or ``walls``, a contact
+        without overlap, or wrong shapes; the message names the ids.
     """
     if not isinstance(params, ContactParams):
         raise ValueError(f"params must be a ContactParams, got {type(params).__name__}")
+    _check_options(inertia_factor=inertia_factor)
     ids = np.asarray(ids).astype(np.int64).reshape(-1)
     n = ids.size
     pos = np.asarray(positions, np.float64).reshape(n, 3)
@@ -402,9 +403,9 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
         Loads (force).
     mirror_rtol : float
         Tolerance of the mirror check, relative to max(t*, |t|, the largest
-        t* of the snapshot) (see ``read_dump``).
+        t* of the snapshot) (see ``read_dump``); finite, >= 0.
     inertia_factor : float
-        I0 (default 2/5).
+        I0 (default 2/5); finite, > 0.
     **extra
         ``F_x``, ``F_y``, ``source``: stored on the state.
 
@@ -415,7 +416,8 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
     Raises
     ------
     ValueError
-        Malformed arrays, a history entry that names an unknown atom or lacks
+        ``mirror_rtol`` < 0 or ``inertia_factor`` <= 0 (or either not
+        finite), malformed arrays, a history entry that names an unknown atom or lacks
         its mirror, two sides that disagree, a centre inside another sphere
         or at or below the wall.
     """
@@ -423,6 +425,7 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
 
     from remote_trigger.analysis.state.contacts import _history_pairs, find_contacts
 
+    _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
     ids = np.asarray(ids).astype(np.int64).reshape(-1)
     n = ids.size
     order = np.argsort(ids, kind="stable")

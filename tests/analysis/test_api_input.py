@@ -1,5 +1,7 @@
 """Bad input to the analysis library's public functions: a clear ValueError naming
 the argument, before any result (found by using the Python API as a new user)."""
+import re
+
 import numpy as np
 import pytest
 
@@ -127,3 +129,70 @@ def test_disk_functions_name_spheres_and_bad_arguments(packing):
     for d, eps in ((0.0, 0.1), (2.0, 0.1), (0.5, np.nan)):
         with pytest.raises(ValueError, match="normal_form needs 0 < d < 1"):
             normal_form(d, eps)
+
+
+def _sphere_dump(path):
+    """Two touching spheres above the floor, as the driver writes them (sidecar too)."""
+    import json
+
+    cols = ("id type radius mass x y z fx fy fz tqx tqy tqz v_fext_x v_fext_y v_fext_z "
+            "i2_mindlin_partner[1] d2_mindlin_tx[1] d2_mindlin_ty[1] d2_mindlin_tz[1] "
+            "v_wall_tx v_wall_ty v_wall_tz")
+    rows = ["1 1 0.5 1 0 0.45 0 " + "0 " * 9 + "2 0 0 0 0 0 0",
+            "2 1 0.5 1 0.99 0.45 0 " + "0 " * 9 + "1 0 0 0 0 0 0"]
+    path.write_text("\n".join(["ITEM: TIMESTEP", "0", "ITEM: NUMBER OF ATOMS", "2",
+                               "ITEM: BOX BOUNDS pp ff pp", "-5 5", "-1 10", "-5 5",
+                               "ITEM: ATOMS " + cols] + rows) + "\n")
+    (path.parent / (path.name + ".json")).write_text(json.dumps(
+        {"k_n": 2e5, "k_t": 2e5 / 3.5, "mu": 1.0, "wall_y": 0.0, "F_x": 0.0, "F_y": 3.0,
+         "dt": 1e-3}))
+    return str(path)
+
+
+def test_read_dump_options_and_the_kind_of_dump(packing, tmp_path):
+    """frame = 1.0 was a raw 'list indices must be integers'; mirror_rtol = -1 was
+    reported as a history disagreement; inertia_factor = 0 was taken (analyze
+    failed later); a dump of spheres was only 'missing dump columns'."""
+    from remote_trigger.analysis.state.dumpfile import read_dump, read_dump3d
+    from remote_trigger.analysis.state.state3d import state3d_from_history
+
+    from .builders import write_dump
+
+    path = str(write_dump(tmp_path / "eq.dump", packing))
+    for bad in (1.0, "0", True, None):
+        with pytest.raises(ValueError, match=rf"frame must be an integer .*got frame = "
+                                             rf"{re.escape(repr(bad))}"):
+            read_dump(path, frame=bad)
+    for frame in (0, -1, np.int64(0), np.int32(-1)):
+        assert read_dump(path, frame=frame).n == packing.n
+    with pytest.raises(ValueError, match="frame 1 does not exist"):
+        read_dump(path, frame=np.int64(1))
+    for bad in (-1.0, np.nan, np.inf, "1e-9"):
+        with pytest.raises(ValueError, match=r"mirror_rtol must be a finite number >= 0, got "
+                                             r"mirror_rtol = "):
+            read_dump(path, mirror_rtol=bad)
+    assert read_dump(path, mirror_rtol=0.0).n == packing.n
+    for bad in (0, -0.5, np.nan, np.inf):
+        with pytest.raises(ValueError, match=r"inertia_factor must be a finite number > 0, "
+                                             r"got inertia_factor = "):
+            read_dump(path, inertia_factor=bad)
+    with pytest.raises(ValueError, match="inertia_factor must be"):
+        _rebuilt(packing, inertia_factor=0.0)
+    st = read_dump(path, inertia_factor=1)
+    assert np.allclose(st.inertia, st.masses * st.radii**2)
+
+    sph = _sphere_dump(tmp_path / "sph.dump")
+    with pytest.raises(ValueError, match=r"a dump of spheres \(it has columns z, "
+                                         r"d2_mindlin_tx\[\*\].*use read_dump3d"):
+        read_dump(sph)
+    assert read_dump3d(sph).n_contacts == 1
+    with pytest.raises(ValueError, match="mirror_rtol must be a finite number >= 0"):
+        read_dump3d(sph, mirror_rtol=-1.0)
+    with pytest.raises(ValueError, match="frame must be an integer"):
+        read_dump3d(sph, frame=0.5)
+    with pytest.raises(ValueError, match=r"a dump of disks \(no z column\).*use read_dump"):
+        read_dump3d(path)
+    with pytest.raises(ValueError, match="inertia_factor must be a finite number > 0"):
+        state3d_from_history(ids=[1], positions=[[0, 0.6, 0]], radii=[0.5], masses=[1.0],
+                             box_lo=[-5, 0, -5], box_hi=[5, 10, 5],
+                             params=packing.params, inertia_factor=-1.0)
