@@ -11,7 +11,8 @@ subcommand, by :func:`run_command`.
 Exit status (docs/driver.md, "Exit status"): 0 success, 1 no result,
 2 bad input, 3 no equilibrium, 130 interrupted. An error is printed as one
 line, ``remote-trigger COMMAND: error: MESSAGE``, on rank 0 only; the
-traceback only with ``--debug``. Ctrl-C prints one line with the
+traceback only with ``--debug``. A command that fails removes the
+folders it made for ``--out`` that hold no file. Ctrl-C prints one line with the
 subcommand's note and ends the process (:func:`exit_on_interrupt`). A subparser may set, with ``set_defaults``:
 
 ``serial=True``
@@ -266,12 +267,39 @@ def exit_on_interrupt(args, debug=False):
     return signal.signal(signal.SIGINT, handler)
 
 
+def _new_folder(path):
+    """The outermost folder of ``path`` that does not exist yet (None if it does)."""
+    if not isinstance(path, str) or not path or os.path.exists(path):
+        return None
+    path = os.path.abspath(path)
+    while not os.path.exists(os.path.dirname(path)):
+        path = os.path.dirname(path)
+    return path
+
+
+def _remove_empty(root):
+    """Remove the folders under ``root`` (made by this run) that hold no file,
+    ``root`` too when it ends empty: a refused command leaves no empty
+    ``--out`` behind. Files are never touched; a folder another rank is
+    filling stays."""
+    if root is None or not os.path.isdir(root):
+        return
+    for folder, _, _ in os.walk(root, topdown=False):
+        try:
+            os.rmdir(folder)
+        except OSError:
+            pass
+
+
 def _guarded(args, debug):
-    """Run ``args.func``; errors become one line on stderr and an exit status."""
+    """Run ``args.func``; errors become one line on stderr and an exit status
+    (and the folders this run made for ``--out`` are removed if they hold no
+    file)."""
     import traceback
 
     rank = world_rank()
     prog = f"remote-trigger {args.command}"
+    made = _new_folder(getattr(args, "out", None)) if rank == 0 else None
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
@@ -295,6 +323,7 @@ def _guarded(args, debug):
                 traceback.print_exc()
             who = f" (rank {rank})" if rank else ""
             print(f"{prog}: error{who}: {msg}", file=sys.stderr, flush=True)
+        _remove_empty(made)
         return status
 
 

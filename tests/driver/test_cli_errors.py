@@ -382,7 +382,8 @@ def test_instability_from_a_stable_state_refuses(capsys, ramp_run, tmp_path):
     assert status == 2
     assert_one_line_error(err, f"F_x = {ramp_run['F_stable']!r} is linearly stable",
                           "every eigenvalue certified real", "--allow-stable")
-    assert os.listdir(tmp_path / "i") == []
+    # nothing written, and the folder this run made for --out is gone again
+    assert not os.path.exists(tmp_path / "i")
     status, out, err = run_cli(capsys, "instability", "--datafile",
                                ramp_run["stable"] + ".data", "--out", tmp_path / "i",
                                "--t-max", 0.2, "--quiet", "--allow-stable")
@@ -421,6 +422,23 @@ def test_jacobian_equilibrium_and_conflicts(capsys, ramp_run, tmp_path):
     status, _, err = run_cli(capsys, "jacobian", dump, "-o", tmp_path / "L.npz", "--k-n", 3e5)
     assert status == 2
     assert_one_line_error(err, "--k-n 300000.0 contradicts k_n = 200000.0", "--override")
+
+
+def test_a_refusal_leaves_no_empty_out_folder(capsys, ramp_run, tmp_path):
+    """A command refused after it made --out removes the folders it made
+    (empty), and keeps an --out that existed before, and any file."""
+    args = ("ramp", "--datafile", ramp_run["stable"] + ".data", "--dt", 0.5, "--quiet")
+    status, _, err = run_cli(capsys, *args, "--out", tmp_path / "new" / "deeper")
+    assert status == 2 and "stability limit" in err
+    assert os.listdir(tmp_path) == []
+    (tmp_path / "old").mkdir()
+    (tmp_path / "kept").mkdir()
+    (tmp_path / "kept" / "note.txt").write_text("mine")
+    for out in ("old", "kept"):
+        status, _, err = run_cli(capsys, *args, "--out", tmp_path / out)
+        assert status == 2 and "stability limit" in err
+    assert sorted(os.listdir(tmp_path)) == ["kept", "old"]
+    assert os.listdir(tmp_path / "old") == [] and os.listdir(tmp_path / "kept") == ["note.txt"]
 
 
 @pytest.mark.parametrize("target", ["dir/", "dir", "missing/K.npz", "K.txt"])
