@@ -33,6 +33,7 @@ degeneracy of long-wavelength modes (exact in tiled packings,
 docs/results/ensemble.md); this fraction tells whether the first pair is
 such a mode.
 """
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -114,9 +115,11 @@ def long_wave_fraction(u, x, L_x, m_max=LONG_WAVE_M):
     x : array_like, shape (N,)
         The particles' x coordinates (length).
     L_x : float
-        The periodic box length along x (length), > 0.
+        The periodic box length along x (length), > 0: one number, e.g.
+        ``state.box_length[0]`` (not the whole ``box_length``).
     m_max : int, optional
-        Waves k = 2 pi m / L_x with |m| <= m_max (default 3).
+        Waves k = 2 pi m / L_x with |m| <= m_max (default 3); an integer >= 0
+        (Python or numpy).
 
     Returns
     -------
@@ -130,16 +133,29 @@ def long_wave_fraction(u, x, L_x, m_max=LONG_WAVE_M):
     Raises
     ------
     ValueError
-        If the shapes disagree, ``L_x`` is not positive and finite, or
-        2 m_max + 1 > N (the waves span everything).
+        If the shapes disagree, ``L_x`` is not one positive finite number (a
+        box length of several entries is named), ``m_max`` is not an integer
+        >= 0, or 2 m_max + 1 > N (the waves span everything).
     """
     u = np.asarray(u)
     x = np.asarray(x, np.float64).reshape(-1)
     if u.ndim != 2 or u.shape[0] != x.size:
         raise ValueError(f"long_wave_fraction needs u of shape (N, d) and x of N values, "
                          f"got {u.shape} and {x.size}")
-    if not (np.isfinite(L_x) and L_x > 0):
+    L = np.asarray(L_x)
+    if L.size > 1:
+        # (box_length (L_x, L_y) was "the truth value of an array is ambiguous")
+        raise ValueError(f"long_wave_fraction needs L_x, one number, got an array of shape "
+                         f"{L.shape} ({L_x!r}): give L_x = box_length[0]")
+    if (L.size != 1 or L.dtype.kind not in "iuf" or isinstance(L_x, (bool, np.bool_))
+            or not (np.isfinite(L) and L > 0)):
         raise ValueError(f"long_wave_fraction needs a positive box length, got L_x = {L_x!r}")
+    L_x = float(L.reshape(()))
+    if (isinstance(m_max, (bool, np.bool_)) or not isinstance(m_max, (int, np.integer))
+            or m_max < 0):
+        # (m_max = -1 gave 0.0, m_max = 1.5 the value of m_max = 1)
+        raise ValueError(f"long_wave_fraction needs m_max, an integer >= 0, got "
+                         f"m_max = {m_max!r}")
     m = np.arange(-int(m_max), int(m_max) + 1)
     if m.size > x.size:
         raise ValueError(f"long_wave_fraction: {m.size} waves for {x.size} particles")
@@ -160,16 +176,27 @@ def pair_mode(state, eigenvalue):
         by :func:`~remote_trigger.analysis.stability.analyze.analyze`.
     eigenvalue : complex
         lambda_c (1/time^2), e.g. ``[Re, Im]`` of the ensemble's
-        ``lambda_c`` as ``complex(re, im)``.
+        ``lambda_c`` as ``complex(re, im)``: one eigenvalue of a complex
+        pair, so Im != 0 (either sign).
 
     Returns
     -------
     PairMode
+        The mode of the eigenvalue nearest ``eigenvalue``.
 
     Raises
     ------
     ValueError
-        If every particle is a rattler or ``eigenvalue`` is not finite.
+        If every particle is a rattler, ``eigenvalue`` is not finite, or it
+        is real (Im = 0: no pair; the mode of a real eigenvalue is not what
+        this describes).
+
+    Warns
+    -----
+    UserWarning
+        If the eigenvalue found nearest is real to round-off (|Im| <= 64 eps
+        ||A||_1): no complex pair lies nearest the value given, and the
+        result is the mode of a real eigenvalue.
     """
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability import eigen, jacobian
@@ -178,6 +205,10 @@ def pair_mode(state, eigenvalue):
     sigma = complex(eigenvalue)
     if not np.isfinite(sigma):
         raise ValueError(f"pair_mode needs a finite eigenvalue, got {eigenvalue!r}")
+    if sigma.imag == 0.0:
+        # (it returned the mode of the nearest eigenvalue, a real one, as a pair's)
+        raise ValueError(f"pair_mode needs an eigenvalue of a complex pair (Im != 0), got "
+                         f"eigenvalue = {eigenvalue!r}")
     res = analyze(state, eigenvalues=False, decide=False)
     keep = np.asarray(res.rattlers.keep_dofs, np.int64)
     if keep.size == 0:
@@ -197,7 +228,12 @@ def pair_mode(state, eigenvalue):
         j = int(np.argmin(np.abs(lam_all - sigma)))
         lam_j, v = complex(lam_all[j]), V[:, j]
     v = v / np.linalg.norm(v)
-    resid = float(np.linalg.norm(A @ v - lam_j * v) / max(spla.norm(A, 1), 1e-300))
+    a1 = float(spla.norm(A, 1))
+    resid = float(np.linalg.norm(A @ v - lam_j * v) / max(a1, 1e-300))
+    if abs(lam_j.imag) <= 64.0 * np.finfo(float).eps * a1:
+        warnings.warn(f"pair_mode: the eigenvalue nearest {sigma!r} is real ({lam_j.real!r}): "
+                      f"no complex pair there; the mode returned is a real eigenvalue's",
+                      UserWarning, stacklevel=2)
     spheres = isinstance(state, State3D)
     per = 6 if spheres else 3
     full = np.zeros(per * state.n, complex)

@@ -196,3 +196,52 @@ def test_read_dump_options_and_the_kind_of_dump(packing, tmp_path):
         state3d_from_history(ids=[1], positions=[[0, 0.6, 0]], radii=[0.5], masses=[1.0],
                              box_lo=[-5, 0, -5], box_hi=[5, 10, 5],
                              params=packing.params, inertia_factor=-1.0)
+
+
+def test_long_wave_fraction_and_pair_mode_arguments(packing):
+    """box_length (L_x, L_y) as L_x was 'the truth value of an array is ambiguous';
+    m_max = -1 gave 0.0 and m_max = 1.5 the value of m_max = 1; pair_mode of a
+    real eigenvalue returned that real mode as a pair's."""
+    import warnings
+
+    from remote_trigger.analysis.stability import eigen, jacobian
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability.modeshape import long_wave_fraction, pair_mode
+
+    from .builders import random_packing
+
+    u = np.random.default_rng(0).standard_normal((packing.n, 2))
+    x, L = packing.positions[:, 0], packing.box_length
+    with pytest.raises(ValueError, match=r"L_x, one number, got an array of shape \(2,\) "
+                                         r".*give L_x = box_length\[0\]"):
+        long_wave_fraction(u, x, L)
+    for bad in (-1, 1.5, 2.0, True, "3"):
+        with pytest.raises(ValueError, match=rf"m_max, an integer >= 0, got m_max = "
+                                             rf"{re.escape(repr(bad))}"):
+            long_wave_fraction(u, x, L[0], m_max=bad)
+    for bad in ("5", True, np.nan):
+        with pytest.raises(ValueError, match="needs a positive box length"):
+            long_wave_fraction(u, x, bad)
+    want = long_wave_fraction(u, x, float(L[0]), m_max=2)
+    assert long_wave_fraction(u, x, L[:1], m_max=np.int64(2)) == want
+    assert 0 < long_wave_fraction(u, x, L[0], m_max=0) < 1
+
+    for nx, ny in ((4, 3), (12, 10)):                # 36 dofs: dense; 360: ARPACK
+        st = random_packing(5, nx=nx, ny=ny, cap_fraction=0.6)
+        res = analyze(st, eigenvalues=False, decide=False)
+        Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
+        lam = np.linalg.eigvals(eigen.dynamical_matrix(Kr, mr).toarray())
+        real = lam[lam.imag == 0].real
+        r = real[np.argmax(np.abs(real))]
+        with pytest.raises(ValueError, match=r"complex pair \(Im != 0\), got eigenvalue = "):
+            pair_mode(st, r)
+        with pytest.raises(ValueError, match="complex pair"):
+            pair_mode(st, complex(r, 0.0))
+        with pytest.warns(UserWarning, match="is real .*no complex pair there"):
+            m = pair_mode(st, complex(r, 1e-9 * abs(r)))
+        assert m.eigenvalue == pytest.approx(r, rel=1e-12)
+        pair = lam[np.argmax(lam.imag)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            got = pair_mode(st, pair.conjugate() * (1 + 1e-7)).eigenvalue
+        assert got == pytest.approx(pair.conjugate(), rel=1e-10)
