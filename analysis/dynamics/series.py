@@ -17,6 +17,40 @@ import numpy as np
 D_RUNAWAY = 1e-3
 
 
+def _check_series(func, t, **series):
+    """``t`` and each named series: 1-D arrays of one length, every value finite.
+
+    Returns the float64 arrays, ``t`` first, then the series in their order.
+
+    Raises
+    ------
+    ValueError
+        Naming ``func``, the arguments and their shapes, or the first
+        non-finite value.
+    """
+    arrays = {}
+    for name, a in dict(t=t, **series).items():
+        try:
+            arrays[name] = np.asarray(a, np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{func}: {name} must be a 1-D array of numbers, got "
+                             f"{type(a).__name__} {str(a)[:40]}") from None
+    shapes = [a.shape for a in arrays.values()]
+    if any(len(sh) != 1 for sh in shapes) or len(set(shapes)) != 1:
+        # (growth_window(t, D[:10], ...) returned (None, nan); growth_fit and
+        # exp_rate were raw broadcasting / indexing errors)
+        names = list(arrays)
+        raise ValueError(f"{func}: {', '.join(names[:-1])} and {names[-1]} must be 1-D arrays "
+                         f"of one length, got shapes "
+                         f"{', '.join(str(sh) for sh in shapes[:-1])} and {shapes[-1]}")
+    for name, a in arrays.items():
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise ValueError(f"{func}: {name} must be finite, got {bad.size} non-finite "
+                             f"value(s), the first {float(a[bad[0]])!r} at index {int(bad[0])}")
+    return tuple(arrays.values())
+
+
 def noise_level(t, D, frac=0.05):
     """Median of D over the first ``frac`` of the records with t > 0 and D > 0.
 
@@ -30,7 +64,14 @@ def noise_level(t, D, frac=0.05):
     -------
     float
         NaN when no record has D > 0.
+
+    Raises
+    ------
+    ValueError
+        If t and D are not 1-D arrays of one length or hold a
+        non-finite value (the message names them and their shapes).
     """
+    _check_series("noise_level", t, D=D)
     sel = (np.asarray(t) > 0) & (np.asarray(D) > 0)
     d = np.asarray(D)[sel]
     if d.size == 0:
@@ -58,7 +99,14 @@ def exp_rate(t, D, mask=None, min_records=5):
     -------
     float
         g (1/time), or NaN.
+
+    Raises
+    ------
+    ValueError
+        If t, D and mask (when given) are not 1-D arrays of one length or
+        hold a non-finite value (the message names them and their shapes).
     """
+    _check_series("exp_rate", t, D=D, **({} if mask is None else {"mask": mask}))
     t, D = np.asarray(t, float), np.asarray(D, float)
     sel = D > 0 if mask is None else np.asarray(mask, bool) & (D > 0)
     if np.count_nonzero(sel) < min_records:
@@ -101,7 +149,14 @@ def growth_window(t, D, noise, lo=1e3, hi=1e-3, start=0, chunks=8, rtol=0.05):
     -------
     ((i0, i1), g) or (None, nan)
         With fewer than 5 records in the window: ``(None, nan)``.
+
+    Raises
+    ------
+    ValueError
+        If t and D are not 1-D arrays of one length or hold a
+        non-finite value (the message names them and their shapes).
     """
+    _check_series("growth_window", t, D=D)
     t, D = np.asarray(t, float), np.asarray(D, float)
     if not (noise > 0) or D.size == 0:
         return None, float("nan")
@@ -145,7 +200,14 @@ def below_exponential(t, D, window, g, tail=0.1):
     -------
     float
         log10(extrapolated D / max D of the tail); NaN without a window.
+
+    Raises
+    ------
+    ValueError
+        If t and D are not 1-D arrays of one length or hold a
+        non-finite value (the message names them and their shapes).
     """
+    _check_series("below_exponential", t, D=D)
     t, D = np.asarray(t, float), np.asarray(D, float)
     if window is None or not np.isfinite(g) or D.size == 0:
         return float("nan")
@@ -183,7 +245,13 @@ def first_crossing(t, x, level):
     ----------
     t, x : array_like, shape (n,)
     level : float
+
+    Raises
+    ------
+    ValueError
+        If t and x are not 1-D arrays of one length or hold a non-finite value.
     """
+    _check_series("first_crossing", t, x=x)
     i = np.flatnonzero(np.asarray(x) > level)
     return float(np.asarray(t)[i[0]]) if i.size else float("nan")
 
@@ -192,7 +260,13 @@ def friction_switch_time(t, mu, mu0):
     """First record time with mu < mu0 (mu(v) switched on), NaN if never.
 
     A relative tolerance of 1e-12 separates a switched-on law from mu0.
+
+    Raises
+    ------
+    ValueError
+        If t and mu are not 1-D arrays of one length or hold a non-finite value.
     """
+    _check_series("friction_switch_time", t, mu=mu)
     i = np.flatnonzero(np.asarray(mu) < mu0 * (1 - 1e-12))
     return float(np.asarray(t)[i[0]]) if i.size else float("nan")
 
@@ -219,7 +293,14 @@ def settle_index(t, mu, target, tol=0.01, span=50.0):
     -------
     int or None
         None if the friction never settles.
+
+    Raises
+    ------
+    ValueError
+        If t and mu are not 1-D arrays of one length or hold a
+        non-finite value (the message names them and their shapes).
     """
+    _check_series("settle_index", t, mu=mu)
     t, mu = np.asarray(t, float), np.asarray(mu, float)
     j = np.searchsorted(t, t + span, side="right")
     for i in range(t.size):
@@ -242,7 +323,14 @@ def growth_over(t, D, t0, t1):
     -------
     float
         NaN if a quarter holds no positive D.
+
+    Raises
+    ------
+    ValueError
+        If t and D are not 1-D arrays of one length or hold a
+        non-finite value (the message names them and their shapes).
     """
+    _check_series("growth_over", t, D=D)
     t, D = np.asarray(t, float), np.asarray(D, float)
     w = (t1 - t0) / 4.0
     early = D[(t >= t0) & (t <= t0 + w) & (D > 0)]
@@ -297,7 +385,14 @@ def post_switch_level(t, D, mu, mu0, span=100.0):
     -------
     float
         NaN if mu never switched on or no record lies in the interval.
+
+    Raises
+    ------
+    ValueError
+        If t, D and mu are not 1-D arrays of one length or hold a
+        non-finite value (the message names them and their shapes).
     """
+    _check_series("post_switch_level", t, D=D, mu=mu)
     t, D = np.asarray(t, float), np.asarray(D, float)
     ts = friction_switch_time(t, mu, mu0)
     if not math.isfinite(ts):
@@ -360,8 +455,15 @@ def saturated(t, D, mu, mu0, span=100.0, rise=1e3):
     Returns
     -------
     bool
+
+    Raises
+    ------
+    ValueError
+        If t, D and mu are not 1-D arrays of one length or hold a
+        non-finite value (the message names them and their shapes).
     """
-    t, D = np.asarray(t, float), np.asarray(D, float)
+    # (float arrays once: the paper's runs call this at every record)
+    t, D, mu = _check_series("saturated", t, D=D, mu=mu)
     if t.size < 3 or t[-1] - t[0] < 2 * span:
         return False
     lvl = post_switch_level(t, D, mu, mu0)
@@ -406,7 +508,14 @@ def settled_growth(t, D, mu, mu0, mu_target, settle_tol, lo=3.0, hi=1e-1):
         window, which sets its start), ``window`` ([i0, i1] or None),
         ``t_window``, ``growth_rate`` (g of D ~ e^{2gt}), ``mu_fit``
         (median mu over the window); None if mu never settled.
+
+    Raises
+    ------
+    ValueError
+        If t, D and mu are not 1-D arrays of one length or hold a
+        non-finite value (the message names them and their shapes).
     """
+    _check_series("settled_growth", t, D=D, mu=mu)
     t, D, mu = np.asarray(t, float), np.asarray(D, float), np.asarray(mu, float)
     i = settle_index(t, mu, mu_target, tol=settle_tol)
     if i is None:
@@ -454,7 +563,14 @@ def growth_fit(t, D, lo_decades=3.0, hi=None):
     float
         g (1/time); NaN with fewer than 5 records in the window or no noise
         level (no positive D).
+
+    Raises
+    ------
+    ValueError
+        If t and D are not 1-D arrays of one length or hold a
+        non-finite value (the message names them and their shapes).
     """
+    _check_series("growth_fit", t, D=D)
     t, D = np.asarray(t, float), np.asarray(D, float)
     Dmax = float(np.max(D)) if D.size else 0.0
     if not Dmax > 0:
@@ -496,7 +612,14 @@ def runaway_rate(t, D, d_run, decades=1.0):
     (float, int)
         g (1/time, D ~ e^{2 g t}) and the number of records fitted; (NaN, 0)
         if D never passes D_run, (NaN, n) with n < 5 records.
+
+    Raises
+    ------
+    ValueError
+        If t and D are not 1-D arrays of one length or hold a
+        non-finite value (the message names them and their shapes).
     """
+    _check_series("runaway_rate", t, D=D)
     t, D = np.asarray(t, float), np.asarray(D, float)
     hit = np.flatnonzero(D > d_run)
     if hit.size == 0:

@@ -245,3 +245,55 @@ def test_long_wave_fraction_and_pair_mode_arguments(packing):
             warnings.simplefilter("error")
             got = pair_mode(st, pair.conjugate() * (1 + 1e-7)).eigenvalue
         assert got == pytest.approx(pair.conjugate(), rel=1e-10)
+
+
+def test_series_functions_check_t_and_the_series():
+    """growth_window(t, D[:10], noise) returned (None, nan); growth_fit and
+    exp_rate of a shorter D were raw broadcasting / indexing errors; a NaN
+    time or MSD went into the fits."""
+    from remote_trigger.analysis.dynamics import series as ser
+
+    t = np.linspace(0.0, 1000.0, 201)
+    D = 1e-20 * np.exp(2 * 0.02 * t)
+    mu = np.where(t < 5.0, 1.0, 0.8)
+    calls = {
+        "noise_level": lambda t, D, mu: ser.noise_level(t, D),
+        "exp_rate": lambda t, D, mu: ser.exp_rate(t, D),
+        "growth_window": lambda t, D, mu: ser.growth_window(t, D, 1e-20),
+        "below_exponential": lambda t, D, mu: ser.below_exponential(t, D, (0, 5), 0.02),
+        "growth_over": lambda t, D, mu: ser.growth_over(t, D, 0.0, 1000.0),
+        "growth_fit": lambda t, D, mu: ser.growth_fit(t, D),
+        "runaway_rate": lambda t, D, mu: ser.runaway_rate(t, D, 1e-5),
+        "first_crossing": lambda t, D, mu: ser.first_crossing(t, D, 1e-10),
+        "post_switch_level": lambda t, D, mu: ser.post_switch_level(t, D, mu, 1.0),
+        "saturated": lambda t, D, mu: ser.saturated(t, D, mu, 1.0),
+        "settled_growth": lambda t, D, mu: ser.settled_growth(t, D, mu, 1.0, 0.8, 0.01),
+    }
+    three = ("post_switch_level", "saturated", "settled_growth")
+    for name, f in calls.items():
+        f(t, D, mu)                                              # valid input runs
+        if name in three:
+            msg = (rf"{name}: t, D and mu must be 1-D arrays of one length, got shapes "
+                   r"\(201,\), \(10,\) and \(201,\)")
+        else:
+            msg = (rf"{name}: t and {'x' if name == 'first_crossing' else 'D'} must be 1-D "
+                   r"arrays of one length, got shapes \(201,\) and \(10,\)")
+        with pytest.raises(ValueError, match=msg):
+            f(t, D[:10], mu)
+        with pytest.raises(ValueError, match=r"must be 1-D arrays"):
+            f(t.reshape(1, -1), D.reshape(1, -1), mu.reshape(1, -1))
+        bad = t.copy()
+        bad[7] = np.nan
+        with pytest.raises(ValueError, match=rf"{name}: t must be finite, got 1 non-finite "
+                                             r"value\(s\), the first nan at index 7"):
+            f(bad, D, mu)
+    with pytest.raises(ValueError, match=r"D must be finite, got 2 non-finite"):
+        ser.growth_window(t, np.where(t > 990.0, np.inf, D), 1e-20)
+    with pytest.raises(ValueError, match=r"t, D and mask must be 1-D arrays of one length, "
+                                         r"got shapes \(201,\), \(201,\) and \(3,\)"):
+        ser.exp_rate(t, D, mask=[True, True, False])
+    for f in (ser.settle_index, ser.friction_switch_time):
+        with pytest.raises(ValueError, match=r"t and mu must be 1-D arrays"):
+            f(t, mu[:-1], 0.8)
+    # lists are taken as before; the same rate as from arrays
+    assert ser.exp_rate(list(t), list(D)) == ser.exp_rate(t, D) == pytest.approx(0.02)
