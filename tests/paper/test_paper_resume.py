@@ -261,6 +261,15 @@ def test_config_difference_names_every_key(tmp_path):
     msg = str(exc.value)
     assert "dF_x = 0.002 in paper.json, dF_x = 0.001 now" in msg
     assert "n = 40 in paper.json, n = 100 now" in msg and "quick = True" in msg
+    # the Fig. 5 load may change while Fig. 5 has not begun, not after
+    for key, val in (("fig5_F_x", 0.01), ("fig5_window", 0.3)):
+        assert paper.load_manifest(str(out), build_config(None, {"seed": 3, key: val},
+                                                          quick=True))["status"] == "running"
+    (out / "perturb").mkdir()
+    with pytest.raises(ConfigError, match="fig5_F_x = None in paper.json, fig5_F_x = 0.01 now"):
+        paper.load_manifest(str(out), build_config(None, {"seed": 3, "fig5_F_x": 0.01},
+                                                   quick=True))
+    (out / "perturb").rmdir()
     moved = tmp_path / "moved"
     os.rename(out, moved)
     # a moved folder: its manifest's paths are moved with it

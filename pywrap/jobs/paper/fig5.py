@@ -165,8 +165,8 @@ def fig5_load(cfg, ramps):
         return float(cfg.fig5_F_x), lo, hi
     if not (math.isfinite(lo) and lo < hi):
         raise ConfigError(f"no window for Fig. 5: F_x^c(mu = {cfg.mu_low:g}) = {lo:.8g} is not "
-                          f"below F_x^c(mu = {cfg.mu:g}) = {hi:.8g}; give fig5_F_x (in a new "
-                          f"run of the job: --resume keeps the configuration it began with), "
+                          f"below F_x^c(mu = {cfg.mu:g}) = {hi:.8g}; give fig5_F_x below "
+                          f"{hi:.8g} (--resume with it keeps the relaxation and the ramps), "
                           f"or take another packing (--seed)")
     return lo + cfg.fig5_window * (hi - lo), lo, hi
 

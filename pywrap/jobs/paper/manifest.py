@@ -81,6 +81,18 @@ def _normalised(d):
 #: do not change any result: serial and two-rank runs are bitwise identical)
 RESUME_FREE_KEYS = ("np",)
 
+#: configuration keys that only the Fig. 5 phase reads (the choice of its
+#: load): they may change on ``--resume`` while that phase has not begun (no
+#: ``perturb`` summary in the manifest, no ``perturb/`` folder), e.g. to give
+#: ``fig5_F_x`` to a job whose packing has no window, keeping its
+#: relaxation and ramps
+RESUME_BEFORE_FIG5_KEYS = ("fig5_F_x", "fig5_window")
+
+
+def fig5_begun(man, out):
+    """The Fig. 5 phase of the job in ``out`` has begun (or finished)."""
+    return bool(man.get("perturb")) or os.path.exists(os.path.join(out, "perturb"))
+
 
 def config_difference(stored, cfg):
     """Keys whose values differ between a stored configuration and ``cfg``.
@@ -124,7 +136,11 @@ def load_manifest(out, cfg):
     ------
     ConfigError
         If ``paper.json`` is unreadable or its configuration differs from
-        ``cfg`` (the message names every differing key with both values).
+        ``cfg`` (the message names every differing key with both values),
+        except in :data:`RESUME_FREE_KEYS`, and in
+        :data:`RESUME_BEFORE_FIG5_KEYS` while Fig. 5 has not begun
+        (:func:`fig5_begun`; the resumed job then uses and records the new
+        values).
         Nothing is deleted. A manifest written in another folder (the job's
         folder was moved) is returned with its paths moved to ``out``
         (:func:`rebased`).
@@ -139,6 +155,8 @@ def load_manifest(out, cfg):
         raise ConfigError(f"cannot resume from {path}: unreadable manifest ({exc}); "
                           f"run without --resume to start the job over") from None
     diff = config_difference(man["config"], cfg)
+    if not fig5_begun(man, out):
+        diff = [d for d in diff if d[0] not in RESUME_BEFORE_FIG5_KEYS]
     if diff:
         what = "; ".join(f"{k} = {old!r} in {MANIFEST}, {k} = {new!r} now"
                          for k, old, new in diff)
