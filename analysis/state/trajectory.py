@@ -50,16 +50,52 @@ def open_dump(path, unwrap=True, dt=None):
 
     Raises
     ------
-    FileNotFoundError, ValueError
-        From MDAnalysis, for a missing or unreadable dump.
+    FileNotFoundError
+        If ``path`` does not exist (named).
+    ValueError
+        If the first snapshot lacks the coordinate columns ``x y z`` (or
+        MDAnalysis' scaled / unwrapped ones) or, with ``unwrap``, the image
+        flags ``ix iy iz``: one line naming what it lacks and what to do (an
+        equilibrium dump of the driver is opened with :func:`open_universe`);
+        from MDAnalysis, for an otherwise unreadable dump.
     """
     import MDAnalysis as mda
 
+    columns = _first_columns(path, "dump")
+    coords = [c for c in (("x", "y", "z"), ("xs", "ys", "zs"), ("xu", "yu", "zu"),
+                          ("xsu", "ysu", "zsu")) if all(a in columns for a in c)]
+    lack = [] if coords else [a for a in ("x", "y", "z") if a not in columns]
+    lack += [a for a in ("ix", "iy", "iz") if unwrap and a not in columns]
+    if lack:
+        # (MDAnalysis said "Trajectory must have image flag in order to unwrap.")
+        if _is_equilibrium_dump(path):
+            todo = ("it is an equilibrium dump (it has a .json sidecar): open it with "
+                    "open_universe(path), or read_dump for float64 positions")
+        elif coords:
+            todo = ("add them to the dump (dump custom ... ix iy iz), or pass unwrap=False "
+                    "(displacements across the periodic seam are then wrong)")
+        else:
+            todo = "write the dump with columns id type x y z ix iy iz (dump custom)"
+        raise ValueError(f"{path}: the dump lacks the column(s) {' '.join(lack)} (open_dump "
+                         f"reads id type x y z, and the image flags ix iy iz to unwrap); {todo}")
     with warnings.catch_warnings():
         # masses are guessed (1.0, as in the model: set group all mass 1.0)
         warnings.filterwarnings("ignore", message="Guessed all Masses")
         return mda.Universe(path, topology_format="LAMMPSDUMP", format="LAMMPSDUMP",
                             unwrap_images=unwrap, dt=1.0 if dt is None else float(dt))
+
+
+_SPHERES = ("open_universe supports packings of disks only; for spheres use "
+            "read_dump3d (float64 state) or MDAnalysis on a dynamics trajectory (open_dump)")
+
+
+def _require_disks(path):
+    """ValueError naming an equilibrium dump of spheres (:data:`_SPHERES`)."""
+    from remote_trigger.analysis.state.dumpfile import dump_dimension
+
+    if dump_dimension(path) == 3:
+        # (it was read_dump's "missing dump columns" or "use read_dump3d")
+        raise ValueError(f"{path}: a dump of spheres: {_SPHERES}")
 
 
 def _topology(path):
@@ -68,6 +104,7 @@ def _topology(path):
     from remote_trigger.analysis.state.dumpfile import read_dump
 
     if _is_equilibrium_dump(path):
+        _require_disks(path)
         st = read_dump(path, require_contacts=False)
         top = st.external[:, 1] != 0.0          # -F_y on the top line
         return (st.ids, st.types, st.radii, st.masses, top, st.positions,
@@ -76,8 +113,30 @@ def _topology(path):
     if d.positions is None:
         raise ValueError(f"{path!r} is not a data file of atom_style sphere (its Atoms "
                          f"section is {d.style!r}): no radii")
+    if d.dimension == 3:
+        # (its spheres became disks at their x, y)
+        raise ValueError(f"{path}: a data file of spheres (z != 0): {_SPHERES}")
     top = np.zeros(d.n, bool) if d.top is None else d.top
     return d.ids, d.types, d.radii, d.masses, top, d.positions, d.box_lo, d.box_hi
+
+
+def _first_columns(path, what):
+    """Column names of a dump's first ``ITEM: ATOMS`` line.
+
+    Raises FileNotFoundError naming ``what`` and the path if the file does
+    not exist, ValueError if it holds no snapshot.
+    """
+    import os
+
+    from MDAnalysis.lib.util import anyopen
+
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"{what} file not found: {path}")
+    with anyopen(os.fspath(path)) as fh:          # (compressed dumps as MDAnalysis reads them)
+        for line in fh:
+            if line.startswith("ITEM: ATOMS"):
+                return line.split()[2:]
+    raise ValueError(f"{path!r}: no snapshot found (not a LAMMPS dump?)")
 
 
 def _first_frame_ids(path):
@@ -139,14 +198,27 @@ def open_universe(topology, trajectory=None, dt=None, unwrap=True):
 
     Raises
     ------
+    FileNotFoundError
+        If ``topology`` or a trajectory file does not exist (named).
     ValueError
-        An unreadable or unchecked data file or dump (one line naming it),
-        frames with other atom ids than the topology, or a list mixing
-        equilibrium dumps and dynamics trajectories.
+        A packing of spheres (a dump of spheres or a 3D data file: not
+        supported here, disks only), an unreadable or unchecked data file or
+        dump (one line naming it), frames with other atom ids than the
+        topology, or a list mixing equilibrium dumps and dynamics
+        trajectories.
     """
+    import os
+
     import MDAnalysis as mda
     from MDAnalysis.coordinates.memory import MemoryReader
 
+    paths = [] if trajectory is None else (
+        [trajectory] if isinstance(trajectory, (str, bytes)) or not hasattr(
+            trajectory, "__iter__") else list(trajectory))
+    for what, p in [("topology", topology)] + [("trajectory", p) for p in paths]:
+        if not os.path.isfile(p):
+            # (a missing topology was "cannot read the data file")
+            raise FileNotFoundError(f"{what} file not found: {p}")
     ids, types, radii, masses, top, pos, lo, hi = _topology(topology)
     n = ids.size
     u = mda.Universe.empty(n, n_residues=n, n_segments=2, atom_resindex=np.arange(n),
@@ -159,9 +231,6 @@ def open_universe(topology, trajectory=None, dt=None, unwrap=True):
     u.add_TopologyAttr("segids", ["bulk", "top"])
     lengths = np.where(np.isfinite(hi - lo), hi - lo, 1.0)
     box = np.concatenate([lengths, [90.0, 90.0, 90.0]])
-    paths = [] if trajectory is None else (
-        [trajectory] if isinstance(trajectory, (str, bytes)) or not hasattr(
-            trajectory, "__iter__") else list(trajectory))
     kinds = {_is_equilibrium_dump(p) for p in paths}
     if len(kinds) > 1:
         raise ValueError("trajectory mixes equilibrium dumps (with a .json sidecar) and "
@@ -173,6 +242,7 @@ def open_universe(topology, trajectory=None, dt=None, unwrap=True):
 
             frames = []
             for p in paths:
+                _require_disks(p)
                 st = read_dump(p, require_contacts=False)
                 if not np.array_equal(st.ids, ids):
                     raise ValueError(f"{p!r} holds other atoms than {topology!r}")

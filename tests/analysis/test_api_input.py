@@ -297,3 +297,45 @@ def test_series_functions_check_t_and_the_series():
             f(t, mu[:-1], 0.8)
     # lists are taken as before; the same rate as from arrays
     assert ser.exp_rate(list(t), list(D)) == ser.exp_rate(t, D) == pytest.approx(0.02)
+
+
+def test_open_dump_and_open_universe_name_what_they_cannot_read(packing, tmp_path):
+    """open_dump of an equilibrium dump was MDAnalysis' 'Trajectory must have image
+    flag in order to unwrap.'; open_universe of a missing file was a ValueError
+    (read_dump's is a FileNotFoundError); spheres were misread or refused as
+    'missing dump columns'."""
+    pytest.importorskip("MDAnalysis")
+    from remote_trigger.analysis.state.trajectory import open_dump, open_universe
+
+    from .builders import write_dump
+
+    eq = str(write_dump(tmp_path / "eq.dump", packing))
+    with pytest.raises(ValueError, match=r"eq.dump: the dump lacks the column\(s\) z ix iy iz "
+                                         r".*equilibrium dump .*open_universe\(path\)"):
+        open_dump(eq)
+    traj = tmp_path / "run.lammpstrj"
+    traj.write_text("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n2\nITEM: BOX BOUNDS pp pp pp\n"
+                    "0 4\n0 4\n-0.5 0.5\nITEM: ATOMS id type x y z\n1 1 1 1 0\n2 1 2 1 0\n")
+    with pytest.raises(ValueError, match=r"lacks the column\(s\) ix iy iz .*dump custom "
+                                         r"\.\.\. ix iy iz\), or pass unwrap=False"):
+        open_dump(str(traj))
+    assert open_dump(str(traj), unwrap=False).atoms.n_atoms == 2
+    for f, what in ((open_dump, "dump"), (open_universe, "topology")):
+        with pytest.raises(FileNotFoundError, match=rf"{what} file not found: .*nope.dump"):
+            f(str(tmp_path / "nope.dump"))
+    with pytest.raises(FileNotFoundError, match="trajectory file not found: .*nope.dump"):
+        open_universe(eq, [eq, str(tmp_path / "nope.dump")])
+    assert open_universe(eq).atoms.n_atoms == packing.n
+
+    sph = _sphere_dump(tmp_path / "sph.dump")
+    for args in ((sph,), (eq, [eq, sph])):
+        with pytest.raises(ValueError, match=r"sph.dump: a dump of spheres: open_universe "
+                                             r"supports packings of disks only"):
+            open_universe(*args)
+    data = tmp_path / "sph.data"
+    data.write_text("LAMMPS data file\n\n2 atoms\n1 atom types\n\n-5 5 xlo xhi\n-1 10 ylo yhi\n"
+                    "-5 5 zlo zhi\n\nAtoms # sphere\n\n1 1 1.0 1.9 0 0.45 0.2 0 0 0\n"
+                    "2 1 1.0 1.9 0.99 0.45 0.2 0 0 0\n")
+    with pytest.raises(ValueError, match=r"sph.data: a data file of spheres \(z != 0\): "
+                                         r"open_universe supports packings of disks only"):
+        open_universe(str(data))
