@@ -424,23 +424,6 @@ def test_jacobian_equilibrium_and_conflicts(capsys, ramp_run, tmp_path):
     assert_one_line_error(err, "--k-n 300000.0 contradicts k_n = 200000.0", "--override")
 
 
-def test_a_refusal_leaves_no_empty_out_folder(capsys, ramp_run, tmp_path):
-    """A command refused after it made --out removes the folders it made
-    (empty), and keeps an --out that existed before, and any file."""
-    args = ("ramp", "--datafile", ramp_run["stable"] + ".data", "--dt", 0.5, "--quiet")
-    status, _, err = run_cli(capsys, *args, "--out", tmp_path / "new" / "deeper")
-    assert status == 2 and "stability limit" in err
-    assert os.listdir(tmp_path) == []
-    (tmp_path / "old").mkdir()
-    (tmp_path / "kept").mkdir()
-    (tmp_path / "kept" / "note.txt").write_text("mine")
-    for out in ("old", "kept"):
-        status, _, err = run_cli(capsys, *args, "--out", tmp_path / out)
-        assert status == 2 and "stability limit" in err
-    assert sorted(os.listdir(tmp_path)) == ["kept", "old"]
-    assert os.listdir(tmp_path / "old") == [] and os.listdir(tmp_path / "kept") == ["note.txt"]
-
-
 @pytest.mark.parametrize("target", ["dir/", "dir", "missing/K.npz", "K.txt"])
 def test_jacobian_output_must_be_an_npz_file(capsys, ramp_run, tmp_path, target):
     (tmp_path / "dir").mkdir()

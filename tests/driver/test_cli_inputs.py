@@ -2,6 +2,7 @@
 destroy or silently take is refused, naming the value (--log over a data
 file, --set beside the option of one key, a demo over its earlier result),
 inputs are named for what they are, and ``ramp --resume`` finds its start."""
+import os
 import shutil
 
 import pytest
@@ -101,3 +102,20 @@ def test_ramp_resume_without_datafile_takes_the_recorded_start(capsys, relaxed, 
                                 "--resume", "--quiet")
     assert status == 0, err
     assert "F_x^c in [" in text
+
+
+def test_a_refusal_leaves_no_empty_out_folder(capsys, relaxed, tmp_path):
+    """A command refused after it made --out removes the folders it made
+    (empty), and keeps an --out that existed before, and any file."""
+    args = ("ramp", "--datafile", relaxed.datafile, "--dt", 0.5, "--quiet")
+    status, _, err = run_cli(capsys, *args, "--out", tmp_path / "new" / "deeper")
+    assert status == 2 and "stability limit" in err
+    assert os.listdir(tmp_path) == []
+    (tmp_path / "old").mkdir()
+    (tmp_path / "kept").mkdir()
+    (tmp_path / "kept" / "note.txt").write_text("mine")
+    for out in ("old", "kept"):
+        status, _, err = run_cli(capsys, *args, "--out", tmp_path / out)
+        assert status == 2 and "stability limit" in err
+    assert sorted(os.listdir(tmp_path)) == ["kept", "old"]
+    assert os.listdir(tmp_path / "old") == [] and os.listdir(tmp_path / "kept") == ["note.txt"]
