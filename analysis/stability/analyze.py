@@ -102,14 +102,38 @@ def max_residual(G, spheres=False):
     Parameters
     ----------
     G : ndarray, shape (3N,) or (6N,)
-        (F_x, F_y, T/R) per disk, or (F, T/R) per sphere (force units).
+        (F_x, F_y, T/R) per disk, or (F, T/R) per sphere (force units),
+        flat in dof order (as ``generalized_forces`` / ``generalized_forces3d``
+        give it), N >= 1, every value finite.
     spheres : bool
         G is that of spheres.
 
     Returns
     -------
     float
+
+    Raises
+    ------
+    ValueError
+        If ``G`` is not a flat array whose length is a positive multiple of
+        3 (disks) or 6 (spheres), or holds a non-finite value.
     """
+    per, what = (6, "(F, T/R) per sphere") if spheres else (3, "(F_x, F_y, T/R) per disk")
+    try:
+        G = np.asarray(G, np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"max_residual needs G, an array of numbers, got "
+                         f"{type(G).__name__}") from None
+    if G.ndim != 1 or G.size == 0 or G.size % per:
+        # (a length-5 G was a raw reshape error, an empty one numpy's "zero-size
+        # array to reduction", a (2, 3) array was taken as two disks)
+        raise ValueError(f"max_residual needs G of shape ({per}N,) with N >= 1, {what} in "
+                         f"dof order, got shape {G.shape}")
+    bad = np.flatnonzero(~np.isfinite(G))
+    if bad.size:
+        # (a NaN gave a residual of nan)
+        raise ValueError(f"max_residual needs a finite G, got {bad.size} non-finite "
+                         f"value(s), the first {G[bad[0]].item()!r} at dof {int(bad[0])}")
     if spheres:
         G = np.asarray(G).reshape(-1, 6)
         return float(max(np.max(np.linalg.norm(G[:, :3], axis=1)),

@@ -339,3 +339,28 @@ def test_open_dump_and_open_universe_name_what_they_cannot_read(packing, tmp_pat
     with pytest.raises(ValueError, match=r"sph.data: a data file of spheres \(z != 0\): "
                                          r"open_universe supports packings of disks only"):
         open_universe(str(data))
+
+
+def test_max_residual_checks_g(packing):
+    """A length-5 G was a raw reshape error, an empty one numpy's 'zero-size array
+    to reduction', a (2, 3) array was taken as two disks, a NaN gave nan."""
+    from remote_trigger.analysis.stability.analyze import analyze, max_residual
+    from remote_trigger.analysis.stability.jacobian import generalized_forces
+
+    G = generalized_forces(packing)
+    assert max_residual(G) == analyze(packing, eigenvalues=False, decide=False).max_residual
+    assert max_residual([3.0, 4.0, -6.0]) == 6.0
+    assert max_residual([0, 3, 4, 1, 0, 0], spheres=True) == 5.0
+    for bad, spheres, shape in ((np.ones(5), False, r"\(5,\)"), (np.ones(0), False, r"\(0,\)"),
+                                (np.ones((2, 3)), False, r"\(2, 3\)"),
+                                (np.ones(9), True, r"\(9,\)")):
+        per = 6 if spheres else 3
+        with pytest.raises(ValueError, match=rf"max_residual needs G of shape \({per}N,\) "
+                                             rf"with N >= 1, .* got shape {shape}"):
+            max_residual(bad, spheres)
+    G[4] = np.nan
+    with pytest.raises(ValueError, match=r"needs a finite G, got 1 non-finite value\(s\), "
+                                         r"the first nan at dof 4"):
+        max_residual(G)
+    with pytest.raises(ValueError, match="an array of numbers, got str"):
+        max_residual("G")
