@@ -11,44 +11,13 @@ import math
 
 import numpy as np
 
+from remote_trigger.analysis.dynamics._series_parts import (
+    check_series as _check_series, constant_rate_end as _constant_rate_end)
+
 #: default runaway level of D (sigma^2): the disks have moved by ~0.03 sigma rms,
 #: ~50x the typical contact overlap (F_y / k_n)^(2/3) ~ 6e-4 of the default
 #: model: the linear regime is left (docs/paper.md)
 D_RUNAWAY = 1e-3
-
-
-def _check_series(func, t, **series):
-    """``t`` and each named series: 1-D arrays of one length, every value finite.
-
-    Returns the float64 arrays, ``t`` first, then the series in their order.
-
-    Raises
-    ------
-    ValueError
-        Naming ``func``, the arguments and their shapes, or the first
-        non-finite value.
-    """
-    arrays = {}
-    for name, a in dict(t=t, **series).items():
-        try:
-            arrays[name] = np.asarray(a, np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"{func}: {name} must be a 1-D array of numbers, got "
-                             f"{type(a).__name__} {str(a)[:40]}") from None
-    shapes = [a.shape for a in arrays.values()]
-    if any(len(sh) != 1 for sh in shapes) or len(set(shapes)) != 1:
-        # (growth_window(t, D[:10], ...) returned (None, nan); growth_fit and
-        # exp_rate were raw broadcasting / indexing errors)
-        names = list(arrays)
-        raise ValueError(f"{func}: {', '.join(names[:-1])} and {names[-1]} must be 1-D arrays "
-                         f"of one length, got shapes "
-                         f"{', '.join(str(sh) for sh in shapes[:-1])} and {shapes[-1]}")
-    for name, a in arrays.items():
-        bad = np.flatnonzero(~np.isfinite(a))
-        if bad.size:
-            raise ValueError(f"{func}: {name} must be finite, got {bad.size} non-finite "
-                             f"value(s), the first {float(a[bad[0]])!r} at index {int(bad[0])}")
-    return tuple(arrays.values())
 
 
 def noise_level(t, D, frac=0.05):
@@ -68,8 +37,7 @@ def noise_level(t, D, frac=0.05):
     Raises
     ------
     ValueError
-        If t and D are not 1-D arrays of one length or hold a
-        non-finite value (the message names them and their shapes).
+        t and D not 1-D arrays of one length, or not finite.
     """
     _check_series("noise_level", t, D=D)
     sel = (np.asarray(t) > 0) & (np.asarray(D) > 0)
@@ -103,11 +71,9 @@ def exp_rate(t, D, mask=None, min_records=5):
     Raises
     ------
     ValueError
-        If t, D and mask (when given) are not 1-D arrays of one length or
-        hold a non-finite value (the message names them and their shapes).
+        t, D and mask (if given) not 1-D arrays of one length, or not finite.
     """
-    _check_series("exp_rate", t, D=D, **({} if mask is None else {"mask": mask}))
-    t, D = np.asarray(t, float), np.asarray(D, float)
+    t, D = _check_series("exp_rate", t, D=D, **({} if mask is None else {"mask": mask}))[:2]
     sel = D > 0 if mask is None else np.asarray(mask, bool) & (D > 0)
     if np.count_nonzero(sel) < min_records:
         return float("nan")
@@ -153,11 +119,9 @@ def growth_window(t, D, noise, lo=1e3, hi=1e-3, start=0, chunks=8, rtol=0.05):
     Raises
     ------
     ValueError
-        If t and D are not 1-D arrays of one length or hold a
-        non-finite value (the message names them and their shapes).
+        t and D not 1-D arrays of one length, or not finite.
     """
-    _check_series("growth_window", t, D=D)
-    t, D = np.asarray(t, float), np.asarray(D, float)
+    t, D = _check_series("growth_window", t, D=D)
     if not (noise > 0) or D.size == 0:
         return None, float("nan")
     idx = np.arange(D.size)
@@ -204,38 +168,15 @@ def below_exponential(t, D, window, g, tail=0.1):
     Raises
     ------
     ValueError
-        If t and D are not 1-D arrays of one length or hold a
-        non-finite value (the message names them and their shapes).
+        t and D not 1-D arrays of one length, or not finite.
     """
-    _check_series("below_exponential", t, D=D)
-    t, D = np.asarray(t, float), np.asarray(D, float)
+    t, D = _check_series("below_exponential", t, D=D)
     if window is None or not np.isfinite(g) or D.size == 0:
         return float("nan")
     i1 = window[1]
     ext = np.log10(D[i1]) + 2.0 * g * (t[-1] - t[i1]) / np.log(10.0)
     last = D[int((1.0 - tail) * D.size):]
     return float(ext - np.log10(np.max(last)))
-
-
-def _constant_rate_end(t, D, i0, i1, chunks, rtol):
-    """Last index of the constant-rate part of [i0, i1] (see :func:`growth_window`)."""
-    if not (D[i0] > 0 and np.log10(D[i1] / D[i0]) >= chunks):
-        return i1                     # pieces of less than a decade: rates too noisy
-    edges = np.linspace(t[i0], t[i1], chunks + 1)
-    rates, ends = [], []
-    for k in range(chunks):
-        sel = (t >= edges[k]) & (t <= edges[k + 1]) & (D > 0)
-        sel[:i0] = False
-        sel[i1 + 1:] = False
-        if np.count_nonzero(sel) < 3:
-            return i1
-        rates.append(float(np.polyfit(t[sel], np.log(D[sel]), 1)[0] / 2.0))
-        ends.append(int(np.flatnonzero(sel)[0]))
-    for k in range(1, chunks):
-        ref = float(np.median(rates[:k]))
-        if ref > 0 and abs(rates[k] - ref) > rtol * ref:
-            return max(i0, ends[k] - 1)
-    return i1
 
 
 def first_crossing(t, x, level):
@@ -249,7 +190,7 @@ def first_crossing(t, x, level):
     Raises
     ------
     ValueError
-        If t and x are not 1-D arrays of one length or hold a non-finite value.
+        t and x not 1-D arrays of one length, or not finite.
     """
     _check_series("first_crossing", t, x=x)
     i = np.flatnonzero(np.asarray(x) > level)
@@ -264,7 +205,7 @@ def friction_switch_time(t, mu, mu0):
     Raises
     ------
     ValueError
-        If t and mu are not 1-D arrays of one length or hold a non-finite value.
+        t and mu not 1-D arrays of one length, or not finite.
     """
     _check_series("friction_switch_time", t, mu=mu)
     i = np.flatnonzero(np.asarray(mu) < mu0 * (1 - 1e-12))
@@ -297,11 +238,9 @@ def settle_index(t, mu, target, tol=0.01, span=50.0):
     Raises
     ------
     ValueError
-        If t and mu are not 1-D arrays of one length or hold a
-        non-finite value (the message names them and their shapes).
+        t and mu not 1-D arrays of one length, or not finite.
     """
-    _check_series("settle_index", t, mu=mu)
-    t, mu = np.asarray(t, float), np.asarray(mu, float)
+    t, mu = _check_series("settle_index", t, mu=mu)
     j = np.searchsorted(t, t + span, side="right")
     for i in range(t.size):
         if j[i] - i < 3:
@@ -327,11 +266,9 @@ def growth_over(t, D, t0, t1):
     Raises
     ------
     ValueError
-        If t and D are not 1-D arrays of one length or hold a
-        non-finite value (the message names them and their shapes).
+        t and D not 1-D arrays of one length, or not finite.
     """
-    _check_series("growth_over", t, D=D)
-    t, D = np.asarray(t, float), np.asarray(D, float)
+    t, D = _check_series("growth_over", t, D=D)
     w = (t1 - t0) / 4.0
     early = D[(t >= t0) & (t <= t0 + w) & (D > 0)]
     late = D[(t >= t1 - w) & (t <= t1) & (D > 0)]
@@ -389,11 +326,9 @@ def post_switch_level(t, D, mu, mu0, span=100.0):
     Raises
     ------
     ValueError
-        If t, D and mu are not 1-D arrays of one length or hold a
-        non-finite value (the message names them and their shapes).
+        t, D and mu not 1-D arrays of one length, or not finite.
     """
-    _check_series("post_switch_level", t, D=D, mu=mu)
-    t, D = np.asarray(t, float), np.asarray(D, float)
+    t, D, mu = _check_series("post_switch_level", t, D=D, mu=mu)
     ts = friction_switch_time(t, mu, mu0)
     if not math.isfinite(ts):
         return float("nan")
@@ -459,11 +394,9 @@ def saturated(t, D, mu, mu0, span=100.0, rise=1e3):
     Raises
     ------
     ValueError
-        If t, D and mu are not 1-D arrays of one length or hold a
-        non-finite value (the message names them and their shapes).
+        t, D and mu not 1-D arrays of one length, or not finite.
     """
-    # (float arrays once: the paper's runs call this at every record)
-    t, D, mu = _check_series("saturated", t, D=D, mu=mu)
+    t, D, mu = _check_series("saturated", t, D=D, mu=mu)    # (arrays once: every record)
     if t.size < 3 or t[-1] - t[0] < 2 * span:
         return False
     lvl = post_switch_level(t, D, mu, mu0)
@@ -512,11 +445,9 @@ def settled_growth(t, D, mu, mu0, mu_target, settle_tol, lo=3.0, hi=1e-1):
     Raises
     ------
     ValueError
-        If t, D and mu are not 1-D arrays of one length or hold a
-        non-finite value (the message names them and their shapes).
+        t, D and mu not 1-D arrays of one length, or not finite.
     """
-    _check_series("settled_growth", t, D=D, mu=mu)
-    t, D, mu = np.asarray(t, float), np.asarray(D, float), np.asarray(mu, float)
+    t, D, mu = _check_series("settled_growth", t, D=D, mu=mu)
     i = settle_index(t, mu, mu_target, tol=settle_tol)
     if i is None:
         return None
@@ -567,11 +498,9 @@ def growth_fit(t, D, lo_decades=3.0, hi=None):
     Raises
     ------
     ValueError
-        If t and D are not 1-D arrays of one length or hold a
-        non-finite value (the message names them and their shapes).
+        t and D not 1-D arrays of one length, or not finite.
     """
-    _check_series("growth_fit", t, D=D)
-    t, D = np.asarray(t, float), np.asarray(D, float)
+    t, D = _check_series("growth_fit", t, D=D)
     Dmax = float(np.max(D)) if D.size else 0.0
     if not Dmax > 0:
         return float("nan")
@@ -616,11 +545,9 @@ def runaway_rate(t, D, d_run, decades=1.0):
     Raises
     ------
     ValueError
-        If t and D are not 1-D arrays of one length or hold a
-        non-finite value (the message names them and their shapes).
+        t and D not 1-D arrays of one length, or not finite.
     """
-    _check_series("runaway_rate", t, D=D)
-    t, D = np.asarray(t, float), np.asarray(D, float)
+    t, D = _check_series("runaway_rate", t, D=D)
     hit = np.flatnonzero(D > d_run)
     if hit.size == 0:
         return float("nan"), 0
