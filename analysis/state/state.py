@@ -258,6 +258,98 @@ def _check_options(mirror_rtol=None, inertia_factor=None):
                              f"got {name} = {val!r}")
 
 
+def _atom_ids(ids, name="ids"):
+    """Atom ids as int64, shape (N,); integer-valued floats are taken.
+
+    Raises
+    ------
+    ValueError
+        Not 1-D, or a value that is not an integer (named with its index; a
+        float id was truncated before).
+    """
+    a = np.asarray(ids)
+    if a.ndim != 1:
+        raise ValueError(f"{name} must have shape (N,), got shape {a.shape}")
+    if a.dtype.kind == "f":
+        bad = np.flatnonzero(~np.isfinite(a) | (a != np.round(a)))
+        if bad.size:
+            raise ValueError(f"{name} must be integers, got {float(a[bad[0]])!r} at index "
+                             f"{int(bad[0])}")
+    elif a.size and a.dtype.kind not in "iu":
+        raise ValueError(f"{name} must be integers, got dtype {a.dtype}")
+    return a.astype(np.int64)
+
+
+def _shaped(name, a, shape, label, dtype=np.float64):
+    """``a`` as an array of exactly ``shape``; ValueError naming ``name``, ``label``
+    (the shape in symbols, e.g. ``(N, 2)``) and the shape given."""
+    try:
+        arr = np.asarray(a, dtype)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an array of numbers of shape {label}, got "
+                         f"{type(a).__name__}") from None
+    if arr.shape != tuple(shape):
+        # (it was numpy's "cannot reshape array of size ...")
+        raise ValueError(f"{name} must have shape {label} = {tuple(shape)}, got shape "
+                         f"{arr.shape}")
+    return arr
+
+
+def _history(name, a, n, k=None):
+    """A history array of shape (N, K) (an (N,) array is one slot); with ``k``
+    (the slots of ``partners``) K must be k. ValueError naming ``name`` and the
+    shapes expected and given."""
+    try:
+        arr = np.asarray(a, np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an array of numbers of shape (N, K), got "
+                         f"{type(a).__name__}") from None
+    given = arr.shape
+    if arr.shape == (n,):
+        arr = arr.reshape(n, 1)
+    if arr.ndim != 2 or arr.shape[0] != n or (k is not None and arr.shape[1] != k):
+        want = f"(N, K) = ({n}, {'K' if k is None else k})" + ("" if k is None else
+                                                             ", that of partners")
+        raise ValueError(f"{name} must have shape {want}, got shape {given}")
+    return arr
+
+
+def _box(box_lo, box_hi, dim, periodic):
+    """(box_lo, box_hi) as float64 arrays of ``dim`` values and the periodic flags.
+
+    In 2D a third (z) bound is accepted and dropped (LAMMPS' box has three).
+
+    Raises
+    ------
+    ValueError
+        Wrong lengths, non-finite bounds, hi <= lo, or ``periodic`` not of
+        ``dim`` flags.
+    """
+    axes = "x, y; a z bound is ignored" if dim == 2 else "x, y, z"
+    out = []
+    for name, b in (("box_lo", box_lo), ("box_hi", box_hi)):
+        try:
+            b = np.asarray(b, np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} must be {dim} numbers, got {type(b).__name__}") from None
+        if b.ndim != 1 or b.size not in ((2, 3) if dim == 2 else (3,)):
+            raise ValueError(f"{name} must have {dim} values ({axes}), got shape {b.shape}")
+        if not np.all(np.isfinite(b)):
+            raise ValueError(f"{name} must be finite, got {b.tolist()}")
+        out.append(b[:dim].copy())
+    if np.any(out[1] <= out[0]):
+        raise ValueError(f"the box must have box_hi > box_lo on every axis, got box_lo = "
+                         f"{out[0].tolist()}, box_hi = {out[1].tolist()}")
+    try:
+        per = tuple(bool(p) for p in periodic)
+    except TypeError:
+        raise ValueError(f"periodic must be {dim} flags, got {periodic!r}") from None
+    if len(per) != dim:
+        raise ValueError(f"periodic must be {dim} flags ({'x, y' if dim == 2 else 'x, y, z'}), "
+                         f"got {len(per)}: {periodic!r}")
+    return out[0], out[1], per
+
+
 def _check_params(params, wall_y):
     if not isinstance(params, ContactParams):
         raise ValueError(f"params must be a ContactParams, got {type(params).__name__}")
@@ -300,20 +392,25 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     Parameters
     ----------
     ids : array_like of int, shape (N,)
-        Atom ids (any order; the state is sorted by id).
+        Atom ids (any order; the state is sorted by id); integer-valued
+        floats are taken.
     positions : array_like, shape (N, 2)
     radii, masses : array_like, shape (N,)
     box_lo, box_hi : array_like, shape (2,)
+        Finite, box_hi > box_lo; a third (z) value, as LAMMPS gives the box,
+        is ignored.
     params : ContactParams
     wall_y : float or None
     partners : array_like of int, shape (N, K), optional
-        ``i2_mindlin_partner``: partner ids, 0 for empty slots. None means no
-        history at all (every geometric contact gets xi = 0).
+        ``i2_mindlin_partner``: partner ids, 0 for empty slots (shape (N,):
+        one slot). None means no history at all (every geometric contact
+        gets xi = 0).
     partner_xi : array_like, shape (N, K), optional
-        ``d2_mindlin_t``.
+        ``d2_mindlin_t``, the shape of ``partners``; required with it.
     wall_t : array_like, shape (N,), optional
         ``d_mindlin_wall_t``.
-    periodic : sequence of bool
+    periodic : sequence of 2 bool
+        Periodicity in (x, y).
     external : array_like, shape (N, 2), optional
         External loads (zero if None).
     mirror_rtol : float
@@ -333,25 +430,29 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     ------
     ValueError
         ``mirror_rtol`` < 0 or ``inertia_factor`` <= 0 (or either not
-        finite); otherwise see
+        finite); an array of another shape than the one above (named, with
+        the shapes expected and given; also ``contact_forces`` (N, 3),
+        ``velocities`` (N, 2), ``omega`` and ``types`` (N,)); ids that are
+        not integers; ``periodic`` not of 2 flags; a box of the wrong length,
+        not finite or with box_hi <= box_lo; ``partners`` without
+        ``partner_xi``; otherwise see
         :func:`~remote_trigger.analysis.state.dumpfile.read_dump`.
     """
     _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
-    ids = np.asarray(ids).astype(np.int64)
+    ids = _atom_ids(ids)
     n = ids.size
-    pos = np.asarray(positions, dtype=np.float64).reshape(n, 2)
-    radii = np.asarray(radii, dtype=np.float64).reshape(n)
-    masses = np.asarray(masses, dtype=np.float64).reshape(n)
+    pos = _shaped("positions", positions, (n, 2), "(N, 2)")
+    radii = _shaped("radii", radii, (n,), "(N,)")
+    masses = _shaped("masses", masses, (n,), "(N,)")
     _check_params(params, wall_y)
     order = _check_atoms(ids, pos, radii, masses)
+    box_lo, box_hi, periodic = _box(box_lo, box_hi, 2, periodic)
 
-    def srt(a, shape=None, dtype=np.float64, name=None):
+    def srt(a, name, shape, label, dtype=np.float64, finite=False):
         if a is None:
             return None
-        a = np.asarray(a, dtype=dtype)
-        if shape is not None:
-            a = a.reshape(shape)
-        if name is not None and not np.all(np.isfinite(a)):
+        a = _shaped(name, a, shape, label, dtype)
+        if finite and not np.all(np.isfinite(a)):
             # (a NaN load gave a NaN residual and a verdict on it)
             raise ValueError(f"{name} must be finite, got {int(np.sum(~np.isfinite(a)))} "
                              f"non-finite value(s)")
@@ -359,12 +460,9 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
 
     ids = ids[order]
     pos, radii, masses = pos[order].copy(), radii[order].copy(), masses[order].copy()
-    external = np.zeros((n, 2)) if external is None else srt(external, (n, 2),
-                                                               name="external")
-    box_lo = np.asarray(box_lo, np.float64)[:2].copy()
-    box_hi = np.asarray(box_hi, np.float64)[:2].copy()
+    external = (np.zeros((n, 2)) if external is None
+                else srt(external, "external", (n, 2), "(N, 2)", finite=True))
     L = box_hi - box_lo
-    periodic = tuple(bool(p) for p in periodic)
 
     gi, gj, rho = find_contacts(pos, radii, box_lo, box_hi, periodic, ids=ids)
     notes = {"unrecorded_contacts": 0, "stale_history": 0, "stale_wall_history": 0,
@@ -375,8 +473,9 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
         if partner_xi is None:
             raise ValueError("partners needs partner_xi (the tangential displacement of "
                              "each partner), got partner_xi = None")
-        P = srt(partners, (n, -1), np.float64)
-        X = srt(partner_xi, P.shape, np.float64, name="partner_xi")
+        P = _history("partners", partners, n)[order].copy()
+        X = srt(_history("partner_xi", partner_xi, n, P.shape[1]), "partner_xi", P.shape,
+                "(N, K)", finite=True)
         hi_, hj, hxi, hdelta = _history_pairs(P, X, ids, pos, radii, L, periodic, params,
                                               mirror_rtol)
     else:
@@ -407,7 +506,8 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     ci, cj, cxi = ci[srt_c], cj[srt_c], cxi[srt_c]
 
     # ---- wall
-    wt = None if (wall_t is None or wall_y is None) else srt(wall_t, (n,), name="wall_t")
+    wt = (None if (wall_t is None or wall_y is None)
+          else srt(wall_t, "wall_t", (n,), "(N,)", finite=True))
     widx, wxi, wdelta, notes["stale_wall_history"] = _wall_contacts(ids, pos, radii, wall_y,
                                                                      wt, wall_t)
 
@@ -430,6 +530,8 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
         contact_i=ci.astype(np.int64), contact_j=cj.astype(np.int64),
         contact_xi=cxi.astype(np.float64), wall_index=widx, wall_xi=wxi.astype(np.float64),
         wall_delta=wdelta.astype(np.float64), external=external,
-        contact_forces=srt(contact_forces, (n, 3)), velocities=srt(velocities, (n, 2)),
-        omega=srt(omega, (n,)), types=srt(types, (n,), np.int64), F_x=F_x, F_y=F_y, dt=dt,
+        contact_forces=srt(contact_forces, "contact_forces", (n, 3), "(N, 3)"),
+        velocities=srt(velocities, "velocities", (n, 2), "(N, 2)"),
+        omega=srt(omega, "omega", (n,), "(N,)"),
+        types=srt(types, "types", (n,), "(N,)", np.int64), F_x=F_x, F_y=F_y, dt=dt,
         timestep=timestep, source=source, notes=notes)

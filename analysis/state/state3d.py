@@ -32,7 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from remote_trigger.analysis.state.state import ContactParams, _check_options
+from remote_trigger.analysis.state.state import (
+    ContactParams, _atom_ids, _box, _check_options, _history, _shaped)
 
 __all__ = ["SPHERE_INERTIA", "State3D", "build_state3d", "state3d_from_history",
            "minimum_image3", "plane_wall"]
@@ -257,25 +258,29 @@ def _project_keep_length(n, t):
 
 
 def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
-                  periodic=(True, True, False), pairs=(), pair_t=None, walls=(),
+                  periodic=(True, False, True), pairs=(), pair_t=None, walls=(),
                   wall_t=None, external=None, inertia_factor=SPHERE_INERTIA):
     """Build a :class:`State3D` from arrays and an explicit contact list.
 
     Parameters
     ----------
     ids : array_like of int, shape (N,)
-        Atom ids (any order; the state is sorted by id).
+        Atom ids (any order; the state is sorted by id); integer-valued
+        floats are taken.
     positions : array_like, shape (N, 3)
     radii, masses : array_like, shape (N,)
     box_lo, box_hi : array_like, shape (3,)
+        Finite, box_hi > box_lo.
     params : ContactParams
     periodic : sequence of 3 bool
+        Default (True, False, True): periodic in x and z, the driver's scene
+        (that of :func:`state3d_from_history`; it was (True, True, False)).
     pairs : array_like of int, shape (C, 2)
         Atom **ids** (a, b) of the sphere-sphere contacts, each once.
     pair_t : array_like, shape (C, 3), optional
         Tangential displacement of each pair seen from a (default zero).
     walls : sequence of (id, normal, offset)
-        Sphere-wall contacts (see :func:`plane_wall`).
+        Sphere-wall contacts (see :func:`plane_wall`); normal of 3 values.
     wall_t : array_like, shape (W, 3), optional
         Their tangential displacements (default zero).
     external : array_like, shape (N, 3), optional
@@ -293,17 +298,21 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
     ------
     ValueError
         On non-finite or non-positive values (``inertia_factor`` included),
-        duplicate ids, an unknown id in ``pairs`` or ``walls``, a contact
-        without overlap, or wrong shapes; the message names the ids.
+        ids (in ``ids`` or ``pairs``) that are not integers, duplicate ids,
+        an unknown id in ``pairs`` or ``walls``, a contact without overlap;
+        wrong shapes (the argument named with the shapes expected and
+        given), ``periodic`` not of 3 flags, a box not of 3 finite values
+        with box_hi > box_lo. The message names the ids.
     """
     if not isinstance(params, ContactParams):
         raise ValueError(f"params must be a ContactParams, got {type(params).__name__}")
     _check_options(inertia_factor=inertia_factor)
-    ids = np.asarray(ids).astype(np.int64).reshape(-1)
+    ids = _atom_ids(ids)
     n = ids.size
-    pos = np.asarray(positions, np.float64).reshape(n, 3)
-    radii = np.asarray(radii, np.float64).reshape(n)
-    masses = np.asarray(masses, np.float64).reshape(n)
+    pos = _shaped("positions", positions, (n, 3), "(N, 3)")
+    radii = _shaped("radii", radii, (n,), "(N,)")
+    masses = _shaped("masses", masses, (n,), "(N,)")
+    box_lo, box_hi, periodic = _box(box_lo, box_hi, 3, periodic)
     for name, arr in (("positions", pos), ("radii", radii), ("masses", masses)):
         if not np.all(np.isfinite(arr)):
             raise ValueError(f"{name} must be finite")
@@ -314,7 +323,7 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
         raise ValueError("atom ids must be unique")
     ids, pos, radii, masses = ids[order], pos[order], radii[order], masses[order]
     ext = (np.zeros((n, 3)) if external is None
-           else np.asarray(external, np.float64).reshape(n, 3)[order])
+           else _shaped("external", external, (n, 3), "(N, 3)")[order])
     if not np.all(np.isfinite(ext)):
         raise ValueError(f"external must be finite, got {int(np.sum(~np.isfinite(ext)))} "
                          f"non-finite value(s)")
@@ -325,9 +334,16 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
             raise ValueError(f"contact names atom id {int(a)}, which is not in ids")
         return index[int(a)]
 
-    pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
+    if np.size(pairs) == 0:
+        pairs = np.zeros((0, 2), np.int64)
+    else:
+        pairs = _shaped("pairs", pairs, np.shape(pairs), "(C, 2)")
+        if pairs.ndim != 2 or pairs.shape[1] != 2:
+            raise ValueError(f"pairs must have shape (C, 2), got shape {pairs.shape}")
+        pairs = _atom_ids(pairs.reshape(-1), "pairs").reshape(-1, 2)
     C = pairs.shape[0]
-    pt = np.zeros((C, 3)) if pair_t is None else np.asarray(pair_t, np.float64).reshape(C, 3)
+    pt = (np.zeros((C, 3)) if pair_t is None
+          else _shaped("pair_t", pair_t, (C, 3), "(C, 3)"))
     if not np.all(np.isfinite(pt)):
         raise ValueError(f"pair_t must be finite, got {int(np.sum(~np.isfinite(pt)))} "
                          f"non-finite value(s)")
@@ -339,20 +355,25 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
     srt = np.lexsort((cj, ci))
     ci, cj, pt = ci[srt], cj[srt], pt[srt]
     W = len(walls)
-    widx = np.array([idx(w[0]) for w in walls], np.int64)
+    for k, w in enumerate(walls):
+        if not (isinstance(w, (tuple, list)) and len(w) == 3 and np.shape(w[1]) == (3,)
+                and np.ndim(w[2]) == 0):
+            raise ValueError(f"walls[{k}] must be (id, normal of 3 values, offset), got "
+                             f"{w!r}")
+    widx = np.array([idx(_atom_ids([w[0]], f"the id of walls[{k}]")[0])
+                     for k, w in enumerate(walls)], np.int64)
     wn = np.array([np.asarray(w[1], np.float64) for w in walls]).reshape(W, 3)
     woff = np.array([float(w[2]) for w in walls], np.float64)
     if W and not np.allclose(np.linalg.norm(wn, axis=1), 1.0, rtol=0, atol=1e-14):
         raise ValueError("wall normals must be unit vectors")
-    wt = np.zeros((W, 3)) if wall_t is None else np.asarray(wall_t, np.float64).reshape(W, 3)
+    wt = (np.zeros((W, 3)) if wall_t is None
+          else _shaped("wall_t", wall_t, (W, 3), "(W, 3), W = len(walls)"))
     if not np.all(np.isfinite(wt)):
         raise ValueError(f"wall_t must be finite, got {int(np.sum(~np.isfinite(wt)))} "
                          f"non-finite value(s)")
-    box_lo = np.asarray(box_lo, np.float64).reshape(3).copy()
-    box_hi = np.asarray(box_hi, np.float64).reshape(3).copy()
     st = State3D(ids=ids, positions=pos, radii=radii, masses=masses,
                  inertia=float(inertia_factor) * masses * radii**2, box_lo=box_lo,
-                 box_hi=box_hi, periodic=tuple(bool(p) for p in periodic), params=params,
+                 box_hi=box_hi, periodic=periodic, params=params,
                  contact_i=ci, contact_j=cj, contact_t=pt, wall_index=widx, wall_normal=wn,
                  wall_offset=woff, wall_t=wt, external=ext)
     d = st.separation(ci, cj)
@@ -385,16 +406,19 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
     Parameters
     ----------
     ids : array_like of int, shape (N,)
+        Integer-valued floats are taken.
     positions : array_like, shape (N, 3)
     radii, masses : array_like, shape (N,)
     box_lo, box_hi : array_like, shape (3,)
     params : ContactParams
     periodic : sequence of 3 bool
-        Default periodic in x and z (the driver's scene).
+        Default periodic in x and z (the driver's scene; the default of
+        :func:`build_state3d` too).
     partners : array_like of int, shape (N, K), optional
-        Partner ids per slot (0 = empty).
+        Partner ids per slot (0 = empty; shape (N,): one slot).
     partner_t : array_like, shape (N, K, 3), optional
-        t of each slot, seen from the atom of the row (length).
+        t of each slot, seen from the atom of the row (length); required
+        with ``partners``.
     wall_y : float or None
         Height of the floor; None: no wall.
     wall_t : array_like, shape (N, 3), optional
@@ -417,29 +441,36 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
     ------
     ValueError
         ``mirror_rtol`` < 0 or ``inertia_factor`` <= 0 (or either not
-        finite), malformed arrays, a history entry that names an unknown atom or lacks
-        its mirror, two sides that disagree, a centre inside another sphere
-        or at or below the wall.
+        finite); an array of another shape than the one above (named, with
+        the shapes expected and given), ids that are not integers,
+        ``periodic`` not of 3 flags, a box not of 3 finite values with
+        box_hi > box_lo, ``partners`` without ``partner_t``; a history entry
+        that names an unknown atom or lacks its mirror, two sides that
+        disagree, a centre inside another sphere or at or below the wall.
     """
     import dataclasses
 
     from remote_trigger.analysis.state.contacts import _history_pairs, find_contacts
 
     _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
-    ids = np.asarray(ids).astype(np.int64).reshape(-1)
+    ids = _atom_ids(ids)
     n = ids.size
     order = np.argsort(ids, kind="stable")
     ids_s = ids[order]
-    pos = np.asarray(positions, np.float64).reshape(n, 3)[order]
-    rad = np.asarray(radii, np.float64).reshape(n)[order]
-    box_lo = np.asarray(box_lo, np.float64).reshape(3)
-    box_hi = np.asarray(box_hi, np.float64).reshape(3)
-    per = tuple(bool(p) for p in periodic)
+    pos = _shaped("positions", positions, (n, 3), "(N, 3)")[order]
+    rad = _shaped("radii", radii, (n,), "(N,)")[order]
+    masses = _shaped("masses", masses, (n,), "(N,)")
+    box_lo, box_hi, per = _box(box_lo, box_hi, 3, periodic)
+    if partners is not None:
+        if partner_t is None:
+            raise ValueError("partners needs partner_t (the tangential displacement of each "
+                             "partner), got partner_t = None")
+        P = _history("partners", partners, n)[order]
+        K = P.shape[1]
+        X = _shaped("partner_t", partner_t, (n, K, 3), "(N, K, 3), K that of partners")[order]
     gi, gj, _ = find_contacts(pos, rad, box_lo, box_hi, per, ids=ids_s)
     t = np.zeros((gi.size, 3))
     if partners is not None and gi.size:
-        P = np.asarray(partners, np.float64).reshape(n, -1)[order]
-        X = np.asarray(partner_t, np.float64).reshape(n, P.shape[1], 3)[order]
         hi_, hj, ht, _ = _history_pairs(P, X, ids_s, pos, rad, box_hi - box_lo, per, params,
                                         mirror_rtol)
         known = {(int(a), int(b)): k for k, (a, b) in enumerate(zip(hi_, hj))}
@@ -450,7 +481,7 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
     if wall_y is not None:
         normal, offset = plane_wall("y", "lo", float(wall_y))
         wt_all = (np.zeros((n, 3)) if wall_t is None
-                  else np.asarray(wall_t, np.float64).reshape(n, 3)[order])
+                  else _shaped("wall_t", wall_t, (n, 3), "(N, 3)")[order])
         low = pos[:, 1] - float(wall_y)
         if np.any(low <= 0.0):
             k = int(np.argmax(low <= 0.0))
@@ -459,9 +490,8 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
         for k in np.nonzero(rad - low > 0.0)[0]:
             walls.append((int(ids_s[k]), normal, offset))
             wt.append(wt_all[k])
-    ext = None if external is None else np.asarray(external, np.float64).reshape(n, 3)[order]
-    st = build_state3d(ids=ids_s, positions=pos, radii=rad,
-                       masses=np.asarray(masses, np.float64).reshape(n)[order],
+    ext = None if external is None else _shaped("external", external, (n, 3), "(N, 3)")[order]
+    st = build_state3d(ids=ids_s, positions=pos, radii=rad, masses=masses[order],
                        box_lo=box_lo, box_hi=box_hi, params=params, periodic=per,
                        pairs=np.column_stack([ids_s[gi], ids_s[gj]]), pair_t=t, walls=walls,
                        wall_t=np.array(wt).reshape(-1, 3), external=ext,

@@ -364,3 +364,130 @@ def test_max_residual_checks_g(packing):
         max_residual(G)
     with pytest.raises(ValueError, match="an array of numbers, got str"):
         max_residual("G")
+
+
+@pytest.mark.parametrize("kw, msg", [
+    (dict(positions=np.zeros((3, 3))), r"positions must have shape \(N, 2\) = \(\d+, 2\), "
+                                       r"got shape \(3, 3\)"),
+    (dict(radii=[0.5, 0.5]), r"radii must have shape \(N,\) = \(\d+,\), got shape \(2,\)"),
+    (dict(masses=np.ones((2, 2))), r"masses must have shape \(N,\) = \(\d+,\), got shape "
+                                   r"\(2, 2\)"),
+    (dict(periodic=(True,)), r"periodic must be 2 flags \(x, y\), got 1: \(True,\)"),
+    (dict(box_lo=[0.0]), r"box_lo must have 2 values \(x, y; .*\), got shape \(1,\)"),
+    (dict(box_hi=[1.0, 2.0, 3.0, 4.0]), r"box_hi must have 2 values .* got shape \(4,\)"),
+    (dict(box_hi=[np.nan, 10.0]), r"box_hi must be finite"),
+    (dict(box_hi=[-100.0, 10.0]), r"box_hi > box_lo on every axis"),
+    (dict(external=np.zeros((4, 2))), r"external must have shape \(N, 2\) = \(\d+, 2\), got "
+                                      r"shape \(4, 2\)"),
+    (dict(wall_t=np.zeros(3)), r"wall_t must have shape \(N,\) = \(\d+,\), got shape \(3,\)"),
+    (dict(partners=np.zeros((2, 3)), partner_xi=np.zeros((2, 3))),
+     r"partners must have shape \(N, K\) = \(\d+, K\), got shape \(2, 3\)"),
+    (dict(partner_xi=np.zeros((1, 1))), r"partners needs partner_xi"),
+    (dict(velocities=np.zeros(3)), r"velocities must have shape \(N, 2\)"),
+])
+def test_build_state_names_bad_shapes(packing, kw, msg):
+    """Wrong shapes were numpy's 'cannot reshape array of size ...'; a box of one
+    value was broadcast."""
+    from .builders import history_arrays
+
+    part, _, _ = history_arrays(packing)
+    base = dict(ids=packing.ids, positions=packing.positions, radii=packing.radii,
+                masses=packing.masses, box_lo=packing.box_lo, box_hi=packing.box_hi,
+                params=packing.params, wall_y=packing.wall_y)
+    if "partner_xi" in kw and "partners" not in kw:            # partners without partner_xi
+        kw = dict(partners=part, partner_xi=None)
+    with pytest.raises(ValueError, match=msg):
+        build_state(**dict(base, **kw))
+
+
+def test_build_state_ids_and_history_shapes(packing):
+    """Float ids that are not integers were truncated; a one-slot history of shape
+    (N,) is taken as (N, 1); partner_xi must match partners."""
+    from .builders import history_arrays
+
+    part, xi, wall = history_arrays(packing)
+    kw = dict(positions=packing.positions, radii=packing.radii, masses=packing.masses,
+              box_lo=packing.box_lo, box_hi=packing.box_hi, params=packing.params,
+              wall_y=packing.wall_y, wall_t=wall)
+    ids = packing.ids.astype(float)
+    st = build_state(ids=ids, partners=part, partner_xi=xi, **kw)      # integer-valued
+    assert st.ids.dtype == np.int64 and np.array_equal(st.ids, packing.ids)
+    ids[3] += 0.5
+    with pytest.raises(ValueError, match=rf"ids must be integers, got {float(ids[3])!r} at "
+                                         r"index 3"):
+        build_state(ids=ids, **kw)
+    with pytest.raises(ValueError, match=r"ids must have shape \(N,\), got shape "):
+        build_state(ids=packing.ids[:, None], **kw)
+    with pytest.raises(ValueError, match=r"ids must be integers, got dtype <U"):
+        build_state(ids=[str(i) for i in packing.ids], **kw)
+    with pytest.raises(ValueError, match=rf"partner_xi must have shape \(N, K\) = "
+                                         rf"\({packing.n}, 8\), that of partners, got shape "
+                                         rf"\({packing.n}, 7\)"):
+        build_state(ids=packing.ids, partners=part, partner_xi=xi[:, :7], **kw)
+    two = dict(ids=[1, 2], positions=[[0.0, 2.0], [0.99, 2.0]], radii=[0.5, 0.5],
+               masses=[1.0, 1.0], box_lo=[-5.0, -1.0], box_hi=[5.0, 10.0],
+               params=packing.params, wall_y=0.0)
+    flat = build_state(**two, partners=[2, 1], partner_xi=[1e-5, 1e-5])
+    slot = build_state(**two, partners=[[2], [1]], partner_xi=[[1e-5], [1e-5]])
+    assert flat.contact_xi.tolist() == slot.contact_xi.tolist() == [1e-5]
+    # LAMMPS' box has a z bound: still ignored
+    st3 = build_state(ids=packing.ids, partners=part, partner_xi=xi,
+                      **dict(kw, box_lo=[*packing.box_lo, -0.5], box_hi=[*packing.box_hi, 0.5]))
+    assert np.array_equal(st3.box_lo, packing.box_lo) and st3.n_contacts == packing.n_contacts
+
+
+def test_build_state3d_shapes_ids_and_its_periodic_default():
+    """Wrong shapes were numpy reshape errors, float ids and pair ids were truncated,
+    partners without partner_t a reshape error; the default periodic is the
+    driver's scene (True, False, True), as state3d_from_history's."""
+    import inspect
+
+    from remote_trigger.analysis.state.state import ContactParams
+    from remote_trigger.analysis.state.state3d import (
+        build_state3d, plane_wall, state3d_from_history)
+
+    params = ContactParams(2e5, 2e5 / 3.5, 1.0)
+    # two spheres touching across the periodic seam in z: a contact only with z periodic
+    kw = dict(ids=[1, 2], positions=[[0, 0.45, -4.7], [0, 0.45, 4.7]], radii=[0.5, 0.5],
+              masses=[1.0, 1.0], box_lo=[-5, 0, -5], box_hi=[5, 10, 5], params=params)
+    assert inspect.signature(build_state3d).parameters["periodic"].default == \
+        inspect.signature(state3d_from_history).parameters["periodic"].default == \
+        (True, False, True)
+    st = build_state3d(**kw, pairs=[[1, 2]])
+    assert st.periodic == (True, False, True) and st.n_contacts == 1
+    with pytest.raises(ValueError, match="has overlap"):            # the former default
+        build_state3d(**kw, pairs=[[1, 2]], periodic=(True, True, False))
+    assert state3d_from_history(**kw, wall_y=None).n_contacts == 1
+
+    floor = plane_wall("y", "lo", 0.0)
+    for bad, msg in (
+            (dict(positions=[[0, 0.45, -4.7]]), r"positions must have shape \(N, 3\) = "
+                                                r"\(2, 3\), got shape \(1, 3\)"),
+            (dict(radii=[0.5]), r"radii must have shape \(N,\) = \(2,\), got shape \(1,\)"),
+            (dict(ids=[1.0, 2.5]), r"ids must be integers, got 2.5 at index 1"),
+            (dict(pairs=[[1, 2.5]]), r"pairs must be integers, got 2.5 at index 1"),
+            (dict(pairs=[1, 2]), r"pairs must have shape \(C, 2\), got shape \(2,\)"),
+            (dict(pair_t=[0.0, 1e-4]), r"pair_t must have shape \(C, 3\) = \(1, 3\), got "
+                                       r"shape \(2,\)"),
+            (dict(periodic=(True, False)), r"periodic must be 3 flags \(x, y, z\), got 2"),
+            (dict(box_lo=[-5, 0]), r"box_lo must have 3 values \(x, y, z\), got shape \(2,\)"),
+            (dict(external=np.zeros((2, 2))), r"external must have shape \(N, 3\) = \(2, 3\)"),
+            (dict(walls=[(1, floor[0][:2], floor[1])]), r"walls\[0\] must be \(id, normal of "
+                                                         r"3 values, offset\)"),
+            (dict(walls=[(1, *floor)], wall_t=np.zeros((2, 3))),
+             r"wall_t must have shape \(W, 3\), W = len\(walls\) = \(1, 3\), got shape "
+             r"\(2, 3\)")):
+        args = {**kw, "pairs": [[1, 2]], **bad}
+        with pytest.raises(ValueError, match=msg):
+            build_state3d(**args)
+    hist = dict(kw, wall_y=None)
+    with pytest.raises(ValueError, match="partners needs partner_t"):
+        state3d_from_history(**hist, partners=[[2], [1]])
+    with pytest.raises(ValueError, match=r"partner_t must have shape \(N, K, 3\), K that of "
+                                         r"partners = \(2, 1, 3\), got shape \(2, 3\)"):
+        state3d_from_history(**hist, partners=[[2], [1]], partner_t=np.zeros((2, 3)))
+    with pytest.raises(ValueError, match=r"wall_t must have shape \(N, 3\) = \(2, 3\)"):
+        state3d_from_history(**dict(kw, wall_y=0.0), wall_t=np.zeros(3))
+    t = np.array([[[0.0, 1e-5, 0.0]], [[0.0, -1e-5, 0.0]]])
+    st = state3d_from_history(**hist, partners=[[2], [1]], partner_t=t)
+    assert np.allclose(st.contact_t, [[0.0, 1e-5, 0.0]])
