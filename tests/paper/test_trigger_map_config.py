@@ -154,3 +154,26 @@ def test_a_paper_job_whose_second_ramp_is_not_at_mu_ss_is_refused(tmp_path):
     (tmp_path / "paper.json").write_text(json.dumps(man))
     with pytest.raises(ConfigError, match=r"ramped mu_low = 0\.7, not mu_ss mu0 = 0\.8"):
         loads.load_paper_job(str(tmp_path))
+
+
+def test_resume_takes_the_paper_folder_by_any_name(tmp_path, monkeypatch):
+    """--resume from another working folder, where the paper folder's
+    relative name is another: not a configuration difference (the job is
+    compared by loads.json's paper_job); another key still is."""
+    import types
+
+    from remote_trigger.pywrap.jobs.trigger_map.job import _check_out
+    from remote_trigger.pywrap.runtime.jobfolder import write_json
+
+    out = tmp_path / "map"
+    out.mkdir()
+    cfg = types.SimpleNamespace(paper="q", to_dict=lambda: {"paper": "q", "seed": 1})
+    write_json(str(out / "config.json"), cfg.to_dict())
+    monkeypatch.chdir(out)
+    moved = types.SimpleNamespace(paper="../q", to_dict=lambda: {"paper": "../q", "seed": 1})
+    _check_out(moved, str(out), resume=True)
+    with pytest.raises(ConfigError, match="--resume"):
+        _check_out(moved, str(out), resume=False)
+    other = types.SimpleNamespace(paper="../q", to_dict=lambda: {"paper": "../q", "seed": 2})
+    with pytest.raises(ConfigError, match="seed = 1 .then. vs 2 .now."):
+        _check_out(other, str(out), resume=True)

@@ -469,10 +469,14 @@ def _check_out(cfg, out, resume):
     from remote_trigger.pywrap.runtime.jobfolder import CONFIG_FILE, check_job_folder
 
     config = cfg.to_dict()
-    try:                # the same paper folder named another way ('q', 'q/', /abs/q)
+    # the paper folder is not compared by its name on --resume ('q', 'q/',
+    # /abs/q, or a relative name given from another working directory): the
+    # paper job itself is compared by what the map took from it (loads.json's
+    # paper_job, loads.prepare_loads); before loads.json nothing was taken
+    try:
         with open(os.path.join(out, CONFIG_FILE)) as fh:
             then = json.load(fh).get("paper")
-        if resume and os.path.realpath(str(then)) == os.path.realpath(str(cfg.paper)):
+        if resume and isinstance(then, str):
             config["paper"] = then
     except (OSError, ValueError, AttributeError):
         pass
