@@ -329,10 +329,11 @@ def analyze_dump(path, **kwargs):
     ----------
     path : str
     **kwargs
-        ``k_n, k_t, mu, wall_y, F_x, F_y, dt, frame, no_wall, mirror_rtol``
-        (and for disks ``require_contacts, inertia_factor``) for
+        ``k_n, k_t, mu, wall_y, F_x, F_y, dt, frame, no_wall, mirror_rtol,
+        require_contacts, inertia_factor`` for
         :func:`~remote_trigger.analysis.state.dumpfile.read_dump` /
-        ``read_dump3d``; the rest for :func:`analyze`.
+        ``read_dump3d`` (their defaults differ: contacts required for disks,
+        I0 = 1/2 for disks, 2/5 for spheres); the rest for :func:`analyze`.
     """
     read_keys = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt", "frame", "no_wall",
                  "mirror_rtol", "require_contacts", "inertia_factor")

@@ -396,7 +396,8 @@ def read_equilibrium(path, frame=-1):
 
 
 def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=None,
-                F_y=None, dt=None, no_wall=False, mirror_rtol=1e-9):
+                F_y=None, dt=None, no_wall=False, mirror_rtol=1e-9, require_contacts=False,
+                inertia_factor=None):
     """Read one snapshot of an equilibrium dump of spheres into a :class:`State3D`.
 
     The 3D counterpart of :func:`read_dump`: the same file layout and sidecar,
@@ -418,11 +419,17 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
         No floor (its history columns must then be zero).
     mirror_rtol : float, optional
         Tolerance of the check t_ji = -t_ij, a finite number >= 0.
+    require_contacts : bool, optional
+        Raise if the packing has no contact at all (no pair, no wall contact);
+        default False.
+    inertia_factor : float, optional
+        I0 in I = I0 m R^2, a finite number > 0; default (None) 2/5, the solid
+        sphere (``fix nve/sphere``).
 
     Returns
     -------
     State3D
-        Masses from the dump, I = 2/5 m R^2; ``F_x``, ``F_y``, ``source`` set.
+        Masses from the dump, I = I0 m R^2; ``F_x``, ``F_y``, ``source`` set.
 
     Raises
     ------
@@ -432,12 +439,16 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
         ``frame`` not an integer or not a snapshot of the file, ``mirror_rtol``
         negative or not finite; a dump of disks (the message says to use
         ``read_dump``); truncated or malformed file, missing columns (named),
-        non-finite values, duplicate ids, bad history, missing parameters.
+        non-finite values, duplicate ids, bad history, missing parameters;
+        ``inertia_factor`` not a finite number > 0; no contact with
+        ``require_contacts``.
     """
-    from remote_trigger.analysis.state.state3d import state3d_from_history
+    from remote_trigger.analysis.state.state3d import SPHERE_INERTIA, state3d_from_history
 
     path = os.fspath(path)
-    _check_options(mirror_rtol=mirror_rtol)
+    if inertia_factor is None:
+        inertia_factor = SPHERE_INERTIA
+    _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
     step, natoms, bounds, flags, columns, body, first = _frame(path, frame)
     missing = [c for c in REQUIRED_COLUMNS_3D if c not in columns]
     hist = {name: _history_columns(columns, name) for name in (PARTNER,) + T3_COLUMNS}
@@ -482,7 +493,7 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
         raise ValueError(f"{path}: wall history is nonzero but no wall is given")
     part = data[:, hist[PARTNER]]
     t = np.stack([data[:, hist[name]] for name in T3_COLUMNS], axis=-1)
-    return state3d_from_history(
+    state = state3d_from_history(
         ids=ids, positions=data[:, [col["x"], col["y"], col["z"]]],
         radii=data[:, col["radius"]], masses=data[:, col["mass"]],
         box_lo=bounds[:, 0], box_hi=bounds[:, 1],
@@ -491,7 +502,12 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
         partners=part, partner_t=t, wall_y=None if no_wall else float(par["wall_y"]),
         wall_t=wall_t,
         external=data[:, [col["v_fext_x"], col["v_fext_y"], col["v_fext_z"]]],
-        mirror_rtol=mirror_rtol, F_x=par["F_x"], F_y=par["F_y"], source=path)
+        mirror_rtol=mirror_rtol, inertia_factor=inertia_factor, F_x=par["F_x"],
+        F_y=par["F_y"], source=path)
+    if require_contacts and state.contact_i.size == 0 and state.wall_index.size == 0:
+        raise ValueError(f"{path}: the packing has no contact (no overlapping pair, no "
+                         f"sphere on the wall)")
+    return state
 
 
 def read_history3d(path, frame=-1):

@@ -491,3 +491,32 @@ def test_build_state3d_shapes_ids_and_its_periodic_default():
     t = np.array([[[0.0, 1e-5, 0.0]], [[0.0, -1e-5, 0.0]]])
     st = state3d_from_history(**hist, partners=[[2], [1]], partner_t=t)
     assert np.allclose(st.contact_t, [[0.0, 1e-5, 0.0]])
+
+
+def test_analyze_dump_passes_inertia_and_contacts_to_either_reader(tmp_path):
+    """analyze_dump(sphere dump, inertia_factor=..., require_contacts=...) was a
+    TypeError (read_dump3d did not take them); I0 applies to spheres too."""
+    from remote_trigger.analysis.stability.analyze import analyze_dump
+    from remote_trigger.analysis.state.dumpfile import read_dump3d
+
+    sph = _sphere_dump(tmp_path / "sph.dump")
+    st = read_dump3d(sph)
+    assert np.allclose(st.inertia, 0.4 * st.masses * st.radii**2)
+    st1 = read_dump3d(sph, inertia_factor=1.0, require_contacts=True)
+    assert np.allclose(st1.inertia, st1.masses * st1.radii**2)
+    with pytest.raises(ValueError, match="inertia_factor must be a finite number > 0"):
+        read_dump3d(sph, inertia_factor=0.0)
+    # the rotational entries of M are I / R^2 = I0 m (m = 1 here)
+    a = analyze_dump(sph, inertia_factor=1.0, require_contacts=True, decide=False)
+    assert np.allclose(a.mass, 1.0)
+    assert sorted(set(np.round(analyze_dump(sph, decide=False).mass, 12))) == [0.4, 1.0]
+    # the same two spheres lifted off the floor and apart: no contact at all
+    text = open(sph).read().splitlines()
+    text[-2:] = ["1 1 0.5 1 0 3 0 " + "0 " * 9 + "0 0 0 0 0 0 0",
+                 "2 1 0.5 1 2.5 3 0 " + "0 " * 9 + "0 0 0 0 0 0 0"]
+    free = tmp_path / "free.dump"
+    free.write_text("\n".join(text) + "\n")
+    (tmp_path / "free.dump.json").write_text(open(sph + ".json").read())
+    assert read_dump3d(free).n_contacts == 0
+    with pytest.raises(ValueError, match="free.dump: the packing has no contact"):
+        read_dump3d(free, require_contacts=True)
