@@ -177,3 +177,14 @@ def test_resume_takes_the_paper_folder_by_any_name(tmp_path, monkeypatch):
     other = types.SimpleNamespace(paper="../q", to_dict=lambda: {"paper": "../q", "seed": 2})
     with pytest.raises(ConfigError, match="seed = 1 .then. vs 2 .now."):
         _check_out(other, str(out), resume=True)
+
+
+def test_rise_ratio_text_is_not_a_rate_where_g_is_not_positive():
+    """The 'rise / g' cell showed the rise rate itself (as if a ratio) where g <= 0."""
+    from remote_trigger.pywrap.jobs.trigger_map.report import _rise_ratio
+
+    assert _rise_ratio({"rise_rate": 0.02, "growth_tau": 0.01, "rise_records": 5}) == "2.00"
+    assert _rise_ratio({"rise_rate": -0.0138, "growth_tau": -0.002, "rise_records": 5}) == \
+        "- (g = -0.002 <= 0; rise rate -0.0138)"
+    assert _rise_ratio({"rise_rate": float("nan"), "growth_tau": 0.01, "rise_records": 2}) == \
+        "- (2 rec.)"

@@ -107,6 +107,7 @@ def plot_map(path, rows, setup):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     loads = setup["loads"]
     fig, axes = plt.subplots(1, len(loads), figsize=(4.2 * len(loads), 3.8), squeeze=False,
@@ -116,7 +117,7 @@ def plot_map(path, rows, setup):
     for i, ld in enumerate(loads):
         ax = axes[0, i]
         for j, tau in enumerate(taus):
-            for onset, ls in (("step", "--"), ("smooth", "-")):
+            for onset, ls, mk in (("step", "--", "s"), ("smooth", "-", "o")):
                 pts = sorted([r for r in rows if r["load"] == i and r["tau"] == tau
                               and r["onset"] == onset and not r["check_of"]],
                              key=lambda r: r["omega_p"])
@@ -125,7 +126,8 @@ def plot_map(path, rows, setup):
                 w = np.array([r["omega_p"] for r in pts])
                 ac = np.array([r["a_c"] for r in pts])
                 lab = f"tau = {'inf' if math.isinf(tau) else f'{tau:.3g}'}, {onset}"
-                ax.plot(w, ac, ls, marker="o", color=colors[j % len(colors)], label=lab)
+                ax.plot(w, ac, ls, marker=mk, mfc="none" if onset == "step" else None,
+                        color=colors[j % len(colors)], label=lab)
                 none = np.array([r["status"] == "none up to a_max" for r in pts])
                 if none.any():
                     ax.plot(w[none], [r["a_max"] for r, n in zip(pts, none) if n], "v",
@@ -136,11 +138,15 @@ def plot_map(path, rows, setup):
         v0 = setup["v0"]
         C = abs(ld["compliance"])
         wg = np.array(setup["omegas"])
-        ax.plot(wg, v0 / (wg * C), color="0.5", lw=0.8, label="v0 / (omega_p C)")
+        # (a line of one omega_p is a point: drawn with a marker)
+        ax.plot(wg, v0 / (wg * C), color="0.5", lw=0.8, marker="_" if wg.size == 1 else None,
+                ms=12, label="v0 / (omega_p C)")
         for wn in (ld["omega_1"],):
             ax.axvline(wn, color="0.7", lw=0.8)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        # minor tick labels of a narrow log range ran into each other
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_title(f"F_x = {ld['F_x']:.5g} ({ld['kind']})", fontsize=9)
         ax.set_xlabel("omega_p")
         if i == 0:
@@ -160,7 +166,8 @@ def _rise_ratio(r):
     if not math.isfinite(r["rise_rate"]):
         return f"- ({r['rise_records']} rec.)" if r["rise_records"] else "-"
     g = r["growth_tau"]
-    return f"{r['rise_rate'] / g:.2f}" if g > 0 else f"{r['rise_rate']:.3g} (g <= 0)"
+    return (f"{r['rise_rate'] / g:.2f}" if g > 0 else
+            f"- (g = {g:.3g} <= 0; rise rate {r['rise_rate']:.3g})")
 
 
 def write_summary(path, rows, setup, cfg, wall, size):
