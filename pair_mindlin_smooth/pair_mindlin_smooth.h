@@ -109,6 +109,7 @@ class PairMindlinSmooth : public Pair {
   int ordered3_inum, ordered3_nlocal;    // was made from (nullptr: none)
   class FixMindlinHistory *history;    // internal storage, or nullptr when
                                        // a fix property/atom holds the arrays
+  class FixMindlinTags *tags;          // each atom's ID at the last run's start
   bool packed3;    // 3d: history slots past the first empty one are known to be zero
 
   void allocate();
