@@ -79,11 +79,23 @@ FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
         error->all(FLERR, "Fix wall/mindlin/smooth: {} lo must be below hi, got {} and {}",
                    wstyle, arg[7], arg[8]);
     } else {
+      // a word after lo and hi is a keyword this fix does not have (walls
+      // do not move: no wiggle or shear)
+      if (narg > 9 && !utils::is_double(arg[9]))
+        error->all(FLERR,
+                   "Fix wall/mindlin/smooth: unknown keyword '{}' after {} {} {} (the fix "
+                   "takes no keywords; its walls do not move)",
+                   arg[9], wstyle, arg[7], arg[8]);
       error->all(FLERR, "Fix wall/mindlin/smooth: {} needs lo and hi (NULL for an open side), "
                         "got {} values",
                  wstyle, narg - 7);
     }
   } else if (wstyle == "zcylinder") {
+    if (narg > 8 && !utils::is_double(arg[8]))
+      error->all(FLERR,
+                 "Fix wall/mindlin/smooth: unknown keyword '{}' after zcylinder {} (the fix "
+                 "takes no keywords; its walls do not move)",
+                 arg[8], arg[7]);
     if (narg != 8)
       error->all(FLERR, "Fix wall/mindlin/smooth: zcylinder needs one value (R), got {}",
                  narg - 7);

@@ -147,6 +147,10 @@ def test_too_many_contacts_per_disk():
     ("2e5 1e4 1.0 zcylinder 3 4", r"zcylinder needs one value \(R\), got 2"),
     ("2e5 1e4 1.0 zplane 0 1", r"zplane needs dimension 3, this simulation has dimension 2"),
     ("2e5 1e4 1.0 cplane 0 1", r"unknown wall style 'cplane'"),
+    # a keyword after the wall is named (it was 'got 3 values')
+    ("2e5 1e4 1.0 yplane 0.0 NULL wiggle y 0.1 1.0", r"unknown keyword 'wiggle' after yplane "
+                                                     r"0.0 NULL \(the fix takes no keywords"),
+    ("2e5 1e4 1.0 zcylinder 3 foo", r"unknown keyword 'foo' after zcylinder 3"),
 ])
 def test_bad_wall_arguments(args, match):
     run_expect([f"fix w all wall/mindlin/smooth {args}"], match)
