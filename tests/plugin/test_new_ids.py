@@ -118,3 +118,20 @@ def test_history_follows_new_ids_after_a_restart_file(tmp_path):
     renumbered, _ = after_delete(3, False, "yes", restart=str(tmp_path / "c.restart"))
     np.testing.assert_allclose(renumbered[1], kept[1], rtol=0,
                                atol=1e-12 * np.abs(kept[1]).max())
+
+
+def test_history_follows_reset_atoms_id():
+    """reset_atoms id sort yes numbers the atoms by position: the same forces."""
+    out = []
+    for reset in (False, True):
+        lmp = new_lammps()
+        cluster(lmp, 3, False)
+        lmp.command("run 300")
+        if reset:
+            lmp.command("reset_atoms id sort yes")
+        lmp.command("run 0")
+        out.append(by_position(lmp))
+        lmp.close()
+    scale = np.abs(out[0][1]).max()
+    np.testing.assert_allclose(out[1][1], out[0][1], rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(out[1][2], out[0][2], rtol=0, atol=1e-12 * scale)
