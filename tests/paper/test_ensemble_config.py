@@ -238,3 +238,53 @@ def test_pair_shape_unmeasured_is_nan_never_a_failure(tmp_path, monkeypatch):
     there.write_text("x")
     pts = [{"F_x": 0.1, "decision": 1, "dump": str(there)}]
     assert math.isnan(onset.pair_shape(pts, nums)["pair_pr"])
+
+
+def test_ramp_step_and_tolerance_per_size():
+    """dF_x and tol: one number for every N, or one per N (F_x^c falls about
+    as 1/N); for_size gives the numbers of one N; a list of another length
+    is refused, naming both lengths."""
+    import json
+
+    cfg = ec.EnsembleConfig.from_dict({"n": [100, 400], "dF_x": [2.5e-4, 5e-5],
+                                       "tol": 1e-6})
+    assert cfg.dF_x == (2.5e-4, 5e-5) and cfg.tol == 1e-6
+    assert cfg.for_size(400).dF_x == 5e-5 and cfg.for_size(100).dF_x == 2.5e-4
+    assert cfg.for_size(400).tol == 1e-6 and cfg.for_size(400).n == (100, 400)
+    assert json.loads(json.dumps(cfg.to_dict()))["dF_x"] == [2.5e-4, 5e-5]
+    assert ec.EnsembleConfig().for_size(100) == ec.EnsembleConfig()
+    with pytest.raises(ConfigError, match=r"dF_x holds 3 values for 2 size\(s\) N "
+                                          r"\[100, 400\]"):
+        ec.EnsembleConfig.from_dict({"n": [100, 400], "dF_x": [1e-4, 1e-4, 1e-4]})
+    with pytest.raises(ConfigError, match="tol = -1"):
+        ec.EnsembleConfig.from_dict({"n": [100, 400], "tol": [1e-6, -1]})
+    with pytest.raises(ConfigError, match=r"dF_x_max must be > dF_x = \(0.001, 0.002\)"):
+        ec.EnsembleConfig.from_dict({"n": [100, 400], "dF_x": [1e-3, 2e-3],
+                                     "dF_x_max": 1.5e-3})
+    with pytest.raises(ConfigError, match="N = 1600 is not one of"):
+        cfg.for_size(1600)
+
+
+def test_each_size_ramps_with_its_own_step(tmp_path):
+    """A run with dF_x = [0.01, 0.02] for N = 16 and 20: each packing's ramp
+    steps by its N's step, and ensemble.md says which step each N had."""
+    import os
+    import subprocess
+    import sys
+
+    import h5py
+
+    out = str(tmp_path / "ens")
+    cli = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
+    proc = subprocess.run([cli, "ensemble", "--quick", "--out", out, "--quiet",
+                           "--set", "seeds=[[1],[1]]", "--set", "dF_x=[0.01,0.02]",
+                           "--set", "frictional=false", "--set", "inertia_I0=null"],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    for n, step in ((16, 0.01), (20, 0.02)):
+        with h5py.File(os.path.join(out, "packings", f"N{n}_s1", "ramp_mu0", "ramp.h5")) as fh:
+            F = fh["steps/F_x"][()]
+        assert F.size >= 2
+        np.testing.assert_allclose(np.diff(F), step, rtol=1e-12)
+    with open(os.path.join(out, "ensemble.md")) as fh:
+        assert "ramp dF_x = 0.01 (N = 16), 0.02 (N = 20)" in fh.read()

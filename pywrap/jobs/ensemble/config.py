@@ -1,6 +1,7 @@
 """Configuration of ``remote-trigger ensemble`` (:class:`EnsembleConfig`, the
 ``--quick`` preset, :func:`build_config`); the job is in
 :mod:`remote_trigger.pywrap.jobs.ensemble.job`, its design in docs/ensemble.md."""
+import dataclasses
 from dataclasses import dataclass, field, asdict
 
 from remote_trigger.pywrap.config import (
@@ -64,9 +65,14 @@ class EnsembleConfig(Config):
     mu_ss : float
         Dynamic friction as a fraction of mu0, in (0, 1]; the second ramp is
         at mu_ss mu0. Default 0.8 (paper).
-    dF_x, tol, F_x_max : float
-        Ramp step, bisection tolerance on F_x^c and largest F_x, > 0
-        (``paper``'s defaults: 2.5e-4, 1e-7, 0.5).
+    dF_x, tol : float, or list of float
+        Ramp step and bisection tolerance on F_x^c, > 0 (``paper``'s
+        defaults: 2.5e-4, 1e-7): one number for every N, or one per N (F_x^c
+        falls about as 1/N: a step of 2.5e-4 is 0.4 % of F_x^c at N = 100
+        and more than F_x^c at N = 10^4). :meth:`for_size` gives the
+        configuration of one N.
+    F_x_max : float
+        Largest F_x, > 0 (default 0.5).
     dF_x_max : float or None
         None (default): fine ramps, every step dF_x. A number > dF_x:
         adaptive ramps (``ramp --dF-x-max``, docs/driver.md) and adaptive
@@ -125,8 +131,8 @@ class EnsembleConfig(Config):
     dt: float = PaperConfig.dt
     mu: float = PaperConfig.mu
     mu_ss: float = PaperConfig.mu_ss
-    dF_x: float = PaperConfig.dF_x
-    tol: float = PaperConfig.tol
+    dF_x: object = PaperConfig.dF_x
+    tol: object = PaperConfig.tol
     F_x_max: float = PaperConfig.F_x_max
     dF_x_max: float = None
     relax: dict = field(default_factory=dict)
@@ -163,15 +169,18 @@ class EnsembleConfig(Config):
             raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {self.phi!r}")
         _num("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
         object.__setattr__(self, "k_t", ContactModel.of(self).k_t)
-        for name in ("dt", "dF_x", "tol", "F_x_max"):
+        for name in ("dt", "F_x_max"):
             _num(name, getattr(self, name), 0, lo_open=True)
+        for name in ("dF_x", "tol"):
+            object.__setattr__(self, name, self._per_size(name, getattr(self, name), n))
         if not 0.0 < _num("mu_ss", self.mu_ss) <= 1.0:
             raise ConfigError(f"mu_ss must be in (0, 1] (a fraction of mu), got "
                               f"mu_ss = {self.mu_ss!r}")
-        if self.dF_x >= self.F_x_max:
+        steps = self.dF_x if isinstance(self.dF_x, tuple) else (self.dF_x,)
+        if max(steps) >= self.F_x_max:
             raise ConfigError(f"dF_x must be < F_x_max = {self.F_x_max!r}, got "
                               f"dF_x = {self.dF_x!r}")
-        if self.dF_x_max is not None and not _num("dF_x_max", self.dF_x_max) > self.dF_x:
+        if self.dF_x_max is not None and not _num("dF_x_max", self.dF_x_max) > max(steps):
             raise ConfigError(f"dF_x_max must be > dF_x = {self.dF_x!r} (or null: fine "
                               f"ramps), got dF_x_max = {self.dF_x_max!r}")
         for name in ("frictional", "keep_equilibria", "saddle_escape", "quick"):
@@ -209,6 +218,33 @@ class EnsembleConfig(Config):
                 raise ConfigError(f"n must hold sizes whose box of spheres is at least 5 "
                                   f"wide (N >= 82 at phi = 0.64; dim = 3), got n = "
                                   f"{list(self.n)!r} (N = {v}: width {width:g})")
+
+    @staticmethod
+    def _per_size(name, val, n):
+        """A number > 0 (float), or a list of one number > 0 per N (tuple)."""
+        if isinstance(val, (list, tuple)):
+            if len(val) != len(n):
+                raise ConfigError(f"{name} holds {len(val)} values for {len(n)} size(s) N "
+                                  f"{list(n)}: give one number, or one per N, got "
+                                  f"{name} = {list(val)!r}")
+            return tuple(_num(name, v, 0, lo_open=True) for v in val)
+        return _num(name, val, 0, lo_open=True)
+
+    def for_size(self, n):
+        """The configuration of the packings of size ``n`` (one of ``self.n``):
+        ``dF_x`` and ``tol`` the numbers of that N.
+
+        Raises
+        ------
+        ConfigError
+            If ``n`` is not one of the sizes.
+        """
+        if n not in self.n:
+            raise ConfigError(f"N = {n!r} is not one of the ensemble's sizes {list(self.n)}")
+        k = self.n.index(n)
+        pick = {name: getattr(self, name)[k] for name in ("dF_x", "tol")
+                if isinstance(getattr(self, name), tuple)}
+        return dataclasses.replace(self, **pick) if pick else self
 
     @staticmethod
     def _seeds(seeds, n_sizes):

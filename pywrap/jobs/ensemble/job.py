@@ -122,6 +122,7 @@ def _packing_task(t, cfg, out, resume, ramps_apart):
     ramps (``t["ramp"]``, :func:`run_ramp`), or its end once its ramps are
     recorded (``t["final"]``)."""
     folder = os.path.join(out, "packings", t["key"])
+    cfg = cfg.for_size(t["n"])         # the ramp step and tolerance of this N
     if "ramp" in t:
         return run_ramp(cfg, folder, t["ramp"])
     final = bool(t.get("final"))
@@ -261,7 +262,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
                 if res is None:
                     raise RuntimeError(f"packing {t['key']} has no result in "
                                        f"{task_path(out, t['key'])}")
-                added, got = add_missing_shape(cfg, res,
+                added, got = add_missing_shape(cfg.for_size(t["n"]), res,
                                                os.path.join(out, "packings", t["key"]))
                 if added:
                     # recorded by a version without the pair's long-wave

@@ -376,6 +376,14 @@ def _q(q, f=".4g", of=None):
     return f"{_f(m, f)} [{_f(a, f)}, {_f(b, f)}]{more}"
 
 
+def _per_size(cfg, name):
+    """``cfg.<name>`` as text: one number, or one per N (``0.00025 (N = 100), ...``)."""
+    val = getattr(cfg, name)
+    if isinstance(val, tuple):
+        return ", ".join(f"{v:g} (N = {n})" for v, n in zip(val, cfg.n))
+    return f"{val:g}"
+
+
 def write_summary(path, rows, cfg, st, wall, size, computed):
     """``ensemble.md``: the distributions, the checks and every failure."""
     ft = "frictionless-then-friction"
@@ -383,8 +391,9 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
     L = ["# Ensemble of packings" + (" of spheres (dim = 3)" if cfg.dim == 3 else ""), "",
          f"{n_pk} packings: " + ", ".join(f"N = {n}: seeds {list(s)}"
                                           for n, s in zip(cfg.n, cfg.seeds))
-         + f". mu0 = {cfg.mu:g}, mu_ss mu0 = {cfg.mu * cfg.mu_ss:g}; ramp dF_x = {cfg.dF_x:g},"
-         f" bisection to tol = {cfg.tol:g}, F_x_max = {cfg.F_x_max:g}. F_x^c is the midpoint "
+         + f". mu0 = {cfg.mu:g}, mu_ss mu0 = {cfg.mu * cfg.mu_ss:g}; ramp dF_x = "
+         f"{_per_size(cfg, 'dF_x')}, bisection to tol = {_per_size(cfg, 'tol')}, "
+         f"F_x_max = {cfg.F_x_max:g}. F_x^c is the midpoint "
          f"of the certified bracket. Values: median [first quartile, third quartile] over the"
          f" packings whose row is not 'failed'.", ""]
     if cfg.dim == 3:

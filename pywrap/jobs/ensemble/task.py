@@ -376,7 +376,7 @@ def run_packing(cfg, n, seed, folder, resume=False, ramps_apart=False):
     # packing's result (tasks/<key>.json) instead
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = _run_packing(cfg, n, seed, folder, resume, caught, ramps_apart)
+        result = _run_packing(cfg.for_size(n), n, seed, folder, resume, caught, ramps_apart)
     if "ramps_apart" in result:
         return result
     result["warnings"] = _warning_lines(caught, result.pop("earlier_warnings"))
