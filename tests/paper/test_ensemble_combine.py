@@ -198,3 +198,21 @@ def test_the_kept_runs_combine(tmp_path):
     assert [int(np.sum(order == c)) for c in (1, 0, -1)] == [30, 11, 1]
     big = t["order"][(t["I0"] == 0.5) & (t["n"] == 10000)]
     assert sorted(big.tolist()) == [0, 1]
+
+
+def test_runs_of_per_size_steps_combine_per_size(tmp_path):
+    """dF_x as one number per N: runs of other sizes combine into one list per
+    N; one N with two values is refused, naming both."""
+    a = _run_folder(tmp_path / "a", 16, [1, 2], ["N16_s1", "N16_s2"], dF_x=[0.01])
+    b = _run_folder(tmp_path / "b", 20, [1], ["N20_s1"], dF_x=[0.02])
+    combine_runs([a, b], str(tmp_path / "both"))
+    cfg = json.loads((tmp_path / "both" / "config.json").read_text())
+    assert cfg["n"] == [16, 20] and cfg["dF_x"] == [0.01, 0.02]
+    c = _run_folder(tmp_path / "c", 20, [1], ["N20_s1"], dF_x=0.01)    # a number: every N
+    combine_runs([a, c], str(tmp_path / "same"))
+    assert json.loads((tmp_path / "same" / "config.json").read_text())["dF_x"] == 0.01
+    e = _run_folder(tmp_path / "e", 20, [1], ["N20_s1"], dF_x=0.03)
+    with pytest.raises(ConfigError, match=r"differ in dF_x \(0.01 vs 0.03\) for N = 16"):
+        combine_runs([a, e], str(tmp_path / "o"))
+    assert not (tmp_path / "o").exists()
+

@@ -19,6 +19,8 @@ __all__ = ["collect_runs"]
 #: keys that may differ between the runs: the sizes, the seeds, the ranks used
 #: (``saddle_escape`` is compared per packing, below)
 _FREE = ("n", "seeds", "np", "saddle_escape")
+#: keys that may be one number per N (EnsembleConfig.for_size): compared per N
+_PER_SIZE = ("dF_x", "tol")
 
 
 def read_run(path, flag="--combine"):
@@ -46,6 +48,28 @@ def read_run(path, flag="--combine"):
         raise ConfigError(f"{flag} {path!r}: {exc}") from None
 
 
+def _per_size_values(name, runs):
+    """``{N: value}`` of a key of :data:`_PER_SIZE` over the runs' sizes: a
+    number holds for every N, a list for the run's own sizes.
+
+    Raises
+    ------
+    ConfigError
+        Two runs that give one N two values (named, with both).
+    """
+    every = sorted({n for _, _, cfg in runs for n in cfg.n})
+    seen = {}
+    for d, _, cfg in runs:
+        v = getattr(cfg, name)
+        for n, val in (zip(cfg.n, v) if isinstance(v, tuple) else ((n, v) for n in every)):
+            if n in seen and seen[n][1] != val:
+                raise ConfigError(f"--combine: {seen[n][0]!r} and {d!r} differ in {name} "
+                                  f"({seen[n][1]!r} vs {val!r}) for N = {n}; only n, seeds "
+                                  "and np may differ (dF_x and tol may be one per N)")
+            seen.setdefault(n, (d, val))
+    return {n: val for n, (_, val) in seen.items()}
+
+
 def collect_runs(dirs, out, speak=True):
     """The finished packings of ensemble folders ``dirs``, put into the new folder ``out``.
 
@@ -54,7 +78,8 @@ def collect_runs(dirs, out, speak=True):
     dirs : sequence of str
         Ensemble output folders (each with ``config.json`` and ``tasks/``),
         at least two. Their configurations must agree in every key but
-        ``n``, ``seeds`` and ``np``.
+        ``n``, ``seeds`` and ``np``; ``dF_x`` and ``tol`` per N (a number
+        holds for every N, a list for the run's own sizes).
     out : str
         A new (or empty) folder.
     speak : bool
@@ -88,11 +113,12 @@ def collect_runs(dirs, out, speak=True):
     runs = [(d,) + read_run(d) for d in dirs]
     d0, c0, _ = runs[0]
     for d, c, _ in runs[1:]:
-        for k in sorted((set(c0) | set(c)) - set(_FREE)):
+        for k in sorted((set(c0) | set(c)) - set(_FREE) - set(_PER_SIZE)):
             if c0.get(k) != c.get(k):
                 raise ConfigError(f"--combine: {d0!r} and {d!r} differ in {k} "
                                   f"({c0.get(k)!r} vs {c.get(k)!r}); only n, seeds and np "
                                   "may differ")
+    per_size = {name: _per_size_values(name, runs) for name in _PER_SIZE}
     found, missing = {}, []
     for d, _, cfg in runs:
         for t in cfg.packings():
@@ -128,6 +154,9 @@ def collect_runs(dirs, out, speak=True):
     sizes = sorted({v[1]["n"] for v in found.values()})
     seeds = [sorted(v[1]["seed"] for v in found.values() if v[1]["n"] == n) for n in sizes]
     merged = dict(c0, n=sizes, seeds=seeds, np=1)
+    for name, values in per_size.items():
+        v = [values[n] for n in sizes]
+        merged[name] = v[0] if len(set(v)) == 1 else v
     if recorded:                # packings of runs that record it: their setting
         merged["saddle_escape"] = recorded.pop()
     cfg = EnsembleConfig.from_dict(merged)
