@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <unordered_map>
+#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -128,11 +129,12 @@ void FixMindlinTags::follow_new_ids(int **partner, double **t[], int nt, int nco
     MPI_Allgatherv(mine.data(), n, MPI_LMP_TAGINT, all.data(), counts.data(), offsets.data(),
                    MPI_LMP_TAGINT, world);
     // old -> new (0: the old ID of several atoms); an atom with no record
-    // keeps the ID the history may name it by (new -> new)
-    std::unordered_map<tagint, tagint> renamed, unrecorded;
+    // keeps the ID the history may name it by
+    std::unordered_map<tagint, tagint> renamed;
+    std::unordered_set<tagint> unrecorded;
     for (size_t k = 0; k < all.size(); k += 2) {
       if (all[k] == 0) {
-        unrecorded.emplace(all[k + 1], all[k + 1]);
+        unrecorded.insert(all[k + 1]);
         continue;
       }
       auto it = renamed.find(all[k]);
