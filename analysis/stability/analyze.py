@@ -414,7 +414,7 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
                        v0=np.random.default_rng(0).standard_normal(n))
         except (ArpackError, RuntimeError):
             return -1
-        top = _sliced._top_eigenvalue(S)
+        top = _sliced.top_eigenvalue(S)
         if not np.isfinite(top):
             return -1
     return int(np.count_nonzero(lam.real < -rel_threshold * top))

@@ -22,15 +22,20 @@ __all__ = ["CHECKPOINT_FORMAT", "scan_key", "load", "save", "saved_scans", "sha"
 CHECKPOINT_FORMAT = 3
 
 
-def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip):
+def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None):
     """sha256 of everything a scan depends on: A = M^-1/2 K M^-1/2 (canonical CSR,
     bitwise), the options, the largest strip decided on the real axis
     (``sliced._MAX_STRIP``: a scan or verdict saved under another limit is
     not taken, so its strips are not decided by two rules) and the
-    checkpoint format."""
+    checkpoint format. ``soft_rel`` (the stop rule's soft-pair threshold)
+    enters only when given, so the keys of scans without it are those of
+    earlier versions."""
     h = hashlib.sha256()
-    h.update(repr((CHECKPOINT_FORMAT, A.shape, float(rel_error), float(window),
-                   int(slice_size), bool(stop_at_complex), int(max_strip))).encode())
+    opts = (CHECKPOINT_FORMAT, A.shape, float(rel_error), float(window),
+            int(slice_size), bool(stop_at_complex), int(max_strip))
+    if soft_rel is not None:
+        opts += (float(soft_rel),)
+    h.update(repr(opts).encode())
     for arr in (A.indptr, A.indices, A.data):
         h.update(np.ascontiguousarray(arr).view(np.uint8))
     return h.hexdigest()[:32]

@@ -106,7 +106,8 @@ import scipy.sparse as sp
 from remote_trigger.analysis.stability.decision import PairDecision, SpectrumDecision
 from remote_trigger.analysis.stability.enclosure import U, _gamma
 from remote_trigger.analysis.stability.slicing import (
-    _INFLATE, SlicedStats, _Fail, _arpack_hint, _norm1, _norm2_skew, _slices, _start)
+    _INFLATE, SlicedStats, _Fail, _arpack_hint, _norm1, _norm2_skew, _slices, _start,
+    top_eigenvalue)
 from remote_trigger.analysis.stability import scan_state
 from remote_trigger.analysis.stability.strips import _Ctx, _coupling, _decide_strip
 
@@ -218,20 +219,6 @@ class _Stop(Exception):
     """A strip is certified complex and the scan stops (args: its upper boundary)."""
 
 
-def _top_eigenvalue(S):
-    """ARPACK's largest eigenvalue of the symmetric S (an approximation; NaN if
-    ARPACK does not converge)."""
-    from scipy.sparse.linalg import ArpackError, eigsh
-
-    if S.shape[0] < 10:
-        return float(np.linalg.eigvalsh(S.toarray())[-1])
-    v0 = np.random.default_rng(0).standard_normal(S.shape[0])
-    try:
-        return float(eigsh(S, k=1, which="LA", v0=v0, return_eigenvectors=False)[0])
-    except ArpackError:         # ArpackNoConvergence included
-        return math.nan
-
-
 def _scaled(K, mass):
     """A = M^-1/2 K M^-1/2 (CSR), its symmetric part S (CSC) and skew part W (CSR)."""
     K = sp.csr_matrix(K, dtype=np.float64)
@@ -278,7 +265,7 @@ class _Scan:
 
 def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=None,
                     stop_at_complex=False, progress=None, checkpoint_dir=None,
-                    checkpoint_seconds=None):
+                    checkpoint_seconds=None, soft_rel=None):
     """Certified complex-pair verdict on the whole spectrum of M^-1 K, by slicing.
 
     Parameters
@@ -336,6 +323,13 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     checkpoint_seconds : float, optional
         Seconds between two saves (default :data:`CHECKPOINT_SECONDS`, 300; 0:
         after every slice).
+    soft_rel : float, optional
+        With ``stop_at_complex``: a strip certified complex whose eigenvalue
+        estimates all have |Re lambda| < ``soft_rel`` x ARPACK's largest
+        eigenvalue of the symmetric part (a *soft* pair,
+        :data:`~remote_trigger.analysis.stability.verdict.SOFT_MODE_REL`) does
+        not stop the scan; the first other complex strip does. Default None:
+        the first complex strip stops it.
 
     Returns
     -------
@@ -356,8 +350,8 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         If K is empty, not square or not finite, a mass is not positive,
         ``rel_error`` is outside [0, 0.01) or so large that the set reaches
         below the Gershgorin bound, ``window`` is not a finite number > 0,
-        ``slice_size`` not an integer >= 2, or ``checkpoint_seconds`` is
-        negative or not a number.
+        ``slice_size`` not an integer >= 2, ``checkpoint_seconds`` is
+        negative or not a number, or ``soft_rel`` is not a number in [0, 1).
 
     Notes
     -----
@@ -383,6 +377,10 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         raise ValueError(f"checkpoint_seconds must be a number >= 0, got "
                          f"{checkpoint_seconds!r}")
     checkpoint_seconds = float(checkpoint_seconds)
+    if soft_rel is not None and not (isinstance(soft_rel, (int, float, np.floating))
+                                     and not isinstance(soft_rel, bool) and 0 <= soft_rel < 1):
+        raise ValueError(f"soft_rel must be a number in [0, 1) or None, got "
+                         f"soft_rel = {soft_rel!r}")
     if K.shape[0] == 0:
         raise ValueError("K is empty (0 x 0): no degree of freedom to decide")
     A, S, W = _scaled(K, mass)
@@ -390,7 +388,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     ckpt, saved = None, None
     if checkpoint_dir is not None:
         key = scan_state.scan_key(A, rel_error, window, slice_size, stop_at_complex,
-                                  _MAX_STRIP)
+                                  _MAX_STRIP, soft_rel if stop_at_complex else None)
         ckpt = os.path.join(os.fspath(checkpoint_dir), f"sliced-{key}")
         done = scan_state.load(ckpt + ".done.pkl", key)
         if done is not None:
@@ -423,6 +421,9 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     reason = ""
     scanned_below = math.inf
     sc = None
+    # the real part below which a complex strip is soft (it does not stop the scan)
+    soft_below = (soft_rel * top_eigenvalue(S) if stop_at_complex and soft_rel is not None
+                  else -math.inf)
     t_restore = time.perf_counter()
     if saved is not None and scan_state.restore_ritz(
             saved, lambda pos: _slices(S, W, slice_size, normS, normW, pos, SlicedStats())):
@@ -469,7 +470,8 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
                                      float(margin), method="sliced-strip", reason=why))
         (sc.complex_margins if verdict == "complex" else sc.margins if ok
          else sc.undecided_margins).append(float(margin))
-        if verdict == "complex" and stop_at_complex:
+        if verdict == "complex" and stop_at_complex and not (
+                np.max(np.abs(np.real(lam_c))) < soft_below):
             raise _Stop(a_hi)
 
     try:
@@ -570,7 +572,7 @@ def _decision(sc, n, reason, scanned_below, eps, S, timing):
                 else f"the slicing failed above a strip certified complex: {reason}")
         return SpectrumDecision(True, max(complex_margins), pairs, eps, lam, timing, note,
                                 start="sliced", n_total=n, scanned_below=float(scanned_below),
-                                lambda_max=_top_eigenvalue(S))
+                                lambda_max=top_eigenvalue(S))
     if reason:
         return SpectrumDecision(None, 0.0, pairs, 0.0, lam, timing, reason, start="sliced",
                                 n_total=n)

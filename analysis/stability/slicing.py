@@ -432,3 +432,17 @@ def _arpack_hint(A, a_lo, a_hi, m):
         return note + "none complex", inside
     z = cx[int(np.argmax(cx.imag))]
     return note + f"{cx.size} complex pair(s), e.g. {z.real:.6g} +- {z.imag:.4g}i", inside
+
+
+def top_eigenvalue(S):
+    """ARPACK's largest eigenvalue of the symmetric S (an approximation; NaN if
+    ARPACK does not converge)."""
+    from scipy.sparse.linalg import ArpackError, eigsh
+
+    if S.shape[0] < 10:
+        return float(np.linalg.eigvalsh(S.toarray())[-1])
+    v0 = np.random.default_rng(0).standard_normal(S.shape[0])
+    try:
+        return float(eigsh(S, k=1, which="LA", v0=v0, return_eigenvectors=False)[0])
+    except ArpackError:         # ArpackNoConvergence included
+        return math.nan

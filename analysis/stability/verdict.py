@@ -35,6 +35,13 @@ DENSE_PEAK_MATRICES = 14
 #: environment variable: the memory (GiB) a dense verdict may use, instead
 #: of what the machine has available
 MEMORY_ENV = "REMOTE_TRIGGER_MEMORY_GB"
+#: a certified complex pair is *soft* when every eigenvalue of its unit has
+#: |Re lambda| below this fraction of lambda_max: two near-floppy modes of one
+#: or two weakly held disks, not two stiff ones. Measured on the default
+#: ensemble: stiff onsets at Re lambda_c / lambda_max >= 0.013, soft ones
+#: <= 1.2e-5; on the N = 400 fine ramps soft ones 4e-7 to 3.4e-5 (a factor
+#: >= 3 from this threshold; docs/results/ensemble.md)
+SOFT_MODE_REL = 1e-4
 
 
 class Decision(enum.IntEnum):
@@ -130,7 +137,8 @@ class StabilityResult:
         ``'sliced'`` (the verdict by slicing, above ``eigen.DENSE_MAX`` dofs).
     reason : str
         Why the decision is ``'undecided'`` (the decision's own words, e.g.
-        which strip and where); empty otherwise.
+        which strip and where), or with ``collective`` why that decision is
+        (the units left undecided); empty otherwise.
     n_dof : int
         Order of the matrix decided (the kept dofs; -1 if not recorded).
     scanned_below : float
@@ -142,6 +150,16 @@ class StabilityResult:
         Largest real part of the spectrum: of ``eigenvalues``, or with a
         finite ``scanned_below`` ARPACK's largest eigenvalue of the symmetric
         part (an approximation); NaN for an empty spectrum.
+    collective : str
+        With ``stability_of(..., collective=True)``: the decision on the pairs
+        that are not soft (:func:`collective_decision`): ``'complex'`` (a
+        certified complex pair with an eigenvalue at |Re lambda| >=
+        ``SOFT_MODE_REL`` lambda_max), ``'real'`` (every eigenvalue certified
+        real, or in a certified complex pair below that) or ``'undecided'``;
+        ``''`` when not asked for.
+    soft_pairs : int
+        With ``collective=True``: the certified complex units that are soft
+        (a sliced strip counts as one); -1 when not asked for.
     """
 
     eigenvalues: np.ndarray
@@ -160,11 +178,56 @@ class StabilityResult:
     n_dof: int = -1
     scanned_below: float = float("inf")
     lambda_max: float = float("nan")
+    collective: str = ""
+    soft_pairs: int = -1
 
     @property
     def decision_code(self):
         """The :class:`Decision` (1 complex, 0 real, -1 undecided, as stored in ramp.h5)."""
         return Decision.of(self.decision)
+
+
+def collective_decision(dec, lambda_max, soft_rel=SOFT_MODE_REL):
+    """The decision on the pairs that are not soft, and the soft pairs' count.
+
+    A certified complex unit (a dense 2 x 2 pair, or a sliced strip) is
+    *soft* when every eigenvalue of its computed block has |Re lambda| <
+    ``soft_rel`` x ``lambda_max``: the label uses the computed eigenvalues
+    (inside the unit's enclosure, which is far narrower than the threshold
+    in the packings measured), the decision that the unit is complex is
+    certified.
+
+    Parameters
+    ----------
+    dec : remote_trigger.analysis.stability.decision.SpectrumDecision
+        A whole-spectrum decision (dense, or sliced with or without a stop).
+    lambda_max : float
+        Largest real part of the spectrum (NaN: no unit is soft).
+    soft_rel : float, optional
+        Default :data:`SOFT_MODE_REL`.
+
+    Returns
+    -------
+    decision : str
+        ``'complex'``: a certified complex unit that is not soft.
+        ``'real'``: the decision covers the whole spectrum (no stop, every
+        unit certified) and its certified complex units, if any, are all
+        soft. ``'undecided'`` otherwise.
+    soft : int
+        The certified complex units that are soft.
+    """
+    units = [p for p in dec.pairs if p.method != "gershgorin"]
+    cert = [p for p in units if p.is_complex and p.certified]
+    thr = soft_rel * lambda_max
+    soft = sum(1 for p in cert if np.max(np.abs(np.real(p.eigenvalues))) < thr)
+    if soft < len(cert):
+        return "complex", soft
+    if dec.complex_present is False:
+        return "real", 0
+    if dec.complex_present and math.isinf(dec.scanned_below) and \
+            all(p.certified for p in dec.pairs):
+        return "real", soft
+    return "undecided", soft
 
 
 def available_memory():
@@ -244,7 +307,7 @@ def _amount(nbytes):
 
 
 def stability_of(state, basis=None, stop_at_complex=False, progress=None,
-                 checkpoint_dir=None):
+                 checkpoint_dir=None, collective=False):
     """Eigen-analysis of an analysis ``State`` with the analyzer.
 
     Up to ``eigen.DENSE_MAX`` dofs the dense certified decision (from
@@ -273,6 +336,12 @@ def stability_of(state, basis=None, stop_at_complex=False, progress=None,
         Sliced path only: the folder where the scan saves its state and its
         verdict, so that a killed scan resumes and a repeated one is not redone
         (``classify_sliced``'s ``checkpoint_dir``). Default None: nothing saved.
+    collective : bool, optional
+        Also decide on the pairs that are not soft (``StabilityResult.collective``
+        and ``soft_pairs``, :func:`collective_decision`); a sliced scan with
+        ``stop_at_complex`` then goes on past soft complex strips. A dense
+        decision from ``basis`` that leaves the collective decision undecided
+        is made again from dgeev. Default False.
 
     Returns
     -------
@@ -302,14 +371,18 @@ def stability_of(state, basis=None, stop_at_complex=False, progress=None,
     if Kr.shape[0] > eigen.DENSE_MAX:
         # the whole-spectrum verdict by slicing: no dense matrix, no basis
         dec = classify_sliced(Kr, mr, stop_at_complex=stop_at_complex, progress=progress,
-                              checkpoint_dir=checkpoint_dir)
+                              checkpoint_dir=checkpoint_dir,
+                              soft_rel=SOFT_MODE_REL if collective else None)
     else:
         check_dense_fits(Kr.shape[0])
         if basis is not None and basis.dofs is not None:
             # other rattlers than at the basis's point: carried over (or None)
             basis = basis.on_dofs(rat.keep_dofs)
-        dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
-                                            basis=basis)
+        A = eigen.dynamical_matrix(Kr, mr).toarray()
+        dec = exceptional.classify_spectrum(A, basis=basis)
+        if collective and dec.start == "basis" and collective_decision(
+                dec, _top(dec), SOFT_MODE_REL)[0] == "undecided":
+            dec = exceptional.classify_spectrum(A)
         if dec.basis is not None:
             dec.basis.dofs = np.asarray(rat.keep_dofs, np.int64).copy()
     if dec.complex_present is None:
@@ -320,24 +393,40 @@ def stability_of(state, basis=None, stop_at_complex=False, progress=None,
     lam = lam[np.lexsort((lam.imag, lam.real))]
     cplx = decision == "complex"
     max_imag = float(np.max(np.abs(lam.imag))) if (cplx and lam.size) else 0.0
-    whole = math.isinf(dec.scanned_below)
-    lam_max = (float(np.max(lam.real)) if lam.size else math.nan) if whole else dec.lambda_max
+    lam_max = _top(dec)
+    coll, soft = collective_decision(dec, lam_max, SOFT_MODE_REL) if collective else ("", -1)
+    why = str(dec.reason or "") if decision == "undecided" else ""
+    if coll == "undecided" and not why:
+        # complex, but only soft pairs certified: what is left undecided
+        bad = [p.reason for p in dec.pairs if not p.certified]
+        why = (f"only soft complex pairs certified; {len(bad)} undecided: "
+               + " | ".join(bad[:3]) if bad else
+               f"only soft complex pairs certified; {dec.reason or 'the scan stopped'}")
     return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
                            int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
                            float(dec.confidence), res.max_residual, dict(dec.timing),
-                           dec.basis, dec.start,
-                           str(dec.reason or "") if decision == "undecided" else "",
-                           int(Kr.shape[0]), float(dec.scanned_below), float(lam_max))
+                           dec.basis, dec.start, why,
+                           int(Kr.shape[0]), float(dec.scanned_below), float(lam_max),
+                           coll, soft)
+
+
+def _top(dec):
+    """Largest real part of a decision's spectrum: of its eigenvalues if they are
+    all there, else its ``lambda_max`` (ARPACK's); NaN for none."""
+    lam = np.asarray(dec.eigenvalues)
+    if math.isinf(dec.scanned_below):
+        return float(np.max(lam.real)) if lam.size else math.nan
+    return float(dec.lambda_max)
 
 
 def stability_of_dump(path, basis=None, stop_at_complex=False, progress=None,
-                      checkpoint_dir=None):
+                      checkpoint_dir=None, collective=False):
     """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
 
     A dump of spheres (``dump_dimension``) is read by ``read_dump3d``.
 
-    ``basis``, ``stop_at_complex``, ``progress``, ``checkpoint_dir``: as in
-    :func:`stability_of`.
+    ``basis``, ``stop_at_complex``, ``progress``, ``checkpoint_dir``,
+    ``collective``: as in :func:`stability_of`.
 
     Raises
     ------
@@ -351,4 +440,4 @@ def stability_of_dump(path, basis=None, stop_at_complex=False, progress=None,
         state = read_equilibrium(path)      # spheres: 6 dofs each, rattlers below 3 contacts
     except (OSError, KeyError, IndexError, ValueError) as exc:
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
-    return stability_of(state, basis, stop_at_complex, progress, checkpoint_dir)
+    return stability_of(state, basis, stop_at_complex, progress, checkpoint_dir, collective)

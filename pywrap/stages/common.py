@@ -240,14 +240,14 @@ def packing_fraction(state):
 
 
 def _analyze(eng, dump, basis=None, stop_at_complex=False, progress=None,
-             checkpoint_dir=None):
+             checkpoint_dir=None, collective=False):
     """Eigen-analysis of a dump on rank 0, broadcast to all ranks.
 
     ``basis``: the previous point's ``StabilityResult.basis`` (rank 0's;
     ignored elsewhere). The result's ``basis`` is kept on rank 0 only (None
     on the others: it is an n x n pair of matrices, not broadcast).
     ``stop_at_complex``, ``progress`` (called on rank 0 only),
-    ``checkpoint_dir`` (written by rank 0): as in
+    ``checkpoint_dir`` (written by rank 0), ``collective``: as in
     ``analysis.stability.verdict.stability_of``.
     """
     from remote_trigger.analysis.stability.verdict import stability_of_dump
@@ -256,7 +256,8 @@ def _analyze(eng, dump, basis=None, stop_at_complex=False, progress=None,
 
     def run():
         res = stability_of_dump(dump, basis, stop_at_complex=stop_at_complex,
-                                progress=progress, checkpoint_dir=checkpoint_dir)
+                                progress=progress, checkpoint_dir=checkpoint_dir,
+                                collective=collective)
         kept["basis"], res.basis = res.basis, None
         return res
 

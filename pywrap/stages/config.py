@@ -299,11 +299,22 @@ class RampConfig(RelaxConfig):
         "Saddles"). False: Newton's equilibrium is kept, saddle or not (the
         behaviour of ramps written before this option; an older ramp.h5 is
         resumed only with False).
+    pairs : str
+        Which complex pairs end the ramp and are bracketed. ``'all'``
+        (default): the first certified complex pair. ``'collective'``: the
+        first that is not *soft* (soft: every eigenvalue of the pair below
+        ``SOFT_MODE_REL`` = 1e-4 lambda_max in |Re lambda|, two near-floppy
+        modes of one or two weakly held disks,
+        ``analysis.stability.verdict.collective_decision``); a point whose
+        only certified complex pairs are soft counts as real, and the column
+        ``soft_pairs`` of ramp.h5 counts them (docs/driver.md "Soft pairs").
     """
 
     #: fields added after ramp files were written: the value an older file has
     #: (``clearance``, a relax field, plays no part in a ramp)
-    LATER_FIELDS = {"saddle_escape": False, "clearance": "auto"}
+    LATER_FIELDS = {"saddle_escape": False, "clearance": "auto", "pairs": "all"}
+    #: the values of ``pairs``
+    PAIRS = ("all", "collective")
 
     dF_x: float = 1e-4
     F_x_max: float = 1.0
@@ -311,6 +322,7 @@ class RampConfig(RelaxConfig):
     dF_x_max: float = None
     keep_equilibria: bool = True
     saddle_escape: bool = True
+    pairs: str = "all"
 
     def validate(self):
         super().validate()
@@ -329,6 +341,9 @@ class RampConfig(RelaxConfig):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be True or False, got "
                                   f"{name} = {getattr(self, name)!r}")
+        if self.pairs not in self.PAIRS:
+            raise ConfigError(f"pairs must be one of {', '.join(map(repr, self.PAIRS))}, "
+                              f"got pairs = {self.pairs!r}")
 
 
 @dataclass(frozen=True)

@@ -19,9 +19,11 @@ a saddle, below 1e-6). Disks only: a planar packing of spheres is
 unstable out of its plane by construction (tests/driver/test_planar3d.py),
 and saddles of sphere packings were not measured.
 """
+import math
 import time
 
 from remote_trigger.analysis.stability.analyze import NEGATIVE_REL
+from remote_trigger.analysis.stability.verdict import Decision
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.stages.common import (_analyze, load_equilibrium_scene,
@@ -99,10 +101,14 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
         eigenvalues of M^-1 K with Re lambda < -NEGATIVE_REL lambda_max (0
         on a stable equilibrium): LAPACK's of the dense verdict, or the
         screen's where the verdict is sliced (its list holds the symmetric
-        part's Ritz values); -1 if the screen could not count.
+        part's Ritz values); -1 if the screen could not count. With
+        ``cfg.pairs`` = 'collective', ``decision`` and ``complex`` are those
+        of the pairs that are not soft (``StabilityResult.collective``) and
+        ``soft_pairs`` counts the soft ones (NaN otherwise).
     res : StabilityResult
         The decision; a ramp needs only that, so a sliced scan stops at its
-        first complex strip (``scanned_below``).
+        first complex strip (``scanned_below``; with 'collective' the first
+        that is not soft).
 
     Raises
     ------
@@ -133,8 +139,11 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
             save_equilibrium(eng, cfg, F_x, prefix)
             escaped += 1.0
             counted = None
+    collective = getattr(cfg, "pairs", "all") == "collective"
     res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True, progress=progress,
-                   checkpoint_dir=checkpoint_dir)
+                   checkpoint_dir=checkpoint_dir, collective=collective)
+    # with pairs = 'collective' a point whose only complex pairs are soft is real
+    code = Decision.of(res.collective) if collective else res.decision_code
     if res.start == "sliced":
         # the sliced verdict lists the symmetric part's Ritz values for its
         # one-eigenvalue strips: a free rotation would count; the screen counts
@@ -144,13 +153,14 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
         lam = np.asarray(res.eigenvalues)
         scale = np.max(lam.real, initial=0.0)
         neg = float(np.count_nonzero(lam.real < -NEGATIVE_REL * scale))
-    vals = {"F_x": F_x, "residual": r, "complex": float(res.complex_pair),
-            "from_basis": float(res.start == "basis"), "decision": float(res.decision_code),
+    vals = {"F_x": F_x, "residual": r, "complex": float(code == Decision.COMPLEX),
+            "from_basis": float(res.start == "basis"), "decision": float(code),
             "confidence": float(res.confidence), "growth_rate": res.growth_rate,
             "max_imag": res.max_imag, "n_rattlers": float(res.n_rattlers),
             "wall_time": time.perf_counter() - t0, "damped_time": t_sim,
             "newton_steps": float(max(0, sum(p == "newton" for p in rec.phase) - 1)),
             "n_dof": float(res.n_dof), "lambda_max": res.lambda_max,
             "scanned_below": res.scanned_below, "saddle_escaped": escaped,
-            "n_negative": neg}
+            "n_negative": neg,
+            "soft_pairs": float(res.soft_pairs) if collective else math.nan}
     return vals, res

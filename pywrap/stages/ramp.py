@@ -345,8 +345,8 @@ def next_step(cfg, rlog):
 def adaptive_step(dF_x, dF_x_max, prev, last):
     """Step of the adaptive ramp after two analysed loads.
 
-    If both loads were certified real (decision 0) and their spectra have the
-    same size, ``ADAPTIVE_SAFETY`` x the distance to the nearest coalescence
+    If both loads were certified real (decision 0), with real spectra (not so
+    with a soft pair, ``pairs`` = 'collective') of the same size, ``ADAPTIVE_SAFETY`` x the distance to the nearest coalescence
     predicted from them
     (:func:`remote_trigger.analysis.stability.eigtrack.predict_coalescence`), clipped
     to [dF_x, dF_x_max]; otherwise dF_x.
@@ -364,7 +364,8 @@ def adaptive_step(dF_x, dF_x_max, prev, last):
     """
     from remote_trigger.analysis.stability.eigtrack import predict_coalescence
 
-    if not (prev[1] == 0 and last[1] == 0):
+    if not (prev[1] == 0 and last[1] == 0) or np.any(np.imag(prev[2])) or \
+            np.any(np.imag(last[2])):
         return dF_x
     try:
         d, _ = predict_coalescence(prev[0], prev[2], last[0], last[2])

@@ -569,3 +569,46 @@ def test_a_stale_scan_state_is_removed_and_bad_input_refused(tmp_path):
     for bad in (-1.0, float("nan")):
         with pytest.raises(ValueError, match="checkpoint_seconds"):
             classify_sliced(K, mass, checkpoint_dir=tmp_path, checkpoint_seconds=bad)
+
+
+def test_soft_pairs_do_not_stop_the_scan_and_collective_decision():
+    """A pair planted at the bottom (Re ~ 1.2 of lambda_max ~ 100) and one at mode
+    120: with soft_rel = 0.05 the first is soft, so the stopped scan goes on past
+    it and stops at the second (scanned_below between them in LAPACK's
+    spectrum); ``collective_decision`` calls that complex with one soft pair.
+    With the bottom pair alone the scan with soft_rel covers the whole spectrum
+    and the decision on the pairs that are not soft is real (one soft pair), as
+    the dense decision's; with soft_rel = 0 both pairs count. A bad soft_rel is
+    refused by name."""
+    from remote_trigger.analysis.stability.verdict import collective_decision
+
+    K, mass = planted(pairs=[(0, 1.5), (120, 1.5)], seed=5)
+    lam = np.linalg.eigvals(eigen.dynamical_matrix(K, mass).toarray())
+    pairs_re = np.sort(lam[lam.imag > 0].real)
+    top = float(np.max(lam.real))
+    assert pairs_re[0] < 0.05 * top < pairs_re[1]
+    plain = classify_sliced(K, mass, stop_at_complex=True)
+    soft = classify_sliced(K, mass, stop_at_complex=True, soft_rel=0.05)
+    assert plain.complex_present and soft.complex_present
+    assert plain.scanned_below < pairs_re[1] < soft.scanned_below
+    assert pairs_re[1] < soft.scanned_below < top
+    assert sum(p.is_complex and p.certified for p in soft.pairs) == 2
+    assert collective_decision(soft, soft.lambda_max, 0.05) == ("complex", 1)
+    assert collective_decision(plain, plain.lambda_max, 0.05) == ("undecided", 1)
+    assert collective_decision(soft, soft.lambda_max, 0.0) == ("complex", 0)
+
+    K1, mass1 = planted(pairs=[(0, 1.5)], seed=5)
+    one = classify_sliced(K1, mass1, stop_at_complex=True, soft_rel=0.05)
+    assert one.complex_present is True and np.isinf(one.scanned_below), one.reason
+    top1 = float(np.max(one.eigenvalues.real))
+    assert collective_decision(one, top1, 0.05) == ("real", 1)
+    dense = dense_decision(K1, mass1)
+    assert collective_decision(dense, float(np.max(dense.eigenvalues.real)), 0.05) \
+        == ("real", 1)
+    assert collective_decision(dense, float(np.max(dense.eigenvalues.real)), 0.0) \
+        == ("complex", 0)
+    K0, mass0 = planted(seed=5)
+    assert collective_decision(dense_decision(K0, mass0), 100.0, 0.05) == ("real", 0)
+    for bad in (-0.1, 1.0, "x", True):
+        with pytest.raises(ValueError, match="soft_rel"):
+            classify_sliced(K1, mass1, stop_at_complex=True, soft_rel=bad)

@@ -288,3 +288,59 @@ def test_each_size_ramps_with_its_own_step(tmp_path):
         np.testing.assert_allclose(np.diff(F), step, rtol=1e-12)
     with open(os.path.join(out, "ensemble.md")) as fh:
         assert "ramp dF_x = 0.01 (N = 16), 0.02 (N = 20)" in fh.read()
+
+
+def test_pair_position_leaves_out_soft_pairs_when_asked():
+    """A soft pair (|Re| = 1e-5 lambda_max) grows faster than the stiff one, so
+    it is the pair by default; with soft_rel = 1e-4 the stiff one is."""
+    lam = [1e-4 - 1e-3j, 1e-4 + 1e-3j, 2.0, 5.0 - 0.01j, 5.0 + 0.01j, 10.0]
+    assert onset.pair_position(lam)["lambda_c"] == [1e-4, 1e-3]
+    p = onset.pair_position(lam, soft_rel=1e-4)
+    assert p["lambda_c"] == [5.0, 0.01] and p["pair_index"] == 4
+    none = onset.pair_position(lam[:3], soft_rel=1e-4)
+    assert none["pair_index"] == -1
+
+
+def test_pairs_collective_configuration(tmp_path):
+    """``pairs``: 'all' or 'collective', named when bad; 'collective' needs
+    inertia_I0 = null (its re-analysis decides on all pairs); config.json holds
+    the key only when 'collective', so older folders resume as 'all'."""
+    cfg = ec.EnsembleConfig.from_dict({"pairs": "collective", "inertia_I0": None})
+    assert cfg.to_dict()["pairs"] == "collective"
+    assert "pairs" not in ec.EnsembleConfig().to_dict()
+    with pytest.raises(ConfigError, match="got pairs = 'stiff'"):
+        ec.EnsembleConfig.from_dict({"pairs": "stiff", "inertia_I0": None})
+    with pytest.raises(ConfigError, match="needs inertia_I0 = null.*inertia_I0 = 1.0"):
+        ec.EnsembleConfig.from_dict({"pairs": "collective"})
+    from remote_trigger.pywrap.stages.config import RampConfig
+    data = tmp_path / "x.data"
+    data.write_text("")
+    with pytest.raises(ConfigError, match="got pairs = 'any'"):
+        RampConfig(datafile=str(data), pairs="any")
+    assert RampConfig(datafile=str(data)).pairs == "all"
+
+
+def test_collective_ensemble_runs_and_says_so(tmp_path):
+    """``--set pairs=collective`` through the command line: its ramps record
+    it and the soft-pair counts, and ensemble.md says what F_x^c is."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    import h5py
+
+    out = str(tmp_path / "ens")
+    cli = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
+    proc = subprocess.run([cli, "ensemble", "--quick", "--out", out, "--quiet",
+                           "--set", "seeds=[[1],[1]]", "--set", "pairs=collective",
+                           "--set", "frictional=false", "--set", "inertia_I0=null"],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with open(os.path.join(out, "config.json")) as fh:
+        assert json.load(fh)["pairs"] == "collective"
+    with h5py.File(os.path.join(out, "packings", "N16_s1", "ramp_mu0", "ramp.h5")) as fh:
+        assert fh.attrs["pairs"] == "collective"
+        assert np.all(fh["steps/soft_pairs"][()] >= 0)
+    with open(os.path.join(out, "ensemble.md")) as fh:
+        assert "pairs = 'collective': a soft pair" in fh.read()

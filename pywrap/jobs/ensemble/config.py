@@ -6,7 +6,7 @@ from dataclasses import dataclass, field, asdict
 
 from remote_trigger.pywrap.config import (
     Config, ConfigError, ContactModel, _int, _num, check_bool, check_table, layered_config)
-from remote_trigger.pywrap.stages.config import RelaxConfig
+from remote_trigger.pywrap.stages.config import RampConfig, RelaxConfig
 from remote_trigger.pywrap.jobs.paper.config import PaperConfig, DIM3 as PAPER_DIM3
 from remote_trigger.analysis.state.state import DISC_INERTIA
 from remote_trigger.analysis.state.state3d import SPHERE_INERTIA
@@ -108,6 +108,13 @@ class EnsembleConfig(Config):
         packings with and without the escape (packings of runs made before
         the option record nothing and count as without; ``--resume`` does
         not check those).
+    pairs : str
+        Which complex pairs end a ramp (``RampConfig.pairs``): ``'all'``
+        (default) or ``'collective'`` (soft pairs, |Re lambda| < 1e-4
+        lambda_max, do not; the pair's place is that of the first pair that
+        is not soft). Needs ``inertia_I0`` = null: the I0 re-analysis decides
+        on all pairs. Written to ``config.json`` only when 'collective' (a
+        folder of earlier runs resumes as 'all').
     np : int
         Ranks that run packings, >= 1 (default 1). Above 1 the job re-launches
         itself under ``mpirun -np np+1``: rank 0 hands out the packings
@@ -142,6 +149,7 @@ class EnsembleConfig(Config):
     inertia_extra_steps: int = None
     keep_equilibria: bool = False
     saddle_escape: bool = True
+    pairs: str = "all"
     np: int = 1
     quick: bool = False
 
@@ -193,6 +201,12 @@ class EnsembleConfig(Config):
                                   f"inertia_I0 = {self.inertia_I0!r}")
         if self.inertia_extra_steps is not None:
             _int("inertia_extra_steps", self.inertia_extra_steps, 0)
+        if self.pairs not in RampConfig.PAIRS:
+            raise ConfigError(f"pairs must be one of {', '.join(map(repr, RampConfig.PAIRS))}"
+                              f", got pairs = {self.pairs!r}")
+        if self.pairs == "collective" and self.inertia_I0 is not None:
+            raise ConfigError(f"pairs = 'collective' needs inertia_I0 = null (its re-analysis "
+                              f"decides on all pairs), got inertia_I0 = {self.inertia_I0!r}")
         for name in ("relax", "frictional_relax"):
             check_table(name, getattr(self, name), RELAX_SET_BY_JOB, "the ensemble",
                         RelaxConfig)
@@ -279,7 +293,8 @@ class EnsembleConfig(Config):
         ``dim`` is there only for spheres: the configuration of disks is
         written as before ``dim`` existed, so a folder of disks written
         then resumes (``--resume`` compares ``config.json``) and its files
-        are unchanged. Likewise ``saddle_escape`` only when False; whether
+        are unchanged. Likewise ``pairs`` only when 'collective', and
+        ``saddle_escape`` only when False; whether
         a packing escaped saddles is recorded in its result (``tasks/``,
         missing: not) and checked by ``--resume`` and ``--combine``.
         """
@@ -290,6 +305,8 @@ class EnsembleConfig(Config):
             del d["dim"]
         if self.saddle_escape:
             del d["saddle_escape"]
+        if self.pairs == "all":
+            del d["pairs"]
         return d
 
     @property

@@ -138,7 +138,7 @@ def bracket(points):
     return float(lo), float(hi)
 
 
-def pair_position(eigenvalues, lambda_max=math.nan, n_dof=-1):
+def pair_position(eigenvalues, lambda_max=math.nan, n_dof=-1, soft_rel=None):
     """Where the coalesced pair sits in the spectrum.
 
     Parameters
@@ -151,6 +151,10 @@ def pair_position(eigenvalues, lambda_max=math.nan, n_dof=-1):
         The spectrum's largest real part (default: that of ``eigenvalues``).
     n_dof : int, optional
         The spectrum's size (default: M).
+    soft_rel : float, optional
+        Leave out the eigenvalues off the real axis with |Re lambda| <
+        ``soft_rel`` lambda_max (soft pairs; the ramp's ``pairs`` =
+        'collective'). Default None: none left out.
 
     Returns
     -------
@@ -164,11 +168,12 @@ def pair_position(eigenvalues, lambda_max=math.nan, n_dof=-1):
     """
     lam = np.asarray(eigenvalues, complex)
     n_dof = int(lam.size) if n_dof < 0 else int(n_dof)
-    off = np.nonzero(lam.imag != 0)[0]
+    top = float(lambda_max) if not math.isnan(lambda_max) else (
+        float(np.max(lam.real)) if lam.size else math.nan)
+    off = np.nonzero((lam.imag != 0) & ~(np.abs(lam.real) < (soft_rel or 0.0) * top))[0]
     if off.size == 0:
         return {"lambda_c": [math.nan, math.nan], "pair_re_rel": math.nan,
                 "pair_index": -1, "n_dof": n_dof}
-    top = float(np.max(lam.real)) if math.isnan(lambda_max) else float(lambda_max)
     g = np.abs(np.sqrt(lam[off]).imag)
     c = lam[off[int(np.argmax(g))]]
     below = int(np.count_nonzero(lam.real < c.real - 1e-12 * abs(c.real)))
@@ -259,7 +264,7 @@ def growth_slope(F, g, lo, hi):
     return out
 
 
-def onset_numbers(points, dF_x):
+def onset_numbers(points, dF_x, soft_rel=None):
     """Bracket, pair position and growth-rate slope of a ramp's points.
 
     Parameters
@@ -270,6 +275,8 @@ def onset_numbers(points, dF_x):
     dF_x : float
         Ramp step: the slope uses the certified complex points within one
         step above F_x_c_high.
+    soft_rel : float, optional
+        :func:`pair_position`'s (a ramp with ``pairs`` = 'collective').
 
     Returns
     -------
@@ -299,7 +306,7 @@ def onset_numbers(points, dF_x):
     if math.isfinite(hi):
         top = next(p for p in points if p["F_x"] == hi and p["decision"] == Decision.COMPLEX)
         out.update(pair_position(top["eigenvalues"], top.get("lambda_max", math.nan),
-                                 top.get("n_dof", -1)))
+                                 top.get("n_dof", -1), soft_rel))
         near = [p for p in points if p["decision"] == Decision.COMPLEX and p["F_x"] <= hi + dF_x * (1 + 1e-9)]
         out.update(growth_slope([p["F_x"] for p in near], [p["growth"] for p in near], lo, hi))
     return out

@@ -9,17 +9,12 @@ import numpy as np
 from remote_trigger.analysis.output import write_text_atomic
 from remote_trigger.pywrap.jobs.paper.config import PAPER
 from remote_trigger.pywrap.jobs.ensemble.config import ONLY_2D
-from remote_trigger.analysis.stability.verdict import Decision
+from remote_trigger.analysis.stability.verdict import Decision, SOFT_MODE_REL
 from remote_trigger.analysis.stability.modeshape import LONG_WAVE_M
 from remote_trigger.pywrap.jobs.ensemble.onset import LOCAL_PAIR_PARTICLES
 
 #: the paper's bracket of F_x^c(mu = 1) for its N = 100 packing
 PAPER_BRACKET = (PAPER["F_x_c_mu1_low"], PAPER["F_x_c_mu1_high"])
-#: a coalescing pair with |Re lambda_c| below this fraction of lambda_max is a
-#: soft (near-floppy) mode pair, not two stiff modes: measured on the default
-#: ensemble, stiff onsets have Re lambda_c / lambda_max >= 0.013 and soft ones
-#: <= 1.2e-5 (both a factor >= 100 from this threshold)
-SOFT_MODE_REL = 1e-4
 
 
 # --------------------------------------------------------------------------- rows
@@ -421,11 +416,18 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
         L.append("(k of m): only k of the m usable packings have the value (a ramp complex "
                  "at its first point or undecided throughout has a bracket with one end "
                  "only, and no F_x^c).")
-    L += ["slope s: g = s sqrt(F_x - F_x^c) just above onset (g = max Im sqrt(lambda)).",
-          f"Soft-mode onset: the first certified complex pair has |Re lambda_c| < "
-          f"{SOFT_MODE_REL:g} lambda_max -- two near-floppy modes, not two stiff ones (its "
-          f"F_x^c is that of the soft pair; the ramp stops there, so the stiff pairs' onset "
-          f"is not measured for that packing)."]
+    L += ["slope s: g = s sqrt(F_x - F_x^c) just above onset (g = max Im sqrt(lambda))."]
+    if getattr(cfg, "pairs", "all") == "collective":
+        L += [f"pairs = 'collective': a soft pair (every eigenvalue of the pair at |Re lambda| "
+              f"< {SOFT_MODE_REL:g} lambda_max, two near-floppy modes) does not end a ramp; "
+              f"F_x^c is the onset of the first pair that is not soft, and the table has no "
+              f"soft-mode onsets."]
+    else:
+        L += [f"Soft-mode onset: the first certified complex pair has |Re lambda_c| < "
+              f"{SOFT_MODE_REL:g} lambda_max -- two near-floppy modes, not two stiff ones "
+              f"(its F_x^c is that of the soft pair; the ramp stops there, so the stiff "
+              f"pairs' onset is not measured for that packing: `--set pairs=collective` "
+              f"measures it)."]
     shaped = [p for p in st["per_n"] if p["pair_particles"][0]]
     if shaped:
         # measured since the pair's mode shape exists (tables of older runs: none)

@@ -183,7 +183,7 @@ def _ramp_part(cfg, relaxed, mu, folder, resume=False, verdict_dir=None):
     pts = read_ramp(res.h5)
     part["at_zero"] = ({"decision": pts[0]["decision"], "growth": pts[0]["growth"]}
                        if pts and pts[0]["F_x"] == 0.0 else None)
-    o = onset_numbers(pts, cfg.dF_x)
+    o = onset_numbers(pts, cfg.dF_x, _soft_rel(cfg))
     part[f"I0_{cfg.I0_dynamics:g}"] = dict(o, **pair_shape(pts, o), n_new=0,
                                            tol_reached=bool(res.tol_reached))
     if cfg.inertia_I0 is not None and pts:
@@ -197,6 +197,14 @@ def _ramp_part(cfg, relaxed, mu, folder, resume=False, verdict_dir=None):
                  tol_reached=bool(o["F_x_c_high"] - o["F_x_c_low"] <= cfg.tol))
         part[f"I0_{I0:g}"] = o
     return part
+
+
+def _soft_rel(cfg):
+    """The soft-pair threshold of the pair's place: None unless ``pairs`` is
+    'collective' (an older configuration has no ``pairs``)."""
+    from remote_trigger.analysis.stability.verdict import SOFT_MODE_REL
+
+    return SOFT_MODE_REL if getattr(cfg, "pairs", "all") == "collective" else None
 
 
 #: what :func:`.onset.pair_shape` measures of the pair's mode
@@ -222,7 +230,7 @@ def _with_shape(cfg, part, folder, onset=True):
     if not os.path.isfile(h5):
         return dict(part, **{key: dict({k: math.nan for k in SHAPE_KEYS}, **part[key])})
     pts = read_ramp(h5)
-    o = dict(part[key], **onset_numbers(pts, cfg.dF_x)) if onset else dict(part[key])
+    o = dict(part[key], **onset_numbers(pts, cfg.dF_x, _soft_rel(cfg))) if onset else dict(part[key])
     shape = {k: v for k, v in pair_shape(pts, o).items()
              if not (math.isnan(v) and math.isfinite(part[key].get(k, math.nan)))}
     return dict(part, **{key: dict(o, **shape)})

@@ -32,7 +32,8 @@ def ramp_config(cfg, datafile, mu):
     d = dict(model_fields(cfg), datafile=datafile, mu=float(mu), F_x=0.0,
              dF_x=float(cfg.dF_x), tol=float(cfg.tol), F_x_max=float(cfg.F_x_max),
              dF_x_max=getattr(cfg, "dF_x_max", None),
-             saddle_escape=getattr(cfg, "saddle_escape", True))
+             saddle_escape=getattr(cfg, "saddle_escape", True),
+             pairs=getattr(cfg, "pairs", "all"))
     ramp_fields = set(RampConfig.__dataclass_fields__) - {"settle_steps", "g_settle",
                                                            "mu_settle", "top_gap"}
     d.update({k: v for k, v in cfg.relax.items() if k in ramp_fields
