@@ -364,9 +364,12 @@ def run_ramp(args):
         if res.status == "complete":
             # what is certified: the two ends; between two real points a
             # complex window narrower than a step is not excluded (docs/driver.md)
+            ends = ("real at the lower end, complex at the upper end: the first complex "
+                    "load" if cfg.pairs == "all" else
+                    "at the lower end no complex pair that is not soft, one at the upper end: "
+                    "the first such load (pairs = 'collective')")
             print(f"ramp: F_x^c in [{res.F_x_c_low:.10g}, {res.F_x_c_high:.10g}] (certified "
-                  f"real at the lower end, complex at the upper end: the first complex load "
-                  f"at the loads sampled; width {res.F_x_c_width:.3g}; {len(res.F_x)} steps, "
+                  f"{ends} at the loads sampled; width {res.F_x_c_width:.3g}; {len(res.F_x)} steps, "
                   f"{len(res.bisection_F_x)} bisections, {res.n_undecided} undecided) "
                   f"-> {res.h5}")
             if not res.tol_reached:

@@ -94,3 +94,19 @@ def test_a_soft_first_pair_does_not_end_the_collective_ramp(all_pairs, monkeypat
     _BRACKETS[sliced] = (res.F_x_c_low, res.F_x_c_high)
     if len(_BRACKETS) == 2:
         assert _BRACKETS[True] == _BRACKETS[False]
+
+
+def test_the_command_line_says_which_onset_it_bracketed(relaxed, tmp_path):
+    """``remote-trigger ramp --set pairs=collective`` prints what its bracket is."""
+    import os
+    import subprocess
+    import sys
+
+    cli = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
+    proc = subprocess.run([cli, "ramp", "--datafile", relaxed.datafile, "--dF-x", "0.05",
+                           "--tol", "1e-3", "--set", "pairs=collective", "--quiet",
+                           "--out", str(tmp_path / "r")], capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "no complex pair that is not soft" in proc.stdout
+    assert "(pairs = 'collective')" in proc.stdout
