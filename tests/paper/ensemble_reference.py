@@ -18,8 +18,10 @@ def reference_table():
 
 
 #: columns added to the table after the reference run: the pair's mode shape
-#: (participation, long-wave fraction), the saddle counts
-ADDED_COLUMNS = {"pair_pr", "pair_particles", "n_saddle", "n_escaped", "pair_longwave"}
+#: (participation, long-wave fraction), the saddle counts, the first soft pair
+#: of a ramp with pairs = 'collective' (NaN in a run with 'all', as this one)
+ADDED_COLUMNS = {"pair_pr", "pair_particles", "n_saddle", "n_escaped", "pair_longwave",
+                 "F_x_soft", "F_x_soft_ss"}
 
 
 def assert_reference_columns(h5path):

@@ -343,4 +343,8 @@ def test_collective_ensemble_runs_and_says_so(tmp_path):
         assert fh.attrs["pairs"] == "collective"
         assert np.all(fh["steps/soft_pairs"][()] >= 0)
     with open(os.path.join(out, "ensemble.md")) as fh:
-        assert "pairs = 'collective': a soft pair" in fh.read()
+        text = fh.read()
+    assert "pairs = 'collective': a soft pair" in text
+    assert "- N = 16: a soft pair certified at a load up to F_x^c in " in text
+    cols = er.read_table(os.path.join(out, "ensemble.h5"))
+    assert cols["F_x_soft"].shape == cols["F_x_soft_ss"].shape == cols["key"].shape

@@ -72,7 +72,8 @@ def read_ramp(h5):
         size; NaN and -1 in files that predate these columns),
         ``saddle_escaped`` (escapes from a saddle made; 0 in older files),
         ``n_negative`` (the ramp's count of negative eigenvalues; NaN in
-        older files), ``reason``
+        older files), ``soft_pairs`` (certified complex pairs that are soft,
+        with ``pairs`` = 'collective'; NaN otherwise), ``reason``
         (why an undecided point is undecided, from the file's
         ``undecided_reasons``; '' otherwise or where the file has none).
         Bisection points without an equilibrium are left out.
@@ -96,6 +97,7 @@ def read_ramp(h5):
             esc = (fh[f"{kind}/saddle_escaped"][()] if f"{kind}/saddle_escaped" in fh
                    else np.zeros(len(F)))
             nneg = fh[f"{kind}/n_negative"][()] if f"{kind}/n_negative" in fh else nan
+            soft = fh[f"{kind}/soft_pairs"][()] if f"{kind}/soft_pairs" in fh else nan
             files = [point_file(h5, x, fh.attrs) for x in fh[f"{kind}/datafile"][()]]
             for k in range(len(F)):
                 if not np.isfinite(dec[k]):
@@ -108,6 +110,7 @@ def read_ramp(h5):
                             "lambda_max": float(top[k]),
                             "n_dof": int(ndof[k]) if np.isfinite(ndof[k]) else -1,
                             "saddle_escaped": float(esc[k]), "n_negative": float(nneg[k]),
+                            "soft_pairs": float(soft[k]),
                             "reason": str(why.get(stem.format(k), ""))})
     pts.sort(key=lambda p: p["F_x"])
     return pts
@@ -288,8 +291,10 @@ def onset_numbers(points, dF_x, soft_rel=None):
         point) and of :func:`growth_slope`; ``n_saddle`` (points whose
         equilibrium has an eigenvalue below -NEGATIVE_REL lambda_max: a
         saddle), ``n_escaped`` (points whose Newton equilibrium was a saddle
-        and was replaced, ``RampConfig.saddle_escape``) and ``saddle_ends``
-        (the bracket's ends that are saddles, their F_x).
+        and was replaced, ``RampConfig.saddle_escape``), ``saddle_ends``
+        (the bracket's ends that are saddles, their F_x) and ``F_x_soft``
+        (the smallest F_x with a soft pair certified, a ramp with ``pairs`` =
+        'collective'; NaN if none).
     """
     lo, hi = bracket(points)
     out = {"F_x_c_low": lo, "F_x_c_high": hi,
@@ -302,7 +307,9 @@ def onset_numbers(points, dF_x, soft_rel=None):
     saddles = [p["F_x"] for p in points if is_saddle(p)]
     out.update(n_saddle=len(saddles),
                n_escaped=sum(1 for p in points if p.get("saddle_escaped", 0) > 0),
-               saddle_ends=[F for F in (lo, hi) if F in saddles])
+               saddle_ends=[F for F in (lo, hi) if F in saddles],
+               F_x_soft=min((p["F_x"] for p in points if p.get("soft_pairs", 0) > 0),
+                            default=math.nan))
     if math.isfinite(hi):
         top = next(p for p in points if p["F_x"] == hi and p["decision"] == Decision.COMPLEX)
         out.update(pair_position(top["eigenvalues"], top.get("lambda_max", math.nan),

@@ -28,7 +28,8 @@ COLUMNS = ("key", "n", "seed", "protocol", "I0", "dynamics_consistent", "status"
            "lambda_c_re", "lambda_c_im", "growth_slope", "F_x_onset_fit", "slope_points",
            "n_undecided", "n_steps", "n_bisection", "n_extra", "ramp_status_mu0", "ramp_status_mu_ss",
            "decision_at_zero", "n_pairs_at_zero", "growth_at_zero", "soft_onset", "wall",
-           "pair_pr", "pair_particles", "n_saddle", "n_escaped", "pair_longwave")
+           "pair_pr", "pair_particles", "n_saddle", "n_escaped", "pair_longwave",
+           "F_x_soft", "F_x_soft_ss")
 
 
 def _mid(lo, hi):
@@ -133,7 +134,8 @@ def _default_row(task, result, I0, i0_dyn):
                    n_undecided=o["n_undecided"], n_steps=r0["n_steps"],
                    n_bisection=r0["n_bisection"], pair_pr=o.get("pair_pr", math.nan),
                    pair_particles=o.get("pair_particles", math.nan),
-                   pair_longwave=o.get("pair_longwave", math.nan))
+                   pair_longwave=o.get("pair_longwave", math.nan),
+                   F_x_soft=o.get("F_x_soft", math.nan))
         if r0.get("at_zero") and I0 == i0_dyn:
             row.update(decision_at_zero=r0["at_zero"]["decision"], n_pairs_at_zero=math.nan,
                        growth_at_zero=r0["at_zero"]["growth"])
@@ -148,7 +150,8 @@ def _default_row(task, result, I0, i0_dyn):
     if r1 is not None and ck in r1:
         o1 = r1[ck]
         row.update(F_x_c_ss_low=o1["F_x_c_low"], F_x_c_ss_high=o1["F_x_c_high"],
-                   F_x_c_ss=_mid(o1["F_x_c_low"], o1["F_x_c_high"]))
+                   F_x_c_ss=_mid(o1["F_x_c_low"], o1["F_x_c_high"]),
+                   F_x_soft_ss=o1.get("F_x_soft", math.nan))
         if I0 != i0_dyn and r1["ramp_status"] == "complete":
             if not math.isfinite(o1["F_x_c_high"]):
                 why.append(f"I0 = {I0:g}: no pair certified complex up to F_x = "
@@ -422,12 +425,21 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
               f"< {SOFT_MODE_REL:g} lambda_max, two near-floppy modes) does not end a ramp; "
               f"F_x^c is the onset of the first pair that is not soft, and the table has no "
               f"soft-mode onsets."]
+        for n in cfg.n:
+            rs = select(rows, ft, cfg.I0_dynamics, n, usable=False)
+            L.append(f"- N = {n}: a soft pair certified at a load up to F_x^c in "
+                     f"{sum(1 for r in rs if math.isfinite(r.get('F_x_soft', math.nan)))} of "
+                     f"{len(rs)} mu0 ramps and "
+                     f"{sum(1 for r in rs if math.isfinite(r.get('F_x_soft_ss', math.nan)))} of "
+                     f"{len(rs)} mu_ss mu0 ramps (columns F_x_soft, F_x_soft_ss: the first "
+                     f"load with one).")
     else:
+        # (the words of the tables written before pairs = 'collective'; docs/ensemble.md
+        # names the option that measures the stiff pairs' onset)
         L += [f"Soft-mode onset: the first certified complex pair has |Re lambda_c| < "
-              f"{SOFT_MODE_REL:g} lambda_max -- two near-floppy modes, not two stiff ones "
-              f"(its F_x^c is that of the soft pair; the ramp stops there, so the stiff "
-              f"pairs' onset is not measured for that packing: `--set pairs=collective` "
-              f"measures it)."]
+              f"{SOFT_MODE_REL:g} lambda_max -- two near-floppy modes, not two stiff ones (its "
+              f"F_x^c is that of the soft pair; the ramp stops there, so the stiff pairs' onset "
+              f"is not measured for that packing)."]
     shaped = [p for p in st["per_n"] if p["pair_particles"][0]]
     if shaped:
         # measured since the pair's mode shape exists (tables of older runs: none)
