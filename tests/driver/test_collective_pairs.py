@@ -110,3 +110,32 @@ def test_the_command_line_says_which_onset_it_bracketed(relaxed, tmp_path):
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "no complex pair that is not soft" in proc.stdout
     assert "(pairs = 'collective')" in proc.stdout
+
+
+def test_the_ensembles_dense_spectrum_decides_on_the_pairs_that_are_not_soft(all_pairs):
+    """``ensemble.onset.spectrum`` (the I0 re-analysis and the frictional
+    protocol's F_x = 0 point): at the all-pairs ramp's first complex point the
+    decision on all pairs is complex; with a threshold above the pair's
+    |Re lambda| / lambda_max it is real (every other unit certified), with 0
+    complex again; under I0 = 1 as under the dynamics' I0; from a basis as from
+    dgeev."""
+    from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.pywrap.jobs.ensemble.onset import (onset_numbers, read_ramp,
+                                                           reanalyse, spectrum)
+
+    _, full = all_pairs
+    pts = read_ramp(full.h5)
+    hi = next(p for p in pts if p["F_x"] == full.F_x_c_high and p["decision"] == 1)
+    rel = abs(onset_numbers(pts, DF)["pair_re_rel"])
+    state = read_dump(hi["dump"], require_contacts=False)
+    assert spectrum(state)["decision"] == 1
+    assert spectrum(state, soft_rel=0.0)["decision"] == 1
+    assert spectrum(state, soft_rel=1.5 * rel)["decision"] == 0
+    # under another I0, every point, each from the previous one's basis
+    got = reanalyse(pts, 1.0, soft_rel=1.5 * rel)
+    plain = reanalyse(pts, 1.0)
+    for g, p in zip(got, plain):
+        if p["decision"] == 0:
+            assert g["decision"] == 0
+        state = read_dump(g["dump"], require_contacts=False, inertia_factor=1.0)
+        assert g["decision"] == spectrum(state, soft_rel=1.5 * rel)["decision"]

@@ -302,16 +302,13 @@ def test_pair_position_leaves_out_soft_pairs_when_asked():
 
 
 def test_pairs_collective_configuration(tmp_path):
-    """``pairs``: 'all' or 'collective', named when bad; 'collective' needs
-    inertia_I0 = null (its re-analysis decides on all pairs); config.json holds
-    the key only when 'collective', so older folders resume as 'all'."""
-    cfg = ec.EnsembleConfig.from_dict({"pairs": "collective", "inertia_I0": None})
+    """``pairs``: 'all' or 'collective', named when bad; config.json holds the
+    key only when 'collective', so older folders resume as 'all'."""
+    cfg = ec.EnsembleConfig.from_dict({"pairs": "collective"})
     assert cfg.to_dict()["pairs"] == "collective"
     assert "pairs" not in ec.EnsembleConfig().to_dict()
     with pytest.raises(ConfigError, match="got pairs = 'stiff'"):
-        ec.EnsembleConfig.from_dict({"pairs": "stiff", "inertia_I0": None})
-    with pytest.raises(ConfigError, match="needs inertia_I0 = null.*inertia_I0 = 1.0"):
-        ec.EnsembleConfig.from_dict({"pairs": "collective"})
+        ec.EnsembleConfig.from_dict({"pairs": "stiff"})
     from remote_trigger.pywrap.stages.config import RampConfig
     data = tmp_path / "x.data"
     data.write_text("")
@@ -321,8 +318,9 @@ def test_pairs_collective_configuration(tmp_path):
 
 
 def test_collective_ensemble_runs_and_says_so(tmp_path):
-    """``--set pairs=collective`` through the command line: its ramps record
-    it and the soft-pair counts, and ensemble.md says what F_x^c is."""
+    """``--set pairs=collective`` through the command line, with the I0
+    re-analysis and the frictional protocol: its ramps record it and the
+    soft-pair counts, and ensemble.md says what F_x^c is."""
     import json
     import os
     import subprocess
@@ -333,8 +331,7 @@ def test_collective_ensemble_runs_and_says_so(tmp_path):
     out = str(tmp_path / "ens")
     cli = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
     proc = subprocess.run([cli, "ensemble", "--quick", "--out", out, "--quiet",
-                           "--set", "seeds=[[1],[1]]", "--set", "pairs=collective",
-                           "--set", "frictional=false", "--set", "inertia_I0=null"],
+                           "--set", "seeds=[[1],[1]]", "--set", "pairs=collective"],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
     with open(os.path.join(out, "config.json")) as fh:

@@ -112,9 +112,10 @@ class EnsembleConfig(Config):
         Which complex pairs end a ramp (``RampConfig.pairs``): ``'all'``
         (default) or ``'collective'`` (soft pairs, |Re lambda| < 1e-4
         lambda_max, do not; the pair's place is that of the first pair that
-        is not soft). Needs ``inertia_I0`` = null: the I0 re-analysis decides
-        on all pairs. Written to ``config.json`` only when 'collective' (a
-        folder of earlier runs resumes as 'all').
+        is not soft). The I0 re-analysis and the frictional protocol's
+        decision at F_x = 0 then decide on the pairs that are not soft too.
+        Written to ``config.json`` only when 'collective' (a folder of
+        earlier runs resumes as 'all').
     np : int
         Ranks that run packings, >= 1 (default 1). Above 1 the job re-launches
         itself under ``mpirun -np np+1``: rank 0 hands out the packings
@@ -204,9 +205,6 @@ class EnsembleConfig(Config):
         if self.pairs not in RampConfig.PAIRS:
             raise ConfigError(f"pairs must be one of {', '.join(map(repr, RampConfig.PAIRS))}"
                               f", got pairs = {self.pairs!r}")
-        if self.pairs == "collective" and self.inertia_I0 is not None:
-            raise ConfigError(f"pairs = 'collective' needs inertia_I0 = null (its re-analysis "
-                              f"decides on all pairs), got inertia_I0 = {self.inertia_I0!r}")
         for name in ("relax", "frictional_relax"):
             check_table(name, getattr(self, name), RELAX_SET_BY_JOB, "the ensemble",
                         RelaxConfig)

@@ -10,7 +10,7 @@ import os
 import numpy as np
 from remote_trigger.analysis.stability.verdict import Decision
 
-def spectrum(state, basis=None):
+def spectrum(state, basis=None, soft_rel=None):
     """Certified spectrum of one state (the ramp's dense path).
 
     Parameters
@@ -21,6 +21,12 @@ def spectrum(state, basis=None):
         The previous point's ``basis``: the decision starts from it where it
         certifies (``classify_spectrum(basis=)``, the same answer as from
         dgeev).
+    soft_rel : float, optional
+        With a number (a ramp with ``pairs`` = 'collective'): ``decision`` is
+        that on the pairs that are not soft
+        (:func:`~remote_trigger.analysis.stability.verdict.collective_decision`;
+        from dgeev again where the basis leaves it undecided). Default None:
+        on all pairs.
 
     Returns
     -------
@@ -41,11 +47,22 @@ def spectrum(state, basis=None):
         return {"decision": 0, "confidence": math.inf, "eigenvalues": np.zeros(0, complex),
                 "n_pairs": 0, "growth": 0.0, "basis": None, "reason": ""}
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)
-    dec = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray(),
-                                        basis=basis)
+    A = eigen.dynamical_matrix(Kr, mr).toarray()
+    dec = exceptional.classify_spectrum(A, basis=basis)
     lam = np.asarray(dec.eigenvalues, np.complex128)
     lam = lam[np.lexsort((lam.imag, lam.real))]
     code = -1 if dec.complex_present is None else int(bool(dec.complex_present))
+    if soft_rel is not None:
+        from remote_trigger.analysis.stability.verdict import collective_decision
+
+        top = float(np.max(lam.real))
+        word = collective_decision(dec, top, soft_rel)[0]
+        if word == "undecided" and dec.start == "basis":
+            dec = exceptional.classify_spectrum(A)
+            lam = np.asarray(dec.eigenvalues, np.complex128)
+            lam = lam[np.lexsort((lam.imag, lam.real))]
+            word = collective_decision(dec, float(np.max(lam.real)), soft_rel)[0]
+        code = int(Decision.of(word))
     n_pairs = sum(1 for p in dec.pairs
                   if p.method != "gershgorin" and p.is_complex and p.certified)
     return {"decision": code, "confidence": float(dec.confidence), "eigenvalues": lam,
@@ -339,7 +356,7 @@ def is_saddle(point):
     return bool(np.min(lam.real) < -NEGATIVE_REL * top)
 
 
-def reanalyse(points, I0):
+def reanalyse(points, I0, soft_rel=None):
     """The same equilibria with the moment of inertia I = I0 m R^2 in M.
 
     Only the mass matrix changes (K does not depend on the inertia); the
@@ -351,6 +368,8 @@ def reanalyse(points, I0):
     points : list of dict
         From :func:`read_ramp` (their ``dump`` files must exist).
     I0 : float
+    soft_rel : float, optional
+        :func:`spectrum`'s (a ramp with ``pairs`` = 'collective').
 
     Returns
     -------
@@ -362,7 +381,8 @@ def reanalyse(points, I0):
 
     out, basis = [], None
     for p in points:
-        s = spectrum(read_dump(p["dump"], require_contacts=False, inertia_factor=I0), basis)
+        s = spectrum(read_dump(p["dump"], require_contacts=False, inertia_factor=I0), basis,
+                     soft_rel)
         basis = s.pop("basis")
         # a whole dense spectrum: its own top and size (M changed with I0)
         out.append(dict(p, decision=s["decision"], growth=s["growth"],

@@ -28,7 +28,7 @@ __all__ = ["PROGRESS", "run_packing", "run_ramp", "record_ramp", "ramp_frictions
            "inertia_points", "task_path", "load_task"]
 
 
-def _new_point(eng, rcfg, start_dump, F_x, prefix, I0):
+def _new_point(eng, rcfg, start_dump, F_x, prefix, I0, soft_rel=None):
     """Equilibrium at F_x from the equilibrium of ``start_dump`` (a ramp step), analysed
     with I0; returns the point dict, or None without an equilibrium."""
     from remote_trigger.analysis.state.dumpfile import read_dump
@@ -41,7 +41,8 @@ def _new_point(eng, rcfg, start_dump, F_x, prefix, I0):
     except eq.NoEquilibriumError:
         return None
     save_equilibrium(eng, rcfg, F_x, prefix)
-    s = spectrum(read_dump(prefix + ".dump", require_contacts=False, inertia_factor=I0))
+    s = spectrum(read_dump(prefix + ".dump", require_contacts=False, inertia_factor=I0),
+                 soft_rel=soft_rel)
     s.pop("basis")
     return {"F_x": float(F_x), "decision": s["decision"], "growth": s["growth"],
             "dump": prefix + ".dump", "eigenvalues": s["eigenvalues"], "reason": s["reason"]}
@@ -83,7 +84,8 @@ def inertia_points(cfg, points, mu, I0, folder):
     from remote_trigger.pywrap.stages.ramp import adaptive_step
     from remote_trigger.pywrap.stages import next_bisection_point
 
-    pts = reanalyse(points, I0)
+    soft_rel = _soft_rel(cfg)
+    pts = reanalyse(points, I0, soft_rel)
     if not pts:
         return pts
     lo, hi = bracket(pts)
@@ -111,7 +113,7 @@ def inertia_points(cfg, points, mu, I0, folder):
                                         for p in (prev, last)))
             F = last["F_x"] + h
             p = _new_point(eng, rcfg, last["dump"], F, os.path.join(folder, f"ext_{k:04d}"),
-                           I0)
+                           I0, soft_rel)
             if p is None:
                 break
             pts.append(dict(p, new=True))
@@ -126,7 +128,7 @@ def inertia_points(cfg, points, mu, I0, folder):
             start = max((p for p in pts if p["F_x"] == lo and p["decision"] == 0),
                         key=lambda p: p["F_x"])
             p = _new_point(eng, rcfg, start["dump"], mid,
-                           os.path.join(folder, f"bisect_{j:03d}"), I0)
+                           os.path.join(folder, f"bisect_{j:03d}"), I0, soft_rel)
             j += 1
             pts.append(dict(p, new=True) if p is not None else
                         {"F_x": mid, "decision": -1, "growth": math.nan, "dump": "",
@@ -191,7 +193,7 @@ def _ramp_part(cfg, relaxed, mu, folder, resume=False, verdict_dir=None):
         ifolder = os.path.join(folder, f"I0_{I0:g}")
         shutil.rmtree(ifolder, ignore_errors=True)     # a killed run's points
         ipts = inertia_points(cfg, pts, mu, I0, ifolder)
-        o = onset_numbers(ipts, cfg.dF_x)
+        o = onset_numbers(ipts, cfg.dF_x, _soft_rel(cfg))
         o.update(pair_shape(ipts, o, inertia_factor=I0),
                  n_new=sum(1 for p in ipts if p.get("new")),
                  tol_reached=bool(o["F_x_c_high"] - o["F_x_c_low"] <= cfg.tol))
@@ -263,7 +265,7 @@ def _frictional_part(cfg, datafile, folder):
     from remote_trigger.analysis.state.dumpfile import read_dump
 
     rel = _relax(cfg, datafile, folder, "frictional")
-    s = spectrum(read_dump(rel.dumpfile, require_contacts=False))
+    s = spectrum(read_dump(rel.dumpfile, require_contacts=False), soft_rel=_soft_rel(cfg))
     return {"phi": rel.packing_fraction, "residual": rel.residual,
             "antisymmetry": rel.antisymmetry, "decision": s["decision"],
             "confidence": s["confidence"], "n_pairs": s["n_pairs"],
