@@ -187,7 +187,7 @@ class StabilityResult:
         return Decision.of(self.decision)
 
 
-def collective_decision(dec, lambda_max, soft_rel=SOFT_MODE_REL):
+def collective_decision(dec, lambda_max, soft_rel=None):
     """The decision on the pairs that are not soft, and the soft pairs' count.
 
     A certified complex unit (a dense 2 x 2 pair, or a sliced strip) is
@@ -204,7 +204,7 @@ def collective_decision(dec, lambda_max, soft_rel=SOFT_MODE_REL):
     lambda_max : float
         Largest real part of the spectrum (NaN: no unit is soft).
     soft_rel : float, optional
-        Default :data:`SOFT_MODE_REL`.
+        Default None: :data:`SOFT_MODE_REL`.
 
     Returns
     -------
@@ -218,7 +218,7 @@ def collective_decision(dec, lambda_max, soft_rel=SOFT_MODE_REL):
     """
     units = [p for p in dec.pairs if p.method != "gershgorin"]
     cert = [p for p in units if p.is_complex and p.certified]
-    thr = soft_rel * lambda_max
+    thr = (SOFT_MODE_REL if soft_rel is None else soft_rel) * lambda_max
     soft = sum(1 for p in cert if np.max(np.abs(np.real(p.eigenvalues))) < thr)
     if soft < len(cert):
         return "complex", soft

@@ -29,6 +29,7 @@ that is printed and stored as a **partial** decision (``coverage =
 """
 from __future__ import annotations
 
+import math
 import os
 import sys
 
@@ -188,6 +189,16 @@ def run(args):
                      f"[{lam.real.min():.6g}, {lam.real.max():.6g}], growth rate max Im omega "
                      f"= {res.growth_rate:.6g}")
         lines.append(f"  {dec.describe()}" if dec is not None else "  complex pair: not tested")
+        if dec is not None and dec.is_verdict and dec.complex_present:
+            # are the complex pairs soft (near-floppy modes; docs/driver.md "Soft pairs")?
+            from remote_trigger.analysis.stability import verdict
+            top = (dec.lambda_max if math.isfinite(dec.scanned_below)
+                   else float(lam.real.max()))
+            word, soft = verdict.collective_decision(dec, top)
+            lines.append(f"  soft pairs (|Re lambda| < {verdict.SOFT_MODE_REL:g} lambda_max): "
+                         f"{soft}; "
+                         f"a complex pair that is not soft: "
+                         f"{ {'complex': 'yes', 'real': 'no'}.get(word, word) }")
     if warning:
         lines.append(f"  {warning}")
     lines.append(f"  written: {args.output}")

@@ -139,3 +139,31 @@ def test_the_ensembles_dense_spectrum_decides_on_the_pairs_that_are_not_soft(all
             assert g["decision"] == 0
         state = read_dump(g["dump"], require_contacts=False, inertia_factor=1.0)
         assert g["decision"] == spectrum(state, soft_rel=1.5 * rel)["decision"]
+
+
+def test_jacobian_says_whether_the_complex_pairs_are_soft(all_pairs, tmp_path, capsys,
+                                                         monkeypatch):
+    """``remote-trigger jacobian`` of a complex point adds a line: how many of
+    its certified complex pairs are soft and whether one is not (here the pair
+    is collective; with the threshold raised above it, it is soft). A real
+    point has no such line."""
+    from remote_trigger.analysis.stability import verdict
+    from remote_trigger.pywrap import cli
+    from remote_trigger.pywrap.jobs.ensemble.onset import onset_numbers, read_ramp
+
+    _, full = all_pairs
+    pts = read_ramp(full.h5)
+    hi = next(p for p in pts if p["F_x"] == full.F_x_c_high and p["decision"] == 1)
+    lo = next(p for p in pts if p["F_x"] == full.F_x_c_low and p["decision"] == 0)
+    rel = abs(onset_numbers(pts, DF)["pair_re_rel"])
+
+    def run(dump, name):
+        assert cli.main(["jacobian", dump, "-o", str(tmp_path / name)]) == 0
+        return capsys.readouterr().out
+
+    assert "soft pairs (|Re lambda| < 0.0001 lambda_max): 0; a complex pair that is not " \
+           "soft: yes" in run(hi["dump"], "a.npz")
+    assert "soft pairs" not in run(lo["dump"], "b.npz")
+    monkeypatch.setattr(verdict, "SOFT_MODE_REL", 1.5 * rel)
+    out = run(hi["dump"], "c.npz")
+    assert "soft pairs" in out and ": 1; a complex pair that is not soft: no" in out
