@@ -210,22 +210,32 @@ def collective_decision(dec, lambda_max, soft_rel=None):
     -------
     decision : str
         ``'complex'``: a certified complex unit that is not soft.
-        ``'real'``: the decision covers the whole spectrum (no stop, every
-        unit certified) and its certified complex units, if any, are all
-        soft. ``'undecided'`` otherwise.
+        ``'real'``: the whole decision is *real*; or it is *complex*, covers
+        the whole spectrum (no stop), its certified complex units are all
+        soft and every unit that is not soft is certified (a soft unit may
+        be undecided: e.g. the isolation disc of a soft pair overlapping
+        that of a soft neighbour). ``'undecided'`` otherwise (a whole
+        decision *undecided* stays so).
     soft : int
         The certified complex units that are soft.
     """
-    units = [p for p in dec.pairs if p.method != "gershgorin"]
-    cert = [p for p in units if p.is_complex and p.certified]
     thr = (SOFT_MODE_REL if soft_rel is None else soft_rel) * lambda_max
-    soft = sum(1 for p in cert if np.max(np.abs(np.real(p.eigenvalues))) < thr)
+
+    def is_soft(p):
+        return p.eigenvalues is not None and len(p.eigenvalues) > 0 and \
+            np.max(np.abs(np.real(p.eigenvalues))) < thr
+
+    cert = [p for p in dec.pairs if p.method != "gershgorin" and p.is_complex and p.certified]
+    soft = sum(1 for p in cert if is_soft(p))
     if soft < len(cert):
         return "complex", soft
     if dec.complex_present is False:
         return "real", 0
+    # complex, on soft units only: real if the decision covers the whole spectrum
+    # and every unit that is not soft is certified (a soft unit may be left
+    # undecided, e.g. its isolation disc overlapping a soft neighbour's)
     if dec.complex_present and math.isinf(dec.scanned_below) and \
-            all(p.certified for p in dec.pairs):
+            all(p.certified or is_soft(p) for p in dec.pairs):
         return "real", soft
     return "undecided", soft
 

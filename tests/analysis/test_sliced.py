@@ -612,3 +612,33 @@ def test_soft_pairs_do_not_stop_the_scan_and_collective_decision():
     for bad in (-0.1, 1.0, "x", True):
         with pytest.raises(ValueError, match="soft_rel"):
             classify_sliced(K1, mass1, stop_at_complex=True, soft_rel=bad)
+
+
+def test_collective_decision_leaves_soft_units_aside():
+    """The rule itself on hand-made decisions (lambda_max = 1, threshold 1e-4):
+    a certified soft pair and an undecided soft unit (its disc overlapping the
+    pair's, as on an N = 400 ramp) beside certified units that are not soft
+    is real with one soft pair; the undecided unit not soft, the decision
+    stopped, or the whole decision undecided: undecided; a certified pair
+    that is not soft: complex."""
+    from remote_trigger.analysis.stability.decision import PairDecision, SpectrumDecision
+    from remote_trigger.analysis.stability.verdict import collective_decision
+
+    soft_pair = PairDecision(np.array([2e-6 - 1e-6j, 2e-6 + 1e-6j]), True, True, 10.0)
+    soft_open = PairDecision(np.array([2e-6, 3e-6]), False, False, 0.9, method="gershgorin",
+                             reason="discs overlap")
+    stiff = PairDecision(np.array([0.3, 0.5]), False, True, 5.0, method="gershgorin")
+
+    def dec(pairs, present=True, below=np.inf):
+        return SpectrumDecision(present, 2.0, pairs, 0.0, np.zeros(0, complex),
+                                scanned_below=below)
+
+    assert collective_decision(dec([soft_pair, soft_open, stiff]), 1.0) == ("real", 1)
+    stiff_open = PairDecision(np.array([0.3, 0.31]), False, False, 0.9, method="gershgorin")
+    assert collective_decision(dec([soft_pair, stiff_open]), 1.0) == ("undecided", 1)
+    assert collective_decision(dec([soft_pair, stiff], below=0.2), 1.0) == ("undecided", 1)
+    assert collective_decision(dec([soft_pair, stiff], present=None), 1.0) == \
+        ("undecided", 1)
+    pair = PairDecision(np.array([0.4 - 0.01j, 0.4 + 0.01j]), True, True, 3.0)
+    assert collective_decision(dec([soft_pair, stiff_open, pair]), 1.0) == ("complex", 1)
+    assert collective_decision(dec([soft_pair, stiff]), 1.0, soft_rel=1e-7) == ("complex", 0)
