@@ -240,6 +240,17 @@ def collective_decision(dec, lambda_max, soft_rel=None):
     return "undecided", soft
 
 
+def collective_reason(dec):
+    """Why :func:`collective_decision` is undecided where the decision is complex:
+    the units left undecided (their reasons, the first three), or the
+    decision's own note (a stopped or failed scan). One line."""
+    bad = [p.reason for p in dec.pairs if not p.certified]
+    if bad:
+        return (f"only soft complex pairs certified; {len(bad)} undecided: "
+                + " | ".join(bad[:3]) + (f" | and {len(bad) - 3} more" if len(bad) > 3 else ""))
+    return f"only soft complex pairs certified; {dec.reason or 'the scan stopped'}"
+
+
 def available_memory():
     """Bytes a calculation may allocate here, or None if unknown.
 
@@ -407,11 +418,7 @@ def stability_of(state, basis=None, stop_at_complex=False, progress=None,
     coll, soft = collective_decision(dec, lam_max, SOFT_MODE_REL) if collective else ("", -1)
     why = str(dec.reason or "") if decision == "undecided" else ""
     if coll == "undecided" and not why:
-        # complex, but only soft pairs certified: what is left undecided
-        bad = [p.reason for p in dec.pairs if not p.certified]
-        why = (f"only soft complex pairs certified; {len(bad)} undecided: "
-               + " | ".join(bad[:3]) if bad else
-               f"only soft complex pairs certified; {dec.reason or 'the scan stopped'}")
+        why = collective_reason(dec)
     return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
                            int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
                            float(dec.confidence), res.max_residual, dict(dec.timing),

@@ -52,8 +52,10 @@ def spectrum(state, basis=None, soft_rel=None):
     lam = np.asarray(dec.eigenvalues, np.complex128)
     lam = lam[np.lexsort((lam.imag, lam.real))]
     code = -1 if dec.complex_present is None else int(bool(dec.complex_present))
+    why = str(dec.reason or "") if code == -1 else ""
     if soft_rel is not None:
-        from remote_trigger.analysis.stability.verdict import collective_decision
+        from remote_trigger.analysis.stability.verdict import (collective_decision,
+                                                               collective_reason)
 
         top = float(np.max(lam.real))
         word = collective_decision(dec, top, soft_rel)[0]
@@ -63,11 +65,13 @@ def spectrum(state, basis=None, soft_rel=None):
             lam = lam[np.lexsort((lam.imag, lam.real))]
             word = collective_decision(dec, float(np.max(lam.real)), soft_rel)[0]
         code = int(Decision.of(word))
+        why = "" if code != -1 else (str(dec.reason or "") if dec.complex_present is None
+                                     else collective_reason(dec))
     n_pairs = sum(1 for p in dec.pairs
                   if p.method != "gershgorin" and p.is_complex and p.certified)
     return {"decision": code, "confidence": float(dec.confidence), "eigenvalues": lam,
             "n_pairs": int(n_pairs), "growth": float(eigen.growth_rate(lam)),
-            "basis": dec.basis, "reason": str(dec.reason or "") if code == -1 else ""}
+            "basis": dec.basis, "reason": why}
 
 
 def read_ramp(h5):
