@@ -192,13 +192,13 @@ def run(args):
         if dec is not None and dec.is_verdict and dec.complex_present:
             # are the complex pairs soft (near-floppy modes; docs/driver.md "Soft pairs")?
             from remote_trigger.analysis.stability import verdict
+
             top = (dec.lambda_max if math.isfinite(dec.scanned_below)
                    else float(lam.real.max()))
             word, soft = verdict.collective_decision(dec, top)
+            answer = {"complex": "yes", "real": "no"}.get(word, word)
             lines.append(f"  soft pairs (|Re lambda| < {verdict.SOFT_MODE_REL:g} lambda_max): "
-                         f"{soft}; "
-                         f"a complex pair that is not soft: "
-                         f"{ {'complex': 'yes', 'real': 'no'}.get(word, word) }")
+                         f"{soft}; a complex pair that is not soft: {answer}")
     if warning:
         lines.append(f"  {warning}")
     lines.append(f"  written: {args.output}")
