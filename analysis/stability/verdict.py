@@ -240,6 +240,25 @@ def collective_decision(dec, lambda_max, soft_rel=None):
     return "undecided", soft
 
 
+def classify_dense(A, basis=None, soft_rel=None):
+    """The dense certified decision of A, from ``basis`` where it certifies.
+
+    ``classify_spectrum(A, basis=basis)``; with ``soft_rel`` (a decision on
+    the pairs that are not soft, :func:`collective_decision`) a decision from
+    the basis that leaves that decision undecided is made again from dgeev
+    (the basis's units can leave a soft neighbour's disc overlapping where
+    dgeev's do not). Returns the
+    :class:`~remote_trigger.analysis.stability.decision.SpectrumDecision`.
+    """
+    from remote_trigger.analysis.stability import exceptional
+
+    dec = exceptional.classify_spectrum(A, basis=basis)
+    if soft_rel is not None and dec.start == "basis" and \
+            collective_decision(dec, _top(dec), soft_rel)[0] == "undecided":
+        dec = exceptional.classify_spectrum(A)
+    return dec
+
+
 def collective_reason(dec):
     """Why :func:`collective_decision` is undecided where the decision is complex:
     the units left undecided (their reasons, the first three), or the
@@ -375,7 +394,7 @@ def stability_of(state, basis=None, stop_at_complex=False, progress=None,
         memory (:func:`check_dense_fits`).
     """
     from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability import eigen, exceptional, jacobian
+    from remote_trigger.analysis.stability import eigen, jacobian
     from remote_trigger.analysis.stability.sliced import classify_sliced
 
     # K, rattlers and residual from analyze(); the dense spectrum and the
@@ -399,11 +418,8 @@ def stability_of(state, basis=None, stop_at_complex=False, progress=None,
         if basis is not None and basis.dofs is not None:
             # other rattlers than at the basis's point: carried over (or None)
             basis = basis.on_dofs(rat.keep_dofs)
-        A = eigen.dynamical_matrix(Kr, mr).toarray()
-        dec = exceptional.classify_spectrum(A, basis=basis)
-        if collective and dec.start == "basis" and collective_decision(
-                dec, _top(dec), SOFT_MODE_REL)[0] == "undecided":
-            dec = exceptional.classify_spectrum(A)
+        dec = classify_dense(eigen.dynamical_matrix(Kr, mr).toarray(), basis,
+                             SOFT_MODE_REL if collective else None)
         if dec.basis is not None:
             dec.basis.dofs = np.asarray(rat.keep_dofs, np.int64).copy()
     if dec.complex_present is None:

@@ -8,7 +8,8 @@ import math
 import os
 
 import numpy as np
-from remote_trigger.analysis.stability.verdict import Decision
+from remote_trigger.analysis.stability.verdict import (Decision, classify_dense,
+                                                       collective_decision, collective_reason)
 
 def spectrum(state, basis=None, soft_rel=None):
     """Certified spectrum of one state (the ramp's dense path).
@@ -39,7 +40,7 @@ def spectrum(state, basis=None, soft_rel=None):
         if there is none), ``reason`` (why, when undecided; else '').
     """
     from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability import eigen, exceptional, jacobian
+    from remote_trigger.analysis.stability import eigen, jacobian
 
     res = analyze(state, eigenvalues=False, decide=False)
     keep = res.rattlers.keep_dofs
@@ -47,23 +48,13 @@ def spectrum(state, basis=None, soft_rel=None):
         return {"decision": 0, "confidence": math.inf, "eigenvalues": np.zeros(0, complex),
                 "n_pairs": 0, "growth": 0.0, "basis": None, "reason": ""}
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)
-    A = eigen.dynamical_matrix(Kr, mr).toarray()
-    dec = exceptional.classify_spectrum(A, basis=basis)
+    dec = classify_dense(eigen.dynamical_matrix(Kr, mr).toarray(), basis, soft_rel)
     lam = np.asarray(dec.eigenvalues, np.complex128)
     lam = lam[np.lexsort((lam.imag, lam.real))]
     code = -1 if dec.complex_present is None else int(bool(dec.complex_present))
     why = str(dec.reason or "") if code == -1 else ""
     if soft_rel is not None:
-        from remote_trigger.analysis.stability.verdict import (collective_decision,
-                                                               collective_reason)
-
-        top = float(np.max(lam.real))
-        word = collective_decision(dec, top, soft_rel)[0]
-        if word == "undecided" and dec.start == "basis":
-            dec = exceptional.classify_spectrum(A)
-            lam = np.asarray(dec.eigenvalues, np.complex128)
-            lam = lam[np.lexsort((lam.imag, lam.real))]
-            word = collective_decision(dec, float(np.max(lam.real)), soft_rel)[0]
+        word = collective_decision(dec, float(np.max(lam.real)), soft_rel)[0]
         code = int(Decision.of(word))
         why = "" if code != -1 else (str(dec.reason or "") if dec.complex_present is None
                                      else collective_reason(dec))
