@@ -246,8 +246,8 @@ def classify_dense(A, basis=None, soft_rel=None):
     ``classify_spectrum(A, basis=basis)``; with ``soft_rel`` (a decision on
     the pairs that are not soft, :func:`collective_decision`) a decision from
     the basis that leaves that decision undecided is made again from dgeev
-    (the basis's units can leave a soft neighbour's disc overlapping where
-    dgeev's do not). Returns the
+    (a decision from a basis leaves more coupling, so wider discs: see
+    ``classify_spectrum``). Returns the
     :class:`~remote_trigger.analysis.stability.decision.SpectrumDecision`.
     """
     from remote_trigger.analysis.stability import exceptional
