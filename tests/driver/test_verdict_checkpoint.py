@@ -31,13 +31,16 @@ class _Killed(Exception):
 
 class _CountScans:
     """Wraps ``sliced._slices``: counts scans and slices; raises _Killed at slice
-    ``kill_at`` (counted over the whole run)."""
+    ``kill_at`` (counted over the whole run). ``firsts``: the numbers of the
+    slices that began a scan."""
 
     def __init__(self, kill_at=None):
         self.scans, self.slices, self.kill_at = 0, 0, kill_at
+        self.firsts = set()
 
     def __call__(self, *args, **kwargs):
         self.scans += 1
+        self.firsts.add(self.slices + 1)
         for sl in _SLICES(*args, **kwargs):
             self.slices += 1
             if self.slices == self.kill_at:
@@ -75,8 +78,13 @@ def test_a_ramp_killed_inside_a_scan_resumes_it_bitwise(sliced_refs, tmp_path, m
     assert ref_count.scans == npts and ref_count.slices > 2 * npts
     _sliced_small(monkeypatch)
     monkeypatch.setattr(sliced, "CHECKPOINT_SECONDS", 0.0)
-    # killed halfway through the ramp's slices, inside a scan
-    killer = _CountScans(kill_at=ref_count.slices // 2)
+    # killed halfway through the ramp's slices, inside a scan: at a slice
+    # that is not a scan's first, so that the scan has saved its state (how
+    # many slices each scan takes depends on the BLAS's rounding, so the
+    # slice is chosen from the reference run's count)
+    kill_at = next(k for k in range(ref_count.slices // 2, ref_count.slices + 1)
+                   if k not in ref_count.firsts)
+    killer = _CountScans(kill_at=kill_at)
     monkeypatch.setattr(sliced, "_slices", killer)
     with pytest.raises(_Killed):
         stages.ramp(cfg, str(tmp_path), quiet=True)
