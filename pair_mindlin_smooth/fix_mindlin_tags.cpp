@@ -105,13 +105,20 @@ void FixMindlinTags::unpack_restart(int nlocal, int nth)
    read from a data file) by its present ID is kept as it is.
 ------------------------------------------------------------------------- */
 
-void FixMindlinTags::follow_new_ids(int **partner, double **t[], int nt, int ncol)
+int FixMindlinTags::follow_new_ids(int **partner, double **t[], int nt, int ncol)
 {
   const int nlocal = atom->nlocal;
   const tagint *tag = atom->tag;
-  int changed = 0;
-  for (int i = 0; i < nlocal; i++)
+  int changed = 0, unrecorded_rows = 0;
+  for (int i = 0; i < nlocal; i++) {
     if (previous[i] != 0 && previous[i] != tag[i]) changed = 1;
+    if (previous[i] == 0)
+      for (int k = 0; k < ncol; k++)
+        if (partner[i][k] != 0) {
+          unrecorded_rows++;
+          break;
+        }
+  }
   int any = 0;
   MPI_Allreduce(&changed, &any, 1, MPI_INT, MPI_MAX, world);
   if (any) {
@@ -186,6 +193,7 @@ void FixMindlinTags::follow_new_ids(int **partner, double **t[], int nt, int nco
     }
   }
   for (int i = 0; i < nlocal; i++) previous[i] = tag[i];
+  return unrecorded_rows;
 }
 
 double FixMindlinTags::memory_usage()

@@ -29,6 +29,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <unordered_set>
+#include <vector>
 
 using namespace LAMMPS_NS;
 using MindlinSmooth::find_slot;
@@ -43,7 +45,7 @@ static const char *const HISTORY_T = FixMindlinHistory::T_2D;
 PairMindlinSmooth::PairMindlinSmooth(LAMMPS *lmp) :
     Pair(lmp), kn(nullptr), kt(nullptr), mu(nullptr), maxrad(nullptr), ncol(0),
     idx_partner(-1), idx_t(-1), idx_t3{-1, -1, -1}, ordered3_list(nullptr),
-    ordered3_inum(-1), ordered3_nlocal(-1), history(nullptr), tags(nullptr), packed3(false)
+    ordered3_inum(-1), ordered3_nlocal(-1), history(nullptr), tags(nullptr), packed3(false), check_rows(false)
 {
   single_enable = 1;
   restartinfo = 1;
@@ -167,7 +169,83 @@ void PairMindlinSmooth::setup_history()
   double **t[3] = {nullptr, nullptr, nullptr};
   const int nt = (domain->dimension == 3) ? 3 : 1;
   for (int c = 0; c < nt; c++) t[c] = atom->darray[(nt == 3) ? idx_t3[c] : idx_t];
-  tags->follow_new_ids(atom->iarray[idx_partner], t, nt, ncol);
+  const int unrecorded = tags->follow_new_ids(atom->iarray[idx_partner], t, nt, ncol);
+  int any = 0;
+  MPI_Allreduce(&unrecorded, &any, 1, MPI_INT, MPI_MAX, world);
+  check_rows = (any > 0);
+}
+
+/* ----------------------------------------------------------------------
+   A history that no record follows (read from a data file, or set by a
+   driver, since the last run) names partners by the IDs it was written
+   with.  If delete_atoms (compress yes), reset_atoms id or replicate gave
+   atoms other IDs in between, its entries name other atoms, which are
+   mostly far away: the first run would drop those contacts' tangential
+   displacement, or give it to the wrong pair, silently.  At that run's
+   setup (ghosts and neighbour list built) every entry is looked up among
+   the atom's neighbours within reach of contact (overlap, or the touching
+   band); the entries naming an atom that exists but is not there are
+   counted, and a warning says how many.  (A partner deleted with
+   compress no names no atom and is dropped, as always, without warning.
+   An entry renamed onto an atom that happens to touch is not seen.)
+------------------------------------------------------------------------- */
+
+void PairMindlinSmooth::setup()
+{
+  if (!check_rows) return;
+  check_rows = false;
+  find_history();
+  int **partner = atom->iarray[idx_partner];
+  double **x = atom->x;
+  const double *radius = atom->radius;
+  const tagint *tag = atom->tag;
+  const double tbase = touch_base(domain);
+
+  // entries whose partner is not among the neighbours within reach
+  std::vector<tagint> away;
+  for (int ii = 0; ii < list->inum; ii++) {
+    const int i = list->ilist[ii];
+    const int *jlist = list->firstneigh[i];
+    const int jnum = list->numneigh[i];
+    for (int k = 0; k < ncol; k++) {
+      const tagint p = partner[i][k];
+      if (p == 0) continue;
+      bool near = false;
+      for (int jj = 0; jj < jnum && !near; jj++) {
+        const int j = jlist[jj] & NEIGHMASK;
+        if (tag[j] != p) continue;
+        const double dx = x[i][0] - x[j][0], dy = x[i][1] - x[j][1], dz = x[i][2] - x[j][2];
+        const double radsum = radius[i] + radius[j];
+        const double rmax = radsum + touch_band(tbase, radsum);
+        near = (dx * dx + dy * dy + dz * dz < rmax * rmax);
+      }
+      if (!near) away.push_back(p);
+    }
+  }
+
+  // of those, the ones that name an atom that exists (on any rank)
+  int n = (int) away.size();
+  std::vector<int> counts(comm->nprocs), offsets(comm->nprocs, 0);
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
+  for (int q = 1; q < comm->nprocs; q++) offsets[q] = offsets[q - 1] + counts[q - 1];
+  const int total = offsets.back() + counts.back();
+  if (total == 0) return;
+  std::vector<tagint> all(total);
+  MPI_Allgatherv(away.data(), n, MPI_LMP_TAGINT, all.data(), counts.data(), offsets.data(),
+                 MPI_LMP_TAGINT, world);
+  std::unordered_set<tagint> owned(tag, tag + atom->nlocal);
+  bigint mine = 0, existing = 0;
+  for (tagint p : all)
+    if (owned.count(p)) mine++;
+  MPI_Allreduce(&mine, &existing, 1, MPI_LMP_BIGINT, MPI_SUM, world);
+  if (existing > 0 && comm->me == 0)
+    error->warning(FLERR,
+                   "Pair style mindlin/smooth: {} contact-history entries name an atom that "
+                   "exists but is not in contact; their tangential displacement is dropped. "
+                   "Were atom IDs changed after the history was read (delete_atoms with "
+                   "compress yes, reset_atoms id, replicate)? Before the first run that is "
+                   "not followed: delete with compress no, or after a run",
+                   existing);
 }
 
 void PairMindlinSmooth::find_history()

@@ -33,6 +33,7 @@ class PairMindlinSmooth : public Pair {
   void settings(int, char **) override;
   void coeff(int, char **) override;
   void init_style() override;
+  void setup() override;
   double init_one(int, int) override;
   double single(int, int, int, int, double, double, double, double &) override;
   void *extract(const char *, int &) override;
@@ -111,6 +112,7 @@ class PairMindlinSmooth : public Pair {
                                        // a fix property/atom holds the arrays
   class FixMindlinTags *tags;          // each atom's ID at the last run's start
   bool packed3;    // 3d: history slots past the first empty one are known to be zero
+  bool check_rows;    // setup(): look for history entries that name distant atoms
 
   void allocate();
   void find_history();

@@ -27,12 +27,21 @@ BOX_3D = ["units lj", "atom_style sphere", "atom_modify map array", "boundary p 
           "comm_modify vel yes", "region box block 0 12 0 12 0 12", "create_box 2 box"]
 
 
-def cluster(lmp, dim, hist_fix, nsmall=14, seed=5):
+#: the same in fix property/atom sections that LAMMPS reads back from a data
+#: file (one array per section, rows short enough for read_data)
+HIST_DATA = {2: ["fix hist all property/atom i2_mindlin_partner 8 d2_mindlin_t 8 "
+                 "d_mindlin_wall_t ghost no"],
+             3: ["fix hist all property/atom i2_mindlin_partner 8 ghost no"]
+             + [f"fix hist{c} all property/atom d2_mindlin_t{c} 8 ghost no" for c in "xyz"]}
+
+
+def cluster(lmp, dim, hist_fix, nsmall=14, seed=5, hist=None):
     """A big particle with nsmall small ones around it, each overlapping it a
-    little, with random velocities: every contact builds a history."""
+    little, with random velocities: every contact builds a history (in the
+    fix property/atom of ``HIST``, or the commands ``hist``, if hist_fix)."""
     lmp.commands_list(BOX_2D if dim == 2 else BOX_3D)
     if hist_fix:
-        lmp.command(HIST[dim])
+        lmp.commands_list(hist or [HIST[dim]])
     c = np.full(dim, 6.0)
     rbig, rsmall = 2.0, 0.4
     d = rbig + rsmall - 0.004
@@ -135,3 +144,47 @@ def test_history_follows_reset_atoms_id():
     scale = np.abs(out[0][1]).max()
     np.testing.assert_allclose(out[1][1], out[0][1], rtol=0, atol=1e-12 * scale)
     np.testing.assert_allclose(out[1][2], out[0][2], rtol=0, atol=1e-12 * scale)
+
+
+def _read_after(tmp_path, dim, datafile, between, name):
+    """A new LAMMPS reads ``datafile`` with its history, runs the commands
+    ``between``, then run 0; returns its log."""
+    log = tmp_path / f"log.{name}"
+    lmp = new_lammps(log=str(log))
+    lmp.commands_list(["units lj", "atom_style sphere", "atom_modify map array",
+                       "boundary p p p", "comm_modify vel yes"]
+                      + (["dimension 2"] if dim == 2 else [])
+                      + HIST_DATA[dim]
+                      + [f"read_data {datafile} "
+                         + " ".join(f"fix {c.split()[1]} NULL {c.split()[1]}"
+                                    for c in HIST_DATA[dim])]
+                      + between
+                      + ["pair_style mindlin/smooth", f"pair_coeff * * {KN!r} {KT!r} 1.0",
+                         "run 0"])
+    lmp.close()
+    return log.read_text()
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_new_ids_before_the_first_run_are_reported(tmp_path, dim):
+    """A history read from a data file has no record of the IDs it names, so
+    delete_atoms (compress yes) before the first run cannot be followed: its
+    entries then name other atoms, mostly far away. The run's setup counts
+    the entries that name an atom that exists but is not in contact and
+    warns; compress no (the deleted partners name no atom) and no deletion
+    give no warning."""
+    lmp = new_lammps()
+    cluster(lmp, dim, True, nsmall=6, hist=HIST_DATA[dim])
+    lmp.command("run 300")
+    datafile = tmp_path / "c.data"
+    lmp.command(f"write_data {datafile} nocoeff")
+    lmp.close()
+    warning = "contact-history entries name an atom that exists but is not in contact"
+    delete = ["group gone id 2 3 4", "delete_atoms group gone compress {}"]
+    assert warning not in _read_after(tmp_path, dim, datafile, [], "none")
+    assert warning not in _read_after(tmp_path, dim, datafile,
+                                      [c.format("no") for c in delete], "no")
+    log = _read_after(tmp_path, dim, datafile, [c.format("yes") for c in delete], "yes")
+    line, = [ln for ln in log.splitlines() if warning in ln]
+    assert line.startswith("WARNING: Pair style mindlin/smooth: ") and "compress no" in line
+    assert int(line.split("mindlin/smooth: ")[1].split()[0]) > 0
