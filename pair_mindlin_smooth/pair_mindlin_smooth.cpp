@@ -179,15 +179,17 @@ void PairMindlinSmooth::setup_history()
    A history that no record follows (read from a data file, or set by a
    driver, since the last run) names partners by the IDs it was written
    with.  If delete_atoms (compress yes), reset_atoms id or replicate gave
-   atoms other IDs in between, its entries name other atoms, which are
-   mostly far away: the first run would drop those contacts' tangential
-   displacement, or give it to the wrong pair, silently.  At that run's
-   setup (ghosts and neighbour list built) every entry is looked up among
-   the atom's neighbours within reach of contact (overlap, or the touching
-   band); the entries naming an atom that exists but is not there are
-   counted, and a warning says how many.  (A partner deleted with
-   compress no names no atom and is dropped, as always, without warning.
-   An entry renamed onto an atom that happens to touch is not seen.)
+   atoms other IDs in between, its entries name other atoms, mostly far
+   away: the first run would drop those contacts' tangential displacement,
+   or give it to the wrong pair, silently.  At that run's setup (ghosts and
+   neighbour list built) every entry is looked up among its atom's
+   neighbours; the entries naming an atom that exists but is not among
+   them (farther than the neighbour cutoff, skin included) are counted,
+   and a warning says how many.  A contact that opened by a small move
+   (a driver's Newton step before its first run) keeps its partner in the
+   list and is not counted.  (A partner deleted with compress no names no
+   atom and is dropped, as always, without warning.  An entry renamed onto
+   a neighbour is not seen.)
 ------------------------------------------------------------------------- */
 
 void PairMindlinSmooth::setup()
@@ -196,12 +198,9 @@ void PairMindlinSmooth::setup()
   check_rows = false;
   find_history();
   int **partner = atom->iarray[idx_partner];
-  double **x = atom->x;
-  const double *radius = atom->radius;
   const tagint *tag = atom->tag;
-  const double tbase = touch_base(domain);
 
-  // entries whose partner is not among the neighbours within reach
+  // entries whose partner is not among the atom's neighbours
   std::vector<tagint> away;
   for (int ii = 0; ii < list->inum; ii++) {
     const int i = list->ilist[ii];
@@ -210,16 +209,9 @@ void PairMindlinSmooth::setup()
     for (int k = 0; k < ncol; k++) {
       const tagint p = partner[i][k];
       if (p == 0) continue;
-      bool near = false;
-      for (int jj = 0; jj < jnum && !near; jj++) {
-        const int j = jlist[jj] & NEIGHMASK;
-        if (tag[j] != p) continue;
-        const double dx = x[i][0] - x[j][0], dy = x[i][1] - x[j][1], dz = x[i][2] - x[j][2];
-        const double radsum = radius[i] + radius[j];
-        const double rmax = radsum + touch_band(tbase, radsum);
-        near = (dx * dx + dy * dy + dz * dz < rmax * rmax);
-      }
-      if (!near) away.push_back(p);
+      bool listed = false;
+      for (int jj = 0; jj < jnum && !listed; jj++) listed = (tag[jlist[jj] & NEIGHMASK] == p);
+      if (!listed) away.push_back(p);
     }
   }
 
@@ -241,7 +233,7 @@ void PairMindlinSmooth::setup()
   if (existing > 0 && comm->me == 0)
     error->warning(FLERR,
                    "Pair style mindlin/smooth: {} contact-history entries name an atom that "
-                   "exists but is not in contact; their tangential displacement is dropped. "
+                   "exists but is not a neighbour; their tangential displacement is dropped. "
                    "Were atom IDs changed after the history was read (delete_atoms with "
                    "compress yes, reset_atoms id, replicate)? Before the first run that is "
                    "not followed: delete with compress no, or after a run",

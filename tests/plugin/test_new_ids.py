@@ -179,7 +179,7 @@ def test_new_ids_before_the_first_run_are_reported(tmp_path, dim):
     datafile = tmp_path / "c.data"
     lmp.command(f"write_data {datafile} nocoeff")
     lmp.close()
-    warning = "contact-history entries name an atom that exists but is not in contact"
+    warning = "contact-history entries name an atom that exists but is not a neighbour"
     delete = ["group gone id 2 3 4", "delete_atoms group gone compress {}"]
     assert warning not in _read_after(tmp_path, dim, datafile, [], "none")
     assert warning not in _read_after(tmp_path, dim, datafile,
