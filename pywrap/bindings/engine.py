@@ -364,7 +364,23 @@ class Engine:
         self.commands(parts[section])
 
     def run(self, nsteps, pre=True, post=False):
-        """``run nsteps`` (``pre no`` skips the setup when nothing changed)."""
+        """``run nsteps`` (``pre no`` skips the setup when nothing changed).
+
+        The first run with a setup after a scene is loaded defines an
+        integrator of no atom (``fix rt_no_atoms``: ``fix nve`` on the
+        empty group ``rt_no_atoms``), which stays and integrates and moves
+        nothing: the driver's force evaluations (``run 0``, and the Newton
+        steps' ``run 1``, which advance the history with the atoms held)
+        have no integrator on purpose, and LAMMPS would warn "No fixes with
+        time integration" at each, hundreds of times a ramp, then stop
+        printing warnings after 100, the real ones too. (Defined once and
+        kept, not around each run: ``pre no`` runs keep the fix lists of
+        the last setup.)
+        """
+        if pre and not self.lmp.has_id("fix", "rt_no_atoms"):
+            if not self.lmp.has_id("group", "rt_no_atoms"):
+                self.command("group rt_no_atoms empty")
+            self.command("fix rt_no_atoms rt_no_atoms nve")
         self.command(f"run {int(nsteps)} pre {'yes' if pre else 'no'} "
                      f"post {'yes' if post else 'no'}")
 

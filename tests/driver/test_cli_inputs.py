@@ -119,3 +119,18 @@ def test_a_refusal_leaves_no_empty_out_folder(capsys, relaxed, tmp_path):
         assert status == 2 and "stability limit" in err
     assert sorted(os.listdir(tmp_path)) == ["kept", "old"]
     assert os.listdir(tmp_path / "old") == [] and os.listdir(tmp_path / "kept") == ["note.txt"]
+
+
+def test_a_ramps_log_holds_no_warning_of_its_force_evaluations(capsys, relaxed, tmp_path):
+    """The driver's force evaluations run with no integrator on purpose; they
+    leave no "No fixes with time integration" warning in the LAMMPS log
+    (there were hundreds a ramp, and LAMMPS prints no warning after 100), and
+    a ramp's log holds no warning at all."""
+    log = tmp_path / "ramp.log"
+    status, _, _ = run_cli(capsys, "ramp", "--datafile", relaxed.datafile, "--out",
+                           tmp_path / "r", "--dF-x", "0.01", "--set", "F_x_max=0.03",
+                           "--log", log)
+    assert status in (0, 1)     # 1: no complex pair up to F_x_max (no result)
+    text = log.read_text()
+    assert text.count("\nrun ") > 20
+    assert "WARNING" not in text
