@@ -45,7 +45,8 @@ static const char *const HISTORY_T = FixMindlinHistory::T_2D;
 PairMindlinSmooth::PairMindlinSmooth(LAMMPS *lmp) :
     Pair(lmp), kn(nullptr), kt(nullptr), mu(nullptr), maxrad(nullptr), ncol(0),
     idx_partner(-1), idx_t(-1), idx_t3{-1, -1, -1}, ordered3_list(nullptr),
-    ordered3_inum(-1), ordered3_nlocal(-1), history(nullptr), tags(nullptr), packed3(false), check_rows(false)
+    ordered3_inum(-1), ordered3_nlocal(-1), history(nullptr), tags(nullptr), packed3(false),
+    check_rows(false)
 {
   single_enable = 1;
   restartinfo = 1;

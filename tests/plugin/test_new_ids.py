@@ -170,7 +170,7 @@ def test_new_ids_before_the_first_run_are_reported(tmp_path, dim):
     """A history read from a data file has no record of the IDs it names, so
     delete_atoms (compress yes) before the first run cannot be followed: its
     entries then name other atoms, mostly far away. The run's setup counts
-    the entries that name an atom that exists but is not in contact and
+    the entries that name an atom that exists but is not a neighbour and
     warns; compress no (the deleted partners name no atom) and no deletion
     give no warning."""
     lmp = new_lammps()
