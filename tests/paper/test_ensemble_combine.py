@@ -216,3 +216,27 @@ def test_runs_of_per_size_steps_combine_per_size(tmp_path):
         combine_runs([a, e], str(tmp_path / "o"))
     assert not (tmp_path / "o").exists()
 
+
+
+def test_the_figures_legend_names_soft_onsets_once(tmp_path, monkeypatch):
+    """The F_x^c-against-N panel marks every soft-mode onset and names them
+    once (it named them once a size): the rows of the kept N = 100-1600 run
+    (one soft onset, at N = 400) with one N = 100 row marked soft besides."""
+    from remote_trigger.pywrap.jobs.ensemble import figure, job
+
+    runs = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "results", "runs")
+    got = []
+    monkeypatch.setattr(job, "plot", lambda path, rows, cfg, fits=None: got.append((rows, cfg)))
+    combine_runs([os.path.join(runs, "N100_1600"), os.path.join(runs, "N6400_escape")],
+                 str(tmp_path / "both"))
+    (rows, cfg), = got
+    first = next(r for r in rows if r["n"] == 100 and np.isfinite(r["F_x_c"]))
+    rows = [dict(r, soft_onset=1) if r is first else r for r in rows]
+    seen = []
+    monkeypatch.setattr(figure, "savefig_atomic", lambda fig, path, **kw: seen.append(fig))
+    figure.plot(str(tmp_path / "f.png"), rows, cfg)
+    fig, = seen
+    _, labels = fig.axes[2].get_legend_handles_labels()
+    assert labels.count("soft-mode onset") == 1
+    marks = [ln for ln in fig.axes[2].get_lines() if ln.get_marker() == "x"]
+    assert sorted(float(ln.get_xdata()[0]) for ln in marks) == [100.0, 400.0]

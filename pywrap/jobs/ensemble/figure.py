@@ -61,6 +61,7 @@ def plot(path, rows, cfg, fits=None):
     ax[1].set_xlabel(f"F_x^c(mu_ss mu0) / F_x^c(mu0), mu_ss = {cfg.mu_ss:g}")
     if ax[1].get_legend_handles_labels()[0]:     # no usable packing: no legend
         ax[1].legend(fontsize=7)
+    soft_label = "soft-mode onset"      # in the legend once, not once a size
     for j, I0 in enumerate(convs):
         for n in cfg.n:
             x = [r["F_x_c"] for r in select(rows, ft, I0, n) if math.isfinite(r["F_x_c"])]
@@ -72,7 +73,9 @@ def plot(path, rows, cfg, fits=None):
                     if math.isfinite(r["F_x_c"]) and r["soft_onset"] == 1]
             if soft:
                 ax[2].plot([n * shift] * len(soft), soft, "x", color=colors[j], ms=7,
-                           label="soft-mode onset" if j == 0 else None)
+                           label=soft_label if j == 0 else None)
+                if j == 0:
+                    soft_label = None
             c, q1, m, q3 = quartiles(x)
             ax[2].errorbar([n * shift], [m], yerr=[[m - q1], [q3 - m]], fmt="o",
                            color=colors[j], capsize=4,
