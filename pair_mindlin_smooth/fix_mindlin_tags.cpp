@@ -105,36 +105,27 @@ void FixMindlinTags::unpack_restart(int nlocal, int nth)
    read from a data file) by its present ID is kept as it is.
 ------------------------------------------------------------------------- */
 
-int FixMindlinTags::follow_new_ids(int **partner, double **t[], int nt, int ncol)
+bool FixMindlinTags::follow_new_ids(int **partner, double **t[], int nt, int ncol)
 {
   const int nlocal = atom->nlocal;
   const tagint *tag = atom->tag;
-  int changed = 0, unrecorded_rows = 0;
+  // [0]: an ID changed since its record; [1]: an atom with no record has
+  // history entries (one reduction for both)
+  int flags[2] = {0, 0}, any[2] = {0, 0};
   for (int i = 0; i < nlocal; i++) {
-    if (previous[i] != 0 && previous[i] != tag[i]) changed = 1;
+    if (previous[i] != 0 && previous[i] != tag[i]) flags[0] = 1;
     if (previous[i] == 0)
-      for (int k = 0; k < ncol; k++)
-        if (partner[i][k] != 0) {
-          unrecorded_rows++;
-          break;
-        }
+      for (int k = 0; k < ncol && !flags[1]; k++) flags[1] = (partner[i][k] != 0);
   }
-  int any = 0;
-  MPI_Allreduce(&changed, &any, 1, MPI_INT, MPI_MAX, world);
-  if (any) {
+  MPI_Allreduce(flags, any, 2, MPI_INT, MPI_MAX, world);
+  if (any[0]) {
     // every (old, new) pair on every rank; old = 0 for an atom with no record
     std::vector<tagint> mine(2 * (size_t) nlocal);
     for (int i = 0; i < nlocal; i++) {
       mine[2 * i] = previous[i];
       mine[2 * i + 1] = tag[i];
     }
-    const int n = 2 * nlocal;
-    std::vector<int> counts(comm->nprocs), offsets(comm->nprocs, 0);
-    MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
-    for (int p = 1; p < comm->nprocs; p++) offsets[p] = offsets[p - 1] + counts[p - 1];
-    std::vector<tagint> all((size_t) offsets.back() + counts.back());
-    MPI_Allgatherv(mine.data(), n, MPI_LMP_TAGINT, all.data(), counts.data(), offsets.data(),
-                   MPI_LMP_TAGINT, world);
+    const std::vector<tagint> all = everyones(mine);
     // old -> new (0: the old ID of several atoms); an atom with no record
     // keeps the ID the history may name it by
     std::unordered_map<tagint, tagint> renamed;
@@ -193,7 +184,21 @@ int FixMindlinTags::follow_new_ids(int **partner, double **t[], int nt, int ncol
     }
   }
   for (int i = 0; i < nlocal; i++) previous[i] = tag[i];
-  return unrecorded_rows;
+  return any[1] != 0;
+}
+
+/* the concatenation, in rank order, of every rank's ``mine`` (collective) */
+
+std::vector<tagint> FixMindlinTags::everyones(const std::vector<tagint> &mine)
+{
+  const int n = (int) mine.size();
+  std::vector<int> counts(comm->nprocs), offsets(comm->nprocs, 0);
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
+  for (int p = 1; p < comm->nprocs; p++) offsets[p] = offsets[p - 1] + counts[p - 1];
+  std::vector<tagint> all((size_t) offsets.back() + counts.back());
+  MPI_Allgatherv(mine.data(), n, MPI_LMP_TAGINT, all.data(), counts.data(), offsets.data(),
+                 MPI_LMP_TAGINT, world);
+  return all;
 }
 
 double FixMindlinTags::memory_usage()

@@ -17,6 +17,8 @@
 
 #include "fix.h"
 
+#include <vector>
+
 namespace LAMMPS_NS {
 
 class FixMindlinTags : public Fix {
@@ -42,11 +44,14 @@ class FixMindlinTags : public Fix {
   // Make the history rows of the owned atoms name their partners by the
   // new IDs, if any atom's ID changed since the records were made; then
   // record the present IDs (every rank calls it).  partner: the rows of
-  // partner IDs, t: nt arrays of rows of t, ncol slots per row.  Returns
-  // the number of owned atoms that had no record and a history entry (a
-  // history read from a data file or set by a driver, which no record
-  // can make follow new IDs).
-  int follow_new_ids(int **partner, double **t[], int nt, int ncol);
+  // partner IDs, t: nt arrays of rows of t, ncol slots per row.  Returns,
+  // on every rank, whether an atom with no record had history entries (a
+  // history read from a data file or set by a driver, which no record can
+  // make follow new IDs).
+  bool follow_new_ids(int **partner, double **t[], int nt, int ncol);
+
+  // every rank's tags, concatenated in rank order (every rank calls it)
+  std::vector<tagint> everyones(const std::vector<tagint> &mine);
 
   tagint *previous;    // per atom: its ID at the start of the last run, 0 if none
 

@@ -170,10 +170,7 @@ void PairMindlinSmooth::setup_history()
   double **t[3] = {nullptr, nullptr, nullptr};
   const int nt = (domain->dimension == 3) ? 3 : 1;
   for (int c = 0; c < nt; c++) t[c] = atom->darray[(nt == 3) ? idx_t3[c] : idx_t];
-  const int unrecorded = tags->follow_new_ids(atom->iarray[idx_partner], t, nt, ncol);
-  int any = 0;
-  MPI_Allreduce(&unrecorded, &any, 1, MPI_INT, MPI_MAX, world);
-  check_rows = (any > 0);
+  check_rows = tags->follow_new_ids(atom->iarray[idx_partner], t, nt, ncol);
 }
 
 /* ----------------------------------------------------------------------
@@ -217,15 +214,8 @@ void PairMindlinSmooth::setup()
   }
 
   // of those, the ones that name an atom that exists (on any rank)
-  int n = (int) away.size();
-  std::vector<int> counts(comm->nprocs), offsets(comm->nprocs, 0);
-  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
-  for (int q = 1; q < comm->nprocs; q++) offsets[q] = offsets[q - 1] + counts[q - 1];
-  const int total = offsets.back() + counts.back();
-  if (total == 0) return;
-  std::vector<tagint> all(total);
-  MPI_Allgatherv(away.data(), n, MPI_LMP_TAGINT, all.data(), counts.data(), offsets.data(),
-                 MPI_LMP_TAGINT, world);
+  const std::vector<tagint> all = tags->everyones(away);
+  if (all.empty()) return;
   std::unordered_set<tagint> owned(tag, tag + atom->nlocal);
   bigint mine = 0, existing = 0;
   for (tagint p : all)
