@@ -18,8 +18,9 @@ import numpy as np
 
 __all__ = ["CHECKPOINT_FORMAT", "scan_key", "load", "save", "saved_scans", "sha", "restore_ritz"]
 
-#: checkpoint format; a file of another format (or code) is not resumed
-CHECKPOINT_FORMAT = 3
+#: checkpoint format; a file of another format (or code) is not resumed (4: the
+#: buffer's class and pickled state, and slices whose bits differ from those of 3)
+CHECKPOINT_FORMAT = 4
 
 
 def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None):
@@ -111,8 +112,8 @@ def sha(a):
 def restore_ritz(sc, slices):
     """Put the Ritz vectors back into a scan loaded from its checkpoint.
 
-    The saved buffer (``sliced._Buffer``) has no vectors, only their shape and
-    :func:`sha`. Its slices are computed again from the position saved before
+    The saved buffer (``ritz_buffer.RitzBuffer``) has no vectors, only their
+    shape and :func:`sha`. Its slices are computed again from the position saved before
     the first of them (``sc.starts``) by ``slices(position)``, the slicing's
     generator with statistics of its own (the scan's are those of the
     uninterrupted scan already). The slicing is deterministic, so they are

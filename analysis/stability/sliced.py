@@ -109,6 +109,7 @@ from remote_trigger.analysis.stability.slicing import (
     _INFLATE, SlicedStats, _Fail, _arpack_hint, _norm1, _norm2_skew, _slices, _start,
     top_eigenvalue)
 from remote_trigger.analysis.stability import scan_state
+from remote_trigger.analysis.stability.ritz_buffer import RitzBuffer
 from remote_trigger.analysis.stability.strips import _Ctx, _coupling, _decide_strip
 
 __all__ = ["classify_sliced", "SlicedStats", "CHECKPOINT_SECONDS"]
@@ -129,89 +130,6 @@ _SLICE_SIZE = 60
 #: Ritz vector: a resume computes the buffer's slices again), a scan there
 #: takes 5-45 min (docs/results/analysis.md, "Checkpoint of a sliced scan")
 CHECKPOINT_SECONDS = 300.0
-
-
-# --------------------------------------------------------------------------- buffer
-class _Buffer:
-    """The Ritz pairs of the slices in memory: values, residuals, vectors, Q^T W Q
-    (skew), ||W q_i||, and the norms of the overlaps Q_i^T Q_j of different
-    slices. W Q itself is not kept (as many columns of n as Q): a strip's
-    W Q_I is computed where it is needed, column for column the same numbers.
-
-    Pickled (a scan's checkpoint) without Q, its only array of n rows: the
-    sha256 of Q's bytes and its shape are saved instead, and a resumed scan
-    computes the buffer's slices again (:func:`.scan_state.restore_ritz`)."""
-
-    def __init__(self, n):
-        self.th = np.zeros(0)
-        self.rs = np.zeros(0)
-        self.sid = np.zeros(0, int)
-        self.Q = np.zeros((n, 0))
-        self.Wn = np.zeros((0, 0))
-        self.wqn = np.zeros(0)   # ||W q_i||
-        self.phis = {}          # slice id -> phi
-        self.radii = {}         # slice id -> Kahan radius
-        self.cross = {}         # (i, j), i < j -> ||Q_i^T Q_j||_F
-        self.edges = []         # (id, lo, hi)
-
-    def __getstate__(self):
-        state = self.__dict__.copy()
-        if self.Q is not None:      # (None: a loaded state, its vectors not restored)
-            state.update(Q=None, q_shape=self.Q.shape, q_sha=scan_state.sha(self.Q))
-        return state
-
-    def add(self, sl, sid):
-        C = self.Q.T @ sl.WQ
-        D = sl.Q.T @ sl.WQ
-        for j in np.unique(self.sid):
-            self.cross[(int(j), sid)] = float(np.linalg.norm(self.Q[:, self.sid == j].T @ sl.Q))
-        self.Wn = np.block([[self.Wn, C], [-C.T, D]])
-        self.Q = np.hstack([self.Q, sl.Q])
-        self.th = np.concatenate([self.th, sl.theta])
-        self.wqn = np.concatenate([self.wqn, np.linalg.norm(sl.WQ, axis=0)])
-        self.rs = np.concatenate([self.rs, sl.resid])
-        self.sid = np.concatenate([self.sid, np.full(sl.theta.size, sid)])
-        self.phis[sid] = sl.phi
-        self.radii[sid] = sl.radius
-        self.edges.append((sid, sl.lo, sl.hi))
-
-    def drop_below(self, x):
-        """Forget the slices whose upper edge is below x (keep at least one)."""
-        gone = [e for e in self.edges[:-1] if e[2] < x]
-        if not gone:
-            return
-        keep = ~np.isin(self.sid, [e[0] for e in gone])
-        self.th, self.rs, self.sid = self.th[keep], self.rs[keep], self.sid[keep]
-        self.wqn = self.wqn[keep]
-        self.Q = self.Q[:, keep]
-        self.Wn = self.Wn[np.ix_(keep, keep)]
-        self.edges = self.edges[len(gone):]
-        ids = {e[0] for e in self.edges}
-        self.phis = {i: v for i, v in self.phis.items() if i in ids}
-        self.radii = {i: v for i, v in self.radii.items() if i in ids}
-        self.cross = {ij: v for ij, v in self.cross.items() if ij[0] in ids and ij[1] in ids}
-
-    @property
-    def radius(self):
-        """Largest Kahan radius of the slices in the buffer: each eigenvalue of S
-        matched to a Ritz value here lies within it of that value (those of the
-        slices dropped lie below ``lo``)."""
-        return max(self.radii[e[0]] for e in self.edges) if self.edges else 0.0
-
-    @property
-    def lo(self):
-        return self.edges[0][1]
-
-    @property
-    def hi(self):
-        return self.edges[-1][2]
-
-    def phi(self, idx):
-        """Bound of ||Q_N^T Q_N - I||_2 for the Ritz vectors idx (their slices' overlaps)."""
-        used = sorted(set(int(i) for i in self.sid[idx]))
-        tot = sum(self.phis[i] ** 2 for i in used)
-        tot += 2 * sum(self.cross[(i, j)] ** 2 for i in used for j in used if i < j)
-        return math.sqrt(tot) * _INFLATE
 
 
 # --------------------------------------------------------------------------- the verdict
@@ -249,7 +167,7 @@ class _Scan:
     def __init__(self, n, pos, stats):
         self.pos = pos
         self.stats = stats
-        self.buf = _Buffer(n)
+        self.buf = RitzBuffer(n)
         self.pairs, self.lam = [], []
         self.certified = [pos.x]        # certified boundaries
         self.cert_count = [0]           # Ritz values below each

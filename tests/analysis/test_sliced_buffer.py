@@ -1,0 +1,97 @@
+"""The sliced verdict's bookkeeping: the buffer of Ritz vectors (slices added
+and dropped without copying the others) and the shift-invert factorizations
+made with the counting's ordering (analysis.stability.sliced, .slicing)."""
+import pickle
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from remote_trigger.analysis.stability import scan_state
+from remote_trigger.analysis.stability.ritz_buffer import RitzBuffer
+from remote_trigger.analysis.stability.slicing import _Slice
+
+
+def _slice(rng, n, k, lo, W):
+    Q = np.linalg.qr(rng.standard_normal((n, k)))[0]
+    theta = lo + np.sort(rng.uniform(0.1, 0.9, k))
+    return _Slice(lo, lo + 1.0, theta, Q, W @ Q, 1e-9, np.full(k, 1e-10), 1e-15)
+
+
+def test_the_buffer_keeps_its_slices_through_growth_and_drops():
+    """Slices of 3-9 vectors added and the oldest dropped, many times over (the
+    store fills, moves its vectors to its start, and grows): Q is always the
+    kept slices' vectors side by side, Q^T W Q, ||W q||, the overlaps and the
+    values are those computed from them anew, and a pickled buffer holds no
+    vector but their shape and sha256, and takes them back."""
+    rng = np.random.default_rng(7)
+    n = 40
+    C = sp.random(n, n, density=0.2, random_state=rng)
+    W = sp.csr_matrix(C - C.T)
+    buf, kept = RitzBuffer(n), []
+    moves = grows = pieces = 0
+    for sid in range(60):
+        sl = _slice(rng, n, int(rng.integers(3, 10)), float(sid), W)
+        store, q0, m = buf._store, buf._q0, buf._q1 - buf._q0
+        buf.add(sl, sid)
+        kept.append((sid, sl))
+        if buf._store is not store:
+            grows += 1
+        elif q0 > 0 and buf._q0 == 0:
+            moves += 1
+            pieces += q0 < m        # Q moved in pieces (its old and new place overlap)
+        if sid % 4 == 3:            # drop the slices wholly below a point
+            x = kept[-1][1].lo - float(rng.integers(0, 4)) + 0.5
+            buf.drop_below(x)
+            kept = [(i, s) for i, s in kept[:-1] if s.hi >= x] + [kept[-1]]
+        Q = np.hstack([s.Q for _, s in kept])
+        assert np.array_equal(buf.Q, Q)
+        assert [e[0] for e in buf.edges] == [i for i, _ in kept]
+        assert np.array_equal(buf.th, np.concatenate([s.theta for _, s in kept]))
+        np.testing.assert_allclose(buf.Wn, Q.T @ (W @ Q), atol=1e-13)
+        np.testing.assert_allclose(buf.wqn, np.linalg.norm(W @ Q, axis=0), rtol=1e-13)
+        for (i, si) in kept:
+            for (j, sj) in kept:
+                if i < j:
+                    assert buf.cross[(i, j)] == pytest.approx(np.linalg.norm(si.Q.T @ sj.Q),
+                                                              rel=1e-12)
+    assert grows >= 2 and moves >= 2 and pieces >= 1
+    state = pickle.loads(pickle.dumps(buf))
+    assert state.Q is None and "_store" not in buf.__getstate__()
+    assert state.q_shape == buf.Q.shape and state.q_sha == scan_state.sha(Q)
+    state.Q = Q
+    assert np.array_equal(state.Q, buf.Q) and state.Q.flags.f_contiguous
+
+
+def test_shift_invert_solves_are_those_of_a_new_factorization():
+    """The shift-invert solves of a slice use the counting's ordering
+    (slicing._Shifts.factor): bitwise the solves of a new factorization at
+    that shift. At a shift where the factorization meets a zero pivot, which
+    QDLDL's update does not report (it stops there, leaving the rest of the
+    previous shift's factors), the probe solve's residual is large and a new
+    factorization refuses the shift, as before."""
+    import qdldl
+
+    from remote_trigger.analysis.stability import jacobian, slicing
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability.sliced import _scaled
+
+    from .builders import random_packing
+
+    res = analyze(random_packing(5, nx=20, ny=15), eigenvalues=False, decide=False)
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
+    S = _scaled(Kr, mr)[1]
+    lam = np.linalg.eigvalsh(S.toarray())
+    shifts = slicing._Shifts(S)
+    rng = np.random.default_rng(3)
+    b = rng.standard_normal(S.shape[0])
+    for a in (lam[40] + 1e-3, lam[200] - 1e-3, 0.5 * (lam[-3] + lam[-2])):
+        fac = shifts.factor(a)
+        assert np.array_equal(fac.solve(b), qdldl.Solver(slicing._shifted(S, a)).solve(b))
+        got = slicing._shift_invert(S, shifts, a, 6, rng, slicing.SlicedStats())[0]
+        near = lam[np.argsort(np.abs(lam - a))[:6]]
+        np.testing.assert_allclose(np.sort(got), np.sort(near), rtol=1e-9)
+    p0 = int(shifts.solver.factors()[2][0])     # the first pivot is S_pp - a
+    with pytest.raises(slicing._Fail, match=r"no LDL\^T factorization of S - sigma I"):
+        slicing._shift_invert(S, shifts, float(S.diagonal()[p0]), 6, rng,
+                              slicing.SlicedStats())
