@@ -45,8 +45,8 @@ class RitzBuffer:
 
     @property
     def Q(self):
-        """The Ritz vectors, shape (n, m) (None: a loaded state, its vectors not
-        restored)."""
+        """The Ritz vectors side by side, n rows and m columns; None in a loaded
+        state whose vectors are not restored."""
         if self._store is None:
             return None
         return self._store[:, self._q0:self._q1]
