@@ -76,9 +76,9 @@ class RitzBuffer:
         """Q <- [Q, V]. When the store is full, Q moves to its start if the
         dropped columns leave room for V there, in pieces of q0 columns
         (source and destination of a piece do not overlap, so no temporary
-        copy), else to a new store with room for max(m/4, 4k) more columns:
-        the peak memory is that of the store, and a column is copied a few
-        times at most."""
+        copy), else to a new store with room for max(m/4, 4k) more columns
+        (the old and the new store then exist together); a column is copied
+        a few times at most."""
         n, k = V.shape
         q0, q1 = self._q0, self._q1
         m = q1 - q0

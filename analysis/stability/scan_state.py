@@ -113,10 +113,10 @@ def restore_ritz(sc, slices):
     """Put the Ritz vectors back into a scan loaded from its checkpoint.
 
     The saved buffer (``ritz_buffer.RitzBuffer``) has no vectors, only their
-    shape and :func:`sha`. Its slices are computed again from the position saved before
-    the first of them (``sc.starts``) by ``slices(position)``, the slicing's
-    generator with statistics of its own (the scan's are those of the
-    uninterrupted scan already). The slicing is deterministic, so they are
+    shape and :func:`sha`. Its slices are computed again from the position
+    saved before the first of them (``sc.starts``) by ``slices(position)``,
+    the slicing's generator with statistics of its own (the scan's are those
+    of the uninterrupted scan already). The slicing is deterministic, so they are
     the slices the scan had: checked by their edges, their Ritz values and
     the sha256 of the vectors.
 

@@ -335,8 +335,8 @@ def _slices(S, W, k, normS, normW, pos, stats):
     """Yield the Ritz slices of S from ``pos`` (a :class:`_Position`) upwards.
 
     Each slice: the k eigenvalues of S nearest a shift sigma (ARPACK
-    shift-invert), sigma placed about a third of a slice above the previous upper
-    edge x so that the k nearest reach below x (no hole: checked, and the
+    shift-invert), sigma placed ``_SHIFT_FRACTION`` (0.42) of a slice above the
+    previous upper edge x so that the k nearest reach below x (no hole: checked, and the
     count below proves it); the new upper edge y lies in the widest gap of
     the slice's upper part whose distance to its Ritz values exceeds the
     Ritz radius and the inertia fuzz; the inertia count of (x, y) must equal
@@ -352,7 +352,7 @@ def _slices(S, W, k, normS, normW, pos, stats):
         x, cnt_x, fz_x, width = pos.x, pos.count, pos.fuzz, pos.width
         kk = min(k, n - 2)
         # the k nearest to sigma reach below x unless (x, sigma) holds more than
-        # k/2 of them: sigma a third of a slice above x leaves a margin for the
+        # k/2 of them: sigma 0.42 of a slice above x leaves a margin for the
         # variation of the eigenvalue density (a miss costs a second ARPACK run)
         sigma = x if width is None else x + _SHIFT_FRACTION * width
         for attempt in range(12):
