@@ -122,10 +122,10 @@ class _Shifts:
     new ``Solver`` (the same permutation, L, D and solves: checked on the
     N = 10^4 matrices and in the tests) in ~0.75 of its time at n = 28 800.
     ``update`` does not report a zero pivot (a new ``Solver`` raises): D then
-    holds a zero, which :func:`count_below` refuses (and a shift-invert solve
-    gives inf or NaN, which :func:`_shift_invert` refuses). The shift-invert
-    solves of a slice use the same object. Each call overwrites the previous
-    factorization.
+    holds a zero, which :func:`count_below` refuses, and the factors after it
+    are those of the previous shift, which :func:`_shift_invert` sees in the
+    residual of a probe solve. The shift-invert solves of a slice use the same
+    object. Each call overwrites the previous factorization.
     """
 
     def __init__(self, S):
@@ -335,11 +335,11 @@ def _slices(S, W, k, normS, normW, pos, stats):
     """Yield the Ritz slices of S from ``pos`` (a :class:`_Position`) upwards.
 
     Each slice: the k eigenvalues of S nearest a shift sigma (ARPACK
-    shift-invert), sigma placed ``_SHIFT_FRACTION`` (0.42) of a slice above the
-    previous upper edge x so that the k nearest reach below x (no hole: checked, and the
-    count below proves it); the new upper edge y lies in the widest gap of
-    the slice's upper part whose distance to its Ritz values exceeds the
-    Ritz radius and the inertia fuzz; the inertia count of (x, y) must equal
+    shift-invert), sigma placed ``_SHIFT_FRACTION`` (0.42) of a slice above
+    the previous upper edge x so that the k nearest reach below x (no hole:
+    checked, and the count below proves it); the new upper edge y lies in the
+    widest gap of the slice's upper part whose distance to its Ritz values
+    exceeds the Ritz radius and the inertia fuzz; the inertia count of (x, y) must equal
     the number of Ritz values kept. ``pos`` is advanced to y before each
     slice is yielded, so that a scan saved after a slice resumes from it
     (:func:`~remote_trigger.analysis.stability.sliced.classify_sliced`,
