@@ -157,6 +157,45 @@ def test_packings_of_one_n_relaxed_by_two_clearance_tests_are_not_mixed(runs, tm
     assert (tmp_path / "o2" / "ensemble.md").is_file()
 
 
+def test_runs_that_set_the_clearance_test_combine_with_runs_that_did_not(runs, tmp_path):
+    """A run made with ``relax.clearance = 'all'`` relaxed its packings as the
+    reference run did (its packings record no test: 'all'), so the two
+    combine; the combined ``relax`` leaves the setting out (it is per packing).
+    Any other ``relax`` key still has to agree, and 'local' packings of one N
+    are still refused beside 'all' ones."""
+    with open(os.path.join(REF, "config.json")) as fh:
+        relax = json.load(fh)["relax"]                  # {"settle_steps": 10000}
+    a, _ = runs
+    b = _run_folder(tmp_path / "b2", 20, [1], ["N20_s1"], relax=dict(relax, clearance="all"))
+    combine_runs([a, b], str(tmp_path / "o1"), speak=False)
+    cfg = json.loads((tmp_path / "o1" / "config.json").read_text())
+    assert cfg["relax"] == relax and cfg["n"] == [16, 20]
+    assert (tmp_path / "o1" / "ensemble.md").is_file()
+    # both set it alike: kept
+    a2 = _run_folder(tmp_path / "a2", 16, [1, 2], ["N16_s1", "N16_s2"],
+                     relax=dict(relax, clearance="all"))
+    combine_runs([a2, b], str(tmp_path / "o2"), speak=False)
+    assert json.loads((tmp_path / "o2" / "config.json").read_text())["relax"] == \
+        dict(relax, clearance="all")
+    c = _run_folder(tmp_path / "c", 20, [1], ["N20_s1"],
+                    relax=dict(relax, clearance="all", f_min=1e-14))
+    with pytest.raises(ConfigError, match=r"differ in relax \(\{'settle_steps': 10000\} vs "
+                                          r"\{'settle_steps': 10000, 'clearance': 'all', "
+                                          r"'f_min': 1e-14\}\)"):
+        combine_runs([a, c], str(tmp_path / "o3"))
+    # the same N: one run's packing relaxed with 'local' is refused as before
+    d = _run_folder(tmp_path / "d", 16, [3], [], relax=dict(relax, clearance="local"))
+    with open(os.path.join(REF, "N16_s1.json")) as fh:
+        t = json.load(fh)
+    t["task"] = dict(t["task"], key="N16_s3", seed=3)
+    t["result"] = dict(t["result"], seed=3)
+    t["result"]["default"]["clearance_rule"] = "local"
+    (tmp_path / "d" / "tasks" / "N16_s3.json").write_text(json.dumps(t))
+    with pytest.raises(ConfigError, match="relaxed with the clearance test 'all', N16_s3"):
+        combine_runs([a, d], str(tmp_path / "o4"))
+    assert not (tmp_path / "o3").exists() and not (tmp_path / "o4").exists()
+
+
 RUNS = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "results", "runs")
 
 

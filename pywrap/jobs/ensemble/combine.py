@@ -21,6 +21,14 @@ __all__ = ["collect_runs"]
 _FREE = ("n", "seeds", "np", "saddle_escape")
 #: keys that may be one number per N (EnsembleConfig.for_size): compared per N
 _PER_SIZE = ("dF_x", "tol")
+#: the key of ``relax`` that may differ: the clearance test is compared per
+#: packing (what each packing's relaxation used), below
+_RELAX_PER_PACKING = "clearance"
+
+
+def _without_clearance(relax):
+    """A run's ``relax`` settings but the clearance test (a dict; None: {})."""
+    return {k: v for k, v in (relax or {}).items() if k != _RELAX_PER_PACKING}
 
 
 def read_run(path, flag="--combine"):
@@ -79,7 +87,10 @@ def collect_runs(dirs, out, speak=True):
         Ensemble output folders (each with ``config.json`` and ``tasks/``),
         at least two. Their configurations must agree in every key but
         ``n``, ``seeds`` and ``np``; ``dF_x`` and ``tol`` per N (a number
-        holds for every N, a list for the run's own sizes).
+        holds for every N, a list for the run's own sizes); ``relax`` but
+        in its ``clearance``, which is compared per packing (the test each
+        packing's relaxation used, the same for every packing of one N) and
+        left out of the combined ``relax`` where the runs set it differently.
     out : str
         A new (or empty) folder.
     speak : bool
@@ -114,7 +125,10 @@ def collect_runs(dirs, out, speak=True):
     d0, c0, _ = runs[0]
     for d, c, _ in runs[1:]:
         for k in sorted((set(c0) | set(c)) - set(_FREE) - set(_PER_SIZE)):
-            if c0.get(k) != c.get(k):
+            a, b = c0.get(k), c.get(k)
+            if k == "relax":
+                a, b = _without_clearance(a), _without_clearance(b)
+            if a != b:
                 raise ConfigError(f"--combine: {d0!r} and {d!r} differ in {k} "
                                   f"({c0.get(k)!r} vs {c.get(k)!r}); only n, seeds and np "
                                   "may differ")
@@ -154,6 +168,9 @@ def collect_runs(dirs, out, speak=True):
     sizes = sorted({v[1]["n"] for v in found.values()})
     seeds = [sorted(v[1]["seed"] for v in found.values() if v[1]["n"] == n) for n in sizes]
     merged = dict(c0, n=sizes, seeds=seeds, np=1)
+    clearances = {(c.get("relax") or {}).get(_RELAX_PER_PACKING) for _, c, _ in runs}
+    if len(clearances) > 1:     # runs that set it differently: per packing only
+        merged["relax"] = _without_clearance(c0.get("relax"))
     for name, values in per_size.items():
         v = [values[n] for n in sizes]
         merged[name] = v[0] if len(set(v)) == 1 else v
