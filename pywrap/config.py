@@ -8,7 +8,7 @@ validated in ``__post_init__`` by the checks of this module
 :func:`check_numbers`, :func:`check_table`): a :class:`ConfigError`, a
 ``ValueError``, names the field and the bad value. Jobs layer their sources
 with :func:`layered_config` (defaults < ``--quick`` preset < TOML file
-(:func:`read_toml`) < ``--set KEY=VALUE`` (:func:`parse_set`) and flags).
+(:func:`read_config_file`; a job's ``config.json`` too) < ``--set KEY=VALUE`` (:func:`parse_set`) and flags).
 
 The model's four parameters have one type and one validator,
 :class:`ContactModel`; the stages' configurations are in
@@ -268,8 +268,10 @@ def parse_set(items):
     return out
 
 
-def read_toml(path):
-    """Read a TOML configuration file into a dict (keys checked later).
+def read_config_file(path):
+    """Read a configuration file into a dict (keys checked later): TOML, or
+    JSON where the name ends in ``.json`` (the ``config.json`` a job writes,
+    whose ``null`` values TOML cannot write).
 
     Parameters
     ----------
@@ -283,8 +285,21 @@ def read_toml(path):
     Raises
     ------
     ConfigError
-        If the file is missing or not valid TOML (the message names the file).
+        If the file is missing, not valid TOML or JSON, or a JSON file whose
+        top level is not an object (the message names the file).
     """
+    if not os.path.isfile(path):
+        raise ConfigError(f"config file does not exist: {path!r}")
+    if path.lower().endswith(".json"):
+        try:
+            with open(path) as fh:
+                d = json.load(fh)
+        except ValueError as exc:
+            raise ConfigError(f"config file {path!r} is not valid JSON: {exc}") from None
+        if not isinstance(d, dict):
+            raise ConfigError(f"config file {path!r} holds a JSON {type(d).__name__}, not "
+                              "an object of configuration keys")
+        return d
     try:
         import tomllib
     except ImportError:  # Python 3.10
@@ -293,8 +308,6 @@ def read_toml(path):
         except ImportError:
             raise ConfigError("reading a TOML config needs Python >= 3.11 (tomllib) or the "
                               "tomli package") from None
-    if not os.path.isfile(path):
-        raise ConfigError(f"config file does not exist: {path!r}")
     try:
         with open(path, "rb") as fh:
             return tomllib.load(fh)
@@ -311,9 +324,9 @@ def layered_config(toml, overrides, quick, preset, tables=()):
     Raises
     ------
     ConfigError
-        Unreadable or malformed TOML file.
+        Unreadable or malformed configuration file.
     """
-    from_file = read_toml(toml) if toml else {}
+    from_file = read_config_file(toml) if toml else {}
     overrides = dict(overrides or {})
     quick = bool(quick or overrides.get("quick") or from_file.get("quick") is True)
     d = {}

@@ -68,12 +68,13 @@ def check_job_folder(out, config, resume, kind):
 def add_job_arguments(p, out, config_class, quick_help, resume_help, set_example):
     """The options every job subcommand (``trigger-map``, ``ensemble``) shares.
 
-    ``--out`` (default ``out``), ``--config TOML``, ``--quick``, ``--resume``,
+    ``--out`` (default ``out``), ``--config FILE`` (TOML, or JSON), ``--quick``, ``--resume``,
     ``--np``, ``--set KEY=VALUE`` (repeatable) and ``--quiet``; read back by
     :func:`job_overrides`.
     """
     p.add_argument("--out", default=out, help=f"output folder (default {out})")
-    p.add_argument("--config", metavar="TOML", help=f"TOML file with any {config_class} key")
+    p.add_argument("--config", metavar="FILE",
+                   help=f"TOML file with any {config_class} key (or JSON: a job's config.json)")
     p.add_argument("--quick", action="store_true", default=None, help=quick_help)
     p.add_argument("--resume", action="store_true", help=resume_help)
     p.add_argument("--np", type=int, default=None,

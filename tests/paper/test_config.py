@@ -8,7 +8,7 @@ import pytest
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.jobs.paper.config import (
     PaperConfig, QUICK, PAPER, PAPER_F_X_C_MID, build_config)
-from remote_trigger.pywrap.config import read_toml
+from remote_trigger.pywrap.config import read_config_file
 from remote_trigger.pywrap.jobs import paper
 from remote_trigger.pywrap.cli import main as cli_main
 
@@ -81,9 +81,29 @@ def test_toml_syntax_error_and_missing_file(tmp_path):
     toml = tmp_path / "broken.toml"
     toml.write_text("n = = 3\n")
     with pytest.raises(ConfigError, match="broken.toml"):
-        read_toml(str(toml))
+        read_config_file(str(toml))
     with pytest.raises(ConfigError, match="nothere.toml"):
-        read_toml(str(tmp_path / "nothere.toml"))
+        read_config_file(str(tmp_path / "nothere.toml"))
+
+
+def test_a_json_config_file_is_read_as_json(tmp_path):
+    """A job's config.json (whose nulls TOML cannot write) is a config file too;
+    broken JSON and a JSON list are refused naming the file."""
+    good = tmp_path / "config.json"
+    good.write_text('{"inertia_I0": null, "n": [16], "relax": {"clearance": "all"}}')
+    assert read_config_file(str(good)) == {"inertia_I0": None, "n": [16],
+                                           "relax": {"clearance": "all"}}
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"n": [16],}')
+    with pytest.raises(ConfigError, match="bad.json' is not valid JSON"):
+        read_config_file(str(bad))
+    bad.write_text('[1, 2]')
+    with pytest.raises(ConfigError, match="bad.json' holds a JSON list, not an object"):
+        read_config_file(str(bad))
+    # TOML syntax in a .json file is JSON that fails, not TOML that passes
+    bad.write_text('n = [16]\n')
+    with pytest.raises(ConfigError, match="not valid JSON"):
+        read_config_file(str(bad))
 
 
 @pytest.mark.parametrize("key, val", [

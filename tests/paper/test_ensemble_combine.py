@@ -90,6 +90,22 @@ def test_refusals_name_the_value(runs, tmp_path):
     assert len(r.stderr.strip().splitlines()) == 1
 
 
+def test_a_combined_folder_resumes_with_its_own_config_json(runs, tmp_path):
+    """``--config`` takes the combined folder's config.json (JSON with nulls,
+    which no TOML file can give), so ``--resume`` finds the same configuration
+    and rewrites the table, computing nothing."""
+    from remote_trigger.pywrap.cli import main as cli_main
+
+    out = tmp_path / "both"
+    combine_runs(runs, str(out), speak=False)
+    (out / "ensemble.md").unlink()
+    code = cli_main(["ensemble", "--out", str(out), "--resume", "--quiet",
+                     "--config", str(out / "config.json")])
+    assert code == 0 and (out / "ensemble.md").is_file()
+    man = json.loads((out / "ensemble.json").read_text())
+    assert man["sessions"][-1]["computed"] == []
+
+
 def _record_escape(folder, key, value):
     """Mark packing ``key`` of an ensemble folder as run with saddle_escape = value."""
     path = os.path.join(folder, "tasks", key + ".json")

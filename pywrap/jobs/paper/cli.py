@@ -28,7 +28,7 @@ def register(subparsers):
         description="Generate and relax the default packing, ramp F_x for mu and mu_low "
                     "with eigenvalues and F_x^c, run the instability (Fig. 4) and the "
                     "perturbation runs (Fig. 5), the normal form, and write PNG figures and "
-                    "report.md under --out. Values: defaults < --quick < --config TOML < "
+                    "report.md under --out. Values: defaults < --quick < --config FILE < "
                     "flags. The job checkpoints after every phase (paper.json); --resume "
                     "continues an interrupted one. docs/paper.md describes everything.")
     p.add_argument("--out", default="demo-out",
@@ -43,7 +43,8 @@ def register(subparsers):
                         "uninterrupted run except for its timings. A complete job is left "
                         "as it is (only the report path is printed); a folder without "
                         "paper.json starts a new job")
-    p.add_argument("--config", metavar="TOML", help="TOML file with any of the keys below")
+    p.add_argument("--config", metavar="FILE",
+                   help="TOML file with any of the keys below (or JSON, *.json)")
     p.add_argument("--quick", action="store_true", default=None,
                    help="small, fast variant (N = 40, spheres 96; coarse steps, short runs)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
