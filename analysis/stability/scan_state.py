@@ -19,8 +19,9 @@ import numpy as np
 __all__ = ["CHECKPOINT_FORMAT", "scan_key", "load", "save", "saved_scans", "sha", "restore_ritz"]
 
 #: checkpoint format; a file of another format (or code) is not resumed (4: the
-#: buffer's class and pickled state, and slices whose bits differ from those of 3)
-CHECKPOINT_FORMAT = 4
+#: buffer's class and pickled state, and slices whose bits differ from those of 3;
+#: 5: ARPACK's shorter Lanczos basis, slices whose bits differ from those of 4)
+CHECKPOINT_FORMAT = 5
 
 
 def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None):

@@ -121,9 +121,10 @@ __all__ = ["classify_sliced", "SlicedStats", "CHECKPOINT_SECONDS"]
 # N = 40, none contradicting the dense decision)
 _MAX_STRIP = 24
 # Ritz pairs per slice: ARPACK's work per pair grows with it (orthogonalization
-# against 2k + 1 Lanczos vectors), the number of factorizations falls with it;
-# measured at N = 6400 (n = 18 582): 40 -> 216 s, 60 -> 201 s, 85 -> 222 s,
-# 124 -> 274 s of CPU (docs/results/analysis.md)
+# against its Lanczos vectors, slicing._NCV_FACTOR k + 1), the number of
+# factorizations falls with it; measured at N = 6400 (n = 18 582) with 2k + 1
+# Lanczos vectors: 40 -> 216 s, 60 -> 201 s, 85 -> 222 s, 124 -> 274 s of CPU
+# (docs/results/analysis.md)
 _SLICE_SIZE = 60
 #: seconds between two saves of a scan's state (``classify_sliced``'s
 #: ``checkpoint_dir``): a save writes 2.2-16.4 MB at N = 10^4 (measured; no

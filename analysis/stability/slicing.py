@@ -31,6 +31,13 @@ _ARPACK_TOL = 1e-8              # ARPACK stopping tolerance (only the checked re
 # n kept at N = 1600 / 6400 / 10^4, 1.38 / 1.35 / 1.34 n at 0.35, 1.32 /
 # 1.24 / 1.25 n at 0.42 (3, 0 and 4 misses); at 0.46, 17 misses at N = 6400
 _SHIFT_FRACTION = 0.42
+# ARPACK's Lanczos basis: NCV = _NCV_FACTOR k + 1 vectors for the k pairs of a
+# slice (scipy's default is 2k + 1). A shorter basis restarts more often but
+# each restart and reorthogonalization moves fewer vectors: measured
+# (docs/results/analysis.md, "The Lanczos basis of a slice"), CPU of a
+# certified-real scan at N = 1600 / 6400, 8.2-8.6 / 246 s at 2k + 1, 7.4-7.6 /
+# 181 s at 1.33-1.5 k + 1 (QDLDL solves 9 % fewer)
+_NCV_FACTOR = 1.4
 # a slice whose Kahan radius exceeds this fraction of its mean Ritz value
 # spacing is computed again about a moved shift (docs/results/analysis.md, "A
 # shift at a tiny pivot"): at N = 10^4 the first 100 slices of a real point at
@@ -325,7 +332,7 @@ def _shift_invert(S, shifts, sigma, k, rng, stats):
         fac = _ldl(_shifted(S, sigma), what)
     op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=np.float64)
     lam, V = spla.eigsh(S, k=k, sigma=sigma, which="LM", OPinv=op, tol=_ARPACK_TOL,
-                        v0=rng.standard_normal(n), ncv=min(n, 2 * k + 1))
+                        v0=rng.standard_normal(n), ncv=min(n, int(_NCV_FACTOR * k) + 1))
     stats.arpack_runs += 1
     stats.computed += lam.size
     return lam, V
