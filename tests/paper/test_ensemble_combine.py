@@ -255,6 +255,27 @@ def test_the_kept_runs_combine(tmp_path):
     assert sorted(big.tolist()) == [0, 1]
 
 
+def test_the_kept_n6400_run_with_the_clearance_set_combines(tmp_path):
+    """The N = 6400 run of seeds 4-5 (``relax.clearance = 'all'`` set) and the
+    kept 48-packing run (N = 6400 and 10^4 relaxed by 'all' without setting
+    it) combine into the 50 packings docs/ensemble.md counts: 37 orders hold,
+    12 reversed, 1 not decided; at N = 6400 3 hold, 1 reversed, 1 not decided."""
+    from remote_trigger.pywrap.jobs.ensemble import report as er
+
+    runs = [os.path.join(RUNS, d) for d in ("N100_10000_local1600", "N6400_s4-5")]
+    out = tmp_path / "all"
+    combine_runs(runs, str(out), speak=False)
+    cfg = json.loads((out / "config.json").read_text())
+    assert cfg["relax"] == {} and cfg["seeds"][3] == [1, 2, 3, 4, 5]
+    man = json.loads((out / "ensemble.json").read_text())
+    assert man["left_out"] == [] and man["n_packings"] == 50
+    t = er.read_table(str(out / "ensemble.h5"))
+    order = t["order"][t["I0"] == 0.5]
+    assert [int(np.sum(order == c)) for c in (1, 0, -1)] == [37, 12, 1]
+    mid = t["order"][(t["I0"] == 0.5) & (t["n"] == 6400)]
+    assert sorted(mid.tolist()) == [-1, 0, 1, 1, 1]
+
+
 def test_runs_of_per_size_steps_combine_per_size(tmp_path):
     """dF_x as one number per N: runs of other sizes combine into one list per
     N; one N with two values is refused, naming both."""
