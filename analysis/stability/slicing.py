@@ -37,7 +37,8 @@ _SHIFT_FRACTION = 0.42
 # (docs/results/analysis.md, "The Lanczos basis of a slice"), CPU of a
 # certified-real scan at N = 6400: 252 s at 2k + 1, 200 s at 1.4 k + 1 (side
 # by side; QDLDL solves 8 % fewer), 238 s at 1.2 k + 1, 224 s at 1.6 k + 1;
-# at N = 1600 8.2-8.6 s at 2k + 1, 7.4-7.6 s at 1.33-1.5 k + 1
+# at N = 10^4 664 s and 587 s side by side; at N = 1600 8.2-8.6 s at 2k + 1,
+# 7.4-7.6 s at 1.33-1.5 k + 1
 _NCV_FACTOR = 1.4
 # a slice whose Kahan radius exceeds this fraction of its mean Ritz value
 # spacing is computed again about a moved shift (docs/results/analysis.md, "A
