@@ -146,18 +146,24 @@ def test_packings_with_and_without_the_saddle_escape_are_not_mixed(runs, tmp_pat
     assert not os.path.exists(os.path.join(c, "ensemble.md"))
 
 
+def _add_local_seed3(folder):
+    """Put into an ensemble folder's tasks/ a packing N16_s3 (the reference's
+    N16_s1 renamed) whose relaxation recorded the clearance test 'local'."""
+    with open(os.path.join(REF, "N16_s1.json")) as fh:
+        d = json.load(fh)
+    d["task"] = dict(d["task"], key="N16_s3", seed=3)
+    d["result"] = dict(d["result"], seed=3)
+    d["result"]["default"]["clearance_rule"] = "local"
+    (folder / "tasks" / "N16_s3.json").write_text(json.dumps(d))
+
+
 def test_packings_of_one_n_relaxed_by_two_clearance_tests_are_not_mixed(runs, tmp_path):
     """The reference packings record no clearance test (relaxed before 'local'
     existed: 'all'); a packing of the same N recorded 'local' is not combined
     with them, one of another N is."""
     a, b = runs
     c = _run_folder(tmp_path / "c", 16, [3], [])
-    with open(os.path.join(REF, "N16_s1.json")) as fh:
-        d = json.load(fh)
-    d["task"] = dict(d["task"], key="N16_s3", seed=3)
-    d["result"] = dict(d["result"], seed=3)
-    d["result"]["default"]["clearance_rule"] = "local"
-    (tmp_path / "c" / "tasks" / "N16_s3.json").write_text(json.dumps(d))
+    _add_local_seed3(tmp_path / "c")
     with pytest.raises(ConfigError, match=r"packing N16_s1 \('.*a'\) was relaxed with the "
                                           r"clearance test 'all', N16_s3 \('.*c'\) with "
                                           r"'local'"):
@@ -201,12 +207,7 @@ def test_runs_that_set_the_clearance_test_combine_with_runs_that_did_not(runs, t
         combine_runs([a, c], str(tmp_path / "o3"))
     # the same N: one run's packing relaxed with 'local' is refused as before
     d = _run_folder(tmp_path / "d", 16, [3], [], relax=dict(relax, clearance="local"))
-    with open(os.path.join(REF, "N16_s1.json")) as fh:
-        t = json.load(fh)
-    t["task"] = dict(t["task"], key="N16_s3", seed=3)
-    t["result"] = dict(t["result"], seed=3)
-    t["result"]["default"]["clearance_rule"] = "local"
-    (tmp_path / "d" / "tasks" / "N16_s3.json").write_text(json.dumps(t))
+    _add_local_seed3(tmp_path / "d")
     with pytest.raises(ConfigError, match="relaxed with the clearance test 'all', N16_s3"):
         combine_runs([a, d], str(tmp_path / "o4"))
     assert not (tmp_path / "o3").exists() and not (tmp_path / "o4").exists()
