@@ -1,6 +1,6 @@
 /* -*- c++ -*- ----------------------------------------------------------
    remote-trigger: the per-atom contact bookkeeping of pair mindlin/smooth
-   shared by its 2D and 3D loops (pair_mindlin_smooth.cpp,
+   shared by its 2D and 3D loops (pair_mindlin_smooth_2d.cpp,
    pair_mindlin_smooth_3d.cpp): history slots, the touching band, the
    canonical order of one atom's contacts.
 ------------------------------------------------------------------------- */

@@ -123,6 +123,7 @@ class PairMindlinSmooth : public Pair {
   [[noreturn]] void two_images(tagint, tagint);
 
   // 3d (pair_mindlin_smooth_3d.cpp)
+  void compute_2d();
   void compute_3d();
   void order_neighbors_3d();
   double single_3d(int, int, int, int, double, double &);

@@ -1,7 +1,7 @@
 /* ----------------------------------------------------------------------
    remote-trigger: pair style mindlin/smooth (LAMMPS plugin), 3d loop
 
-   The contract of the 2d loop (pair_mindlin_smooth.cpp): a FULL neighbor
+   The contract of the 2d loop (pair_mindlin_smooth_2d.cpp): a FULL neighbor
    list, each owned atom updating only its own side of each contact, the
    contacts of an atom summed in ascending partner tag, the touching band.
    The law is that of mindlin_smooth_kernel_3d.h: the stored tangential

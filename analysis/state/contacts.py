@@ -44,7 +44,7 @@ def minimum_image(d, box_length, periodic):
 
 
 #: half-width of the touching band in ulps of the largest coordinate (the
-#: pair style's TOUCH_ULPS, pair_mindlin_smooth.cpp)
+#: pair style's TOUCH_ULPS, pair_mindlin_smooth/mindlin_smooth_contacts.h)
 TOUCH_ULPS = 64.0
 
 
