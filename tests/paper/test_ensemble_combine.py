@@ -277,6 +277,31 @@ def test_the_kept_n6400_run_with_the_clearance_set_combines(tmp_path):
     assert sorted(mid.tolist()) == [-1, 0, 1, 1, 1]
 
 
+def test_the_kept_n6400_runs_of_seeds_4_to_7_combine(tmp_path):
+    """Seeds 6-7 at N = 6400 (the configuration of seeds 4-5 with other seeds)
+    combine with the kept runs into the 52 packings docs/ensemble.md counts:
+    38 orders hold, 13 reversed, 1 not decided; at N = 6400 seeds 2, 4, 5, 7
+    hold, 1 and 6 reversed, 3 not decided; seed 6's mu0 onset is a soft mode."""
+    from remote_trigger.pywrap.jobs.ensemble import report as er
+
+    runs = [os.path.join(RUNS, d) for d in ("N100_10000_local1600", "N6400_s4-5", "N6400_s6-7")]
+    out = tmp_path / "all"
+    combine_runs(runs, str(out), speak=False)
+    cfg = json.loads((out / "config.json").read_text())
+    assert cfg["seeds"][3] == [1, 2, 3, 4, 5, 6, 7]
+    man = json.loads((out / "ensemble.json").read_text())
+    assert man["left_out"] == [] and man["n_packings"] == 52
+    t = er.read_table(str(out / "ensemble.h5"))
+    half = t["I0"] == 0.5
+    assert [int(np.sum(t["order"][half] == c)) for c in (1, 0, -1)] == [38, 13, 1]
+    mid = half & (t["n"] == 6400)
+    order = dict(zip([str(k) for k in t["key"][mid]], t["order"][mid].tolist()))
+    assert order == {"N6400_s1": 0, "N6400_s2": 1, "N6400_s3": -1, "N6400_s4": 1,
+                     "N6400_s5": 1, "N6400_s6": 0, "N6400_s7": 1}
+    s6 = mid & (t["key"] == "N6400_s6")
+    assert float(t["pair_re_rel"][s6][0]) < 1e-4 < float(t["pair_re_rel"][mid & (t["key"] == "N6400_s7")][0])
+
+
 def test_runs_of_per_size_steps_combine_per_size(tmp_path):
     """dF_x as one number per N: runs of other sizes combine into one list per
     N; one N with two values is refused, naming both."""
