@@ -141,8 +141,10 @@ def check_table(name, extra, reserved, owner, config_class=None):
         Key of the table (``relax``, ``frictional_relax``).
     extra : object
         Its value: must be a mapping.
-    reserved : iterable of str
-        Keys the job sets itself (refused here, named in the message).
+    reserved : iterable of str, or mapping of str to str or None
+        Keys the job sets itself (refused here, named in the message). A
+        mapping gives, per key, what sets it instead (named in the message);
+        None, or a plain iterable, says the top-level key of that name does.
     owner : str
         Who sets them, for the message (``'the paper job'``).
     config_class : type, optional
@@ -160,8 +162,10 @@ def check_table(name, extra, reserved, owner, config_class=None):
         raise ConfigError(f"{name} must be a table of {cls} fields, got {name} = {extra!r}")
     bad = sorted(set(extra) & set(reserved))
     if bad:
-        raise ConfigError(f"{name}.{bad[0]} is set by {owner} itself; use the top-level "
-                          f"key {bad[0]!r} instead, got {name} = {extra!r}")
+        why = reserved.get(bad[0]) if isinstance(reserved, dict) else None
+        instead = why or f"use the top-level key {bad[0]!r} instead"
+        raise ConfigError(f"{name}.{bad[0]} is set by {owner} itself; {instead}, "
+                          f"got {name} = {extra!r}")
     if config_class is not None:
         config_class.from_dict(dict(extra, datafile=__file__))
 

@@ -58,6 +58,29 @@ def test_toml_unknown_keys_are_named(tmp_path, text, key):
     assert key in str(exc.value)
 
 
+def test_reserved_relax_keys_point_to_what_sets_them():
+    """A key of [relax] that the job sets itself is refused with advice that
+    can be followed: the top-level key of that name where there is one (and
+    then it exists), else what sets it (no top-level key is named that the
+    configuration would refuse as unknown)."""
+    from remote_trigger.pywrap.jobs.ensemble.config import (
+        EnsembleConfig, RELAX_SET_BY_JOB as ENSEMBLE_SET)
+    from remote_trigger.pywrap.jobs.paper.config import RELAX_SET_BY_JOB as PAPER_SET
+
+    for cls, reserved in ((PaperConfig, PAPER_SET), (EnsembleConfig, ENSEMBLE_SET)):
+        for key, why in reserved.items():
+            with pytest.raises(ConfigError) as exc:
+                cls(relax={key: 1.0})
+            msg = str(exc.value)
+            assert f"relax.{key} is set by" in msg, msg
+            if why is None:
+                assert key in cls.names(), (cls.__name__, key)
+                assert f"use the top-level key {key!r} instead" in msg, msg
+            else:
+                assert key not in cls.names(), (cls.__name__, key)
+                assert why in msg and "use the top-level key" not in msg, msg
+
+
 def test_unknown_relax_key_is_named_by_relaxconfig(tmp_path, capsys):
     """Named by RelaxConfig when the job's configuration is built: before a
     re-run into the folder of a finished job removes its outputs (the key was

@@ -11,8 +11,16 @@ from remote_trigger.pywrap.jobs.paper.config import PaperConfig, DIM3 as PAPER_D
 from remote_trigger.analysis.state.state import DISC_INERTIA
 from remote_trigger.analysis.state.state3d import SPHERE_INERTIA
 
-#: keys of the ``relax`` and ``frictional_relax`` tables that the ensemble sets itself
-RELAX_SET_BY_JOB = ("datafile", "k_n", "k_t", "mu", "F_y", "dt", "F_x", "protocol")
+#: keys of the ``relax`` and ``frictional_relax`` tables that the ensemble sets
+#: itself: the top-level key of the same name (None), or what sets it
+RELAX_SET_BY_JOB = {
+    "datafile": "the ensemble generates each packing from the top-level keys n, seeds "
+                "and phi",
+    "k_n": None, "k_t": None, "mu": None, "F_y": None, "dt": None,
+    "F_x": "the ensemble relaxes at F_x = 0 and its ramps set F_x",
+    "protocol": "the table gives it (relax: the default protocol, frictional_relax: "
+                "'frictional'); the top-level key frictional = true adds the frictional rows",
+}
 
 #: moment of inertia factor of the dynamics of disks (``fix nve/sphere ... disc``)
 I0_DYNAMICS = DISC_INERTIA

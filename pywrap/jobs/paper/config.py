@@ -21,8 +21,13 @@ from remote_trigger.pywrap.config import (
     check_table, layered_config)
 from remote_trigger.pywrap.stages.config import DynamicsConfig, RelaxConfig
 
-#: keys of the ``[relax]`` table that the job sets itself (top-level keys)
-RELAX_SET_BY_JOB = ("datafile", "k_n", "k_t", "mu", "F_y", "dt", "F_x")
+#: keys of the ``[relax]`` table that the job sets itself: the top-level key
+#: of the same name (None), or what sets it
+RELAX_SET_BY_JOB = {
+    "datafile": "the job generates its packing from the top-level keys n, seed and phi",
+    "k_n": None, "k_t": None, "mu": None, "F_y": None, "dt": None,
+    "F_x": "the job relaxes at F_x = 0 and its ramps set F_x",
+}
 
 #: paper's reference values (Charan, Pomyalov & Procaccia), for the report only
 PAPER = {
