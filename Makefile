@@ -49,7 +49,7 @@ $(STAMP): $(PY) $(SOURCES)
 install: $(STAMP)
 
 demo: install
-	$(VENV)/bin/remote-trigger paper --np $(NP) --out $(OUT)
+	$(VENV)/bin/remote-trigger paper --np $(NP) --out $(OUT) --overwrite
 
 # one BLAS thread per test worker: the workers already fill the cores, and a
 # threaded BLAS beside another worker made the suite take 13.5 min of CPU

@@ -223,8 +223,32 @@ def test_output_folder_rules(tmp_path):
     for name in ("paper.json", "report.md", "relax.h5", "fig3_eigenvalues.png", "keep.txt",
                  "figures-notes.md"):
         (old / name).write_text("x")
-    paper.prepare_out(str(old))
+    before = sorted(os.listdir(old))
+    # an earlier job's folder: refused without overwrite, nothing deleted
+    with pytest.raises(ConfigError, match="holds an earlier .* --overwrite"):
+        paper.prepare_out(str(old))
+    assert sorted(os.listdir(old)) == before
+    paper.prepare_out(str(old), overwrite=True)
     assert sorted(os.listdir(old)) == ["figures-notes.md", "keep.txt"]
+
+
+def test_a_new_job_in_an_earlier_jobs_folder_needs_overwrite(tmp_path, capsys):
+    """``paper --out D`` where D holds an earlier job: exit 2, one line naming D
+    and the two ways on, nothing deleted; with ``--resume --overwrite`` too
+    (they contradict each other)."""
+    old = tmp_path / "old"
+    old.mkdir()
+    for name in ("paper.json", "report.md", "relax.h5"):
+        (old / name).write_text("x")
+    assert cli_main(["paper", "--out", str(old), "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert str(old) in err and "--resume" in err and "--overwrite" in err, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert cli_main(["paper", "--out", str(old), "--quick", "--np", "2"]) == 2
+    assert "holds an earlier" in capsys.readouterr().err
+    assert cli_main(["paper", "--out", str(old), "--quick", "--resume", "--overwrite"]) == 2
+    assert "give one of them" in capsys.readouterr().err
+    assert sorted(os.listdir(old)) == ["paper.json", "relax.h5", "report.md"]
 
 
 def test_fig5_load_above_the_threshold_is_refused():

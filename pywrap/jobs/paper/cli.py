@@ -6,7 +6,8 @@ import sys
 
 from remote_trigger.pywrap.jobs.paper.config import PaperConfig, build_config
 from remote_trigger.pywrap.config import ConfigError, parse_set
-from remote_trigger.pywrap.jobs.paper.manifest import MANIFEST, load_manifest
+from remote_trigger.pywrap.jobs.paper.manifest import (
+    MANIFEST, earlier_job_refusal, load_manifest)
 from remote_trigger.pywrap.jobs.paper.job import run_paper  # noqa: F401
 
 
@@ -32,8 +33,11 @@ def register(subparsers):
                     "flags. The job checkpoints after every phase (paper.json); --resume "
                     "continues an interrupted one. docs/paper.md describes everything.")
     p.add_argument("--out", default="demo-out",
-                   help="output folder (default demo-out); rerunning into a folder of an "
-                        "earlier job deletes that job's outputs first, unless --resume")
+                   help="output folder (default demo-out); a folder of an earlier job is "
+                        "refused unless --resume (continue it) or --overwrite")
+    p.add_argument("--overwrite", action="store_true",
+                   help="a new job in the folder of an earlier one: delete that job's "
+                        "outputs first (other files there are left alone)")
     p.add_argument("--resume", action="store_true",
                    help="continue the interrupted job in --out: give the same options as "
                         "that job (any other configuration is refused, naming the key, and "
@@ -102,6 +106,8 @@ def _relaunch(cfg, args):
         cmd.append("--quiet")
     if args.resume:
         cmd.append("--resume")
+    if args.overwrite:
+        cmd.append("--overwrite")
     env = dict(os.environ, REMOTE_TRIGGER_PAPER_CHILD="1")
     try:
         return subprocess.call(cmd, env=env)
@@ -115,6 +121,12 @@ def main(args):
     from mpi4py import MPI
 
     world = MPI.COMM_WORLD
+    if args.resume and args.overwrite:
+        raise ConfigError("--resume continues the job in --out and --overwrite replaces it; "
+                          "give one of them")
+    if (not args.resume and not args.overwrite
+            and os.path.isfile(os.path.join(args.out, MANIFEST))):
+        raise ConfigError(earlier_job_refusal(os.path.abspath(args.out)))
     if cfg.np > 1 and world.Get_size() == 1 and not os.environ.get(
             "REMOTE_TRIGGER_PAPER_CHILD"):
         if args.resume and os.path.isfile(os.path.join(args.out, MANIFEST)):
@@ -123,7 +135,8 @@ def main(args):
     from remote_trigger.analysis.stability.timestep import TimestepError
 
     try:
-        path = run_paper(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume)
+        path = run_paper(cfg, args.out, comm=world, speak=not args.quiet, resume=args.resume,
+                         overwrite=args.overwrite)
     except TimestepError as exc:    # the stages' hint 'auto' is not a value of the job's dt
         raise TimestepError(str(exc).replace(
             ", or dt = 'auto'", " (the paper job takes a number: --dt VALUE)")) from None

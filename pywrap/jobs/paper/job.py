@@ -31,7 +31,7 @@ def _raise_first(errs):
         raise err
 
 
-def run_paper(cfg, out, comm=None, speak=True, resume=False):
+def run_paper(cfg, out, comm=None, speak=True, resume=False, overwrite=False):
     """Run the whole job; all ranks of ``comm`` call it.
 
     Parameters
@@ -51,6 +51,10 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
         from their ``ramp.h5``, any other unfinished phase is run from its
         start. A complete job is left as it is. Without a manifest in
         ``out``, a new job starts (as without ``resume``).
+    overwrite : bool
+        A new job in the folder of an earlier one (``out/paper.json``, and
+        not ``resume``) first deletes that job's outputs; without
+        ``overwrite`` it is refused (:func:`prepare_out`).
 
     Returns
     -------
@@ -74,7 +78,7 @@ def run_paper(cfg, out, comm=None, speak=True, resume=False):
     (one JSON round trip), so that a resumed job and an uninterrupted one
     feed them the same numbers.
     """
-    job = _PaperJob(cfg, out, comm, speak, resume)
+    job = _PaperJob(cfg, out, comm, speak, resume, overwrite)
     if job.start():
         return job.path
     job.relax()
@@ -93,10 +97,10 @@ class _PaperJob:
     the rank groups (two when task-parallel) and the clocks.
     """
 
-    def __init__(self, cfg, out, comm, speak, resume):
+    def __init__(self, cfg, out, comm, speak, resume, overwrite=False):
         from mpi4py import MPI
 
-        self.cfg, self.speak, self.resume = cfg, speak, resume
+        self.cfg, self.speak, self.resume, self.overwrite = cfg, speak, resume, overwrite
         self.comm = MPI.COMM_WORLD if comm is None else comm
         self.rank, self.size = self.comm.Get_rank(), self.comm.Get_size()
         self.out = os.path.abspath(out)
@@ -120,7 +124,7 @@ class _PaperJob:
                 man = (load_manifest(out, cfg) if self.resume and os.path.isfile(self.mpath)
                        else None)
                 if man is None:
-                    prepare_out(out)
+                    prepare_out(out, self.overwrite)
                     done, sessions, phases = {}, [], {}
                 else:
                     done = finished_phases(man, out)

@@ -27,22 +27,38 @@ def ramp_dir(out, mu):
 
 
 # --------------------------------------------------------------------------- output folder
-def prepare_out(out):
+def earlier_job_refusal(out):
+    """The one-line refusal of a new job in ``out``, a folder of an earlier job."""
+    return (f"output folder {out!r} holds an earlier `remote-trigger paper` job "
+            f"({MANIFEST}): give --resume to continue it, --overwrite to replace its "
+            f"outputs, or another --out (nothing was deleted)")
+
+
+def prepare_out(out, overwrite=False):
     """Make ``out`` ready for a new run (rank 0 only).
 
     An empty or missing folder is used as is. A folder that holds a previous
-    run of this job (``paper.json``) has exactly the outputs of that job
-    removed (:data:`OUTPUTS`, ``ramp_mu*``, ``fig*.png``, and the temporary
-    ``NAME.tmpPID`` files of writes cut short); anything else in it is left
-    alone. A non-empty folder without ``paper.json`` is refused.
-    (``--resume`` with a ``paper.json`` in ``out`` deletes nothing and does
-    not call this; see :func:`run_paper`.)
+    run of this job (``paper.json``) is refused unless ``overwrite``; with it,
+    exactly the outputs of that job are removed (:data:`OUTPUTS`,
+    ``ramp_mu*``, ``fig*.png``, and the temporary ``NAME.tmpPID`` files of
+    writes cut short) and anything else in it is left alone. A non-empty
+    folder without ``paper.json`` is refused. (``--resume`` with a
+    ``paper.json`` in ``out`` deletes nothing and does not call this; see
+    :func:`run_paper`.)
+
+    Parameters
+    ----------
+    out : str
+        The output folder.
+    overwrite : bool
+        Replace the outputs of an earlier job in ``out`` (``--overwrite``).
 
     Raises
     ------
     ConfigError
-        If ``out`` is a file, cannot be created, or is a non-empty folder
-        not written by this job.
+        If ``out`` is a file, cannot be created, is a non-empty folder not
+        written by this job, or holds an earlier job and ``overwrite`` is
+        false (nothing is deleted then).
     """
     from remote_trigger.analysis.errors import InputError
     from remote_trigger.analysis.output import output_dir
@@ -57,6 +73,8 @@ def prepare_out(out):
     if MANIFEST not in entries:
         raise ConfigError(f"output folder {out!r} is not empty and was not written by "
                           f"`remote-trigger paper` (no {MANIFEST}); choose another --out")
+    if not overwrite:
+        raise ConfigError(earlier_job_refusal(out))
     for name in entries:
         path = os.path.join(out, name)
         base = re.sub(r"\.tmp\d+$", "", name)   # temporary file of a killed write
