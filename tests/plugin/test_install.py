@@ -90,3 +90,33 @@ def test_python_module_without_mpi4py_first(tmp_path):
                          cwd=tmp_path, timeout=120, env=env)
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stdout.split() == ["2", "True"], res.stdout
+
+
+def test_the_readme_decks_run_on_a_generated_packing(tmp_path):
+    """The two LAMMPS blocks of README.md "Using the plugin", pasted one after
+    the other on `remote-trigger generate`'s packing, run with `lmp` (the
+    Fig. 5 fixes act on group `top`, which the README defines)."""
+    readme = os.path.join(os.path.dirname(__file__), "..", "..", "README.md")
+    blocks, block = [], None
+    with open(readme) as fh:
+        for line in fh:
+            if line.startswith("```"):          # a fence opens or closes a block
+                if block is not None:
+                    blocks.append("".join(block))
+                block = [] if block is None else None
+            elif block is not None:
+                block.append(line)
+    setup = [b for b in blocks if b.startswith("units lj")]
+    fig5 = [b for b in blocks if "addforce/oscillating" in b]
+    assert len(setup) == 1 and len(fig5) == 1, blocks
+    bindir = os.path.dirname(sys.executable)
+    gen = subprocess.run([os.path.join(bindir, "remote-trigger"), "generate", "-o",
+                          "packing.data"], capture_output=True, text=True, cwd=tmp_path,
+                         timeout=120)
+    assert gen.returncode == 0, gen.stderr
+    (tmp_path / "in.readme").write_text(setup[0] + fig5[0] + "run 20\n")
+    res = subprocess.run([os.path.join(bindir, "lmp"), "-in", "in.readme", "-log", "none"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert res.returncode == 0 and "ERROR" not in res.stdout, \
+        res.stdout[-2000:] + res.stderr[-2000:]
+    assert "Loop time of" in res.stdout
