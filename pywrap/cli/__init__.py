@@ -140,18 +140,25 @@ def unrecognized(parser, command, extra):
     The one line names the subcommand (``remote-trigger generate: error:
     unrecognized arguments: --out p (did you mean --output?) (see
     remote-trigger generate --help)``): an option (``--x`` or ``-x``, not a
-    negative number) close to one of the subcommand's own
-    (:func:`difflib.get_close_matches`) is named as the likely meant one; a
-    stray word that is a file, for a subcommand that reads its start file
-    from ``--datafile``, as ``--datafile WORD``.
+    negative number) that names a configuration key of a job with no flag of
+    its own (the subcommand's default ``config_keys``) is named as
+    ``--set KEY=VALUE``; one close to one of the subcommand's own options
+    (:func:`difflib.get_close_matches`) as the likely meant one; a stray
+    word that is a file, for a subcommand that reads its start file from
+    ``--datafile``, as ``--datafile WORD``.
     """
     import difflib
 
     sub = parser.commands.get(command, parser)
     known = [o for a in sub._actions for o in a.option_strings if o.startswith("--")]
+    keys = sub.get_default("config_keys") or ()
     hints = []
     for word in extra:
         if word.startswith("-") and not _NEGATIVE.match(word):
+            key = word.split("=", 1)[0].lstrip("-").replace("-", "_")
+            if key in keys:
+                hints.append(f"--set {key}=VALUE")
+                continue
             hints += difflib.get_close_matches(word.split("=", 1)[0], known, n=1)
         elif "--datafile" in known and os.path.isfile(word):
             hints.append(f"--datafile {word}")

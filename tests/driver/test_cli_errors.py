@@ -160,7 +160,14 @@ def test_options_are_taken_by_their_whole_name_only(capsys, tmp_path):
                                          "unrecognized arguments: more (see"]),
     # one dash where two are meant
     (["generate", "-n", "20"], ["remote-trigger generate: error",
-                                "unrecognized arguments: -n 20 (did you mean --n?)"])])
+                                "unrecognized arguments: -n 20 (did you mean --n?)"]),
+    # a job's configuration key that has no flag: --set names it
+    (["paper", "--nf_eps", "0.1"], ["remote-trigger paper: error",
+                                    "--nf_eps 0.1 (did you mean --set nf_eps=VALUE?)"]),
+    (["paper", "--nf-tau=3"], ["(did you mean --set nf_tau=VALUE?)"]),
+    (["ensemble", "--n", "100"], ["remote-trigger ensemble: error",
+                                  "--n 100 (did you mean --set n=VALUE?)"]),
+    (["trigger-map", "--omega_p", "0.1"], ["(did you mean --set omega_p=VALUE?)"])])
 def test_unknown_words_name_the_subcommand(capsys, argv, needles):
     """A word the subcommand does not take is refused by that subcommand,
     with the closest of its options where one is close (none for a stray

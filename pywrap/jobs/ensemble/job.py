@@ -377,7 +377,10 @@ def register(subparsers):
                    help="instead of running: say how far the ensemble in --out has come "
                         "(per packing: finished, relaxing, or each ramp's points and "
                         "bracket so far); reads the folder only, safe beside the running job")
-    p.set_defaults(func=main, resume_hint=(
+    from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
+
+    # a key with no flag of its own: the usage error names --set KEY=VALUE
+    p.set_defaults(func=main, config_keys=tuple(EnsembleConfig.names()), resume_hint=(
         "every finished packing is kept: the same command with --resume continues the ensemble"))
 
 

@@ -64,7 +64,7 @@ def register(subparsers):
         p.add_argument(*flags, dest=f"opt_{f}", type=typ, metavar=typ.__name__.upper(),
                        help=_FLAG_HELP.get(f, f"see docs/paper.md ({default!r})"
                                            if default is not None else "see docs/paper.md"))
-    p.set_defaults(func=main, resume_hint=(
+    p.set_defaults(func=main, config_keys=tuple(PaperConfig.names()), resume_hint=(
         "paper.json records every finished phase: the same command with --resume "
         "continues the job"))
 

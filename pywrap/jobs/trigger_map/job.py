@@ -500,7 +500,10 @@ def register(subparsers):
                       "1 damping time)",
                       "continue an interrupted map in --out (same configuration; finished "
                       "runs are kept)", "--set omega_p=[0.01,1]")
-    p.set_defaults(func=main, resume_hint=(
+    from remote_trigger.pywrap.jobs.trigger_map.config import MapConfig
+
+    # a key with no flag of its own: the usage error names --set KEY=VALUE
+    p.set_defaults(func=main, config_keys=tuple(MapConfig.names()), resume_hint=(
         "every finished run is logged in tasks/: the same command with --resume continues the map"))
 
 
