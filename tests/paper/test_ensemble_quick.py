@@ -98,6 +98,14 @@ def test_outputs_and_rows(serial):
         assert s in ("ok", "incomplete", "failed")
         if s == "failed":
             assert r
+    # and the console's last line of the job counts the rows that are not ok
+    done = next(x for x in proc.stdout.splitlines() if "done: 9 rows" in x)
+    bad = {k: int((t["status"] == k).sum()) for k in ("failed", "incomplete")}
+    if any(bad.values()):
+        assert "rows not ok: " + ", ".join(f"{n} {k}" for k, n in sorted(bad.items()) if n) \
+            + " (reasons in ensemble.md)" in done, done
+    else:
+        assert "not ok" not in done, done
     md = open(os.path.join(out, "ensemble.md")).read()
     for head in ("## F_x^c by size", "## N dependence", "hold for every packing",
                  "## The paper's bracket", "## Frictional relaxation", "## Packings",

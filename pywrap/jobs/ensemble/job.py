@@ -296,7 +296,15 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
                                "statistics": _jsonable(
                                    {k: v for k, v in st.items()
                                     if k not in ("order", "paper_percentile", "n_exponent")})})
-            say(f"done: {len(rows)} rows, {len(computed)} packing(s) computed now")
+            # rows without every bracket certified ('failed', 'incomplete'),
+            # named here so that a failure is not seen only in the files
+            not_ok = {}
+            for r in rows:
+                if r["status"] != "ok":
+                    not_ok[r["status"]] = not_ok.get(r["status"], 0) + 1
+            tail = ", ".join(f"{n} {k}" for k, n in sorted(not_ok.items()))
+            say(f"done: {len(rows)} rows, {len(computed)} packing(s) computed now"
+                + (f"; rows not ok: {tail} (reasons in ensemble.md)" if not_ok else ""))
         except Exception as exc:  # noqa: BLE001 - re-raised on every rank
             err = exc
     err = comm.bcast(err, root=0)
