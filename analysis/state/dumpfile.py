@@ -67,8 +67,13 @@ def _read_frames(path):
             k += 1
             continue
         if not lines[k].startswith("ITEM: TIMESTEP"):
+            # a data file where a dump is meant (the header line "N atoms")
+            data = any(ln.split()[1:2] == ["atoms"] and ln.split()[0].isdigit()
+                       for ln in lines[:20] if ln.strip())
+            hint = ("; this is a LAMMPS data file: give the dump written beside it "
+                    "(equilibrium.dump for equilibrium.data)") if data else ""
             raise ValueError(f"{path}: line {k + 1}: expected 'ITEM: TIMESTEP', got "
-                             f"{lines[k][:60]!r}")
+                             f"{lines[k][:60]!r}{hint}")
         try:
             step = int(lines[k + 1].split()[0])
             if not lines[k + 2].startswith("ITEM: NUMBER OF ATOMS"):

@@ -81,8 +81,15 @@ def test_inputs_named_for_what_they_are(capsys, packing_file, tmp_path):
     (tmp_path / "p.npz").write_bytes(b"keep")
     status, _, err = run_cli(capsys, "jacobian", data)
     assert status == 2
-    assert_one_line_error(err, "expected 'ITEM: TIMESTEP'")
+    assert_one_line_error(err, "expected 'ITEM: TIMESTEP'",
+                          "this is a LAMMPS data file: give the dump written beside it")
     assert (tmp_path / "p.npz").read_bytes() == b"keep"
+    # a file that is neither gets no such hint
+    other = tmp_path / "notes.dump"
+    other.write_text("some text\n")
+    status, _, err = run_cli(capsys, "jacobian", other)
+    assert status == 2 and "data file" not in err
+    assert_one_line_error(err, "expected 'ITEM: TIMESTEP'")
     status, _, err = run_cli(capsys, "generate", "--output", "")
     assert status == 2
     assert_one_line_error(err, "--output must name a file, got an empty name")
