@@ -360,7 +360,7 @@ def open_ramp_log(eng, cfg, out, h5, resume):
     """
     exists = eng.comm.bcast(os.path.exists(h5) if eng.rank == 0 else None, root=0)
     if exists and not resume:
-        raise ConfigError(f"{h5} exists: use resume (--resume) to continue it, or "
+        raise ConfigError(f"{h5} exists: use --resume (resume=True) to continue it, or "
                           f"another output folder (nothing was overwritten)")
 
     def open_log():

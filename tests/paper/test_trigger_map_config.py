@@ -40,6 +40,9 @@ def test_unknown_key_and_missing_paper():
         tc.MapConfig.from_dict({"paper": "x", "omega": [1.0]})
     with pytest.raises(ConfigError, match="paper"):
         tc.MapConfig.from_dict({})
+    # the message names the option a user of the command line gives
+    with pytest.raises(ConfigError, match=r"paper \(--paper DIR\) must name"):
+        tc.MapConfig.from_dict({"paper": ""})
 
 
 @pytest.mark.parametrize("argv,words", [
