@@ -238,8 +238,9 @@ def run_perturb(cfg, out, ramps, comm, clock):
     from remote_trigger.pywrap.jobs.paper.fig5 import run_fig5
 
     summ = run_fig5(cfg, out, ramps, comm, clock)
-    clock.say(f"Fig. 5: done ({summ['wall']:.0f} s: " +
-              ", ".join(f"({k}) {v:.0f} s" for k, v in summ["walls"].items()) + ")")
+    # tenths of seconds: the runs of a quick job take < 1 s each
+    clock.say(f"Fig. 5: done ({summ['wall']:.1f} s: " +
+              ", ".join(f"({k}) {v:.1f} s" for k, v in summ["walls"].items()) + ")")
     return summ
 
 
