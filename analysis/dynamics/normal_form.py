@@ -323,9 +323,13 @@ def main(args):
     png = os.path.join(args.out, "normal_form_amplitude.png")
     plot_amplitude(eps, taus, amp, est, args.delta, png)
     print(f"normal form, delta = {args.delta}: A sqrt(eps) (estimate) for each tau")
+    cells = [[f"{amp[a, b] * np.sqrt(e):.4g} ({est[a, b] * np.sqrt(e):.3g})"
+              for b, e in enumerate(eps)] for a in range(len(taus))]
+    heads = [f"eps = {e:g}" for e in eps]
+    width = [max(len(h), *(len(r[b]) for r in cells)) for b, h in enumerate(heads)]
+    print(" " * 18 + "  ".join(h.ljust(w) for h, w in zip(heads, width)).rstrip())
     for a, tau in enumerate(taus):
-        row = "  ".join(f"{amp[a, b] * np.sqrt(e):.4g} ({est[a, b] * np.sqrt(e):.3g})"
-                        for b, e in enumerate(eps))
+        row = "  ".join(c.ljust(w) for c, w in zip(cells[a], width)).rstrip()
         print(f"  tau = {tau:>8g}: {row}")
     print(f"wrote {path} and {png}")
     return 0

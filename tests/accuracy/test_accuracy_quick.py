@@ -77,8 +77,12 @@ def test_an_earlier_result_is_kept(result):
     assert len(p.stderr.strip().splitlines()) == 1
     assert (out / "accuracy.h5").read_bytes() == before
     nf = out / "nf"
-    argv = [cli, "normal-form", "-o", str(nf), "--eps", "0.1", "--tau", "inf"]
-    assert subprocess.run(argv, capture_output=True, timeout=60).returncode == 0
+    argv = [cli, "normal-form", "-o", str(nf), "--eps", "0.1", "0.01", "--tau", "inf"]
+    first = subprocess.run(argv, capture_output=True, text=True, timeout=60)
+    assert first.returncode == 0, first.stderr
+    # the console table labels its columns with eps, largest first
+    head = first.stdout.splitlines()[1].split()
+    assert head == ["eps", "=", "0.1", "eps", "=", "0.01"], first.stdout
     p = subprocess.run(argv, capture_output=True, text=True, timeout=60)
     assert p.returncode == 2 and "already holds normal_form.h5" in p.stderr, p.stderr
 
