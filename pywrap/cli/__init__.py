@@ -142,8 +142,9 @@ def unrecognized(parser, command, extra):
     remote-trigger generate --help)``): an option (``--x`` or ``-x``, not a
     negative number) that names a configuration key of a job with no flag of
     its own (the subcommand's default ``config_keys``) is named as
-    ``--set KEY=VALUE``; one close to one of the subcommand's own options
-    (:func:`difflib.get_close_matches`) as the likely meant one; a stray
+    ``--set KEY=VALUE``; the one option of the subcommand that begins with
+    it, else the one closest to it (:func:`difflib.get_close_matches`), as
+    the likely meant one; a stray
     word that is a file, for a subcommand that reads its start file from
     ``--datafile``, as ``--datafile WORD``.
     """
@@ -159,7 +160,11 @@ def unrecognized(parser, command, extra):
             if key in keys:
                 hints.append(f"--set {key}=VALUE")
                 continue
-            hints += difflib.get_close_matches(word.split("=", 1)[0], known, n=1)
+            # the one option that begins with the word (--settle for
+            # --settle-steps), else the closest by difflib
+            begun = [o for o in known if o.startswith(word.split("=", 1)[0])]
+            hints += begun if len(begun) == 1 else difflib.get_close_matches(
+                word.split("=", 1)[0], known, n=1)
         elif "--datafile" in known and os.path.isfile(word):
             hints.append(f"--datafile {word}")
     hint = f" (did you mean {', '.join(dict.fromkeys(hints))}?)" if hints else ""

@@ -167,7 +167,9 @@ def test_options_are_taken_by_their_whole_name_only(capsys, tmp_path):
     (["paper", "--nf-tau=3"], ["(did you mean --set nf_tau=VALUE?)"]),
     (["ensemble", "--n", "100"], ["remote-trigger ensemble: error",
                                   "--n 100 (did you mean --set n=VALUE?)"]),
-    (["trigger-map", "--omega_p", "0.1"], ["(did you mean --set omega_p=VALUE?)"])])
+    (["trigger-map", "--omega_p", "0.1"], ["(did you mean --set omega_p=VALUE?)"]),
+    # the beginning of one option (difflib alone named --set)
+    (["relax", "--settle", "100"], ["--settle 100 (did you mean --settle-steps?)"])])
 def test_unknown_words_name_the_subcommand(capsys, argv, needles):
     """A word the subcommand does not take is refused by that subcommand,
     with the closest of its options where one is close (none for a stray
