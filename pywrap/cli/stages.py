@@ -210,7 +210,8 @@ def register(subparsers):
                    help="2 or 3 (default: that of the data file; a contradicting value "
                         "is an error)")
     r.add_argument("--settle-steps", dest="settle_steps", type=int,
-                   help="compaction aid for a loose packing (frictionless + gravity), steps")
+                   help="compaction aid for a loose packing (frictionless + gravity), steps "
+                        "(30000)")
     r.add_argument("--f-min", dest="f_min", type=float, help="target residual (1e-15)")
     r.add_argument("--no-newton", dest="newton", action="store_false", default=None,
                    help="over-damped dynamics only, down to the acceptance level (the "

@@ -17,6 +17,11 @@ _FLAG_HELP = {
     "ramp and Figs. 4-5 (1)", "mu_low": "friction of the second ramp (0.8)",
     "dF_x": "ramp step (2.5e-4)", "tol": "bisection tolerance on F_x^c (1e-7)",
     "np": "MPI ranks: re-launch under the environment's mpirun (1)",
+    # keys whose default is computed (None in PaperConfig)
+    "k_t": "tangential stiffness (2 k_n / 7)",
+    "fig5_F_x": "Fig. 5 load, below F_x^c(mu) (none: fig5_window of the window)",
+    "a": "forcing amplitude of Fig. 5 (b)-(d) (measured by the job)",
+    "t_on": "onset time of the forcing, 0 = a step (pi / (2 omega_p))",
 }
 
 
