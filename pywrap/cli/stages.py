@@ -40,7 +40,8 @@ def _add_model(p, default=None, shown=None):
                    "is refused")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="any configuration field, e.g. --set k_n=2e5 (repeatable)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress bar and no model line (the result lines remain)")
     p.add_argument("--log", default="none", help="LAMMPS log file (default none)")
 
 
@@ -141,14 +142,20 @@ def _config(cls, args, extra=()):
 def _note_model(args, cfg):
     """On rank 0 (not with --quiet): one line naming the run's model, taken from
     the start file's sidecar but for the values given (with --override where
-    they differ from it)."""
+    they differ from it), or, for a start file without a sidecar (e.g. from
+    ``generate``), from the defaults and the options given."""
+    if _rank() != 0 or args.quiet:
+        return
     src = getattr(args, "model_source", None)
-    if src and _rank() == 0 and not args.quiet:
-        given = getattr(args, "model_given", [])
+    given = getattr(args, "model_given", [])
+    if src:
         but = f"; {', '.join(given)} as given" if given else ""
-        print(f"{args.command}: model: F_x = {cfg.F_x!r}, F_y = {cfg.F_y!r}, mu = "
-              f"{cfg.mu!r}, k_n = {cfg.k_n!r}, k_t = {cfg.k_t!r} (the start state's sidecar "
-              f"{src}{but})", flush=True)
+        whence = f"the start state's sidecar {src}{but}"
+    else:
+        whence = "no sidecar beside the start file: the defaults" + (
+            f", {', '.join(given)} as given" if given else "")
+    print(f"{args.command}: model: F_x = {cfg.F_x!r}, F_y = {cfg.F_y!r}, mu = "
+          f"{cfg.mu!r}, k_n = {cfg.k_n!r}, k_t = {cfg.k_t!r} ({whence})", flush=True)
 
 
 def _runs_arg(text):

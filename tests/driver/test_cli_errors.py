@@ -315,6 +315,23 @@ def test_relax_and_perturb_refuse_a_folder_with_their_results(capsys, relaxed, t
     assert_one_line_error(err, "already holds perturb results", "perturb_a.h5")
 
 
+def test_the_model_line_says_where_the_values_come_from(capsys, relaxed, tmp_path):
+    """Every stage prints the model it runs with: from the start file's sidecar,
+    or, for a data file without one (``generate``'s), the defaults."""
+    bare = tmp_path / "bare.data"
+    shutil.copyfile(relaxed.datafile, bare)          # no bare.dump.json beside it
+    status, stdout, _ = run_cli(capsys, "relax", "--datafile", bare, "--out", tmp_path / "a",
+                                "--set", "settle_steps=0")
+    assert status == 0
+    line = next(ln for ln in stdout.splitlines() if ln.startswith("relax: model: "))
+    assert line.endswith("(no sidecar beside the start file: the defaults)"), line
+    status, stdout, _ = run_cli(capsys, "relax", "--datafile", relaxed.datafile, "--out",
+                                tmp_path / "b", "--set", "settle_steps=0", "--mu", "1.0")
+    assert status == 0
+    line = next(ln for ln in stdout.splitlines() if ln.startswith("relax: model: "))
+    assert "the start state's sidecar" in line and "--mu as given" in line, line
+
+
 def test_ramp_resume_refuses_another_datafile(capsys, ramp_run, tmp_path):
     out = tmp_path / "r"
     shutil.copytree(ramp_run["out"], out)
