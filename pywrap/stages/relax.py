@@ -556,9 +556,7 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
                     set_friction(eng, cfg.mu)
                     t_comp = time.perf_counter() - tc
                 r, t_sim, rec = eq.equilibrate(eng, cfg, cfg.F_x, progress=prog)
-            # the bar's last state is the result's residual (after Newton),
-            # not that of the last check of the dynamics
-            bar.set_postfix_str(f"residual {r:.2e}")
+            bar.set_postfix_str(f"residual {r:.2e}")     # the result's (after Newton)
         finally:
             bar.close()
         prefix = os.path.join(out, "relax", "equilibrium")
