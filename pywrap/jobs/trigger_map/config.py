@@ -94,8 +94,8 @@ class MapConfig(Config):
 
     def __post_init__(self):
         if not isinstance(self.paper, str) or not self.paper:
-            raise ConfigError(f"paper (--paper DIR) must name the output folder of a paper job, got "
-                              f"paper = {self.paper!r}")
+            raise ConfigError(f"paper (--paper DIR) must name the output folder of a paper "
+                              f"job, got paper = {self.paper!r}")
         for name in ("fractions", "omega_p", "tau_g", "tau", "onsets"):
             v = getattr(self, name)
             if isinstance(v, (str, bytes)) or not hasattr(v, "__iter__"):
