@@ -62,14 +62,18 @@ class _LogLines:
 def progress_bar(total, desc, quiet, rank, unit="it", log_interval=None):
     """A tqdm bar on rank 0's stderr (none with ``quiet`` or on other ranks);
     where stderr is not a terminal, a line per update at most every
-    ``log_interval`` seconds (default :data:`LOG_INTERVAL`; :class:`_LogLines`)."""
+    ``log_interval`` seconds (default :data:`LOG_INTERVAL`; :class:`_LogLines`),
+    the last state written when the bar closes."""
     import sys
     from tqdm import tqdm
 
     tty = hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
     every = LOG_INTERVAL if log_interval is None else log_interval
+    # off a terminal every update reaches _LogLines (mininterval 0), which
+    # limits the lines itself and so writes the bar's true last state at the
+    # end (with tqdm's own 0.1 s limit, a run's last records were never shown)
     return tqdm(total=total, desc=desc, disable=quiet or rank != 0, unit=unit,
-                leave=False, dynamic_ncols=tty,
+                leave=False, dynamic_ncols=tty, mininterval=0.1 if tty else 0.0,
                 file=sys.stderr if tty else _LogLines(sys.stderr, every))
 
 

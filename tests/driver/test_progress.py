@@ -45,3 +45,15 @@ def test_lines_are_rate_limited_and_the_last_is_kept():
     assert fp.getvalue().splitlines()[-1] == "relax: 9chk"
     log.write("\r")                          # nothing pending: nothing written
     assert len(fp.getvalue().splitlines()) == 4
+
+
+def test_the_last_state_is_written_off_a_terminal(capsys):
+    """Updates faster than tqdm's own refresh limit (a run's records): the line
+    written when the bar closes is its true last state, 1000/1000 (it ended at
+    a count tqdm had last shown, e.g. 9987/10000)."""
+    bar = progress_bar(1000, "perturb", False, 0, unit=" records")
+    for _ in range(1000):
+        bar.update(1)
+    bar.close()
+    lines = capsys.readouterr().err.splitlines()
+    assert "1000/1000" in lines[-1], lines
