@@ -2,6 +2,7 @@
 import json
 import math
 import os
+import re
 
 import pytest
 
@@ -319,3 +320,21 @@ def test_a_job_without_f_x_c_has_exit_status_1(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "report: " in text and "ended without F_x^c" in text
     assert (out / "report.md").is_file()
+
+
+def test_every_flag_is_helped_from_the_docstring(capsys):
+    """Each field of PaperConfig is documented in its Attributes section, and
+    `paper --help` gives each flag that description's first sentence and its
+    default (it said only "see docs/paper.md" for most)."""
+    from remote_trigger.pywrap.jobs.paper.cli import attribute_help
+
+    helps = attribute_help(PaperConfig)
+    assert set(PaperConfig.names()) <= set(helps), set(PaperConfig.names()) - set(helps)
+    assert helps["dF_x"].startswith("Ramp step, > 0. Default 2.5e-4")
+    assert helps["B"].endswith("(B, w, mu_ss)") and "Default" in helps["B"]
+    assert "``" not in " ".join(helps.values()) and ":data:" not in " ".join(helps.values())
+    with pytest.raises(SystemExit):
+        cli_main(["paper", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert not re.search(r"(FLOAT|INT) see docs/paper\.md", out), out  # a help of its own
+    assert "--seed INT Seed of the packing generator, >= 0. Default 1." in out

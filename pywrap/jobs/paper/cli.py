@@ -11,18 +11,39 @@ from remote_trigger.pywrap.jobs.paper.manifest import (
 from remote_trigger.pywrap.jobs.paper.job import run_paper  # noqa: F401
 
 
-_FLAG_HELP = {
-    "dim": "2: disks (the paper), 3: spheres (N = 160, phi = 0.64 unless given) (2)",
-    "n": "number of disks (100; spheres 160)", "seed": "packing seed (1)", "mu": "friction of the main "
-    "ramp and Figs. 4-5 (1)", "mu_low": "friction of the second ramp (0.8)",
-    "dF_x": "ramp step (2.5e-4)", "tol": "bisection tolerance on F_x^c (1e-7)",
-    "np": "MPI ranks: re-launch under the environment's mpirun (1)",
-    # keys whose default is computed (None in PaperConfig)
-    "k_t": "tangential stiffness (2 k_n / 7)",
-    "fig5_F_x": "Fig. 5 load, below F_x^c(mu) (none: fig5_window of the window)",
-    "a": "forcing amplitude of Fig. 5 (b)-(d) (measured by the job)",
-    "t_on": "onset time of the forcing, 0 = a step (pi / (2 omega_p))",
-}
+def attribute_help(cls):
+    """Help text of each field of a configuration class, from its numpydoc
+    ``Attributes`` section: the description's first sentence and its
+    ``Default ...`` sentence, in one line (the docstring is the one source)."""
+    import inspect
+    import re
+
+    doc = inspect.getdoc(cls).split("Attributes\n----------\n", 1)[1]
+    out, names, lines = {}, [], []
+
+    def flush():
+        # plain text: no reST roles (:data:`DIM3` -> DIM3) or literals (``top``)
+        text = re.sub(r":\w+:`~?([^`]+)`", r"\1", " ".join(lines)).replace("``", "")
+        sentences = re.split(r"(?<=[.)])\s+(?=[A-Z])", text)
+        first = sentences[0]
+        default = next((t for t in sentences[1:]
+                        if t.startswith(("Default", "None (default)"))), None)
+        which = f" ({', '.join(names)})" if len(names) > 1 else ""
+        for name in names:      # (argparse formats help with %: a literal % doubled)
+            out[name] = (first + (" " + default if default else "") + which).replace("%", "%%")
+
+    for line in doc.splitlines():
+        if line and not line.startswith(" "):            # "name : type"
+            if names:
+                flush()
+            names, lines = [n.strip() for n in line.split(" : ")[0].split(",")], []
+        elif line.strip():
+            lines.append(line.strip())
+    if names:
+        flush()
+    return out
+
+
 
 
 def register(subparsers):
@@ -60,6 +81,7 @@ def register(subparsers):
                    help="any configuration key (repeatable), e.g. --set nf_eps=[0.1,0.01]")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--resolved-config", help=argparse.SUPPRESS)
+    helps = attribute_help(PaperConfig)
     for f in PaperConfig.names():
         if f in ("quick", "relax", "nf_eps", "nf_tau"):
             continue
@@ -67,8 +89,7 @@ def register(subparsers):
         typ = int if isinstance(default, int) and not isinstance(default, bool) else float
         flags = [f"--{f}"] + ([f"--{f.replace('_', '-')}"] if "_" in f else [])
         p.add_argument(*flags, dest=f"opt_{f}", type=typ, metavar=typ.__name__.upper(),
-                       help=_FLAG_HELP.get(f, f"see docs/paper.md ({default!r})"
-                                           if default is not None else "see docs/paper.md"))
+                       help=helps.get(f, "see docs/paper.md"))
     p.set_defaults(func=main, config_keys=tuple(PaperConfig.names()), resume_hint=(
         "paper.json records every finished phase: the same command with --resume "
         "continues the job"))

@@ -56,12 +56,12 @@ class PaperConfig(Config):
     Attributes
     ----------
     dim : {2, 3}
-        Disks (2, the paper) or spheres (3, docs/model.md section 9). Default 2.
-        With 3, :func:`build_config` starts from :data:`DIM3` (N, phi) and its
+        Disks (2, the paper) or spheres (3, docs/model.md section 9; N = 160
+        and phi = 0.64 unless given). Default 2. With 3, :func:`build_config` starts from :data:`DIM3` (N, phi) and its
         ``--quick`` preset from :data:`QUICK3D`.
     n : int
-        Number of disks (spheres), even, >= 6. Default 100 (paper); spheres:
-        :data:`DIM3`.
+        Number of disks (spheres), even, >= 6. Default 100 (paper); spheres
+        160 (:data:`DIM3`).
     seed : int
         Seed of the packing generator, >= 0. Default 1.
     phi : float
