@@ -226,6 +226,47 @@ class Config:
         return [f.name for f in fields(cls)]
 
     @classmethod
+    def field_help(cls):
+        """One line of help per field, from the class's numpydoc ``Attributes``
+        section (the docstring is the one source): the description's first
+        sentence and its ``Default ...`` sentence, without reST markup; a
+        shared entry (``B, w, mu_ss : float``) names its fields. For the
+        command line's --help.
+
+        Returns
+        -------
+        dict
+            Field name -> text (a literal % doubled, as argparse needs).
+        """
+        import inspect
+        import re
+
+        doc = inspect.getdoc(cls).split("Attributes\n----------\n", 1)[1]
+        out, names, lines = {}, [], []
+
+        def flush():
+            # plain text: no reST roles (:data:`DIM3` -> DIM3) or literals (``top``)
+            text = re.sub(r":\w+:`~?([^`]+)`", r"\1", " ".join(lines)).replace("``", "")
+            sentences = re.split(r"(?<=[.)])\s+(?=[A-Z])", text)
+            default = next((t for t in sentences[1:]
+                            if t.startswith(("Default", "None (default)"))), None)
+            which = f" ({', '.join(names)})" if len(names) > 1 else ""
+            for name in names:
+                out[name] = (sentences[0] + (" " + default if default else "")
+                             + which).replace("%", "%%")
+
+        for line in doc.splitlines():
+            if line and not line.startswith(" "):            # "name : type"
+                if names:
+                    flush()
+                names, lines = [n.strip() for n in line.split(" : ")[0].split(",")], []
+            elif line.strip():
+                lines.append(line.strip())
+        if names:
+            flush()
+        return out
+
+    @classmethod
     def from_dict(cls, data):
         """Build from a mapping, validated.
 

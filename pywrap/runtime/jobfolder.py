@@ -85,6 +85,23 @@ def add_job_arguments(p, out, config_class, quick_help, resume_help, set_example
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
+def describe_keys(p, config_class):
+    """The --help of a job whose keys are given by --set and --config: its
+    description wrapped as argparse would, and an epilog with every key of
+    ``config_class`` and its help (:meth:`~remote_trigger.pywrap.config.Config.field_help`)."""
+    import argparse
+    import textwrap
+
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
+    p.description = textwrap.fill(p.description, 79)
+    helps = config_class.field_help()
+    lines = ["configuration keys (--set KEY=VALUE, or a --config file):"]
+    for key in config_class.names():
+        lines.append(textwrap.fill(helps[key].replace("%%", "%"), 79,
+                                   initial_indent=f"  {key}: ", subsequent_indent="      "))
+    p.epilog = "\n".join(lines)
+
+
 def job_overrides(args, **more):
     """Configuration overrides from :func:`add_job_arguments`'s options: every
     ``--set``, ``--np`` and the keyword arguments that are not None."""

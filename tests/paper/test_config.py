@@ -326,9 +326,7 @@ def test_every_flag_is_helped_from_the_docstring(capsys):
     """Each field of PaperConfig is documented in its Attributes section, and
     `paper --help` gives each flag that description's first sentence and its
     default (it said only "see docs/paper.md" for most)."""
-    from remote_trigger.pywrap.jobs.paper.cli import attribute_help
-
-    helps = attribute_help(PaperConfig)
+    helps = PaperConfig.field_help()
     assert set(PaperConfig.names()) <= set(helps), set(PaperConfig.names()) - set(helps)
     assert helps["dF_x"].startswith("Ramp step, > 0. Default 2.5e-4")
     assert helps["B"].endswith("(B, w, mu_ss)") and "Default" in helps["B"]
@@ -338,3 +336,23 @@ def test_every_flag_is_helped_from_the_docstring(capsys):
     out = " ".join(capsys.readouterr().out.split())
     assert not re.search(r"(FLOAT|INT) see docs/paper\.md", out), out  # a help of its own
     assert "--seed INT Seed of the packing generator, >= 0. Default 1." in out
+
+
+@pytest.mark.parametrize("command", ["ensemble", "trigger-map"])
+def test_the_help_of_a_job_lists_its_configuration_keys(capsys, command):
+    """ensemble and trigger-map take their keys by --set and --config only: their
+    --help lists every key with its help from the configuration's docstring."""
+    from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
+    from remote_trigger.pywrap.jobs.trigger_map.config import MapConfig
+
+    cls = {"ensemble": EnsembleConfig, "trigger-map": MapConfig}[command]
+    with pytest.raises(SystemExit):
+        cli_main([command, "--help"])
+    out = capsys.readouterr().out
+    keys = out.split("configuration keys (--set KEY=VALUE, or a --config file):\n")[1]
+    listed = [ln.split(":")[0].strip() for ln in keys.splitlines() if ln.startswith("  ")
+              and not ln.startswith("      ")]
+    assert listed == cls.names(), listed
+    helps = cls.field_help()
+    first = next(ln for ln in keys.splitlines() if ln.startswith(f"  {cls.names()[0]}: "))
+    assert helps[cls.names()[0]].startswith(first.split(": ", 1)[1].rstrip()), first

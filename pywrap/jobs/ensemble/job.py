@@ -79,7 +79,8 @@ import time
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.environment import environment
-from remote_trigger.pywrap.runtime.jobfolder import add_job_arguments, job_overrides
+from remote_trigger.pywrap.runtime.jobfolder import (
+    add_job_arguments, describe_keys, job_overrides)
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.jobs.ensemble.config import build_config
 from remote_trigger.pywrap.jobs.ensemble.figure import plot
@@ -387,6 +388,7 @@ def register(subparsers):
                         "bracket so far); reads the folder only, safe beside the running job")
     from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
 
+    describe_keys(p, EnsembleConfig)
     # a key with no flag of its own: the usage error names --set KEY=VALUE
     p.set_defaults(func=main, config_keys=tuple(EnsembleConfig.names()), resume_hint=(
         "every finished packing is kept: the same command with --resume continues the ensemble"))

@@ -11,41 +11,6 @@ from remote_trigger.pywrap.jobs.paper.manifest import (
 from remote_trigger.pywrap.jobs.paper.job import run_paper  # noqa: F401
 
 
-def attribute_help(cls):
-    """Help text of each field of a configuration class, from its numpydoc
-    ``Attributes`` section: the description's first sentence and its
-    ``Default ...`` sentence, in one line (the docstring is the one source)."""
-    import inspect
-    import re
-
-    doc = inspect.getdoc(cls).split("Attributes\n----------\n", 1)[1]
-    out, names, lines = {}, [], []
-
-    def flush():
-        # plain text: no reST roles (:data:`DIM3` -> DIM3) or literals (``top``)
-        text = re.sub(r":\w+:`~?([^`]+)`", r"\1", " ".join(lines)).replace("``", "")
-        sentences = re.split(r"(?<=[.)])\s+(?=[A-Z])", text)
-        first = sentences[0]
-        default = next((t for t in sentences[1:]
-                        if t.startswith(("Default", "None (default)"))), None)
-        which = f" ({', '.join(names)})" if len(names) > 1 else ""
-        for name in names:      # (argparse formats help with %: a literal % doubled)
-            out[name] = (first + (" " + default if default else "") + which).replace("%", "%%")
-
-    for line in doc.splitlines():
-        if line and not line.startswith(" "):            # "name : type"
-            if names:
-                flush()
-            names, lines = [n.strip() for n in line.split(" : ")[0].split(",")], []
-        elif line.strip():
-            lines.append(line.strip())
-    if names:
-        flush()
-    return out
-
-
-
-
 def register(subparsers):
     """Add the ``paper`` subcommand."""
     import argparse
@@ -81,7 +46,7 @@ def register(subparsers):
                    help="any configuration key (repeatable), e.g. --set nf_eps=[0.1,0.01]")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--resolved-config", help=argparse.SUPPRESS)
-    helps = attribute_help(PaperConfig)
+    helps = PaperConfig.field_help()
     for f in PaperConfig.names():
         if f in ("quick", "relax", "nf_eps", "nf_tau"):
             continue

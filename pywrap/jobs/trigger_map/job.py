@@ -62,7 +62,7 @@ from remote_trigger.analysis.dynamics.series import runaway_rate, runaway_consis
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.runtime.jobfolder import (
-    add_job_arguments, job_overrides, write_json)
+    add_job_arguments, describe_keys, job_overrides, write_json)
 from remote_trigger.pywrap.jobs.trigger_map.config import build_config
 from remote_trigger.pywrap.jobs.trigger_map.loads import (
     load_paper_job, ramp_kappa, prepare_loads, map_omegas, predicted_rate)
@@ -502,6 +502,7 @@ def register(subparsers):
                       "runs are kept)", "--set omega_p=[0.01,1]")
     from remote_trigger.pywrap.jobs.trigger_map.config import MapConfig
 
+    describe_keys(p, MapConfig)
     # a key with no flag of its own: the usage error names --set KEY=VALUE
     p.set_defaults(func=main, config_keys=tuple(MapConfig.names()), resume_hint=(
         "every finished run is logged in tasks/: the same command with --resume continues the map"))
