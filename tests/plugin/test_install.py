@@ -92,13 +92,10 @@ def test_python_module_without_mpi4py_first(tmp_path):
     assert res.stdout.split() == ["2", "True"], res.stdout
 
 
-def test_the_readme_decks_run_on_a_generated_packing(tmp_path):
-    """The two LAMMPS blocks of README.md "Using the plugin", pasted one after
-    the other on `remote-trigger generate`'s packing, run with `lmp` (the
-    Fig. 5 fixes act on group `top`, which the README defines)."""
-    readme = os.path.join(os.path.dirname(__file__), "..", "..", "README.md")
+def _fenced_blocks(path):
+    """The ``` blocks of a Markdown file, as text."""
     blocks, block = [], None
-    with open(readme) as fh:
+    with open(path) as fh:
         for line in fh:
             if line.startswith("```"):          # a fence opens or closes a block
                 if block is not None:
@@ -106,17 +103,66 @@ def test_the_readme_decks_run_on_a_generated_packing(tmp_path):
                 block = [] if block is None else None
             elif block is not None:
                 block.append(line)
-    setup = [b for b in blocks if b.startswith("units lj")]
-    fig5 = [b for b in blocks if "addforce/oscillating" in b]
-    assert len(setup) == 1 and len(fig5) == 1, blocks
+    return blocks
+
+
+def _lammps_blocks(path):
+    """The ``.. code-block:: LAMMPS`` blocks of a reST page, dedented."""
+    import textwrap
+
+    blocks, block = [], None
+    with open(path) as fh:
+        for line in fh:
+            if line.startswith(".. code-block:: LAMMPS"):
+                block = []
+            elif block is not None:
+                if line.strip() and not line.startswith(" "):     # the block ends
+                    blocks.append(textwrap.dedent("".join(block)).strip() + "\n")
+                    block = None
+                else:
+                    block.append(line)
+    return blocks
+
+
+def _run_on_a_generated_packing(tmp_path, deck):
+    """``deck`` + ``run 20`` with ``lmp`` beside `remote-trigger generate`'s
+    packing.data; returns LAMMPS's screen output (the run must succeed)."""
     bindir = os.path.dirname(sys.executable)
-    gen = subprocess.run([os.path.join(bindir, "remote-trigger"), "generate", "-o",
-                          "packing.data"], capture_output=True, text=True, cwd=tmp_path,
-                         timeout=120)
-    assert gen.returncode == 0, gen.stderr
-    (tmp_path / "in.readme").write_text(setup[0] + fig5[0] + "run 20\n")
-    res = subprocess.run([os.path.join(bindir, "lmp"), "-in", "in.readme", "-log", "none"],
+    if not (tmp_path / "packing.data").exists():
+        gen = subprocess.run([os.path.join(bindir, "remote-trigger"), "generate", "-o",
+                              "packing.data"], capture_output=True, text=True, cwd=tmp_path,
+                             timeout=120)
+        assert gen.returncode == 0, gen.stderr
+    (tmp_path / "in.doc").write_text(deck + "run 20\n")
+    res = subprocess.run([os.path.join(bindir, "lmp"), "-in", "in.doc", "-log", "none"],
                          capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert res.returncode == 0 and "ERROR" not in res.stdout, \
         res.stdout[-2000:] + res.stderr[-2000:]
     assert "Loop time of" in res.stdout
+    return res.stdout
+
+
+def test_the_readme_decks_run_on_a_generated_packing(tmp_path):
+    """The two LAMMPS blocks of README.md "Using the plugin", pasted one after
+    the other on `remote-trigger generate`'s packing, run with `lmp` (the
+    Fig. 5 fixes act on group `top`, which the README defines)."""
+    blocks = _fenced_blocks(os.path.join(os.path.dirname(__file__), "..", "..", "README.md"))
+    setup = [b for b in blocks if b.startswith("units lj")]
+    fig5 = [b for b in blocks if "addforce/oscillating" in b]
+    assert len(setup) == 1 and len(fig5) == 1, blocks
+    _run_on_a_generated_packing(tmp_path, setup[0] + fig5[0])
+
+
+def test_the_pair_style_page_example_runs(tmp_path):
+    """The 2d example of pair_mindlin_smooth.rst, and with its fix adapt
+    alternative in place of fix mu/velocity, run on a generated packing (the
+    example's fix mu/velocity had no wall fix to set mu of, and stopped)."""
+    page = os.path.join(os.path.dirname(__file__), "..", "..", "pair_mindlin_smooth", "doc",
+                        "pair_mindlin_smooth.rst")
+    blocks = _lammps_blocks(page)
+    deck = [b for b in blocks if b.startswith("dimension 2")]
+    adapt = [b for b in blocks if " adapt " in b and "dimension" not in b]
+    assert len(deck) == 1 and len(adapt) == 1, blocks
+    _run_on_a_generated_packing(tmp_path, deck[0])
+    alternative = "\n".join(ln for ln in deck[0].splitlines() if "mu/velocity" not in ln)
+    _run_on_a_generated_packing(tmp_path, alternative + "\n" + adapt[0])
