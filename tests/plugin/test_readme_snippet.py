@@ -1,6 +1,9 @@
-"""The plugin snippet of README.md runs on a packing from `remote-trigger generate`."""
+"""The LAMMPS examples of README.md and of the pair style page run on a packing from
+`remote-trigger generate` (in the Python module, and with the `lmp` of the environment)."""
 import os
 import re
+import subprocess
+import sys
 
 from .lmputil import new_lammps
 
@@ -37,7 +40,7 @@ def test_pair_style_doc_example_reads_a_generated_packing(tmp_path):
     rst = os.path.join(os.path.dirname(README), "pair_mindlin_smooth", "doc",
                        "pair_mindlin_smooth.rst")
     block = open(rst).read().split('Examples\n""""""""', 1)[1]
-    block = block.split(".. code-block:: LAMMPS", 1)[1].split("# spheres in 3d", 1)[0]
+    block = block.split(".. code-block:: LAMMPS", 1)[1].split("Instead of :doc:", 1)[0]
     deck = "\n".join(ln.strip() for ln in block.splitlines())
     write_data(generate(20, seed=1), tmp_path / "packing.data")
     cwd = os.getcwd()
@@ -45,11 +48,87 @@ def test_pair_style_doc_example_reads_a_generated_packing(tmp_path):
     try:
         lmp = new_lammps()
         lmp.commands_string("units lj\n" + deck)
-        lmp.commands_list(["fix floor all wall/mindlin/smooth 2.0e5 57142.857142857145 1.0 "
-                           "yplane 0.0", "fix nve all nve/sphere disc", "fix 2d all enforce2d",
-                           "timestep 1e-4", "run 10"])
+        # (the example defines the wall, which fix mu/velocity needs, and the
+        # integrator itself)
+        lmp.commands_list(["timestep 1e-4", "run 10"])
         assert lmp.get_natoms() == 20
         assert lmp.extract_global("ntimestep") == 10
         lmp.close()
     finally:
         os.chdir(cwd)
+
+
+def _fenced_blocks(path):
+    """The ``` blocks of a Markdown file, as text."""
+    blocks, block = [], None
+    with open(path) as fh:
+        for line in fh:
+            if line.startswith("```"):          # a fence opens or closes a block
+                if block is not None:
+                    blocks.append("".join(block))
+                block = [] if block is None else None
+            elif block is not None:
+                block.append(line)
+    return blocks
+
+
+def _lammps_blocks(path):
+    """The ``.. code-block:: LAMMPS`` blocks of a reST page, dedented."""
+    import textwrap
+
+    blocks, block = [], None
+    with open(path) as fh:
+        for line in fh:
+            if line.startswith(".. code-block:: LAMMPS"):
+                block = []
+            elif block is not None:
+                if line.strip() and not line.startswith(" "):     # the block ends
+                    blocks.append(textwrap.dedent("".join(block)).strip() + "\n")
+                    block = None
+                else:
+                    block.append(line)
+    return blocks
+
+
+def _run_on_a_generated_packing(tmp_path, deck):
+    """``deck`` + ``run 20`` with ``lmp`` beside `remote-trigger generate`'s
+    packing.data; returns LAMMPS's screen output (the run must succeed)."""
+    bindir = os.path.dirname(sys.executable)
+    if not (tmp_path / "packing.data").exists():
+        gen = subprocess.run([os.path.join(bindir, "remote-trigger"), "generate", "-o",
+                              "packing.data"], capture_output=True, text=True, cwd=tmp_path,
+                             timeout=120)
+        assert gen.returncode == 0, gen.stderr
+    (tmp_path / "in.doc").write_text(deck + "run 20\n")
+    res = subprocess.run([os.path.join(bindir, "lmp"), "-in", "in.doc", "-log", "none"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert res.returncode == 0 and "ERROR" not in res.stdout, \
+        res.stdout[-2000:] + res.stderr[-2000:]
+    assert "Loop time of" in res.stdout
+    return res.stdout
+
+
+def test_the_readme_decks_run_on_a_generated_packing(tmp_path):
+    """The two LAMMPS blocks of README.md "Using the plugin", pasted one after
+    the other on `remote-trigger generate`'s packing, run with `lmp` (the
+    Fig. 5 fixes act on group `top`, which the README defines)."""
+    blocks = _fenced_blocks(os.path.join(os.path.dirname(__file__), "..", "..", "README.md"))
+    setup = [b for b in blocks if b.startswith("units lj")]
+    fig5 = [b for b in blocks if "addforce/oscillating" in b]
+    assert len(setup) == 1 and len(fig5) == 1, blocks
+    _run_on_a_generated_packing(tmp_path, setup[0] + fig5[0])
+
+
+def test_the_pair_style_page_example_runs(tmp_path):
+    """The 2d example of pair_mindlin_smooth.rst, and with its fix adapt
+    alternative in place of fix mu/velocity, run on a generated packing (the
+    example's fix mu/velocity had no wall fix to set mu of, and stopped)."""
+    page = os.path.join(os.path.dirname(__file__), "..", "..", "pair_mindlin_smooth", "doc",
+                        "pair_mindlin_smooth.rst")
+    blocks = _lammps_blocks(page)
+    deck = [b for b in blocks if b.startswith("dimension 2")]
+    adapt = [b for b in blocks if " adapt " in b and "dimension" not in b]
+    assert len(deck) == 1 and len(adapt) == 1, blocks
+    _run_on_a_generated_packing(tmp_path, deck[0])
+    alternative = "\n".join(ln for ln in deck[0].splitlines() if "mu/velocity" not in ln)
+    _run_on_a_generated_packing(tmp_path, alternative + "\n" + adapt[0])
