@@ -1,7 +1,8 @@
 """The package map of the README ("Layout") holds for the code: each package
 imports only what its row allows, no two modules import each other (no
-import circle of any length, lazy imports inside functions included), and no
-module is longer than 600 lines. Checked on the installed sources."""
+import circle of any length, lazy imports inside functions included), no
+module is longer than 600 lines, and every public function, class and method
+has a docstring. Checked on the installed sources."""
 import ast
 import os
 
@@ -151,3 +152,37 @@ def test_modules_at_most_600_lines(name):
     with open(MODULES[name][0]) as fh:
         n = sum(1 for _ in fh)
     assert n <= 600, f"{name}: {n} lines"
+
+
+def undocumented(source):
+    """Public functions, classes and methods of a module's source without a
+    docstring (a property's setter, which shares its getter's, excepted)."""
+    out = []
+    tree = ast.parse(source)
+    for node in tree.body:
+        if isinstance(node, (ast.FunctionDef, ast.ClassDef)) and not node.name.startswith("_"):
+            if not ast.get_docstring(node):
+                out.append(node.name)
+            if isinstance(node, ast.ClassDef):
+                for sub in node.body:
+                    if (isinstance(sub, ast.FunctionDef) and not sub.name.startswith("_")
+                            and not ast.get_docstring(sub)
+                            and not any(isinstance(d, ast.Attribute) and d.attr == "setter"
+                                        for d in sub.decorator_list)):
+                        out.append(f"{node.name}.{sub.name}")
+    return out
+
+
+def test_the_docstring_check_can_fail():
+    assert undocumented("def f():\n    pass\n") == ["f"]
+    assert undocumented("class A:\n    '''A.'''\n    def g(self):\n        pass\n") == ["A.g"]
+    assert undocumented("class A:\n    '''A.'''\n    @property\n    def p(self):\n"
+                        "        '''P.'''\n    @p.setter\n    def p(self, v):\n        pass\n"
+                        "def _private():\n    pass\n") == []
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_public_names_have_docstrings(name):
+    with open(MODULES[name][0]) as fh:
+        missing = undocumented(fh.read())
+    assert not missing, f"{name}: no docstring: {', '.join(missing)}"

@@ -96,6 +96,10 @@ class RitzBuffer:
         self._q1 += k
 
     def add(self, sl, sid):
+        """Append slice ``sl`` (its Ritz values ``theta``, vectors ``Q``, ``WQ``,
+        residuals, phi, Kahan radius and edges) under the id ``sid``: the
+        projected W grows by its rows and columns, and the overlap of its
+        vectors with each slice already held is recorded (``cross``)."""
         k = sl.theta.size
         # Q^T W Q_new and Q^T Q_new in one pass over Q
         G = self.Q.T @ np.hstack([sl.WQ, sl.Q])
@@ -143,10 +147,12 @@ class RitzBuffer:
 
     @property
     def lo(self):
+        """Lower edge of the oldest slice held."""
         return self.edges[0][1]
 
     @property
     def hi(self):
+        """Upper edge of the newest slice held."""
         return self.edges[-1][2]
 
     def phi(self, idx):

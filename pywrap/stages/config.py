@@ -232,6 +232,7 @@ class RelaxConfig(StageConfig):
     slide: float = 2.0
 
     def validate(self):
+        """The relaxation's checks (:class:`ConfigError` naming the field)."""
         _num("F_x", self.F_x)
         _positive("f_min", self.f_min)
         if self.f_accept is not None:
@@ -325,6 +326,7 @@ class RampConfig(RelaxConfig):
     pairs: str = "all"
 
     def validate(self):
+        """The relaxation's checks and the ramp's (:class:`ConfigError`)."""
         super().validate()
         _positive("dF_x", self.dF_x)
         if self.dF_x_max is not None:
@@ -397,6 +399,7 @@ class DynamicsConfig(StageConfig):
     tau: float = None
 
     def validate(self):
+        """The run's checks (:class:`ConfigError` naming the field)."""
         _num("F_x", self.F_x)
         _positive("t_max", self.t_max)
         _int("record_every", self.record_every, 1)

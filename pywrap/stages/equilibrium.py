@@ -88,6 +88,8 @@ class RelaxRecord:
     wall: list = field(default_factory=list)
 
     def add(self, t, r, phase, t0):
+        """Record a check: simulated time ``t``, residual ``r``, ``phase``, and
+        the wall time since ``t0`` (a ``time.perf_counter()`` value)."""
         self.time.append(float(t))
         self.residual.append(float(r))
         self.phase.append(phase)

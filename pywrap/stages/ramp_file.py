@@ -291,6 +291,15 @@ class RampLog:
 
     @classmethod
     def load(cls, cfg, path):
+        """The ramp log of ``path`` (an existing ramp.h5) for ``--resume``.
+
+        Raises
+        ------
+        ConfigError
+            ``path`` is not a readable HDF5 file, or ramps from another start
+            file (or one whose contents changed) than ``cfg.datafile``, with
+            another configuration, or lacks a dataset (each named).
+        """
         try:
             attrs, data = read_all(path)
         except OSError as exc:

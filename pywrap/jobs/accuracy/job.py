@@ -84,6 +84,7 @@ class Context:
 
     @property
     def k_t(self):
+        """Tangential stiffness of the model: 2 k_n / 7 (the paper's)."""
         return default_k_t(self.k_n)
 
 
