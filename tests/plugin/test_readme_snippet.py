@@ -1,7 +1,6 @@
 """The LAMMPS examples of README.md and of the pair style page run on a packing from
 `remote-trigger generate` (in the Python module, and with the `lmp` of the environment)."""
 import os
-import re
 import subprocess
 import sys
 
@@ -10,9 +9,17 @@ from .lmputil import new_lammps
 README = os.path.join(os.path.dirname(__file__), "..", "..", "README.md")
 
 
+PAIR_PAGE = os.path.join(os.path.dirname(README), "pair_mindlin_smooth", "doc",
+                         "pair_mindlin_smooth.rst")
+
+
 def snippet():
-    blocks = re.findall(r"```\n(.*?)```", open(README).read(), flags=re.S)
-    return next(b for b in blocks if "pair_style mindlin/smooth" in b)
+    return next(b for b in _fenced_blocks(README) if "pair_style mindlin/smooth" in b)
+
+
+def pair_page_deck():
+    """The 2d deck of pair_mindlin_smooth.rst's Examples."""
+    return next(b for b in _lammps_blocks(PAIR_PAGE) if b.startswith("dimension 2"))
 
 
 def test_readme_snippet_reads_a_generated_packing(tmp_path):
@@ -37,11 +44,7 @@ def test_pair_style_doc_example_reads_a_generated_packing(tmp_path):
     sections' fixes: "Unknown identifier in data file: hist")."""
     from remote_trigger.pywrap.stages.packing import generate, write_data
 
-    rst = os.path.join(os.path.dirname(README), "pair_mindlin_smooth", "doc",
-                       "pair_mindlin_smooth.rst")
-    block = open(rst).read().split('Examples\n""""""""', 1)[1]
-    block = block.split(".. code-block:: LAMMPS", 1)[1].split("Instead of :doc:", 1)[0]
-    deck = "\n".join(ln.strip() for ln in block.splitlines())
+    deck = pair_page_deck()
     write_data(generate(20, seed=1), tmp_path / "packing.data")
     cwd = os.getcwd()
     os.chdir(tmp_path)
@@ -112,7 +115,7 @@ def test_the_readme_decks_run_on_a_generated_packing(tmp_path):
     """The two LAMMPS blocks of README.md "Using the plugin", pasted one after
     the other on `remote-trigger generate`'s packing, run with `lmp` (the
     Fig. 5 fixes act on group `top`, which the README defines)."""
-    blocks = _fenced_blocks(os.path.join(os.path.dirname(__file__), "..", "..", "README.md"))
+    blocks = _fenced_blocks(README)
     setup = [b for b in blocks if b.startswith("units lj")]
     fig5 = [b for b in blocks if "addforce/oscillating" in b]
     assert len(setup) == 1 and len(fig5) == 1, blocks
@@ -123,9 +126,7 @@ def test_the_pair_style_page_example_runs(tmp_path):
     """The 2d example of pair_mindlin_smooth.rst, and with its fix adapt
     alternative in place of fix mu/velocity, run on a generated packing (the
     example's fix mu/velocity had no wall fix to set mu of, and stopped)."""
-    page = os.path.join(os.path.dirname(__file__), "..", "..", "pair_mindlin_smooth", "doc",
-                        "pair_mindlin_smooth.rst")
-    blocks = _lammps_blocks(page)
+    blocks = _lammps_blocks(PAIR_PAGE)
     deck = [b for b in blocks if b.startswith("dimension 2")]
     adapt = [b for b in blocks if " adapt " in b and "dimension" not in b]
     assert len(deck) == 1 and len(adapt) == 1, blocks
