@@ -156,15 +156,15 @@ def unrecognized(parser, command, extra):
     hints = []
     for word in extra:
         if word.startswith("-") and not _NEGATIVE.match(word):
-            key = word.split("=", 1)[0].lstrip("-").replace("-", "_")
+            option = word.split("=", 1)[0]
+            key = option.lstrip("-").replace("-", "_")
             if key in keys:
                 hints.append(f"--set {key}=VALUE")
                 continue
             # the one option that begins with the word (--settle for
             # --settle-steps), else the closest by difflib
-            begun = [o for o in known if o.startswith(word.split("=", 1)[0])]
-            hints += begun if len(begun) == 1 else difflib.get_close_matches(
-                word.split("=", 1)[0], known, n=1)
+            begun = [o for o in known if o.startswith(option)]
+            hints += begun if len(begun) == 1 else difflib.get_close_matches(option, known, n=1)
         elif "--datafile" in known and os.path.isfile(word):
             hints.append(f"--datafile {word}")
     hint = f" (did you mean {', '.join(dict.fromkeys(hints))}?)" if hints else ""

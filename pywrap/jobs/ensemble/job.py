@@ -71,6 +71,7 @@ Rank 0 writes ``ensemble.h5``, ``ensemble.png`` and ``ensemble.md``.
    The I0 = 1 rows are an analysis convention, not a simulation: their
    eigenvalues do not predict the simulated motion (docs/model.md section 1).
 """
+from collections import Counter
 import json
 import math
 import os
@@ -299,10 +300,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
                                     if k not in ("order", "paper_percentile", "n_exponent")})})
             # rows without every bracket certified ('failed', 'incomplete'),
             # named here so that a failure is not seen only in the files
-            not_ok = {}
-            for r in rows:
-                if r["status"] != "ok":
-                    not_ok[r["status"]] = not_ok.get(r["status"], 0) + 1
+            not_ok = Counter(r["status"] for r in rows if r["status"] != "ok")
             tail = ", ".join(f"{n} {k}" for k, n in sorted(not_ok.items()))
             say(f"done: {len(rows)} rows, {len(computed)} packing(s) computed now"
                 + (f"; rows not ok: {tail} (reasons in ensemble.md)" if not_ok else ""))
