@@ -243,6 +243,33 @@ def write_sidecar(path, values):
     write_json_atomic(os.fspath(path) + ".json", out)
 
 
+def _check_finite(path, data, columns, first):
+    """Raise ValueError naming the first non-finite value of a snapshot's atom lines."""
+    bad = ~np.isfinite(data)
+    if np.any(bad):
+        r, c = np.argwhere(bad)[0]
+        raise ValueError(f"{path}: non-finite value {float(data[r, c])!r} in column "
+                         f"{columns[c]!r} of atom line {r + 1} (line {first + r} of the file)")
+
+
+def _model_parameters(path, no_wall, **given):
+    """The model parameters of a dump: each given value, else the sidecar's.
+
+    Returns ``{key: value}`` for :data:`PARAM_KEYS` (None where neither has
+    one). Raises ValueError if ``k_n``, ``k_t``, ``mu`` or (with a wall)
+    ``wall_y`` is missing from both.
+    """
+    side = load_sidecar(path)
+    par = {key: (given[key] if given[key] is not None else side.get(key)) for key in PARAM_KEYS}
+    lack = [key for key in ("k_n", "k_t", "mu") if par[key] is None]
+    if par["wall_y"] is None and not no_wall:
+        lack.append("wall_y")
+    if lack:
+        raise ValueError(f"{path}: model parameters {lack} are neither in the sidecar "
+                         f"{path + '.json'} nor given explicitly")
+    return par
+
+
 def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=None,
               F_y=None, dt=None, no_wall=False, mirror_rtol=1e-9, require_contacts=True,
               inertia_factor=DISC_INERTIA):
@@ -319,11 +346,7 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
     if natoms == 0:
         raise ValueError(f"{path}: the snapshot has no atoms")
     col = {name: c for c, name in enumerate(columns)}
-    bad = ~np.isfinite(data)
-    if np.any(bad):
-        r, c = np.argwhere(bad)[0]
-        raise ValueError(f"{path}: non-finite value {float(data[r, c])!r} in column "
-                         f"{columns[c]!r} of atom line {r + 1} (line {first + r} of the file)")
+    _check_finite(path, data, columns, first)
 
     ids_f = data[:, col["id"]]
     ids = ids_f.astype(np.int64)
@@ -336,15 +359,8 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
         dup = ids[np.nonzero(np.diff(ids) == 0)[0][0]]
         raise ValueError(f"{path}: atom id {dup} appears twice")
 
-    side = load_sidecar(path)
-    given = dict(k_n=k_n, k_t=k_t, mu=mu, wall_y=wall_y, F_x=F_x, F_y=F_y, dt=dt)
-    par = {key: (given[key] if given[key] is not None else side.get(key)) for key in PARAM_KEYS}
-    lack = [key for key in ("k_n", "k_t", "mu") if par[key] is None]
-    if par["wall_y"] is None and not no_wall:
-        lack.append("wall_y")
-    if lack:
-        raise ValueError(f"{path}: model parameters {lack} are neither in the sidecar "
-                         f"{path + '.json'} nor given explicitly")
+    par = _model_parameters(path, no_wall, k_n=k_n, k_t=k_t, mu=mu, wall_y=wall_y, F_x=F_x,
+                            F_y=F_y, dt=dt)
     params = ContactParams(par["k_n"], par["k_t"], par["mu"])
 
     lo = bounds[:2, 0].copy()
@@ -472,11 +488,7 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
     if natoms == 0:
         raise ValueError(f"{path}: the snapshot has no atoms")
     data = _parse_body(path, columns, body, first)
-    bad = ~np.isfinite(data)
-    if np.any(bad):
-        r, c = np.argwhere(bad)[0]
-        raise ValueError(f"{path}: non-finite value {float(data[r, c])!r} in column "
-                         f"{columns[c]!r} of atom line {r + 1} (line {first + r} of the file)")
+    _check_finite(path, data, columns, first)
     col = {name: c for c, name in enumerate(columns)}
     ids_f = data[:, col["id"]]
     ids = ids_f.astype(np.int64)
@@ -484,15 +496,8 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
         raise ValueError(f"{path}: atom ids must be positive integers")
     if np.unique(ids).size != ids.size:
         raise ValueError(f"{path}: an atom id appears twice")
-    side = load_sidecar(path)
-    given = dict(k_n=k_n, k_t=k_t, mu=mu, wall_y=wall_y, F_x=F_x, F_y=F_y, dt=dt)
-    par = {key: (given[key] if given[key] is not None else side.get(key)) for key in PARAM_KEYS}
-    lack = [key for key in ("k_n", "k_t", "mu") if par[key] is None]
-    if par["wall_y"] is None and not no_wall:
-        lack.append("wall_y")
-    if lack:
-        raise ValueError(f"{path}: model parameters {lack} are neither in the sidecar "
-                         f"{path + '.json'} nor given explicitly")
+    par = _model_parameters(path, no_wall, k_n=k_n, k_t=k_t, mu=mu, wall_y=wall_y, F_x=F_x,
+                            F_y=F_y, dt=dt)
     wall_t = data[:, [col["v_wall_tx"], col["v_wall_ty"], col["v_wall_tz"]]]
     if no_wall and np.any(wall_t != 0.0):
         raise ValueError(f"{path}: wall history is nonzero but no wall is given")
