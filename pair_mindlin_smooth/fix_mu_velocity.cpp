@@ -34,7 +34,7 @@ static const char USAGE[] =
 
 FixMuVelocity::FixMuVelocity(LAMMPS *lmp, int narg, char **arg) :
     Fix(lmp, narg, arg), pairflag(1), wallflag(1), vcm(0.0), vmax(0.0), tswitch(-1.0),
-    pair_mu(nullptr)
+    pair_mu(nullptr), warned(false)
 {
   if (narg < 8) error->all(FLERR, "Fix mu/velocity needs 5 values: {}", USAGE);
 
@@ -132,6 +132,34 @@ void FixMuVelocity::init()
       error->all(FLERR, "Fix mu/velocity {}: no fix wall/mindlin/smooth to set mu of; "
                         "define one or use 'wall no'", id);
   }
+  if (!warned) warn_other_setters();
+}
+
+/* ----------------------------------------------------------------------
+   another fix that may set the same mu (once per fix, at its first run):
+   fix adapt (it may adapt mu of the pair) or a second fix mu/velocity.
+   Both act in pre_force, so the later one in the fix list sets the mu the
+   forces use, and the other's value is lost without an error.
+------------------------------------------------------------------------- */
+
+void FixMuVelocity::warn_other_setters()
+{
+  warned = true;
+  if (comm->me != 0) return;
+  if (pairflag)
+    for (auto *ifix : modify->get_fix_by_style("^adapt"))
+      error->warning(FLERR,
+                     "Fix mu/velocity {}: fix {} ({}) is defined too; if it sets mu of "
+                     "pair mindlin/smooth, the later of the two fixes sets mu every step "
+                     "and the other's mu is lost",
+                     id, ifix->id, ifix->style);
+  for (auto *ifix : modify->get_fix_by_style("^mu/velocity$"))
+    if (ifix != this && ((pairflag && static_cast<FixMuVelocity *>(ifix)->pairflag) ||
+                         (wallflag && static_cast<FixMuVelocity *>(ifix)->wallflag)))
+      error->warning(FLERR,
+                     "Fix mu/velocity {}: fix {} (mu/velocity) sets mu too; the later of "
+                     "the two fixes sets mu every step and the other's mu is lost",
+                     id, ifix->id);
 }
 
 /* ---------------------------------------------------------------------- */

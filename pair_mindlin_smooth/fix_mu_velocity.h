@@ -49,6 +49,9 @@ class FixMuVelocity : public Fix {
 
   double **pair_mu;                  // the pair's mu[i][j], or nullptr
   std::vector<double *> wall_mu;     // mu of each wall/mindlin/smooth fix
+  bool warned;                       // the warning of init() given once
+
+  void warn_other_setters();
 
   void update_mu();
   double positive_arg(const char *, const char *, bool);

@@ -239,3 +239,43 @@ def test_bad_arguments_name_the_value(args, match):
     with pytest.raises(Exception, match=match):
         lmp.command(f"fix f {args}")
     lmp.close()
+
+
+# ----------------------------------------------------- another fix setting mu
+
+def _log_with(tmp_path, extra, runs=2, options=""):
+    """The warnings of fix mu/velocity in the log of the sliding-disk scene
+    with ``fix muv ... options`` and ``extra`` commands, run ``runs`` times
+    (10 steps each)."""
+    log = tmp_path / "log.lammps"
+    lmp = lmputil.new_lammps(log=str(log))
+    lmp.commands_list(lmputil.box_commands(width=50.0) + lmputil.style_commands())
+    lmputil.add_disk(lmp, 1, 0.5, 5.0, 0.4999)
+    lmp.commands_list(["group disk id 1", "timestep 1e-4",
+                       f"fix muv disk mu/velocity 1.0 1e-3 0.2 0.4 0.8 {options}"] + extra
+                      + ["fix nve all nve/sphere disc", "fix 2d all enforce2d"]
+                      + ["run 10"] * runs)
+    lmp.close()
+    return [ln for ln in log.read_text().splitlines() if ln.startswith("WARNING: Fix mu/velocity")]
+
+
+def test_another_fix_setting_mu_is_warned_once(tmp_path):
+    """fix adapt on the pair's mu beside fix mu/velocity: both act in
+    pre_force and the later one's mu is the one the forces use, so the
+    other is lost silently. One warning naming the other fix, at the first
+    run only; none without it, none for fix adapt under 'pair no'."""
+    assert _log_with(tmp_path, []) == []
+    adapt = ["variable m equal 0.5", "fix vmu all adapt 1 pair mindlin/smooth mu * * v_m"]
+    lines = _log_with(tmp_path, adapt)
+    assert len(lines) == 1
+    assert lines[0].startswith("WARNING: Fix mu/velocity muv: fix vmu (adapt) is defined too;")
+    assert "the later of the two fixes sets mu every step" in lines[0]
+    assert _log_with(tmp_path, adapt, options="pair no") == []
+    second = ["fix muv2 disk mu/velocity 1.0 1e-3 0.2 0.4 0.9"]
+    lines = _log_with(tmp_path, second)
+    assert sorted(ln.split(":")[1].strip() for ln in lines) == [
+        "Fix mu/velocity muv", "Fix mu/velocity muv2"]
+    assert all("(mu/velocity) sets mu too" in ln for ln in lines)
+    # 'pair no' with 'wall no' sets nothing: neither warns about the other
+    quiet = ["fix muv2 disk mu/velocity 1.0 1e-3 0.2 0.4 0.9 pair no wall no"]
+    assert _log_with(tmp_path, quiet) == []
