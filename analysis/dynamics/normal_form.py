@@ -59,7 +59,7 @@ def _check(delta, eps, tau=math.inf, allow_negative_eps=False):
     if not (np.isfinite(delta) and 0.0 < delta < 1.0):
         raise ValueError(f"delta must be in (0, 1), got {float(delta)!r}")
     if not np.isfinite(eps) or eps > 1.0 or (eps <= 0.0 and not allow_negative_eps):
-        bound = "<= 1" if allow_negative_eps else "in (0, 1]"
+        bound = "a finite number <= 1" if allow_negative_eps else "in (0, 1]"
         raise ValueError(f"eps must be {bound}, got {float(eps)!r}")
     if not (tau > 0.0):
         raise ValueError(f"tau must be > 0 (inf for no damping), got {float(tau)!r}")
@@ -71,18 +71,22 @@ def normal_form_matrix(delta, eps):
     Parameters
     ----------
     delta : float
-        Splitting parameter, 0 < delta < 1.
+        Splitting parameter (half the splitting of the paper's Eqs. 9-10),
+        0 < delta < 1.
     eps : float
-        eps = 1 - eta/delta; eps < 0 gives a complex pair of eigenvalues.
+        eps = 1 - eta/delta <= 1 (eta >= 0); the eigenvalues
+        1 -+ delta sqrt(1 - (1 - eps)^2) (Eq. 11) are real for 0 <= eps <= 1
+        and a complex pair for eps < 0.
 
     Returns
     -------
     ndarray, shape (2, 2)
+        J = [[1 - delta, eta], [-eta, 1 + delta]], eta = delta (1 - eps).
 
     Raises
     ------
     ValueError
-        If delta is not in (0, 1) or eps > 1.
+        If delta is not in (0, 1) or eps is not a finite number <= 1.
     """
     _check(delta, eps, allow_negative_eps=True)
     eta = delta * (1.0 - eps)
@@ -203,7 +207,7 @@ def integrate(delta, eps, tau=math.inf, force=0.0, omega=0.01, t_max=None,
     rtol, atol : float
         Tolerances of ``solve_ivp``.
     samples_per_period : int
-        Dense-output samples per fast period 2 pi used to measure A.
+        Dense-output samples per fast period 2 pi used to measure A, >= 2.
 
     Returns
     -------
@@ -221,6 +225,12 @@ def integrate(delta, eps, tau=math.inf, force=0.0, omega=0.01, t_max=None,
         raise ValueError(f"force must be a finite number, got force = {float(force)!r}")
     if not (math.isfinite(omega) and omega >= 0.0):
         raise ValueError(f"omega must be a finite number >= 0, got omega = {float(omega)!r}")
+    if isinstance(samples_per_period, bool) or not isinstance(samples_per_period,
+                                                              (int, np.integer)) \
+            or samples_per_period < 2:
+        # (0 sampled t = [0, t_max] only, and the amplitude was that of two points)
+        raise ValueError(f"samples_per_period must be an integer >= 2, got "
+                         f"samples_per_period = {samples_per_period!r}")
     J = normal_form_matrix(delta, eps)
     gamma = 0.0 if math.isinf(tau) else 1.0 / tau
     fvec = force * X0

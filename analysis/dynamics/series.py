@@ -27,7 +27,7 @@ def noise_level(t, D, frac=0.05):
     ----------
     t, D : array_like, shape (n,)
     frac : float
-        Fraction of the records (at least 3) used.
+        Fraction of the records (at least 3) used, in (0, 1].
 
     Returns
     -------
@@ -37,9 +37,13 @@ def noise_level(t, D, frac=0.05):
     Raises
     ------
     ValueError
-        t and D not 1-D arrays of one length, or not finite.
+        t and D not 1-D arrays of one length, or not finite; ``frac`` not
+        in (0, 1].
     """
     _check_series("noise_level", t, D=D)
+    if isinstance(frac, bool) or not isinstance(frac, (int, float, np.integer, np.floating)) \
+            or not 0.0 < frac <= 1.0:
+        raise ValueError(f"noise_level: frac must be a number in (0, 1], got frac = {frac!r}")
     sel = (np.asarray(t) > 0) & (np.asarray(D) > 0)
     d = np.asarray(D)[sel]
     if d.size == 0:

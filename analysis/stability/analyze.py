@@ -87,7 +87,9 @@ class Analysis:
 
     @property
     def growth_rate(self):
-        """max |Im sqrt(lambda)| (1/time); 0 if all eigenvalues are real and positive."""
+        """max |Im sqrt(lambda)| (1/time) of the eigenvalues computed; 0 if they are all
+        real and positive. On the sparse path (``method='sparse'``) only the k
+        nearest ``sigma`` are computed: then it is theirs, not the spectrum's."""
         return None if self.eigen is None else self.eigen.growth_rate
 
     @property
@@ -205,8 +207,14 @@ def check_equilibrium(state, factor=FAR_ABOVE_FLOOR, what=None):
     NotEquilibriumError
         An ``InputError`` (``ValueError``), naming the residual, the floor
         and what to check.
+    ValueError
+        If ``factor`` is not a number > 0.
     """
     from remote_trigger.analysis.errors import NotEquilibriumError
+
+    if isinstance(factor, bool) or not isinstance(factor, (int, float, np.integer, np.floating)) \
+            or not factor > 0:
+        raise ValueError(f"factor must be a number > 0, got factor = {factor!r}")
 
     spheres = isinstance(state, State3D)
     G = (_jac3.generalized_forces3d if spheres else _jac.generalized_forces)(state)
@@ -319,8 +327,8 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
     return Analysis(state, K, mass, rat, eig, dec, G)
 
 
-def analyze_dump(path, **kwargs):
-    """:func:`analyze` of a dump; model-parameter keywords go to ``read_dump``.
+def analyze_dump(path, allow_residual=False, **kwargs):
+    """:func:`analyze` of an equilibrium dump; model-parameter keywords go to ``read_dump``.
 
     A dump of spheres (:func:`~remote_trigger.analysis.state.dumpfile.dump_dimension`)
     is read by ``read_dump3d``.
@@ -328,18 +336,34 @@ def analyze_dump(path, **kwargs):
     Parameters
     ----------
     path : str
+    allow_residual : bool, optional
+        Default False: refuse a state that is not an equilibrium of its
+        parameters (:func:`check_equilibrium`), as ``remote-trigger
+        jacobian`` does without ``--allow-residual``: its spectrum and
+        verdict would describe nothing. True analyzes any state
+        (:func:`analyze` does not check).
     **kwargs
         ``k_n, k_t, mu, wall_y, F_x, F_y, dt, frame, no_wall, mirror_rtol,
         require_contacts, inertia_factor`` for
         :func:`~remote_trigger.analysis.state.dumpfile.read_dump` /
         ``read_dump3d`` (their defaults differ: contacts required for disks,
         I0 = 1/2 for disks, 2/5 for spheres); the rest for :func:`analyze`.
+
+    Raises
+    ------
+    NotEquilibriumError
+        Without ``allow_residual``, a residual above 1e3 x the round-off floor
+        (:func:`check_equilibrium`; e.g. a dump written with too few digits,
+        or ``k_n`` other than the dump's).
     """
     read_keys = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt", "frame", "no_wall",
                  "mirror_rtol", "require_contacts", "inertia_factor")
     rk = {key: kwargs.pop(key) for key in list(kwargs) if key in read_keys}
     reader = read_dump3d if dump_dimension(path, rk.get("frame", -1)) == 3 else read_dump
-    return analyze(reader(path, **rk), **kwargs)
+    state = reader(path, **rk)
+    if not allow_residual:
+        check_equilibrium(state, what=path)
+    return analyze(state, **kwargs)
 
 
 #: an eigenvalue below -NEGATIVE_REL lambda_max counts as negative (a saddle's);

@@ -85,8 +85,11 @@ class SpectrumDecision:
     Attributes
     ----------
     complex_present : bool or None
-        True: a pair is certified complex. False: every eigenvalue is
-        certified real. None: undecided (a pair is too close to an
+        True: a pair is certified complex. False: every eigenvalue the
+        decision covers is certified real -- the whole spectrum where
+        ``coverage`` is ``'whole'``, only ``eigenvalues`` where it is
+        ``'partial'`` (then it is no stability verdict: check
+        :attr:`is_verdict`). None: undecided (a pair is too close to an
         exceptional point for the precision of the matrix, or a unit is not
         isolated).
     confidence : float

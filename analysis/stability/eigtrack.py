@@ -122,8 +122,19 @@ def track_pair(points, rtol=1e-10):
     Raises
     ------
     ValueError
-        If ``points`` holds no spectrum at all.
+        If ``points`` holds no spectrum at all, or a point is not a triple
+        whose decision is True, False or None (a decision string such as
+        ``StabilityResult.decision``'s ``'complex'`` is refused, not read as
+        True).
     """
+    points = list(points)
+    for i, p in enumerate(points):
+        if not (isinstance(p, (tuple, list)) and len(p) == 3):
+            raise ValueError(f"track_pair: point {i} must be (F_x, eigenvalues, complex), "
+                             f"got {p!r:.80}")
+        if p[2] is not None and not isinstance(p[2], (bool, np.bool_)):
+            raise ValueError(f"track_pair: the decision of point {i} (F_x = {p[0]!r}) must be "
+                             f"True, False or None, got {p[2]!r}")
     pts, cplx = [], []
     for F, lam, dec in sorted(points, key=lambda p: float(p[0])):
         lam = np.asarray(lam, complex)

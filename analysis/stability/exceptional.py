@@ -121,36 +121,9 @@ from remote_trigger.analysis.stability.enclosure import (
     EPS, UNIT_ROUNDOFF, _disc_test, _frac, _margin, _pair_eigs)
 from remote_trigger.analysis.stability.verification import _Unit, _analyse, _units
 
-__all__ = ["classify_spectrum", "normal_form", "block_discriminant"]
+__all__ = ["classify_spectrum", "block_discriminant"]
 
 _SPARSE_PRODUCT = 0.25          # nonzero fraction of A below which A X is a sparse product
-
-
-def normal_form(d, eps):
-    """The normal-form matrix J = [[1 - d, eta], [-eta, 1 + d]], eta = d (1 - eps).
-
-    Parameters
-    ----------
-    d : float
-        Half splitting delta of the paper (Eqs. 9-10), 0 < d < 1.
-    eps : float
-        epsilon = 1 - eta/delta; the eigenvalues 1 -+ d sqrt(1 - (1 - eps)^2)
-        are real for eps > 0 and complex for eps < 0 (paper Eq. 11).
-
-    Returns
-    -------
-    ndarray, shape (2, 2)
-
-    Raises
-    ------
-    ValueError
-        ``d`` outside (0, 1) or ``eps`` not finite.
-    """
-    if not (0.0 < d < 1.0) or not np.isfinite(eps):
-        raise ValueError(f"normal_form needs 0 < d < 1 and a finite eps, got d = {d!r}, "
-                         f"eps = {eps!r}")
-    eta = d * (1.0 - eps)
-    return np.array([[1.0 - d, eta], [-eta, 1.0 + d]])
 
 
 def block_discriminant(B):
@@ -169,8 +142,15 @@ def block_discriminant(B):
         Euclidean norm of dD/dB.
     rnd : float
         Bound on the rounding error in evaluating D in float64.
+
+    Raises
+    ------
+    ValueError
+        If ``B`` is not 2 x 2.
     """
     B = np.asarray(B, dtype=np.float64)
+    if B.shape != (2, 2):
+        raise ValueError(f"block_discriminant needs a 2 x 2 block, got shape {B.shape}")
     p = 0.5 * (B[0, 0] - B[1, 1])
     D = p * p + B[0, 1] * B[1, 0]
     g = float(np.sqrt(2.0 * p * p + B[0, 1] ** 2 + B[1, 0] ** 2))

@@ -197,6 +197,7 @@ def contact_blocks(state):
     dofs : ndarray of int64, shape (C, 6)
         Global dof index of each row/column.
     """
+    _require_disks(state)
     C = state.n_contacts
     if C == 0:
         return np.zeros((0, 6, 6)), np.zeros((0, 6), np.int64)
@@ -237,6 +238,7 @@ def wall_blocks(state):
         ``kernel.wall_stiffness``.
     dofs : ndarray of int64, shape (W, 3)
     """
+    _require_disks(state)
     W = state.wall_index.size
     if W == 0:
         return np.zeros((0, 3, 3)), np.zeros((0, 3), np.int64)
@@ -447,10 +449,12 @@ def rattler_rule(n, ci, cj, wall_contacts, min_contacts=2):
     Raises
     ------
     ValueError
-        If ``min_contacts`` < 0.
+        If ``min_contacts`` is not an integer >= 0.
     """
-    if min_contacts < 0:
-        raise ValueError(f"min_contacts must be >= 0, got {min_contacts}")
+    if isinstance(min_contacts, bool) or not isinstance(min_contacts, (int, np.integer)) \
+            or min_contacts < 0:
+        raise ValueError(f"min_contacts must be an integer >= 0, got min_contacts = "
+                         f"{min_contacts!r}")
     ci, cj = np.asarray(ci, np.int64), np.asarray(cj, np.int64)
     wz = np.asarray(wall_contacts, np.int64)
     alive = np.ones(n, bool)
@@ -488,8 +492,13 @@ def find_rattlers(state, min_contacts=2, count_wall=True):
     Raises
     ------
     ValueError
-        If ``min_contacts`` < 0.
+        If ``min_contacts`` is not an integer >= 0, or ``state`` is neither a
+        State nor a State3D.
     """
+    from remote_trigger.analysis.state.state3d import State3D
+
+    if not isinstance(state, (State, State3D)):
+        raise ValueError(f"expected a State or State3D, got {type(state).__name__}")
     n = state.n
     wz = (np.bincount(state.wall_index, minlength=n) if count_wall
           else np.zeros(n, np.int64))

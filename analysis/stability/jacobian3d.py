@@ -74,6 +74,13 @@ __all__ = ["ContactTerms3D", "contact_terms3d", "contact_blocks3d", "wall_blocks
            "stiffness_matrix3d", "generalized_forces3d", "find_rattlers3d", "cross_matrix"]
 
 
+def _require_spheres(state):
+    """A State3D, else a ValueError naming the type (disks have jacobian)."""
+    if not isinstance(state, State3D):
+        raise ValueError(f"expected a State3D of spheres, got {type(state).__name__} (disks: "
+                         f"remote_trigger.analysis.stability.jacobian)")
+
+
 def cross_matrix(a):
     """[a]x with [a]x b = a x b; a of shape (..., 3) -> (..., 3, 3)."""
     a = np.asarray(a, dtype=np.float64)
@@ -205,6 +212,7 @@ def contact_blocks3d(state):
     dofs : ndarray of int64, shape (C, 12)
         Global dof index of each row/column.
     """
+    _require_spheres(state)
     C = state.n_contacts
     if C == 0:
         return np.zeros((0, 12, 12)), np.zeros((0, 12), np.int64)
@@ -250,6 +258,7 @@ def wall_blocks3d(state):
         -dG/dq of the sphere on the wall, order (x, y, z, phi_x, phi_y, phi_z).
     dofs : ndarray of int64, shape (W, 6)
     """
+    _require_spheres(state)
     W = state.wall_index.size
     if W == 0:
         return np.zeros((0, 6, 6)), np.zeros((0, 6), np.int64)
@@ -286,8 +295,7 @@ def stiffness_matrix3d(state, wall=True):
     ValueError
         If ``state`` is not a State3D or a listed contact has no overlap.
     """
-    if not isinstance(state, State3D):
-        raise ValueError(f"expected a State3D, got {type(state).__name__}")
+    _require_spheres(state)
     N = state.ndof // 6
     diag = np.zeros((N, 36))
     keys, data = [np.arange(N) * (N + 1)], [diag]
@@ -337,6 +345,7 @@ def generalized_forces3d(state, external=True):
     ndarray, shape (6N,)
         Force units.
     """
+    _require_spheres(state)
     G = np.zeros((state.n, 6))
     if state.n_contacts:
         _, n, delta = _pair_geometry(state)
@@ -381,6 +390,7 @@ def find_rattlers3d(state, min_contacts=3, count_wall=True):
     Raises
     ------
     ValueError
-        If ``min_contacts`` < 0.
+        If ``min_contacts`` is not an integer >= 0, or ``state`` is not a State3D.
     """
+    _require_spheres(state)
     return find_rattlers(state, min_contacts, count_wall)

@@ -174,10 +174,10 @@ def pair_mode(state, eigenvalue):
     state : State or State3D
         An equilibrium (disks: 3 dofs each; spheres: 6); rattlers removed as
         by :func:`~remote_trigger.analysis.stability.analyze.analyze`.
-    eigenvalue : complex
-        lambda_c (1/time^2), e.g. ``[Re, Im]`` of the ensemble's
-        ``lambda_c`` as ``complex(re, im)``: one eigenvalue of a complex
-        pair, so Im != 0 (either sign).
+    eigenvalue : complex or sequence of two floats
+        lambda_c (1/time^2): one eigenvalue of a complex pair, so Im != 0
+        (either sign); a complex number, or ``[Re, Im]`` as the ensemble
+        stores ``lambda_c``.
 
     Returns
     -------
@@ -187,9 +187,9 @@ def pair_mode(state, eigenvalue):
     Raises
     ------
     ValueError
-        If every particle is a rattler, ``eigenvalue`` is not finite, or it
-        is real (Im = 0: no pair; the mode of a real eigenvalue is not what
-        this describes).
+        If every particle is a rattler, ``eigenvalue`` is not a number or a
+        pair of real numbers, is not finite, or is real (Im = 0: no pair;
+        the mode of a real eigenvalue is not what this describes).
 
     Warns
     -----
@@ -202,7 +202,14 @@ def pair_mode(state, eigenvalue):
     from remote_trigger.analysis.stability import eigen, jacobian
     from remote_trigger.analysis.state.state3d import State3D
 
-    sigma = complex(eigenvalue)
+    val = np.asarray(eigenvalue)
+    if val.shape == (2,) and np.isrealobj(val) and val.dtype.kind in "fiu":
+        sigma = complex(float(val[0]), float(val[1]))          # [Re, Im]
+    elif val.shape == () and val.dtype.kind in "fiuc":
+        sigma = complex(val)
+    else:
+        raise ValueError(f"pair_mode needs a complex number or [Re, Im], got "
+                         f"eigenvalue = {eigenvalue!r}")
     if not np.isfinite(sigma):
         raise ValueError(f"pair_mode needs a finite eigenvalue, got {eigenvalue!r}")
     if sigma.imag == 0.0:

@@ -213,15 +213,23 @@ def hertz_limit(k_n, force, k_t=None, mass=1.0, contacts=6, inertia=0.5):
     Raises
     ------
     ValueError
-        For non-positive k_n, force, mass or contacts, or negative k_t.
+        For k_n, force, mass or inertia not a finite number > 0, k_t not
+        one >= 0, or contacts not an integer >= 1.
     """
+    def number(name, val, low=0.0):
+        if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)) \
+                or not (math.isfinite(val) and val > low):
+            raise ValueError(f"{name} must be a finite number > {low:g}, got {name} = {val!r}")
+
+    for name, val in (("k_n", k_n), ("force", force), ("mass", mass), ("inertia", inertia)):
+        number(name, val)
     if k_t is None:
         k_t = default_k_t(k_n)
-    for name, val in (("k_n", k_n), ("force", force), ("mass", mass), ("contacts", contacts)):
-        if not (np.isfinite(val) and val > 0):
-            raise ValueError(f"{name} must be finite and > 0, got {val!r}")
-    if not (np.isfinite(k_t) and k_t >= 0):
-        raise ValueError(f"k_t must be finite and >= 0, got {k_t!r}")
+    if isinstance(k_t, bool) or not isinstance(k_t, (int, float, np.integer, np.floating)) \
+            or not (math.isfinite(k_t) and k_t >= 0):
+        raise ValueError(f"k_t must be a finite number >= 0, got k_t = {k_t!r}")
+    if isinstance(contacts, bool) or not isinstance(contacts, (int, np.integer)) or contacts < 1:
+        raise ValueError(f"contacts must be an integer >= 1, got contacts = {contacts!r}")
     sqd = (force / k_n) ** (1.0 / 3.0)
     lam = 2.0 * contacts * (1.5 * k_n * sqd + (4.0 / 3.0) * k_t * sqd) / (inertia * mass)
     return 2.0 / math.sqrt(lam)
@@ -235,10 +243,11 @@ def check_timestep(dt, limit, safety=None, what="dt"):
     dt : float
         Proposed time step.
     limit : float or State
-        Stability limit dt_max, or a State to compute it from
-        (:func:`stability_limit`, method ``'eigen'``).
+        Stability limit dt_max, > 0 (+inf: no contact sets a limit), or a
+        State to compute it from (:func:`stability_limit`, method ``'eigen'``).
     safety : float, optional
-        If given, also refuse dt above ``safety * limit`` (strict mode).
+        If given, in (0, 1]: also refuse dt above ``safety * limit`` (strict
+        mode).
     what : str, optional
         Name of the quantity in the message.
 
@@ -253,9 +262,18 @@ def check_timestep(dt, limit, safety=None, what="dt"):
         If dt is not a positive finite number, dt >= limit, or (strict)
         dt > safety * limit. The message gives the limit, omega_max and the
         recommended step.
+    ValueError
+        If ``limit`` is not a number > 0 (NaN included) or ``safety`` is not
+        in (0, 1].
     """
     if not isinstance(limit, (int, float, np.floating)):
         limit = stability_limit(limit)
+    elif isinstance(limit, bool) or not limit > 0:
+        raise ValueError(f"limit must be a number > 0 (inf: no limit), got limit = {limit!r}")
+    if safety is not None and (isinstance(safety, bool)
+                               or not isinstance(safety, (int, float, np.floating))
+                               or not 0.0 < safety <= 1.0):
+        raise ValueError(f"safety must be a number in (0, 1], got safety = {safety!r}")
     if isinstance(dt, bool) or not isinstance(dt, (int, float, np.floating)) \
             or not (math.isfinite(dt) and dt > 0):
         raise TimestepError(f"{what} must be a finite number > 0, got {dt!r}")

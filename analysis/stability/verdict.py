@@ -453,24 +453,35 @@ def _top(dec):
 
 
 def stability_of_dump(path, basis=None, stop_at_complex=False, progress=None,
-                      checkpoint_dir=None, collective=False):
+                      checkpoint_dir=None, collective=False, allow_residual=False):
     """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
 
     A dump of spheres (``dump_dimension``) is read by ``read_dump3d``.
 
     ``basis``, ``stop_at_complex``, ``progress``, ``checkpoint_dir``,
-    ``collective``: as in :func:`stability_of`.
+    ``collective``: as in :func:`stability_of`. ``allow_residual`` (default
+    False): refuse a state that is not an equilibrium of its parameters, as
+    ``remote-trigger jacobian`` does without ``--allow-residual``
+    (:func:`~remote_trigger.analysis.stability.analyze.check_equilibrium`);
+    True decides any state (:func:`stability_of` does not check; the
+    driver, whose equilibria pass its own Newton test, passes True).
 
     Raises
     ------
     ValueError
         If the dump or its sidecar is missing, corrupt or truncated (from
         ``read_dump``; the message names the file).
+    NotEquilibriumError
+        Without ``allow_residual``, a residual above 1e3 x the round-off floor (a
+        ``ValueError`` too; e.g. a dump written with too few digits).
     """
+    from remote_trigger.analysis.stability.analyze import check_equilibrium
     from remote_trigger.analysis.state.dumpfile import read_equilibrium
 
     try:
         state = read_equilibrium(path)      # spheres: 6 dofs each, rattlers below 3 contacts
     except (OSError, KeyError, IndexError, ValueError) as exc:
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
+    if not allow_residual:
+        check_equilibrium(state, what=path)
     return stability_of(state, basis, stop_at_complex, progress, checkpoint_dir, collective)

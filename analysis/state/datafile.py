@@ -85,6 +85,9 @@ def _lines(path):
     try:
         with open(path) as fh:
             lines = fh.read().splitlines()
+    except FileNotFoundError:
+        # (a ValueError before; a missing dump is a FileNotFoundError too)
+        raise FileNotFoundError(f"data file not found: {path}") from None
     except OSError as exc:
         raise ValueError(f"cannot read the data file {path!r}: {exc.strerror or exc}") \
             from None
@@ -177,6 +180,8 @@ def read_data(path):
 
     Raises
     ------
+    FileNotFoundError
+        If the file does not exist (naming it).
     ValueError
         Naming the file and what is wrong with it (one line); also a file
         whose z (!= 0 somewhere: spheres) contradicts its disks' history

@@ -180,7 +180,9 @@ def load_sidecar(path):
     Raises
     ------
     ValueError
-        If the JSON is unreadable or a value is not a number (or null for wall_y).
+        If the JSON is unreadable, holds a key other than :data:`PARAM_KEYS`
+        (a misspelt key would silently fall back to a default), or a value
+        is not a number (or null for wall_y).
     """
     side = path + ".json"
     if not os.path.exists(side):
@@ -192,6 +194,10 @@ def load_sidecar(path):
         raise ValueError(f"{side}: not valid JSON: {exc}") from None
     if not isinstance(data, dict):
         raise ValueError(f"{side}: expected a JSON object, got {type(data).__name__}")
+    unknown = sorted(set(data) - set(PARAM_KEYS))
+    if unknown:
+        raise ValueError(f"{side}: unknown key(s) {unknown}; the keys are "
+                         f"{', '.join(PARAM_KEYS)}")
     out = {}
     for key in PARAM_KEYS:
         if key in data:

@@ -264,8 +264,8 @@ def _atom_ids(ids, name="ids"):
     Raises
     ------
     ValueError
-        Not 1-D, or a value that is not an integer (named with its index; a
-        float id was truncated before).
+        Not 1-D, or a value that is not a positive integer (named with its
+        index; a float id was truncated before).
     """
     a = np.asarray(ids)
     if a.ndim != 1:
@@ -277,6 +277,11 @@ def _atom_ids(ids, name="ids"):
                              f"{int(bad[0])}")
     elif a.size and a.dtype.kind not in "iu":
         raise ValueError(f"{name} must be integers, got dtype {a.dtype}")
+    if np.any(a <= 0):
+        # (0 marks an empty history slot, as in LAMMPS, where ids are >= 1)
+        k = int(np.argmax(a <= 0))
+        raise ValueError(f"{name} must be positive integers (LAMMPS atom ids), got "
+                         f"{int(a[k])} at index {k}")
     return a.astype(np.int64)
 
 
@@ -340,6 +345,9 @@ def _box(box_lo, box_hi, dim, periodic):
     if np.any(out[1] <= out[0]):
         raise ValueError(f"the box must have box_hi > box_lo on every axis, got box_lo = "
                          f"{out[0].tolist()}, box_hi = {out[1].tolist()}")
+    if isinstance(periodic, (str, bytes)):
+        # (a string's characters were read as flags: "TF" was (True, True))
+        raise ValueError(f"periodic must be {dim} flags (booleans), got {periodic!r}")
     try:
         per = tuple(bool(p) for p in periodic)
     except TypeError:
@@ -353,8 +361,9 @@ def _box(box_lo, box_hi, dim, periodic):
 def _check_params(params, wall_y):
     if not isinstance(params, ContactParams):
         raise ValueError(f"params must be a ContactParams, got {type(params).__name__}")
-    if wall_y is not None and not np.isfinite(wall_y):
-        raise ValueError(f"wall_y must be finite or None, got {wall_y!r}")
+    if wall_y is not None and (isinstance(wall_y, bool) or not isinstance(
+            wall_y, (int, float, np.integer, np.floating)) or not np.isfinite(wall_y)):
+        raise ValueError(f"wall_y must be a finite number or None, got {wall_y!r}")
 
 
 def _check_atoms(ids, pos, radii, masses):

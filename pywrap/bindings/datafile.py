@@ -51,6 +51,6 @@ def check_datafile(path, full=False):
     """
     try:
         data = read_data(path)
-    except ValueError as exc:
+    except (ValueError, FileNotFoundError) as exc:
         raise ConfigError(str(exc)) from None
     return data if full else data.n

@@ -261,7 +261,7 @@ def _analyze(eng, dump, basis=None, stop_at_complex=False, progress=None,
     def run():
         res = stability_of_dump(dump, basis, stop_at_complex=stop_at_complex,
                                 progress=progress, checkpoint_dir=checkpoint_dir,
-                                collective=collective)
+                                collective=collective, allow_residual=True)
         kept["basis"], res.basis = res.basis, None
         return res
 

@@ -107,15 +107,18 @@ def test_analyze_dump_passes_the_readers_keywords(packing, tmp_path):
     from .builders import write_dump
 
     path = write_dump(tmp_path / "eq.dump", packing)
-    a = analyze_dump(str(path), mirror_rtol=1e-6, inertia_factor=0.5, decide=False)
+    a = analyze_dump(str(path), mirror_rtol=1e-6, inertia_factor=0.5, decide=False,
+                     allow_residual=True)      # a packing, not an equilibrium
     assert a.state.n == packing.n and a.eigen is not None
 
 
 def test_disk_functions_name_spheres_and_bad_arguments(packing):
     """generalized_forces of spheres was an AttributeError; negative_modes with a
-    negative threshold counted every eigenvalue; normal_form took d = 2."""
+    negative threshold counted every eigenvalue; the normal form took d = 2 (it
+    had a second implementation in ``exceptional``, now gone: one matrix, one
+    validation)."""
+    from remote_trigger.analysis.dynamics.normal_form import normal_form_matrix
     from remote_trigger.analysis.stability.analyze import negative_modes
-    from remote_trigger.analysis.stability.exceptional import normal_form
     from remote_trigger.analysis.stability.jacobian import displaced_state, generalized_forces
 
     for f in (generalized_forces, lambda s: displaced_state(s, np.zeros(3))):
@@ -126,9 +129,11 @@ def test_disk_functions_name_spheres_and_bad_arguments(packing):
         displaced_state(packing, dq)
     with pytest.raises(ValueError, match="rel_threshold must be a finite number >= 0"):
         negative_modes(packing, rel_threshold=-1.0)
-    for d, eps in ((0.0, 0.1), (2.0, 0.1), (0.5, np.nan)):
-        with pytest.raises(ValueError, match="normal_form needs 0 < d < 1"):
-            normal_form(d, eps)
+    for d, eps, match in ((0.0, 0.1, r"delta must be in \(0, 1\), got 0.0"),
+                          (2.0, 0.1, r"delta must be in \(0, 1\), got 2.0"),
+                          (0.5, np.nan, "eps must be a finite number <= 1, got nan")):
+        with pytest.raises(ValueError, match=match):
+            normal_form_matrix(d, eps)
 
 
 def _sphere_dump(path):
@@ -507,9 +512,11 @@ def test_analyze_dump_passes_inertia_and_contacts_to_either_reader(tmp_path):
     with pytest.raises(ValueError, match="inertia_factor must be a finite number > 0"):
         read_dump3d(sph, inertia_factor=0.0)
     # the rotational entries of M are I / R^2 = I0 m (m = 1 here)
-    a = analyze_dump(sph, inertia_factor=1.0, require_contacts=True, decide=False)
+    a = analyze_dump(sph, inertia_factor=1.0, require_contacts=True, decide=False,
+                     allow_residual=True)
     assert np.allclose(a.mass, 1.0)
-    assert sorted(set(np.round(analyze_dump(sph, decide=False).mass, 12))) == [0.4, 1.0]
+    assert sorted(set(np.round(analyze_dump(sph, decide=False, allow_residual=True).mass,
+                               12))) == [0.4, 1.0]
     # the same two spheres lifted off the floor and apart: no contact at all
     text = open(sph).read().splitlines()
     text[-2:] = ["1 1 0.5 1 0 3 0 " + "0 " * 9 + "0 0 0 0 0 0 0",
@@ -520,3 +527,160 @@ def test_analyze_dump_passes_inertia_and_contacts_to_either_reader(tmp_path):
     assert read_dump3d(free).n_contacts == 0
     with pytest.raises(ValueError, match="free.dump: the packing has no contact"):
         read_dump3d(free, require_contacts=True)
+
+
+@pytest.mark.filterwarnings("ignore:.*history and geometry disagree")
+def test_dump_readers_refuse_a_state_that_is_not_an_equilibrium(tmp_path):
+    """analyze_dump and stability_of_dump gave a certified verdict on a dump
+    rewritten with 6 digits (residual 1e9 x the floor), where remote-trigger
+    jacobian refuses it: now they refuse it too, and allow_residual=True (the
+    command line's --allow-residual) analyses it anyway."""
+    import re
+
+    from remote_trigger.analysis.errors import NotEquilibriumError
+    from remote_trigger.analysis.stability.analyze import analyze_dump
+    from remote_trigger.analysis.stability.verdict import stability_of_dump
+    from tests.data import unpack
+
+    unpack("free_rotation_N400_s5_step_00002.dump.json", str(tmp_path))
+    dump = unpack("free_rotation_N400_s5_step_00002", str(tmp_path))
+    assert analyze_dump(dump, eigenvalues=False).state.n == 400     # an equilibrium
+    low = str(tmp_path / "low.dump")
+    with open(dump) as src, open(low, "w") as dst:
+        dst.write(re.sub(r"-?\d+\.\d+(?:e[-+]?\d+)?",
+                         lambda m: f"{float(m.group()):.6g}", src.read()))
+    with open(dump + ".json") as src, open(low + ".json", "w") as dst:
+        dst.write(src.read())
+    for call in (lambda: analyze_dump(low, eigenvalues=False),
+                 lambda: stability_of_dump(low),
+                 lambda: analyze_dump(dump, k_n=1e5, eigenvalues=False)):
+        with pytest.raises(NotEquilibriumError, match="is not an equilibrium of its parameters"):
+            call()
+    assert analyze_dump(low, eigenvalues=False, allow_residual=True).state.n == 400
+
+
+def test_library_bounds_and_decisions_name_the_bad_value(packing):
+    """Found by trying the library as a new user: each of these returned a
+    number (or None) or raised a bare numpy/Python error."""
+    from remote_trigger.analysis.dynamics.normal_form import integrate
+    from remote_trigger.analysis.dynamics.series import noise_level
+    from remote_trigger.analysis.stability.analyze import check_equilibrium
+    from remote_trigger.analysis.stability.eigtrack import track_pair
+    from remote_trigger.analysis.stability.exceptional import block_discriminant
+    from remote_trigger.analysis.stability.jacobian import find_rattlers
+    from remote_trigger.analysis.stability.timestep import check_timestep, hertz_limit
+
+    for limit, match in ((float("nan"), "limit must be a number > 0"),       # passed
+                         (0.0, "limit must be a number > 0"),                # ZeroDivisionError
+                         (-0.01, "limit must be a number > 0")):
+        with pytest.raises(ValueError, match=match):
+            check_timestep(1e-3, limit)
+    assert check_timestep(1e-3, float("inf")) == 0.0                         # no contacts
+    with pytest.raises(ValueError, match=r"safety must be a number in \(0, 1\], got safety = -1"):
+        check_timestep(5e-3, 0.01, safety=-1)
+    for kw, match in (({"inertia": 0.0}, "inertia must be a finite number > 0"),
+                      ({"contacts": 2.5}, "contacts must be an integer >= 1"),
+                      ({"mass": np.array([1.0, 2.0])}, "mass must be a finite number > 0"),
+                      ({"k_t": -1.0}, "k_t must be a finite number >= 0")):
+        with pytest.raises(ValueError, match=match):
+            hertz_limit(2e5, 3.0, **kw)
+    with pytest.raises(ValueError, match="k_n must be a finite number > 0, got k_n = '2e5'"):
+        hertz_limit("2e5", 3.0)
+    for factor in (-1.0, float("nan")):
+        with pytest.raises(ValueError, match="factor must be a number > 0"):
+            check_equilibrium(packing, factor=factor)
+    lam = np.array([1.0, 2.0], complex)
+    with pytest.raises(ValueError, match=r"decision of point 0 \(F_x = 0.0\) must be True, "
+                                         r"False or None, got 'real'"):
+        track_pair([(0.0, lam, "real"), (0.1, lam, "complex")])
+    with pytest.raises(ValueError, match=r"point 0 must be \(F_x, eigenvalues, complex\)"):
+        track_pair([(0.0, lam)])
+    with pytest.raises(ValueError, match=r"needs a 2 x 2 block, got shape \(3, 3\)"):
+        block_discriminant(np.eye(3))
+    for bad in ("2", 2.5):
+        with pytest.raises(ValueError, match="min_contacts must be an integer >= 0"):
+            find_rattlers(packing, min_contacts=bad)
+    with pytest.raises(ValueError, match=r"frac must be a number in \(0, 1\], got frac = 2"):
+        noise_level(np.arange(1.0, 11.0), np.ones(10), frac=2)
+    with pytest.raises(ValueError, match="samples_per_period must be an integer >= 2"):
+        integrate(0.1, 0.5, samples_per_period=0)
+
+
+def test_disk_and_sphere_functions_refuse_the_other_kind(packing):
+    """find_rattlers3d of disks applied the 3-contact rule silently; the block
+    and force builders of one kind raised AttributeError on the other."""
+    from remote_trigger.analysis.stability import jacobian as j2
+    from remote_trigger.analysis.stability import jacobian3d as j3
+
+    from .builders3d import random_packing3d
+
+    spheres = random_packing3d(seed=2)
+    for f in (j3.find_rattlers3d, j3.generalized_forces3d, j3.contact_blocks3d,
+              j3.wall_blocks3d, j3.stiffness_matrix3d):
+        with pytest.raises(ValueError, match="expected a State3D of spheres, got State"):
+            f(packing)
+    for f in (j2.contact_blocks, j2.wall_blocks):
+        with pytest.raises(ValueError, match="expected a State of disks, got State3D"):
+            f(spheres)
+    assert j2.find_rattlers(spheres, 3).keep_dofs.size == j3.find_rattlers3d(spheres).keep_dofs.size
+
+
+def test_state_ids_periodic_and_wall_y_are_checked(packing):
+    """ids = 0 (the empty history slot) was accepted, periodic = "TF" read as
+    (True, True), wall_y = '0' a numpy TypeError."""
+    def built(**kw):
+        args = dict(ids=packing.ids, positions=packing.positions, radii=packing.radii,
+                    masses=packing.masses, box_lo=packing.box_lo, box_hi=packing.box_hi,
+                    params=packing.params, wall_y=packing.wall_y)
+        return build_state(**dict(args, **kw))
+
+    assert built().n == packing.n
+    with pytest.raises(ValueError, match=r"ids must be positive integers \(LAMMPS atom ids\), "
+                                         r"got 0 at index 0"):
+        built(ids=packing.ids - packing.ids.min())
+    with pytest.raises(ValueError, match="periodic must be 2 flags"):
+        built(periodic="TF")
+    with pytest.raises(ValueError, match="wall_y must be a finite number or None, got '0'"):
+        built(wall_y="0")
+
+
+def test_pair_mode_takes_re_im(tmp_path):
+    """pair_mode(state, [Re, Im]) -- the ensemble's lambda_c -- was a TypeError,
+    and a string was accepted."""
+    from remote_trigger.analysis.stability.modeshape import pair_mode
+
+    st = random_packing(seed=3, nx=4, ny=3)
+    with pytest.raises(ValueError, match=r"needs a complex number or \[Re, Im\], got "
+                                         r"eigenvalue = '1\+2j'"):
+        pair_mode(st, "1+2j")
+    with pytest.raises(ValueError, match=r"needs a complex number or \[Re, Im\]"):
+        pair_mode(st, [1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match=r"needs an eigenvalue of a complex pair \(Im != 0\)"):
+        pair_mode(st, [5.0, 0.0])
+
+
+def test_sidecar_with_an_unknown_key_is_refused(packing, tmp_path):
+    """A misspelt sidecar key ("kn") was ignored and the value silently taken
+    from elsewhere (or missing)."""
+    import json
+
+    from remote_trigger.analysis.state.dumpfile import read_dump
+
+    from .builders import write_dump
+
+    path = str(write_dump(tmp_path / "eq.dump", packing))
+    side = json.load(open(path + ".json"))
+    side["kn"] = side.pop("k_n")
+    json.dump(side, open(path + ".json", "w"))
+    with pytest.raises(ValueError, match=r"eq.dump.json: unknown key\(s\) \['kn'\]; the keys "
+                                         r"are k_n, k_t"):
+        read_dump(path)
+
+
+def test_missing_data_file_is_file_not_found(tmp_path):
+    """read_data of a missing file raised ValueError, read_dump
+    FileNotFoundError: now both FileNotFoundError, naming the file."""
+    from remote_trigger.analysis.state.datafile import read_data
+
+    with pytest.raises(FileNotFoundError, match="data file not found: .*nope.data"):
+        read_data(str(tmp_path / "nope.data"))

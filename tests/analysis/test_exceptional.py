@@ -9,7 +9,8 @@ import scipy.sparse as sp
 from remote_trigger.analysis.stability.eigen import condition_numbers
 from remote_trigger.analysis.stability.enclosure import exact_residual
 from remote_trigger.analysis.stability.exceptional import (
-    block_discriminant, classify_spectrum, normal_form)
+    block_discriminant, classify_spectrum)
+from remote_trigger.analysis.dynamics.normal_form import normal_form_matrix
 from remote_trigger.analysis.stability.projected import classify_projected
 
 from .arb_oracle import discriminant_2x2, full_spectrum, pair_is
@@ -22,7 +23,7 @@ U = 2.0 ** -53
 @pytest.mark.parametrize("eps", EPSILONS + [-e for e in EPSILONS])
 def test_normal_form_decided_correctly(d, eps):
     """J = [[1-d, eta], [-eta, 1+d]], eta = d (1 - eps): complex iff eps < 0."""
-    J = normal_form(d, eps)
+    J = normal_form_matrix(d, eps)
     res = classify_spectrum(J)
     assert res.complex_present is (eps < 0), (res.confidence, res.pairs)
     assert res.confidence > 1.0
@@ -59,7 +60,7 @@ def test_normal_form_never_wrong_undecided_only_where_float64_cannot_tell(d, fin
     for k in range(2, 18):
         for sign in (1, -1):
             eps = sign * 10.0 ** -k
-            J = normal_form(d, eps)
+            J = normal_form_matrix(d, eps)
             res = classify_spectrum(J)
             if res.complex_present is None:
                 assert res.confidence <= 1.0
@@ -70,11 +71,11 @@ def test_normal_form_never_wrong_undecided_only_where_float64_cannot_tell(d, fin
                 certified.append(abs(eps))
     assert min(certified) <= finest
     # at eps = 1e-17 the stored matrix is an exceptional point or nearly: no answer
-    assert classify_spectrum(normal_form(d, 1e-17)).complex_present is None
-    assert classify_spectrum(normal_form(d, -1e-17)).complex_present is None
+    assert classify_spectrum(normal_form_matrix(d, 1e-17)).complex_present is None
+    assert classify_spectrum(normal_form_matrix(d, -1e-17)).complex_present is None
     # decided for A exactly as stored (rel_error = 0), the 2 x 2 answer is exact
     for eps in (1e-16, -1e-16, 3e-17):
-        J = normal_form(d, eps)
+        J = normal_form_matrix(d, eps)
         D = discriminant_2x2(J)
         res = classify_spectrum(J, rel_error=0.0)
         assert res.complex_present is (None if D == 0 else bool(D < 0))
@@ -87,7 +88,7 @@ def test_normal_form_eigenvalues_and_condition_numbers():
     d = 0.3
     kap = []
     for eps in (1e-4, 1e-6, 1e-8):
-        J = normal_form(d, eps)
+        J = normal_form_matrix(d, eps)
         lam, vl, vr = sla.eig(J, left=True, right=True)
         nu = 1.0 - eps
         np.testing.assert_allclose(np.sort(lam.real), 1.0 + np.array([-1, 1]) * d
@@ -96,14 +97,14 @@ def test_normal_form_eigenvalues_and_condition_numbers():
     kap = np.array(kap)
     np.testing.assert_allclose(kap[1:] / kap[:-1], 10.0, rtol=0.05)
     assert kap[-1] > 1e3                      # ill-conditioned eigenvalues ...
-    assert classify_spectrum(normal_form(d, 1e-8)).confidence > 100   # ... sound decision
+    assert classify_spectrum(normal_form_matrix(d, 1e-8)).confidence > 100   # ... sound decision
 
 
 def embedded(d, eps, n=30, seed=0):
     """The normal form hidden in an n x n non-normal matrix by an orthogonal similarity."""
     rng = np.random.default_rng(seed)
     B = np.zeros((n, n))
-    B[:2, :2] = normal_form(d, eps)
+    B[:2, :2] = normal_form_matrix(d, eps)
     B[2:, 2:] = np.diag(np.linspace(2.0, 10.0, n - 2)) + \
         np.triu(rng.normal(scale=0.3, size=(n - 2, n - 2)), 1)
     B[:2, 2:] = rng.normal(scale=0.3, size=(2, n - 2))
@@ -133,7 +134,7 @@ def test_symmetric_matrix_is_certified_real():
 
 
 def test_input_uncertainty_lowers_confidence():
-    J = normal_form(0.1, -1e-6)
+    J = normal_form_matrix(0.1, -1e-6)
     r0 = classify_spectrum(J)
     r1 = classify_spectrum(J, input_error=1e-9)
     assert r0.complex_present and r1.complex_present
@@ -171,7 +172,7 @@ def sparse_with_pair(eps, n=1500, d=0.05, seed=0):
     diag = diag[np.abs(diag - 20.0) > 0.05]
     m = diag.size + 2
     A = sp.lil_matrix((m, m))
-    A[0:2, 0:2] = 20.0 * normal_form(d, eps)
+    A[0:2, 0:2] = 20.0 * normal_form_matrix(d, eps)
     for k, v in enumerate(diag):
         A[k + 2, k + 2] = v
     rows = rng.integers(0, m, 3 * m)
@@ -243,8 +244,8 @@ def test_arb_oracle_can_fail():
     """The oracle refuses a defective matrix and a normal form below the float64 resolution."""
     assert pair_is(np.array([[1.0, 1.0], [0.0, 1.0]]), [1.0, 1.0]) is None
     assert full_spectrum(np.array([[1.0, 1.0], [0.0, 1.0]])) is None
-    assert pair_is(normal_form(0.5, 1e-3), [0.9, 1.1]) == "real"
-    assert pair_is(normal_form(0.5, -1e-3), [1 + 0.02j, 1 - 0.02j]) == "complex"
+    assert pair_is(normal_form_matrix(0.5, 1e-3), [0.9, 1.1]) == "real"
+    assert pair_is(normal_form_matrix(0.5, -1e-3), [1 + 0.02j, 1 - 0.02j]) == "complex"
 
 
 def test_sqrt_law_exponents_can_fail():

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+from remote_trigger.analysis.dynamics.normal_form import normal_form_matrix
 from remote_trigger.analysis.stability import exceptional as ex
 from remote_trigger.analysis.stability import projected
 
@@ -26,7 +27,7 @@ def embedded(F_x, d=0.5, n=40, seed=0):
     lam = np.linspace(3.0, 60.0, n - 2)
     T = np.diag(lam) + np.triu(rng.normal(scale=0.3, size=(n - 2, n - 2)), 1)
     B = np.zeros((n, n))
-    B[:2, :2] = 10.0 * ex.normal_form(d, eps)      # pair near 10, inside the spectrum
+    B[:2, :2] = 10.0 * normal_form_matrix(d, eps)      # pair near 10, inside the spectrum
     B[2:, 2:] = T
     B[:2, 2:] = rng.normal(scale=0.3, size=(2, n - 2))
     Q, _ = np.linalg.qr(rng.normal(size=(n, n)))

@@ -41,6 +41,9 @@ class _Clock:
 def analyze_on_root(comm, dump):
     """Eigen-analysis of an equilibrium dump on rank 0 of ``comm``, broadcast.
 
+    The dump is an equilibrium the driver accepted (its own Newton test), so
+    the analyzer's residual check is not repeated (``allow_residual=True``).
+
     Returns
     -------
     StabilityResult
@@ -48,7 +51,7 @@ def analyze_on_root(comm, dump):
     from remote_trigger.pywrap.runtime.parallel import on_rank0
     from remote_trigger.analysis.stability.verdict import stability_of_dump
 
-    return on_rank0(comm, stability_of_dump, dump)
+    return on_rank0(comm, stability_of_dump, dump, allow_residual=True)
 
 
 def continue_ramp(rcfg, start_file, loads, folder, comm):
