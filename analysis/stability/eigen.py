@@ -41,8 +41,8 @@ import scipy.sparse.linalg as spla
 
 __all__ = ["dynamical_matrix", "EigenResult", "dense_eigen", "sparse_eigen", "band_scan",
            "default_shift",
-           "eigenvalues", "frequencies", "growth_rate", "condition_numbers", "DENSE_MAX",
-           "COALESCENCE_BAND"]
+           "eigenvalues", "frequencies", "growth_rate", "condition_numbers",
+           "damped_growth_rate", "DENSE_MAX", "COALESCENCE_BAND"]
 
 #: above this many degrees of freedom :func:`eigenvalues` uses the sparse path
 DENSE_MAX = 3000
@@ -53,9 +53,10 @@ COALESCENCE_BAND = (0.05, 0.8)
 
 
 def _check_mass(mass, n):
-    mass = np.asarray(mass, dtype=np.float64).reshape(-1)
-    if mass.size != n:
-        raise ValueError(f"mass has {mass.size} entries, K is {n} x {n}")
+    mass = np.asarray(mass, dtype=np.float64)
+    if mass.shape != (n,):
+        raise ValueError(f"mass has shape {mass.shape}, K is {n} x {n}: the diagonal of M "
+                         f"must have shape ({n},)")
     if not np.all(np.isfinite(mass)) or np.any(mass <= 0):
         k = int(np.argmax(~np.isfinite(mass) | (mass <= 0)))
         raise ValueError(f"mass diagonal must be finite and > 0, entry {k} is {float(mass[k])!r}")
@@ -79,11 +80,17 @@ def dynamical_matrix(K, mass):
     Raises
     ------
     ValueError
-        If K is not square, not finite, or the masses are not positive.
+        If K is not a real square matrix (sparse or array_like), not finite,
+        or the masses are not positive.
     """
-    n = K.shape[0]
-    if K.ndim != 2 or K.shape[1] != n:
+    if not sp.issparse(K):
+        K = np.asarray(K)
+    if np.iscomplexobj(K):
+        # (it was cast to its real part, with a ComplexWarning)
+        raise ValueError("K must be real (K = -dG/dq of a real force), got a complex matrix")
+    if K.ndim != 2 or K.shape[0] != K.shape[1]:
         raise ValueError(f"K must be square, got shape {K.shape}")
+    n = K.shape[0]
     mass = _check_mass(mass, n)
     if sp.issparse(K):
         Kc = K.tocsr().astype(np.float64)
@@ -107,8 +114,15 @@ def frequencies(lam):
     -------
     ndarray, complex, shape (k, 2)
         Columns +sqrt(lambda) (principal root, Re >= 0) and -sqrt(lambda).
+
+    Raises
+    ------
+    ValueError
+        If ``lam`` is not 1-D.
     """
     w = np.sqrt(np.asarray(lam, dtype=np.complex128))
+    if w.ndim != 1:
+        raise ValueError(f"lam must have shape (k,), got shape {w.shape}")
     return np.column_stack([w, -w])
 
 
@@ -280,7 +294,8 @@ def sparse_eigen(K, mass, k=12, sigma=0.0, left=False, tol=0.0, maxiter=None, v0
     n = A.shape[0]
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not (1 <= k < n - 1):
         raise ValueError(f"k must be an integer with 1 <= k < n - 1 = {n - 1}, got {k!r}")
-    if isinstance(sigma, (complex, np.complexfloating)) or not np.isfinite(sigma):
+    if isinstance(sigma, bool) or not isinstance(sigma, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(sigma):
         raise ValueError(f"sigma must be a finite real number, got sigma = {sigma!r}")
     if v0 is not None:
         # (ARPACK reads n entries whatever v0 holds: a shorter one crashed the process)
@@ -433,6 +448,7 @@ def damped_growth_rate(K, mass, damping):
     if sp.issparse(A):
         A = A.toarray()
     n = A.shape[0]
+    mass = _check_mass(mass, n)
     c = np.asarray(damping, dtype=np.float64)
     if c.shape != (n,):
         raise ValueError(f"damping must have shape ({n},), got {c.shape}")
@@ -443,6 +459,6 @@ def damped_growth_rate(K, mass, damping):
     Z = np.zeros((2 * n, 2 * n))
     Z[:n, n:] = np.eye(n)
     Z[n:, :n] = -A
-    Z[n:, n:] = -np.diag(c / np.asarray(mass, dtype=np.float64))
+    Z[n:, n:] = -np.diag(c / mass)
     s = sla.eigvals(Z, check_finite=False)
     return float(np.max(s.real))

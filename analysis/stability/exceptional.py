@@ -229,9 +229,14 @@ def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF, basis=None):
     Raises
     ------
     ValueError
-        If A is not square, not real, or not finite, or an error parameter
-        is out of range.
+        If A is not square, not real, or not finite, an error parameter is
+        out of range, or ``basis`` is not a SpectrumBasis.
     """
+    from remote_trigger.analysis.stability.decision import SpectrumBasis
+
+    if basis is not None and not isinstance(basis, SpectrumBasis):
+        raise ValueError(f"basis must be a SpectrumBasis (a decision's .basis) or None, got "
+                         f"{type(basis).__name__}")
     A = _validate(A, input_error, rel_error)
     n = A.shape[0]
     t0 = time.perf_counter()

@@ -79,16 +79,24 @@ def classify_projected(A, sigma, k=12, enrich=2, input_error=0.0, tol=0.0, v0=No
     Raises
     ------
     ValueError
-        Bad k, or sigma is an eigenvalue (singular shifted matrix).
+        Bad k or enrich, sigma not a finite real number, or sigma an
+        eigenvalue (singular shifted matrix).
     """
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
     t0 = time.perf_counter()
+    if np.iscomplexobj(A):
+        raise ValueError("A must be real, got a complex matrix")
     A = sp.csr_matrix(A, dtype=np.float64)
     n = A.shape[0]
-    if not (2 <= k < n - 1):
-        raise ValueError(f"k must satisfy 2 <= k < n - 1 = {n - 1}, got {k}")
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not (2 <= k < n - 1):
+        raise ValueError(f"k must be an integer with 2 <= k < n - 1 = {n - 1}, got {k!r}")
+    if isinstance(sigma, bool) or not isinstance(sigma, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(sigma):
+        raise ValueError(f"sigma must be a finite real number, got sigma = {sigma!r}")
+    if isinstance(enrich, bool) or not isinstance(enrich, (int, np.integer)) or enrich < 0:
+        raise ValueError(f"enrich must be an integer >= 0, got enrich = {enrich!r}")
     try:
         lu = spla.splu((A - sigma * sp.identity(n, format="csr")).tocsc())
     except RuntimeError as exc:

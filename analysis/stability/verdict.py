@@ -392,10 +392,17 @@ def stability_of(state, basis=None, stop_at_complex=False, progress=None,
     TooLargeError
         If the dense verdict (at most ``eigen.DENSE_MAX`` dofs) would not fit in
         memory (:func:`check_dense_fits`).
+    ValueError
+        If ``basis`` is not a SpectrumBasis or None.
     """
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability import eigen, jacobian
+    from remote_trigger.analysis.stability.decision import SpectrumBasis
     from remote_trigger.analysis.stability.sliced import classify_sliced
+
+    if basis is not None and not isinstance(basis, SpectrumBasis):
+        raise ValueError(f"basis must be a SpectrumBasis (a previous result's .basis) or None, "
+                         f"got {type(basis).__name__}")
 
     # K, rattlers and residual from analyze(); the dense spectrum and the
     # certified decision from one classify_spectrum call (its eigen-solve gives

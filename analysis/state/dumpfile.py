@@ -57,8 +57,12 @@ PARAM_KEYS = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt")
 
 def _read_frames(path):
     """Yield (timestep, natoms, bounds, boxflags, columns, rows) of each snapshot."""
-    with open(path, "r") as fh:
-        lines = fh.read().splitlines()
+    try:
+        with open(path, "r") as fh:
+            lines = fh.read().splitlines()
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text dump (a compressed file? decompress it "
+                         f"first)") from None
     k = 0
     nl = len(lines)
     frames = []
@@ -137,7 +141,7 @@ def _frame(path, frame):
                          f"got frame = {frame!r}")
     frame = int(frame)
     if not os.path.exists(path):
-        raise FileNotFoundError(f"dump file not found: {path}")
+        raise FileNotFoundError(f"dump file not found: {os.fsdecode(path)}")
     frames = _read_frames(path)
     try:
         return frames[frame]
@@ -184,7 +188,7 @@ def load_sidecar(path):
         (a misspelt key would silently fall back to a default), or a value
         is not a number (or null for wall_y).
     """
-    side = path + ".json"
+    side = os.fsdecode(path) + ".json"
     if not os.path.exists(side):
         return {}
     try:
@@ -325,7 +329,7 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
         on one side only or with mirror values that differ, missing
         parameters, or no contacts.
     """
-    path = os.fspath(path)
+    path = os.fsdecode(path)
     _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
     step, natoms, bounds, flags, columns, body, first = _frame(path, frame)
     missing = [c for c in REQUIRED_COLUMNS if c not in columns]
@@ -405,7 +409,7 @@ def dump_dimension(path, frame=-1):
         A missing or malformed file, or ``frame`` not an integer or not a
         snapshot of the file.
     """
-    columns = _frame(os.fspath(path), frame)[4]
+    columns = _frame(os.fsdecode(path), frame)[4]
     return 3 if "z" in columns and _history_columns(columns, T3_COLUMNS[0]) else 2
 
 
@@ -472,7 +476,7 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
     """
     from remote_trigger.analysis.state.state3d import SPHERE_INERTIA, state3d_from_history
 
-    path = os.fspath(path)
+    path = os.fsdecode(path)
     if inertia_factor is None:
         inertia_factor = SPHERE_INERTIA
     _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
@@ -547,7 +551,7 @@ def read_history3d(path, frame=-1):
     ValueError
         Not a dump of spheres, malformed, or non-finite values (named).
     """
-    path = os.fspath(path)
+    path = os.fsdecode(path)
     _, _, _, _, columns, body, first = _frame(path, frame)
     hist = {name: _history_columns(columns, name) for name in (PARTNER,) + T3_COLUMNS}
     wall = ("v_wall_tx", "v_wall_ty", "v_wall_tz")

@@ -303,6 +303,39 @@ def _remove_empty(root):
             pass
 
 
+#: the options whose paths reach LAMMPS commands (the decks' ``read_data
+#: ${datafile}``, the driver's ``write_dump``/``write_data`` in ``--out``) ...
+LAMMPS_PATH_OPTIONS = (("datafile", "--datafile"), ("out", "--out"), ("paper", "--paper"))
+#: ... in the commands that run LAMMPS (generate, jacobian and normal-form do not)
+LAMMPS_COMMANDS = ("demo", "relax", "ramp", "perturb", "instability", "paper", "trigger-map",
+                   "ensemble", "accuracy")
+
+
+def check_lammps_paths(args):
+    """Refuse, before anything runs, a path with whitespace that would reach LAMMPS.
+
+    LAMMPS splits each command into words at whitespace after substituting
+    its variables, so ``read_data ${datafile}`` of ``my packing.data`` reads
+    ``my``; such a path failed only when LAMMPS met it, for ``--out`` after
+    the whole computation.
+
+    Raises
+    ------
+    ConfigError
+        Naming the option and the path.
+    """
+    from remote_trigger.pywrap.config import ConfigError
+
+    if getattr(args, "command", None) not in LAMMPS_COMMANDS:
+        return
+    for dest, flag in LAMMPS_PATH_OPTIONS:
+        value = getattr(args, dest, None)
+        if isinstance(value, str) and any(c.isspace() for c in value):
+            raise ConfigError(f"{flag} {value!r}: LAMMPS splits its commands at whitespace, "
+                              f"so a path with a space cannot be passed to it; choose one "
+                              f"without spaces")
+
+
 def _guarded(args, debug):
     """Run ``args.func``; errors become one line on stderr and an exit status
     (and the folders this run made for ``--out`` are removed if they hold no
@@ -313,6 +346,7 @@ def _guarded(args, debug):
     prog = f"remote-trigger {args.command}"
     made = _new_folder(getattr(args, "out", None)) if rank == 0 else None
     try:
+        check_lammps_paths(args)
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
         if rank == 0:

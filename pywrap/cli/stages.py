@@ -174,8 +174,8 @@ def _runs_arg(text):
 #: printed after Ctrl-C, per subcommand (docs/driver.md, "Exit status")
 INTERRUPT_HINTS = {
     "relax": "nothing of the relaxation is kept (relax has no --resume): rerun it",
-    "ramp": "ramp.h5 holds every finished equilibrium: the same command with --resume "
-            "continues it (bitwise the same result)",
+    "ramp": "ramp.h5 holds the equilibria up to its last checkpoint (at most 5 s old): the "
+            "same command with --resume continues from there (bitwise the same result)",
     "perturb": "the finished runs are kept: the same command with --resume continues with "
                "the interrupted one (bitwise the same result)",
     "instability": "instability.h5 is kept up to its last checkpoint (status 'running'); "

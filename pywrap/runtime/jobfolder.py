@@ -15,6 +15,11 @@ from remote_trigger.pywrap.config import ConfigError, parse_set
 #: the configuration file of a job folder
 CONFIG_FILE = "config.json"
 
+#: a config.json with this many keys unknown to the job, and as many of the job's
+#: keys missing, is another job's (an ensemble's for a trigger map, or the
+#: reverse), not an older version of this job's (which lacks a key or two)
+OTHER_JOB_KEYS = 3
+
 
 def check_job_folder(out, config, resume, kind):
     """Refuse an ``--out`` that is a file or holds other results; check ``--resume``.
@@ -34,8 +39,9 @@ def check_job_folder(out, config, resume, kind):
     Raises
     ------
     ConfigError
-        ``out`` is a file; it holds files but no ``config.json``; it holds a
-        job and ``resume`` is False; or that job's configuration differs
+        ``out`` is a file; it holds files but no ``config.json``; it holds
+        another job's results; it holds this job and ``resume`` is False; or
+        that job's configuration differs
         (every differing key is named with both values). Nothing is written
         then.
     """
@@ -50,12 +56,19 @@ def check_job_folder(out, config, resume, kind):
     if os.listdir(out):
         if not os.path.isfile(cfgfile):
             raise ConfigError(f"--out {out!r} holds other files; choose an empty or new folder")
-        if not resume:
-            raise ConfigError(f"--out {out!r} holds {kind}; add --resume to continue it or "
-                              f"choose another folder")
         with open(cfgfile) as fh:
             old = dict(json.load(fh), np=None)
         new = dict(json.loads(json.dumps(config)), np=None)
+        only_old, only_new = sorted(set(old) - set(new)), sorted(set(new) - set(old))
+        if len(only_old) >= OTHER_JOB_KEYS and len(only_new) >= OTHER_JOB_KEYS:
+            # (another job's folder was taken for this one's: "add --resume", and then
+            # a list of every key as differing)
+            raise ConfigError(f"--out {out!r} holds the results of another job, not {kind} "
+                              f"(its config.json has keys such as {', '.join(only_old[:3])}); "
+                              f"choose another folder")
+        if not resume:
+            raise ConfigError(f"--out {out!r} holds {kind}; add --resume to continue it or "
+                              f"choose another folder")
         diff = [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
         if diff:
             raise ConfigError(f"cannot resume {out!r}: its configuration differs in "

@@ -1,5 +1,6 @@
 """Bad input to the analysis library's public functions: a clear ValueError naming
 the argument, before any result (found by using the Python API as a new user)."""
+import os
 import re
 
 import numpy as np
@@ -684,3 +685,64 @@ def test_missing_data_file_is_file_not_found(tmp_path):
 
     with pytest.raises(FileNotFoundError, match="data file not found: .*nope.data"):
         read_data(str(tmp_path / "nope.data"))
+
+
+def test_eigen_functions_take_array_likes_and_name_bad_ones(packing):
+    """A list K was an AttributeError in dense_eigen, dynamical_matrix and
+    damped_growth_rate; a complex K was cast to its real part with a
+    ComplexWarning; sigma = None a numpy TypeError; a (1, n) mass and a 2-D
+    lam were accepted."""
+    from remote_trigger.analysis.stability import eigen
+    from remote_trigger.analysis.stability.projected import classify_projected
+
+    K = [[2.0, -1.0], [-1.0, 2.0]]
+    np.testing.assert_allclose(np.sort(eigen.dense_eigen(K, [1.0, 1.0]).eigenvalues.real),
+                               [1.0, 3.0])
+    assert eigen.damped_growth_rate(K, [1.0, 1.0], [0.0, 0.0]) == pytest.approx(0.0, abs=1e-12)
+    with pytest.raises(ValueError, match="K must be real"):
+        eigen.dynamical_matrix(np.array(K) + 1j, [1.0, 1.0])
+    with pytest.raises(ValueError, match=r"mass has shape \(1, 2\), K is 2 x 2: the diagonal "
+                                         r"of M must have shape \(2,\)"):
+        eigen.dense_eigen(K, [[1.0, 1.0]])
+    with pytest.raises(ValueError, match=r"lam must have shape \(k,\)"):
+        eigen.frequencies(np.ones((2, 2)))
+    Kp = stiffness_matrix(packing)
+    with pytest.raises(ValueError, match="sigma must be a finite real number, got sigma = None"):
+        sparse_eigen(Kp, packing.mass_diagonal(), k=4, sigma=None)
+    A = eigen.dynamical_matrix(Kp, packing.mass_diagonal())
+    for kw, match in (({"sigma": None}, "sigma must be a finite real number"),
+                      ({"sigma": float("nan")}, "sigma must be a finite real number"),
+                      ({"sigma": 1.0, "enrich": -1}, "enrich must be an integer >= 0")):
+        with pytest.raises(ValueError, match=match):
+            classify_projected(A, **kw)
+
+
+def test_a_basis_that_is_not_one_is_refused(packing):
+    """stability_of(state, basis="x") was an AttributeError; classify_spectrum
+    ignored it."""
+    from remote_trigger.analysis.stability.exceptional import classify_spectrum
+    from remote_trigger.analysis.stability.verdict import stability_of
+
+    with pytest.raises(ValueError, match="basis must be a SpectrumBasis .* got str"):
+        stability_of(packing, basis="x")
+    with pytest.raises(ValueError, match="basis must be a SpectrumBasis .* got str"):
+        classify_spectrum(np.diag([1.0, 2.0, 3.0]), basis="x")
+
+
+def test_read_dump_takes_bytes_and_paths_and_names_a_compressed_file(packing, tmp_path):
+    """read_dump(b"eq.dump") was "can't concat str to bytes"; a gzipped dump a
+    UnicodeDecodeError without the file's name."""
+    import gzip
+    import pathlib
+
+    from remote_trigger.analysis.state.dumpfile import read_dump
+
+    from .builders import write_dump
+
+    path = str(write_dump(tmp_path / "eq.dump", packing))
+    n = read_dump(path).n
+    assert read_dump(os.fsencode(path)).n == n and read_dump(pathlib.Path(path)).n == n
+    gz = tmp_path / "gz.dump"
+    gz.write_bytes(gzip.compress(open(path, "rb").read()))
+    with pytest.raises(ValueError, match=r"gz.dump: not a text dump \(a compressed file\?"):
+        read_dump(str(gz))

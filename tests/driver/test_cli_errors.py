@@ -474,8 +474,9 @@ def test_ctrl_c_in_a_ramp(relaxed, tmp_path):
     stdout, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, (stdout, err)
     assert err.strip().splitlines() == [
-        "remote-trigger ramp: interrupted; ramp.h5 holds every finished equilibrium: the same "
-        "command with --resume continues it (bitwise the same result)"], err
+        "remote-trigger ramp: interrupted; ramp.h5 holds the equilibria up to its last "
+        "checkpoint (at most 5 s old): the same command with --resume continues from there "
+        "(bitwise the same result)"], err
     resumed = subprocess.run(cmd + ["--resume"], env=cli_env(), capture_output=True, text=True,
                              timeout=120)
     assert resumed.returncode == 0, resumed.stderr
@@ -618,3 +619,69 @@ def test_every_command_says_what_it_does_and_writes():
         assert p.description and len(p.description) > 60, name
     for name in ("relax", "ramp", "perturb", "instability"):
         assert "OUT/" in sub.choices[name].description, name
+
+
+def test_a_path_with_a_space_is_refused_before_lammps(capsys, relaxed, tmp_path):
+    """LAMMPS splits its commands at whitespace: such a --datafile was a LAMMPS
+    "Cannot open file" crash (exit 1), such an --out failed only after the
+    whole relaxation. Now exit 2 at once, nothing created; in a folder whose
+    own name has a space, relative paths without one still work."""
+    spaced = tmp_path / "sp ace"
+    spaced.mkdir()
+    data = spaced / "my packing.data"
+    shutil.copy(relaxed.datafile, data)
+    status, _, err = run_cli(capsys, "relax", "--datafile", data, "--out", tmp_path / "o")
+    assert status == 2
+    assert_one_line_error(err, f"--datafile '{data}'", "LAMMPS splits its commands at "
+                          "whitespace")
+    out = tmp_path / "out dir"
+    status, _, err = run_cli(capsys, "relax", "--datafile", relaxed.datafile, "--out", out)
+    assert status == 2
+    assert_one_line_error(err, f"--out '{out}'")
+    assert not out.exists() and not (tmp_path / "o").exists()
+    shutil.copy(relaxed.datafile, spaced / "p.data")
+    here = os.getcwd()
+    try:
+        os.chdir(spaced)
+        status, _, err = run_cli(capsys, "perturb", "--datafile", "p.data", "--out", "o",
+                                 "--quiet", "--runs", "a", "--t-max", "0.1")
+    finally:
+        os.chdir(here)
+    assert status == 0, err
+    assert (spaced / "o" / "perturb_a.h5").is_file()
+
+
+def test_more_ranks_than_cores_is_warned(monkeypatch, capsys):
+    """--np 4 on 2 cores ran several times slower than --np 2, with no word."""
+    import sys
+
+    from remote_trigger.pywrap.runtime import relaunch
+
+    monkeypatch.setattr(relaunch.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    child = [sys.executable, "-c", "raise SystemExit(3)"]
+    assert relaunch.call_under_mpirun(child, dict(os.environ), "paper", 3) == 3
+    assert capsys.readouterr().err.strip() == (
+        "remote-trigger paper: warning: 3 MPI ranks compute on 2 cores: they share cores and "
+        "wait by polling, which makes the job several times slower; give --np 2 or fewer")
+    assert relaunch.call_under_mpirun(child, dict(os.environ), "paper", 2) == 3
+    assert capsys.readouterr().err == ""
+
+
+@pytest.mark.mpi
+def test_ctrl_c_of_a_relaunched_job_prints_one_line(tmp_path):
+    """Ctrl-C (SIGINT to the terminal's process group) of `paper --np 2`: the
+    re-launching process and rank 0 both printed the interrupt line."""
+    out = tmp_path / "p"
+    proc = subprocess.Popen([CLI, "paper", "--quick", "--np", "2", "--out", str(out)],
+                            env=cli_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    t0 = time.monotonic()
+    while not (out / "paper.json").exists() and proc.poll() is None \
+            and time.monotonic() - t0 < 60:
+        time.sleep(0.01)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert [ln for ln in err.splitlines() if ln.strip()] == [
+        "remote-trigger paper: interrupted; paper.json records every finished phase: the same "
+        "command with --resume continues the job"], err

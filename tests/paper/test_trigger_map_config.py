@@ -191,3 +191,31 @@ def test_rise_ratio_text_is_not_a_rate_where_g_is_not_positive():
         "- (g = -0.002 <= 0; rise rate -0.0138)"
     assert _rise_ratio({"rise_rate": float("nan"), "growth_tau": 0.01, "rise_records": 2}) == \
         "- (2 rec.)"
+
+
+def test_another_jobs_folder_is_named_as_such(tmp_path):
+    """An ensemble's folder given to trigger-map (or the reverse) said "holds a
+    trigger map; add --resume", and --resume then listed every key as
+    differing. An older config.json of the same job, with a key or two
+    fewer, is still compared key by key."""
+    import json
+
+    from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
+    from remote_trigger.pywrap.runtime.jobfolder import check_job_folder
+
+    ens = EnsembleConfig.from_dict({}).to_dict()
+    tmap = tc.MapConfig.from_dict({"paper": "p"}).to_dict()
+    for theirs, mine, kind in ((ens, tmap, "a trigger map"), (tmap, ens, "an ensemble")):
+        out = tmp_path / kind.replace(" ", "_")
+        out.mkdir()
+        (out / "config.json").write_text(json.dumps(theirs))
+        for resume in (False, True):
+            with pytest.raises(ConfigError, match=f"holds the results of another job, not "
+                                                  f"{kind}"):
+                check_job_folder(str(out), mine, resume, kind)
+    old = tmp_path / "old"
+    old.mkdir()
+    first = sorted(tmap)[0]
+    (old / "config.json").write_text(json.dumps({k: v for k, v in tmap.items() if k != first}))
+    with pytest.raises(ConfigError, match=f"configuration differs in {first} = None"):
+        check_job_folder(str(old), tmap, True, "a trigger map")

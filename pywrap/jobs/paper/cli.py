@@ -80,10 +80,9 @@ def config_from_args(args):
 
 def _relaunch(cfg, args):
     """Run the job under ``mpirun -np cfg.np`` of this environment; returns its status."""
-    import subprocess
     import tempfile
 
-    from remote_trigger.pywrap.runtime.relaunch import find_mpirun
+    from remote_trigger.pywrap.runtime.relaunch import call_under_mpirun, find_mpirun
 
     mpirun = find_mpirun(cfg.np, "paper")
     d = cfg.to_dict()
@@ -101,7 +100,7 @@ def _relaunch(cfg, args):
         cmd.append("--overwrite")
     env = dict(os.environ, REMOTE_TRIGGER_PAPER_CHILD="1")
     try:
-        return subprocess.call(cmd, env=env)
+        return call_under_mpirun(cmd, env, "paper", cfg.np)
     finally:
         os.unlink(path)
 
