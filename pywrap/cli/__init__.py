@@ -345,9 +345,18 @@ def _guarded(args, debug):
     rank = world_rank()
     prog = f"remote-trigger {args.command}"
     made = _new_folder(getattr(args, "out", None)) if rank == 0 else None
+    # (one run at a time in an --out: pywrap.runtime.outlock)
+    lock = None
     try:
         check_lammps_paths(args)
-        return int(args.func(args) or 0)
+        if rank == 0 and getattr(args, "command", None) in LAMMPS_COMMANDS:
+            from remote_trigger.pywrap.runtime.outlock import lock_output_folder
+
+            lock = lock_output_folder(getattr(args, "out", None))
+        status = int(args.func(args) or 0)
+        if status:
+            _remove_empty(made)
+        return status
     except KeyboardInterrupt:
         if rank == 0:
             if debug:
@@ -358,8 +367,6 @@ def _guarded(args, debug):
         # the reader of stdout went away (``... | head``): not an error of the
         # command; stdout goes to /dev/null so that the exit flush cannot fail
         # again, and the status is the shell's for SIGPIPE
-        import os
-
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     except Exception as exc:  # noqa: BLE001 - the command line's last resort
@@ -371,6 +378,9 @@ def _guarded(args, debug):
             print(f"{prog}: error{who}: {msg}", file=sys.stderr, flush=True)
         _remove_empty(made)
         return status
+    finally:
+        if lock is not None:
+            os.close(lock)
 
 
 def run_command(args, debug=False):

@@ -685,3 +685,32 @@ def test_ctrl_c_of_a_relaunched_job_prints_one_line(tmp_path):
     assert [ln for ln in err.splitlines() if ln.strip()] == [
         "remote-trigger paper: interrupted; paper.json records every finished phase: the same "
         "command with --resume continues the job"], err
+
+
+def test_one_run_at_a_time_in_an_output_folder(capsys, relaxed, tmp_path, monkeypatch):
+    """A ramp and its own --resume started by mistake (or two paper jobs in one
+    --out) both ran to the end, rewriting the same files. The command line
+    now holds a lock on --out: a second run is refused while the first runs;
+    the lock goes with the first run (any end, kill -9 too) and is not taken
+    by the ranks of a re-launched job."""
+    from remote_trigger.pywrap.config import ConfigError
+    from remote_trigger.pywrap.runtime.outlock import lock_output_folder
+
+    out = tmp_path / "o"
+    held = lock_output_folder(str(out))                 # "the first run"
+    assert out.is_dir() and os.listdir(out) == []
+    with pytest.raises(ConfigError, match="is in use by another run"):
+        lock_output_folder(str(out))
+    status, _, err = run_cli(capsys, "relax", "--datafile", relaxed.datafile, "--out", out,
+                             "--quiet")
+    assert status == 2
+    assert_one_line_error(err, f"--out '{out}' is in use by another run")
+    assert os.listdir(out) == []
+    monkeypatch.setenv("REMOTE_TRIGGER_PAPER_CHILD", "1")
+    assert lock_output_folder(str(out)) is None        # a re-launched job's rank
+    monkeypatch.delenv("REMOTE_TRIGGER_PAPER_CHILD")
+    os.close(held)                                     # the first run ends
+    status, _, err = run_cli(capsys, "perturb", "--datafile", relaxed.datafile, "--out", out,
+                             "--quiet", "--runs", "a", "--t-max", "0.1")
+    assert status == 0, err
+    os.close(lock_output_folder(str(out)))             # and released it
