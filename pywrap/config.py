@@ -333,6 +333,8 @@ def read_config_file(path):
         If the file is missing, not valid TOML or JSON, or a JSON file whose
         top level is not an object (the message names the file).
     """
+    if os.path.isdir(path):
+        raise ConfigError(f"config file is a folder, not a TOML or JSON file: {path!r}")
     if not os.path.isfile(path):
         raise ConfigError(f"config file does not exist: {path!r}")
     if path.lower().endswith(".json"):

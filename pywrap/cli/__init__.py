@@ -142,9 +142,10 @@ def unrecognized(parser, command, extra):
     remote-trigger generate --help)``): an option (``--x`` or ``-x``, not a
     negative number) that names a configuration key of a job with no flag of
     its own (the subcommand's default ``config_keys``) is named as
-    ``--set KEY=VALUE``; the one option of the subcommand that begins with
-    it, else the one closest to it (:func:`difflib.get_close_matches`), as
-    the likely meant one; a stray
+    ``--set KEY=VALUE``; ``--np`` of a subcommand without it as ``mpirun
+    -np N``; the option that differs from it in case only, else the one
+    option of the subcommand that begins with it, else the one closest to
+    it (:func:`difflib.get_close_matches`), as the likely meant one; a stray
     word that is a file, for a subcommand that reads its start file from
     ``--datafile``, as ``--datafile WORD``.
     """
@@ -161,10 +162,17 @@ def unrecognized(parser, command, extra):
             if key in keys:
                 hints.append(f"--set {key}=VALUE")
                 continue
-            # the one option that begins with the word (--settle for
-            # --settle-steps), else the closest by difflib
+            if option == "--np" and "--np" not in known:
+                # (it suggested --help): the stages run under mpirun themselves
+                hints.append(f"mpirun -np N remote-trigger {command} ...")
+                continue
+            # the option spelt in other case (--N for --n), else the one that
+            # begins with the word (--settle for --settle-steps), else the
+            # closest by difflib
+            same = [o for o in known if o.lower() == option.lower()]
             begun = [o for o in known if o.startswith(option)]
-            hints += begun if len(begun) == 1 else difflib.get_close_matches(option, known, n=1)
+            hints += (same or (begun if len(begun) == 1 else
+                               difflib.get_close_matches(option, known, n=1)))
         elif "--datafile" in known and os.path.isfile(word):
             hints.append(f"--datafile {word}")
     hint = f" (did you mean {', '.join(dict.fromkeys(hints))}?)" if hints else ""

@@ -169,7 +169,10 @@ def test_options_are_taken_by_their_whole_name_only(capsys, tmp_path):
                                   "--n 100 (did you mean --set n=VALUE?)"]),
     (["trigger-map", "--omega_p", "0.1"], ["(did you mean --set omega_p=VALUE?)"]),
     # the beginning of one option (difflib alone named --set)
-    (["relax", "--settle", "100"], ["--settle 100 (did you mean --settle-steps?)"])])
+    (["relax", "--settle", "100"], ["--settle 100 (did you mean --settle-steps?)"]),
+    # another case of an option (difflib named --w), and --np of a stage (--help)
+    (["paper", "--N", "40"], ["--N 40 (did you mean --n?)"]),
+    (["ramp", "--np", "2"], ["--np 2 (did you mean mpirun -np N remote-trigger ramp ...?)"])])
 def test_unknown_words_name_the_subcommand(capsys, argv, needles):
     """A word the subcommand does not take is refused by that subcommand,
     with the closest of its options where one is close (none for a stray
@@ -714,3 +717,11 @@ def test_one_run_at_a_time_in_an_output_folder(capsys, relaxed, tmp_path, monkey
                              "--quiet", "--runs", "a", "--t-max", "0.1")
     assert status == 0, err
     os.close(lock_output_folder(str(out)))             # and released it
+
+
+def test_a_config_folder_is_named_as_one(capsys, tmp_path):
+    """``--config .`` (a folder) said "config file does not exist"."""
+    status, _, err = run_cli(capsys, "ensemble", "--config", tmp_path, "--out", tmp_path / "e")
+    assert status == 2
+    assert_one_line_error(err, f"config file is a folder, not a TOML or JSON file: "
+                               f"'{tmp_path}'")
