@@ -75,8 +75,12 @@ def exp_rate(t, D, mask=None, min_records=5):
     Raises
     ------
     ValueError
-        t, D and mask (if given) not 1-D arrays of one length, or not finite.
+        t, D and mask (if given) not 1-D arrays of one length, or not finite;
+        a mask that is not boolean (an index array was read as flags).
     """
+    if mask is not None and np.asarray(mask).dtype != bool:
+        raise ValueError(f"exp_rate: mask must be an array of bool (the records to fit), got "
+                         f"dtype {np.asarray(mask).dtype}")
     t, D = _check_series("exp_rate", t, D=D, **({} if mask is None else {"mask": mask}))[:2]
     sel = D > 0 if mask is None else np.asarray(mask, bool) & (D > 0)
     if np.count_nonzero(sel) < min_records:

@@ -21,21 +21,37 @@ PARTNER = "i2_mindlin_partner"
 XI = "d2_mindlin_t"
 
 
+def _check_axes(dim, **given):
+    """Each of ``given`` (box_length, box_lo, periodic, ...) has ``dim`` entries
+    (``periodic`` exactly, the box arrays at least: a 2D state may carry z)."""
+    for name, val in given.items():
+        if isinstance(val, (str, bytes)) or np.ndim(val) != 1 or len(val) < dim \
+                or (name == "periodic" and len(val) != dim):
+            raise ValueError(f"{name} must have {dim} entries (one per axis), got {val!r}")
+
+
 def minimum_image(d, box_length, periodic):
     """Apply the minimum-image convention to separation vectors.
 
     Parameters
     ----------
     d : ndarray, shape (..., D)
-        Raw separations r_i - r_j, D = 2 (disks) or 3 (spheres).
+        Raw separations r_i - r_j: D = 2 (disks) or 3 (spheres), or the
+        components of a few axes (D = 1: horizontal distances).
     box_length : array_like, shape (D,)
     periodic : sequence of bool, length D
 
     Returns
     -------
     ndarray, shape (..., D)
+
+    Raises
+    ------
+    ValueError
+        If ``box_length`` or ``periodic`` does not have D entries.
     """
     d = np.array(d, dtype=np.float64, copy=True)
+    _check_axes(d.shape[-1] if d.ndim else 0, box_length=box_length, periodic=periodic)
     for a in range(d.shape[-1]):
         if periodic[a]:
             L = box_length[a]
@@ -105,12 +121,23 @@ def find_contacts(positions, radii, box_lo, box_hi, periodic=(True, False), ids=
     ValueError
         If the centre of a disk lies inside another disk (distance below the
         larger radius), where the contact normal and the Hertz law are
-        meaningless; the message names both indices and the distance.
+        meaningless (the message names both indices and the distance); if
+        ``positions`` is not (N, 2) or (N, 3) and finite, ``radii`` not
+        (N,), or a box argument has too few entries.
     """
     from scipy.spatial import cKDTree
 
     pos = np.asarray(positions, dtype=np.float64)
+    if pos.ndim != 2 or pos.shape[1] not in (2, 3):
+        raise ValueError(f"positions must have shape (N, 2) or (N, 3), got shape {pos.shape}")
     n, dim = pos.shape
+    if not np.all(np.isfinite(pos)):
+        k = int(np.argwhere(~np.isfinite(pos))[0][0])
+        raise ValueError(f"positions must be finite, got {pos[k].tolist()} at index {k}")
+    if np.shape(radii) != (n,):
+        raise ValueError(f"radii must have shape ({n},) like positions, got shape "
+                         f"{np.shape(radii)}")
+    _check_axes(dim, box_lo=box_lo, box_hi=box_hi, periodic=periodic)
     if n < 2:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     box_lo = np.asarray(box_lo, np.float64)[:dim]

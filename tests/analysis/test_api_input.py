@@ -746,3 +746,29 @@ def test_read_dump_takes_bytes_and_paths_and_names_a_compressed_file(packing, tm
     gz.write_bytes(gzip.compress(open(path, "rb").read()))
     with pytest.raises(ValueError, match=r"gz.dump: not a text dump \(a compressed file\?"):
         read_dump(str(gz))
+
+
+def test_contact_geometry_names_bad_arrays(packing):
+    """find_contacts with radii one short was an IndexError, NaN positions
+    scipy's "data must be finite", 1-D positions "not enough values to
+    unpack", three periodic flags for disks were accepted; minimum_image with
+    a short box an IndexError; exp_rate read an index array as a mask."""
+    from remote_trigger.analysis.dynamics.series import exp_rate
+    from remote_trigger.analysis.state.contacts import find_contacts, minimum_image
+
+    pos, R = packing.positions, packing.radii
+    lo, hi = packing.box_lo, packing.box_hi
+    assert find_contacts(list(map(list, pos)), R, lo, hi)[0].size > 0     # lists are fine
+    bad_pos = pos.copy()
+    bad_pos[3, 1] = np.nan
+    for args, match in (((pos, R[:-1], lo, hi), r"radii must have shape \(30,\) like positions"),
+                        ((bad_pos, R, lo, hi), "positions must be finite, got .* at index 3"),
+                        ((pos[:, 0], R, lo, hi), r"positions must have shape \(N, 2\) or \(N, 3\)"),
+                        ((pos, R, lo, hi, (True, False, True)), "periodic must have 2 entries")):
+        with pytest.raises(ValueError, match=match):
+            find_contacts(*args)
+    with pytest.raises(ValueError, match="box_length must have 2 entries"):
+        minimum_image(np.ones((4, 2)), 10.0, (True, False))
+    t = np.arange(10.0)
+    with pytest.raises(ValueError, match="mask must be an array of bool"):
+        exp_rate(t, np.exp(t), mask=np.arange(10))
