@@ -311,5 +311,5 @@ def _wall_contacts(ids, pos, radii, wall_y, wt, wall_t):
         wdelta = np.zeros(0)
         if wall_t is not None and np.any(np.asarray(wall_t) != 0.0):
             raise ValueError("wall history d_mindlin_wall_t is nonzero but no wall is given "
-                             "(wall_y is None)")
+                             "(wall_y = None; read_dump's no_wall=True)")
     return widx, wxi, wdelta, stale_w
