@@ -9,6 +9,7 @@
 ------------------------------------------------------------------------- */
 
 #include "fix_addforce_oscillating.h"
+#include "mindlin_smooth_setup.h"
 
 #include "atom.h"
 #include "error.h"
@@ -66,6 +67,13 @@ double FixAddForceOscillating::number(const char *str, const char *what)
 int FixAddForceOscillating::setmask()
 {
   return POST_FORCE;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixAddForceOscillating::init()
+{
+  MindlinSmooth::forbid_respa(lmp, "Fix addforce/oscillating");
 }
 
 /* ---------------------------------------------------------------------- */

@@ -25,6 +25,7 @@ class FixAddForceOscillating : public Fix {
   FixAddForceOscillating(class LAMMPS *, int, char **);
 
   int setmask() override;
+  void init() override;
   void setup(int) override;
   void post_force(int) override;
   double compute_vector(int) override;

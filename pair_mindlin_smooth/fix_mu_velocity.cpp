@@ -11,6 +11,7 @@
 ------------------------------------------------------------------------- */
 
 #include "fix_mu_velocity.h"
+#include "mindlin_smooth_setup.h"
 
 #include "atom.h"
 #include "comm.h"
@@ -104,6 +105,7 @@ int FixMuVelocity::setmask()
 
 void FixMuVelocity::init()
 {
+  MindlinSmooth::forbid_respa(lmp, "Fix mu/velocity");
   pair_mu = nullptr;
   if (pairflag) {
     Pair *pair = force->pair_match("mindlin/smooth", 1);

@@ -107,6 +107,20 @@ FixWallMindlinSmooth::FixWallMindlinSmooth(LAMMPS *lmp, int narg, char **arg) :
     error->all(FLERR, "Fix wall/mindlin/smooth: unknown wall style '{}'; use {}", wstyle,
                USAGE);
   }
+  // a wall across a periodic dimension: atoms wrap around it (fix wall/gran refuses it too)
+  for (int w = 0; w < nwall; w++) {
+    const int a = walls[w].axis;
+    if (a >= 0 && domain->periodicity[a])
+      error->all(FLERR,
+                 "Fix wall/mindlin/smooth: a {} wall needs a non-periodic {} dimension; "
+                 "the boundary command makes it periodic",
+                 wstyle, "xyz"[a]);
+    if (a < 0 && (domain->periodicity[0] || domain->periodicity[1]))
+      error->all(FLERR,
+                 "Fix wall/mindlin/smooth: zcylinder needs non-periodic x and y dimensions; "
+                 "the boundary command makes {} periodic",
+                 domain->periodicity[0] ? "x" : "y");
+  }
 
   scalar_flag = 1;
   vector_flag = 1;
@@ -172,6 +186,7 @@ int FixWallMindlinSmooth::setmask()
 void FixWallMindlinSmooth::init()
 {
   MindlinSmooth::require_spheres(lmp, "Fix wall/mindlin/smooth");
+  MindlinSmooth::forbid_respa(lmp, "Fix wall/mindlin/smooth");
 
   // older decks: 'yplane y_lo' with d_mindlin_wall_t from a fix property/atom
   idx_legacy = -1;

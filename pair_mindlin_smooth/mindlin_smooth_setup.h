@@ -1,6 +1,6 @@
 /* -*- c++ -*- ----------------------------------------------------------
-   remote-trigger: set-up checks shared by pair mindlin/smooth and
-   fix wall/mindlin/smooth.
+   remote-trigger: set-up checks shared by pair mindlin/smooth and the
+   plugin's fixes.
 ------------------------------------------------------------------------- */
 
 #ifndef REMOTE_TRIGGER_MINDLIN_SMOOTH_SETUP_H
@@ -51,6 +51,26 @@ inline void forbid_minimize(LAMMPS_NS::LAMMPS *lmp, const char *what, bool frict
     lmp->error->all(FLERR,
                     "{} cannot be used with minimize unless mu = 0 (frictionless): the "
                     "contact history follows the dynamics; relax with damped dynamics instead",
+                    what);
+}
+
+// The fixes act in post_force / pre_force of velocity Verlet; under
+// run_style respa those hooks are not called and the fix would silently do
+// nothing (the wall vanished), so a respa run is refused.
+inline void forbid_respa(LAMMPS_NS::LAMMPS *lmp, const char *what)
+{
+  if (lmp->update->integrate_style && strncmp(lmp->update->integrate_style, "respa", 5) == 0)
+    lmp->error->all(FLERR, "{} does not support run_style respa; use run_style verlet", what);
+}
+
+// The contact history names each partner by its atom ID (0 marks an empty
+// slot), so atoms must have IDs.
+inline void require_atom_ids(LAMMPS_NS::LAMMPS *lmp, const char *what)
+{
+  if (!lmp->atom->tag_enable)
+    lmp->error->all(FLERR,
+                    "{} requires atom IDs (the contact history names partners by ID): do not "
+                    "use 'atom_modify id no'",
                     what);
 }
 

@@ -281,6 +281,16 @@ void PairMindlinSmooth::find_history()
 void PairMindlinSmooth::init_style()
 {
   MindlinSmooth::require_spheres(lmp, "Pair style mindlin/smooth");
+  MindlinSmooth::require_atom_ids(lmp, "Pair style mindlin/smooth");
+  // a special_bonds weight strictly between 0 and 1 keeps the pair in the list
+  // with a factor this style does not apply (0 removes it, 1 is the full force)
+  for (int k = 1; k <= 3; k++)
+    if (force->special_lj[k] != 0.0 && force->special_lj[k] != 1.0)
+      error->all(FLERR,
+                 "Pair style mindlin/smooth does not scale contact forces by special_bonds "
+                 "weights: lj weight {} of 1-{} neighbors must be 0 (no contact) or 1 "
+                 "(full contact)",
+                 force->special_lj[k], k + 1);
   bool frictionless = true;    // every pair_coeff without tangential force (mixing keeps it)
   for (int i = 1; i <= atom->ntypes; i++)
     for (int j = i; j <= atom->ntypes; j++)
@@ -421,6 +431,27 @@ void PairMindlinSmooth::two_images(tagint itag, tagint jtag)
 double PairMindlinSmooth::single(int i, int j, int itype, int jtype, double rsq,
                                  double /*factor_coul*/, double /*factor_lj*/, double &fforce)
 {
+  // the force of a contact depends on the two atoms (radii, history), not on
+  // their types: single() of atoms i and j at their distance (compute
+  // pair/local) works, pair_write (atoms 0 and 1 at any rsq) does not
+  const int nall = atom->nlocal + atom->nghost;
+  if (i < 0 || j < 0 || i >= nall || j >= nall)
+    error->one(FLERR,
+               "Pair style mindlin/smooth: single() of atoms {} and {} of {}: pair_write is "
+               "not supported (a contact depends on the radii and history of two atoms, not "
+               "on their types)",
+               i, j, nall);
+  {
+    double **x = atom->x;
+    const double dx = x[i][0] - x[j][0], dy = x[i][1] - x[j][1], dz = x[i][2] - x[j][2];
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    if (!(fabs(d2 - rsq) <= 1e-10 * MAX(d2, rsq)))
+      error->one(FLERR,
+                 "Pair style mindlin/smooth: single() got rsq = {} for atoms {} and {} at "
+                 "squared distance {}: pair_write is not supported (a contact depends on the "
+                 "radii and history of two atoms, not on their types)",
+                 rsq, atom->tag[i], atom->tag[j], d2);
+  }
   if (domain->dimension == 3) return single_3d(i, j, itype, jtype, rsq, fforce);
   for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
   fforce = 0.0;

@@ -75,8 +75,7 @@ def exp_rate(t, D, mask=None, min_records=5):
     Raises
     ------
     ValueError
-        t, D and mask (if given) not 1-D arrays of one length, or not finite;
-        a mask that is not boolean (an index array was read as flags).
+        t, D and mask not 1-D arrays of one length, not finite; mask not bool.
     """
     if mask is not None and np.asarray(mask).dtype != bool:
         raise ValueError(f"exp_rate: mask must be an array of bool (the records to fit), got "

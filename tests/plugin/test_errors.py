@@ -236,3 +236,93 @@ def test_frictionless_minimize_settles_a_stack():
     assert x[1, 1] - x[0, 1] == pytest.approx(1.0 - delta, abs=1e-9)
     assert x[0, 0] == x[1, 0] == 5.0
     lmp.close()
+
+
+# ------------------------------------ found by trying the plugin as a LAMMPS user
+
+def _two_disks(lmp, wall=True):
+    """Two overlapping disks above the floor, the pair style and the wall."""
+    add_disk(lmp, 1, 0.5, 5.0, 1.0)
+    add_disk(lmp, 1, 0.5, 5.98, 1.0)
+    lmp.commands_list(["pair_style mindlin/smooth", f"pair_coeff * * {KN!r} {KT!r} 1.0",
+                       "fix nve all nve/sphere disc"])
+    if wall:
+        lmp.command(f"fix wall all wall/mindlin/smooth {KN!r} {KT!r} 1.0 yplane 0.0")
+
+
+@pytest.mark.parametrize("fix, name", [
+    (None, "wall/mindlin/smooth"),
+    ("fix f all addforce/oscillating 0.1 0.0 0.0 0.0 0.0", "addforce/oscillating"),
+    ("fix muv all mu/velocity 1.0 1e-3 0.2 0.4 0.8 wall no", "mu/velocity")])
+def test_respa_is_refused_not_ignored(fix, name):
+    """Under run_style respa the wall's post_force was never called: the wall
+    vanished without a word (fix addforce/oscillating and fix mu/velocity
+    alike)."""
+    lmp = new_lammps()
+    try:
+        base(lmp)
+        _two_disks(lmp, wall=fix is None)
+        if fix is not None:
+            lmp.command(fix)
+        lmp.command("run_style respa 2 2")
+        with pytest.raises(Exception, match=rf"Fix {name} does not support run_style respa; "
+                                            rf"use run_style verlet"):
+            lmp.command("run 1")
+    finally:
+        lmp.close()
+
+
+@pytest.mark.parametrize("box, wall, match", [
+    ("boundary p p p", "yplane 0.0", r"a yplane wall needs a non-periodic y dimension"),
+    ("boundary p f p", "xplane 0.0 20.0", r"a xplane wall needs a non-periodic x dimension"),
+    ("boundary p f p", "zcylinder 3.0", r"zcylinder needs non-periodic x and y dimensions; "
+                                        r"the boundary command makes x periodic")])
+def test_a_wall_across_a_periodic_dimension_is_refused(box, wall, match):
+    """Atoms wrap around such a wall (fix wall/gran refuses it too); it ran."""
+    lmp = new_lammps()
+    try:
+        lmp.commands_list([box if c.startswith("boundary") else c for c in box_commands()])
+        with pytest.raises(Exception, match=match):
+            lmp.command(f"fix w all wall/mindlin/smooth {KN!r} {KT!r} 1.0 {wall}")
+    finally:
+        lmp.close()
+
+
+def test_atom_ids_and_special_bonds_weights_are_required():
+    """atom_modify id no: the history's partner IDs were all 0 (the empty
+    slot) and the error spoke of periodic images; a special_bonds weight of
+    0.5 was ignored (full force)."""
+    lmp = new_lammps()
+    try:
+        lmp.commands_list(["units lj", "dimension 2", "atom_style sphere", "atom_modify id no",
+                           "boundary p f p", "comm_modify vel yes",
+                           "region box block 0 20 -2 20 -0.5 0.5", "create_box 2 box",
+                           "create_atoms 1 single 5.0 1.0 0.0 units box",
+                           "create_atoms 1 single 5.98 1.0 0.0 units box",
+                           "set type 1 diameter 1.0", "set type 1 mass 1.0",
+                           "pair_style mindlin/smooth", f"pair_coeff * * {KN!r} {KT!r} 1.0",
+                           "fix nve all nve/sphere disc"])
+        with pytest.raises(Exception, match=r"Pair style mindlin/smooth requires atom IDs"):
+            lmp.command("run 0")
+    finally:
+        lmp.close()
+    run_expect(["special_bonds lj 0.0 0.5 1.0", "pair_style mindlin/smooth",
+                f"pair_coeff * * {KN!r} {KT!r} 1.0", "run 0"],
+               r"does not scale contact forces by special_bonds weights: lj weight 0\.5 of "
+               r"1-3 neighbors must be 0 \(no contact\) or 1")
+
+
+def test_pair_write_is_refused():
+    """pair_write evaluates single() of atoms 0 and 1 at any distance: it read
+    past the atom arrays with one atom, and used the two atoms' own radii
+    with two."""
+    lmp = new_lammps()
+    try:
+        base(lmp)
+        _two_disks(lmp)
+        lmp.command("run 0")
+        with pytest.raises(Exception, match=r"single\(\) got rsq = .* pair_write is not "
+                                            r"supported"):
+            lmp.command("pair_write 1 1 5 r 0.5 1.0 table.txt MS")
+    finally:
+        lmp.close()

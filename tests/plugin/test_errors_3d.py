@@ -67,7 +67,8 @@ def test_incomplete_3d_history_arrays(hist, match):
 
 
 def test_2d_wall_history_vector_refused_in_3d():
-    setup = box_commands_3d() + ["fix h all property/atom d_mindlin_wall_t ghost no"]
+    setup = box_commands_3d(boundary="p f p") + [
+        "fix h all property/atom d_mindlin_wall_t ghost no"]
     lmp = new_lammps()
     lmp.commands_list(setup)
     add_sphere(lmp, 1, 0.5, (5, 5, 0.4))

@@ -9,10 +9,13 @@ NO_HIST_BOX = ["units lj", "dimension 2", "atom_style sphere", "atom_modify map 
                "boundary p f p", "comm_modify vel yes"]
 
 
-def cluster(lmp, nsmall=20, rbig=2.0, rsmall=0.3, overlap=0.005, seed=3):
+def cluster(lmp, nsmall=20, rbig=2.0, rsmall=0.3, overlap=0.005, seed=3, boundary="p f p"):
     """One big disk with nsmall small disks around it, each overlapping it
-    slightly and not touching each other; small random velocities."""
-    lmp.commands_list(NO_HIST_BOX + ["region box block 0 12 0 12 -0.5 0.5",
+    slightly and not touching each other; small random velocities. The box
+    is periodic in x unless ``boundary`` says otherwise (side walls need
+    'f f p')."""
+    lmp.commands_list(NO_HIST_BOX + [f"boundary {boundary}",
+                                     "region box block 0 12 0 12 -0.5 0.5",
                                      "create_box 2 box"])
     cx, cy = 6.0, 6.0
     add_disk(lmp, 2, rbig, cx, cy)
@@ -84,7 +87,7 @@ def state(lmp):
 def test_restart_round_trip_is_bitwise(tmp_path):
     rfile = str(tmp_path / "hist.restart")
     lmp = new_lammps()
-    cluster(lmp)
+    cluster(lmp, boundary="f f p")       # side walls: x not periodic
     walls_and_corner(lmp)
     lmp.command("run 150")
     lmp.command(f"write_restart {rfile}")
