@@ -23,8 +23,11 @@ The driver's classes (``ConfigError``, ``NoEquilibriumError``,
 classes here; :mod:`remote_trigger.pywrap.errors` re-exports this module.
 """
 
+import numbers
+
 __all__ = ["RemoteTriggerError", "InputError", "NotEquilibriumError", "TooLargeError", "EXIT_OK",
-           "EXIT_NO_RESULT", "EXIT_BAD_INPUT", "EXIT_NO_EQUILIBRIUM", "EXIT_INTERRUPTED"]
+           "EXIT_NO_RESULT", "EXIT_BAD_INPUT", "EXIT_NO_EQUILIBRIUM", "EXIT_INTERRUPTED",
+           "is_real", "is_integer"]
 
 #: exit statuses of the command line
 EXIT_OK = 0
@@ -59,3 +62,13 @@ class NotEquilibriumError(InputError):
 class TooLargeError(RemoteTriggerError, MemoryError):
     """A calculation that does not fit in this machine's memory; the message
     names the size, the memory it needs and the memory available."""
+
+
+def is_real(val):
+    """True for a real number, Python's or numpy's; a bool is not one (the input checks' test)."""
+    return isinstance(val, numbers.Real) and not isinstance(val, bool)
+
+
+def is_integer(val):
+    """True for an integer, Python's or numpy's; a bool is not one."""
+    return isinstance(val, numbers.Integral) and not isinstance(val, bool)

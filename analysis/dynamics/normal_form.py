@@ -50,6 +50,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from remote_trigger.analysis.errors import is_integer
 from remote_trigger.analysis.output import savefig_atomic
 
 X0 = np.array([1.0, -1.0]) / math.sqrt(2.0)
@@ -225,9 +226,7 @@ def integrate(delta, eps, tau=math.inf, force=0.0, omega=0.01, t_max=None,
         raise ValueError(f"force must be a finite number, got force = {float(force)!r}")
     if not (math.isfinite(omega) and omega >= 0.0):
         raise ValueError(f"omega must be a finite number >= 0, got omega = {float(omega)!r}")
-    if isinstance(samples_per_period, bool) or not isinstance(samples_per_period,
-                                                              (int, np.integer)) \
-            or samples_per_period < 2:
+    if not is_integer(samples_per_period) or samples_per_period < 2:
         # (0 sampled t = [0, t_max] only, and the amplitude was that of two points)
         raise ValueError(f"samples_per_period must be an integer >= 2, got "
                          f"samples_per_period = {samples_per_period!r}")

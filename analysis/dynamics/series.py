@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from remote_trigger.analysis.errors import is_real
 from remote_trigger.analysis.dynamics._series_parts import (
     check_series as _check_series, constant_rate_end as _constant_rate_end)
 
@@ -41,8 +42,7 @@ def noise_level(t, D, frac=0.05):
         in (0, 1].
     """
     _check_series("noise_level", t, D=D)
-    if isinstance(frac, bool) or not isinstance(frac, (int, float, np.integer, np.floating)) \
-            or not 0.0 < frac <= 1.0:
+    if not is_real(frac) or not 0.0 < frac <= 1.0:
         raise ValueError(f"noise_level: frac must be a number in (0, 1], got frac = {frac!r}")
     sel = (np.asarray(t) > 0) & (np.asarray(D) > 0)
     d = np.asarray(D)[sel]

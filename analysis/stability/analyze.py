@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from remote_trigger.analysis.errors import is_integer, is_real
 from remote_trigger.analysis.stability import eigen as _eigen
 from remote_trigger.analysis.stability import exceptional as _exc
 from remote_trigger.analysis.stability import jacobian as _jac
@@ -212,8 +213,7 @@ def check_equilibrium(state, factor=FAR_ABOVE_FLOOR, what=None):
     """
     from remote_trigger.analysis.errors import NotEquilibriumError
 
-    if isinstance(factor, bool) or not isinstance(factor, (int, float, np.integer, np.floating)) \
-            or not factor > 0:
+    if not is_real(factor) or not factor > 0:
         raise ValueError(f"factor must be a number > 0, got factor = {factor!r}")
 
     spheres = isinstance(state, State3D)
@@ -292,7 +292,7 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
         n = Kr.shape[0]
         if method not in ("auto", "dense", "sliced", "sparse"):
             raise ValueError(f"method must be 'auto', 'dense', 'sliced' or 'sparse', got {method!r}")
-        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        if not is_integer(k) or k < 1:
             raise ValueError(f"k must be an integer >= 1, got k = {k!r}")
         if sigma is not None and not (isinstance(sigma, (int, float, np.floating))
                                       and np.isfinite(sigma)):

@@ -39,6 +39,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from remote_trigger.analysis.errors import is_integer, is_real
+
 __all__ = ["dynamical_matrix", "EigenResult", "dense_eigen", "sparse_eigen", "band_scan",
            "default_shift",
            "eigenvalues", "frequencies", "growth_rate", "condition_numbers",
@@ -292,9 +294,9 @@ def sparse_eigen(K, mass, k=12, sigma=0.0, left=False, tol=0.0, maxiter=None, v0
     """
     A = dynamical_matrix(sp.csr_matrix(K) if not sp.issparse(K) else K, mass)
     n = A.shape[0]
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not (1 <= k < n - 1):
+    if not is_integer(k) or not (1 <= k < n - 1):
         raise ValueError(f"k must be an integer with 1 <= k < n - 1 = {n - 1}, got {k!r}")
-    if isinstance(sigma, bool) or not isinstance(sigma, (int, float, np.integer, np.floating)) \
+    if not is_real(sigma) \
             or not np.isfinite(sigma):
         raise ValueError(f"sigma must be a finite real number, got sigma = {sigma!r}")
     if v0 is not None:

@@ -60,6 +60,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from remote_trigger.analysis.errors import is_integer
 from remote_trigger.analysis.state.contacts import minimum_image
 from remote_trigger.analysis.state.state import State
 
@@ -451,7 +452,7 @@ def rattler_rule(n, ci, cj, wall_contacts, min_contacts=2):
     ValueError
         If ``min_contacts`` is not an integer >= 0.
     """
-    if isinstance(min_contacts, bool) or not isinstance(min_contacts, (int, np.integer)) \
+    if not is_integer(min_contacts) \
             or min_contacts < 0:
         raise ValueError(f"min_contacts must be an integer >= 0, got min_contacts = "
                          f"{min_contacts!r}")

@@ -40,6 +40,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from remote_trigger.analysis.errors import is_integer
+
 __all__ = ["PairMode", "pair_mode", "participation_ratio", "long_wave_fraction"]
 
 #: the longest plane waves of the long-wave fraction: |m| <= LONG_WAVE_M
@@ -151,8 +153,7 @@ def long_wave_fraction(u, x, L_x, m_max=LONG_WAVE_M):
             or not (np.isfinite(L) and L > 0)):
         raise ValueError(f"long_wave_fraction needs a positive box length, got L_x = {L_x!r}")
     L_x = float(L.reshape(()))
-    if (isinstance(m_max, (bool, np.bool_)) or not isinstance(m_max, (int, np.integer))
-            or m_max < 0):
+    if not is_integer(m_max) or m_max < 0:
         # (m_max = -1 gave 0.0, m_max = 1.5 the value of m_max = 1)
         raise ValueError(f"long_wave_fraction needs m_max, an integer >= 0, got "
                          f"m_max = {m_max!r}")

@@ -12,6 +12,7 @@ import time
 import numpy as np
 import scipy.linalg as sla
 
+from remote_trigger.analysis.errors import is_integer, is_real
 from remote_trigger.analysis.stability.exceptional import classify_spectrum
 
 __all__ = ["classify_projected"]
@@ -90,12 +91,12 @@ def classify_projected(A, sigma, k=12, enrich=2, input_error=0.0, tol=0.0, v0=No
         raise ValueError("A must be real, got a complex matrix")
     A = sp.csr_matrix(A, dtype=np.float64)
     n = A.shape[0]
-    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not (2 <= k < n - 1):
+    if not is_integer(k) or not (2 <= k < n - 1):
         raise ValueError(f"k must be an integer with 2 <= k < n - 1 = {n - 1}, got {k!r}")
-    if isinstance(sigma, bool) or not isinstance(sigma, (int, float, np.integer, np.floating)) \
+    if not is_real(sigma) \
             or not np.isfinite(sigma):
         raise ValueError(f"sigma must be a finite real number, got sigma = {sigma!r}")
-    if isinstance(enrich, bool) or not isinstance(enrich, (int, np.integer)) or enrich < 0:
+    if not is_integer(enrich) or enrich < 0:
         raise ValueError(f"enrich must be an integer >= 0, got enrich = {enrich!r}")
     try:
         lu = spla.splu((A - sigma * sp.identity(n, format="csr")).tocsc())

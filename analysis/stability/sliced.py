@@ -103,6 +103,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
+from remote_trigger.analysis.errors import is_integer
 from remote_trigger.analysis.stability.decision import PairDecision, SpectrumDecision
 from remote_trigger.analysis.stability.enclosure import U, _gamma
 from remote_trigger.analysis.stability.slicing import (
@@ -286,7 +287,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         raise ValueError(f"window must be a finite number > 0, got window = {window!r}")
     if slice_size is None:
         slice_size = _SLICE_SIZE
-    if isinstance(slice_size, bool) or not isinstance(slice_size, (int, np.integer)) or \
+    if not is_integer(slice_size) or \
             slice_size < 2:
         raise ValueError(f"slice_size must be an integer >= 2, got slice_size = {slice_size!r}")
     checkpoint_seconds = (CHECKPOINT_SECONDS if checkpoint_seconds is None

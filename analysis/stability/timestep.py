@@ -56,7 +56,7 @@ import math
 
 import numpy as np
 
-from remote_trigger.analysis.errors import InputError
+from remote_trigger.analysis.errors import InputError, is_integer, is_real
 from remote_trigger.analysis.state.sidecar import default_k_t
 
 __all__ = ["SAFETY_FACTOR", "TimestepError", "omega_max", "stability_limit",
@@ -217,7 +217,7 @@ def hertz_limit(k_n, force, k_t=None, mass=1.0, contacts=6, inertia=0.5):
         one >= 0, or contacts not an integer >= 1.
     """
     def number(name, val, low=0.0):
-        if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)) \
+        if not is_real(val) \
                 or not (math.isfinite(val) and val > low):
             raise ValueError(f"{name} must be a finite number > {low:g}, got {name} = {val!r}")
 
@@ -225,10 +225,10 @@ def hertz_limit(k_n, force, k_t=None, mass=1.0, contacts=6, inertia=0.5):
         number(name, val)
     if k_t is None:
         k_t = default_k_t(k_n)
-    if isinstance(k_t, bool) or not isinstance(k_t, (int, float, np.integer, np.floating)) \
+    if not is_real(k_t) \
             or not (math.isfinite(k_t) and k_t >= 0):
         raise ValueError(f"k_t must be a finite number >= 0, got k_t = {k_t!r}")
-    if isinstance(contacts, bool) or not isinstance(contacts, (int, np.integer)) or contacts < 1:
+    if not is_integer(contacts) or contacts < 1:
         raise ValueError(f"contacts must be an integer >= 1, got contacts = {contacts!r}")
     sqd = (force / k_n) ** (1.0 / 3.0)
     lam = 2.0 * contacts * (1.5 * k_n * sqd + (4.0 / 3.0) * k_t * sqd) / (inertia * mass)
@@ -270,11 +270,9 @@ def check_timestep(dt, limit, safety=None, what="dt"):
         limit = stability_limit(limit)
     elif isinstance(limit, bool) or not limit > 0:
         raise ValueError(f"limit must be a number > 0 (inf: no limit), got limit = {limit!r}")
-    if safety is not None and (isinstance(safety, bool)
-                               or not isinstance(safety, (int, float, np.floating))
-                               or not 0.0 < safety <= 1.0):
+    if safety is not None and (not is_real(safety) or not 0.0 < safety <= 1.0):
         raise ValueError(f"safety must be a number in (0, 1], got safety = {safety!r}")
-    if isinstance(dt, bool) or not isinstance(dt, (int, float, np.floating)) \
+    if not is_real(dt) \
             or not (math.isfinite(dt) and dt > 0):
         raise TimestepError(f"{what} must be a finite number > 0, got {dt!r}")
     if not math.isfinite(limit):

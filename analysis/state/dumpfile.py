@@ -33,6 +33,7 @@ import os
 
 import numpy as np
 
+from remote_trigger.analysis.errors import is_integer, is_real
 from remote_trigger.analysis.state.contacts import PARTNER, XI
 from remote_trigger.analysis.state.state import (
     DISC_INERTIA, ContactParams, _check_options, build_state)
@@ -135,7 +136,7 @@ def _frame(path, frame):
     ``frame`` is not an integer (Python or numpy; bool refused) or the frame
     does not exist (the message names the number of snapshots).
     """
-    if isinstance(frame, (bool, np.bool_)) or not isinstance(frame, (int, np.integer)):
+    if not is_integer(frame):
         # (frame = 1.0 was a raw "list indices must be integers")
         raise ValueError(f"frame must be an integer (Python indexing, -1 the last snapshot), "
                          f"got frame = {frame!r}")
@@ -246,7 +247,7 @@ def write_sidecar(path, values):
         if val is None and key == "wall_y":
             out[key] = None
             continue
-        if isinstance(val, bool) or not isinstance(val, (int, float, np.floating, np.integer)) \
+        if not is_real(val) \
                 or not math.isfinite(float(val)):
             raise ValueError(f"sidecar of {path}: {key} must be a finite number, got {val!r}")
         out[key] = float(val)

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from remote_trigger.analysis.errors import is_real
 from remote_trigger.analysis.state.contacts import (
     _history_pairs, _wall_contacts, find_contacts, minimum_image, touch_band)
 
@@ -70,7 +71,7 @@ class ContactParams:
     def __post_init__(self):
         for name, lo, strict in (("k_n", 0.0, True), ("k_t", 0.0, False), ("mu", 0.0, False)):
             val = getattr(self, name)
-            if (isinstance(val, bool) or not isinstance(val, (int, float, np.floating, np.integer))
+            if (not is_real(val)
                     or not np.isfinite(val)):
                 raise ValueError(f"contact parameter {name} must be a finite number, got {val!r}")
             if (strict and val <= lo) or (not strict and val < lo):
@@ -361,8 +362,7 @@ def _box(box_lo, box_hi, dim, periodic):
 def _check_params(params, wall_y):
     if not isinstance(params, ContactParams):
         raise ValueError(f"params must be a ContactParams, got {type(params).__name__}")
-    if wall_y is not None and (isinstance(wall_y, bool) or not isinstance(
-            wall_y, (int, float, np.integer, np.floating)) or not np.isfinite(wall_y)):
+    if wall_y is not None and (not is_real(wall_y) or not np.isfinite(wall_y)):
         raise ValueError(f"wall_y must be a finite number or None, got {wall_y!r}")
 
 
