@@ -13,11 +13,7 @@ import fcntl
 import os
 
 from remote_trigger.pywrap.config import ConfigError
-
-#: set in the environment of a job re-launched under mpirun (``--np N``): its
-#: parent holds the lock
-CHILD_FLAGS = ("REMOTE_TRIGGER_PAPER_CHILD", "REMOTE_TRIGGER_ENS_CHILD",
-               "REMOTE_TRIGGER_MAP_CHILD")
+from remote_trigger.pywrap.runtime.relaunch import RELAUNCHED
 
 
 def lock_output_folder(out):
@@ -41,7 +37,7 @@ def lock_output_folder(out):
     ConfigError
         If another run holds the lock (the message names the folder).
     """
-    if any(os.environ.get(flag) for flag in CHILD_FLAGS):
+    if os.environ.get(RELAUNCHED):
         return None
     if not isinstance(out, str) or not out or os.path.exists(out) and not os.path.isdir(out):
         return None

@@ -12,6 +12,11 @@ import sys
 
 from remote_trigger.pywrap.config import ConfigError
 
+#: set in the environment of every job re-launched under mpirun (``--np N``):
+#: the re-launching process holds the job's output-folder lock
+#: (:mod:`~remote_trigger.pywrap.runtime.outlock`)
+RELAUNCHED = "REMOTE_TRIGGER_RELAUNCHED"
+
 
 def find_mpirun(np, command):
     """Path of ``mpirun``: next to the interpreter (the venv's), else on PATH.
@@ -80,6 +85,6 @@ def call_under_mpirun(cmd, env, command, workers):
               file=sys.stderr, flush=True)
     old = signal.signal(signal.SIGINT, lambda signum, frame: None)
     try:
-        return subprocess.call(cmd, env=env)
+        return subprocess.call(cmd, env=dict(env, **{RELAUNCHED: "1"}))
     finally:
         signal.signal(signal.SIGINT, old)

@@ -698,6 +698,7 @@ def test_one_run_at_a_time_in_an_output_folder(capsys, relaxed, tmp_path, monkey
     by the ranks of a re-launched job."""
     from remote_trigger.pywrap.config import ConfigError
     from remote_trigger.pywrap.runtime.outlock import lock_output_folder
+    from remote_trigger.pywrap.runtime.relaunch import RELAUNCHED
 
     out = tmp_path / "o"
     held = lock_output_folder(str(out))                 # "the first run"
@@ -709,9 +710,9 @@ def test_one_run_at_a_time_in_an_output_folder(capsys, relaxed, tmp_path, monkey
     assert status == 2
     assert_one_line_error(err, f"--out '{out}' is in use by another run")
     assert os.listdir(out) == []
-    monkeypatch.setenv("REMOTE_TRIGGER_PAPER_CHILD", "1")
+    monkeypatch.setenv(RELAUNCHED, "1")
     assert lock_output_folder(str(out)) is None        # a re-launched job's rank
-    monkeypatch.delenv("REMOTE_TRIGGER_PAPER_CHILD")
+    monkeypatch.delenv(RELAUNCHED)
     os.close(held)                                     # the first run ends
     status, _, err = run_cli(capsys, "perturb", "--datafile", relaxed.datafile, "--out", out,
                              "--quiet", "--runs", "a", "--t-max", "0.1")
