@@ -247,11 +247,6 @@ def classify(exc):
                        f"for the traceback)"), True
 
 
-def _interrupt_message(args):
-    hint = getattr(args, "resume_hint", None)
-    return f"remote-trigger {args.command}: interrupted" + (f"; {hint}" if hint else "")
-
-
 def exit_on_interrupt(args, debug=False):
     """Install the command line's SIGINT handler: one line on rank 0, exit 130 at once.
 
@@ -262,6 +257,9 @@ def exit_on_interrupt(args, debug=False):
     Every result file is written atomically and a run killed at any moment
     resumes bitwise (tests/driver/test_kill.py), so the handler ends the
     process as ``kill`` would, after printing the note of ``resume_hint``.
+    The ranks of a job re-launched under mpirun (``--np N``) print nothing:
+    the re-launching process prints the line
+    (:func:`~remote_trigger.pywrap.runtime.relaunch.call_under_mpirun`).
     With ``debug`` the default KeyboardInterrupt (and its traceback) is kept.
 
     Returns
@@ -272,11 +270,13 @@ def exit_on_interrupt(args, debug=False):
 
     if debug:
         return signal.getsignal(signal.SIGINT)
-    rank = world_rank()
-    text = (_interrupt_message(args) + "\n").encode()
+    from remote_trigger.pywrap.runtime.relaunch import RELAUNCHED, interrupt_line
+
+    speak = world_rank() == 0 and not os.environ.get(RELAUNCHED)
+    text = (interrupt_line(args.command, getattr(args, "resume_hint", None)) + "\n").encode()
 
     def handler(signum, frame):
-        if rank == 0:
+        if speak:
             try:
                 sys.stdout.flush()
             except Exception:  # noqa: BLE001 - a print may be in progress
@@ -366,10 +366,14 @@ def _guarded(args, debug):
             _remove_empty(made)
         return status
     except KeyboardInterrupt:
+        from remote_trigger.pywrap.runtime.relaunch import RELAUNCHED, interrupt_line
+
         if rank == 0:
             if debug:
                 traceback.print_exc()
-            print(_interrupt_message(args), file=sys.stderr, flush=True)
+            if not os.environ.get(RELAUNCHED):    # (else the re-launching process prints it)
+                print(interrupt_line(args.command, getattr(args, "resume_hint", None)),
+                      file=sys.stderr, flush=True)
         return 130
     except BrokenPipeError:
         # the reader of stdout went away (``... | head``): not an error of the

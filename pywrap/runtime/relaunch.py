@@ -61,17 +61,27 @@ def relaunch(command, args, np, env_flag, extra=()):
     if getattr(args, "quiet", False):
         cmd.append("--quiet")
     # ensemble and trigger-map run np - 1 workers beside their coordinator
-    return call_under_mpirun(cmd, dict(os.environ, **{env_flag: "1"}), command, np - 1)
+    return call_under_mpirun(cmd, dict(os.environ, **{env_flag: "1"}), command, np - 1,
+                             getattr(args, "resume_hint", None))
 
 
-def call_under_mpirun(cmd, env, command, workers):
+def interrupt_line(command, resume_hint=None):
+    """The one line a command prints when Ctrl-C ends it (``resume_hint`` appended)."""
+    return f"remote-trigger {command}: interrupted" + (f"; {resume_hint}" if resume_hint else "")
+
+
+def call_under_mpirun(cmd, env, command, workers, resume_hint=None):
     """Run the re-launched job ``cmd`` (``mpirun ...``); returns its exit status.
 
     Warns on stderr when ``workers`` (the ranks that compute) exceed the
     cores this process may use: the ranks then share cores and wait by
-    polling. Ctrl-C reaches the job's ranks from the terminal, and rank 0
-    prints the one interrupt line; this process waits for them quietly
-    (it printed that line a second time).
+    polling. Ctrl-C reaches the job's ranks from the terminal; they end
+    without a word (:data:`RELAUNCHED`) and this process, once they have
+    ended, prints the one interrupt line (:func:`interrupt_line`) and
+    returns 130. (Rank 0 printed it, unless mpirun killed it first: a
+    Python handler runs only between two bytecodes, never inside a long
+    LAMMPS call, so the line was missing from some interrupted jobs.)
+    A job whose status is 130 without a Ctrl-C here gets the line too.
     """
     import signal
 
@@ -83,8 +93,14 @@ def call_under_mpirun(cmd, env, command, workers):
               f"core{'s' if cores > 1 else ''}: they share cores and wait by polling, which "
               f"makes the job several times slower; give --np {cores} or fewer",
               file=sys.stderr, flush=True)
-    old = signal.signal(signal.SIGINT, lambda signum, frame: None)
+    interrupted = []
+    old = signal.signal(signal.SIGINT, lambda signum, frame: interrupted.append(signum))
     try:
-        return subprocess.call(cmd, env=dict(env, **{RELAUNCHED: "1"}))
+        status = subprocess.call(cmd, env=dict(env, **{RELAUNCHED: "1"}))
     finally:
         signal.signal(signal.SIGINT, old)
+    if interrupted or status == 130:
+        sys.stdout.flush()
+        print(interrupt_line(command, resume_hint), file=sys.stderr, flush=True)
+        return 130
+    return status

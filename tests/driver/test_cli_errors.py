@@ -670,10 +670,49 @@ def test_more_ranks_than_cores_is_warned(monkeypatch, capsys):
     assert capsys.readouterr().err == ""
 
 
+def test_the_relauncher_prints_the_interrupt_line(capsys):
+    """The interrupt line of a re-launched job was printed by its rank 0,
+    which mpirun could kill before the Python handler ran (inside a LAMMPS
+    call): in one CI run an interrupted `paper --np 2` printed nothing. The
+    re-launching process now prints it once its child has ended: after a
+    Ctrl-C it received, or a child's status 130; its ranks print nothing."""
+    import signal
+    import sys
+
+    from remote_trigger.pywrap.runtime import relaunch
+
+    line = "remote-trigger paper: interrupted; the same command with --resume continues"
+    # a Ctrl-C this process receives while the child runs (the child ends 0)
+    child = [sys.executable, "-c", "import os, signal, time; "
+             "os.kill(os.getppid(), signal.SIGINT); time.sleep(0.2)"]
+    assert relaunch.call_under_mpirun(child, dict(os.environ), "paper", 1,
+                                      "the same command with --resume continues") == 130
+    assert capsys.readouterr().err.splitlines() == [line]
+    # a child that ends 130 (its ranks got the Ctrl-C alone)
+    child = [sys.executable, "-c", "raise SystemExit(130)"]
+    assert relaunch.call_under_mpirun(child, dict(os.environ), "ramp", 1) == 130
+    assert capsys.readouterr().err.splitlines() == ["remote-trigger ramp: interrupted"]
+    # any other end: no line, the child's status
+    child = [sys.executable, "-c", "raise SystemExit(2)"]
+    assert relaunch.call_under_mpirun(child, dict(os.environ), "paper", 1) == 2
+    assert capsys.readouterr().err == ""
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    # a rank of a re-launched job ends at Ctrl-C without a word
+    code = ("import os, signal, sys, types\n"
+            "from remote_trigger.pywrap.cli import exit_on_interrupt\n"
+            "exit_on_interrupt(types.SimpleNamespace(command='paper', resume_hint='h'))\n"
+            "os.kill(os.getpid(), signal.SIGINT)\n")
+    for flag, err in (("1", ""), ("", "remote-trigger paper: interrupted; h\n")):
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              env=dict(os.environ, **{relaunch.RELAUNCHED: flag}))
+        assert (done.returncode, done.stderr) == (130, err)
+
+
 @pytest.mark.mpi
 def test_ctrl_c_of_a_relaunched_job_prints_one_line(tmp_path):
     """Ctrl-C (SIGINT to the terminal's process group) of `paper --np 2`: the
-    re-launching process and rank 0 both printed the interrupt line."""
+    re-launching process and rank 0 both printed the interrupt line (and,
+    once, neither did: test_the_relauncher_prints_the_interrupt_line)."""
     out = tmp_path / "p"
     proc = subprocess.Popen([CLI, "paper", "--quick", "--np", "2", "--out", str(out)],
                             env=cli_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
