@@ -5,15 +5,16 @@ import numpy as np
 
 
 def check_series(func, t, **series):
-    """``t`` and each named series: 1-D arrays of one length, every value finite.
+    """``t`` and each named series: 1-D arrays of one length, every value
+    finite, ``t`` increasing (the records of one run, in time order).
 
     Returns the float64 arrays, ``t`` first, then the series in their order.
 
     Raises
     ------
     ValueError
-        Naming ``func``, the arguments and their shapes, or the first
-        non-finite value.
+        Naming ``func``, the arguments and their shapes, the first
+        non-finite value, or the first time not after its predecessor.
     """
     arrays = {}
     for name, a in dict(t=t, **series).items():
@@ -35,6 +36,13 @@ def check_series(func, t, **series):
         if bad.size:
             raise ValueError(f"{func}: {name} must be finite, got {bad.size} non-finite "
                              f"value(s), the first {float(a[bad[0]])!r} at index {int(bad[0])}")
+    t = arrays["t"]
+    # (a reversed or shuffled t gave a growth rate of the wrong sign, or NaN)
+    back = np.flatnonzero(np.diff(t) <= 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise ValueError(f"{func}: t must be increasing (records in time order), got "
+                         f"t[{i}] = {float(t[i])!r} after t[{i - 1}] = {float(t[i - 1])!r}")
     return tuple(arrays.values())
 
 

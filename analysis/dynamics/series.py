@@ -38,8 +38,8 @@ def noise_level(t, D, frac=0.05):
     Raises
     ------
     ValueError
-        t and D not 1-D arrays of one length, or not finite; ``frac`` not
-        in (0, 1].
+        t and D not 1-D arrays of one length, not finite, or t not
+        increasing; ``frac`` not in (0, 1].
     """
     _check_series("noise_level", t, D=D)
     if not is_real(frac) or not 0.0 < frac <= 1.0:
@@ -75,7 +75,7 @@ def exp_rate(t, D, mask=None, min_records=5):
     Raises
     ------
     ValueError
-        t, D and mask not 1-D arrays of one length, not finite; mask not bool.
+        t, D and mask not 1-D arrays of one length, not finite; t not increasing; mask not bool.
     """
     if mask is not None and np.asarray(mask).dtype != bool:
         raise ValueError(f"exp_rate: mask must be an array of bool (the records to fit), got "
@@ -126,7 +126,7 @@ def growth_window(t, D, noise, lo=1e3, hi=1e-3, start=0, chunks=8, rtol=0.05):
     Raises
     ------
     ValueError
-        t and D not 1-D arrays of one length, or not finite.
+        t and D not 1-D arrays of one length, not finite, or t not increasing.
     """
     t, D = _check_series("growth_window", t, D=D)
     if not (noise > 0) or D.size == 0:
@@ -175,7 +175,7 @@ def below_exponential(t, D, window, g, tail=0.1):
     Raises
     ------
     ValueError
-        t and D not 1-D arrays of one length, or not finite.
+        t and D not 1-D arrays of one length, not finite, or t not increasing.
     """
     t, D = _check_series("below_exponential", t, D=D)
     if window is None or not np.isfinite(g) or D.size == 0:
@@ -197,7 +197,7 @@ def first_crossing(t, x, level):
     Raises
     ------
     ValueError
-        t and x not 1-D arrays of one length, or not finite.
+        t and x not 1-D arrays of one length, not finite, or t not increasing.
     """
     _check_series("first_crossing", t, x=x)
     i = np.flatnonzero(np.asarray(x) > level)
@@ -212,7 +212,7 @@ def friction_switch_time(t, mu, mu0):
     Raises
     ------
     ValueError
-        t and mu not 1-D arrays of one length, or not finite.
+        t and mu not 1-D arrays of one length, not finite, or t not increasing.
     """
     _check_series("friction_switch_time", t, mu=mu)
     i = np.flatnonzero(np.asarray(mu) < mu0 * (1 - 1e-12))
@@ -245,7 +245,7 @@ def settle_index(t, mu, target, tol=0.01, span=50.0):
     Raises
     ------
     ValueError
-        t and mu not 1-D arrays of one length, or not finite.
+        t and mu not 1-D arrays of one length, not finite, or t not increasing.
     """
     t, mu = _check_series("settle_index", t, mu=mu)
     j = np.searchsorted(t, t + span, side="right")
@@ -273,7 +273,7 @@ def growth_over(t, D, t0, t1):
     Raises
     ------
     ValueError
-        t and D not 1-D arrays of one length, or not finite.
+        t and D not 1-D arrays of one length, not finite, or t not increasing.
     """
     t, D = _check_series("growth_over", t, D=D)
     w = (t1 - t0) / 4.0
@@ -333,7 +333,7 @@ def post_switch_level(t, D, mu, mu0, span=100.0):
     Raises
     ------
     ValueError
-        t, D and mu not 1-D arrays of one length, or not finite.
+        t, D and mu not 1-D arrays of one length, not finite, or t not increasing.
     """
     t, D, mu = _check_series("post_switch_level", t, D=D, mu=mu)
     ts = friction_switch_time(t, mu, mu0)
@@ -401,7 +401,7 @@ def saturated(t, D, mu, mu0, span=100.0, rise=1e3):
     Raises
     ------
     ValueError
-        t, D and mu not 1-D arrays of one length, or not finite.
+        t, D and mu not 1-D arrays of one length, not finite, or t not increasing.
     """
     t, D, mu = _check_series("saturated", t, D=D, mu=mu)    # (arrays once: every record)
     if t.size < 3 or t[-1] - t[0] < 2 * span:
@@ -452,7 +452,7 @@ def settled_growth(t, D, mu, mu0, mu_target, settle_tol, lo=3.0, hi=1e-1):
     Raises
     ------
     ValueError
-        t, D and mu not 1-D arrays of one length, or not finite.
+        t, D and mu not 1-D arrays of one length, not finite, or t not increasing.
     """
     t, D, mu = _check_series("settled_growth", t, D=D, mu=mu)
     i = settle_index(t, mu, mu_target, tol=settle_tol)
@@ -505,7 +505,7 @@ def growth_fit(t, D, lo_decades=3.0, hi=None):
     Raises
     ------
     ValueError
-        t and D not 1-D arrays of one length, or not finite.
+        t and D not 1-D arrays of one length, not finite, or t not increasing.
     """
     t, D = _check_series("growth_fit", t, D=D)
     Dmax = float(np.max(D)) if D.size else 0.0
@@ -552,7 +552,7 @@ def runaway_rate(t, D, d_run, decades=1.0):
     Raises
     ------
     ValueError
-        t and D not 1-D arrays of one length, or not finite.
+        t and D not 1-D arrays of one length, not finite, or t not increasing.
     """
     t, D = _check_series("runaway_rate", t, D=D)
     hit = np.flatnonzero(D > d_run)

@@ -293,6 +293,14 @@ def test_series_functions_check_t_and_the_series():
         with pytest.raises(ValueError, match=rf"{name}: t must be finite, got 1 non-finite "
                                              r"value\(s\), the first nan at index 7"):
             f(bad, D, mu)
+        # (growth_fit of the records in reverse order was -0.02, not an error)
+        with pytest.raises(ValueError, match=rf"{name}: t must be increasing \(records in time "
+                                             r"order\), got t\[1\] = 995.0 after t\[0\] = 1000.0"):
+            f(t[::-1], D[::-1], mu[::-1])
+        same = t.copy()
+        same[5] = same[4]
+        with pytest.raises(ValueError, match=r"got t\[5\] = 20.0 after t\[4\] = 20.0"):
+            f(same, D, mu)
     with pytest.raises(ValueError, match=r"D must be finite, got 2 non-finite"):
         ser.growth_window(t, np.where(t > 990.0, np.inf, D), 1e-20)
     with pytest.raises(ValueError, match=r"t, D and mask must be 1-D arrays of one length, "
