@@ -115,6 +115,14 @@ def test_ramp_step_deck(tmp_path, relaxed):
     st, side = _check_dump(str(tmp_path / "s.dump"))
     assert side["F_x"] == 0.001
     np.testing.assert_array_equal(st.external[st.external[:, 1] < 0, 0], 0.001)
+    # without -var Fx: LAMMPS's error naming Fx before anything is read (it was
+    # "Variable load_x: Invalid thermo keyword 'REQUIRED'" at the first step)
+    args = [LMP, "-in", os.path.join(DECK_DIR, "in.ramp_step"), "-log", "none", "-var",
+            "datafile", relaxed.datafile]
+    out = subprocess.run(args, cwd=tmp_path, env=cli_env(), capture_output=True, text=True)
+    assert out.returncode != 0
+    assert "Substitution for illegal variable Fx" in out.stdout + out.stderr
+    assert "Reading data file" not in out.stdout
 
 
 def test_perturb_deck(tmp_path, relaxed):
