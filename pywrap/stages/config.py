@@ -276,8 +276,7 @@ class RampConfig(RelaxConfig):
     dF_x : float
         Ramp step, > 0. Default 1e-4 (paper).
     F_x_max : float
-        Stop (no complex pair found) beyond this value, > F_x + dF_x (at
-        least one step). Default 1.
+        Stop (no complex pair found) beyond this value, > F_x. Default 1.
     tol : float
         Bisection tolerance on F_x^c, > 0. Default 1e-7.
     dF_x_max : float or None
@@ -339,10 +338,6 @@ class RampConfig(RelaxConfig):
         if self.F_x_max <= self.F_x:
             raise ConfigError(f"F_x_max must be > F_x = {self.F_x!r}, got "
                               f"F_x_max = {self.F_x_max!r}")
-        if not self.F_x + self.dF_x < self.F_x_max:
-            # (a ramp decided its start alone and ended "stable up to F_x_max")
-            raise ConfigError(f"F_x_max must be > F_x + dF_x = {self.F_x + self.dF_x!r} "
-                              f"(at least one step), got F_x_max = {self.F_x_max!r}")
         _positive("tol", self.tol)
         for name in ("keep_equilibria", "saddle_escape"):
             if not isinstance(getattr(self, name), bool):

@@ -42,15 +42,6 @@ def test_unknown_key(packing_file):
         RampConfig.from_dict({"datafile": packing_file, "fmin": 1e-15})
 
 
-def test_a_ramp_takes_at_least_one_step(packing_file):
-    """F_x_max below the first step was taken: the ramp decided its start
-    alone and ended "no complex pair up to F_x_max"."""
-    with pytest.raises(ConfigError, match=r"F_x_max must be > F_x \+ dF_x = 0.011 \(at least "
-                                          r"one step\), got F_x_max = 0.005"):
-        RampConfig(datafile=packing_file, F_x=0.001, dF_x=0.01, F_x_max=0.005)
-    assert RampConfig(datafile=packing_file, F_x=0.001, dF_x=0.01, F_x_max=0.0111).F_x_max
-
-
 def test_missing_datafile(tmp_path):
     missing = str(tmp_path / "nope.data")
     with pytest.raises(ConfigError, match="nope.data"):
