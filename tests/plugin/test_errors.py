@@ -312,10 +312,11 @@ def test_atom_ids_and_special_bonds_weights_are_required():
                r"1-3 neighbors must be 0 \(no contact\) or 1")
 
 
-def test_pair_write_is_refused():
+def test_pair_write_is_refused(tmp_path):
     """pair_write evaluates single() of atoms 0 and 1 at any distance: it read
     past the atom arrays with one atom, and used the two atoms' own radii
-    with two."""
+    with two. (It writes the table's header before the error: into
+    ``tmp_path``, not the working directory.)"""
     lmp = new_lammps()
     try:
         base(lmp)
@@ -323,6 +324,6 @@ def test_pair_write_is_refused():
         lmp.command("run 0")
         with pytest.raises(Exception, match=r"single\(\) got rsq = .* pair_write is not "
                                             r"supported"):
-            lmp.command("pair_write 1 1 5 r 0.5 1.0 table.txt MS")
+            lmp.command(f"pair_write 1 1 5 r 0.5 1.0 {tmp_path / 'table.txt'} MS")
     finally:
         lmp.close()
