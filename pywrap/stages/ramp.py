@@ -389,9 +389,12 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
         F = next_step(cfg, rlog)
         if F > cfg.F_x_max:
             n_und = int(np.count_nonzero(np.asarray(steps["decision"], float) == Decision.UNDECIDED))
-            rlog.attrs["message"] = (f"no complex pair certified up to F_x_max = "
-                                     f"{cfg.F_x_max}" + (f" ({n_und} steps undecided)"
-                                                         if n_und else ""))
+            # (it said "up to F_x_max" of a ramp whose one point was its start)
+            rlog.attrs["message"] = (
+                f"no complex pair certified at the {k} ramp point(s) from F_x = "
+                f"{steps['F_x'][0]:.10g} to {steps['F_x'][-1]:.10g}"
+                + (f" ({n_und} undecided)" if n_und else "")
+                + f"; the next step, {F:.10g}, passes F_x_max = {cfg.F_x_max}")
             rlog.attrs.update(_open_bracket_attrs(rlog))
             _checkpoint(eng, rlog, folder, "no_complex_pair")
             return _ramp_result(rlog, "no_complex_pair")

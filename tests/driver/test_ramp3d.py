@@ -268,6 +268,9 @@ def test_dim_3_that_agrees_is_accepted(capsys, relaxed3d, tmp_path):
                                 "--set", "F_x_max=0.01")
     assert status == 1, err                 # no complex pair below F_x_max
     assert "no_complex_pair" in text
+    # what was decided, not "up to F_x_max": one point, the start
+    assert ("no complex pair certified at the 1 ramp point(s) from F_x = 0 to 0; the next "
+            "step, 0.05, passes F_x_max = 0.01") in text, text
     with h5py.File(tmp_path / "o" / "ramp.h5", "r") as fh:
         assert fh.attrs["status"] == "no_complex_pair"
         assert list(fh["steps/decision"][()]) == [0.0]
