@@ -361,6 +361,8 @@ def _guarded(args, debug):
             from remote_trigger.pywrap.runtime.outlock import lock_output_folder
 
             lock = lock_output_folder(getattr(args, "out", None))
+            # a job re-launched under mpirun inherits it (relaunch.call_under_mpirun)
+            args.out_lock = lock
         status = int(args.func(args) or 0)
         if status:
             _remove_empty(made)

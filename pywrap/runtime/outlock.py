@@ -7,7 +7,8 @@ folder itself (on rank 0, for the whole command) and refuses a second run
 while the first holds it. The lock lives with the open file descriptor: a
 run that ends in any way, ``kill -9`` included, releases it, and nothing is
 left in the folder. A job re-launched under ``mpirun`` (``--np N``) is
-covered by the lock of the process that re-launched it.
+covered by the lock of the process that re-launched it, whose descriptor
+mpirun and the ranks inherit: the lock goes with the last process of the job.
 """
 import fcntl
 import os

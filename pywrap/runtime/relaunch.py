@@ -62,7 +62,7 @@ def relaunch(command, args, np, env_flag, extra=()):
         cmd.append("--quiet")
     # ensemble and trigger-map run np - 1 workers beside their coordinator
     return call_under_mpirun(cmd, dict(os.environ, **{env_flag: "1"}), command, np - 1,
-                             getattr(args, "resume_hint", None))
+                             getattr(args, "resume_hint", None), getattr(args, "out_lock", None))
 
 
 def interrupt_line(command, resume_hint=None):
@@ -70,7 +70,7 @@ def interrupt_line(command, resume_hint=None):
     return f"remote-trigger {command}: interrupted" + (f"; {resume_hint}" if resume_hint else "")
 
 
-def call_under_mpirun(cmd, env, command, workers, resume_hint=None):
+def call_under_mpirun(cmd, env, command, workers, resume_hint=None, lock=None):
     """Run the re-launched job ``cmd`` (``mpirun ...``); returns its exit status.
 
     Warns on stderr when ``workers`` (the ranks that compute) exceed the
@@ -82,6 +82,15 @@ def call_under_mpirun(cmd, env, command, workers, resume_hint=None):
     Python handler runs only between two bytecodes, never inside a long
     LAMMPS call, so the line was missing from some interrupted jobs.)
     A job whose status is 130 without a Ctrl-C here gets the line too.
+
+    ``lock``, the descriptor holding the output folder's lock
+    (:mod:`~remote_trigger.pywrap.runtime.outlock`), is inherited by mpirun,
+    hydra's proxy and the ranks, so that the lock lasts as long as any
+    process of the job: killed alone (``kill -9`` of this process), this
+    process left mpirun and the ranks running without it, and after a
+    ``kill -9`` of its process group the ranks (in sessions of their own)
+    went on writing for some milliseconds, while a second run in the same
+    folder was already accepted.
     """
     import signal
 
@@ -96,7 +105,8 @@ def call_under_mpirun(cmd, env, command, workers, resume_hint=None):
     interrupted = []
     old = signal.signal(signal.SIGINT, lambda signum, frame: interrupted.append(signum))
     try:
-        status = subprocess.call(cmd, env=dict(env, **{RELAUNCHED: "1"}))
+        status = subprocess.call(cmd, env=dict(env, **{RELAUNCHED: "1"}),
+                                 pass_fds=() if lock is None else (lock,))
     finally:
         signal.signal(signal.SIGINT, old)
     if interrupted or status == 130:

@@ -11,6 +11,7 @@ import re
 import shutil
 import signal
 import subprocess
+import sys
 import time
 
 import h5py
@@ -112,7 +113,6 @@ def test_a_reader_that_stops_early_is_no_error():
     """stdout piped into ``head``: the command's write fails with EPIPE; that is
     no error message, and the status is 141 (SIGPIPE's, as a shell gives)."""
     import shlex
-    import sys
 
     code = ("import argparse, sys; from remote_trigger.pywrap import cli; "
             "args = argparse.Namespace(command='x', func=lambda a: "
@@ -656,8 +656,6 @@ def test_a_path_with_a_space_is_refused_before_lammps(capsys, relaxed, tmp_path)
 
 def test_more_ranks_than_cores_is_warned(monkeypatch, capsys):
     """--np 4 on 2 cores ran several times slower than --np 2, with no word."""
-    import sys
-
     from remote_trigger.pywrap.runtime import relaunch
 
     monkeypatch.setattr(relaunch.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
@@ -737,7 +735,7 @@ def test_one_run_at_a_time_in_an_output_folder(capsys, relaxed, tmp_path, monkey
     by the ranks of a re-launched job."""
     from remote_trigger.pywrap.config import ConfigError
     from remote_trigger.pywrap.runtime.outlock import lock_output_folder
-    from remote_trigger.pywrap.runtime.relaunch import RELAUNCHED
+    from remote_trigger.pywrap.runtime.relaunch import RELAUNCHED, call_under_mpirun
 
     out = tmp_path / "o"
     held = lock_output_folder(str(out))                 # "the first run"
@@ -752,7 +750,27 @@ def test_one_run_at_a_time_in_an_output_folder(capsys, relaxed, tmp_path, monkey
     monkeypatch.setenv(RELAUNCHED, "1")
     assert lock_output_folder(str(out)) is None        # a re-launched job's rank
     monkeypatch.delenv(RELAUNCHED)
-    os.close(held)                                     # the first run ends
+    # a job re-launched under mpirun inherits the lock: its processes hold it
+    # after the re-launching one is gone (here a grandchild outlives both)
+    gone = tmp_path / "gone"
+    job = [sys.executable, "-c", "import subprocess, sys; subprocess.Popen([sys.executable, "
+           "'-c', 'import os, sys, time\\nwhile not os.path.exists(sys.argv[1]): "
+           f"time.sleep(0.01)', {str(gone)!r}], close_fds=False)"]
+    try:
+        assert call_under_mpirun(job, dict(os.environ), "relax", 1, lock=held) == 0
+        os.close(held)                                 # the first run ends ...
+        with pytest.raises(ConfigError, match="is in use by another run"):
+            lock_output_folder(str(out))               # ... its job's processes not yet
+    finally:
+        gone.write_text("")
+    t0 = time.monotonic()
+    while True:                                        # the grandchild ends (not our child)
+        try:
+            os.close(lock_output_folder(str(out)))
+            break
+        except ConfigError:
+            assert time.monotonic() - t0 < 60, "the job's lock outlived its processes"
+            time.sleep(0.01)
     status, _, err = run_cli(capsys, "perturb", "--datafile", relaxed.datafile, "--out", out,
                              "--quiet", "--runs", "a", "--t-max", "0.1")
     assert status == 0, err

@@ -100,7 +100,8 @@ def _relaunch(cfg, args):
         cmd.append("--overwrite")
     env = dict(os.environ, REMOTE_TRIGGER_PAPER_CHILD="1")
     try:
-        return call_under_mpirun(cmd, env, "paper", cfg.np, args.resume_hint)
+        return call_under_mpirun(cmd, env, "paper", cfg.np, args.resume_hint,
+                                 getattr(args, "out_lock", None))
     finally:
         os.unlink(path)
 
