@@ -674,12 +674,19 @@ def test_the_relauncher_prints_the_interrupt_line(capsys):
     call): in one CI run an interrupted `paper --np 2` printed nothing. The
     re-launching process now prints it once its child has ended: after a
     Ctrl-C it received, or a child's status 130; its ranks print nothing."""
-    import signal
-    import sys
-
     from remote_trigger.pywrap.runtime import relaunch
 
     line = "remote-trigger paper: interrupted; the same command with --resume continues"
+    # the handler this process starts with is inherited (SIG_IGN in a job put in
+    # the background by a shell without job control): the test sets Python's own
+    inherited = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        _relauncher_lines(capsys, relaunch, line)
+    finally:
+        signal.signal(signal.SIGINT, inherited)
+
+
+def _relauncher_lines(capsys, relaunch, line):
     # a Ctrl-C this process receives while the child runs (the child ends 0)
     child = [sys.executable, "-c", "import os, signal, time; "
              "os.kill(os.getppid(), signal.SIGINT); time.sleep(0.2)"]

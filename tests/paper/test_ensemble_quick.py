@@ -161,6 +161,77 @@ def _started(out):
     return done, parts
 
 
+def _job_pids(pid):
+    """``pid`` and every process descended from it. A job re-launched under
+    mpirun (``--np N``) has its ranks in sessions of their own (hydra's proxy
+    calls setsid): ``killpg`` of the job's group reaches the re-launching
+    process and mpiexec, and the ranks go on (writing into --out) until the
+    proxy notices and kills them, measured 3-65 ms later."""
+    children = {}
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as fh:
+                    ppid = int(fh.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            children.setdefault(ppid, []).append(int(d))
+    pids, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        pids.append(p)
+        todo.extend(children.get(p, ()))
+    return pids
+
+
+def _state(pid):
+    """The state letter of ``pid`` (``T`` stopped, ``Z`` zombie), None once reaped."""
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return None
+
+
+def _signal_all(pids, sig, until):
+    for p in pids:
+        try:
+            os.kill(p, sig)
+        except ProcessLookupError:
+            pass
+    t0 = time.monotonic()
+    while not all(_state(p) in until for p in pids):
+        assert time.monotonic() - t0 < 60, f"signal {sig} not taken by {pids} in 60 s"
+        time.sleep(0.001)
+
+
+def _kill_when(proc, ready, what, timeout=600):
+    """SIGKILL every process of the job ``proc`` in a state where ``ready()`` holds.
+
+    ``ready()`` is polled; once it holds, the whole job is stopped (SIGSTOP,
+    each process until it is stopped), ``ready()`` is asked again of the
+    frozen folder and the job is killed if it still holds (else continued):
+    nothing is written between the state checked and the kill. Returns that
+    value of ``ready()`` once every process of the job is dead (a zombie
+    holds no file and no lock)."""
+    t0 = time.monotonic()
+    while True:
+        assert proc.poll() is None, f"finished before {what}"
+        assert time.monotonic() - t0 < timeout, f"no {what} in {timeout} s"
+        if ready():
+            pids = _job_pids(proc.pid)
+            _signal_all(pids, signal.SIGSTOP, ("T", "Z", None))
+            new = [p for p in _job_pids(proc.pid) if p not in pids]
+            _signal_all(new, signal.SIGSTOP, ("T", "Z", None))   # started meanwhile
+            pids += new
+            value = ready()
+            if value:
+                _signal_all(pids, signal.SIGKILL, ("Z", None))
+                return value
+            _signal_all(pids, signal.SIGCONT, ("R", "S", "D", "Z", None))
+        time.sleep(0.02)
+
+
 def _mu0_recorded(out):
     """(finished packings, packings with the mu0 ramp part recorded but no result)."""
     done, parts = _started(out)
@@ -179,15 +250,9 @@ def test_killed_and_resumed_gives_the_same_table(serial, tmp_path):
     proc = subprocess.Popen([CLI, "ensemble", "--quick", "--out", out], env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
-    t0 = time.monotonic()
     try:
-        while True:
-            kept, mid = _mu0_recorded(out)
-            assert proc.poll() is None, "finished before it could be killed"
-            assert time.monotonic() - t0 < 600, "no packing finished in 600 s"
-            if kept and mid:
-                break
-            time.sleep(0.02)
+        _kill_when(proc, lambda: all(_mu0_recorded(out)),
+                   "a finished packing and another with its mu0 ramp recorded")
     finally:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
@@ -235,12 +300,8 @@ def test_two_ranks_ramps_apart_killed_and_resumed(serial, tmp_path):
     proc = subprocess.Popen([CLI, "ensemble", "--quick", "--np", "2", "--out", out], env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                             start_new_session=True, text=True)
-    t0 = time.monotonic()
     try:
-        while not (mid := _one_ramp_recorded(out)):
-            assert proc.poll() is None, "finished before it could be killed"
-            assert time.monotonic() - t0 < 600, "no ramp part recorded in 600 s"
-            time.sleep(0.02)
+        mid = _kill_when(proc, lambda: _one_ramp_recorded(out), "a ramp part recorded")
     finally:
         os.killpg(proc.pid, signal.SIGKILL)
         stdout = proc.communicate()[0]
