@@ -377,10 +377,8 @@ def adaptive_step(dF_x, dF_x_max, prev, last):
 def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
     """The ramp: steps of dF_x until one is certified complex.
 
-    Returns the :class:`RampResult` of a ramp that ends here (no complex pair
-    up to F_x_max, no equilibrium, complex at the start, interrupted), or None
-    when bisection follows.
-    """
+    Returns the :class:`RampResult` of a ramp that ends here (no complex pair up to
+    F_x_max, no equilibrium, complex at the start, interrupted), or None: bisection."""
     steps = rlog.rows["steps"]
     k0 = len(steps["F_x"]) - 1
     basis = _load_basis(eng, rlog.files["steps"][k0] if k0 >= 0 else None)
@@ -389,12 +387,11 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
         F = next_step(cfg, rlog)
         if F > cfg.F_x_max:
             n_und = int(np.count_nonzero(np.asarray(steps["decision"], float) == Decision.UNDECIDED))
-            # (it said "up to F_x_max" of a ramp whose one point was its start)
+            und = f" ({n_und} undecided)" if n_und else ""
             rlog.attrs["message"] = (
-                f"no complex pair certified at the {k} ramp point(s) from F_x = "
-                f"{steps['F_x'][0]:.10g} to {steps['F_x'][-1]:.10g}"
-                + (f" ({n_und} undecided)" if n_und else "")
-                + f"; the next step, {F:.10g}, passes F_x_max = {cfg.F_x_max}")
+                f"no complex pair certified at the {k} ramp point(s) from F_x = {steps['F_x'][0]:.10g}"
+                f" to {steps['F_x'][-1]:.10g}{und}; the next step, {F:.10g}, passes F_x_max = "
+                f"{cfg.F_x_max}")
             rlog.attrs.update(_open_bracket_attrs(rlog))
             _checkpoint(eng, rlog, folder, "no_complex_pair")
             return _ramp_result(rlog, "no_complex_pair")

@@ -185,8 +185,9 @@ def test_relaunch_command_and_resolved_config(tmp_path, monkeypatch):
 
     seen = {}
 
-    def fake_call(cmd, env=None):
+    def fake_call(cmd, env=None, pass_fds=()):
         seen["cmd"] = cmd
+        seen["pass_fds"] = pass_fds
         i = cmd.index("--resolved-config")
         with open(cmd[i + 1]) as fh:
             seen["cfg"] = json.load(fh)
@@ -201,6 +202,7 @@ def test_relaunch_command_and_resolved_config(tmp_path, monkeypatch):
     assert os.path.basename(cmd[0]) == "mpirun" and cmd[1:3] == ["-np", "2"]
     assert cmd[cmd.index("--out") + 1] == out and "paper" in cmd
     assert seen["env"]["REMOTE_TRIGGER_PAPER_CHILD"] == "1"
+    assert len(seen["pass_fds"]) == 1           # the output folder's lock, inherited
     parser = __import__("remote_trigger.pywrap.cli", fromlist=["x"]).build_parser()
     path = tmp_path / "resolved.json"
     path.write_text(json.dumps(seen["cfg"]))
