@@ -261,6 +261,9 @@ def test_config_difference_names_every_key(tmp_path):
     msg = str(exc.value)
     assert "dF_x = 0.002 in paper.json, dF_x = 0.001 now" in msg
     assert "n = 40 in paper.json, n = 100 now" in msg and "quick = True" in msg
+    # (it said "drop --resume to start over", which the job then refused too)
+    assert msg.endswith("or give --overwrite in place of --resume to start over (nothing was "
+                        "deleted)"), msg
     # the Fig. 5 load may change while Fig. 5 has not begun, not after
     for key, val in (("fig5_F_x", 0.01), ("fig5_window", 0.3)):
         assert paper.load_manifest(str(out), build_config(None, {"seed": 3, key: val},
@@ -279,5 +282,6 @@ def test_config_difference_names_every_key(tmp_path):
                                   str(out), str(moved)) == \
         {"h5": [str(moved / "ramp_mu1" / "ramp.h5"), str(out) + "x"]}
     (moved / "paper.json").write_text("{not json")
-    with pytest.raises(ConfigError, match="unreadable manifest"):
+    with pytest.raises(ConfigError, match="unreadable manifest .* run with --overwrite in place "
+                                          "of --resume to start the job over"):
         paper.load_manifest(str(moved), cfg)

@@ -171,7 +171,7 @@ def load_manifest(out, cfg):
             raise ValueError("no 'config' object")
     except (OSError, ValueError) as exc:
         raise ConfigError(f"cannot resume from {path}: unreadable manifest ({exc}); "
-                          f"run without --resume to start the job over") from None
+                          f"run with --overwrite in place of --resume to start the job over") from None
     diff = config_difference(man["config"], cfg)
     if not fig5_begun(man, out):
         diff = [d for d in diff if d[0] not in RESUME_BEFORE_FIG5_KEYS]
@@ -179,8 +179,8 @@ def load_manifest(out, cfg):
         what = "; ".join(f"{k} = {old!r} in {MANIFEST}, {k} = {new!r} now"
                          for k, old, new in diff)
         raise ConfigError(f"cannot resume {out}: its configuration differs: {what}. Resume "
-                          f"with the options of the interrupted job, or drop --resume to "
-                          f"start over (nothing was deleted)")
+                          f"with the options of the interrupted job, or give --overwrite in place of "
+                          f"--resume to start over (nothing was deleted)")
     old_out = man.get("out")
     if isinstance(old_out, str) and os.path.realpath(old_out) != os.path.realpath(out):
         man = rebased(man, old_out, out)
