@@ -147,17 +147,23 @@ def unrecognized(parser, command, extra):
     option of the subcommand that begins with it, else the one closest to
     it (:func:`difflib.get_close_matches`), as the likely meant one; a stray
     word that is a file, for a subcommand that reads its start file from
-    ``--datafile``, as ``--datafile WORD``.
+    ``--datafile``, as ``--datafile WORD``; an option of ``remote-trigger``
+    itself (``--version``) as ``remote-trigger --version``.
     """
     import difflib
 
     sub = parser.commands.get(command, parser)
     known = [o for a in sub._actions for o in a.option_strings if o.startswith("--")]
     keys = sub.get_default("config_keys") or ()
+    top = [o for a in parser._actions for o in a.option_strings]
     hints = []
     for word in extra:
         if word.startswith("-") and not _NEGATIVE.match(word):
             option = word.split("=", 1)[0]
+            if option in top and option not in known:
+                # (relax --version suggested --override)
+                hints.append(f"remote-trigger {option}")
+                continue
             key = option.lstrip("-").replace("-", "_")
             if key in keys:
                 hints.append(f"--set {key}=VALUE")
@@ -177,6 +183,28 @@ def unrecognized(parser, command, extra):
             hints.append(f"--datafile {word}")
     hint = f" (did you mean {', '.join(dict.fromkeys(hints))}?)" if hints else ""
     sub.error(f"unrecognized arguments: {' '.join(extra)}{hint}")
+
+
+def options_before_command(parser, argv):
+    """Refuse a subcommand's options written before it (exit 2).
+
+    ``remote-trigger --quiet relax`` was told ``--quiet (did you mean
+    --quiet?)``, ``--quick paper`` ``--set quick=VALUE`` and ``--np 2 paper``
+    ``invalid choice: '2'``. The words before the first subcommand name
+    that are not options of ``remote-trigger`` itself are named, with the
+    command line that puts them after the subcommand.
+    """
+    top = {o for a in parser._actions for o in a.option_strings}
+    for k, word in enumerate(argv):
+        if word == "--":
+            return
+        if word in parser.commands:
+            moved = [w for w in argv[:k] if w.split("=", 1)[0] not in top]
+            if any(w.startswith("-") for w in moved):
+                parser.commands[word].error(
+                    f"{' '.join(moved)}: options of {word} go after it (remote-trigger "
+                    f"{word} {' '.join(moved)} ...)")
+            return
 
 
 def preprocess(argv):
@@ -436,6 +464,7 @@ def main(argv=None):
     argv, debug = preprocess(sys.argv[1:] if argv is None else list(argv))
     parser = build_parser()
     Parser.words = tuple(argv)
+    options_before_command(parser, argv)
     args, extra = parser.parse_known_args(argv)
     if extra:
         unrecognized(parser, args.command, extra)

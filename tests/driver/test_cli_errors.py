@@ -172,7 +172,16 @@ def test_options_are_taken_by_their_whole_name_only(capsys, tmp_path):
     (["relax", "--settle", "100"], ["--settle 100 (did you mean --settle-steps?)"]),
     # another case of an option (difflib named --w), and --np of a stage (--help)
     (["paper", "--N", "40"], ["--N 40 (did you mean --n?)"]),
-    (["ramp", "--np", "2"], ["--np 2 (did you mean mpirun -np N remote-trigger ramp ...?)"])])
+    (["ramp", "--np", "2"], ["--np 2 (did you mean mpirun -np N remote-trigger ramp ...?)"]),
+    # an option of remote-trigger itself after a subcommand (it named --override)
+    (["relax", "--version"], ["--version (did you mean remote-trigger --version?)"]),
+    # a subcommand's options before it ("--quiet (did you mean --quiet?)",
+    # "--set quick=VALUE", "invalid choice: '2'")
+    (["--quiet", "relax", "--out", "q"], ["remote-trigger relax: error: --quiet: options of "
+                                          "relax go after it (remote-trigger relax --quiet ...)"]),
+    (["--quick", "paper"], ["paper: error: --quick: options of paper go after it"]),
+    (["--np", "2", "paper"], ["paper: error: --np 2: options of paper go after it "
+                              "(remote-trigger paper --np 2 ...)"])])
 def test_unknown_words_name_the_subcommand(capsys, argv, needles):
     """A word the subcommand does not take is refused by that subcommand,
     with the closest of its options where one is close (none for a stray
