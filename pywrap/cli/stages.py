@@ -64,19 +64,37 @@ _FLAGS = {"F_x": "--F-x", "F_y": "--F-y", "mu": "--mu", "k_n": "--set k_n=",
 
 
 def _resumed_start(out):
-    """``ramp --resume`` without --datafile: the start file OUT/ramp.h5 names,
-    if it is there (as given when the ramp began: relative to that working
-    folder), else None."""
+    """``ramp --resume`` without --datafile: the start file OUT/ramp.h5 names
+    (its absolute path, else as given when the ramp began), or None without
+    OUT/ramp.h5.
+
+    Raises
+    ------
+    ConfigError
+        OUT/ramp.h5 unreadable, or its start file not found from here (it
+        was the default ``OUT/relax/equilibrium.data`` that did not exist,
+        or the h5 error was hidden behind it).
+    """
+    from remote_trigger.pywrap.config import ConfigError
+    from remote_trigger.pywrap.stages.ramp_file import DATAFILE_ABSPATH
+
     h5 = os.path.join(out, "ramp.h5")
+    if not os.path.exists(h5):
+        return None
     try:
         import h5py
 
         with h5py.File(h5, "r") as fh:
-            start = fh.attrs.get("datafile")
-    except (OSError, KeyError):
-        return None
-    start = start.decode() if isinstance(start, bytes) else start
-    return str(start) if start is not None and os.path.isfile(str(start)) else None
+            names = [fh.attrs.get(k) for k in (DATAFILE_ABSPATH, "datafile")]
+    except OSError as exc:
+        raise ConfigError(f"cannot resume: {h5} is not a readable HDF5 file ({exc})") from None
+    names = [n.decode() if isinstance(n, bytes) else str(n) for n in names if n is not None]
+    for name in names:
+        if os.path.isfile(name):
+            return name
+    raise ConfigError(f"cannot resume {h5} without --datafile: its start file "
+                      f"{' or '.join(map(repr, names)) or '(none named)'} is not found from "
+                      f"{os.getcwd()!r}; give --datafile")
 
 
 def _option_of(key):

@@ -60,6 +60,10 @@ DATAFILE = "datafile"
 #: root attribute (True): the ``datafile`` entries inside the file's folder are
 #: relative to it (:func:`point_file`)
 RELATIVE_PATHS = "datafile_relative"
+#: root attribute: the start file's absolute path (the root ``datafile`` is as
+#: given, relative to the folder the ramp began in): ``ramp --resume`` without
+#: ``--datafile`` finds it from any working folder
+DATAFILE_ABSPATH = "datafile_abspath"
 #: root attribute: why each undecided point is undecided (JSON object, point
 #: name -> the decision's reason, e.g. the strip and where)
 UNDECIDED_REASONS = "undecided_reasons"
@@ -351,7 +355,7 @@ class RampLog:
         log.attrs = {k: v for k, v in attrs.items()
                      if k in ("F_x_c_low", "F_x_c_high", "F_x_c_width", "tol_reached",
                               "n_undecided", "message", "dt_used", "datafile_sha256",
-                              UNDECIDED_REASONS)}
+                              DATAFILE_ABSPATH, UNDECIDED_REASONS)}
         log.status = attrs.get("status", "running")
         log._synced = False          # rewrite in full once (older files: fixed-size)
         return log
@@ -384,6 +388,7 @@ def open_ramp_log(eng, cfg, out, h5, resume):
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
         log_.attrs.setdefault("datafile_sha256", start_sha256(cfg.datafile))
+        log_.attrs.setdefault(DATAFILE_ABSPATH, os.path.abspath(cfg.datafile))
         return log_
 
     return on_rank0(eng.comm, open_log)

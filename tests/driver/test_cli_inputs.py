@@ -111,6 +111,42 @@ def test_ramp_resume_without_datafile_takes_the_recorded_start(capsys, relaxed, 
     assert "F_x^c in [" in text
 
 
+def test_ramp_resume_without_datafile_from_another_folder(capsys, relaxed, tmp_path,
+                                                        monkeypatch):
+    """A ramp begun with a relative --datafile, resumed without it from
+    another working folder, said "datafile does not exist: OUT/relax/
+    equilibrium.data"; so did a truncated ramp.h5. The start file's absolute
+    path is recorded; an unreadable ramp.h5 and a start file gone are named."""
+    import h5py
+
+    from remote_trigger.pywrap.stages.ramp_file import DATAFILE_ABSPATH
+
+    shutil.copy(relaxed.datafile, tmp_path / "start.data")
+    shutil.copy(relaxed.datafile[:-len(".data")] + ".dump", tmp_path / "start.dump")
+    shutil.copy(relaxed.datafile[:-len(".data")] + ".dump.json", tmp_path / "start.dump.json")
+    (tmp_path / "elsewhere").mkdir()
+    args = ("--dF-x", 0.02, "--tol", 1e-3, "--quiet")
+    monkeypatch.chdir(tmp_path)
+    assert run_cli(capsys, "ramp", "--datafile", "start.data", "--out", "o", *args)[0] == 0
+    with h5py.File(tmp_path / "o" / "ramp.h5", "r") as fh:
+        assert fh.attrs["datafile"] == "start.data"
+        assert fh.attrs[DATAFILE_ABSPATH] == str(tmp_path / "start.data")
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    status, text, err = run_cli(capsys, "ramp", "--out", tmp_path / "o", "--resume", *args)
+    assert status == 0 and err == "", err
+    (tmp_path / "start.data").rename(tmp_path / "gone.data")
+    status, _, err = run_cli(capsys, "ramp", "--out", tmp_path / "o", "--resume", *args)
+    assert status == 2
+    assert_one_line_error(err, f"cannot resume {tmp_path / 'o' / 'ramp.h5'} without --datafile: "
+                               f"its start file '{tmp_path / 'start.data'}' or 'start.data' is "
+                               f"not found from '{tmp_path / 'elsewhere'}'; give --datafile")
+    (tmp_path / "o" / "ramp.h5").write_bytes(b"truncated")
+    status, _, err = run_cli(capsys, "ramp", "--out", tmp_path / "o", "--resume", *args)
+    assert status == 2
+    assert_one_line_error(err, f"cannot resume: {tmp_path / 'o' / 'ramp.h5'} is not a readable "
+                               f"HDF5 file")
+
+
 def test_a_refusal_leaves_no_empty_out_folder(capsys, relaxed, tmp_path):
     """A command refused after it made --out removes the folders it made
     (empty), and keeps an --out that existed before, and any file."""
