@@ -60,6 +60,14 @@ def test_measured_numbers_are_sane(result):
         sel = (sec == "normal_form") & (meth == m)
         e, tol = err[sel], val[sel]
         assert np.all(np.diff(e[np.argsort(-tol)]) < 0), (m, e)
+    # the projected test at the pair decides (its shift sat on an eigenvalue of
+    # the closest real pair: "decision None, confidence 0")
+    with h5py.File(out / "accuracy.h5", "r") as h5:
+        note = [s.decode() for s in h5["table/note"][()]]
+    row = list(meth).index("certified test, projected (classify_projected)")
+    dense = list(meth).index("certified test, dense (classify_spectrum)")
+    assert note[row].split(",")[0] == note[dense].split(",")[0], (note[row], note[dense])
+    assert float(note[row].rsplit(" ", 1)[1]) > 1, note[row]
     # Newton polishing reaches 1e-10, damped dynamics alone does not in the budget
     rel = (sec == "relaxation") & (val == 1e-10)
     assert np.isfinite(err[rel]).all()
