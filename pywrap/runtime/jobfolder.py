@@ -56,8 +56,7 @@ def check_job_folder(out, config, resume, kind):
     if os.listdir(out):
         if not os.path.isfile(cfgfile):
             raise ConfigError(f"--out {out!r} holds other files; choose an empty or new folder")
-        with open(cfgfile) as fh:
-            old = dict(json.load(fh), np=None)
+        old = dict(read_json(cfgfile), np=None)
         new = dict(json.loads(json.dumps(config)), np=None)
         only_old, only_new = sorted(set(old) - set(new)), sorted(set(new) - set(old))
         if len(only_old) >= OTHER_JOB_KEYS and len(only_new) >= OTHER_JOB_KEYS:
@@ -152,6 +151,25 @@ def resolved_path(folder, stored):
     :func:`stored_path`) joined to ``folder``, an absolute one (records of
     older versions, or files outside ``folder``) as it is."""
     return stored if os.path.isabs(stored) else os.path.join(folder, stored)
+
+
+def read_json(path):
+    """The JSON record ``path`` of a job (``config.json``, ``loads.json``, ...).
+
+    Raises
+    ------
+    ConfigError
+        Not valid JSON (a damaged record: the file is named; it was
+        ``Expecting property name ...: line 2 column 1 (char 2)`` alone).
+    OSError
+        As :func:`open`.
+    """
+    with open(path, "rb") as fh:
+        try:
+            return json.loads(fh.read())
+        except ValueError as exc:       # JSONDecodeError, UnicodeDecodeError
+            raise ConfigError(f"{path} is not readable JSON ({exc}); it was damaged: "
+                              f"restore it or start the job in another folder") from None
 
 
 def write_json(path, data):

@@ -219,3 +219,25 @@ def test_another_jobs_folder_is_named_as_such(tmp_path):
     (old / "config.json").write_text(json.dumps({k: v for k, v in tmap.items() if k != first}))
     with pytest.raises(ConfigError, match=f"configuration differs in {first} = None"):
         check_job_folder(str(old), tmap, True, "a trigger map")
+
+
+def test_a_damaged_record_is_named(tmp_path, capsys):
+    """A damaged config.json under ensemble --resume said only "Expecting
+    property name enclosed in double quotes: line 1 column 2 (char 1)"."""
+    from remote_trigger.pywrap import cli
+    from remote_trigger.pywrap.runtime.jobfolder import read_json
+
+    out = tmp_path / "e"
+    out.mkdir()
+    (out / "config.json").write_text("{not json")
+    assert cli.main(["ensemble", "--quick", "--out", str(out), "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"remote-trigger ensemble: error: {out / 'config.json'} is not "
+                          f"readable JSON (Expecting property name"), err
+    assert err.endswith("it was damaged: restore it or start the job in another folder"), err
+    assert (out / "config.json").read_text() == "{not json"          # left as it was
+    (out / "loads.json").write_bytes(b"{\xff}")
+    with pytest.raises(ConfigError, match=r"loads.json is not readable JSON \('utf-8' codec"):
+        read_json(str(out / "loads.json"))
+    (out / "loads.json").write_text('{"v0": 1e-9}')
+    assert read_json(str(out / "loads.json")) == {"v0": 1e-9}

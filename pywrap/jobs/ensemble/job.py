@@ -72,7 +72,6 @@ Rank 0 writes ``ensemble.h5``, ``ensemble.png`` and ``ensemble.md``.
    eigenvalues do not predict the simulated motion (docs/model.md section 1).
 """
 from collections import Counter
-import json
 import math
 import os
 import time
@@ -183,7 +182,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
         ``retry_failed`` is given without ``resume``.
     """
     from mpi4py import MPI
-    from remote_trigger.pywrap.runtime.jobfolder import write_json
+    from remote_trigger.pywrap.runtime.jobfolder import read_json, write_json
 
     comm = comm or MPI.COMM_WORLD
     rank, size = comm.Get_rank(), comm.Get_size()
@@ -287,8 +286,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
             mpath = os.path.join(out, MANIFEST)
             sessions = []
             if os.path.isfile(mpath):
-                with open(mpath) as fh:
-                    sessions = json.load(fh).get("sessions", [])
+                sessions = read_json(mpath).get("sessions", [])
             sessions.append({"n_ranks": n_workers(comm), "mpi_size": size,
                              "computed": computed, "wall": wall, "resume": bool(resume),
                              "retry_failed": bool(retry_failed),
@@ -344,13 +342,12 @@ def combine_runs(dirs, out, speak=True):
     """
     from mpi4py import MPI
     from remote_trigger.pywrap.jobs.ensemble.combine import collect_runs
-    from remote_trigger.pywrap.runtime.jobfolder import write_json
+    from remote_trigger.pywrap.runtime.jobfolder import read_json, write_json
 
     cfg, dirs, missing = collect_runs(dirs, out, speak)
     path = run_ensemble(cfg, out, comm=MPI.COMM_SELF, speak=speak, resume=True)
     mpath = os.path.join(os.path.abspath(out), MANIFEST)
-    with open(mpath) as fh:
-        manifest = json.load(fh)
+    manifest = read_json(mpath)
     write_json(mpath, dict(manifest, combined_from=dirs, left_out=missing))
     return path
 

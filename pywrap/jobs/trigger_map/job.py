@@ -62,7 +62,7 @@ from remote_trigger.analysis.dynamics.series import runaway_rate, runaway_consis
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.runtime.jobfolder import (
-    add_job_arguments, describe_keys, job_overrides, write_json)
+    add_job_arguments, describe_keys, job_overrides, read_json, write_json)
 from remote_trigger.pywrap.jobs.trigger_map.config import build_config
 from remote_trigger.pywrap.jobs.trigger_map.loads import (
     load_paper_job, ramp_kappa, prepare_loads, map_omegas, predicted_rate)
@@ -443,8 +443,7 @@ def run_map(cfg, out, comm=None, speak=True, resume=False):
             rows = collect(out, tasks, setup)
             kpath = os.path.join(out, "ramp_kappa.json")
             if os.path.isfile(kpath):
-                with open(kpath) as fh:
-                    setup["ramp_kappa"] = json.load(fh)
+                setup["ramp_kappa"] = read_json(kpath)
             else:
                 setup["ramp_kappa"] = ramp_kappa(man["ramps"][0]["h5"], cfg.kappa_steps)
                 write_json(kpath, setup["ramp_kappa"])

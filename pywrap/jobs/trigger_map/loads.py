@@ -214,9 +214,10 @@ def prepare_loads(cfg, pcfg, man, out, comm):
     job = paper_fingerprint(pcfg, man)
 
     def load_or_prepare():
+        from remote_trigger.pywrap.runtime.jobfolder import read_json, write_json
+
         if os.path.isfile(path):
-            with open(path) as fh:
-                result = json.load(fh)
+            result = read_json(path)
             then = result.get("paper_job")          # None: a map of an older version
             if then is not None and then != job:
                 flat = {**then.get("config", {}), "brackets": then.get("brackets"),
@@ -228,8 +229,6 @@ def prepare_loads(cfg, pcfg, man, out, comm):
                     f"({'; '.join(f'{k} = {flat.get(k)!r} then, {now[k]!r} now' for k in what)})"
                     f"; map it into another --out (nothing was changed)")
             return result
-        from remote_trigger.pywrap.runtime.jobfolder import write_json
-
         result = dict(_prepare_loads(cfg, pcfg, man, out), paper_job=job)
         write_json(path, result)
         return result

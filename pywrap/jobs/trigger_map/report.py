@@ -10,6 +10,7 @@ import numpy as np
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 from remote_trigger.analysis.dynamics.series import RUNAWAY_RATE_TOL, RUNAWAY_MIN_RECORDS
 from remote_trigger.pywrap.jobs.trigger_map.loads import predicted_rate
+from remote_trigger.pywrap.runtime.jobfolder import read_json
 
 #: a bracketed point whose triggering run reached D_run after this fraction of
 #: t_max is flagged ``marginal`` (its a_c is t_max-limited)
@@ -20,8 +21,7 @@ def collect(out, tasks, setup):
     """One row per threshold task (with its control's verdict)."""
     logs = {}
     for t in tasks:
-        with open(os.path.join(out, "tasks", t["key"] + ".json")) as fh:
-            logs[t["key"]] = json.load(fh)
+        logs[t["key"]] = read_json(os.path.join(out, "tasks", t["key"] + ".json"))
     taus = [None] + list(setup["taus"])
     rows = []
     for t in tasks:
