@@ -56,14 +56,23 @@ T3_COLUMNS = ("d2_mindlin_tx", "d2_mindlin_ty", "d2_mindlin_tz")
 PARAM_KEYS = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt")
 
 
+#: leading bytes of binary files met where a dump is meant, and what to say
+_BINARY_FORMATS = ((b"\x89HDF\r\n\x1a\n", "an HDF5 file: read it with h5py"),
+                   (b"PK\x03\x04", "a zip archive, e.g. NumPy's .npz: read it with numpy.load"))
+
+
 def _read_frames(path):
     """Yield (timestep, natoms, bounds, boxflags, columns, rows) of each snapshot."""
     try:
         with open(path, "r") as fh:
             lines = fh.read().splitlines()
     except UnicodeDecodeError:
-        raise ValueError(f"{path}: not a text dump (a compressed file? decompress it "
-                         f"first)") from None
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+        # (an .npz or .h5 of the project's own outputs was called compressed)
+        what = next((w for magic, w in _BINARY_FORMATS if head.startswith(magic)),
+                    "a compressed file? decompress it first")
+        raise ValueError(f"{path}: not a text dump ({what})") from None
     k = 0
     nl = len(lines)
     frames = []

@@ -754,6 +754,17 @@ def test_read_dump_takes_bytes_and_paths_and_names_a_compressed_file(packing, tm
     gz.write_bytes(gzip.compress(open(path, "rb").read()))
     with pytest.raises(ValueError, match=r"gz.dump: not a text dump \(a compressed file\?"):
         read_dump(str(gz))
+    # the project's own binary outputs given where a dump is meant (both were
+    # "a compressed file? decompress it first")
+    import h5py
+
+    with h5py.File(tmp_path / "r.h5", "w") as fh:
+        fh["x"] = np.arange(3.0)
+    np.savez(tmp_path / "k.npz", K=np.random.default_rng(0).random(50))
+    for name, what in (("r.h5", "an HDF5 file: read it with h5py"),
+                       ("k.npz", "a zip archive, e.g. NumPy's .npz: read it with numpy.load")):
+        with pytest.raises(ValueError, match=rf"{name}: not a text dump \({what}\)$"):
+            read_dump(str(tmp_path / name))
 
 
 def test_contact_geometry_names_bad_arrays(packing):
