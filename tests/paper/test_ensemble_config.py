@@ -345,3 +345,15 @@ def test_collective_ensemble_runs_and_says_so(tmp_path):
     assert "- N = 16: a soft pair certified at a load up to F_x^c in " in text
     cols = er.read_table(os.path.join(out, "ensemble.h5"))
     assert cols["F_x_soft"].shape == cols["F_x_soft_ss"].shape == cols["key"].shape
+
+
+def test_a_narrow_bracket_prints_with_the_digits_that_tell_its_ends_apart():
+    """The progress line printed a bracket 7e-8 wide as
+    [0.0646371, 0.0646371]: six significant digits, whatever the width."""
+    assert onset.bracket_text(0.06463708, 0.06463715) == "[0.0646371, 0.0646372]"
+    assert onset.bracket_text(0.064637085, 0.0646371) == "[0.06463708, 0.0646371]"
+    assert onset.bracket_text(0.00038281, 0.00038672) == "[0.00038281, 0.00038672]"
+    assert onset.bracket_text(0.1, np.nextafter(0.1, 1)) == \
+        "[0.10000000000000001, 0.10000000000000002]"
+    assert onset.bracket_text(0.5, 0.5) == "[0.5, 0.5]"
+    assert onset.bracket_text(float("nan"), float("inf")) == "[nan, inf]"

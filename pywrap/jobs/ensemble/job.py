@@ -84,6 +84,7 @@ from remote_trigger.pywrap.runtime.jobfolder import (
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.jobs.ensemble.config import build_config
 from remote_trigger.pywrap.jobs.ensemble.figure import plot
+from remote_trigger.pywrap.jobs.ensemble.onset import bracket_text
 from remote_trigger.pywrap.jobs.ensemble.report import (
     rows_of, statistics, write_table, write_summary)
 from remote_trigger.pywrap.jobs.ensemble.task import (
@@ -244,8 +245,8 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
         computed.append(t["key"])
         d = res["default"]
         r0 = d["ramps"].get("mu0", {}).get(f"I0_{cfg.I0_dynamics:g}", {})
-        say(f"{t['key']}: F_x^c(mu0) in [{r0.get('F_x_c_low', math.nan):.6g}, "
-            f"{r0.get('F_x_c_high', math.nan):.6g}]"
+        say(f"{t['key']}: F_x^c(mu0) in "
+            f"{bracket_text(r0.get('F_x_c_low', math.nan), r0.get('F_x_c_high', math.nan))}"
             + (f"; error: {d['error']}" if d["error"] else "")
             + f" ({res['wall']:.0f} s"
             + (f"; {len(res['warnings'])} distinct warning(s) in tasks/{t['key']}.json"

@@ -19,12 +19,12 @@ __all__ = ["ensemble_status"]
 
 def _ramp_line(name, folder, part):
     """One ramp's state: finished (its part), running (its ramp.h5), or not started."""
-    from remote_trigger.pywrap.jobs.ensemble.onset import bracket, read_ramp
+    from remote_trigger.pywrap.jobs.ensemble.onset import bracket, bracket_text, read_ramp
 
     if part is not None:
         o = next((v for k, v in part.items() if k.startswith("I0_")), {})
-        return (f"{name} {part.get('ramp_status', '?')}, F_x^c in "
-                f"[{o.get('F_x_c_low', math.nan):.6g}, {o.get('F_x_c_high', math.nan):.6g}]")
+        lo, hi = o.get("F_x_c_low", math.nan), o.get("F_x_c_high", math.nan)
+        return f"{name} {part.get('ramp_status', '?')}, F_x^c in {bracket_text(lo, hi)}"
     h5 = os.path.join(folder, f"ramp_{name}", "ramp.h5")
     if not os.path.isfile(h5):
         # the ramp's folder is made at its start, ramp.h5 at its first point
@@ -37,7 +37,7 @@ def _ramp_line(name, folder, part):
     if not pts:
         return f"{name} started, no point yet"
     lo, hi = bracket(pts)       # hi = inf: no certified complex point yet
-    where = (f"F_x^c in [{lo:.6g}, {hi:.6g}]" if math.isfinite(hi) else
+    where = (f"F_x^c in {bracket_text(lo, hi)}" if math.isfinite(hi) else
              f"real up to F_x = {lo:.6g}" if math.isfinite(lo) else "no certified point yet")
     return f"{name} running: {len(pts)} point(s), {where}"
 
@@ -106,6 +106,7 @@ def ensemble_status(out):
         names ``--status`` and the folder).
     """
     from remote_trigger.pywrap.jobs.ensemble.combine import read_run
+    from remote_trigger.pywrap.jobs.ensemble.onset import bracket_text
     from remote_trigger.pywrap.jobs.ensemble.task import (
         PROGRESS, _load_progress, load_task, packing_failed)
 
@@ -121,9 +122,8 @@ def ensemble_status(out):
             d = res.get("default", {})
             o = ((d.get("ramps") or {}).get("mu0") or {}).get(key0, {})
             fr = (res.get("frictional") or {}).get("error")
-            lines.append(f"{t['key']}: finished, F_x^c(mu0) in "
-                         f"[{o.get('F_x_c_low', math.nan):.6g}, "
-                         f"{o.get('F_x_c_high', math.nan):.6g}]"
+            lo, hi = o.get("F_x_c_low", math.nan), o.get("F_x_c_high", math.nan)
+            lines.append(f"{t['key']}: finished, F_x^c(mu0) in {bracket_text(lo, hi)}"
                          + (f"; error: {d['error']}" if d.get("error") else "")
                          + (f"; frictional part's error: {fr}" if fr else "")
                          + (" (--resume --retry-failed runs it again)"

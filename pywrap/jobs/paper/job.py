@@ -269,7 +269,7 @@ class _PaperJob:
             if summary["ramps"][k] is not None:
                 rr = summary["ramps"][k]
                 clock.say(f"ramp mu = {mu:g}: done earlier ({MANIFEST}): " +
-                          (f"F_x^c in [{rr['F_x_c_low']:.7g}, {rr['F_x_c_high']:.7g}]"
+                          (f"F_x^c in [{rr['F_x_c_low']:.9g}, {rr['F_x_c_high']:.9g}]"
                            if rr["status"] == "complete" else rr["status"]))
                 continue
             t0 = time.perf_counter()
