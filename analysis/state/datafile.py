@@ -55,6 +55,9 @@ class DataFile:
         3 if some centre has z != 0 (spheres; a 2D LAMMPS data file has
         z = 0 for every atom), else 2. A file with z != 0 and the disks'
         history section (``d_mindlin_t``) is refused (:func:`read_data`).
+    pair_coeffs : str
+        The name of its ``Pair Coeffs`` or ``PairIJ Coeffs`` section (what
+        ``write_data`` without ``nocoeff`` writes), else ``''``.
     """
 
     path: str
@@ -71,6 +74,7 @@ class DataFile:
     top: np.ndarray = None
     z: np.ndarray = None
     dimension: int = 2
+    pair_coeffs: str = ""
 
 
 def _is_number(word):
@@ -190,12 +194,14 @@ def read_data(path):
     path = os.fspath(path)
     lines = _lines(path)
     natoms, bounds, sections = _header(path, lines)
-    atoms, per_atom = None, {}
+    atoms, per_atom, out_pair = None, {}, ""
     for s, (name, start) in enumerate(sections):
         end = sections[s + 1][1] if s + 1 < len(sections) else len(lines)
         body = [ln.split("#", 1)[0].split() for ln in lines[start + 1:end]]
         body = [w for w in body if w]
         if name.startswith(_PER_TYPE):
+            if name.startswith(("Pair Coeffs", "PairIJ Coeffs")):
+                out_pair = name.split("#", 1)[0].strip()
             continue
         if len(body) < natoms:
             raise ValueError(f"data file {path!r} is truncated: section {name.split()[0]!r} "
@@ -213,6 +219,7 @@ def read_data(path):
     order = np.argsort(ids, kind="stable")
     out = DataFile(path, natoms, lo, hi, style, ids[order],
                    np.array([int(r[1]) for r in rows], np.int64)[order])
+    out.pair_coeffs = out_pair
     if style == "sphere" and natoms > 0 and all(len(r) >= 7 for r in rows):
         a = np.array([r[:7] for r in rows])
         out.dimension = 3 if np.any(a[:, 6] != 0.0) else 2

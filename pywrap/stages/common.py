@@ -332,6 +332,25 @@ def _relax_cfg(cfg, F_x):
     return RelaxConfig.from_dict(base)
 
 
+def _check_stage_start(data):
+    """Refuse a data file the decks cannot start from (``ConfigError``): one
+    with pair coefficients (the decks read it before ``pair_style``: LAMMPS
+    stopped with "Must define pair_style before PairIJ Coeffs", status 1) or
+    without the top line (``relax`` said "place_top needs top and bulk disks,
+    got 0 top disks of 100")."""
+    from remote_trigger.pywrap.config import ConfigError
+
+    where = (f"data file {data.path!r}: the stages start from a packing of `remote-trigger "
+             f"generate` or an equilibrium a stage wrote")
+    if data.pair_coeffs:
+        raise ConfigError(f"{where}; this one holds {data.pair_coeffs!r} (write_data without "
+                          f"nocoeff), which the decks read before pair_style")
+    if data.top is None or not data.top.any() or data.top.all():
+        what = ("no topflag section (the top line, i_top)" if data.top is None else
+                f"{int(data.top.sum())} top atoms of {data.n} in its topflag section")
+        raise ConfigError(f"{where}, with a top line and a bulk; this one has {what}")
+
+
 def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
     """Load ``datafile``, check ``cfg.dt`` against the stability limit, resolve 'auto'.
 
@@ -344,6 +363,7 @@ def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
     from remote_trigger.pywrap.stages.timestep import resolve
 
     data = check_datafile(datafile, full=True)
+    _check_stage_start(data)
     if data.dimension == 3 and stage != "relax":
         read_saved_history3d(datafile)
     probe = cfg.replace(dt=1.0) if cfg.dt == "auto" else cfg   # dt unused: no step run

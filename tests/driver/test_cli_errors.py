@@ -77,6 +77,13 @@ def bad_files(packing_file, tmp_path):
     co[k + 3] = " ".join(b)
     files["coincident"] = tmp_path / "coincident.data"
     files["coincident"].write_text("\n".join(co) + "\n")
+    # no top line (the topflag section cut off), and a file with pair coefficients
+    files["no_top"] = tmp_path / "no_top.data"
+    files["no_top"].write_text(text[:text.index("\ntopflag")] + "\n")
+    coeffs = list(lines)
+    coeffs[k:k] = ["PairIJ Coeffs # mindlin/smooth", "", "1 1 200000 57142.9 1", ""]
+    files["pair_coeffs"] = tmp_path / "pair_coeffs.data"
+    files["pair_coeffs"].write_text("\n".join(coeffs) + "\n")
     return files
 
 
@@ -246,7 +253,11 @@ def test_debug_shows_traceback(capsys, bad_files, tmp_path):
 @pytest.mark.parametrize("kind,needle", [
     ("empty", "is empty"), ("truncated", "is truncated"),
     ("nan", "non-finite value 'nan' in the Atoms line of atom"),
-    ("coincident", "atoms 1 and 2 are at the same place")])
+    ("coincident", "atoms 1 and 2 are at the same place"),
+    # (relax said "place_top needs top and bulk disks, got 0 top disks of 100";
+    # LAMMPS "Must define pair_style before PairIJ Coeffs", status 1)
+    ("no_top", "with a top line and a bulk; this one has no topflag section"),
+    ("pair_coeffs", "this one holds 'PairIJ Coeffs' (write_data without nocoeff)")])
 def test_bad_data_file(capsys, bad_files, tmp_path, kind, needle):
     status, _, err = run_cli(capsys, "relax", "--datafile", bad_files[kind], "--out",
                              tmp_path / "o", "--quiet")
