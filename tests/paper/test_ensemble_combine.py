@@ -60,6 +60,13 @@ def test_refusals_name_the_value(runs, tmp_path):
     c = _run_folder(tmp_path / "c", 20, [1], ["N20_s1"], tol=1e-3)
     with pytest.raises(ConfigError, match=r"differ in tol \(0.002 vs 0.001\)"):
         combine_runs([a, c], str(tmp_path / "o1"))
+    # every key that differs is named (the first alone was)
+    c = _run_folder(tmp_path / "c2", 20, [1], ["N20_s1"], frictional_relax={"max_steps": 1},
+                    phi=0.6)
+    with pytest.raises(ConfigError, match=r"differ in frictional_relax \(\{'max_steps': 50000\} "
+                                          r"vs \{'max_steps': 1\}\); phi \(0.82 vs 0.6\); only "
+                                          r"n, seeds and np may differ$"):
+        combine_runs([a, c], str(tmp_path / "o1"))
     with pytest.raises(ConfigError, match="packing N16_s1 is finished in both"):
         combine_runs([a, b, a], str(tmp_path / "o2"))
     with pytest.raises(ConfigError, match="at least two ensemble folders, got 1"):

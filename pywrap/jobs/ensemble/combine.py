@@ -124,14 +124,16 @@ def collect_runs(dirs, out, speak=True):
     runs = [(d,) + read_run(d) for d in dirs]
     d0, c0, _ = runs[0]
     for d, c, _ in runs[1:]:
+        diff = []                   # (every key, not the first alone)
         for k in sorted((set(c0) | set(c)) - set(_FREE) - set(_PER_SIZE)):
             a, b = c0.get(k), c.get(k)
             if k == "relax":
                 a, b = _without_clearance(a), _without_clearance(b)
             if a != b:
-                raise ConfigError(f"--combine: {d0!r} and {d!r} differ in {k} "
-                                  f"({c0.get(k)!r} vs {c.get(k)!r}); only n, seeds and np "
-                                  "may differ")
+                diff.append(f"{k} ({c0.get(k)!r} vs {c.get(k)!r})")
+        if diff:
+            raise ConfigError(f"--combine: {d0!r} and {d!r} differ in {'; '.join(diff)}; "
+                              "only n, seeds and np may differ")
     per_size = {name: _per_size_values(name, runs) for name in _PER_SIZE}
     found, missing = {}, []
     for d, _, cfg in runs:
