@@ -340,11 +340,14 @@ def _remove_empty(root):
 
 
 #: the options whose paths reach LAMMPS commands (the decks' ``read_data
-#: ${datafile}``, the driver's ``write_dump``/``write_data`` in ``--out``) ...
-LAMMPS_PATH_OPTIONS = (("datafile", "--datafile"), ("out", "--out"), ("paper", "--paper"))
-#: ... in the commands that run LAMMPS (generate, jacobian and normal-form do not)
-LAMMPS_COMMANDS = ("demo", "relax", "ramp", "perturb", "instability", "paper", "trigger-map",
-                   "ensemble", "accuracy")
+#: ${datafile}``, the driver's ``write_dump``/``write_data`` in ``--out``, and
+#: generate's ``--output``, the data file every stage then reads) ...
+LAMMPS_PATH_OPTIONS = (("datafile", "--datafile"), ("out", "--out"), ("paper", "--paper"),
+                       ("output", "--output"))
+#: ... in the commands that run LAMMPS or write its start file (jacobian and
+#: normal-form do neither)
+LAMMPS_COMMANDS = ("demo", "generate", "relax", "ramp", "perturb", "instability", "paper",
+                   "trigger-map", "ensemble", "accuracy")
 
 
 def check_lammps_paths(args):

@@ -662,6 +662,11 @@ def test_a_path_with_a_space_is_refused_before_lammps(capsys, relaxed, tmp_path)
     assert status == 2
     assert_one_line_error(err, f"--out '{out}'")
     assert not out.exists() and not (tmp_path / "o").exists()
+    # generate's data file, which every stage then refused
+    status, _, err = run_cli(capsys, "generate", "--n", 20, "-o", spaced / "new packing.data")
+    assert status == 2
+    assert_one_line_error(err, f"--output '{spaced / 'new packing.data'}'", "LAMMPS splits")
+    assert not (spaced / "new packing.data").exists()
     shutil.copy(relaxed.datafile, spaced / "p.data")
     here = os.getcwd()
     try:
