@@ -79,8 +79,11 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
     cols = ("t", "D", "v_top", "mu", "v_top_max")
     writer = None
     if eng.rank == 0:
-        writer = SeriesWriter(h5, dict(cfg.to_attrs(), **(attrs or {}),
-                                       version=RESULT_VERSION, n_ranks=eng.size), cols)
+        # attribute a: the amplitude this run applied (in.perturb's default 0), not
+        # the configuration's (run (a) of perturb stored a = 1e-12)
+        rec = dict(cfg.to_attrs(), a=float(variables.get("a", 0.0)))
+        rec.update(attrs or {}, version=RESULT_VERSION, n_ranks=eng.size)
+        writer = SeriesWriter(h5, rec, cols)
     out = {c: [] for c in cols}
 
     def add(row):
@@ -183,8 +186,9 @@ def _perturb_resume_state(cfg, out, sha):
                               f"changed)")
         # run (c) stores the v0 it measured where the configuration says None
         unset = {k for k, v in cfg.to_attrs().items() if v == "None"} if run == "c" else set()
-        check_resume_config(path, cfg, attrs, skip=unset & {"v0", "v_ss"},
-                            suffix=" (nothing was changed)")
+        # and run (a) applies no f(t): its a is 0 (older files: the configuration's)
+        check_resume_config(path, cfg, attrs, skip=(unset & {"v0", "v_ss"})
+                            | ({"a"} if run == "a" else set()), suffix=" (nothing was changed)")
         residual = float(attrs["equilibrium_residual"])
         if attrs.get("status") == "complete":
             complete[run] = SeriesResult(

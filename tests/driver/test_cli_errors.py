@@ -391,6 +391,9 @@ def test_perturb_resume_keeps_finished_runs_and_is_bitwise(capsys, relaxed, tmp_
         assert ca["status"] == "complete" and sorted(rd) == sorted(cd)
         for k in rd:
             np.testing.assert_array_equal(cd[k], rd[k], err_msg=f"{run}: {k}")
+        # attribute a: the amplitude the run applied (run (a) stored the
+        # configuration's 1e-12; the paper job's files store what was applied)
+        assert ca["a"] == (0.0 if run == "a" else 1e-12), run
     parser = cli.build_parser()
     hint = parser.parse_args(["perturb", "--datafile", "x"]).resume_hint
     assert "--resume continues" in hint

@@ -343,7 +343,7 @@ class _Fig5Runs:
             self.eng, dc, datafile, h5, variables, f"perturb ({key})", True,
             stop=self._stop if stop else None, dim=cfg.dim,
             attrs=dict(self.base, run=key, d_run=cfg.fig5_d_run, sat_span=self.sat_span,
-                       a=float(variables.get("a", 0.0)), **attrs))   # the a applied
+                       **attrs))
         self.walls[key] = time.perf_counter() - t0
         self.files[key] = h5
         return res
