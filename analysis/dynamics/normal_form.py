@@ -296,7 +296,7 @@ def register(subparsers):
                    help="damping times (inf = none; default inf 3e3 3e2 3e1)")
     p.add_argument("--force", type=float, default=0.0, help="forcing amplitude F (default 0)")
     p.add_argument("--omega", type=float, default=0.01, help="forcing frequency (default 0.01)")
-    p.add_argument("-o", "--out", default="normal-form", help="output folder")
+    p.add_argument("-o", "--out", default="normal-form", help="output folder (default normal-form)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace an earlier normal_form.h5 in --out (default: refuse, exit "
                         "status 2)")

@@ -513,7 +513,7 @@ def register(subparsers):
                     "finite differences through LAMMPS), eigenvalues (dense vs sparse), "
                     "normal form (solve_ivp methods). Writes accuracy.md, accuracy.h5 "
                     "and accuracy.png.")
-    p.add_argument("-o", "--out", default="accuracy", help="output folder")
+    p.add_argument("-o", "--out", default="accuracy", help="output folder (default accuracy)")
     p.add_argument("--quick", action="store_true",
                    help="small, short run (N = 20, few settings) for tests")
     p.add_argument("--n", type=int, default=None, help="number of disks (default 100)")
