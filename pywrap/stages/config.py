@@ -369,7 +369,13 @@ class DynamicsConfig(StageConfig):
         mu(v) law (Eq. 4): mu = mu0 (B exp(-w (v~ - v~0)) + mu_ss) above v~0;
         defaults 0.2, 0.4, 0.8 (mu0 is ``mu``).
     v0 : float or None
-        Threshold velocity; None means measured by run (a).
+        Threshold velocity; None means measured by run (a): ``v0_margin``
+        times its largest |v_top| over every step.
+    v0_margin : float
+        Factor of that measured v0, >= 1. Default 10, as the paper job's
+        ``fig5_v0_margin``: with 1, run (c) (f(t) of the default a = 1e-12,
+        a forced velocity ~1e-5 of the noise) crossed v0 by its noise alone
+        in some runs, which then looked triggered (docs/driver.md).
     v_ss : float or None
         Velocity scale of v~ = v / v_ss; None means v_ss = v0.
     d_sat : float
@@ -393,10 +399,14 @@ class DynamicsConfig(StageConfig):
     w: float = 0.4
     mu_ss: float = 0.8
     v0: float = None
+    v0_margin: float = 10.0
     v_ss: float = None
     d_sat: float = 1e-2
     t_on: float = 0.0
     tau: float = None
+
+    #: files written before the field: v0 was run (a)'s largest |v_top| itself
+    LATER_FIELDS = {"v0_margin": 1.0}
 
     def validate(self):
         """The run's checks (:class:`ConfigError` naming the field)."""
@@ -412,6 +422,7 @@ class DynamicsConfig(StageConfig):
             val = getattr(self, name)
             if val is not None:
                 _positive(name, val)
+        _num("v0_margin", self.v0_margin, 1)
         _positive("d_sat", self.d_sat)
         _nonneg("t_on", self.t_on)
         if self.tau is not None:

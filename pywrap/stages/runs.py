@@ -206,9 +206,10 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
     """The three undamped runs of Fig. 5 from the equilibrium at cfg.F_x.
 
     (a) unperturbed; (b) f(t) = a cos(omega_p t) added to F_x on ``top``;
-    (c) like (b) with mu(v) (Eq. 4) on every contact and the wall; v0 is the
-    largest |v_top| of run (a) over every step (``fix ave/histo``'s running
-    max, not only the recorded steps: mu(v) is evaluated every step) unless
+    (c) like (b) with mu(v) (Eq. 4) on every contact and the wall; v0 is
+    ``cfg.v0_margin`` times the largest |v_top| of run (a) over every step
+    (``fix ave/histo``'s running max, not only the recorded steps: mu(v) is
+    evaluated every step) unless
     ``cfg.v0`` is given, v_ss = v0 unless
     ``cfg.v_ss`` is given.
 
@@ -278,7 +279,7 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
                 "perturb (a)", quiet, attrs=dict(base, run="a"), dim=dim)
             results["a"] = res
             if v0 is None:              # max |v_top| over every step, not only records
-                v0 = float(res.extra["v_top_max"])
+                v0 = float(cfg.v0_margin) * float(res.extra["v_top_max"])
                 if not v0 > 0:
                     v0 = np.finfo(float).tiny
         vss = cfg.v_ss if cfg.v_ss is not None else v0

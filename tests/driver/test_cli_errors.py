@@ -394,6 +394,10 @@ def test_perturb_resume_keeps_finished_runs_and_is_bitwise(capsys, relaxed, tmp_
         # attribute a: the amplitude the run applied (run (a) stored the
         # configuration's 1e-12; the paper job's files store what was applied)
         assert ca["a"] == (0.0 if run == "a" else 1e-12), run
+    # run (c)'s v0: v0_margin (default 10) x run (a)'s largest |v_top|
+    attrs_a, attrs_c = read_all(str(cut / "perturb_a.h5"))[0], read_all(str(cut / "perturb_c.h5"))[0]
+    assert attrs_c["v0_margin"] == 10.0
+    assert attrs_c["v0"] == 10.0 * attrs_a["v_top_max"] and attrs_c["v_ss"] == attrs_c["v0"]
     parser = cli.build_parser()
     hint = parser.parse_args(["perturb", "--datafile", "x"]).resume_hint
     assert "--resume continues" in hint

@@ -10,8 +10,10 @@ EVERY, STEPS = 25, 400
 
 
 def test_v0_is_per_step_max_of_run_a(relaxed, tmp_path):
+    # (v0_margin = 1: v0 is that max itself; the default 10 times it is
+    # checked in test_perturb_resume_keeps_finished_runs_and_is_bitwise)
     cfg = DynamicsConfig(datafile=relaxed.datafile, F_x=0.05, t_max=STEPS * 1e-3,
-                         record_every=EVERY)
+                         record_every=EVERY, v0_margin=1.0)
     res = stages.perturb(cfg, str(tmp_path), quiet=True, runs="a")["a"]
     v0 = res.extra["v0"]
     # independent: the same run one step at a time, |v_top| read after every step
