@@ -65,35 +65,31 @@ _FLAGS = {"F_x": "--F-x", "F_y": "--F-y", "mu": "--mu", "k_n": "--set k_n=",
 
 def _resumed_start(out):
     """``ramp --resume`` without --datafile: the start file OUT/ramp.h5 names
-    (its absolute path, else as given when the ramp began), or None without
-    OUT/ramp.h5.
+    (its absolute path, else as given when the ramp began), else relax's
+    equilibrium in OUT (the default start; a moved ramp folder), or None
+    without OUT/ramp.h5. Which file it is, is checked by its SHA-256 when
+    the ramp log is loaded.
 
     Raises
     ------
     ConfigError
-        OUT/ramp.h5 unreadable, or its start file not found from here (it
+        OUT/ramp.h5 unreadable, or none of those files found from here (it
         was the default ``OUT/relax/equilibrium.data`` that did not exist,
         or the h5 error was hidden behind it).
     """
     from remote_trigger.pywrap.config import ConfigError
-    from remote_trigger.pywrap.stages.ramp_file import DATAFILE_ABSPATH
+    from remote_trigger.pywrap.stages.ramp_file import recorded_start
 
     h5 = os.path.join(out, "ramp.h5")
     if not os.path.exists(h5):
         return None
-    try:
-        import h5py
-
-        with h5py.File(h5, "r") as fh:
-            names = [fh.attrs.get(k) for k in (DATAFILE_ABSPATH, "datafile")]
-    except OSError as exc:
-        raise ConfigError(f"cannot resume: {h5} is not a readable HDF5 file ({exc})") from None
-    names = [n.decode() if isinstance(n, bytes) else str(n) for n in names if n is not None]
+    names = [n for n in recorded_start(h5) if n is not None]
+    names.append(os.path.join(out, "relax", "equilibrium.data"))
     for name in names:
         if os.path.isfile(name):
             return name
     raise ConfigError(f"cannot resume {h5} without --datafile: its start file "
-                      f"{' or '.join(map(repr, names)) or '(none named)'} is not found from "
+                      f"({' or '.join(map(repr, names))}) is not found from "
                       f"{os.getcwd()!r}; give --datafile")
 
 

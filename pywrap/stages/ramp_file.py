@@ -307,8 +307,7 @@ class RampLog:
         try:
             attrs, data = read_all(path)
         except OSError as exc:
-            raise ConfigError(f"cannot resume: {path} is not a readable HDF5 file "
-                              f"({exc})") from None
+            raise _unreadable(path, exc) from None
         old_file = attrs.get("datafile")
         if isinstance(old_file, bytes):
             old_file = old_file.decode()
@@ -361,6 +360,31 @@ class RampLog:
         return log
 
 
+def _unreadable(path, exc):
+    return ConfigError(f"cannot resume: {path} is not a readable HDF5 file ({exc})")
+
+
+def recorded_start(path):
+    """The start file a ``ramp.h5`` names: its absolute path
+    (:data:`DATAFILE_ABSPATH`; None in files of older versions) and the
+    ``datafile`` as given when the ramp began.
+
+    Raises
+    ------
+    ConfigError
+        ``path`` is not a readable HDF5 file.
+    """
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as fh:
+            names = [fh.attrs.get(k) for k in (DATAFILE_ABSPATH, DATAFILE)]
+    except OSError as exc:
+        raise _unreadable(path, exc) from None
+    return tuple(n.decode() if isinstance(n, bytes) else None if n is None else str(n)
+                 for n in names)
+
+
 def open_ramp_log(eng, cfg, out, h5, resume):
     """The ramp's log (:class:`RampLog`, on every rank): new, or ``ramp.h5`` to
     resume (refused without ``resume``); the start file and ``out`` checked.
@@ -388,7 +412,8 @@ def open_ramp_log(eng, cfg, out, h5, resume):
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
         log_.attrs.setdefault("datafile_sha256", start_sha256(cfg.datafile))
-        log_.attrs.setdefault(DATAFILE_ABSPATH, os.path.abspath(cfg.datafile))
+        # (the start of this run: its SHA-256 was checked against the ramp's)
+        log_.attrs[DATAFILE_ABSPATH] = os.path.abspath(cfg.datafile)
         return log_
 
     return on_rank0(eng.comm, open_log)

@@ -137,9 +137,19 @@ def test_ramp_resume_without_datafile_from_another_folder(capsys, relaxed, tmp_p
     (tmp_path / "start.data").rename(tmp_path / "gone.data")
     status, _, err = run_cli(capsys, "ramp", "--out", tmp_path / "o", "--resume", *args)
     assert status == 2
+    relaxed_start = tmp_path / "o" / "relax" / "equilibrium.data"
     assert_one_line_error(err, f"cannot resume {tmp_path / 'o' / 'ramp.h5'} without --datafile: "
-                               f"its start file '{tmp_path / 'start.data'}' or 'start.data' is "
-                               f"not found from '{tmp_path / 'elsewhere'}'; give --datafile")
+                               f"its start file ('{tmp_path / 'start.data'}' or 'start.data' or "
+                               f"'{relaxed_start}') is not found from "
+                               f"'{tmp_path / 'elsewhere'}'; give --datafile")
+    # relax's equilibrium in the folder (a relax + ramp folder moved): the same
+    # start (its SHA-256), found there
+    relaxed_start.parent.mkdir()
+    for ext in ("data", "dump", "dump.json"):
+        shutil.copy(tmp_path / f"start.{ext}" if ext != "data" else tmp_path / "gone.data",
+                    relaxed_start.parent / f"equilibrium.{ext}")
+    status, _, err = run_cli(capsys, "ramp", "--out", tmp_path / "o", "--resume", *args)
+    assert status == 0, err
     (tmp_path / "o" / "ramp.h5").write_bytes(b"truncated")
     status, _, err = run_cli(capsys, "ramp", "--out", tmp_path / "o", "--resume", *args)
     assert status == 2
