@@ -275,7 +275,8 @@ def register(subparsers):
     p.add_argument("--omega-p", dest="omega_p", type=float, help="frequency of f(t) (0.01)")
     p.add_argument("--runs", default="abc", type=_runs_arg,
                    help="which runs, letters of a, b, c (default abc); c without "
-                        "--set v0= also runs a, whose largest |v_top| is v0")
+                        "--set v0= also runs a: v0 = v0_margin (default 10) x its "
+                        "largest |v_top|")
     p.add_argument("--resume", action="store_true",
                    help="continue an interrupted perturb in --out (same options): its "
                         "equilibrium and finished runs are kept")
@@ -420,11 +421,12 @@ def run_perturb(args):
                          resume=args.resume)
     if _rank() == 0:
         for k, r in res.items():
-            # max |v_top| over every step (v0 of run (c) when not given), not
-            # only over the records
+            # max |v_top| over every step (run (a)'s makes v0 when not given),
+            # not only over the records; run (c) names its v0
             vmax = r.extra.get("v_top_max", float(abs(r.v_top).max()))
+            v0 = f" (v0 {r.extra['v0']:.3e})" if k == "c" else ""
             print(f"perturb ({k}): max D {r.D.max():.3e}, max |v_top| "
-                  f"{vmax:.3e} (every step), min mu {r.mu.min():.4f} -> {r.h5}")
+                  f"{vmax:.3e} (every step), min mu {r.mu.min():.4f}{v0} -> {r.h5}")
     return 0
 
 

@@ -372,10 +372,12 @@ class DynamicsConfig(StageConfig):
         Threshold velocity; None means measured by run (a): ``v0_margin``
         times its largest |v_top| over every step.
     v0_margin : float
-        Factor of that measured v0, >= 1. Default 10, as the paper job's
-        ``fig5_v0_margin``: with 1, run (c) (f(t) of the default a = 1e-12,
-        a forced velocity ~1e-5 of the noise) crossed v0 by its noise alone
-        in some runs, which then looked triggered (docs/driver.md).
+        Factor of that measured v0, >= 1. Default 10, the default of the
+        paper job's ``fig5_v0_margin`` (which multiplies the largest |v_top|
+        of the first half of its run (a)). With 1, run (c) (f(t) of the
+        default a = 1e-12, a forced velocity ~3e-6 of the noise) crossed v0
+        by its noise alone in 4 of 8 runs, which then looked triggered
+        (docs/results/driver.md, "Perturb v0 margin").
     v_ss : float or None
         Velocity scale of v~ = v / v_ss; None means v_ss = v0.
     d_sat : float

@@ -82,6 +82,9 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
         # attribute a: the amplitude this run applied (in.perturb's default 0), not
         # the configuration's (run (a) of perturb stored a = 1e-12)
         rec = dict(cfg.to_attrs(), a=float(variables.get("a", 0.0)))
+        # v0_margin only where it made v0 (perturb's run (c) passes it in attrs;
+        # the paper job and the trigger map set v0 their own way)
+        rec.pop("v0_margin", None)
         rec.update(attrs or {}, version=RESULT_VERSION, n_ranks=eng.size)
         writer = SeriesWriter(h5, rec, cols)
     out = {c: [] for c in cols}
@@ -186,9 +189,12 @@ def _perturb_resume_state(cfg, out, sha):
                               f"changed)")
         # run (c) stores the v0 it measured where the configuration says None
         unset = {k for k, v in cfg.to_attrs().items() if v == "None"} if run == "c" else set()
-        # and run (a) applies no f(t): its a is 0 (older files: the configuration's)
-        check_resume_config(path, cfg, attrs, skip=(unset & {"v0", "v_ss"})
-                            | ({"a"} if run == "a" else set()), suffix=" (nothing was changed)")
+        # run (a) applies no f(t): its a is 0 (older files: the configuration's);
+        # v0_margin made only run (c)'s measured v0
+        skip = (unset & {"v0", "v_ss"}) | ({"a"} if run == "a" else set())
+        if not (run == "c" and cfg.v0 is None):
+            skip.add("v0_margin")
+        check_resume_config(path, cfg, attrs, skip=skip, suffix=" (nothing was changed)")
         residual = float(attrs["equilibrium_residual"])
         if attrs.get("status") == "complete":
             complete[run] = SeriesResult(
@@ -294,7 +300,9 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
                 {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 1, "v0": float(v0),
                  "vss": float(vss), "B": float(cfg.B), "w": float(cfg.w),
                  "muss": float(cfg.mu_ss)}, "perturb (c)", quiet,
-                attrs=dict(base, run="c", v0=v0, v_ss=vss), dim=dim)
+                attrs=dict(base, run="c", v0=v0, v_ss=vss,
+                           **({"v0_margin": cfg.v0_margin} if cfg.v0 is None else {})),
+                dim=dim)
         for res in results.values():
             res.extra.update(residual=r, v0=v0, v_ss=vss, timestep=dict(dtinfo))
     return results

@@ -383,7 +383,9 @@ def test_perturb_resume_keeps_finished_runs_and_is_bitwise(capsys, relaxed, tmp_
     status, _, err = run_cli(capsys, *argv, "--out", cut, "--a", 2e-12, "--resume")
     assert status == 2
     assert_one_line_error(err, "cannot resume", "a = 1e-12, this run has a = 2e-12")
-    assert run_cli(capsys, *argv, "--out", cut, "--resume")[0] == 0
+    status, text, err = run_cli(capsys, *argv, "--out", cut, "--resume")
+    assert status == 0, err
+    assert re.search(r"perturb \(c\): .* \(v0 \d\.\d{3}e-\d+\) -> ", text), text
     assert (cut / "perturb_a.h5").stat().st_mtime_ns == a_before      # kept, not redone
     for run in "abc":
         ra, rd = read_all(str(ref / f"perturb_{run}.h5"))
@@ -396,7 +398,7 @@ def test_perturb_resume_keeps_finished_runs_and_is_bitwise(capsys, relaxed, tmp_
         assert ca["a"] == (0.0 if run == "a" else 1e-12), run
     # run (c)'s v0: v0_margin (default 10) x run (a)'s largest |v_top|
     attrs_a, attrs_c = read_all(str(cut / "perturb_a.h5"))[0], read_all(str(cut / "perturb_c.h5"))[0]
-    assert attrs_c["v0_margin"] == 10.0
+    assert attrs_c["v0_margin"] == 10.0 and "v0_margin" not in attrs_a   # where it made v0
     assert attrs_c["v0"] == 10.0 * attrs_a["v_top_max"] and attrs_c["v_ss"] == attrs_c["v0"]
     parser = cli.build_parser()
     hint = parser.parse_args(["perturb", "--datafile", "x"]).resume_hint
