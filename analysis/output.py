@@ -13,7 +13,8 @@ the next write through :func:`remote_trigger.pywrap.runtime.results.clean_stale_
 :func:`atomic_path` is the one implementation; the writers below (text,
 JSON, HDF5, ``.npz``, matplotlib figures) and the driver's
 (:mod:`remote_trigger.pywrap.runtime.results`) use it. :func:`output_file` and
-:func:`output_dir` check an output name before any work.
+:func:`output_dir` check an output name before any work; :func:`bracket_text`
+prints a bracket (of F_x^c, say) on the lines the commands print.
 """
 import contextlib
 import json
@@ -180,3 +181,22 @@ def write_npz_atomic(path, arrays):
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
+
+
+def bracket_text(lo, hi, digits=6):
+    """``'[lo, hi]'`` with at least ``digits`` significant digits, more where
+    the two ends would print alike (a bracket 7e-8 wide printed as
+    ``[0.0646371, 0.0646371]`` with six).
+
+    Parameters
+    ----------
+    lo, hi : float
+        Ends of the bracket (NaN and inf printed as such).
+    digits : int
+        Fewest significant digits; at most 17 are used (every float64 apart).
+    """
+    for d in range(min(int(digits), 17), 18):
+        a, b = f"{lo:.{d}g}", f"{hi:.{d}g}"
+        if a != b or lo == hi:
+            break
+    return f"[{a}, {b}]"

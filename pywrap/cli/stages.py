@@ -375,6 +375,7 @@ def _check_dim(dim, datafile):
 
 def run_ramp(args):
     """``remote-trigger ramp``."""
+    from remote_trigger.analysis.output import bracket_text
     from remote_trigger.pywrap.stages.config import RampConfig
     from remote_trigger.pywrap import stages
 
@@ -391,8 +392,9 @@ def run_ramp(args):
                     "load" if cfg.pairs == "all" else
                     "at the lower end no complex pair that is not soft, one at the upper end: "
                     "the first such load (pairs = 'collective')")
-            print(f"ramp: F_x^c in [{res.F_x_c_low:.10g}, {res.F_x_c_high:.10g}] (certified "
-                  f"{ends} at the loads sampled; width {res.F_x_c_width:.3g}; {len(res.F_x)} steps, "
+            print(f"ramp: F_x^c in {bracket_text(res.F_x_c_low, res.F_x_c_high, 10)} "
+                  f"(certified {ends} at the loads sampled; width {res.F_x_c_width:.3g}; "
+                  f"{len(res.F_x)} steps, "
                   f"{len(res.bisection_F_x)} bisections, {res.n_undecided} undecided) "
                   f"-> {res.h5}")
             if not res.tol_reached:

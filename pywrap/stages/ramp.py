@@ -1,13 +1,12 @@
 """The ramp stage: F_x steps, the certified bracket of F_x^c and its bisection.
 
-Part of :mod:`remote_trigger.pywrap.stages`; file layout in
-:mod:`remote_trigger.pywrap.stages.ramp_file`.
-"""
+Part of :mod:`remote_trigger.pywrap.stages`; file layout in :mod:`.ramp_file`."""
 from dataclasses import dataclass, field
 import os
 
 import numpy as np
 
+from remote_trigger.analysis.output import bracket_text
 from remote_trigger.analysis.stability.verdict import Decision
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.stages.config import RampConfig
@@ -454,7 +453,7 @@ def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
         rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
         _checkpoint(eng, rlog, folder, "running")
         bar.update(1)
-        bar.set_postfix_str(f"F_x^c in [{lo:.9g}, {hi:.9g}]")
+        bar.set_postfix_str(f"F_x^c in {bracket_text(lo, hi, 9)}")
         if budget.spend():
             return _ramp_result(rlog, "interrupted")
     rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol, why))

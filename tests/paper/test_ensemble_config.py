@@ -350,10 +350,14 @@ def test_collective_ensemble_runs_and_says_so(tmp_path):
 def test_a_narrow_bracket_prints_with_the_digits_that_tell_its_ends_apart():
     """The progress line printed a bracket 7e-8 wide as
     [0.0646371, 0.0646371]: six significant digits, whatever the width."""
-    assert onset.bracket_text(0.06463708, 0.06463715) == "[0.0646371, 0.0646372]"
-    assert onset.bracket_text(0.064637085, 0.0646371) == "[0.06463708, 0.0646371]"
-    assert onset.bracket_text(0.00038281, 0.00038672) == "[0.00038281, 0.00038672]"
-    assert onset.bracket_text(0.1, np.nextafter(0.1, 1)) == \
+    from remote_trigger.analysis.output import bracket_text
+
+    assert bracket_text(0.06463708, 0.06463715) == "[0.0646371, 0.0646372]"
+    assert bracket_text(0.064637085, 0.0646371) == "[0.06463708, 0.0646371]"
+    assert bracket_text(0.00038281, 0.00038672) == "[0.00038281, 0.00038672]"
+    assert bracket_text(0.1, np.nextafter(0.1, 1)) == \
         "[0.10000000000000001, 0.10000000000000002]"
-    assert onset.bracket_text(0.5, 0.5) == "[0.5, 0.5]"
-    assert onset.bracket_text(float("nan"), float("inf")) == "[nan, inf]"
+    assert bracket_text(0.5, 0.5) == "[0.5, 0.5]"
+    assert bracket_text(float("nan"), float("inf")) == "[nan, inf]"
+    assert bracket_text(0.25, 0.5, digits=20) == "[0.25, 0.5]"    # (at most 17)
+    assert bracket_text(0.1013000001, 0.1013000002, 9) == "[0.1013000001, 0.1013000002]"

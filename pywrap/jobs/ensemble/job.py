@@ -76,6 +76,7 @@ import math
 import os
 import time
 
+from remote_trigger.analysis.output import bracket_text
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.environment import environment
@@ -84,7 +85,6 @@ from remote_trigger.pywrap.runtime.jobfolder import (
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.jobs.ensemble.config import build_config
 from remote_trigger.pywrap.jobs.ensemble.figure import plot
-from remote_trigger.pywrap.jobs.ensemble.onset import bracket_text
 from remote_trigger.pywrap.jobs.ensemble.report import (
     rows_of, statistics, write_table, write_summary)
 from remote_trigger.pywrap.jobs.ensemble.task import (

@@ -153,24 +153,6 @@ def bracket(points):
     return float(lo), float(hi)
 
 
-def bracket_text(lo, hi, digits=6):
-    """``'[lo, hi]'`` with ``digits`` significant digits, more where the two
-    ends would print alike (``[0.0646371, 0.0646371]`` of a bracket 7e-8 wide).
-
-    Parameters
-    ----------
-    lo, hi : float
-        Ends of the bracket (NaN and inf printed as such).
-    digits : int
-        Fewest significant digits (at most 17 are used).
-    """
-    for d in range(digits, 18):
-        a, b = f"{lo:.{d}g}", f"{hi:.{d}g}"
-        if a != b or lo == hi:
-            break
-    return f"[{a}, {b}]"
-
-
 def pair_position(eigenvalues, lambda_max=math.nan, n_dof=-1, soft_rel=None):
     """Where the coalesced pair sits in the spectrum.
 

@@ -19,7 +19,8 @@ __all__ = ["ensemble_status"]
 
 def _ramp_line(name, folder, part):
     """One ramp's state: finished (its part), running (its ramp.h5), or not started."""
-    from remote_trigger.pywrap.jobs.ensemble.onset import bracket, bracket_text, read_ramp
+    from remote_trigger.analysis.output import bracket_text
+    from remote_trigger.pywrap.jobs.ensemble.onset import bracket, read_ramp
 
     if part is not None:
         o = next((v for k, v in part.items() if k.startswith("I0_")), {})
@@ -106,7 +107,7 @@ def ensemble_status(out):
         names ``--status`` and the folder).
     """
     from remote_trigger.pywrap.jobs.ensemble.combine import read_run
-    from remote_trigger.pywrap.jobs.ensemble.onset import bracket_text
+    from remote_trigger.analysis.output import bracket_text
     from remote_trigger.pywrap.jobs.ensemble.task import (
         PROGRESS, _load_progress, load_task, packing_failed)
 

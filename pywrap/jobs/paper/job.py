@@ -3,6 +3,7 @@ import os
 import sys
 import time
 
+from remote_trigger.analysis.output import bracket_text
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.jobs.paper.config import PAPER
 from remote_trigger.pywrap.runtime.environment import environment
@@ -269,7 +270,7 @@ class _PaperJob:
             if summary["ramps"][k] is not None:
                 rr = summary["ramps"][k]
                 clock.say(f"ramp mu = {mu:g}: done earlier ({MANIFEST}): " +
-                          (f"F_x^c in [{rr['F_x_c_low']:.9g}, {rr['F_x_c_high']:.9g}]"
+                          (f"F_x^c in {bracket_text(rr['F_x_c_low'], rr['F_x_c_high'], 9)}"
                            if rr["status"] == "complete" else rr["status"]))
                 continue
             t0 = time.perf_counter()

@@ -6,6 +6,7 @@ import time
 
 import numpy as np
 
+from remote_trigger.analysis.output import bracket_text
 from remote_trigger.pywrap.jobs.paper.manifest import ramp_dir
 from remote_trigger.pywrap.jobs.paper.stage_configs import dynamics_config, ramp_config
 
@@ -175,7 +176,7 @@ def run_ramp(cfg, out, mu, relaxed, comm, clock, main, resume=False):
     if res.status != "complete":
         clock.say(f"ramp mu = {mu:g}: {res.status} ({res.message})")
         return summ
-    clock.say(f"ramp mu = {mu:g}: F_x^c in [{res.F_x_c_low:.9g}, {res.F_x_c_high:.9g}] "
+    clock.say(f"ramp mu = {mu:g}: F_x^c in {bracket_text(res.F_x_c_low, res.F_x_c_high, 9)} "
               f"(certified, width {res.F_x_c_width:.2g}; {len(res.F_x)} steps + "
               f"{len(res.bisection_F_x)} bisections, {res.n_undecided} undecided, "
               f"{t_ramp:.0f} s)")
