@@ -1,6 +1,6 @@
 """Private parts of :mod:`~remote_trigger.analysis.dynamics.series`: the check of
-its inputs (times and series of one run: 1-D, of one length, finite) and the
-constant-rate cut of its growth window."""
+its inputs (times and series of one run: 1-D, of one length, finite, t
+increasing) and the constant-rate cut of its growth window."""
 import numpy as np
 
 

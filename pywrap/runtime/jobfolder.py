@@ -156,20 +156,29 @@ def resolved_path(folder, stored):
 def read_json(path):
     """The JSON record ``path`` of a job (``config.json``, ``loads.json``, ...).
 
+    Returns
+    -------
+    dict
+        Every record is a JSON object.
+
     Raises
     ------
     ConfigError
-        Not valid JSON (a damaged record: the file is named; it was
-        ``Expecting property name ...: line 2 column 1 (char 2)`` alone).
+        Not valid JSON, or not an object (a damaged record: the file is
+        named; it was ``Expecting property name ...: line 2 column 1 (char
+        2)`` alone).
     OSError
         As :func:`open`.
     """
     with open(path, "rb") as fh:
         try:
-            return json.loads(fh.read())
-        except ValueError as exc:       # JSONDecodeError, UnicodeDecodeError
+            data = json.loads(fh.read())
+            if not isinstance(data, dict):
+                raise ValueError(f"a JSON {type(data).__name__}, not an object")
+        except ValueError as exc:       # JSONDecodeError, UnicodeDecodeError, the above
             raise ConfigError(f"{path} is not readable JSON ({exc}); it was damaged: "
                               f"restore it or start the job in another folder") from None
+    return data
 
 
 def write_json(path, data):
