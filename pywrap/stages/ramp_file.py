@@ -414,6 +414,7 @@ def open_ramp_log(eng, cfg, out, h5, resume):
         log_.attrs.setdefault("datafile_sha256", start_sha256(cfg.datafile))
         # (the start of this run: its SHA-256 was checked against the ramp's)
         log_.attrs[DATAFILE_ABSPATH] = os.path.abspath(cfg.datafile)
+        log_.attrs["n_ranks"] = eng.size        # of this run, as relax.h5 and the series
         return log_
 
     return on_rank0(eng.comm, open_log)

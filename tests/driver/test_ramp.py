@@ -61,6 +61,7 @@ def test_ramp_h5_layout(full_ramp):
     # stored relative to the ramp file's folder (it can be moved)
     assert not any(os.path.isabs(f) for f in data["steps/datafile"])
     assert attrs["datafile_relative"]
+    assert attrs["n_ranks"] == 1                # (ramp.h5 alone lacked it)
     assert all(os.path.exists(point_file(res.h5, f, attrs)) for f in data["steps/datafile"])
     last = f"eigenvalues/steps/step_{n - 1:05d}"
     assert np.any(np.abs(data[last].imag) > 0)
