@@ -488,6 +488,13 @@ class Engine:
             for ``x``, ``v``, ``omega`` a shape (N, 2) or (N,) array sets the
             leading columns only.
 
+        Raises
+        ------
+        ValueError
+            ``values`` not of N rows (N the number of atoms) or with more
+            columns than ``name`` has (a flattened (N, 3) array was taken
+            as (N,), its first N numbers into x).
+
         Notes
         -----
         Ghost atoms are refreshed by the next ``run`` (its setup).
@@ -495,6 +502,12 @@ class Engine:
         values = np.asarray(values)
         ids = np.asarray(self._local("id"), dtype=np.int64)
         arr = self._local(name)
+        n = self.natoms
+        cols = arr.shape[1] if arr.ndim == 2 else 1
+        if values.ndim not in (1, 2) or values.shape[0] != n or (
+                values.ndim == 2 and values.shape[1] > cols):
+            raise ValueError(f"scatter {name!r}: values must have shape ({n},) or ({n}, k) "
+                             f"with k <= {cols}, got shape {values.shape}")
         rows = values[ids - 1]
         if arr.ndim == 2 and rows.ndim == 1:
             if name == "omega":

@@ -1,4 +1,6 @@
 """The packing generator: reproducible, valid geometry, readable by LAMMPS."""
+import re
+
 import numpy as np
 import pytest
 
@@ -86,6 +88,17 @@ def test_data_file_read_by_lammps(tmp_path):
         np.testing.assert_array_equal(st.radii, p.radii)
         np.testing.assert_array_equal(st.masses, np.ones(30))  # set mass 1, not density
         assert int(eng.lmp.extract_global("natoms")) == 30
+        # scatter takes N rows only (a flattened (N, 3) array wrote its first
+        # 30 numbers into x; a short one was an IndexError)
+        x = eng.gather("x")
+        for bad in (x.ravel(), x[:-1], x.T, np.zeros((30, 4))):
+            with pytest.raises(ValueError, match=r"scatter 'x': values must have shape "
+                                                 r"\(30,\) or \(30, k\) with k <= 3, got "
+                                                 r"shape " + re.escape(str(bad.shape))):
+                eng.scatter("x", bad)
+        np.testing.assert_array_equal(eng.gather("x"), x)          # nothing was written
+        eng.scatter("x", x[:, :2] + 0.0)
+        np.testing.assert_array_equal(eng.gather("x"), x)
 
 
 @pytest.mark.parametrize("kw, msg", [
