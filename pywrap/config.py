@@ -74,6 +74,24 @@ def check_number(name, val, lo=None, lo_open=False, hi=None, allow_inf=False):
 _num = check_number
 
 
+def check_lammps_path(name, path):
+    """Refuse a path that reaches a LAMMPS command if it holds whitespace.
+
+    LAMMPS splits each command into words at whitespace after substituting
+    its variables, so ``read_data ${datafile}`` of ``my packing.data`` reads
+    ``my``, and a ``write_dump`` into ``out dir/`` fails after the whole run.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``name`` (a field, or an option of the command line) and the path.
+    """
+    text = os.fspath(path) if isinstance(path, os.PathLike) else path
+    if isinstance(text, str) and any(c.isspace() for c in text):
+        raise ConfigError(f"{name} {text!r}: LAMMPS splits its commands at whitespace, so a "
+                          f"path with a space cannot be passed to it; choose one without spaces")
+
+
 def _positive(name, val):
     return check_number(name, val, 0, lo_open=True)
 

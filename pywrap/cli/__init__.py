@@ -351,28 +351,20 @@ LAMMPS_COMMANDS = ("demo", "generate", "relax", "ramp", "perturb", "instability"
 
 
 def check_lammps_paths(args):
-    """Refuse, before anything runs, a path with whitespace that would reach LAMMPS.
-
-    LAMMPS splits each command into words at whitespace after substituting
-    its variables, so ``read_data ${datafile}`` of ``my packing.data`` reads
-    ``my``; such a path failed only when LAMMPS met it, for ``--out`` after
-    the whole computation.
+    """Refuse, before anything runs, a path with whitespace that would reach LAMMPS
+    (:func:`~remote_trigger.pywrap.config.check_lammps_path` of each option).
 
     Raises
     ------
     ConfigError
         Naming the option and the path.
     """
-    from remote_trigger.pywrap.config import ConfigError
+    from remote_trigger.pywrap.config import check_lammps_path
 
     if getattr(args, "command", None) not in LAMMPS_COMMANDS:
         return
     for dest, flag in LAMMPS_PATH_OPTIONS:
-        value = getattr(args, dest, None)
-        if isinstance(value, str) and any(c.isspace() for c in value):
-            raise ConfigError(f"{flag} {value!r}: LAMMPS splits its commands at whitespace, "
-                              f"so a path with a space cannot be passed to it; choose one "
-                              f"without spaces")
+        check_lammps_path(flag, getattr(args, dest, None))
 
 
 def _guarded(args, debug):

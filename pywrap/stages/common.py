@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.config import ConfigError, check_lammps_path
 from remote_trigger.pywrap.stages.config import RelaxConfig
 from remote_trigger.pywrap.bindings.engine import DUMP_COLUMNS, DUMP_COLUMNS_3D
 from remote_trigger.pywrap.runtime.parallel import on_rank0
@@ -300,6 +300,7 @@ def prepare_out(eng, out, files, overwrite=False, stage="stage"):
     from remote_trigger.analysis.output import output_dir
 
     def check():
+        check_lammps_path("out", out)
         try:
             output_dir(out, "--out")
         except ValueError as exc:

@@ -16,7 +16,7 @@ import json
 import os
 
 from remote_trigger.pywrap.config import (
-    Config, ConfigError, ContactModel, _int, _nonneg, _num, _positive)
+    Config, ConfigError, ContactModel, _int, _nonneg, _num, _positive, check_lammps_path)
 
 
 #: relaxation protocols of :class:`RelaxConfig` (docs/driver.md)
@@ -70,6 +70,7 @@ class StageConfig(Config):
                               f"{self.datafile!r}")
         if not os.path.isfile(self.datafile):
             raise ConfigError(f"datafile does not exist: datafile = {self.datafile!r}")
+        check_lammps_path("datafile", self.datafile)
         object.__setattr__(self, "k_t", self.model.k_t)
         if isinstance(self.dt, str):
             if self.dt != "auto":

@@ -32,7 +32,7 @@ import numpy as np
 
 from remote_trigger.analysis.output import atomic_path
 
-from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.config import ConfigError, check_lammps_path
 from remote_trigger.pywrap.runtime.jobfolder import resolved_path, stored_path
 from remote_trigger.pywrap.runtime.results import read_all
 from remote_trigger.pywrap.runtime.parallel import on_rank0
@@ -407,6 +407,7 @@ def open_ramp_log(eng, cfg, out, h5, resume):
         try:
             check_datafile(cfg.datafile)
             check_spheres_ramp(cfg)
+            check_lammps_path("out", out)
             output_dir(out, "--out")
             log_ = RampLog.load(cfg, h5) if (resume and exists) else RampLog(cfg, h5)
         except ValueError as exc:

@@ -686,6 +686,18 @@ def test_a_path_with_a_space_is_refused_before_lammps(capsys, relaxed, tmp_path)
         os.chdir(here)
     assert status == 0, err
     assert (spaced / "o" / "perturb_a.h5").is_file()
+    # the Python stages too (the relaxation ran whole, then write_dump failed)
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.config import ConfigError
+    from remote_trigger.pywrap.stages.config import RampConfig, RelaxConfig
+
+    with pytest.raises(ConfigError, match=r"^datafile '.*my packing.data': LAMMPS splits"):
+        RelaxConfig(datafile=data)
+    for stage, cfg in ((stages.relax, RelaxConfig(datafile=relaxed.datafile)),
+                       (stages.ramp, RampConfig(datafile=relaxed.datafile))):
+        with pytest.raises(ConfigError, match=r"^out '.*out dir': LAMMPS splits"):
+            stage(cfg, str(out), quiet=True)
+        assert not out.exists()
 
 
 def test_more_ranks_than_cores_is_warned(monkeypatch, capsys):
