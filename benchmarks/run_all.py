@@ -5,9 +5,10 @@ process (so that MPI benchmarks can launch mpirun themselves); its standard
 output is kept verbatim. The collected text goes to ``benchmarks/results.md``
 and replaces the part of ``README.md`` between the markers
 ``<!-- bench:start -->`` and ``<!-- bench:end -->``; both files are written
-atomically.
+atomically. A ``--quick`` run (a smoke test of the benchmarks) writes neither:
+its output goes to the screen, and to ``--output FILE`` if given.
 
-Usage: python benchmarks/run_all.py [--quick] [--only NAME ...] [--no-readme]
+Usage: python benchmarks/run_all.py [--quick] [--only NAME ...] [--no-readme] [--output FILE]
 """
 import argparse
 import datetime
@@ -87,6 +88,9 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="pass --quick to every benchmark")
     ap.add_argument("--only", nargs="+", default=None, help="benchmark names, e.g. bench_pair")
     ap.add_argument("--no-readme", action="store_true", help="do not touch README.md")
+    ap.add_argument("--output", default=None,
+                    help="the results file (default benchmarks/results.md; a --quick run "
+                         "writes none unless given)")
     args = ap.parse_args(argv)
 
     names = sorted(f[:-3] for f in os.listdir(HERE) if f.startswith("bench_") and f.endswith(".py"))
@@ -113,13 +117,18 @@ def main(argv=None):
             print(res.stderr[-3000:], file=sys.stderr)
         status = "" if res.returncode == 0 else f" (FAILED, exit {res.returncode})"
         parts.append(f"**{name}** ({wall:.0f} s){status}\n\n```\n{res.stdout.strip()}\n```")
-    if args.only:
+    # (a --quick run replaced the committed measurements with its smoke numbers)
+    output = args.output or (None if args.quick else os.path.join(HERE, "results.md"))
+    if args.only and output is not None and os.path.isfile(output):
         # a partial run replaces only its own blocks; the others (and their
         # machine line) are kept from the previous full run
-        parts = _merge(os.path.join(HERE, "results.md"), parts,
-                       f"re-run {stamp} on {machine()}")
+        parts = _merge(output, parts, f"re-run {stamp} on {machine()}")
     body = "\n\n".join(parts) + "\n"
-    write_atomic(os.path.join(HERE, "results.md"), "# Benchmark results\n\n" + body)
+    if output is not None:
+        write_atomic(output, "# Benchmark results\n\n" + body)
+    else:
+        print("run_all: --quick: benchmarks/results.md and README.md kept (--output FILE "
+              "keeps this run's output)", flush=True)
 
     readme = os.path.join(ROOT, "README.md")
     if not args.no_readme and not args.quick:
