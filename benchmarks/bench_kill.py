@@ -26,6 +26,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse
+import atexit
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -136,6 +138,8 @@ def main(argv=None):
 
     t_all = time.perf_counter()
     base = args.out or tempfile.mkdtemp(prefix="bench_kill_")
+    if args.out is None:          # (the temporary folder was left behind)
+        atexit.register(shutil.rmtree, base, True)
     os.makedirs(base, exist_ok=True)
     print(f"bench_kill: seed {seed} (RT_KILL_SEED={seed} python benchmarks/bench_kill.py "
           f"replays the moments), load average {os.getloadavg()[0]:.2f}")

@@ -33,6 +33,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse
+import atexit
+import shutil
 import tempfile
 import time
 
@@ -99,6 +101,8 @@ def main(argv=None):
     comm = MPI.COMM_WORLD
     rank = comm.Get_rank()
     base = args.out or (tempfile.mkdtemp(prefix="bench_ramp_") if rank == 0 else None)
+    if args.out is None and rank == 0:      # (the temporary folder was left behind)
+        atexit.register(shutil.rmtree, base, True)
     base = comm.bcast(base, root=0)
     kinds = [("fine", None)] + ([("adaptive", args.adaptive)] if args.adaptive > 0 else [])
     rows = []

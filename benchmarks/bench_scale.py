@@ -58,6 +58,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse
+import atexit
+import shutil
 import tempfile
 import time
 
@@ -431,6 +433,8 @@ def main(argv=None):
                              f"got {item!r}")
         stored[int(n)] = path
     base = args.out or tempfile.mkdtemp(prefix="bench_scale_")
+    if args.out is None:          # (the temporary folder was left behind)
+        atexit.register(shutil.rmtree, base, True)
     rows = []
     for n in sizes:
         src = max((m for m in stored if m <= n), default=None)

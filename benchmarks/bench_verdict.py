@@ -30,9 +30,11 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse
+import atexit
 import glob
 import json
 import statistics
+import shutil
 import tempfile
 import time
 
@@ -127,6 +129,8 @@ def main(argv=None):
     if args.quick:
         args.n, args.seeds, args.mu = [40], [1], [1.0]
     base = args.out or tempfile.mkdtemp(prefix="bench_verdict_")
+    if args.out is None:          # (the temporary folder was left behind)
+        atexit.register(shutil.rmtree, base, True)
     t_start = time.perf_counter()
     print(f"bench_verdict: sliced vs dense on every ramp point; dF_x = {args.dF_x:g}, "
           f"tol = {args.tol:g}; work folder {base}", flush=True)
