@@ -3,6 +3,7 @@
 ============  ==================================================================
 ``engine``    :class:`Engine`: one LAMMPS instance (commands, scatter/gather of the
               state, the plugin loaded), :class:`AtomState`, :class:`EngineError`
+``decks``     the installed LAMMPS decks: their folder and marked sections
 ``kernel``    ctypes binding of the plugin's LAMMPS-free contact law (C API)
 ``datafile``  checks of a LAMMPS data file before LAMMPS reads it
 ``_plugin``   where the built plugin lives (the ``lammps.plugins`` entry point)

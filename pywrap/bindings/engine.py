@@ -23,13 +23,11 @@ import os
 
 import numpy as np
 
-from remote_trigger.analysis.errors import RemoteTriggerError
+from remote_trigger.analysis.errors import RemoteTriggerError, is_integer
 
 from remote_trigger.pywrap.bindings._plugin import PLUGIN_DIR
+from remote_trigger.pywrap.bindings.decks import deck_path, deck_sections
 
-#: folder of the installed decks (package data remote_trigger/lammps_inputs)
-DECK_DIR = os.path.join(
-    os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "lammps_inputs")
 #: contact-history columns per disk (docs/conventions.md section 1)
 HISTORY_SLOTS = 8
 #: the stored t of the wall fix ``wall`` of spheres: its per-atom array
@@ -94,50 +92,6 @@ class EngineError(RemoteTriggerError, RuntimeError):
 
     A ``RuntimeError``; command-line exit status 1.
     """
-
-
-def deck_path(name):
-    """Absolute path of an installed deck, e.g. ``deck_path('in.relax')``.
-
-    Raises
-    ------
-    FileNotFoundError
-        If no such deck is installed.
-    """
-    path = os.path.join(DECK_DIR, name)
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"no LAMMPS deck {name!r} in {DECK_DIR}")
-    return path
-
-
-def deck_sections(path):
-    """Split a deck into its marked sections.
-
-    A section starts at a line ``#@name`` and runs to the next such line;
-    the lines before the first mark are the ``variables`` section. The
-    decks' sections (docs/driver.md, "Decks"): ``scene`` (atoms, groups,
-    pair style, wall, loads), ``damped`` (damping fixes and the integrator
-    of the relaxing decks), ``dynamics`` (what every run needs), ``actions``
-    (the standalone run), and the relax protocol's steps ``friction``,
-    ``start``, ``compact``, ``lower``, ``press``, ``relax``, ``output``.
-
-    Returns
-    -------
-    dict
-        ``{name: str}``; ``variables``, ``scene``, ``dynamics`` and
-        ``actions`` are always present (empty strings if missing).
-    """
-    sections = {"variables": [], "scene": [], "dynamics": [], "actions": []}
-    current = "variables"
-    with open(path) as fh:
-        for line in fh:
-            tag = line.strip()
-            if tag.startswith("#@"):
-                current = tag[2:].split()[0]
-                sections.setdefault(current, [])
-                continue
-            sections[current].append(line)
-    return {k: "".join(v) for k, v in sections.items()}
 
 
 @dataclass
@@ -325,9 +279,12 @@ class Engine:
         variables : dict, optional
             ``{name: value}``, defined as index variables before the deck (as
             ``-var`` would); floats are written with 17 significant digits.
-        sections : sequence of str
-            Sections after the variable block to run, in order.
+        sections : str or sequence of str
+            Sections after the variable block to run, in order (one name
+            alone too: it was taken letter by letter).
         """
+        if isinstance(sections, str):
+            sections = (sections,)
         parts = deck_sections(deck_path(name))
         for sec in sections:
             if sec not in parts:
@@ -377,6 +334,9 @@ class Engine:
         kept, not around each run: ``pre no`` runs keep the fix lists of
         the last setup.)
         """
+        if not is_integer(nsteps) or nsteps < 0:
+            # (run(1.5) ran 1 step)
+            raise ValueError(f"run: nsteps must be an integer >= 0, got nsteps = {nsteps!r}")
         if pre and not self.lmp.has_id("fix", "rt_no_atoms"):
             if not self.lmp.has_id("group", "rt_no_atoms"):
                 self.command("group rt_no_atoms empty")
@@ -399,8 +359,17 @@ class Engine:
         return int(self.lmp.extract_global("ntimestep"))
 
     def equal(self, name):
-        """Value of an equal-style variable (float64, same on all ranks)."""
-        return float(self.lmp.extract_variable(name))
+        """Value of an equal-style variable (float64, same on all ranks).
+
+        Raises
+        ------
+        EngineError
+            No such variable (it was float()'s TypeError of None).
+        """
+        value = self.lmp.extract_variable(name)
+        if value is None:
+            raise EngineError(f"equal({name!r}): no equal-style variable {name!r} is defined")
+        return float(value)
 
     @property
     def dimension(self):

@@ -6,7 +6,8 @@ import subprocess
 import numpy as np
 import pytest
 
-from remote_trigger.pywrap.bindings.engine import DECK_DIR, DUMP_COLUMNS, deck_sections
+from remote_trigger.pywrap.bindings.decks import DECK_DIR, deck_sections
+from remote_trigger.pywrap.bindings.engine import DUMP_COLUMNS
 
 from .conftest import LMP, cli_env
 

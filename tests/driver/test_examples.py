@@ -19,7 +19,7 @@ def _env():
 
 
 def test_stage_decks_script(tmp_path):
-    from remote_trigger.pywrap.bindings.engine import DECK_DIR
+    from remote_trigger.pywrap.bindings.decks import DECK_DIR
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.state.dumpfile import read_dump
 

@@ -99,6 +99,20 @@ def test_data_file_read_by_lammps(tmp_path):
         np.testing.assert_array_equal(eng.gather("x"), x)          # nothing was written
         eng.scatter("x", x[:, :2] + 0.0)
         np.testing.assert_array_equal(eng.gather("x"), x)
+        # a variable that does not exist, a fractional step count (run(1.5)
+        # ran 1 step; equal() was float()'s TypeError of None)
+        from remote_trigger.pywrap.bindings.engine import EngineError
+
+        with pytest.raises(EngineError, match=r"equal\('nope'\): no equal-style variable"):
+            eng.equal("nope")
+        for bad in (1.5, "3", -1, True):
+            with pytest.raises(ValueError, match=rf"nsteps must be an integer >= 0, got "
+                                                 rf"nsteps = {re.escape(repr(bad))}"):
+                eng.run(bad)
+        assert eng.step() == 0
+    with Engine() as eng:               # one section named alone (read letter by letter)
+        eng.load_deck("in.relax", {"datafile": str(path)}, "scene")
+        assert eng.natoms == 30
 
 
 @pytest.mark.parametrize("kw, msg", [

@@ -204,7 +204,7 @@ def test_relax3d_deck_standalone(packing3d, tmp_path):
     """``lmp -in in.relax3d``: the driver's protocol without Newton (FIRE to 3e-6)."""
     import subprocess
 
-    from remote_trigger.pywrap.bindings.engine import deck_path
+    from remote_trigger.pywrap.bindings.decks import deck_path
 
     from .conftest import LMP, cli_env
 
