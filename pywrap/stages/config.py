@@ -358,7 +358,10 @@ class DynamicsConfig(StageConfig):
     F_x : float
         Horizontal load of the run (should match the equilibrium's).
     t_max : float
-        Simulated time, > 0. Default 1000.
+        Simulated time, > 0: the run takes whole records of
+        ``record_every`` steps, floor(t_max / (record_every dt)) of them
+        (at least one), so it may end up to one record before t_max.
+        Default 1000.
     record_every : int
         Steps between records of D(t), v and mu, >= 1. Default 100.
     a : float

@@ -35,7 +35,7 @@ class SeriesResult:
         of ``top`` (signed), friction coefficient in force.
     h5 : str
     extra : dict
-        Stage-specific numbers (e.g. ``v0``, ``growth_rate``).
+        Stage-specific numbers (e.g. ``v0``, ``measured_growth_rate``).
     """
 
     t: np.ndarray
@@ -335,7 +335,12 @@ def instability(cfg, out, comm=None, quiet=False, log="none", overwrite=False,
     -------
     SeriesResult
         ``extra``: ``predicted_growth_rate``, ``measured_growth_rate``,
-        ``complex_pair``, ``decision``, ``residual``, ``saturated``.
+        ``complex_pair``, ``decision``, ``residual``, ``saturated``. The
+        measured rate is the fit of
+        :func:`~remote_trigger.analysis.dynamics.series.growth_fit` below
+        ``d_sat / 100`` (NaN with fewer than 5 records there: a ``d_sat``
+        within ~5 decades of the noise level leaves none); it is not in
+        ``instability.h5``, which holds the series.
 
     Raises
     ------
