@@ -174,7 +174,9 @@ def read_json(path):
         try:
             data = json.loads(fh.read())
             if not isinstance(data, dict):
-                raise ValueError(f"a JSON {type(data).__name__}, not an object")
+                kind = {list: "an array", str: "a string", bool: "a boolean",
+                        type(None): "null"}.get(type(data), "a number")
+                raise ValueError(f"{kind}, not an object")
         except ValueError as exc:       # JSONDecodeError, UnicodeDecodeError, the above
             raise ConfigError(f"{path} is not readable JSON ({exc}); it was damaged: "
                               f"restore it or start the job in another folder") from None

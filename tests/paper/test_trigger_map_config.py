@@ -240,8 +240,8 @@ def test_a_damaged_record_is_named(tmp_path, capsys):
     with pytest.raises(ConfigError, match=r"loads.json is not readable JSON \('utf-8' codec"):
         read_json(str(out / "loads.json"))
     (out / "loads.json").write_text("null")
-    with pytest.raises(ConfigError, match=r"loads.json is not readable JSON \(a JSON NoneType, "
-                                          r"not an object\)"):
+    with pytest.raises(ConfigError, match=r"loads.json is not readable JSON \(null, not an "
+                                          r"object\)"):
         read_json(str(out / "loads.json"))
     (out / "loads.json").write_text('{"v0": 1e-9}')
     assert read_json(str(out / "loads.json")) == {"v0": 1e-9}
