@@ -11,7 +11,7 @@ a state is an equilibrium only of the model it was made with.
 import math
 import os
 
-from remote_trigger.analysis.errors import InputError
+from remote_trigger.analysis.errors import InputError, is_real
 
 __all__ = ["MODEL_KEYS", "sidecar_path", "read_sidecar", "merge_model", "default_k_t"]
 
@@ -101,8 +101,16 @@ def merge_model(given, start, flags=None, override=False, keys=MODEL_KEYS):
     InputError
         A given value differs from the sidecar's (relative difference above
         :data:`AGREE_RTOL`) and ``override`` is False; the message names the
-        option, both values and the sidecar.
+        option, both values and the sidecar. A key of ``given`` not in
+        ``keys`` (``'Fx'`` was ignored) or a value that is not a real number.
     """
+    unknown = sorted(set(given) - set(keys))
+    if unknown:
+        raise InputError(f"merge_model: unknown key(s) {', '.join(map(repr, unknown))}; "
+                         f"the keys are {', '.join(keys)}")
+    for key, val in given.items():
+        if val is not None and not is_real(val):
+            raise InputError(f"merge_model: {key} must be a real number, got {key} = {val!r}")
     flags = flags or {}
     side_file = sidecar_path(start)
     side = read_sidecar(start)

@@ -791,3 +791,23 @@ def test_contact_geometry_names_bad_arrays(packing):
     t = np.arange(10.0)
     with pytest.raises(ValueError, match="mask must be an array of bool"):
         exp_rate(t, np.exp(t), mask=np.arange(10))
+
+
+def test_merge_model_names_an_unknown_key_and_a_bad_value(tmp_path):
+    """merge_model({'Fx': 0.07}, ...) ignored the misspelt key; {'F_x': 'abc'}
+    was float()'s bare 'could not convert string to float'."""
+    import json
+
+    from remote_trigger.analysis.errors import InputError
+    from remote_trigger.analysis.state.sidecar import merge_model
+
+    start = tmp_path / "eq.dump"
+    start.write_text("")
+    (tmp_path / "eq.dump.json").write_text(json.dumps({"k_n": 2e5, "F_x": 0.07}))
+    with pytest.raises(InputError, match=r"^merge_model: unknown key\(s\) 'Fx'; the keys are "):
+        merge_model({"Fx": 0.07}, str(start))
+    with pytest.raises(InputError, match=r"^merge_model: F_x must be a real number, got "
+                                         r"F_x = 'abc'$"):
+        merge_model({"F_x": "abc"}, str(start))
+    values, source = merge_model({"F_x": np.float64(0.07), "mu": None}, str(start))
+    assert values == {"k_n": 2e5, "F_x": 0.07} and source == str(tmp_path / "eq.dump.json")
