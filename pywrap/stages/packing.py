@@ -54,6 +54,8 @@ from dataclasses import dataclass
 import math
 
 import numpy as np
+
+from remote_trigger.analysis.errors import is_integer
 from remote_trigger.analysis.output import write_text_atomic
 
 #: radii of the two disk types (type 1 = small, type 2 = large)
@@ -213,8 +215,9 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     Raises
     ------
     ValueError
-        If ``n`` is odd or too small (top line, or L <= 4 R2), ``dim`` is not 2 or 3, a fraction is
-        outside its range, or the random placement fails.
+        If ``n`` is odd or too small (top line, or L <= 4 R2), ``seed`` is
+        not an integer >= 0, ``dim`` is not 2 or 3, a fraction is outside its
+        range, or the random placement fails.
     """
     if dim not in (2, 3):
         raise ValueError(f"dim must be 2 or 3, got dim = {dim!r}")
@@ -223,6 +226,9 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     if isinstance(n, bool) or int(n) != n:
         raise ValueError(f"n must be an integer, got n = {n!r}")
     n = int(n)
+    if not is_integer(seed) or seed < 0:
+        # (numpy's "expected non-negative integer", or a TypeError, named no seed)
+        raise ValueError(f"seed must be an integer >= 0, got seed = {seed!r}")
     r1, r2 = (float(r) for r in radii)
     if not (np.isfinite(r1) and np.isfinite(r2) and 0 < r1 < r2):
         raise ValueError(f"radii must satisfy 0 < R1 < R2, got radii = {tuple(radii)!r}")

@@ -118,7 +118,11 @@ def test_data_file_read_by_lammps(tmp_path):
 @pytest.mark.parametrize("kw, msg", [
     (dict(n=-4), "n = -4"), (dict(n=21), "n = 21"),
     (dict(n=20, radii=(-0.5, 0.7)), "radii"), (dict(n=20, radii=(0.7, 0.5)), "radii"),
-    (dict(n=20, phi=1.5), "phi = 1.5")])
+    (dict(n=20, phi=1.5), "phi = 1.5"),
+    # numpy's own errors named no seed
+    (dict(n=20, seed=-1), "seed must be an integer >= 0, got seed = -1"),
+    (dict(n=20, seed=1.5), "seed must be an integer >= 0, got seed = 1.5"),
+    (dict(n=20, seed=None), "seed must be an integer >= 0, got seed = None")])
 def test_bad_arguments(kw, msg):
     with pytest.raises(ValueError, match=msg.replace("(", r"\(")):
         generate(**kw)
