@@ -208,10 +208,37 @@ def plain_value(val):
     return val
 
 
+def _narrow_float(val):
+    """A NumPy float narrower than float64 inside ``val`` (scalar, array, or in
+    a list, tuple or dict) whose float64 value is not the number it prints
+    as (``np.float32(1e-3)``, not ``np.float32(2e5)``), else None."""
+    if isinstance(val, (np.floating, np.ndarray)) and val.dtype.kind == "f" and \
+            val.dtype.itemsize < 8:
+        flat = np.ravel(val)
+        if any(float(x) != float(str(x)) for x in flat):
+            return val
+        return None
+    if isinstance(val, (list, tuple)):
+        return next((v for v in map(_narrow_float, val) if v is not None), None)
+    if isinstance(val, dict):
+        return _narrow_float(list(val.values()))
+    return None
+
+
 def _plain_fields(obj):
-    """Set every field of the frozen dataclass ``obj`` to its :func:`plain_value`."""
+    """Set every field of the frozen dataclass ``obj`` to its :func:`plain_value`.
+
+    A float32 (or narrower) value that float64 does not hold as it prints is
+    refused: its rounding would enter every load and the Jacobian
+    (``np.float32(1e-3)`` became 0.0010000000474974513).
+    """
     for f in fields(obj):
         val = getattr(obj, f.name)
+        narrow = _narrow_float(val)
+        if narrow is not None:
+            raise ConfigError(f"{f.name} must be float64 (or a Python float), got a "
+                              f"{narrow.dtype} value that float64 holds as another number: "
+                              f"{f.name} = {val!r}")
         new = plain_value(val)
         if new is not val:
             object.__setattr__(obj, f.name, new)

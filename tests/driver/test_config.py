@@ -37,6 +37,20 @@ def test_numpy_values_are_taken_as_python_numbers(packing_file):
         RelaxConfig(datafile=packing_file, settle_steps=np.bool_(True))
 
 
+def test_a_float32_is_refused(packing_file):
+    """np.float32(1e-3) became dF_x = 0.0010000000474974513: its rounding in every
+    load (float64 end to end for what feeds a Jacobian)."""
+    from remote_trigger.pywrap.jobs.ensemble.config import EnsembleConfig
+
+    with pytest.raises(ConfigError, match=r"dF_x must be float64 \(or a Python float\), got a "
+                                          r"float32 value that float64 holds as another "
+                                          r"number: dF_x = np.float32\(0.001\)"):
+        RampConfig(datafile=packing_file, dF_x=np.float32(1e-3))
+    with pytest.raises(ConfigError, match=r"got a float16 value"):
+        EnsembleConfig(dF_x=np.array([1e-3], np.float16))
+    assert RampConfig(datafile=packing_file, dF_x=np.float64(1e-3)).dF_x == 1e-3
+
+
 def test_unknown_key(packing_file):
     with pytest.raises(ConfigError, match="fmin"):
         RampConfig.from_dict({"datafile": packing_file, "fmin": 1e-15})
