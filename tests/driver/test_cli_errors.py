@@ -714,7 +714,17 @@ def test_more_ranks_than_cores_is_warned(monkeypatch, capsys):
     assert capsys.readouterr().err == ""
 
 
-def test_the_relauncher_prints_the_interrupt_line(capsys):
+@pytest.fixture
+def default_sigint():
+    """Python's own SIGINT handler for the test (the one a process starts with
+    is inherited: SIG_IGN in a job put in the background by a shell without
+    job control), the inherited one restored after it."""
+    inherited = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, inherited)
+
+
+def test_the_relauncher_prints_the_interrupt_line(capsys, default_sigint):
     """The interrupt line of a re-launched job was printed by its rank 0,
     which mpirun could kill before the Python handler ran (inside a LAMMPS
     call): in one CI run an interrupted `paper --np 2` printed nothing. The
@@ -723,16 +733,6 @@ def test_the_relauncher_prints_the_interrupt_line(capsys):
     from remote_trigger.pywrap.runtime import relaunch
 
     line = "remote-trigger paper: interrupted; the same command with --resume continues"
-    # the handler this process starts with is inherited (SIG_IGN in a job put in
-    # the background by a shell without job control): the test sets Python's own
-    inherited = signal.signal(signal.SIGINT, signal.default_int_handler)
-    try:
-        _relauncher_lines(capsys, relaunch, line)
-    finally:
-        signal.signal(signal.SIGINT, inherited)
-
-
-def _relauncher_lines(capsys, relaunch, line):
     # a Ctrl-C this process receives while the child runs (the child ends 0)
     child = [sys.executable, "-c", "import os, signal, time; "
              "os.kill(os.getppid(), signal.SIGINT); time.sleep(0.2)"]
