@@ -339,8 +339,6 @@ def _check_stage_start(data):
     stopped with "Must define pair_style before PairIJ Coeffs", status 1) or
     without the top line (``relax`` said "place_top needs top and bulk disks,
     got 0 top disks of 100")."""
-    from remote_trigger.pywrap.config import ConfigError
-
     where = (f"data file {data.path!r}: the stages start from a packing of `remote-trigger "
              f"generate` or an equilibrium a stage wrote")
     if data.pair_coeffs:
