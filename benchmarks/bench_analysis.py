@@ -161,7 +161,7 @@ def main(argv=None):
     print("4. certified decision per equilibrium, N = 100 dense (default job, mu = 1; "
           "best of 5; goal: decision <= 2 x eigen-solve)")
     for F, n, t, d in bench_decision([0.0645, 0.06463708496093751, 0.06463714599609376]):
-        what = {True: "complex", False: "real", None: "undecided"}[d.complex_present]
+        what = d.decision.label
         print(f"   F_x = {F:.10g} ({n} dof): {what}, confidence {d.confidence:.3g}; "
               f"eigen-solve {t['eigen'] * 1e3:.1f} ms, decision {t['decision'] * 1e3:.1f} ms "
               f"= {t['decision'] / t['eigen']:.2f} x")

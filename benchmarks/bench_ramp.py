@@ -47,14 +47,13 @@ def eigen_solve_time(dump0, dump1):
     import numpy as np
     import scipy.linalg as sla
 
-    from remote_trigger.analysis.stability import eigen, exceptional, jacobian
-    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability import exceptional
+    from remote_trigger.analysis.stability.system import reduced_system
     from remote_trigger.analysis.state.dumpfile import read_dump
 
     def matrix(dump):
-        res = analyze(read_dump(dump, require_contacts=False), eigenvalues=False, decide=False)
-        Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
-        return eigen.dynamical_matrix(Kr, mr).toarray()
+        return reduced_system(read_dump(dump, require_contacts=False)).dynamical_matrix() \
+            .toarray()
 
     basis = exceptional.classify_spectrum(matrix(dump0)).basis
     A = matrix(dump1)

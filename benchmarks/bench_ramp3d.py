@@ -96,7 +96,7 @@ def point(eng, cfg, start, F_x, prefix, dim, basis):
     t2 = time.perf_counter()
     save_equilibrium(eng, cfg, F_x, prefix)
     t3, c3 = time.perf_counter(), time.process_time()
-    res = stability_of_dump(prefix + ".dump", basis, allow_residual=True)
+    res = stability_of_dump(prefix + ".dump", basis=basis, allow_residual=True)
     t4, c4 = time.perf_counter(), time.process_time()
     cold = stability_of_dump(prefix + ".dump", allow_residual=True)
     t5 = time.perf_counter()

@@ -248,8 +248,7 @@ def _point(cfg, start, F_x, prefix, basis=None):
     from mpi4py import MPI
 
     from remote_trigger.analysis.stability import eigen, projected
-    from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability.jacobian import remove_dofs
+    from remote_trigger.analysis.stability.system import reduced_system
     from remote_trigger.analysis.stability.verdict import stability_of_dump
     from remote_trigger.analysis.state.dumpfile import read_dump
     from remote_trigger.pywrap.stages import equilibrium as eq
@@ -273,7 +272,7 @@ def _point(cfg, start, F_x, prefix, basis=None):
                path="sparse" if 3 * n > DENSE_NEWTON_MAX else "dense")
     if 3 * n <= DENSE_NEWTON_MAX:
         t0 = time.perf_counter()
-        res = stability_of_dump(prefix + ".dump", basis, allow_residual=True)
+        res = stability_of_dump(prefix + ".dump", basis=basis, allow_residual=True)
         t1 = time.perf_counter()
         cold = stability_of_dump(prefix + ".dump", allow_residual=True)
         row.update(decision=t1 - t0, decision_dgeev=time.perf_counter() - t1,
@@ -289,19 +288,19 @@ def _point(cfg, start, F_x, prefix, basis=None):
 
         t0 = time.perf_counter()
         st = read_dump(prefix + ".dump", require_contacts=False)
-        ana = analyze(st, eigenvalues=False, decide=False)
-        Kr, mr = remove_dofs(ana.K, ana.mass, ana.rattlers.keep_dofs)
+        ana = reduced_system(st)
+        Kr, mr = ana.K, ana.mass
         stats = SlicedStats()
         tracemalloc.start()
         dec = classify_sliced(Kr, mr, stats=stats)
         t1 = time.perf_counter()
         traced = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
-        verdict = {True: "complex", False: "real", None: "undecided"}[dec.complex_present]
+        verdict = dec.decision.label
         row.update(decision=t1 - t0, eigen=dec.timing.get("eigen", np.nan),
                    verdict=f"{verdict} (whole spectrum, sliced: {stats.slices} slices, "
                            f"strips {stats.strips}"
-                           + (f"; {dec.reason}" if dec.complex_present is None else "") + ")",
+                           + (f"; {dec.reason}" if dec.decision.label == "undecided" else "") + ")",
                    n_eig=Kr.shape[0], traced_MB=traced / 2**20,
                    dense_matrix_MB=8.0 * Kr.shape[0] ** 2 / 2**20)
         if Kr.shape[0] <= DENSE_TIMED_MAX:
@@ -381,7 +380,7 @@ def synthetic_point(n, seed, base, newton_steps):
     t8 = time.perf_counter()
     dec, _ = projected.classify_projected(A, PAIR_RE_REL * lam_max, k=12)
     t9 = time.perf_counter()
-    verdict = {True: "complex", False: "real", None: "undecided"}[dec.complex_present]
+    verdict = dec.decision.label
     iteration = (t3 - t2) + (t6 - t5) + (t7 - t6)
     row = dict(n=st.n, dof=3 * st.n, relax=float("nan"), phi=float("nan"), scene=t1 - t0,
                newton=newton_steps * iteration, newton_steps=newton_steps,

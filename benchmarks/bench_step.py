@@ -23,7 +23,7 @@ One core, one process, the default job's equilibrium at F_x = 0.0645 (N = 100,
     (max |v_top| through a variable every step); the route
     tests/plugin/mu_routes.py calls ``nested``.
 ``(c) driver``
-    ``stages.runs._undamped_run`` of scene (c) as the paper job runs it
+    ``stages.runs.undamped_run`` of scene (c) as the paper job runs it
     (records every 500 steps into an HDF5 file, one LAMMPS ``run`` per record).
 
 Timing: process CPU time per step over ``--steps`` steps after a 1000-step
@@ -125,7 +125,7 @@ def time_case(case, datafile, steps):
 def time_driver(datafile, steps, folder):
     """(CPU us/step, wall us/step) of the driver's run of scene (c)."""
     from remote_trigger.pywrap.stages.config import DynamicsConfig
-    from remote_trigger.pywrap.stages.runs import _undamped_run
+    from remote_trigger.pywrap.stages.runs import undamped_run
     from remote_trigger.pywrap.bindings.engine import Engine
 
     cfg = DynamicsConfig(datafile=datafile, F_x=F_X, t_max=steps * 1e-3,
@@ -133,7 +133,7 @@ def time_driver(datafile, steps, folder):
     h5 = os.path.join(folder, f"c_{time.perf_counter_ns()}.h5")
     with Engine() as eng:
         c0, w0 = time.process_time(), time.perf_counter()
-        _undamped_run(eng, cfg, datafile, h5, {"a": A, "wp": OMEGA, "muv": 1, "v0": 1.0,
+        undamped_run(eng, cfg, datafile, h5, {"a": A, "wp": OMEGA, "muv": 1, "v0": 1.0,
                                                "vss": 1.0}, "c", True)
         return ((time.process_time() - c0) / steps * 1e6,
                 (time.perf_counter() - w0) / steps * 1e6)

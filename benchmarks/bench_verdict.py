@@ -62,15 +62,16 @@ def _ramp(n, seed, mu, dF_x, tol, base):
 
 def _compare(dump):
     """Both decisions of one equilibrium dump, a dict: ``dense`` and ``sliced``
-    (True complex, False real, None undecided), their reasons when undecided,
+    (the Decision codes: 1 complex, 0 real, -1 undecided), their reasons when undecided,
     the strip sizes, ``n`` and the CPU time of each decision."""
-    from remote_trigger.analysis.stability import eigen, exceptional, jacobian
-    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability import eigen, exceptional
+    from remote_trigger.analysis.stability.decision import Decision
+    from remote_trigger.analysis.stability.system import reduced_system
     from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced
     from remote_trigger.analysis.state.dumpfile import read_equilibrium
 
-    res = analyze(read_equilibrium(dump), eigenvalues=False, decide=False)
-    Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
+    system = reduced_system(read_equilibrium(dump))
+    Kr, mr = system.K, system.mass
     t0 = time.process_time()
     dense = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray())
     t1 = time.process_time()
@@ -78,9 +79,10 @@ def _compare(dump):
     sliced = classify_sliced(Kr, mr, stats=st)
     t2 = time.process_time()
     return {"dump": os.path.basename(dump), "n": int(Kr.shape[0]),
-            "dense": dense.complex_present, "sliced": sliced.complex_present,
-            "reason": "" if sliced.complex_present is not None else str(sliced.reason),
-            "dense_reason": "" if dense.complex_present is not None else str(dense.reason),
+            "dense": int(dense.decision), "sliced": int(sliced.decision),
+            "reason": "" if sliced.decision is not Decision.UNDECIDED else str(sliced.reason),
+            "dense_reason": "" if dense.decision is not Decision.UNDECIDED
+            else str(dense.reason),
             "strips": {str(k): int(v) for k, v in st.strips.items()},
             "t_dense": t1 - t0, "t_sliced": t2 - t1}
 
@@ -99,16 +101,27 @@ def compare_ramp(folder, cache):
     return rows
 
 
+def _code(v):
+    """A stored decision as its Decision: a code, or the True / False / None of
+    caches written before the codes."""
+    from remote_trigger.analysis.stability.decision import Decision
+
+    return Decision.UNDECIDED if v is None else Decision.of(int(v))
+
+
 def summary(rows):
     """Counts of one set of compared points."""
-    dis = [r for r in rows if r["dense"] is not None and r["sliced"] is not None
-           and r["dense"] != r["sliced"]]
+    from remote_trigger.analysis.stability.decision import Decision
+
+    d = [(_code(r["dense"]), _code(r["sliced"])) for r in rows]
+    dis = [r for r, (a, b) in zip(rows, d) if Decision.UNDECIDED not in (a, b) and a != b]
     return {"points": len(rows),
-            "complex": sum(r["dense"] is True for r in rows),
-            "real": sum(r["dense"] is False for r in rows),
-            "dense_undecided": sum(r["dense"] is None for r in rows),
+            "complex": sum(a is Decision.COMPLEX for a, _ in d),
+            "real": sum(a is Decision.REAL for a, _ in d),
+            "dense_undecided": sum(a is Decision.UNDECIDED for a, _ in d),
             "disagree": len(dis), "disagreements": [r["dump"] for r in dis],
-            "sliced_undecided": [(r["dump"], r["reason"]) for r in rows if r["sliced"] is None],
+            "sliced_undecided": [(r["dump"], r["reason"]) for r, (_, b) in zip(rows, d)
+                                 if b is Decision.UNDECIDED],
             "multi_strips": sum(any(int(k) >= 2 for k in r["strips"]) for r in rows),
             "n": sorted({r["n"] for r in rows}),
             "t_dense": statistics.median(r["t_dense"] for r in rows) if rows else float("nan"),

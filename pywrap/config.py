@@ -71,7 +71,6 @@ def check_number(name, val, lo=None, lo_open=False, hi=None, allow_inf=False):
     return val
 
 
-_num = check_number
 
 
 def check_lammps_path(name, path):
@@ -92,11 +91,13 @@ def check_lammps_path(name, path):
                           f"path with a space cannot be passed to it; choose one without spaces")
 
 
-def _positive(name, val):
+def check_positive(name, val):
+    """A number > 0 (:func:`check_number` with an open lower bound 0)."""
     return check_number(name, val, 0, lo_open=True)
 
 
-def _nonneg(name, val):
+def check_nonnegative(name, val):
+    """A number >= 0 (:func:`check_number` with lower bound 0)."""
     return check_number(name, val, 0)
 
 
@@ -114,7 +115,6 @@ def check_int(name, val, lo):
         raise ConfigError(f"{name} must be >= {lo}, got {name} = {val!r}")
 
 
-_int = check_int
 
 
 def check_bool(name, val):
@@ -469,12 +469,12 @@ class ContactModel:
 
     def __post_init__(self):
         _plain_fields(self)
-        _positive("k_n", self.k_n)
+        check_positive("k_n", self.k_n)
         if self.k_t is None:
             object.__setattr__(self, "k_t", default_k_t(self.k_n))
-        _nonneg("k_t", self.k_t)
-        _nonneg("mu", self.mu)
-        _positive("F_y", self.F_y)
+        check_nonnegative("k_t", self.k_t)
+        check_nonnegative("mu", self.mu)
+        check_positive("F_y", self.F_y)
 
     @classmethod
     def of(cls, cfg):

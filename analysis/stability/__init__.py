@@ -1,10 +1,13 @@
 """The linear algebra of the stability verdict.
 
+``verdict``       the engine: ``decide(reduced_system(state), VerdictOptions)`` -> StabilityResult
+``system``        the reduced system: K, M on the kept dofs, rattlers, residual
+``residual``      is a state an equilibrium: residual, round-off floor, the check
 ``jacobian``      K = -dG/dq (paper Appendix C), residual G, rattler removal
 ``jacobian3d``    the same for spheres: 6 dofs per sphere, 12 x 12 and 6 x 6 blocks
 ``eigen``         eigenvalues of M^-1 K: dense LAPACK, ARPACK shift-invert, omega, growth
 ``exceptional``   the certified complex-pair decision near exceptional points (its proof)
-``decision``      its results: PairDecision, SpectrumDecision, SpectrumBasis
+``decision``      Decision (the three-way answer, its codes) and the result types
 ``verification``  its steps 1-5 for one basis: units, enclosure, pairs, isolation
 ``basis``         the decision started from a previous decision's basis
 ``projected``     the decision on the k eigenvalues nearest a shift (sparse, partial)
@@ -14,10 +17,9 @@
 ``scan_state``    its saved scan and verdict (checkpoint files, progress)
 ``winding``       its count of eigenvalues in a box off the real axis
 ``enclosure``     its rigorous float64 bounds
-``verdict``       the ramp's verdict: certified decision, its codes, growth rate
 ``eigtrack``      the coalescing eigenvalue pair through a ramp (Fig. 3)
 ``modeshape``     the pair's mode: participation ratio, collective or local
-``analyze``       the whole pipeline for one state or dump
+``analyze``       the analyzer of ``remote-trigger jacobian``; the saddle screen
 ``timestep``      the stable time step from the spectrum
 
 May import: numpy, scipy, :mod:`remote_trigger.analysis.state`, ``errors``, ``output``.

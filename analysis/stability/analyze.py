@@ -1,25 +1,28 @@
-"""One call from an equilibrium to its spectrum: K, rattlers, eigenvalues, decision.
+"""The analyzer: K, rattlers, eigenvalues and decision of one state, for inspection.
 
-This is the entry point for the ramp and the command line::
+What ``remote-trigger jacobian`` shows::
 
     from remote_trigger.analysis.stability.analyze import analyze, analyze_dump
     res = analyze_dump("eq.dump")            # sidecar eq.dump.json gives k_n, k_t, mu, wall_y
-    res.decision.complex_present, res.growth_rate, res.rattlers.ids
+    res.decision.decision, res.growth_rate, res.rattlers.ids
 
-Steps: assemble K = -dG/dq (``jacobian.stiffness_matrix``, paper Appendix C),
-remove rattlers iteratively (``jacobian.find_rattlers``, frictional criterion
-of fewer than 2 contacts), form M^-1 K with M = diag(m, m, I/R^2), compute
-its eigenvalues and decide whether a complex pair is present, on the whole
-spectrum: dense LAPACK with the certified test of ``exceptional`` up to
-``eigen.DENSE_MAX`` dofs, above it the certified verdict by spectrum
-slicing of ``sliced``. ``method='sparse'`` asks instead for the *partial*
-decision of ``projected`` on the k eigenvalues nearest a shift (labelled
-partial, not a verdict).
+The reduced system (K = -dG/dq, paper Appendix C; rattlers removed; K and
+M on the kept dofs) is the engine's
+(:func:`~remote_trigger.analysis.stability.system.reduced_system`), and the
+whole-spectrum decision is the engine's too
+(:func:`~remote_trigger.analysis.stability.verdict.spectrum_decision`: dense
+up to ``eigen.DENSE_MAX`` dofs, sliced above). What the analyzer adds: the
+eigenvalues without a decision (``decide=False``), and with
+``method='sparse'`` the *partial* decision of ``projected`` on the k
+eigenvalues nearest a shift (labelled partial, not a verdict). For the
+verdict alone use :func:`~remote_trigger.analysis.stability.verdict.decide`.
 
 A :class:`~remote_trigger.analysis.state.state3d.State3D` (spheres) takes
 the same steps with the 3D Jacobian (``jacobian3d``: 6 dofs per sphere,
 rattlers below 3 contacts, M = diag(m, m, m, 2m/5, 2m/5, 2m/5));
 :func:`analyze_dump` reads a dump of spheres with ``read_dump3d``.
+
+:func:`negative_modes` is the ramp's screen for saddles.
 """
 from __future__ import annotations
 
@@ -27,26 +30,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from remote_trigger.analysis.errors import is_integer, is_real
+from remote_trigger.analysis.errors import is_integer
 from remote_trigger.analysis.stability import eigen as _eigen
-from remote_trigger.analysis.stability import exceptional as _exc
-from remote_trigger.analysis.stability import jacobian as _jac
-from remote_trigger.analysis.stability import jacobian3d as _jac3
 from remote_trigger.analysis.stability import projected as _proj
 from remote_trigger.analysis.stability import sliced as _sliced
+from remote_trigger.analysis.stability.residual import check_equilibrium
+from remote_trigger.analysis.stability.system import ReducedSystem, reduced_system
+from remote_trigger.analysis.stability.verdict import VerdictOptions, spectrum_decision
 from remote_trigger.analysis.state.dumpfile import dump_dimension, read_dump, read_dump3d
-from remote_trigger.analysis.state.state3d import State3D
 
-__all__ = ["Analysis", "analyze", "analyze_dump", "roundoff_floor", "check_equilibrium",
-           "max_residual", "negative_modes", "NEGATIVE_REL"]
-
-#: a residual this many times the round-off floor is "far above" it: the state
-#: is not the equilibrium of the parameters it is analysed with
-FAR_ABOVE_FLOOR = 1e3
-#: smallest floor used (the driver's smallest acceptance level, 1e-10)
-FLOOR_MIN = 1e-10
-#: floor = ROUNDOFF_FACTOR eps X k_eff (the driver's acceptance level, docs/driver.md)
-ROUNDOFF_FACTOR = 4.0
+__all__ = ["Analysis", "analyze", "analyze_dump", "negative_modes", "NEGATIVE_REL"]
 
 
 @dataclass
@@ -69,8 +62,11 @@ class Analysis:
     residual : ndarray, shape (n,)
         G = contact + external forces (zero at equilibrium). :func:`analyze`
         does not check it: a state far from equilibrium gets a spectrum and
-        a verdict all the same; check first with :func:`check_equilibrium`
+        a verdict all the same; check first with
+        :func:`~remote_trigger.analysis.stability.residual.check_equilibrium`
         (what the command line does).
+    system : remote_trigger.analysis.stability.system.ReducedSystem
+        The reduced system (K and M on the kept dofs) the analysis used.
     """
 
     state: object
@@ -80,6 +76,7 @@ class Analysis:
     eigen: object
     decision: object
     residual: np.ndarray
+    system: ReducedSystem = None
 
     @property
     def eigenvalues(self):
@@ -96,140 +93,7 @@ class Analysis:
     @property
     def max_residual(self):
         """max over disks of max(|F_i|, |T_i|/R_i) including the loads."""
-        return max_residual(self.residual, isinstance(self.state, State3D))
-
-
-def max_residual(G, spheres=False):
-    """r = max_i max(|F_i|, |T_i|/R_i) of generalized forces G.
-
-    Parameters
-    ----------
-    G : ndarray, shape (3N,) or (6N,)
-        (F_x, F_y, T/R) per disk, or (F, T/R) per sphere (force units),
-        flat in dof order (as ``generalized_forces`` / ``generalized_forces3d``
-        give it), N >= 1, every value finite.
-    spheres : bool
-        G is that of spheres.
-
-    Returns
-    -------
-    float
-
-    Raises
-    ------
-    ValueError
-        If ``G`` is not a flat array whose length is a positive multiple of
-        3 (disks) or 6 (spheres), or holds a non-finite value.
-    """
-    per, what = (6, "(F, T/R) per sphere") if spheres else (3, "(F_x, F_y, T/R) per disk")
-    try:
-        G = np.asarray(G, np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"max_residual needs G, an array of numbers, got "
-                         f"{type(G).__name__}") from None
-    if G.ndim != 1 or G.size == 0 or G.size % per:
-        # (a length-5 G was a raw reshape error, an empty one numpy's "zero-size
-        # array to reduction", a (2, 3) array was taken as two disks)
-        raise ValueError(f"max_residual needs G of shape ({per}N,) with N >= 1, {what} in "
-                         f"dof order, got shape {G.shape}")
-    bad = np.flatnonzero(~np.isfinite(G))
-    if bad.size:
-        # (a NaN gave a residual of nan)
-        raise ValueError(f"max_residual needs a finite G, got {bad.size} non-finite "
-                         f"value(s), the first {G[bad[0]].item()!r} at dof {int(bad[0])}")
-    if spheres:
-        G = np.asarray(G).reshape(-1, 6)
-        return float(max(np.max(np.linalg.norm(G[:, :3], axis=1)),
-                         np.max(np.linalg.norm(G[:, 3:], axis=1))))
-    G = np.asarray(G).reshape(-1, 3)
-    return float(max(np.max(np.hypot(G[:, 0], G[:, 1])), np.max(np.abs(G[:, 2]))))
-
-
-def roundoff_floor(state):
-    r"""Residual that double precision allows for a state, as the driver accepts it.
-
-    .. math::
-
-        r_\mathrm{floor} = \max(10^{-10},\; 4\,\varepsilon\,X\,k_\mathrm{eff}),
-        \quad k_\mathrm{eff} = \tfrac32 k_n^{2/3} F^{1/3},
-
-    X the largest coordinate or box length, F the largest external load per
-    disk (or, without loads, the largest contact force of the dump, or 1):
-    the driver's acceptance level of a stagnating Newton iteration
-    (``remote_trigger.pywrap.stages.equilibrium.accept_level``, docs/driver.md).
-
-    Parameters
-    ----------
-    state : State or State3D
-
-    Returns
-    -------
-    float
-        Force units.
-    """
-    X = max(float(np.max(np.abs(state.positions))), float(np.max(state.box_hi - state.box_lo)))
-    if isinstance(state, State3D):
-        F = float(np.max(np.linalg.norm(state.external, axis=1))) if state.n else 0.0
-    else:
-        F = float(np.max(np.hypot(state.external[:, 0], state.external[:, 1]))) \
-            if state.external.size else 0.0
-    cf = getattr(state, "contact_forces", None)
-    if not F > 0 and cf is not None and cf.size:
-        F = float(np.max(np.hypot(state.contact_forces[:, 0], state.contact_forces[:, 1])))
-    if not F > 0:
-        F = 1.0
-    keff = 1.5 * float(state.params.k_n) ** (2.0 / 3.0) * F ** (1.0 / 3.0)
-    return max(FLOOR_MIN, ROUNDOFF_FACTOR * np.finfo(float).eps * X * keff)
-
-
-def check_equilibrium(state, factor=FAR_ABOVE_FLOOR, what=None):
-    """Refuse a state whose residual is far above the round-off floor.
-
-    A Jacobian and its spectrum describe the linear motion about an
-    equilibrium; at a state that is not one (wrong k_n, mu or loads in the
-    sidecar, a dump written with too few digits, a state in motion) they
-    describe nothing, and a "complex pair" found there is meaningless.
-
-    Parameters
-    ----------
-    state : State or State3D
-    factor : float
-        Refuse above ``factor`` x :func:`roundoff_floor` (default 1e3).
-    what : str, optional
-        Name of the state in the message (default its source file).
-
-    Returns
-    -------
-    ratio : float
-        Residual / floor.
-
-    Raises
-    ------
-    NotEquilibriumError
-        An ``InputError`` (``ValueError``), naming the residual, the floor
-        and what to check.
-    ValueError
-        If ``factor`` is not a number > 0.
-    """
-    from remote_trigger.analysis.errors import NotEquilibriumError
-
-    if not is_real(factor) or not factor > 0:
-        raise ValueError(f"factor must be a number > 0, got factor = {factor!r}")
-
-    spheres = isinstance(state, State3D)
-    G = (_jac3.generalized_forces3d if spheres else _jac.generalized_forces)(state)
-    r = max_residual(G, spheres)
-    floor = roundoff_floor(state)
-    ratio = r / floor
-    if not ratio <= factor:
-        name = what or state.source or "the state"
-        raise NotEquilibriumError(
-            f"{name} is not an equilibrium of its parameters: residual max |G| = {r:.3g} "
-            f"is {ratio:.3g} x the round-off floor {floor:.3g} (k_n = {state.params.k_n!r},"
-            f" k_t = {state.params.k_t!r}, mu = {state.params.mu!r}, F_x = "
-            f"{state.F_x!r}, F_y = {state.F_y!r}); check the sidecar and the "
-            f"dump's precision (%.17g)")
-    return ratio
+        return self.system.max_residual
 
 
 def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=None,
@@ -275,21 +139,11 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
         finite number (checked where eigenvalues are computed), or a shift
         at an eigenvalue (sparse path).
     """
-    if isinstance(state, State3D):
-        K = _jac3.stiffness_matrix3d(state)
-        rat = _jac3.find_rattlers3d(state, min_contacts=3 if min_contacts is None
-                                    else min_contacts)
-        G = _jac3.generalized_forces3d(state)
-    else:
-        K = _jac.stiffness_matrix(state)
-        rat = _jac.find_rattlers(state, min_contacts=2 if min_contacts is None
-                                 else min_contacts)
-        G = _jac.generalized_forces(state)
-    mass = state.mass_diagonal()
+    system = reduced_system(state, min_contacts)
     eig = dec = None
-    if eigenvalues and rat.keep_dofs.size:
-        Kr, mr = _jac.remove_dofs(K, mass, rat.keep_dofs)
-        n = Kr.shape[0]
+    if eigenvalues and system.n:
+        Kr, mr = system.K, system.mass
+        n = system.n
         if method not in ("auto", "dense", "sliced", "sparse"):
             raise ValueError(f"method must be 'auto', 'dense', 'sliced' or 'sparse', got {method!r}")
         if not is_integer(k) or k < 1:
@@ -299,19 +153,16 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
             raise ValueError(f"sigma must be a finite number, got sigma = {sigma!r}")
         dense = method == "dense" or (method == "auto" and n <= _eigen.DENSE_MAX)
         sliced = method == "sliced" or (method == "auto" and not dense and decide)
-        if sliced:
-            # the whole-spectrum verdict by slicing; its eigenvalues are the Ritz
-            # values of the symmetric part and the strips' block eigenvalues
-            dec = _sliced.classify_sliced(Kr, mr, progress=progress)
-            eig = _eigen.EigenResult(np.asarray(dec.eigenvalues, np.complex128), method="sliced")
+        if sliced or (dense and decide):
+            # the engine's decision (its path chosen once, verdict.choose_method);
+            # its eigenvalues are the spectrum: one LAPACK eigen-solve on the
+            # dense path, the Ritz values of the symmetric part and the strips'
+            # block eigenvalues on the sliced one
+            dec, path = spectrum_decision(system, VerdictOptions(
+                method="sliced" if sliced else "dense"), progress=progress)
+            eig = _eigen.EigenResult(np.asarray(dec.eigenvalues, np.complex128), method=path)
         elif dense:
-            if decide:
-                # one LAPACK eigen-solve: the decision's eigenvalues are the spectrum
-                dec = _exc.classify_spectrum(_eigen.dynamical_matrix(Kr, mr).toarray())
-                eig = _eigen.EigenResult(np.asarray(dec.eigenvalues, np.complex128),
-                                         method="dense")
-            else:
-                eig = _eigen.dense_eigen(Kr, mr, vectors=False)
+            eig = _eigen.dense_eigen(Kr, mr, vectors=False)
         else:
             if sigma is None:
                 sigma = _eigen.default_shift(Kr, mr)
@@ -324,7 +175,8 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
                                          sigma=float(sigma))
             else:
                 eig = _eigen.sparse_eigen(Kr, mr, k=k, sigma=sigma)
-    return Analysis(state, K, mass, rat, eig, dec, G)
+    return Analysis(state, system.K_full, system.mass_full, system.rattlers, eig, dec,
+                    system.residual, system)
 
 
 def analyze_dump(path, allow_residual=False, **kwargs):
@@ -372,7 +224,7 @@ def analyze_dump(path, allow_residual=False, **kwargs):
 NEGATIVE_REL = 1e-9
 
 
-def negative_modes(state, rel_threshold=NEGATIVE_REL):
+def negative_modes(system, rel_threshold=NEGATIVE_REL):
     """Number of statically unstable directions of an equilibrium: a saddle has one or more.
 
     The eigenvalues of A = M^-1/2 K M^-1/2 (similar to M^-1 K; rattlers
@@ -393,8 +245,10 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
 
     Parameters
     ----------
-    state : State or State3D
-        An equilibrium.
+    system : ReducedSystem, State or State3D
+        An equilibrium's reduced system
+        (:func:`~remote_trigger.analysis.stability.system.reduced_system`),
+        or the state (its reduced system is built).
     rel_threshold : float, optional
         Eigenvalues above -t are not counted (default :data:`NEGATIVE_REL`:
         round-off and exact zero modes).
@@ -414,12 +268,11 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
         # (a negative one counted every eigenvalue; nan returned -1, "failed")
         raise ValueError(f"rel_threshold must be a finite number >= 0, got "
                          f"rel_threshold = {rel_threshold!r}")
-    res = analyze(state, eigenvalues=False, decide=False)
-    keep = res.rattlers.keep_dofs
-    if keep.size == 0:
+    if not isinstance(system, ReducedSystem):
+        system = reduced_system(system)
+    if system.n == 0:
         return 0
-    Kr, mr = _jac.remove_dofs(res.K, res.mass, keep)
-    A, S, _ = _sliced._scaled(Kr, mr)
+    A, S, _ = _sliced._scaled(system.K, system.mass)
     t0 = rel_threshold * float(np.max(S.diagonal()))        # lambda_max(S) >= max S_ii
     try:
         c = count_below(S, -t0)[0]

@@ -1,20 +1,92 @@
 """What the certified complex-pair decision returns.
 
-:class:`PairDecision` (one pair of eigenvalues, or the isolation of two
-neighbouring units), :class:`SpectrumDecision` (the answer for the whole
-spectrum) and :class:`SpectrumBasis` (the verified basis of a decision, the
-start of the next one; a ramp saves and loads it). The decision and what
-each answer certifies: :mod:`remote_trigger.analysis.stability.exceptional`.
+:class:`Decision` (the three-way answer, with its stored code: the one form
+of a decision everywhere, from a pair to a ramp row), :class:`PairDecision`
+(one pair of eigenvalues, or the isolation of two neighbouring units),
+:class:`SpectrumDecision` (the answer for the whole spectrum) and
+:class:`SpectrumBasis` (the verified basis of a decision, the start of the
+next one; a ramp saves and loads it). The decision and what each answer
+certifies: :mod:`remote_trigger.analysis.stability.exceptional` (dense) and
+:mod:`remote_trigger.analysis.stability.sliced` (sliced).
 """
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass, field
 import warnings
 
 import numpy as np
 
-__all__ = ["PairDecision", "SpectrumDecision", "SpectrumBasis"]
+__all__ = ["Decision", "DECISION_CODES", "PairDecision", "SpectrumDecision", "SpectrumBasis"]
+
+
+class Decision(enum.IntEnum):
+    """The certified decision on a spectrum (or a pair, or a strip), with its stored code.
+
+    The integer values are the codes stored in the ``decision`` columns of
+    ramp.h5, trigger_map.h5 and ensemble.h5 and in the ``.npz`` of
+    ``remote-trigger jacobian`` (docs/driver.md): the one mapping between a
+    decision and a number. An ``IntEnum`` compares equal to them, so
+    ``codes == Decision.COMPLEX`` works on a NumPy array of codes, and
+    ``float(d)`` is the code a float column stores.
+
+    Attributes
+    ----------
+    COMPLEX : 1
+        A complex-conjugate pair of M^-1 K is certified (oscillatory instability).
+    REAL : 0
+        Every eigenvalue the decision covers is certified real.
+    UNDECIDED : -1
+        A pair so close to an exceptional point that the float64 matrix
+        cannot tell (the margin says how close), or a step of the
+        verification that could not be certified (the reason says which).
+    """
+
+    COMPLEX = 1
+    REAL = 0
+    UNDECIDED = -1
+
+    @property
+    def label(self):
+        """``'complex'``, ``'real'`` or ``'undecided'`` (the word printed on lines and reports)."""
+        return self.name.lower()
+
+    def __str__(self):
+        return self.label
+
+    @classmethod
+    def of(cls, value):
+        """The decision of a stored code (int or float, e.g. a ramp.h5 row) or of a label.
+
+        Raises
+        ------
+        ValueError
+            Neither a code (1, 0, -1) nor a label; the message names the value.
+        """
+        if isinstance(value, cls):
+            return value
+        if isinstance(value, str):
+            try:
+                return cls[value.upper()]
+            except KeyError:
+                raise ValueError(f"not a decision label: {value!r}") from None
+        try:
+            code = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"not a decision code: {value!r}") from None
+        if not (np.isfinite(code) and code == int(code) and int(code) in (-1, 0, 1)):
+            raise ValueError(f"not a decision code: {value!r}")
+        return cls(int(code))
+
+    @classmethod
+    def certified(cls, is_complex):
+        """COMPLEX if ``is_complex`` else REAL: the decision of a certified sign."""
+        return cls.COMPLEX if is_complex else cls.REAL
+
+
+#: numeric codes of the decision labels, as stored in ramp.h5 (``Decision``'s values)
+DECISION_CODES = {d.label: int(d) for d in Decision}
 
 
 @dataclass
@@ -72,10 +144,10 @@ class PairDecision:
 
     @property
     def decision(self):
-        """``'complex'``, ``'real'`` or ``'undecided'``."""
+        """The :class:`Decision` of this entry: UNDECIDED unless certified."""
         if not self.certified:
-            return "undecided"
-        return "complex" if self.is_complex else "real"
+            return Decision.UNDECIDED
+        return Decision.certified(self.is_complex)
 
 
 @dataclass
@@ -84,17 +156,18 @@ class SpectrumDecision:
 
     Attributes
     ----------
-    complex_present : bool or None
-        True: a pair is certified complex. False: every eigenvalue the
+    decision : Decision
+        COMPLEX: a pair is certified complex. REAL: every eigenvalue the
         decision covers is certified real -- the whole spectrum where
         ``coverage`` is ``'whole'``, only ``eigenvalues`` where it is
         ``'partial'`` (then it is no stability verdict: check
-        :attr:`is_verdict`). None: undecided (a pair is too close to an
+        :attr:`is_verdict`). UNDECIDED: a pair is too close to an
         exceptional point for the precision of the matrix, or a unit is not
-        isolated).
+        isolated. The constructor also takes True / False / None for
+        COMPLEX / REAL / UNDECIDED (the decision of a certified sign).
     confidence : float
-        For True, the largest margin among certified complex pairs; for
-        False, the smallest margin (pairs and isolation); for None, the
+        For COMPLEX, the largest margin among certified complex pairs; for
+        REAL, the smallest margin (pairs and isolation); for UNDECIDED, the
         smallest margin (< 1) among the entries that failed.
     pairs : list of PairDecision
         Every pair and every isolation entry between neighbouring units.
@@ -143,7 +216,7 @@ class SpectrumDecision:
         otherwise.
     """
 
-    complex_present: bool | None
+    decision: Decision
     confidence: float
     pairs: list = field(default_factory=list)
     backward_error: float = 0.0
@@ -157,6 +230,14 @@ class SpectrumDecision:
     sigma: float = float("nan")
     scanned_below: float = float("inf")
     lambda_max: float = float("nan")
+
+    def __post_init__(self):
+        if self.decision is None:
+            self.decision = Decision.UNDECIDED
+        elif isinstance(self.decision, (bool, np.bool_)):
+            self.decision = Decision.certified(bool(self.decision))
+        else:
+            self.decision = Decision.of(self.decision)
 
     @property
     def is_verdict(self):
@@ -173,13 +254,15 @@ class SpectrumDecision:
         among them'``.
         """
         if self.is_verdict:
-            what = {True: "yes", False: "no", None: "undecided"}[self.complex_present]
+            what = {Decision.COMPLEX: "yes", Decision.REAL: "no",
+                    Decision.UNDECIDED: "undecided"}[self.decision]
             scan = ("" if math.isinf(self.scanned_below) else
                     f"; eigenvalues computed below Re lambda = {self.scanned_below:.6g} only")
             return f"complex pair: {what} (confidence margin {self.confidence:.3g}{scan})"
         k = 0 if self.eigenvalues is None else len(self.eigenvalues)
-        what = {True: "a complex pair among them", False: "no complex pair among them",
-                None: "undecided among them"}[self.complex_present]
+        what = {Decision.COMPLEX: "a complex pair among them",
+                Decision.REAL: "no complex pair among them",
+                Decision.UNDECIDED: "undecided among them"}[self.decision]
         return (f"partial decision ({k} of {self.n_total or '?'} eigenvalues, those nearest "
                 f"sigma = {self.sigma:.6g}), not a stability verdict: {what} (margin "
                 f"{self.confidence:.3g})")
@@ -190,7 +273,7 @@ class SpectrumDecision:
         cands = [p for p in self.pairs if p.method != "gershgorin"] or self.pairs
         if not cands:
             return None
-        if self.complex_present:
+        if self.decision is Decision.COMPLEX:
             return max((p for p in cands if p.is_complex and p.certified),
                        key=lambda p: p.margin)
         return min(cands, key=lambda p: p.margin)

@@ -34,6 +34,8 @@ import math
 
 import numpy as np
 
+from remote_trigger.analysis.stability.decision import Decision
+
 
 @dataclass
 class PairTrack:
@@ -103,13 +105,14 @@ def track_pair(points, rtol=1e-10):
 
     Parameters
     ----------
-    points : sequence of (float, ndarray, bool or None)
-        (F_x, eigenvalues, complex) of every equilibrium, in any order;
-        ``complex`` is the ramp's certified decision: True (complex pair),
-        False (all real) or None (*undecided*: too close to the exceptional
-        point for the certified test; such points are skipped, since their
-        computed eigenvalues are not reliable there). Points with an empty
-        spectrum are ignored.
+    points : sequence of (float, ndarray, Decision)
+        (F_x, eigenvalues, decision) of every equilibrium, in any order;
+        ``decision`` is the ramp's certified
+        :class:`~remote_trigger.analysis.stability.decision.Decision`:
+        COMPLEX, REAL or UNDECIDED (too close to the exceptional point for
+        the certified test; such points are skipped, since their computed
+        eigenvalues are not reliable there). Points with an empty spectrum
+        are ignored.
     rtol : float
         Relative threshold on |Im lambda| for the "complex" flag of the
         tracked pair above F_x^c.
@@ -123,24 +126,24 @@ def track_pair(points, rtol=1e-10):
     ------
     ValueError
         If ``points`` holds no spectrum at all, or a point is not a triple
-        whose decision is True, False or None (a decision string such as
-        ``StabilityResult.decision``'s ``'complex'`` is refused, not read as
-        True).
+        whose decision is a Decision (a label such as ``'complex'`` or a
+        bool is refused, not read as one: ``Decision.of`` converts a stored
+        code or label).
     """
     points = list(points)
     for i, p in enumerate(points):
         if not (isinstance(p, (tuple, list)) and len(p) == 3):
-            raise ValueError(f"track_pair: point {i} must be (F_x, eigenvalues, complex), "
+            raise ValueError(f"track_pair: point {i} must be (F_x, eigenvalues, decision), "
                              f"got {p!r:.80}")
-        if p[2] is not None and not isinstance(p[2], (bool, np.bool_)):
+        if not isinstance(p[2], Decision):
             raise ValueError(f"track_pair: the decision of point {i} (F_x = {p[0]!r}) must be "
-                             f"True, False or None, got {p[2]!r}")
+                             f"a Decision, got {p[2]!r}")
     pts, cplx = [], []
     for F, lam, dec in sorted(points, key=lambda p: float(p[0])):
         lam = np.asarray(lam, complex)
-        if lam.size and dec is not None:
+        if lam.size and dec is not Decision.UNDECIDED:
             pts.append((float(F), lam))
-            cplx.append(bool(dec))
+            cplx.append(dec is Decision.COMPLEX)
     if not pts:
         raise ValueError("track_pair needs at least one spectrum, got none")
     if not any(cplx):

@@ -116,7 +116,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from remote_trigger.analysis.stability.basis import _from_basis
-from remote_trigger.analysis.stability.decision import PairDecision, SpectrumDecision
+from remote_trigger.analysis.stability.decision import Decision, PairDecision, SpectrumDecision
 from remote_trigger.analysis.stability.enclosure import (
     EPS, UNIT_ROUNDOFF, _disc_test, _frac, _margin, _pair_eigs)
 from remote_trigger.analysis.stability.verification import _Unit, _analyse, _units
@@ -257,7 +257,7 @@ def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF, basis=None):
             entries, ver, lam = warm
             dec = _summarize(entries, float(np.max(ver.dev)), lam,
                              {"eigen": 0.0, "decision": time.perf_counter() - t0}, "")
-            if dec.complex_present is not None:
+            if dec.decision is not Decision.UNDECIDED:
                 dec.basis, dec.start = ver.basis, "basis"
                 return dec
     t0e = time.perf_counter()

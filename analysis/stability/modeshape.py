@@ -174,7 +174,7 @@ def pair_mode(state, eigenvalue):
     ----------
     state : State or State3D
         An equilibrium (disks: 3 dofs each; spheres: 6); rattlers removed as
-        by :func:`~remote_trigger.analysis.stability.analyze.analyze`.
+        by :func:`~remote_trigger.analysis.stability.system.reduced_system`.
     eigenvalue : complex or sequence of two floats
         lambda_c (1/time^2): one eigenvalue of a complex pair, so Im != 0
         (either sign); a complex number, or ``[Re, Im]`` as the ensemble
@@ -199,8 +199,8 @@ def pair_mode(state, eigenvalue):
         ||A||_1): no complex pair lies nearest the value given, and the
         result is the mode of a real eigenvalue.
     """
-    from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability import eigen, jacobian
+    from remote_trigger.analysis.stability import eigen
+    from remote_trigger.analysis.stability.system import reduced_system
     from remote_trigger.analysis.state.state3d import State3D
 
     val = np.asarray(eigenvalue)
@@ -217,11 +217,11 @@ def pair_mode(state, eigenvalue):
         # (it returned the mode of the nearest eigenvalue, a real one, as a pair's)
         raise ValueError(f"pair_mode needs an eigenvalue of a complex pair (Im != 0), got "
                          f"eigenvalue = {eigenvalue!r}")
-    res = analyze(state, eigenvalues=False, decide=False)
-    keep = np.asarray(res.rattlers.keep_dofs, np.int64)
+    res = reduced_system(state)
+    keep = np.asarray(res.keep_dofs, np.int64)
     if keep.size == 0:
         raise ValueError("pair_mode: every particle is a rattler")
-    Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)
+    Kr, mr = res.K, res.mass
     A = sp.csc_matrix(eigen.dynamical_matrix(Kr, mr))
     n = A.shape[0]
     if n < _DENSE_BELOW:

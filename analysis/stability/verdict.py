@@ -1,34 +1,49 @@
-"""The stability verdict of an equilibrium: certified decision, codes, growth rate.
+"""The stability verdict of an equilibrium: one engine, one entry point.
 
-The ramp calls :func:`stability_of_dump` on every equilibrium dump it writes.
-The work is done by the analyzer, :func:`remote_trigger.analysis.stability.analyze.analyze`
-(docs/analysis.md): K = -dG/dq (paper Appendix C), rattlers removed
-iteratively (frictional criterion: fewer than 2 contacts), eigenvalues of
-M^-1 K (Eq. 6: omega = +-sqrt(lambda)) and the **certified** complex-pair
-decision (``remote_trigger.analysis.stability.exceptional``: a verified similarity,
-Gershgorin isolation, and the pair's 2 x 2 block enclosed to the precision
-of the float64 matrix; above ``eigen.DENSE_MAX`` dofs the whole-spectrum
-verdict by slicing, ``remote_trigger.analysis.stability.sliced``). No threshold on Im lambda is used:
-the decision is ``'complex'`` (a pair certified complex), ``'real'`` (every
-eigenvalue certified real) or ``'undecided'`` (a pair is so close to an
-exceptional point that the float64 matrix cannot tell), each with its
+Everything that decides whether an equilibrium has a complex pair goes
+through :func:`decide` (docs/analysis.md, "The engine"):
+
+1. :func:`~remote_trigger.analysis.stability.system.reduced_system` builds
+   the reduced system once: K = -dG/dq (paper Appendix C), the rattlers
+   removed iteratively (fewer than 2 contacts for frictional disks, 3 for
+   spheres), K and M restricted to the dofs kept.
+2. :func:`decide` takes that system and a :class:`VerdictOptions` and
+   returns one :class:`StabilityResult`. The path is chosen once
+   (:func:`choose_method`, with the memory check of the dense path): the
+   dense certified decision of M^-1 K (paper Eq. 6: omega = +-sqrt(lambda);
+   :mod:`~remote_trigger.analysis.stability.exceptional`: a verified
+   similarity, Gershgorin isolation, each pair's 2 x 2 block enclosed to
+   the precision of the float64 matrix) up to ``eigen.DENSE_MAX`` dofs, the
+   whole-spectrum verdict by spectrum slicing above it
+   (:mod:`~remote_trigger.analysis.stability.sliced`).
+
+No threshold on Im lambda is used: the answer is a
+:class:`~remote_trigger.analysis.stability.decision.Decision` --
+COMPLEX (a pair certified complex), REAL (every eigenvalue certified real)
+or UNDECIDED (a pair so close to an exceptional point that the float64
+matrix cannot tell, or a step that could not be certified) -- with its
 margin (``confidence``, > 1 = certified).
 
 Ramp policy (docs/driver.md): only certified answers move the bracket of
-F_x^c. An ``'undecided'`` point is neither stable nor unstable; it is
-recorded (``decision`` = -1 with its margin) in ramp.h5, and the bisection
-works around it (``pywrap.stages.ramp_bracket``, ``next_bisection_point``).
+F_x^c. An UNDECIDED point is neither stable nor unstable; it is recorded
+(code -1 with its margin) in ramp.h5, and the bisection works around it.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 import math
-import enum
 import os
 
 import numpy as np
 
-from remote_trigger.analysis.errors import TooLargeError
+from remote_trigger.analysis.errors import TooLargeError, is_integer
+from remote_trigger.analysis.stability.decision import Decision, SpectrumBasis
+from remote_trigger.analysis.stability.system import reduced_system
 
-#: peak memory of the dense verdict (:func:`stability_of`), in float64 n x n
+__all__ = ["VerdictOptions", "StabilityResult", "decide", "spectrum_decision",
+           "choose_method", "stability_of", "stability_of_dump", "collective_decision",
+           "collective_reason", "classify_dense", "available_memory", "check_dense_fits",
+           "SOFT_MODE_REL", "DENSE_PEAK_MATRICES", "MEMORY_ENV", "PAIR_POLICIES"]
+
+#: peak memory of the dense verdict (:func:`decide`), in float64 n x n
 #: matrices: 12.1 measured (tracemalloc) at n = 1158, the matrix itself not
 #: counted; with it and a margin, 14
 DENSE_PEAK_MATRICES = 14
@@ -42,149 +57,385 @@ MEMORY_ENV = "REMOTE_TRIGGER_MEMORY_GB"
 #: <= 1.2e-5; on the N = 400 fine ramps soft ones 4e-7 to 3.4e-5 (a factor
 #: >= 3 from this threshold; docs/results/ensemble.md)
 SOFT_MODE_REL = 1e-4
+#: the soft-pair policies (:attr:`VerdictOptions.pairs`, the ramp's ``pairs``)
+PAIR_POLICIES = ("all", "collective")
+#: the methods (:attr:`VerdictOptions.method`)
+METHODS = ("auto", "dense", "sliced")
 
 
-class Decision(enum.IntEnum):
-    """The certified decision on an equilibrium's spectrum, with its stored code.
-
-    The integer values are the codes stored in the ``decision`` columns of
-    ramp.h5, trigger_map.h5 and ensemble.h5 (docs/driver.md); an
-    ``IntEnum`` compares equal to them, so ``codes == Decision.COMPLEX``
-    works on a NumPy array of codes.
+@dataclass(frozen=True)
+class VerdictOptions:
+    """How :func:`decide` decides: path, soft-pair policy, scope, tolerances, checkpoint.
 
     Attributes
     ----------
-    COMPLEX : 1
-        A complex-conjugate pair of M^-1 K is certified (oscillatory instability).
-    REAL : 0
-        Every eigenvalue is certified real.
-    UNDECIDED : -1
-        A pair so close to an exceptional point that the float64 matrix
-        cannot tell (the margin says how close).
+    method : {'auto', 'dense', 'sliced'}
+        'auto' (default): dense up to ``eigen.DENSE_MAX`` dofs, sliced above
+        (:func:`choose_method`).
+    pairs : {'all', 'collective'}
+        The soft-pair policy. 'all' (default): the decision on every pair.
+        'collective': also the decision on the pairs that are not soft
+        (:func:`collective_decision`, :data:`SOFT_MODE_REL`;
+        ``StabilityResult.collective``); a scan that stops at its first
+        complex strip then goes on past soft ones.
+    stop_at_complex : bool
+        False (default): the whole spectrum is computed. True: only the
+        verdict is asked for; the sliced scan stops at its first strip
+        certified complex (the same certified verdict; the eigenvalues above
+        it are not computed, ``StabilityResult.scanned_below``). The dense
+        path computes every eigenvalue either way (one LAPACK call).
+    rel_error : float or None
+        Sliced path: entrywise relative uncertainty of K the verdict covers
+        (default None: the unit roundoff, as the dense path).
+    window : float
+        Sliced path: half-width of the explicit window about a boundary, in
+        units of ||W||_2 (default 10).
+    slice_size : int or None
+        Sliced path: Ritz pairs per slice (default None: the scan's own).
+    checkpoint_dir : str or None
+        Sliced path: the folder where the scan saves its state and its
+        verdict, so that a killed scan resumes and a repeated one is not redone
+        (``classify_sliced``'s ``checkpoint_dir``). Default None: nothing saved.
+    checkpoint_seconds : float or None
+        Sliced path: seconds between two saves (default None: the scan's own).
+
+    Raises
+    ------
+    ValueError
+        On construction, for a value outside its set; the message names it.
     """
 
-    COMPLEX = 1
-    REAL = 0
-    UNDECIDED = -1
+    method: str = "auto"
+    pairs: str = "all"
+    stop_at_complex: bool = False
+    rel_error: float | None = None
+    window: float = 10.0
+    slice_size: int | None = None
+    checkpoint_dir: str | None = None
+    checkpoint_seconds: float | None = None
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)}, got "
+                             f"method = {self.method!r}")
+        if self.pairs not in PAIR_POLICIES:
+            raise ValueError(f"pairs must be one of {', '.join(PAIR_POLICIES)}, got "
+                             f"pairs = {self.pairs!r}")
+        if not isinstance(self.stop_at_complex, (bool, np.bool_)):
+            raise ValueError(f"stop_at_complex must be True or False, got "
+                             f"stop_at_complex = {self.stop_at_complex!r}")
+        if self.slice_size is not None and (not is_integer(self.slice_size)
+                                            or self.slice_size < 2):
+            raise ValueError(f"slice_size must be an integer >= 2, got "
+                             f"slice_size = {self.slice_size!r}")
 
     @property
-    def label(self):
-        """``'complex'``, ``'real'`` or ``'undecided'`` (the analyzer's words)."""
-        return self.name.lower()
-
-    @classmethod
-    def of(cls, value):
-        """The decision of a stored code (int or float) or of a label.
-
-        Raises
-        ------
-        ValueError
-            Neither a code (1, 0, -1) nor a label.
-        """
-        if isinstance(value, str):
-            try:
-                return cls[value.upper()]
-            except KeyError:
-                raise ValueError(f"not a decision label: {value!r}") from None
-        try:
-            code = float(value)
-        except (TypeError, ValueError):
-            raise ValueError(f"not a decision code: {value!r}") from None
-        if not (np.isfinite(code) and code == int(code) and int(code) in (-1, 0, 1)):
-            raise ValueError(f"not a decision code: {value!r}")
-        return cls(int(code))
-
-
-#: numeric codes of the decision labels, as stored in ramp.h5
-DECISION_CODES = {d.label: int(d) for d in Decision}
+    def soft_rel(self):
+        """The soft-pair threshold (a fraction of lambda_max) the policy uses:
+        :data:`SOFT_MODE_REL` for 'collective', None for 'all'."""
+        return SOFT_MODE_REL if self.pairs == "collective" else None
 
 
 @dataclass
 class StabilityResult:
-    """Eigen-analysis of one equilibrium.
+    """The verdict on one equilibrium (:func:`decide`).
 
     Attributes
     ----------
     eigenvalues : ndarray of complex128, shape (M,)
         Eigenvalues of M^-1 K over the kept degrees of freedom, sorted by
-        real part.
-    complex_pair : bool
-        True iff a complex-conjugate pair is *certified* (``decision ==
-        'complex'``): an oscillatory instability.
+        real part (1/time^2); on the sliced path approximations (the
+        symmetric part's Ritz values for one-eigenvalue strips).
+    decision : Decision
+        COMPLEX, REAL or UNDECIDED (stored as 1, 0, -1).
     max_imag : float
-        Largest |Im lambda| over the eigenvalues if ``complex_pair``, else 0.
+        Largest |Im lambda| over the eigenvalues if the decision is COMPLEX, else 0.
     growth_rate : float
         max |Im omega| over omega = +-sqrt(lambda) (1/time); 0 for a real
         positive spectrum.
     n_rattlers : int
-        Disks removed as rattlers.
+        Particles removed as rattlers.
     rattler_ids : ndarray of int64
-    decision : str
-        ``'complex'``, ``'real'`` or ``'undecided'``.
     confidence : float
         Margin of the decision (docs/analysis.md): > 1 certified; for
-        ``'undecided'`` the margin (< 1) of the least certain pair.
+        UNDECIDED the margin (< 1) of the least certain pair.
     residual : float
-        max over disks of max(|F_i|, |T_i|/R_i) recomputed by the analyzer
-        from the dump (loads included).
+        max over particles of max(|F_i|, |T_i|/R_i) of the state (loads
+        included; force units).
     timing : dict
         Wall times (s) of the eigen-solve (``eigen``) and of the certified
         decision (``decision``).
     basis : remote_trigger.analysis.stability.decision.SpectrumBasis or None
-        The decision's verified basis (start of the next point's decision).
+        The decision's verified basis (start of the next point's decision;
+        dense path only).
     start : str
         ``'dgeev'``, ``'basis'`` (decided from a previous point's basis) or
-        ``'sliced'`` (the verdict by slicing, above ``eigen.DENSE_MAX`` dofs).
+        ``'sliced'`` (the verdict by slicing).
     reason : str
-        Why the decision is ``'undecided'`` (the decision's own words, e.g.
-        which strip and where), or with ``collective`` why that decision is
-        (the units left undecided); empty otherwise.
+        Why the decision is UNDECIDED (the decision's own words, e.g. which
+        strip and where), or with the 'collective' policy why that decision
+        is (the units left undecided); empty otherwise.
     n_dof : int
         Order of the matrix decided (the kept dofs; -1 if not recorded).
     scanned_below : float
         ``eigenvalues`` holds every eigenvalue with real part below this and
-        none above (+inf: all of them; finite for a sliced verdict *complex*
+        none above (+inf: all of them; finite for a sliced verdict COMPLEX
         that stopped at its first complex strip, ``stop_at_complex``).
         ``max_imag`` and ``growth_rate`` are then those of the pairs below.
     lambda_max : float
         Largest real part of the spectrum: of ``eigenvalues``, or with a
         finite ``scanned_below`` ARPACK's largest eigenvalue of the symmetric
         part (an approximation); NaN for an empty spectrum.
-    collective : str
-        With ``stability_of(..., collective=True)``: the decision on the pairs
-        that are not soft (:func:`collective_decision`): ``'complex'`` (a
-        certified complex pair with an eigenvalue at |Re lambda| >=
-        ``SOFT_MODE_REL`` lambda_max), ``'real'`` (every eigenvalue certified
-        real, or in a certified complex pair below that) or ``'undecided'``;
-        ``''`` when not asked for.
+    collective : Decision or None
+        With the 'collective' policy, the decision on the pairs that are not
+        soft (:func:`collective_decision`): COMPLEX (a certified complex pair
+        with an eigenvalue at |Re lambda| >= ``SOFT_MODE_REL`` lambda_max),
+        REAL (every eigenvalue certified real, or in a certified complex pair
+        below that) or UNDECIDED; None with the 'all' policy.
     soft_pairs : int
-        With ``collective=True``: the certified complex units that are soft
-        (a sliced strip counts as one); -1 when not asked for.
+        With the 'collective' policy: the certified complex units that are
+        soft (a sliced strip counts as one); -1 otherwise.
+    method : str
+        The path taken: ``'dense'`` or ``'sliced'`` (``''`` when every
+        particle is a rattler and nothing was decided).
+    complex_units : int
+        The units certified complex: dense 2 x 2 pairs, or sliced strips
+        (a strip of several pairs counts as one; a stopped scan counts those
+        below its stop).
     """
 
     eigenvalues: np.ndarray
-    complex_pair: bool
+    decision: Decision
     max_imag: float
     growth_rate: float
     n_rattlers: int
     rattler_ids: np.ndarray
-    decision: str = "real"
     confidence: float = float("inf")
     residual: float = float("nan")
-    timing: dict = None
+    timing: dict = field(default_factory=dict)
     basis: object = None
     start: str = "dgeev"
     reason: str = ""
     n_dof: int = -1
     scanned_below: float = float("inf")
     lambda_max: float = float("nan")
-    collective: str = ""
+    collective: Decision | None = None
     soft_pairs: int = -1
+    method: str = ""
+    complex_units: int = 0
 
     @property
-    def decision_code(self):
-        """The :class:`Decision` (1 complex, 0 real, -1 undecided, as stored in ramp.h5)."""
-        return Decision.of(self.decision)
+    def complex_pair(self):
+        """True iff a complex-conjugate pair is certified (``decision`` is
+        COMPLEX): an oscillatory instability."""
+        return self.decision is Decision.COMPLEX
+
+    @property
+    def policy_decision(self):
+        """The decision the policy asked for: ``collective`` under the
+        'collective' policy, else ``decision`` (what a ramp row stores)."""
+        return self.decision if self.collective is None else self.collective
+
+
+def choose_method(n, options=None, available=None):
+    """The path of the verdict for a system of ``n`` dofs: 'dense' or 'sliced'.
+
+    'auto' takes the dense path up to ``eigen.DENSE_MAX`` dofs and the sliced
+    one above; a dense path (chosen or asked for) is checked against the
+    memory (:func:`check_dense_fits`). The one place where the choice is made.
+
+    Parameters
+    ----------
+    n : int
+        Order of the reduced system.
+    options : VerdictOptions, optional
+    available : int, optional
+        Bytes available (default: :func:`available_memory`).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    TooLargeError
+        If the dense path would not fit in memory.
+    """
+    from remote_trigger.analysis.stability.eigen import DENSE_MAX
+
+    method = (options or VerdictOptions()).method
+    if method == "auto":
+        method = "dense" if n <= DENSE_MAX else "sliced"
+    if method == "dense":
+        check_dense_fits(n, available)
+    return method
+
+
+def spectrum_decision(system, options=None, basis=None, progress=None):
+    """The certified decision of a reduced system, as the path returns it.
+
+    The path is :func:`choose_method`'s. Dense: the decision of M^-1 K
+    (:func:`classify_dense`, from ``basis`` where it certifies, carried over
+    to this system's kept dofs; the returned basis records them). Sliced:
+    :func:`~remote_trigger.analysis.stability.sliced.classify_sliced` with
+    the options' scope, tolerances and checkpoint (no basis).
+
+    Parameters
+    ----------
+    system : remote_trigger.analysis.stability.system.ReducedSystem
+        With at least one dof kept.
+    options : VerdictOptions, optional
+    basis : SpectrumBasis, optional
+    progress : callable, optional
+        Sliced path: ``progress(done, n)`` after each slice.
+
+    Returns
+    -------
+    dec : remote_trigger.analysis.stability.decision.SpectrumDecision
+    method : str
+        'dense' or 'sliced'.
+    """
+    from remote_trigger.analysis.stability import eigen
+    from remote_trigger.analysis.stability.sliced import classify_sliced
+
+    options = options or VerdictOptions()
+    method = choose_method(system.n, options)
+    if method == "sliced":
+        kw = {} if options.rel_error is None else {"rel_error": options.rel_error}
+        dec = classify_sliced(system.K, system.mass, window=options.window,
+                              slice_size=options.slice_size,
+                              stop_at_complex=options.stop_at_complex, progress=progress,
+                              checkpoint_dir=options.checkpoint_dir,
+                              checkpoint_seconds=options.checkpoint_seconds,
+                              soft_rel=options.soft_rel, **kw)
+        return dec, method
+    if basis is not None and basis.dofs is not None:
+        # other rattlers than at the basis's point: carried over (or None)
+        basis = basis.on_dofs(system.keep_dofs)
+    dec = classify_dense(eigen.dynamical_matrix(system.K, system.mass).toarray(), basis,
+                         options.soft_rel)
+    if dec.basis is not None:
+        dec.basis.dofs = np.asarray(system.keep_dofs, np.int64).copy()
+    return dec, method
+
+
+def decide(system, options=None, basis=None, progress=None):
+    """The stability verdict of a reduced system: the engine's one entry point.
+
+    Parameters
+    ----------
+    system : remote_trigger.analysis.stability.system.ReducedSystem
+        From :func:`~remote_trigger.analysis.stability.system.reduced_system`.
+    options : VerdictOptions, optional
+        Path, soft-pair policy, scope, tolerances, checkpoint (default
+        ``VerdictOptions()``: auto path, all pairs, the whole spectrum).
+    basis : SpectrumBasis, optional
+        Dense path: the previous point's ``basis``, tried first
+        (:func:`remote_trigger.analysis.stability.exceptional.classify_spectrum`);
+        if its ``dofs`` differ from this system's kept dofs (a disk became or
+        stopped being a rattler), it is carried over by
+        :meth:`~remote_trigger.analysis.stability.decision.SpectrumBasis.on_dofs`.
+        Ignored on the sliced path.
+    progress : callable, optional
+        Sliced path: ``progress(done, n)`` after each slice (see
+        :func:`~remote_trigger.analysis.stability.sliced.classify_sliced`).
+
+    Returns
+    -------
+    StabilityResult
+
+    Raises
+    ------
+    TooLargeError
+        If the dense path would not fit in memory (:func:`check_dense_fits`).
+    ValueError
+        If ``options`` is not a VerdictOptions or ``basis`` not a
+        SpectrumBasis or None.
+    """
+    from remote_trigger.analysis.stability import eigen
+
+    options = VerdictOptions() if options is None else options
+    if not isinstance(options, VerdictOptions):
+        raise ValueError(f"options must be a VerdictOptions, got {type(options).__name__}")
+    if basis is not None and not isinstance(basis, SpectrumBasis):
+        raise ValueError(f"basis must be a SpectrumBasis (a previous result's .basis) or None, "
+                         f"got {type(basis).__name__}")
+    rat = system.rattlers
+    if system.n == 0:          # every particle a rattler: nothing to decide
+        return StabilityResult(np.zeros(0, complex), Decision.REAL, 0.0, 0.0,
+                               int(rat.ids.size), np.asarray(rat.ids, np.int64),
+                               float("inf"), system.max_residual, n_dof=0)
+    dec, method = spectrum_decision(system, options, basis, progress)
+    decision = dec.decision
+    lam = np.asarray(dec.eigenvalues, np.complex128)
+    lam = lam[np.lexsort((lam.imag, lam.real))]
+    cplx = decision is Decision.COMPLEX
+    max_imag = float(np.max(np.abs(lam.imag))) if (cplx and lam.size) else 0.0
+    lam_max = _top(dec)
+    coll, soft = (collective_decision(dec, lam_max, options.soft_rel)
+                  if options.soft_rel is not None else (None, -1))
+    why = str(dec.reason or "") if decision is Decision.UNDECIDED else ""
+    if coll is Decision.UNDECIDED and not why:
+        why = collective_reason(dec)
+    units = sum(1 for p in dec.pairs if p.method != "gershgorin" and p.is_complex
+                and p.certified)
+    return StabilityResult(lam, decision, max_imag, float(eigen.growth_rate(lam)),
+                           int(rat.ids.size), np.asarray(rat.ids, np.int64),
+                           float(dec.confidence), system.max_residual, dict(dec.timing),
+                           dec.basis, dec.start, why, system.n, float(dec.scanned_below),
+                           float(lam_max), coll, soft, method, units)
+
+
+def stability_of(state, options=None, basis=None, progress=None):
+    """:func:`decide` of a state: ``decide(reduced_system(state), ...)``.
+
+    Parameters
+    ----------
+    state : State or State3D
+    options, basis, progress
+        As in :func:`decide`.
+
+    Returns
+    -------
+    StabilityResult
+    """
+    if basis is not None and not isinstance(basis, SpectrumBasis):
+        raise ValueError(f"basis must be a SpectrumBasis (a previous result's .basis) or None, "
+                         f"got {type(basis).__name__}")
+    return decide(reduced_system(state), options, basis, progress)
+
+
+def stability_of_dump(path, options=None, basis=None, progress=None, allow_residual=False):
+    """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
+
+    A dump of spheres (``dump_dimension``) is read by ``read_dump3d``.
+
+    ``options``, ``basis``, ``progress``: as in :func:`decide`.
+    ``allow_residual`` (default False): refuse a state that is not an
+    equilibrium of its parameters, as ``remote-trigger jacobian`` does
+    without ``--allow-residual``
+    (:func:`~remote_trigger.analysis.stability.residual.check_equilibrium`);
+    True decides any state (:func:`decide` does not check).
+
+    Raises
+    ------
+    ValueError
+        If the dump or its sidecar is missing, corrupt or truncated (from
+        ``read_dump``; the message names the file).
+    NotEquilibriumError
+        Without ``allow_residual``, a residual above 1e3 x the round-off floor (a
+        ``ValueError`` too; e.g. a dump written with too few digits).
+    """
+    from remote_trigger.analysis.stability.residual import check_equilibrium
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
+
+    try:
+        state = read_equilibrium(path)      # spheres: 6 dofs each, rattlers below 3 contacts
+    except (OSError, KeyError, IndexError, ValueError) as exc:
+        raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
+    if not allow_residual:
+        check_equilibrium(state, what=path)
+    return stability_of(state, options, basis, progress)
 
 
 def collective_decision(dec, lambda_max, soft_rel=None):
@@ -208,14 +459,14 @@ def collective_decision(dec, lambda_max, soft_rel=None):
 
     Returns
     -------
-    decision : str
-        ``'complex'``: a certified complex unit that is not soft.
-        ``'real'``: the whole decision is *real*; or it is *complex*, covers
-        the whole spectrum (no stop), its certified complex units are all
-        soft and every unit that is not soft is certified (a soft unit may
-        be undecided: e.g. the isolation disc of a soft pair overlapping
-        that of a soft neighbour). ``'undecided'`` otherwise (a whole
-        decision *undecided* stays so).
+    decision : Decision
+        COMPLEX: a certified complex unit that is not soft.
+        REAL: the whole decision is REAL; or it is COMPLEX, covers the whole
+        spectrum (no stop), its certified complex units are all soft and
+        every unit that is not soft is certified (a soft unit may be
+        undecided: e.g. the isolation disc of a soft pair overlapping that
+        of a soft neighbour). UNDECIDED otherwise (a whole decision
+        UNDECIDED stays so).
     soft : int
         The certified complex units that are soft.
     """
@@ -228,16 +479,16 @@ def collective_decision(dec, lambda_max, soft_rel=None):
     cert = [p for p in dec.pairs if p.method != "gershgorin" and p.is_complex and p.certified]
     soft = sum(1 for p in cert if is_soft(p))
     if soft < len(cert):
-        return "complex", soft
-    if dec.complex_present is False:
-        return "real", 0
+        return Decision.COMPLEX, soft
+    if dec.decision is Decision.REAL:
+        return Decision.REAL, 0
     # complex, on soft units only: real if the decision covers the whole spectrum
     # and every unit that is not soft is certified (a soft unit may be left
     # undecided, e.g. its isolation disc overlapping a soft neighbour's)
-    if dec.complex_present and math.isinf(dec.scanned_below) and \
+    if dec.decision is Decision.COMPLEX and math.isinf(dec.scanned_below) and \
             all(p.certified or is_soft(p) for p in dec.pairs):
-        return "real", soft
-    return "undecided", soft
+        return Decision.REAL, soft
+    return Decision.UNDECIDED, soft
 
 
 def classify_dense(A, basis=None, soft_rel=None):
@@ -254,7 +505,7 @@ def classify_dense(A, basis=None, soft_rel=None):
 
     dec = exceptional.classify_spectrum(A, basis=basis)
     if soft_rel is not None and dec.start == "basis" and \
-            collective_decision(dec, _top(dec), soft_rel)[0] == "undecided":
+            collective_decision(dec, _top(dec), soft_rel)[0] is Decision.UNDECIDED:
         dec = exceptional.classify_spectrum(A)
     return dec
 
@@ -346,108 +597,6 @@ def _amount(nbytes):
     return f"{nbytes / 2**10:.1f} KiB"
 
 
-def stability_of(state, basis=None, stop_at_complex=False, progress=None,
-                 checkpoint_dir=None, collective=False):
-    """Eigen-analysis of an analysis ``State`` with the analyzer.
-
-    Up to ``eigen.DENSE_MAX`` dofs the dense certified decision (from
-    ``basis`` if given); above, the whole-spectrum verdict by slicing
-    (:func:`~remote_trigger.analysis.stability.sliced.classify_sliced`; no
-    basis, ``start`` 'sliced', eigenvalues approximate).
-
-    Parameters
-    ----------
-    state : remote_trigger.analysis.state.state.State
-    basis : remote_trigger.analysis.stability.decision.SpectrumBasis, optional
-        The previous point's ``basis``: tried first
-        (:func:`remote_trigger.analysis.stability.exceptional.classify_spectrum`);
-        if its ``dofs`` differ from this state's kept dofs (a disk became or
-        stopped being a rattler), it is carried over by
-        :meth:`~remote_trigger.analysis.stability.decision.SpectrumBasis.on_dofs`.
-        The returned basis records this state's kept dofs.
-    stop_at_complex : bool, optional
-        Sliced path only: stop the scan at the first strip certified complex
-        (the same certified verdict; the eigenvalues above it are not
-        computed, see ``StabilityResult.scanned_below``). Default False.
-    progress : callable, optional
-        Sliced path only: ``progress(done, n)`` after each slice (see
-        :func:`~remote_trigger.analysis.stability.sliced.classify_sliced`).
-    checkpoint_dir : str, optional
-        Sliced path only: the folder where the scan saves its state and its
-        verdict, so that a killed scan resumes and a repeated one is not redone
-        (``classify_sliced``'s ``checkpoint_dir``). Default None: nothing saved.
-    collective : bool, optional
-        Also decide on the pairs that are not soft (``StabilityResult.collective``
-        and ``soft_pairs``, :func:`collective_decision`); a sliced scan with
-        ``stop_at_complex`` then goes on past soft complex strips. A dense
-        decision from ``basis`` that leaves the collective decision undecided
-        is made again from dgeev. Default False.
-
-    Returns
-    -------
-    StabilityResult
-
-    Raises
-    ------
-    TooLargeError
-        If the dense verdict (at most ``eigen.DENSE_MAX`` dofs) would not fit in
-        memory (:func:`check_dense_fits`).
-    ValueError
-        If ``basis`` is not a SpectrumBasis or None.
-    """
-    from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability import eigen, jacobian
-    from remote_trigger.analysis.stability.decision import SpectrumBasis
-    from remote_trigger.analysis.stability.sliced import classify_sliced
-
-    if basis is not None and not isinstance(basis, SpectrumBasis):
-        raise ValueError(f"basis must be a SpectrumBasis (a previous result's .basis) or None, "
-                         f"got {type(basis).__name__}")
-
-    # K, rattlers and residual from analyze(); the dense spectrum and the
-    # certified decision from one classify_spectrum call (its eigen-solve gives
-    # the eigenvalues too: analyze(..., eigenvalues=True) would run a second,
-    # separate eigenvalue solve -- 20-30 % of the time of a ramp step)
-    res = analyze(state, eigenvalues=False, decide=False)
-    rat = res.rattlers
-    if rat.keep_dofs.size == 0:      # every disk a rattler: nothing to decide
-        return StabilityResult(np.zeros(0, complex), False, 0.0, 0.0, int(rat.ids.size),
-                               np.asarray(rat.ids, np.int64), "real", float("inf"),
-                               res.max_residual, n_dof=0)
-    Kr, mr = jacobian.remove_dofs(res.K, res.mass, rat.keep_dofs)
-    if Kr.shape[0] > eigen.DENSE_MAX:
-        # the whole-spectrum verdict by slicing: no dense matrix, no basis
-        dec = classify_sliced(Kr, mr, stop_at_complex=stop_at_complex, progress=progress,
-                              checkpoint_dir=checkpoint_dir,
-                              soft_rel=SOFT_MODE_REL if collective else None)
-    else:
-        check_dense_fits(Kr.shape[0])
-        if basis is not None and basis.dofs is not None:
-            # other rattlers than at the basis's point: carried over (or None)
-            basis = basis.on_dofs(rat.keep_dofs)
-        dec = classify_dense(eigen.dynamical_matrix(Kr, mr).toarray(), basis,
-                             SOFT_MODE_REL if collective else None)
-        if dec.basis is not None:
-            dec.basis.dofs = np.asarray(rat.keep_dofs, np.int64).copy()
-    if dec.complex_present is None:
-        decision = "undecided"
-    else:
-        decision = "complex" if dec.complex_present else "real"
-    lam = np.asarray(dec.eigenvalues, np.complex128)
-    lam = lam[np.lexsort((lam.imag, lam.real))]
-    cplx = decision == "complex"
-    max_imag = float(np.max(np.abs(lam.imag))) if (cplx and lam.size) else 0.0
-    lam_max = _top(dec)
-    coll, soft = collective_decision(dec, lam_max, SOFT_MODE_REL) if collective else ("", -1)
-    why = str(dec.reason or "") if decision == "undecided" else ""
-    if coll == "undecided" and not why:
-        why = collective_reason(dec)
-    return StabilityResult(lam, cplx, max_imag, float(eigen.growth_rate(lam)),
-                           int(rat.ids.size), np.asarray(rat.ids, np.int64), decision,
-                           float(dec.confidence), res.max_residual, dict(dec.timing),
-                           dec.basis, dec.start, why,
-                           int(Kr.shape[0]), float(dec.scanned_below), float(lam_max),
-                           coll, soft)
 
 
 def _top(dec):
@@ -459,36 +608,3 @@ def _top(dec):
     return float(dec.lambda_max)
 
 
-def stability_of_dump(path, basis=None, stop_at_complex=False, progress=None,
-                      checkpoint_dir=None, collective=False, allow_residual=False):
-    """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
-
-    A dump of spheres (``dump_dimension``) is read by ``read_dump3d``.
-
-    ``basis``, ``stop_at_complex``, ``progress``, ``checkpoint_dir``,
-    ``collective``: as in :func:`stability_of`. ``allow_residual`` (default
-    False): refuse a state that is not an equilibrium of its parameters, as
-    ``remote-trigger jacobian`` does without ``--allow-residual``
-    (:func:`~remote_trigger.analysis.stability.analyze.check_equilibrium`);
-    True decides any state (:func:`stability_of` does not check; the
-    driver, whose equilibria pass its own Newton test, passes True).
-
-    Raises
-    ------
-    ValueError
-        If the dump or its sidecar is missing, corrupt or truncated (from
-        ``read_dump``; the message names the file).
-    NotEquilibriumError
-        Without ``allow_residual``, a residual above 1e3 x the round-off floor (a
-        ``ValueError`` too; e.g. a dump written with too few digits).
-    """
-    from remote_trigger.analysis.stability.analyze import check_equilibrium
-    from remote_trigger.analysis.state.dumpfile import read_equilibrium
-
-    try:
-        state = read_equilibrium(path)      # spheres: 6 dofs each, rattlers below 3 contacts
-    except (OSError, KeyError, IndexError, ValueError) as exc:
-        raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
-    if not allow_residual:
-        check_equilibrium(state, what=path)
-    return stability_of(state, basis, stop_at_complex, progress, checkpoint_dir, collective)

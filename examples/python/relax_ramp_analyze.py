@@ -13,7 +13,7 @@ import os
 from remote_trigger.pywrap.stages import packing
 from remote_trigger.pywrap import stages
 from remote_trigger.pywrap.stages.config import RelaxConfig, RampConfig
-from remote_trigger.analysis.stability.analyze import analyze
+from remote_trigger.analysis.stability.verdict import stability_of
 from remote_trigger.analysis.state.dumpfile import read_dump
 
 
@@ -38,9 +38,9 @@ def main(argv=None):
     packing.write_data(pk, data)
     rel = stages.relax(RelaxConfig(datafile=data), os.path.join(a.out, "relax"), quiet=True)
     st = read_dump(rel.dumpfile)
-    an = analyze(st)
+    verdict = stability_of(st)
     print(f"relax: phi = {rel.packing_fraction:.5f}, residual {rel.residual:.3g}, "
-          f"complex pair at F_x = 0: {an.decision.complex_present}")
+          f"verdict at F_x = 0: {verdict.decision.label} (margin {verdict.confidence:.3g})")
     ramp = stages.ramp(RampConfig(datafile=rel.datafile, dF_x=a.dF_x,
                                   F_x_max=a.steps * a.dF_x),
                        os.path.join(a.out, "ramp"), quiet=True)

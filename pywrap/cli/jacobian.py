@@ -14,7 +14,7 @@ q = (r, R theta) with 6 dofs per sphere (``jacobian3d``), rattlers below 3
 contacts, M = diag(m, m, m, 2m/5, 2m/5, 2m/5).
 
 It refuses (exit status 2, nothing written) a dump whose residual is far
-above the round-off floor (:func:`~remote_trigger.analysis.stability.analyze.check_equilibrium`):
+above the round-off floor (:func:`~remote_trigger.analysis.stability.residual.check_equilibrium`):
 the spectrum of a state that is not an equilibrium means nothing.
 ``--allow-residual`` analyses it anyway and prints a warning. A ``--k-n``,
 ``--k-t`` or ``--mu`` that contradicts the sidecar is refused unless
@@ -103,7 +103,8 @@ def run(args):
         Missing or malformed dump.
     """
     from remote_trigger.analysis.output import output_file, write_npz_atomic
-    from remote_trigger.analysis.stability.analyze import check_equilibrium
+    from remote_trigger.analysis.stability.decision import Decision
+    from remote_trigger.analysis.stability.residual import check_equilibrium
     from remote_trigger.analysis.errors import InputError, NotEquilibriumError
     from remote_trigger.analysis.state.sidecar import merge_model
 
@@ -155,7 +156,7 @@ def run(args):
     dec = res.decision
     # the stored verdict: a partial decision (k eigenvalues near a shift) is no
     # verdict, so complex_pair is -1 then and its own answer goes to partial_complex_pair
-    flag = -1 if dec is None or dec.complex_present is None else int(dec.complex_present)
+    flag = int(Decision.UNDECIDED if dec is None else dec.decision)
     partial = dec is not None and not dec.is_verdict
     out = {
         "K_data": K.data, "K_indices": K.indices, "K_indptr": K.indptr,
@@ -189,14 +190,14 @@ def run(args):
                      f"[{lam.real.min():.6g}, {lam.real.max():.6g}], growth rate max Im omega "
                      f"= {res.growth_rate:.6g}")
         lines.append(f"  {dec.describe()}" if dec is not None else "  complex pair: not tested")
-        if dec is not None and dec.is_verdict and dec.complex_present:
+        if dec is not None and dec.is_verdict and dec.decision is Decision.COMPLEX:
             # are the complex pairs soft (near-floppy modes; docs/driver.md "Soft pairs")?
             from remote_trigger.analysis.stability import verdict
 
             top = (dec.lambda_max if math.isfinite(dec.scanned_below)
                    else float(lam.real.max()))
             word, soft = verdict.collective_decision(dec, top)
-            answer = {"complex": "yes", "real": "no"}.get(word, word)
+            answer = {Decision.COMPLEX: "yes", Decision.REAL: "no"}.get(word, word.label)
             lines.append(f"  soft pairs (|Re lambda| < {verdict.SOFT_MODE_REL:g} lambda_max): "
                          f"{soft}; a complex pair that is not soft: {answer}")
     if warning:

@@ -198,10 +198,12 @@ def write_json(path, data):
     TypeError
         Anything else that JSON cannot hold, named by type.
     """
-    write_json_atomic(path, data, indent=1, sort_keys=True, default=_json_default)
+    write_json_atomic(path, data, indent=1, sort_keys=True, default=json_default)
 
 
-def _json_default(obj):
+def json_default(obj):
+    """``json.dump``'s ``default``: NumPy integers, floats, booleans and arrays as
+    Python numbers and lists; anything else raises ``TypeError``."""
     if isinstance(obj, (np.integer,)):
         return int(obj)
     if isinstance(obj, (np.floating,)):

@@ -11,7 +11,7 @@ import pickle
 from remote_trigger.analysis.errors import RemoteTriggerError
 
 
-def _portable(exc):
+def portable_exception(exc):
     """``exc`` if it survives pickling (for ``bcast``), else a stand-in with its text."""
     try:
         pickle.loads(pickle.dumps(exc))
@@ -51,7 +51,7 @@ def on_rank0(comm, fn, *args, **kwargs):
         try:
             res = fn(*args, **kwargs)
         except Exception as exc:  # noqa: BLE001 - re-raised on every rank
-            err = _portable(exc)
+            err = portable_exception(exc)
         except BaseException as exc:  # Ctrl-C, exit: the others must not wait
             err, fatal = RemoteTriggerError(f"rank 0 stopped: {type(exc).__name__}"), exc
     res, err = comm.bcast((res, err), root=0)

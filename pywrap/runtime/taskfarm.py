@@ -89,7 +89,7 @@ def run_tasks(comm, tasks, fn, args=(), done=None):
 
     from mpi4py.futures import MPICommExecutor
 
-    from remote_trigger.pywrap.runtime.parallel import _portable
+    from remote_trigger.pywrap.runtime.parallel import portable_exception
 
     error = None
     with MPICommExecutor(comm, root=0) as pool:
@@ -107,7 +107,7 @@ def run_tasks(comm, tasks, fn, args=(), done=None):
                             futures.update({pool.submit(_timed, fn, t, args): t
                                             for t in (more or ())})
                     except Exception as exc:  # noqa: BLE001 - raised on every rank below
-                        error = error or _portable(exc)
+                        error = error or portable_exception(exc)
     error = comm.bcast(error, root=0)
     if error is not None:
         raise error

@@ -79,16 +79,18 @@ def progress_bar(total, desc, quiet, rank, unit="it", log_interval=None):
 
 #: deck variable <- configuration field, passed when the configuration has it
 #: (otherwise the deck's default applies)
-_DECK_FIELDS = (("gamma", "gamma"), ("gamma_rot", "gamma_rot"),
+DECK_FIELDS = (("gamma", "gamma"), ("gamma_rot", "gamma_rot"),
                 ("settle_steps", "settle_steps"), ("g_settle", "g_settle"),
                 ("top_gap", "top_gap"), ("check", "check_every"))
 
 
-def _deck_vars(cfg, datafile, F_x):
+def deck_vars(cfg, datafile, F_x):
+    """The index variables of a deck (``-var`` names) for a configuration: the model,
+    the loads, dt and the :data:`DECK_FIELDS` the configuration has."""
     v = {"datafile": datafile, "kn": float(cfg.k_n), "kt": float(cfg.k_t),
          "mu": float(cfg.mu), "Fx": float(F_x), "Fy": float(cfg.F_y),
          "dt": float(cfg.dt)}
-    for var, name in _DECK_FIELDS:
+    for var, name in DECK_FIELDS:
         if hasattr(cfg, name):
             val = getattr(cfg, name)
             v[var] = int(val) if var in ("settle_steps", "check") else float(val)
@@ -110,7 +112,7 @@ def load_relax_scene(eng, cfg, datafile, F_x, deck=None):
 
         deck = RELAX_DECKS[data_dimension(datafile)]
     eng.clear()
-    eng.load_deck(deck, _deck_vars(cfg, datafile, F_x), ("scene", "damped", "dynamics"))
+    eng.load_deck(deck, deck_vars(cfg, datafile, F_x), ("scene", "damped", "dynamics"))
 
 
 def equilibrium_dump(datafile):
@@ -243,25 +245,42 @@ def packing_fraction(state):
     return float(np.sum(np.pi * state.radii ** 2) / (L * h))
 
 
-def _analyze(eng, dump, basis=None, stop_at_complex=False, progress=None,
-             checkpoint_dir=None, collective=False):
-    """Eigen-analysis of a dump on rank 0, broadcast to all ranks.
+def decide_on_rank0(eng, what, options=None, basis=None, progress=None):
+    """The engine's verdict (:func:`~remote_trigger.analysis.stability.verdict.decide`)
+    on rank 0, broadcast to all ranks.
 
-    ``basis``: the previous point's ``StabilityResult.basis`` (rank 0's;
-    ignored elsewhere). The result's ``basis`` is kept on rank 0 only (None
-    on the others: it is an n x n pair of matrices, not broadcast).
-    ``stop_at_complex``, ``progress`` (called on rank 0 only),
-    ``checkpoint_dir`` (written by rank 0), ``collective``: as in
-    ``analysis.stability.verdict.stability_of``.
+    Parameters
+    ----------
+    eng : Engine
+    what : str or callable
+        An equilibrium dump the driver wrote (read on rank 0; the driver's
+        own Newton test accepted it, so the analyzer's residual check is not
+        repeated), or a callable returning the
+        :class:`~remote_trigger.analysis.stability.system.ReducedSystem` to
+        decide (called on rank 0 only).
+    options : VerdictOptions, optional
+        ``checkpoint_dir`` is written by rank 0.
+    basis : SpectrumBasis, optional
+        The previous point's ``StabilityResult.basis`` (rank 0's; ignored
+        elsewhere).
+    progress : callable, optional
+        Called on rank 0 only.
+
+    Returns
+    -------
+    StabilityResult
+        Its ``basis`` is kept on rank 0 only (None on the others: it is an
+        n x n pair of matrices, not broadcast).
     """
-    from remote_trigger.analysis.stability.verdict import stability_of_dump
+    from remote_trigger.analysis.stability.verdict import decide, stability_of_dump
 
     kept = {}
 
     def run():
-        res = stability_of_dump(dump, basis, stop_at_complex=stop_at_complex,
-                                progress=progress, checkpoint_dir=checkpoint_dir,
-                                collective=collective, allow_residual=True)
+        if callable(what):
+            res = decide(what(), options, basis, progress)
+        else:
+            res = stability_of_dump(what, options, basis, progress, allow_residual=True)
         kept["basis"], res.basis = res.basis, None
         return res
 
@@ -270,7 +289,8 @@ def _analyze(eng, dump, basis=None, stop_at_complex=False, progress=None,
     return res
 
 
-def _ensure_dir(eng, path):
+def ensure_dir(eng, path):
+    """Create ``path`` (and its parents) on rank 0; every rank waits for it."""
     if eng.rank == 0:
         os.makedirs(path, exist_ok=True)
     eng.comm.Barrier()
@@ -319,11 +339,12 @@ def prepare_out(eng, out, files, overwrite=False, stage="stage"):
 EQUILIBRIUM_EXTS = (".data", ".dump", ".dump.json")
 
 
-def _equilibrium_files(name):
+def equilibrium_files(name):
+    """The files of the equilibrium a stage saves under ``name/equilibrium.*``."""
     return [os.path.join(name, "equilibrium" + ext) for ext in EQUILIBRIUM_EXTS]
 
 
-def _relax_cfg(cfg, F_x):
+def dynamics_relax_config(cfg, F_x):
     """A RelaxConfig with the model of ``cfg`` (for equilibrating dynamics stages)."""
     keys = ("datafile", "k_n", "k_t", "mu", "F_y", "dt")
     base = {k: getattr(cfg, k) for k in keys}

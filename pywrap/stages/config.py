@@ -16,7 +16,8 @@ import json
 import os
 
 from remote_trigger.pywrap.config import (
-    Config, ConfigError, ContactModel, _int, _nonneg, _num, _positive, check_lammps_path)
+    Config, ConfigError, ContactModel, check_int, check_lammps_path, check_nonnegative, check_number,
+    check_positive)
 
 
 #: relaxation protocols of :class:`RelaxConfig` (docs/driver.md)
@@ -76,7 +77,7 @@ class StageConfig(Config):
             if self.dt != "auto":
                 raise ConfigError(f"dt must be a number > 0 or 'auto', got dt = {self.dt!r}")
         else:
-            _positive("dt", self.dt)
+            check_positive("dt", self.dt)
         self.validate()
 
     @property
@@ -234,36 +235,36 @@ class RelaxConfig(StageConfig):
 
     def validate(self):
         """The relaxation's checks (:class:`ConfigError` naming the field)."""
-        _num("F_x", self.F_x)
-        _positive("f_min", self.f_min)
+        check_number("F_x", self.F_x)
+        check_positive("f_min", self.f_min)
         if self.f_accept is not None:
-            _positive("f_accept", self.f_accept)
+            check_positive("f_accept", self.f_accept)
         if self.f_accept is not None and self.f_accept < self.f_min:
             raise ConfigError(f"f_accept must be >= f_min = {self.f_min!r}, got "
                               f"f_accept = {self.f_accept!r}")
-        _positive("gamma", self.gamma)
-        _positive("gamma_rot", self.gamma_rot)
+        check_positive("gamma", self.gamma)
+        check_positive("gamma_rot", self.gamma_rot)
         if self.protocol not in PROTOCOLS:
             raise ConfigError(f"protocol must be one of {', '.join(PROTOCOLS)}, got "
                               f"protocol = {self.protocol!r}")
         if self.relax_dynamics not in RELAX_DYNAMICS:
             raise ConfigError(f"relax_dynamics must be one of {', '.join(RELAX_DYNAMICS)}, "
                               f"got relax_dynamics = {self.relax_dynamics!r}")
-        _int("settle_steps", self.settle_steps, 0)
-        _positive("top_gap", self.top_gap)
-        _int("top_attempts", self.top_attempts, 1)
+        check_int("settle_steps", self.settle_steps, 0)
+        check_positive("top_gap", self.top_gap)
+        check_int("top_attempts", self.top_attempts, 1)
         if self.clearance not in CLEARANCE_RULES:
             raise ConfigError(f"clearance must be one of {', '.join(CLEARANCE_RULES)}, "
                               f"got clearance = {self.clearance!r}")
-        _nonneg("mu_settle", self.mu_settle)
-        _nonneg("g_settle", self.g_settle)
-        _int("check_every", self.check_every, 1)
-        _int("max_steps", self.max_steps, 1)
+        check_nonnegative("mu_settle", self.mu_settle)
+        check_nonnegative("g_settle", self.g_settle)
+        check_int("check_every", self.check_every, 1)
+        check_int("max_steps", self.max_steps, 1)
         if not isinstance(self.newton, bool):
             raise ConfigError(f"newton must be True or False, got newton = {self.newton!r}")
-        _positive("newton_start", self.newton_start)
-        _int("newton_iter", self.newton_iter, 1)
-        _positive("slide", self.slide)
+        check_positive("newton_start", self.newton_start)
+        check_int("newton_iter", self.newton_iter, 1)
+        check_positive("slide", self.slide)
 
 
 @dataclass(frozen=True)
@@ -329,17 +330,17 @@ class RampConfig(RelaxConfig):
     def validate(self):
         """The relaxation's checks and the ramp's (:class:`ConfigError`)."""
         super().validate()
-        _positive("dF_x", self.dF_x)
+        check_positive("dF_x", self.dF_x)
         if self.dF_x_max is not None:
-            _num("dF_x_max", self.dF_x_max)
+            check_number("dF_x_max", self.dF_x_max)
             if not self.dF_x_max > self.dF_x:
                 raise ConfigError(f"dF_x_max must be > dF_x = {self.dF_x!r} (or None: "
                                   f"fixed steps), got dF_x_max = {self.dF_x_max!r}")
-        _num("F_x_max", self.F_x_max)
+        check_number("F_x_max", self.F_x_max)
         if self.F_x_max <= self.F_x:
             raise ConfigError(f"F_x_max must be > F_x = {self.F_x!r}, got "
                               f"F_x_max = {self.F_x_max!r}")
-        _positive("tol", self.tol)
+        check_positive("tol", self.tol)
         for name in ("keep_equilibria", "saddle_escape"):
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be True or False, got "
@@ -416,23 +417,23 @@ class DynamicsConfig(StageConfig):
 
     def validate(self):
         """The run's checks (:class:`ConfigError` naming the field)."""
-        _num("F_x", self.F_x)
-        _positive("t_max", self.t_max)
-        _int("record_every", self.record_every, 1)
-        _nonneg("a", self.a)
-        _nonneg("omega_p", self.omega_p)
-        _nonneg("B", self.B)
-        _nonneg("w", self.w)
-        _nonneg("mu_ss", self.mu_ss)
+        check_number("F_x", self.F_x)
+        check_positive("t_max", self.t_max)
+        check_int("record_every", self.record_every, 1)
+        check_nonnegative("a", self.a)
+        check_nonnegative("omega_p", self.omega_p)
+        check_nonnegative("B", self.B)
+        check_nonnegative("w", self.w)
+        check_nonnegative("mu_ss", self.mu_ss)
         for name in ("v0", "v_ss"):
             val = getattr(self, name)
             if val is not None:
-                _positive(name, val)
-        _num("v0_margin", self.v0_margin, 1)
-        _positive("d_sat", self.d_sat)
-        _nonneg("t_on", self.t_on)
+                check_positive(name, val)
+        check_number("v0_margin", self.v0_margin, 1)
+        check_positive("d_sat", self.d_sat)
+        check_nonnegative("t_on", self.t_on)
         if self.tau is not None:
-            _positive("tau", self.tau)
+            check_positive("tau", self.tau)
 
 
 def check_packing_args(n, seed, phi=0.82, dim=2):
@@ -445,15 +446,15 @@ def check_packing_args(n, seed, phi=0.82, dim=2):
         or phi is outside (0.1, 0.91) (spheres, ``dim`` = 3: (0.1, 0.74)).
     """
     top = 0.91 if dim == 2 else 0.74
-    if not 0.1 < _num("phi", phi) < top:
+    if not 0.1 < check_number("phi", phi) < top:
         raise ConfigError(f"phi must be in (0.1, {top}){' for spheres' if dim == 3 else ''}, "
                           f"got phi = {phi!r}")
     if not isinstance(n, bool) and isinstance(n, int) and n < 6:
-        from remote_trigger.pywrap.stages.packing import RADII, _smallest_n
+        from remote_trigger.pywrap.stages.packing import RADII, smallest_n
 
         raise ConfigError(f"n must be >= 6, got n = {n} "
-                          f"({_smallest_n(phi, RADII, dim)})")
-    _int("n", n, 6)
+                          f"({smallest_n(phi, RADII, dim)})")
+    check_int("n", n, 6)
     if n % 2:
         raise ConfigError(f"n must be even (equal numbers of both radii), got n = {n}")
-    _int("seed", seed, 0)
+    check_int("seed", seed, 0)

@@ -147,7 +147,7 @@ def box_width(n, phi=0.82, radii=RADII, dim=2):
     return math.sqrt(n * math.pi * (radii[0] ** 2 + radii[1] ** 2) / 2.0 / phi)
 
 
-def _smallest_n(phi, radii, dim):
+def smallest_n(phi, radii, dim):
     """'the smallest n that works at phi = ... is ...' for :func:`generate`'s errors."""
     for m in range(6, 10 ** 6, 2):
         width = box_width(m, phi, radii, dim)
@@ -236,7 +236,7 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     if not 0.1 < phi < phi_max:
         raise ValueError(f"phi must be in (0.1, {phi_max}) for dim = {dim}, got phi = {phi}")
     if n < 6 or n % 2:
-        hint = f" ({_smallest_n(phi, (r1, r2), dim)})" if n < 6 else ""
+        hint = f" ({smallest_n(phi, (r1, r2), dim)})" if n < 6 else ""
         raise ValueError(f"n must be an even number >= 6 (equal numbers of both radii), "
                          f"got n = {n}{hint}")
     if not 0.05 < phi_loose <= loose_max:
@@ -248,13 +248,13 @@ def generate(n, seed=0, phi=None, phi_loose=None, max_tries=200000, radii=RADII,
     if n_top >= n - 2:
         raise ValueError(f"n = {n} is too small for a top {'layer' if dim == 3 else 'line'} "
                          f"of {n_top} {'spheres' if dim == 3 else 'disks'} "
-                         f"({_smallest_n(phi, (r1, r2), dim)})")
+                         f"({smallest_n(phi, (r1, r2), dim)})")
     if width <= 4.0 * r2:
         # the pair style refuses a contact with two periodic images of one partner
         raise ValueError(f"n = {n} is too small: the periodic width L = {width:.4g} is not "
                          f"above 4 R2 = {4.0 * r2:g}, so a {'sphere' if dim == 3 else 'disk'} "
                          f"could touch two periodic images of another "
-                         f"({_smallest_n(phi, (r1, r2), dim)})")
+                         f"({smallest_n(phi, (r1, r2), dim)})")
     n_bulk_each = n // 2 - n_top // 2
     bulk_r = np.array([r2] * n_bulk_each + [r1] * n_bulk_each)
     if dim == 2:

@@ -23,13 +23,14 @@ import math
 import time
 
 from remote_trigger.analysis.stability.analyze import NEGATIVE_REL
-from remote_trigger.analysis.stability.verdict import Decision
+from remote_trigger.analysis.stability.decision import Decision
+from remote_trigger.analysis.stability.verdict import VerdictOptions
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.stages import equilibrium as eq
-from remote_trigger.pywrap.stages.common import (_analyze, load_equilibrium_scene,
+from remote_trigger.pywrap.stages.common import (decide_on_rank0, load_equilibrium_scene,
                                                  save_equilibrium)
 
-__all__ = ["ramp_point", "verdict_progress"]
+__all__ = ["ramp_point", "verdict_progress", "held_system"]
 
 #: the escapes from a saddle: damped dynamics from the start until the
 #: residual is below newton_start x factor, then Newton (one try per factor)
@@ -49,13 +50,46 @@ def verdict_progress(bar, F_x):
     return show
 
 
-def _screen(eng, dump):
-    """Rank 0's count of negative modes of the equilibrium in ``dump``, on all ranks."""
+def held_system(eng, cfg, F_x):
+    """The reduced system of the equilibrium LAMMPS holds, built once, on rank 0.
+
+    The per-atom arrays are gathered (on every rank: a collective call) and
+    turned into the analysis State as Newton's are
+    (:func:`~remote_trigger.pywrap.stages.newton_solve.analysis_state`):
+    the same positions, contact history, loads and masses that
+    :func:`~remote_trigger.pywrap.stages.common.save_equilibrium` writes to
+    the dump (``%.17g``, which float64 reads back bitwise), so the State,
+    K and the verdict are those of the dump (tests/driver/test_ramp.py
+    checks K bitwise).
+
+    Returns
+    -------
+    callable
+        ``system()`` on rank 0: the
+        :class:`~remote_trigger.analysis.stability.system.ReducedSystem`,
+        built at its first call and kept.
+    """
+    from remote_trigger.analysis.stability.system import reduced_system
+    from remote_trigger.pywrap.stages.newton_solve import analysis_state
+
+    atoms = eng.gather_state()
+    kept = []
+
+    def system():
+        if not kept:
+            kept.append(reduced_system(analysis_state(atoms, cfg.k_n, cfg.k_t, cfg.mu, F_x,
+                                                      cfg.F_y)))
+        return kept[0]
+
+    return system
+
+
+def _screen(eng, system):
+    """Rank 0's count of negative modes of ``system()`` (rank 0), on all ranks."""
     def run():
         from remote_trigger.analysis.stability.analyze import negative_modes
-        from remote_trigger.analysis.state.dumpfile import read_equilibrium
 
-        return negative_modes(read_equilibrium(dump))
+        return negative_modes(system())
 
     return on_rank0(eng.comm, run)
 
@@ -122,11 +156,12 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
     load_equilibrium_scene(eng, cfg, start_file, F_x, dim)
     r, t_sim, rec = eq.equilibrate(eng, cfg, F_x, newton_first=True)
     save_equilibrium(eng, cfg, F_x, prefix)
+    system = held_system(eng, cfg, F_x)
     escaped = 0.0
     counted = None              # the screen's count of the saved equilibrium, once made
     if getattr(cfg, "saddle_escape", True) and dim == 2:
         for factor in ESCAPE_NEWTON_START:
-            counted = _screen(eng, prefix + ".dump")
+            counted = _screen(eng, system)
             if counted <= 0:
                 break
             load_equilibrium_scene(eng, cfg, start_file, F_x, dim)
@@ -137,18 +172,19 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
                 break           # the saved equilibrium (Newton's or an escape's) stays
             t_sim += t_damped
             save_equilibrium(eng, cfg, F_x, prefix)
+            system = held_system(eng, cfg, F_x)
             escaped += 1.0
             counted = None
-    collective = getattr(cfg, "pairs", "all") == "collective"
-    res = _analyze(eng, prefix + ".dump", basis, stop_at_complex=True, progress=progress,
-                   checkpoint_dir=checkpoint_dir, collective=collective)
+    options = VerdictOptions(pairs=getattr(cfg, "pairs", "all"), stop_at_complex=True,
+                             checkpoint_dir=checkpoint_dir)
+    res = decide_on_rank0(eng, system, options, basis, progress)
     # with pairs = 'collective' a point whose only complex pairs are soft is real
-    code = Decision.of(res.collective) if collective else res.decision_code
-    if res.start == "sliced":
+    code = res.policy_decision
+    if res.method == "sliced":
         # the sliced verdict lists the symmetric part's Ritz values for its
         # one-eigenvalue strips: a free rotation would count; the screen counts
         # M^-1 K's own eigenvalues (-1: no count)
-        neg = float(_screen(eng, prefix + ".dump") if counted is None else counted)
+        neg = float(_screen(eng, system) if counted is None else counted)
     else:
         lam = np.asarray(res.eigenvalues)
         scale = np.max(lam.real, initial=0.0)
@@ -162,5 +198,5 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
             "n_dof": float(res.n_dof), "lambda_max": res.lambda_max,
             "scanned_below": res.scanned_below, "saddle_escaped": escaped,
             "n_negative": neg,
-            "soft_pairs": float(res.soft_pairs) if collective else math.nan}
+            "soft_pairs": float(res.soft_pairs) if res.collective is not None else math.nan}
     return vals, res

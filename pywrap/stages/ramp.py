@@ -7,14 +7,14 @@ import os
 import numpy as np
 
 from remote_trigger.analysis.output import bracket_text
-from remote_trigger.analysis.stability.verdict import Decision
+from remote_trigger.analysis.stability.decision import Decision
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.stages.config import RampConfig
 from remote_trigger.pywrap.bindings.engine import Engine
 from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.stages import ramp_file
 from remote_trigger.pywrap.stages.common import (
-    EQUILIBRIUM_EXTS, _ensure_dir, progress_bar, start_timestep)
+    EQUILIBRIUM_EXTS, ensure_dir, progress_bar, start_timestep)
 from remote_trigger.pywrap.stages.point import ramp_point, verdict_progress
 
 
@@ -45,7 +45,7 @@ class RampResult:
         F_x^c could not be certified) and for the other statuses.
     decision, confidence : ndarray
         Analyzer decision per ramp step, as the stored codes (float; the
-        values of :class:`~remote_trigger.analysis.stability.verdict.Decision`:
+        values of :class:`~remote_trigger.analysis.stability.decision.Decision`:
         1 complex, 0 real, -1 undecided; :attr:`decisions` gives them as
         ``Decision`` members) and its margin (> 1 certified).
     bisection_decision : ndarray
@@ -272,7 +272,7 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         rlog = ramp_file.open_ramp_log(eng, cfg, out, h5, resume)
         _BASES.clear()
         rcfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "ramp")
-        _ensure_dir(eng, folder)        # after the refusals of the start (dt)
+        ensure_dir(eng, folder)        # after the refusals of the start (dt)
         dim = eng.dimension             # of the start file, whose scene is loaded
         if "dt_used" in rlog.attrs and cfg.dt == "auto":   # resume: the same step
             rcfg = cfg.replace(dt=float(rlog.attrs["dt_used"]))

@@ -31,6 +31,7 @@ import time
 import numpy as np
 
 from remote_trigger.analysis.output import atomic_path
+from remote_trigger.analysis.stability.decision import Decision
 
 from remote_trigger.pywrap.config import ConfigError, check_lammps_path
 from remote_trigger.pywrap.runtime.jobfolder import resolved_path, stored_path
@@ -145,15 +146,17 @@ def read_spectra(h5path, extra=()):
     ----------
     h5path : str
         A ramp file (docs/driver.md). The decision comes from its column
-        ``decision`` (1 complex, 0 real, -1 undecided -> None) or, in files
-        without it, from ``complex`` (> 0). Bisection points without an
-        equilibrium have no spectrum and are skipped.
-    extra : sequence of (float, ndarray, bool)
+        ``decision`` (the codes of
+        :class:`~remote_trigger.analysis.stability.decision.Decision`) or, in
+        files without it, from ``complex`` (> 0: COMPLEX, else REAL).
+        Bisection points without an equilibrium have no spectrum and are
+        skipped.
+    extra : sequence of (float, ndarray, Decision)
         More points (e.g. the continuation above F_x^c).
 
     Returns
     -------
-    list of (float, ndarray, bool or None)
+    list of (float, ndarray, Decision)
         The input of :func:`remote_trigger.analysis.stability.eigtrack.track_pair`.
     """
     import h5py
@@ -164,10 +167,9 @@ def read_spectra(h5path, extra=()):
             prefix = POINT_PREFIX[kind]
             F = fh[column(kind, "F_x")][()]
             if column(kind, "decision") in fh:
-                C = [None if d < 0 else bool(d > 0)
-                     for d in fh[column(kind, "decision")][()]]
+                C = [Decision.of(d) for d in fh[column(kind, "decision")][()]]
             else:
-                C = [bool(c > 0) for c in fh[column(kind, "complex")][()]]
+                C = [Decision.certified(c > 0) for c in fh[column(kind, "complex")][()]]
             grp = fh.get(f"{EIGENVALUES}/{kind}")
             if grp is None:
                 continue

@@ -19,7 +19,7 @@ from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.stages.newton_solve import stiffness
 from remote_trigger.pywrap.runtime.results import write_atomic
 from remote_trigger.pywrap.stages.common import (
-    RESULT_VERSION, _ensure_dir, _equilibrium_files, progress_bar, load_relax_scene,
+    RESULT_VERSION, ensure_dir, equilibrium_files, progress_bar, load_relax_scene,
     packing_fraction, prepare_out, save_equilibrium, start_timestep)
 
 
@@ -533,8 +533,8 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
                                      a_priori=cfg.settle_steps > 0)
         if eng.dimension == 3:
             check_spheres_config(cfg)
-        prepare_out(eng, out, ["relax.h5"] + _equilibrium_files("relax"), overwrite, "relax")
-        _ensure_dir(eng, os.path.join(out, "relax"))
+        prepare_out(eng, out, ["relax.h5"] + equilibrium_files("relax"), overwrite, "relax")
+        ensure_dir(eng, os.path.join(out, "relax"))
         bar = progress_bar(None, "relax", quiet, eng.rank, unit=" checks")
 
         def prog(r):

@@ -7,6 +7,7 @@ import os
 
 import numpy as np
 
+from remote_trigger.analysis.stability.decision import Decision
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.stages.config import DynamicsConfig
 from remote_trigger.pywrap.bindings.engine import Engine
@@ -15,10 +16,10 @@ from remote_trigger.pywrap.runtime.results import SeriesWriter, read_all
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.analysis.dynamics.series import growth_fit
 from remote_trigger.pywrap.stages.common import (
-    RESULT_VERSION, StableStartError, _DECK_FIELDS, _analyze, _deck_vars, _ensure_dir,
-    _equilibrium_files, progress_bar, _relax_cfg, check_resume_config, load_equilibrium_scene,
-    load_relax_scene, prepare_out, restore_saved_history3d, save_equilibrium, start_sha256,
-    start_timestep)
+    DECK_FIELDS, RESULT_VERSION, StableStartError, check_resume_config, decide_on_rank0,
+    deck_vars, dynamics_relax_config, ensure_dir, equilibrium_files, load_equilibrium_scene,
+    load_relax_scene, prepare_out, progress_bar, restore_saved_history3d, save_equilibrium,
+    start_sha256, start_timestep)
 
 #: the undamped deck of each dimension (disks, spheres)
 PERTURB_DECKS = {2: "in.perturb", 3: "in.perturb3d"}
@@ -46,14 +47,14 @@ class SeriesResult:
     extra: dict = field(default_factory=dict)
 
 
-def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, attrs=None,
+def undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, attrs=None,
                   dim=2):
     """Run ``in.perturb``'s scene from ``datafile`` and record every record_every steps.
 
     ``dim`` = 3: ``in.perturb3d``, with the history of the dump beside ``datafile``."""
     eng.clear()
-    v = _deck_vars(cfg, datafile, cfg.F_x)
-    for var, _ in _DECK_FIELDS:        # the relaxing decks' variables
+    v = deck_vars(cfg, datafile, cfg.F_x)
+    for var, _ in DECK_FIELDS:        # the relaxing decks' variables
         v.pop(var, None)
     v.update(ton=float(cfg.t_on), visc=0.0 if cfg.tau is None else 1.0 / float(cfg.tau))
     v.update(variables)
@@ -124,8 +125,8 @@ def _undamped_run(eng, cfg, datafile, h5, variables, desc, quiet, stop=None, att
 def _equilibrium_for(eng, cfg, out, name, quiet):
     """Equilibrate cfg.datafile at cfg.F_x; save ``out/name/equilibrium.*``."""
     folder = os.path.join(out, name)
-    _ensure_dir(eng, folder)
-    rcfg = _relax_cfg(cfg, cfg.F_x)
+    ensure_dir(eng, folder)
+    rcfg = dynamics_relax_config(cfg, cfg.F_x)
     if eng.dimension == 3:      # (the start's scene is loaded) its history from its dump
         load_equilibrium_scene(eng, rcfg, cfg.datafile, cfg.F_x, 3)
     else:
@@ -202,7 +203,7 @@ def _perturb_resume_state(cfg, out, sha):
                 extra={"v_top_max": float(attrs["v_top_max"]),
                        "v_top_running_max": data["v_top_max"]})
     if residual is None or not all(os.path.exists(os.path.join(out, f))
-                                   for f in _equilibrium_files("perturb")):
+                                   for f in equilibrium_files("perturb")):
         return None, {}
     return residual, complete
 
@@ -261,7 +262,7 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
     with Engine(comm=comm, log=log) as eng:
         cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "perturb")
         dim = eng.dimension
-        prepare_out(eng, out, _equilibrium_files("perturb")
+        prepare_out(eng, out, equilibrium_files("perturb")
                     + [f"perturb_{k}.h5" for k in PERTURB_RUNS], overwrite or resume,
                     "perturb")
 
@@ -280,7 +281,7 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
         base = {"equilibrium": data, "equilibrium_residual": r, "stage": "perturb",
                 "datafile_sha256": str(sha), **dtinfo}
         if "a" in runs or v0 is None:
-            res = done.get("a") or _undamped_run(
+            res = done.get("a") or undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_a.h5"), {"a": 0.0, "muv": 0},
                 "perturb (a)", quiet, attrs=dict(base, run="a"), dim=dim)
             results["a"] = res
@@ -290,12 +291,12 @@ def perturb(cfg, out, comm=None, quiet=False, log="none", runs="abc", overwrite=
                     v0 = np.finfo(float).tiny
         vss = cfg.v_ss if cfg.v_ss is not None else v0
         if "b" in runs:
-            results["b"] = done.get("b") or _undamped_run(
+            results["b"] = done.get("b") or undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_b.h5"),
                 {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 0}, "perturb (b)", quiet,
                 attrs=dict(base, run="b"), dim=dim)
         if "c" in runs:
-            results["c"] = done.get("c") or _undamped_run(
+            results["c"] = done.get("c") or undamped_run(
                 eng, cfg, data, os.path.join(out, "perturb_c.h5"),
                 {"a": float(cfg.a), "wp": float(cfg.omega_p), "muv": 1, "v0": float(v0),
                  "vss": float(vss), "B": float(cfg.B), "w": float(cfg.w),
@@ -356,28 +357,28 @@ def instability(cfg, out, comm=None, quiet=False, log="none", overwrite=False,
     with Engine(comm=comm, log=log) as eng:
         cfg, dtinfo = start_timestep(eng, cfg, cfg.datafile, cfg.F_x, "instability")
         dim = eng.dimension
-        prepare_out(eng, out, ["instability.h5"] + _equilibrium_files("instability"),
+        prepare_out(eng, out, ["instability.h5"] + equilibrium_files("instability"),
                     overwrite, "instability")
         prefix, r = _equilibrium_for(eng, cfg, out, "instability", quiet)
-        st = _analyze(eng, prefix + ".dump")
+        st = decide_on_rank0(eng, prefix + ".dump")
         if not st.complex_pair and not allow_stable:
             if eng.rank == 0:
-                for f in _equilibrium_files("instability"):
+                for f in equilibrium_files("instability"):
                     os.remove(os.path.join(out, f))
                 try:
                     os.rmdir(os.path.join(out, "instability"))
                 except OSError:
                     pass
             eng.comm.Barrier()
-            what = ("every eigenvalue certified real" if st.decision == "real" else
-                    f"the complex-pair test is {st.decision}")
+            what = ("every eigenvalue certified real" if st.decision is Decision.REAL else
+                    f"the complex-pair test is {st.decision.label}")
             raise StableStartError(
                 f"the equilibrium at F_x = {cfg.F_x!r} is linearly stable "
                 f"({what}, margin {st.confidence:.3g}): D(t) would stay at the noise level "
                 f"and there is no growth rate to measure; start from a state above F_x^c "
                 f"(a ramp step at or after the first complex one) or use perturb "
                 f"(--allow-stable runs it anyway; nothing was written)")
-        res = _undamped_run(
+        res = undamped_run(
             eng, cfg, prefix + ".data", os.path.join(out, "instability.h5"),
             {"a": 0.0, "muv": 0}, "instability", quiet,
             stop=lambda o: o["D"][-1] > cfg.d_sat,

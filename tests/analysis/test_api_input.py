@@ -358,7 +358,8 @@ def test_open_dump_and_open_universe_name_what_they_cannot_read(packing, tmp_pat
 def test_max_residual_checks_g(packing):
     """A length-5 G was a raw reshape error, an empty one numpy's 'zero-size array
     to reduction', a (2, 3) array was taken as two disks, a NaN gave nan."""
-    from remote_trigger.analysis.stability.analyze import analyze, max_residual
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability.residual import max_residual
     from remote_trigger.analysis.stability.jacobian import generalized_forces
 
     G = generalized_forces(packing)
@@ -573,7 +574,7 @@ def test_library_bounds_and_decisions_name_the_bad_value(packing):
     number (or None) or raised a bare numpy/Python error."""
     from remote_trigger.analysis.dynamics.normal_form import integrate
     from remote_trigger.analysis.dynamics.series import noise_level
-    from remote_trigger.analysis.stability.analyze import check_equilibrium
+    from remote_trigger.analysis.stability.residual import check_equilibrium
     from remote_trigger.analysis.stability.eigtrack import track_pair
     from remote_trigger.analysis.stability.exceptional import block_discriminant
     from remote_trigger.analysis.stability.jacobian import find_rattlers
@@ -599,10 +600,13 @@ def test_library_bounds_and_decisions_name_the_bad_value(packing):
         with pytest.raises(ValueError, match="factor must be a number > 0"):
             check_equilibrium(packing, factor=factor)
     lam = np.array([1.0, 2.0], complex)
-    with pytest.raises(ValueError, match=r"decision of point 0 \(F_x = 0.0\) must be True, "
-                                         r"False or None, got 'real'"):
+    with pytest.raises(ValueError, match=r"decision of point 0 \(F_x = 0.0\) must be a "
+                                         r"Decision, got 'real'"):
         track_pair([(0.0, lam, "real"), (0.1, lam, "complex")])
-    with pytest.raises(ValueError, match=r"point 0 must be \(F_x, eigenvalues, complex\)"):
+    with pytest.raises(ValueError, match=r"decision of point 0 \(F_x = 0.0\) must be a "
+                                         r"Decision, got True"):
+        track_pair([(0.0, lam, True), (0.1, lam, False)])
+    with pytest.raises(ValueError, match=r"point 0 must be \(F_x, eigenvalues, decision\)"):
         track_pair([(0.0, lam)])
     with pytest.raises(ValueError, match=r"needs a 2 x 2 block, got shape \(3, 3\)"):
         block_discriminant(np.eye(3))

@@ -15,6 +15,7 @@ from remote_trigger.analysis.stability.exceptional import classify_spectrum
 
 from .arb_oracle import full_spectrum
 from .test_exceptional import embedded
+from remote_trigger.analysis.stability.decision import Decision
 
 
 def _with_rattler(A, extra=3, coupling=1e-3, seed=7):
@@ -51,14 +52,14 @@ def test_rattler_lost_and_gained_same_answer_as_dgeev(eps):
     assert sum(k for _, k in carried.blocks) == n
     warm, cold = classify_spectrum(A_small, basis=carried), classify_spectrum(A_small)
     assert warm.start == "basis", warm.reason
-    assert warm.complex_present is cold.complex_present is bool(eps < 0)
+    assert warm.decision is cold.decision is Decision.certified(eps < 0)
     # gained: basis of the small system carried to the big one
     prev = _decide(A_small, small_dofs)
     carried = prev.basis.on_dofs(big_dofs)
     assert carried is not None and carried.X.shape == (n + 3, n + 3)
     warm, cold = classify_spectrum(A_big, basis=carried), classify_spectrum(A_big)
     assert warm.start == "basis", warm.reason
-    assert warm.complex_present is cold.complex_present is bool(eps < 0)
+    assert warm.decision is cold.decision is Decision.certified(eps < 0)
 
 
 def test_rattler_dofs_in_the_middle_and_arb():
@@ -74,7 +75,7 @@ def test_rattler_dofs_in_the_middle_and_arb():
     carried = _decide(A_big, dofs_big).basis.on_dofs(dofs_small)
     warm = classify_spectrum(A_small, basis=carried)
     assert warm.start == "basis", warm.reason
-    assert warm.complex_present is True
+    assert warm.decision is Decision.COMPLEX
     assert full_spectrum(A_small) == "complex"
 
 

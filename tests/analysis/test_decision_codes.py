@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.stability.verdict import DECISION_CODES, Decision
+from remote_trigger.analysis.stability.decision import DECISION_CODES, Decision
 
 
 def test_codes_are_the_stored_integers():

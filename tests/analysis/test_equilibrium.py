@@ -27,6 +27,7 @@ import pytest
 
 from remote_trigger.analysis.stability.analyze import analyze
 from remote_trigger.analysis.state.dumpfile import read_dump
+from remote_trigger.analysis.stability.decision import Decision
 
 N, SEED, MU = 100, 1, 1.0
 # ramp path to F_x = 0.40 in steps of 0.01 (equilibria with friction are path
@@ -40,7 +41,7 @@ def driver(tmp_path_factory):
     from remote_trigger.pywrap.stages import config
     from remote_trigger.pywrap.bindings import engine
     from remote_trigger.pywrap.stages import equilibrium, packing
-    from remote_trigger.pywrap.stages.common import _deck_vars
+    from remote_trigger.pywrap.stages.common import deck_vars
 
     out = tmp_path_factory.mktemp("eq")
     datafile = str(out / "p.data")
@@ -49,7 +50,7 @@ def driver(tmp_path_factory):
     cfg = config.RelaxConfig(datafile=rel.datafile, mu=MU)
     eng = engine.Engine()
     # the scene only (no damping): the relaxed state is evaluated as it is
-    eng.load_deck("in.ramp_step", _deck_vars(cfg, rel.datafile, 0.0), ("scene",))
+    eng.load_deck("in.ramp_step", deck_vars(cfg, rel.datafile, 0.0), ("scene",))
     _, _, r = equilibrium.exact_residual(eng)
 
     def dump(name, F_x):
@@ -72,7 +73,7 @@ def test_spectrum_at_zero_load_is_real_and_positive(driver):
     assert np.all(st.contact_xi == 0.0)                 # relaxed without friction
     assert res.rattlers.ids.size < 0.2 * st.n
     lam = res.eigenvalues
-    assert res.decision.complex_present is False, res.decision.confidence
+    assert res.decision.decision is Decision.REAL, res.decision.confidence
     assert res.decision.confidence > 10
     assert np.all(lam.imag == 0.0)
     assert lam.real.min() > 1e-4 * lam.real.max()       # no zero modes left
@@ -102,7 +103,7 @@ def test_msd_growth_rate_matches_linear_prediction(driver):
     st = read_dump(dump("fx_high", F_RAMP[-1]))
     res = analyze(st)
     assert res.max_residual < 1e-9
-    assert res.decision.complex_present is True and res.decision.confidence > 100
+    assert res.decision.decision is Decision.COMPLEX and res.decision.confidence > 100
     gamma = res.growth_rate
     assert gamma > 0.1
     # undamped dynamics with the loads, from the equilibrium with a small

@@ -14,6 +14,7 @@ from remote_trigger.analysis.dynamics.normal_form import normal_form_matrix
 from remote_trigger.analysis.stability.projected import classify_projected
 
 from .arb_oracle import discriminant_2x2, full_spectrum, pair_is
+from remote_trigger.analysis.stability.decision import Decision
 
 EPSILONS = [1e-2, 1e-4, 1e-6, 1e-8, 1e-10]
 U = 2.0 ** -53
@@ -25,7 +26,7 @@ def test_normal_form_decided_correctly(d, eps):
     """J = [[1-d, eta], [-eta, 1+d]], eta = d (1 - eps): complex iff eps < 0."""
     J = normal_form_matrix(d, eps)
     res = classify_spectrum(J)
-    assert res.complex_present is (eps < 0), (res.confidence, res.pairs)
+    assert res.decision is Decision.certified(eps < 0), (res.confidence, res.pairs)
     assert res.confidence > 1.0
     pair = res.pairs[0]
     assert len(res.pairs) == 1 and pair.method == "exact-2x2"
@@ -62,23 +63,23 @@ def test_normal_form_never_wrong_undecided_only_where_float64_cannot_tell(d, fin
             eps = sign * 10.0 ** -k
             J = normal_form_matrix(d, eps)
             res = classify_spectrum(J)
-            if res.complex_present is None:
+            if res.decision is Decision.UNDECIDED:
                 assert res.confidence <= 1.0
                 assert _box_has_both_signs(J, 4.0), (d, eps, res.confidence)
             else:
-                assert res.complex_present is (eps < 0), (d, eps)
-                assert res.complex_present is (discriminant_2x2(J) < 0), (d, eps)
+                assert res.decision is Decision.certified(eps < 0), (d, eps)
+                assert res.decision is Decision.certified(discriminant_2x2(J) < 0), (d, eps)
                 certified.append(abs(eps))
     assert min(certified) <= finest
     # at eps = 1e-17 the stored matrix is an exceptional point or nearly: no answer
-    assert classify_spectrum(normal_form_matrix(d, 1e-17)).complex_present is None
-    assert classify_spectrum(normal_form_matrix(d, -1e-17)).complex_present is None
+    assert classify_spectrum(normal_form_matrix(d, 1e-17)).decision is Decision.UNDECIDED
+    assert classify_spectrum(normal_form_matrix(d, -1e-17)).decision is Decision.UNDECIDED
     # decided for A exactly as stored (rel_error = 0), the 2 x 2 answer is exact
     for eps in (1e-16, -1e-16, 3e-17):
         J = normal_form_matrix(d, eps)
         D = discriminant_2x2(J)
         res = classify_spectrum(J, rel_error=0.0)
-        assert res.complex_present is (None if D == 0 else bool(D < 0))
+        assert res.decision is (Decision.UNDECIDED if D == 0 else Decision.certified(D < 0))
 
 
 def test_normal_form_eigenvalues_and_condition_numbers():
@@ -119,16 +120,16 @@ def test_embedded_normal_form(seed):
             eps = sign * 10.0 ** -k
             res = classify_spectrum(embedded(0.5, eps, seed=seed))
             if k <= 6:
-                assert res.complex_present is (eps < 0) and res.confidence > 10, (eps, res)
-            elif res.complex_present is not None:
-                assert res.complex_present is (eps < 0), eps
+                assert res.decision is Decision.certified(eps < 0) and res.confidence > 10, (eps, res)
+            elif res.decision is not Decision.UNDECIDED:
+                assert res.decision is Decision.certified(eps < 0), eps
 
 
 def test_symmetric_matrix_is_certified_real():
     rng = np.random.default_rng(3)
     X = rng.normal(size=(25, 25))
     res = classify_spectrum(X + X.T)
-    assert res.complex_present is False and res.confidence > 1
+    assert res.decision is Decision.REAL and res.confidence > 1
     assert all(not p.is_complex for p in res.pairs)
     assert len(res.pairs) == 24
 
@@ -137,9 +138,9 @@ def test_input_uncertainty_lowers_confidence():
     J = normal_form_matrix(0.1, -1e-6)
     r0 = classify_spectrum(J)
     r1 = classify_spectrum(J, input_error=1e-9)
-    assert r0.complex_present and r1.complex_present
+    assert r0.decision is r1.decision is Decision.COMPLEX
     assert r1.confidence < r0.confidence / 100
-    assert classify_spectrum(J, input_error=1e-5).complex_present is None
+    assert classify_spectrum(J, input_error=1e-5).decision is Decision.UNDECIDED
 
 
 def test_block_discriminant():
@@ -193,7 +194,7 @@ def test_sparse_projected_decision(eps):
     A = sparse_with_pair(eps)
     res, resid = classify_projected(A, sigma=19.95, k=12)
     assert resid < 1e-8
-    assert res.complex_present is (eps < 0), res.confidence
+    assert res.decision is Decision.certified(eps < 0), res.confidence
     lam = res.eigenvalues
     assert np.min(np.abs(lam - 20.0)) < 0.5
 
@@ -231,8 +232,8 @@ def test_decisions_agree_with_arb(dist):
     """
     A = embedded(0.5, dist, n=40, seed=2)
     res = classify_spectrum(A)
-    assert res.complex_present is (dist < 0), (dist, res.confidence, res.reason)
-    want = "complex" if res.complex_present else "real"
+    assert res.decision is Decision.certified(dist < 0), (dist, res.confidence, res.reason)
+    want = "complex" if res.decision is Decision.COMPLEX else "real"
     assert full_spectrum(A) == want
     box = pair_is(A, res.critical_pair.eigenvalues, rel=U)
     assert box in (want, None)                  # the oracle may fail to decide, not disagree

@@ -14,6 +14,7 @@ from remote_trigger.analysis.stability.exceptional import classify_spectrum
 
 from .arb_oracle import full_spectrum
 from .test_exceptional import embedded
+from remote_trigger.analysis.stability.decision import Decision
 
 
 def _path(eps_values, n=40, seed=2):
@@ -26,8 +27,8 @@ def test_path_through_an_exceptional_point_same_answers_as_dgeev():
     for e, A in zip(eps, _path(eps)):
         warm = classify_spectrum(A, basis=basis)
         cold = classify_spectrum(A)
-        assert cold.start == "dgeev" and cold.complex_present is bool(e < 0)
-        assert warm.complex_present is cold.complex_present, (e, warm.reason)
+        assert cold.start == "dgeev" and cold.decision is Decision.certified(e < 0)
+        assert warm.decision is cold.decision, (e, warm.reason)
         assert warm.confidence > 1
         starts.append(warm.start)
         if warm.start == "basis":
@@ -48,7 +49,7 @@ def test_basis_answer_agrees_with_arb(e):
     A0, A = _path([2 * e, e])
     dec = classify_spectrum(A, basis=classify_spectrum(A0).basis)
     assert dec.start == "basis"
-    assert full_spectrum(A) == ("complex" if dec.complex_present else "real")
+    assert full_spectrum(A) == ("complex" if dec.decision is Decision.COMPLEX else "real")
 
 
 def test_complex_side_decided_from_the_real_sides_basis(monkeypatch):
@@ -63,7 +64,7 @@ def test_complex_side_decided_from_the_real_sides_basis(monkeypatch):
     basis = classify_spectrum(A0).basis
     assert not basis.pairs.any()
     dec = classify_spectrum(A, basis=basis)
-    assert dec.start == "basis" and dec.complex_present is True and dec.confidence > 1
+    assert dec.start == "basis" and dec.decision is Decision.COMPLEX and dec.confidence > 1
     assert dec.basis.pairs.sum() == 1
     assert full_spectrum(A) == "complex"
     monkeypatch.setattr(basis_module, "_BASIS_MERGE", np.inf)
@@ -78,7 +79,7 @@ def test_basis_that_does_not_fit_falls_back_to_dgeev():
     rng = np.random.default_rng(5)
     unrelated = classify_spectrum(rng.normal(size=(40, 40))).basis
     res = classify_spectrum(B, basis=unrelated)
-    assert res.start == "dgeev" and res.complex_present is True
+    assert res.start == "dgeev" and res.decision is Decision.COMPLEX
 
 
 def test_basis_save_and_load(tmp_path):

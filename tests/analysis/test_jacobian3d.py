@@ -21,6 +21,7 @@ from remote_trigger.analysis.state.state3d import build_state3d, plane_wall
 
 from .builders import KN, KT, random_packing
 from .builders3d import random_packing3d, tangent_t
+from remote_trigger.analysis.stability.decision import Decision
 
 EPS = np.finfo(float).eps
 
@@ -206,7 +207,7 @@ def test_decision_runs_on_a_3d_cluster():
         assert np.all(np.isfinite(dec.eigenvalues))
         assert dec.eigenvalues.size == A.shape[0]
         if state is not st:
-            assert not dec.complex_present
+            assert dec.decision is not Decision.COMPLEX
 
 
 def test_decision_and_pair_tracking_through_a_coalescence():
@@ -223,9 +224,9 @@ def test_decision_and_pair_tracking_through_a_coalescence():
         s = st.with_t(st.contact_t * a, st.wall_t * a)
         K, m = remove_dofs(stiffness_matrix3d(s), s.mass_diagonal(), rat.keep_dofs)
         dec = classify_spectrum(K.toarray() / m[:, None])
-        assert dec.complex_present is not None, a
-        points.append((a, dec.eigenvalues, dec.complex_present))
-    flags = [p[2] for p in points]
+        assert dec.decision is not Decision.UNDECIDED, a
+        points.append((a, dec.eigenvalues, dec.decision))
+    flags = [p[2] is Decision.COMPLEX for p in points]
     first = flags.index(True)
     assert 3 < first and not any(flags[:first]) and all(flags[first:]), flags
     tr = track_pair(points)

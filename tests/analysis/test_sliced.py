@@ -14,6 +14,7 @@ from remote_trigger.analysis.stability.sliced import SlicedStats, classify_slice
 from remote_trigger.analysis.stability.slicing import count_below
 
 from .arb_oracle import full_spectrum
+from remote_trigger.analysis.stability.decision import Decision
 
 
 def planted(n=150, pairs=(), seed=0, coupling=0.3):
@@ -148,8 +149,8 @@ def test_planted_pair_bottom_middle_top(where, ratio):
     st = SlicedStats()
     res = classify_sliced(K, mass, stats=st)
     assert res.coverage == "whole" and res.start == "sliced"
-    assert res.complex_present is (ratio > 1), res.reason
-    assert dense_decision(K, mass).complex_present is (ratio > 1)
+    assert res.decision is Decision.certified(ratio > 1), res.reason
+    assert dense_decision(K, mass).decision is Decision.certified(ratio > 1)
     assert sum(st.strips.values()) + st.strips.get(2, 0) == 150
     if ratio > 1:
         assert st.strips.get(2, 0) >= 1
@@ -160,8 +161,8 @@ def test_planted_pair_bottom_middle_top(where, ratio):
 def test_two_nearly_coalescing_real_pairs_are_real():
     K, mass = planted(pairs=[(40, 0.9), (41 + 60, 0.95)], seed=1)
     res = classify_sliced(K, mass)
-    assert res.complex_present is False, res.reason
-    assert dense_decision(K, mass).complex_present is False
+    assert res.decision is Decision.REAL, res.reason
+    assert dense_decision(K, mass).decision is Decision.REAL
     assert all(p.certified for p in res.pairs)
 
 
@@ -171,7 +172,7 @@ def test_agrees_with_arb(ratio):
     K, mass = planted(n=40, pairs=[(20, ratio)], seed=2)
     res = classify_sliced(K, mass)
     want = "complex" if ratio > 1 else "real"
-    assert res.complex_present is (ratio > 1), res.reason
+    assert res.decision is Decision.certified(ratio > 1), res.reason
     assert full_spectrum(eigen.dynamical_matrix(K, mass).toarray()) == want
 
 
@@ -180,10 +181,10 @@ def test_strong_coupling_is_never_called_real():
     'complex' or 'undecided', never 'real' (the check can fail)."""
     K, mass = planted(n=120, seed=4, coupling=30.0)
     dense = dense_decision(K, mass)
-    assert dense.complex_present is True
+    assert dense.decision is Decision.COMPLEX
     res = classify_sliced(K, mass)
-    assert res.complex_present in (True, None)
-    if res.complex_present is None:
+    assert res.decision in (Decision.COMPLEX, Decision.UNDECIDED)
+    if res.decision is Decision.UNDECIDED:
         assert res.reason
 
 
@@ -222,8 +223,8 @@ def test_a_slice_with_inexact_vectors_is_computed_again(monkeypatch):
     assert st.arpack_runs == st0.arpack_runs + 1
     assert st.ritz_radius < st0.ritz_radius / 100
     assert st.strips == {1: 400} and st0.strips.get(2, 0) > 0
-    want = dense_decision(K, M).complex_present
-    assert dec.complex_present is want is False and dec0.complex_present is False
+    want = dense_decision(K, M).decision
+    assert dec.decision is want is Decision.REAL and dec0.decision is Decision.REAL
 
 
 def test_a_poor_slice_weakens_only_the_boundaries_near_it(monkeypatch):
@@ -260,8 +261,8 @@ def test_a_poor_slice_weakens_only_the_boundaries_near_it(monkeypatch):
 def test_too_narrow_window_is_undecided_with_a_reason():
     K, mass = planted(pairs=[(75, 1.5)])
     res = classify_sliced(K, mass, window=1e-3)
-    assert res.complex_present in (True, None)
-    if res.complex_present is None:
+    assert res.decision in (Decision.COMPLEX, Decision.UNDECIDED)
+    if res.decision is Decision.UNDECIDED:
         assert res.reason
 
 
@@ -305,7 +306,7 @@ def test_strip_with_a_pair_is_certified_complex_by_winding(w_chain, w_pair, m):
     assert np.count_nonzero(lam.imag > 0) >= 1
     st = SlicedStats()
     res = classify_sliced(K, mass, stats=st)
-    assert res.complex_present is True, res.reason
+    assert res.decision is Decision.COMPLEX, res.reason
     assert st.strips.get(m) == 1
     # the strip's approximations carry the pair (for the growth rate and the
     # pair's place downstream), as LAPACK has it
@@ -319,7 +320,7 @@ def test_undecided_strip_without_a_pair_says_none_complex():
     K, mass = _cluster(0.0022, 0.0022, n=200, m=26)
     assert np.all(np.linalg.eigvals(K.toarray()).imag == 0)
     res = classify_sliced(K, mass)
-    assert res.complex_present is None           # a real cluster of 26: not decided
+    assert res.decision is Decision.UNDECIDED           # a real cluster of 26: not decided
     assert res.reason.startswith("strip of 26 eigenvalues (> 24)")
     assert "ARPACK, not certified: 26 of its 26 eigenvalues seen, none complex" in res.reason
 
@@ -329,7 +330,7 @@ def test_every_undecided_strip_is_named():
     K, mass = _cluster(0.0022, 0.0022, n=200, m=26, clusters=((30, 20.0), (100, 50.0)))
     assert np.all(np.linalg.eigvals(K.toarray()).imag == 0)
     res = classify_sliced(K, mass)
-    assert res.complex_present is None
+    assert res.decision is Decision.UNDECIDED
     assert res.reason.startswith("2 undecided strips: strip of 26 eigenvalues (> 24)")
     low, high = res.reason.split(" | ")
     assert low.endswith("none complex") and high.endswith("none complex")
@@ -349,7 +350,7 @@ def test_real_clusters_of_up_to_24_are_certified_real(m, clusters):
     K, mass = _cluster(0.0022, 0.0022, n=200, m=m, clusters=clusters)
     st = SlicedStats()
     res = classify_sliced(K, mass, stats=st)
-    assert res.complex_present is False, res.reason
+    assert res.decision is Decision.REAL, res.reason
     assert st.strips.get(m) == len(clusters)
     assert full_spectrum(eigen.dynamical_matrix(K, mass).toarray()) == "real"
 
@@ -363,7 +364,7 @@ def test_stop_at_complex_lists_the_spectrum_below_the_first_complex_strip():
     full_st, stop_st = SlicedStats(), SlicedStats()
     full = classify_sliced(K, mass, stats=full_st)
     stop = classify_sliced(K, mass, stats=stop_st, stop_at_complex=True)
-    assert full.complex_present is True and stop.complex_present is True, stop.reason
+    assert full.decision is Decision.COMPLEX and stop.decision is Decision.COMPLEX, stop.reason
     assert np.isinf(full.scanned_below) and np.isnan(full.lambda_max)
     assert sum(p.is_complex and p.certified for p in full.pairs) == 2
     assert sum(p.is_complex and p.certified for p in stop.pairs) == 1
@@ -383,13 +384,13 @@ def test_progress_counts_the_scan_and_changes_nothing():
     for a whole scan (real) and stops below n for a scan stopped at a complex
     strip; the verdicts and eigenvalues are those of the same calls without it."""
     n = 150
-    for pairs, stop, want in (((), False, False), (((40, 1.5),), True, True)):
+    for pairs, stop, want in (((), False, Decision.REAL), (((40, 1.5),), True, Decision.COMPLEX)):
         K, mass = planted(n=n, pairs=pairs, seed=7)
         calls, st = [], SlicedStats()
         got = classify_sliced(K, mass, stop_at_complex=stop, slice_size=20, stats=st,
                               progress=lambda done, m: calls.append((done, m)))
         ref = classify_sliced(K, mass, stop_at_complex=stop, slice_size=20)
-        assert got.complex_present is want and ref.complex_present is want, got.reason
+        assert got.decision is want and ref.decision is want, got.reason
         np.testing.assert_array_equal(got.eigenvalues, ref.eigenvalues)
         done = [d for d, _ in calls]
         assert all(m == n for _, m in calls) and len(calls) == st.slices > 1
@@ -397,7 +398,7 @@ def test_progress_counts_the_scan_and_changes_nothing():
         assert (done[-1] == n) is (not stop)
 
 
-@pytest.mark.parametrize("pair, want", [(20, True), (None, None)])
+@pytest.mark.parametrize("pair, want", [(20, Decision.COMPLEX), (None, Decision.UNDECIDED)])
 def test_slicing_that_fails_above_a_complex_strip_is_complex(monkeypatch, pair, want):
     """The slices stop after the third (a planted failure): with a complex
     strip below, the verdict is complex (the strip decides the whole matrix)
@@ -415,9 +416,9 @@ def test_slicing_that_fails_above_a_complex_strip_is_complex(monkeypatch, pair, 
     monkeypatch.setattr(sliced, "_slices", failing)
     K, mass = planted(pairs=[(pair, 1.5)] if pair is not None else [], seed=6)
     res = classify_sliced(K, mass, slice_size=20)
-    assert res.complex_present is want
+    assert res.decision is want
     assert "planted failure" in res.reason
-    assert bool(np.isfinite(res.scanned_below)) is (want is True)
+    assert bool(np.isfinite(res.scanned_below)) is (want is Decision.COMPLEX)
 
 
 class _Killed(Exception):
@@ -426,7 +427,7 @@ class _Killed(Exception):
 
 def _fields(res, st):
     """Every number of a verdict and its statistics, as text (floats exact, NaN == NaN)."""
-    return repr((res.complex_present, res.confidence, res.reason, res.scanned_below,
+    return repr((res.decision, res.confidence, res.reason, res.scanned_below,
             res.lambda_max, res.eigenvalues.tobytes(), res.backward_error,
             [(p.eigenvalues.tobytes(), repr(dataclasses.replace(p, eigenvalues=None)))
              for p in res.pairs],
@@ -445,7 +446,7 @@ def test_a_scan_killed_after_any_slice_resumes_to_the_same_bits(tmp_path, pairs,
     K, mass = planted(n=150, pairs=pairs, seed=11)
     ref_st = SlicedStats()
     ref = classify_sliced(K, mass, slice_size=20, stats=ref_st, stop_at_complex=stop)
-    assert ref.complex_present is bool(pairs), ref.reason
+    assert ref.decision is Decision.certified(pairs), ref.reason
     assert ref_st.slices >= 4
     want = _fields(ref, ref_st)
     for k in range(2, ref_st.slices + 1, 2):
@@ -562,7 +563,7 @@ def test_a_stale_scan_state_is_removed_and_bad_input_refused(tmp_path):
     (tmp_path / "notes.txt").write_text("kept")
     assert saved_scans(tmp_path) == []          # the unreadable state is left out
     res = classify_sliced(K, mass, slice_size=20, checkpoint_dir=tmp_path)
-    assert res.complex_present is False
+    assert res.decision is Decision.REAL
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names[0] == "notes.txt" and len(names) == 2 and names[1].endswith(".done.pkl")
     assert saved_scans(tmp_path / "missing") == []
@@ -589,26 +590,26 @@ def test_soft_pairs_do_not_stop_the_scan_and_collective_decision():
     assert pairs_re[0] < 0.05 * top < pairs_re[1]
     plain = classify_sliced(K, mass, stop_at_complex=True)
     soft = classify_sliced(K, mass, stop_at_complex=True, soft_rel=0.05)
-    assert plain.complex_present and soft.complex_present
+    assert plain.decision is soft.decision is Decision.COMPLEX
     assert plain.scanned_below < pairs_re[1] < soft.scanned_below
     assert pairs_re[1] < soft.scanned_below < top
     assert sum(p.is_complex and p.certified for p in soft.pairs) == 2
-    assert collective_decision(soft, soft.lambda_max, 0.05) == ("complex", 1)
-    assert collective_decision(plain, plain.lambda_max, 0.05) == ("undecided", 1)
-    assert collective_decision(soft, soft.lambda_max, 0.0) == ("complex", 0)
+    assert collective_decision(soft, soft.lambda_max, 0.05) == (Decision.COMPLEX, 1)
+    assert collective_decision(plain, plain.lambda_max, 0.05) == (Decision.UNDECIDED, 1)
+    assert collective_decision(soft, soft.lambda_max, 0.0) == (Decision.COMPLEX, 0)
 
     K1, mass1 = planted(pairs=[(0, 1.5)], seed=5)
     one = classify_sliced(K1, mass1, stop_at_complex=True, soft_rel=0.05)
-    assert one.complex_present is True and np.isinf(one.scanned_below), one.reason
+    assert one.decision is Decision.COMPLEX and np.isinf(one.scanned_below), one.reason
     top1 = float(np.max(one.eigenvalues.real))
-    assert collective_decision(one, top1, 0.05) == ("real", 1)
+    assert collective_decision(one, top1, 0.05) == (Decision.REAL, 1)
     dense = dense_decision(K1, mass1)
     assert collective_decision(dense, float(np.max(dense.eigenvalues.real)), 0.05) \
-        == ("real", 1)
+        == (Decision.REAL, 1)
     assert collective_decision(dense, float(np.max(dense.eigenvalues.real)), 0.0) \
-        == ("complex", 0)
+        == (Decision.COMPLEX, 0)
     K0, mass0 = planted(seed=5)
-    assert collective_decision(dense_decision(K0, mass0), 100.0, 0.05) == ("real", 0)
+    assert collective_decision(dense_decision(K0, mass0), 100.0, 0.05) == (Decision.REAL, 0)
     for bad in (-0.1, 1.0, "x", True):
         with pytest.raises(ValueError, match="soft_rel"):
             classify_sliced(K1, mass1, stop_at_complex=True, soft_rel=bad)
@@ -633,12 +634,13 @@ def test_collective_decision_leaves_soft_units_aside():
         return SpectrumDecision(present, 2.0, pairs, 0.0, np.zeros(0, complex),
                                 scanned_below=below)
 
-    assert collective_decision(dec([soft_pair, soft_open, stiff]), 1.0) == ("real", 1)
+    assert collective_decision(dec([soft_pair, soft_open, stiff]), 1.0) == (Decision.REAL, 1)
     stiff_open = PairDecision(np.array([0.3, 0.31]), False, False, 0.9, method="gershgorin")
-    assert collective_decision(dec([soft_pair, stiff_open]), 1.0) == ("undecided", 1)
-    assert collective_decision(dec([soft_pair, stiff], below=0.2), 1.0) == ("undecided", 1)
+    assert collective_decision(dec([soft_pair, stiff_open]), 1.0) == (Decision.UNDECIDED, 1)
+    assert collective_decision(dec([soft_pair, stiff], below=0.2), 1.0) == \
+        (Decision.UNDECIDED, 1)
     assert collective_decision(dec([soft_pair, stiff], present=None), 1.0) == \
-        ("undecided", 1)
+        (Decision.UNDECIDED, 1)
     pair = PairDecision(np.array([0.4 - 0.01j, 0.4 + 0.01j]), True, True, 3.0)
-    assert collective_decision(dec([soft_pair, stiff_open, pair]), 1.0) == ("complex", 1)
-    assert collective_decision(dec([soft_pair, stiff]), 1.0, soft_rel=1e-7) == ("complex", 0)
+    assert collective_decision(dec([soft_pair, stiff_open, pair]), 1.0) == (Decision.COMPLEX, 1)
+    assert collective_decision(dec([soft_pair, stiff]), 1.0, soft_rel=1e-7) == (Decision.COMPLEX, 0)

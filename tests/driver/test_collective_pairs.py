@@ -88,7 +88,9 @@ def test_a_soft_first_pair_does_not_end_the_collective_ramp(all_pairs, monkeypat
     lam, top = _lapack(hi["dump"])
     off = lam[lam.imag != 0]
     assert np.any(np.abs(off.real) >= thr * top)
-    got = onset_numbers(pts, DF, thr)["pair_re_rel"]
+    monkeypatch.setattr(verdict, "SOFT_MODE_REL", thr)
+    got = onset_numbers(pts, DF, "collective")["pair_re_rel"]
+    monkeypatch.undo()
     assert abs(got) >= thr
     # the dense and the sliced collective ramps (the same loads) agree
     _BRACKETS[sliced] = (res.F_x_c_low, res.F_x_c_high)
@@ -112,16 +114,26 @@ def test_the_command_line_says_which_onset_it_bracketed(relaxed, tmp_path):
     assert "(pairs = 'collective')" in proc.stdout
 
 
-def test_the_ensembles_dense_spectrum_decides_on_the_pairs_that_are_not_soft(all_pairs):
+def test_the_ensembles_dense_spectrum_decides_on_the_pairs_that_are_not_soft(all_pairs,
+                                                                            monkeypatch):
     """``ensemble.onset.spectrum`` (the I0 re-analysis and the frictional
     protocol's F_x = 0 point): at the all-pairs ramp's first complex point the
     decision on all pairs is complex; with a threshold above the pair's
     |Re lambda| / lambda_max it is real (every other unit certified), with 0
     complex again; under I0 = 1 as under the dynamics' I0; from a basis as from
     dgeev."""
+    from remote_trigger.analysis.stability import verdict
     from remote_trigger.analysis.state.dumpfile import read_dump
     from remote_trigger.pywrap.jobs.ensemble.onset import (onset_numbers, read_ramp,
                                                            reanalyse, spectrum)
+
+    def collective(rel, call, *args):
+        """``call(*args, pairs='collective')`` with the soft threshold ``rel``."""
+        monkeypatch.setattr(verdict, "SOFT_MODE_REL", rel)
+        try:
+            return call(*args, pairs="collective")
+        finally:
+            monkeypatch.undo()
 
     _, full = all_pairs
     pts = read_ramp(full.h5)
@@ -129,16 +141,16 @@ def test_the_ensembles_dense_spectrum_decides_on_the_pairs_that_are_not_soft(all
     rel = abs(onset_numbers(pts, DF)["pair_re_rel"])
     state = read_dump(hi["dump"], require_contacts=False)
     assert spectrum(state)["decision"] == 1
-    assert spectrum(state, soft_rel=0.0)["decision"] == 1
-    assert spectrum(state, soft_rel=1.5 * rel)["decision"] == 0
+    assert collective(0.0, spectrum, state)["decision"] == 1
+    assert collective(1.5 * rel, spectrum, state)["decision"] == 0
     # under another I0, every point, each from the previous one's basis
-    got = reanalyse(pts, 1.0, soft_rel=1.5 * rel)
+    got = collective(1.5 * rel, reanalyse, pts, 1.0)
     plain = reanalyse(pts, 1.0)
     for g, p in zip(got, plain):
         if p["decision"] == 0:
             assert g["decision"] == 0
         state = read_dump(g["dump"], require_contacts=False, inertia_factor=1.0)
-        assert g["decision"] == spectrum(state, soft_rel=1.5 * rel)["decision"]
+        assert g["decision"] == collective(1.5 * rel, spectrum, state)["decision"]
 
 
 def test_jacobian_says_whether_the_complex_pairs_are_soft(all_pairs, tmp_path, capsys,

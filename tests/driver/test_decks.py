@@ -10,6 +10,7 @@ from remote_trigger.pywrap.bindings.decks import DECK_DIR, deck_sections
 from remote_trigger.pywrap.bindings.engine import DUMP_COLUMNS
 
 from .conftest import LMP, cli_env
+from remote_trigger.analysis.stability.decision import Decision
 
 
 def _lmp(tmp_path, deck, **var):
@@ -87,7 +88,7 @@ def test_relax_deck(tmp_path, packing_file, relaxed):
     assert os.path.exists(tmp_path / "r.data")
     a = analyze(st)
     assert a.max_residual < 1e-9                       # fmin 1e-10 includes damping forces
-    assert a.decision.complex_present is False         # certified real, like the driver
+    assert a.decision.decision is Decision.REAL         # certified real, like the driver
     assert np.all(st.contact_xi == 0) and np.all(st.wall_xi == 0)   # friction on, zero history
 
     def phi(s):

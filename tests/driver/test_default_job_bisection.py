@@ -19,6 +19,7 @@ from remote_trigger.pywrap.jobs.paper.config import PaperConfig
 
 from tests.analysis.arb_oracle import pair_is
 from tests.data import unpack
+from remote_trigger.analysis.stability.decision import Decision
 
 U = 2.0 ** -53
 
@@ -86,5 +87,5 @@ def test_default_job_bisection_is_certified_and_agrees_with_arb(mu, name, F_lo, 
     for j, (F, d) in enumerate(zip(res.bisection_F_x, dec)):
         A = matrix(str(out / "ramp" / f"bisect_{j:03d}.dump"))
         ours = exceptional.classify_spectrum(A)
-        assert ours.complex_present is bool(d == 1)
+        assert ours.decision is Decision.certified(d == 1)
         assert pair_is(A, ep_pair(A), rel=U) == ("complex" if d == 1 else "real"), (mu, F)

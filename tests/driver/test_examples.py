@@ -7,6 +7,7 @@ import sys
 import numpy as np
 
 from .conftest import cli_env
+from remote_trigger.analysis.stability.decision import Decision
 
 ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 BIN = os.path.dirname(sys.executable)
@@ -27,7 +28,7 @@ def test_stage_decks_script(tmp_path):
     p = subprocess.run(["sh", script, "20", "1", DECK_DIR], cwd=tmp_path, env=_env(),
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
-    assert analyze(read_dump(str(tmp_path / "relaxed.dump"))).decision.complex_present is False
+    assert analyze(read_dump(str(tmp_path / "relaxed.dump"))).decision.decision is Decision.REAL
     st = read_dump(str(tmp_path / "step.dump"))
     assert st.F_x == 0.001
     rows = np.loadtxt(tmp_path / "perturb.txt")         # step time D v_top mu
@@ -41,7 +42,7 @@ def test_python_driver_script(tmp_path):
                        timeout=300)
     assert p.returncode == 0, p.stdout[-2000:] + p.stderr[-2000:]
     lines = p.stdout.splitlines()
-    assert lines[0].startswith("relax: phi = ") and "complex pair at F_x = 0: False" in lines[0]
+    assert lines[0].startswith("relax: phi = ") and "verdict at F_x = 0: real (margin " in lines[0]
     assert sum(s.startswith("F_x = ") for s in lines) >= 3
     assert lines[-1].startswith("ramp: ") and "nan" not in lines[-1]
     # a second run into the same folder: a one-line usage error, nothing touched

@@ -20,9 +20,9 @@ def test_v0_is_per_step_max_of_run_a(relaxed, tmp_path):
     eq = str(tmp_path / "perturb" / "equilibrium.data")
     per_step = []
     with Engine() as eng:
-        from remote_trigger.pywrap.stages.common import _deck_vars
+        from remote_trigger.pywrap.stages.common import deck_vars
 
-        v = _deck_vars(cfg, eq, cfg.F_x)
+        v = deck_vars(cfg, eq, cfg.F_x)
         for var in ("gamma", "gamma_rot"):        # (relaxing decks only)
             v.pop(var, None)
         v.update({"a": 0.0, "muv": 0})

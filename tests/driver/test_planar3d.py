@@ -49,6 +49,7 @@ from remote_trigger.analysis.stability.jacobian3d import find_rattlers3d, stiffn
 from remote_trigger.analysis.stability.verdict import stability_of
 from remote_trigger.analysis.state.dumpfile import read_dump, read_dump3d
 from remote_trigger.pywrap.stages.ramp_file import point_file
+from remote_trigger.analysis.stability.decision import Decision
 
 DF = 0.05
 TOL = 1e-3
@@ -191,8 +192,8 @@ def test_in_plane_k_eigenvalues_and_decisions_are_the_2d_ones(planar):
         dlam = np.abs(lam3 - lam2).max() / np.abs(lam2).max()
         assert dlam <= 1e-10, (F, dlam)
         # certified, and the 2D ramp's decision: the same bracket of F_x^c
-        assert dec.complex_present is not None and dec.confidence > 1, F
-        assert float(dec.complex_present) == d2, (F, dec.complex_present, d2)
+        assert dec.decision is not Decision.UNDECIDED and dec.confidence > 1, F
+        assert float(dec.decision) == d2, (F, dec.decision, d2)
         worst = dict(K=max(worst["K"], dK), coupling=max(worst["coupling"], cpl / scale),
                      lam=max(worst["lam"], dlam))
     print(f"planar 3D vs 2D: max |dK|/max|K| {worst['K']:.2g} (coupling to z, phi_x, "
@@ -216,9 +217,9 @@ def test_out_of_plane_buckles_and_the_3d_verdict_is_the_in_plane_one(planar):
         out = classify_spectrum(K3[np.ix_(outp, outp)] / m3[outp][:, None])
         lam_out = np.asarray(out.eigenvalues, complex)
         inn = classify_spectrum(K3[np.ix_(inp, inp)] / m3[inp][:, None])
-        assert out.complex_present is False and out.confidence > 1, F
+        assert out.decision is Decision.REAL and out.confidence > 1, F
         assert np.all(lam_out.imag == 0) and lam_out.real.min() < 0, F
-        assert res.decision == ("complex" if inn.complex_present else "real"), F
+        assert res.decision is inn.decision, F
         assert res.eigenvalues.size == lam_out.size + np.asarray(inn.eigenvalues).size
         g_static = np.sqrt(-lam_out.real.min())
         assert res.growth_rate >= g_static * (1 - 1e-9), (F, res.growth_rate, g_static)

@@ -21,6 +21,7 @@ from remote_trigger.pywrap.stages.config import RelaxConfig
 from remote_trigger.pywrap import stages
 from remote_trigger.pywrap.stages.packing import generate, write_data
 from remote_trigger.analysis.stability.verdict import stability_of_dump
+from remote_trigger.analysis.stability.decision import Decision
 
 N = 40
 
@@ -53,7 +54,7 @@ def test_friction_on_with_zero_history(relaxed40):
 
 def test_spectrum_real_and_positive_at_zero_load(relaxed40):
     res = stability_of_dump(relaxed40.dumpfile)
-    assert res.decision == "real" and res.confidence > 1, (res.decision, res.confidence)
+    assert res.decision is Decision.REAL and res.confidence > 1, (res.decision, res.confidence)
     assert not res.complex_pair and res.growth_rate == 0.0
     assert np.all(res.eigenvalues.imag == 0) and res.eigenvalues.real.min() > 0
 

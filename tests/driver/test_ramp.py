@@ -9,6 +9,7 @@ from remote_trigger.pywrap.stages.config import RampConfig
 from remote_trigger.pywrap import stages
 from remote_trigger.pywrap.runtime.results import read_all
 from remote_trigger.pywrap.stages.ramp_file import point_file, read_points
+from remote_trigger.analysis.stability.decision import Decision
 
 DF = 0.01
 TOL = 1e-5
@@ -110,7 +111,7 @@ def test_decisions_from_a_previous_basis_are_dgeev_s(full_ramp):
         for k, f in enumerate(data[f"{kind}/datafile"]):
             cold = stability_of_dump(_dump(point_file(res.h5, f, attrs)))
             assert cold.start == "dgeev", (kind, k)
-            assert cold.decision_code == data[f"{kind}/decision"][k], (kind, k)
+            assert cold.policy_decision == data[f"{kind}/decision"][k], (kind, k)
             lam = data[f"eigenvalues/{kind}/{stem.format(k)}"]
             np.testing.assert_allclose(np.sort_complex(lam),
                                        np.sort_complex(cold.eigenvalues), rtol=0,
@@ -193,19 +194,18 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
     cfg, full = full_ramp
     F_c = full.F_x_c
     W = 0.3 * min(F_c - full.F_x[-2], full.F_x[-1] - F_c)
-    real = stability.stability_of_dump
+    real = stability.decide
 
-    def fuzzy(path, basis=None, **kw):
-        res = real(path, basis, **kw)
-        with open(path + ".json") as fh:
-            F = json.load(fh)["F_x"]
+    def fuzzy(system, *args, **kw):
+        res = real(system, *args, **kw)
+        F = system.state.F_x
         if abs(F - F_c) < W:
-            return dataclasses.replace(res, decision="undecided", complex_pair=False,
+            return dataclasses.replace(res, decision=Decision.UNDECIDED,
                                        confidence=0.5, max_imag=0.0,
                                        reason=f"strip of 9 eigenvalues (> 8) at {F:.6g}")
         return res
 
-    monkeypatch.setattr(stability, "stability_of_dump", fuzzy)
+    monkeypatch.setattr(stability, "decide", fuzzy)
     out = str(tmp_path)
     start = os.path.join(os.path.dirname(full.h5), "ramp", f"step_{full.F_x.size - 2:05d}.data")
     F0 = float(full.F_x[-2])
@@ -419,18 +419,17 @@ def test_undecided_points_keep_their_reason_in_ramp_h5(full_ramp, tmp_path, monk
 
     from remote_trigger.analysis.stability import verdict
 
-    real = verdict.stability_of_dump
+    real = verdict.decide
     why = "strip of 9 eigenvalues (> 8)"
+    cfg, full = full_ramp
 
-    def forced(path, basis=None, **kw):
-        res = real(path, basis, **kw)
-        if os.path.basename(path) == "step_00001.dump":
-            return dataclasses.replace(res, decision="undecided", complex_pair=False,
-                                       reason=why)
+    def forced(system, *args, **kw):
+        res = real(system, *args, **kw)
+        if system.state.F_x == full.F_x[1]:         # step_00001
+            return dataclasses.replace(res, decision=Decision.UNDECIDED, reason=why)
         return res
 
-    monkeypatch.setattr(verdict, "stability_of_dump", forced)
-    cfg, full = full_ramp
+    monkeypatch.setattr(verdict, "decide", forced)
     part = stages.ramp(cfg, str(tmp_path), quiet=True, stop_after=3)
     assert part.status == "interrupted"
     res = stages.ramp(cfg, str(tmp_path), quiet=True, resume=True)
@@ -498,7 +497,7 @@ def test_sliced_ramp_stops_at_the_pair_and_measures_the_same_onset(full_ramp, mo
     hi = next(p for p in pts if p["F_x"] == res.F_x_c_high and p["decision"] == 1)
     assert 0 < len(hi["eigenvalues"]) < hi["n_dof"]
     dense = verdict.stability_of_dump(hi["dump"])
-    assert dense.decision == "complex" and dense.n_dof == hi["n_dof"]
+    assert dense.decision is Decision.COMPLEX and dense.n_dof == hi["n_dof"]
     want = pair_position(dense.eigenvalues)
     got = onset_numbers(pts, cfg.dF_x)
     assert got["n_dof"] == want["n_dof"] and got["pair_index"] == want["pair_index"]

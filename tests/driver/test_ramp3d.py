@@ -17,7 +17,8 @@ import h5py
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.stability.analyze import analyze, max_residual, roundoff_floor
+from remote_trigger.analysis.stability.analyze import analyze
+from remote_trigger.analysis.stability.residual import max_residual, roundoff_floor
 from remote_trigger.analysis.stability.jacobian import remove_dofs
 from remote_trigger.analysis.stability.jacobian3d import generalized_forces3d
 from remote_trigger.analysis.stability.verdict import stability_of
@@ -26,6 +27,7 @@ from remote_trigger.pywrap.stages.ramp_file import point_file
 
 from .test_cli_errors import assert_one_line_error, run_cli
 from . import test_kill
+from remote_trigger.analysis.stability.decision import Decision
 
 N = 96
 SEED = 1
@@ -113,7 +115,7 @@ def test_short_ramp_gives_a_certified_bracket(ramp3d):
     for F in (lo, hi):
         st = read_dump3d(rows[F][1][:-len(".data")] + ".dump")
         fresh = stability_of(st)                    # from dgeev, no previous basis
-        assert fresh.decision == ("real" if F == lo else "complex"), (F, fresh.decision)
+        assert fresh.decision is (Decision.REAL if F == lo else Decision.COMPLEX), (F, fresh.decision)
         assert fresh.confidence > 1
         a = analyze(st, eigenvalues=False, decide=False)
         Kr, mr = remove_dofs(a.K, a.mass, a.rattlers.keep_dofs)
@@ -328,3 +330,29 @@ def test_instability_of_spheres_runs_from_a_certified_complex_state(ramp3d, tmp_
     assert status == 2
     assert_one_line_error(err, "linearly stable")
     assert not os.path.exists(tmp_path / "j" / "instability.h5")
+
+
+def test_the_held_system_of_spheres_is_the_dumps(relaxed3d, tmp_path):
+    """A ramp point's reduced system, built from the arrays LAMMPS holds
+    (``point.held_system``), is its dump's bit for bit (spheres)."""
+    from remote_trigger.analysis.stability.system import reduced_system
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
+    from remote_trigger.pywrap.bindings.engine import Engine
+    from remote_trigger.pywrap.stages import equilibrium as eq
+    from remote_trigger.pywrap.stages.common import load_equilibrium_scene, save_equilibrium
+    from remote_trigger.pywrap.stages.config import RampConfig
+    from remote_trigger.pywrap.stages.point import held_system
+
+    cfg, F_x = RampConfig(datafile=relaxed3d.datafile), 0.01
+    prefix = str(tmp_path / "p")
+    with Engine() as eng:
+        load_equilibrium_scene(eng, cfg, relaxed3d.datafile, F_x, 3)
+        eq.equilibrate(eng, cfg, F_x, newton_first=True)
+        save_equilibrium(eng, cfg, F_x, prefix)
+        held = held_system(eng, cfg, F_x)()
+    read = reduced_system(read_equilibrium(prefix + ".dump"))
+    assert held.n > 0
+    for name in ("indptr", "indices", "data"):
+        assert getattr(held.K, name).tobytes() == getattr(read.K, name).tobytes(), name
+    assert held.mass.tobytes() == read.mass.tobytes()
+    assert held.keep_dofs.tobytes() == read.keep_dofs.tobytes()

@@ -12,7 +12,7 @@ import h5py
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.stability.analyze import max_residual, roundoff_floor
+from remote_trigger.analysis.stability.residual import max_residual, roundoff_floor
 from remote_trigger.analysis.stability.jacobian3d import generalized_forces3d
 from remote_trigger.analysis.state.datafile import read_data
 from remote_trigger.analysis.state.dumpfile import dump_dimension, read_dump3d

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from remote_trigger.pywrap.stages.config import RampConfig
+from remote_trigger.analysis.stability.decision import Decision
 
 
 def _dense_counts(dump):
@@ -74,7 +75,7 @@ def test_newton_lands_on_a_saddle_the_screen_sees_it(saddle_points):
     """Newton's equilibrium, kept by a failed escape (the point does not end)."""
     vals, res, dump = saddle_points["newton"]
     assert vals["saddle_escaped"] == 0 and vals["damped_time"] == 0
-    assert res.decision == "real" and vals["n_negative"] == 1
+    assert res.decision is Decision.REAL and vals["n_negative"] == 1
     n_lapack, n_sym, n_screen, low = _dense_counts(dump)
     assert n_lapack == n_sym == n_screen == 1
     assert -0.1 < low < -0.01                   # -0.042: one weakly held disk
@@ -144,7 +145,7 @@ def test_without_the_escape_nothing_is_screened(relaxed, tmp_path, monkeypatch):
     cfg = RampConfig(datafile=relaxed.datafile, saddle_escape=False)
     with Engine() as eng:
         vals, res = point.ramp_point(eng, cfg, relaxed.datafile, 0.01, str(tmp_path / "p"))
-    assert vals["saddle_escaped"] == 0 and res.decision in ("real", "complex")
+    assert vals["saddle_escaped"] == 0 and res.decision in (Decision.REAL, Decision.COMPLEX)
     with pytest.raises(AssertionError, match="screened"):
         with Engine() as eng:
             point.ramp_point(eng, cfg.replace(saddle_escape=True), relaxed.datafile, 0.01,

@@ -19,10 +19,10 @@ from remote_trigger.analysis.state.trajectory import (
 def _run(tmp_path, datafile, kick, name):
     from remote_trigger.pywrap.stages.config import RelaxConfig
     from remote_trigger.pywrap.bindings.engine import Engine
-    from remote_trigger.pywrap.stages.common import _DECK_FIELDS, _deck_vars
+    from remote_trigger.pywrap.stages.common import DECK_FIELDS, deck_vars
 
-    v = _deck_vars(RelaxConfig(datafile=datafile), datafile, 0.0)
-    for var, _ in _DECK_FIELDS:
+    v = deck_vars(RelaxConfig(datafile=datafile), datafile, 0.0)
+    for var, _ in DECK_FIELDS:
         v.pop(var, None)
     v.update(a=0.0, muv=0)
     traj, rec = str(tmp_path / f"{name}.lammpstrj"), str(tmp_path / f"{name}_msd.txt")

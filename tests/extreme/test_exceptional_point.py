@@ -16,6 +16,7 @@ import scipy.sparse as sp
 from remote_trigger.analysis.dynamics.normal_form import normal_form_matrix
 from remote_trigger.analysis.stability import exceptional as ex
 from remote_trigger.analysis.stability import projected
+from remote_trigger.analysis.stability.decision import Decision
 
 FXC = 0.0123456789
 C = 1.0                      # d eps / d F_x
@@ -38,8 +39,8 @@ def embedded(F_x, d=0.5, n=40, seed=0):
                                 -1e-10, -1e-8, -1e-6])
 def test_decision_correct_and_confident_within_1e_14(dF):
     dec = ex.classify_spectrum(embedded(FXC + dF))
-    assert dec.complex_present is not None, dec.confidence
-    assert dec.complex_present == (dF > 0)
+    assert dec.decision is not Decision.UNDECIDED, dec.confidence
+    assert dec.decision is Decision.certified(dF > 0)
     assert dec.confidence > 1.0
     if abs(dF) >= 1e-13:
         assert dec.confidence > 10.0
@@ -48,10 +49,10 @@ def test_decision_correct_and_confident_within_1e_14(dF):
 @pytest.mark.parametrize("dF", [1e-15, -1e-15, 3e-16, -3e-16, 0.0])
 def test_closer_than_resolution_is_undecided_not_wrong(dF):
     dec = ex.classify_spectrum(embedded(FXC + dF))
-    if dec.complex_present is None:
+    if dec.decision is Decision.UNDECIDED:
         assert dec.confidence <= 1.0
     else:
-        assert dec.complex_present == (dF > 0) and dec.confidence > 1.0
+        assert dec.decision is Decision.certified(dF > 0) and dec.confidence > 1.0
 
 
 def test_confidence_grows_linearly_with_distance():
@@ -65,10 +66,10 @@ def test_bisection_brackets_the_critical_load():
     while hi - lo > 1e-13:
         mid = 0.5 * (lo + hi)
         dec = ex.classify_spectrum(embedded(mid))
-        if dec.complex_present is None:          # only within the float64 resolution
+        if dec.decision is Decision.UNDECIDED:          # only within the float64 resolution
             assert abs(mid - FXC) < 1e-14 and dec.confidence <= 1.0
             break
-        if dec.complex_present:
+        if dec.decision is Decision.COMPLEX:
             hi = mid
         else:
             lo = mid
@@ -79,8 +80,8 @@ def test_bisection_brackets_the_critical_load():
 def test_projected_sparse_path_near_the_point(dF):
     A = sp.csr_matrix(embedded(FXC + dF, n=60))
     dec, res = projected.classify_projected(A, sigma=10.0, k=8)
-    assert dec.complex_present is None or dec.complex_present == (dF > 0)
-    if dec.complex_present is None:
+    assert dec.decision is Decision.UNDECIDED or dec.decision is Decision.certified(dF > 0)
+    if dec.decision is Decision.UNDECIDED:
         assert dec.confidence <= 1.0
     else:
         assert dec.confidence > 1.0

@@ -278,8 +278,8 @@ def test_one_numeric_validator():
     from remote_trigger.pywrap.jobs.paper import config as paper_config
     from remote_trigger.pywrap.jobs.trigger_map import config as trigger_map_config
 
-    assert paper_config._num is config.check_number is trigger_map_config._num \
-        is ensemble_config._num
+    assert paper_config.check_number is config.check_number is trigger_map_config.check_number \
+        is ensemble_config.check_number
     assert config.check_number("x", 3) == 3.0
     assert config.check_number("tau", math.inf, 0, lo_open=True, allow_inf=True) == math.inf
     for val, words in ((True, "must be a number"), ("1", "must be a number"),

@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 
+from remote_trigger.analysis.stability.decision import Decision
 from remote_trigger.analysis.stability.eigtrack import track_pair
 
 
@@ -19,7 +20,7 @@ def synthetic(F, F_c=0.05, lam_c=100.0, c=250.0):
     others = [2.0 + 10 * F, 20.0 + 5 * F, 200.0 + 1000 * F, 300.0, 250.0 - 100 * F]
     lam = np.array(pair + others, complex)
     order = np.lexsort((lam.imag, lam.real))
-    return lam[order], d < 0
+    return lam[order], Decision.certified(d < 0)
 
 
 def test_track_finds_birth_and_ancestors():
@@ -52,12 +53,12 @@ def test_decisions_override_eigenvalues():
     # undecided points next to the EP: computed as a complex pair (round-off at the EP)
     for F in (0.0249, 0.0251):
         lam, _ = synthetic(0.02501, F_c=0.025)
-        pts.append((F, lam, None))
+        pts.append((F, lam, Decision.UNDECIDED))
     # a certified-real point whose eigenvalue array carries a spurious tiny Im
     lam, _ = synthetic(0.0245, F_c=0.025)
     lam = lam.copy()
     lam[np.argmin(np.abs(lam - 100))] += 1e-9j
-    pts.append((0.0245, lam, False))
+    pts.append((0.0245, lam, Decision.REAL))
     tr = track_pair(pts)
     assert 0.0249 not in tr.F_x and 0.0251 not in tr.F_x
     k = int(np.argmax(tr.complex_pair))
@@ -71,4 +72,4 @@ def test_no_pair_and_complex_at_start():
     unstable = [(F,) + synthetic(F, F_c=-1.0) for F in (0.0, 0.1)]
     assert track_pair(unstable) is None
     with pytest.raises(ValueError, match="spectrum"):
-        track_pair([(0.0, np.zeros(0), False)])
+        track_pair([(0.0, np.zeros(0), Decision.REAL)])

@@ -13,6 +13,7 @@ import sys
 import h5py
 import numpy as np
 import pytest
+from remote_trigger.analysis.stability.decision import Decision
 
 BIN = os.path.dirname(sys.executable)
 CLI = os.path.join(BIN, "remote-trigger")
@@ -225,22 +226,22 @@ def test_sliced_verdict_agrees_with_the_dense_one_on_the_ramps(run):
     that bracket F_x^c) and on their first and last steps; neither is undecided."""
     import glob
 
-    from remote_trigger.analysis.stability import eigen, exceptional, jacobian
-    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability import eigen, exceptional
     from remote_trigger.analysis.stability.sliced import classify_sliced
+    from remote_trigger.analysis.stability.system import reduced_system
     from remote_trigger.analysis.state.dumpfile import read_equilibrium
 
     out, _ = run
-    seen = {True: 0, False: 0}
+    seen = {Decision.COMPLEX: 0, Decision.REAL: 0}
     for mu in ("1", "0.8"):
         steps = sorted(glob.glob(os.path.join(out, f"ramp_mu{mu}", "ramp", "step_*.dump")))
         dumps = sorted(glob.glob(os.path.join(out, f"ramp_mu{mu}", "ramp", "bisect_*.dump")))
         for path in dumps + [steps[0], steps[-1]]:
-            res = analyze(read_equilibrium(path), eigenvalues=False, decide=False)
-            Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
+            system = reduced_system(read_equilibrium(path))
+            Kr, mr = system.K, system.mass
             sliced = classify_sliced(Kr, mr)
             dense = exceptional.classify_spectrum(eigen.dynamical_matrix(Kr, mr).toarray())
-            assert dense.complex_present is not None
-            assert sliced.complex_present is dense.complex_present, (path, sliced.reason)
-            seen[sliced.complex_present] += 1
-    assert seen[True] >= 2 and seen[False] >= 2
+            assert dense.decision is not Decision.UNDECIDED
+            assert sliced.decision is dense.decision, (path, sliced.reason)
+            seen[sliced.decision] += 1
+    assert seen[Decision.COMPLEX] >= 2 and seen[Decision.REAL] >= 2

@@ -223,16 +223,16 @@ def _timestep_mode(ctx):
     The perturbation is the growing mode (largest Im sqrt(lambda)) if there
     is one, else the softest mode, scaled to 1e-8.
     """
-    from remote_trigger.analysis.stability import eigen, jacobian
-    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability import eigen
+    from remote_trigger.analysis.stability.system import reduced_system
     from remote_trigger.analysis.state.dumpfile import read_dump
     from remote_trigger.analysis.stability.timestep import stability_limit
 
     st = read_dump(ctx.equilibrium + ".dump")
-    res = analyze(st, decide=False)
+    system = reduced_system(st)
     limit = stability_limit(st)
-    g_eig = float(res.growth_rate)
-    Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
+    Kr, mr = system.K, system.mass
+    g_eig = float(eigen.dense_eigen(Kr, mr, vectors=False).growth_rate)
     de = eigen.dense_eigen(Kr, mr)
     dq = np.zeros(st.ndof)
     if g_eig > 0:
@@ -240,11 +240,11 @@ def _timestep_mode(ctx):
         lam_c = de.eigenvalues[k]
         vec = de.right[:, k]
         vec = (vec * np.exp(-1j * np.angle(vec[np.argmax(np.abs(vec))]))).real
-        dq[res.rattlers.keep_dofs] = vec
+        dq[system.keep_dofs] = vec
     else:                                 # stable: the softest mode
         lam_c = None
         k = int(np.argmin(np.abs(de.eigenvalues)))
-        dq[res.rattlers.keep_dofs] = de.right[:, k].real
+        dq[system.keep_dofs] = de.right[:, k].real
     amp = 1e-8
     dq = amp * dq.reshape(-1, 3) / np.max(np.abs(dq))
     return limit, g_eig, lam_c, dq
@@ -315,13 +315,13 @@ def _timestep_rows(runs, g_eig, lam_c):
 # --------------------------------------------------------------------------- eigen
 def section_eigen(ctx):
     """Dense vs sparse eigenvalues on the coalescing pair of the equilibrium."""
-    from remote_trigger.analysis.stability import eigen, exceptional, jacobian, projected
+    from remote_trigger.analysis.stability import eigen, exceptional, projected
+    from remote_trigger.analysis.stability.system import reduced_system
     from remote_trigger.analysis.state.dumpfile import read_dump
 
     st = read_dump(ctx.equilibrium + ".dump")
-    K = jacobian.stiffness_matrix(st)
-    rat = jacobian.find_rattlers(st)
-    Kr, mr = jacobian.remove_dofs(K, st.mass_diagonal(), rat.keep_dofs)
+    system = reduced_system(st)
+    Kr, mr = system.K, system.mass
     t0 = time.perf_counter()
     de = eigen.dense_eigen(Kr, mr)
     t_dense = time.perf_counter() - t0
@@ -388,12 +388,12 @@ def section_eigen(ctx):
     rows.append(Row("eigen", "ARPACK band scan", "6 shifts x k = 12", err, w, note=note))
     out, w, note = timed(lambda: exceptional.classify_spectrum(A.toarray()))
     if out is not None:
-        note = f"decision {out.complex_present}, confidence {out.confidence:.3g}"
+        note = f"decision {out.decision.label}, confidence {out.confidence:.3g}"
     rows.append(Row("eigen", "certified test, dense (classify_spectrum)", "all pairs",
                     pair_err(None if out is None else out.eigenvalues), w, note=note))
     out, w, note = timed(lambda: projected.classify_projected(A, sigma_pair, k=12))
     if out is not None:
-        note = f"decision {out[0].complex_present}, confidence {out[0].confidence:.3g}"
+        note = f"decision {out[0].decision.label}, confidence {out[0].confidence:.3g}"
     rows.append(Row("eigen", "certified test, projected (classify_projected)",
                     "k = 12 at the pair", pair_err(None if out is None else out[0].eigenvalues),
                     w, note=note))

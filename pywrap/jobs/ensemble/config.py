@@ -5,7 +5,8 @@ import dataclasses
 from dataclasses import dataclass, field, asdict
 
 from remote_trigger.pywrap.config import (
-    Config, ConfigError, ContactModel, _int, _num, check_bool, check_table, layered_config)
+    Config, ConfigError, ContactModel, check_bool, check_int, check_number, check_table,
+    layered_config)
 from remote_trigger.pywrap.stages.config import RampConfig, RelaxConfig
 from remote_trigger.pywrap.jobs.paper.config import PaperConfig, DIM3 as PAPER_DIM3
 from remote_trigger.analysis.state.state import DISC_INERTIA
@@ -182,41 +183,41 @@ class EnsembleConfig(Config):
         object.__setattr__(self, "seeds", self._seeds(self.seeds, len(n)))
         if self.dim == 3:
             self._check_spheres()
-        elif not 0.1 < _num("phi", self.phi) < 0.91:
+        elif not 0.1 < check_number("phi", self.phi) < 0.91:
             raise ConfigError(f"phi must be in (0.1, 0.91), got phi = {self.phi!r}")
-        _num("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
+        check_number("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
         object.__setattr__(self, "k_t", ContactModel.of(self).k_t)
         for name in ("dt", "F_x_max"):
-            _num(name, getattr(self, name), 0, lo_open=True)
+            check_number(name, getattr(self, name), 0, lo_open=True)
         for name in ("dF_x", "tol"):
             object.__setattr__(self, name, self._per_size(name, getattr(self, name), n))
-        if not 0.0 < _num("mu_ss", self.mu_ss) <= 1.0:
+        if not 0.0 < check_number("mu_ss", self.mu_ss) <= 1.0:
             raise ConfigError(f"mu_ss must be in (0, 1] (a fraction of mu), got "
                               f"mu_ss = {self.mu_ss!r}")
         steps = self.dF_x if isinstance(self.dF_x, tuple) else (self.dF_x,)
         if max(steps) >= self.F_x_max:
             raise ConfigError(f"dF_x must be < F_x_max = {self.F_x_max!r}, got "
                               f"dF_x = {self.dF_x!r}")
-        if self.dF_x_max is not None and not _num("dF_x_max", self.dF_x_max) > max(steps):
+        if self.dF_x_max is not None and not check_number("dF_x_max", self.dF_x_max) > max(steps):
             raise ConfigError(f"dF_x_max must be > dF_x = {self.dF_x!r} (or null: fine "
                               f"ramps), got dF_x_max = {self.dF_x_max!r}")
         for name in ("frictional", "keep_equilibria", "saddle_escape", "quick"):
             check_bool(name, getattr(self, name))
         if self.inertia_I0 is not None:
-            _num("inertia_I0", self.inertia_I0, 0, lo_open=True)
+            check_number("inertia_I0", self.inertia_I0, 0, lo_open=True)
             if float(self.inertia_I0) == I0_DYNAMICS:
                 raise ConfigError(f"inertia_I0 must differ from the dynamics' I0 = "
                                   f"{I0_DYNAMICS} (those rows are always there), got "
                                   f"inertia_I0 = {self.inertia_I0!r}")
         if self.inertia_extra_steps is not None:
-            _int("inertia_extra_steps", self.inertia_extra_steps, 0)
+            check_int("inertia_extra_steps", self.inertia_extra_steps, 0)
         if self.pairs not in RampConfig.PAIRS:
             raise ConfigError(f"pairs must be one of {', '.join(map(repr, RampConfig.PAIRS))}"
                               f", got pairs = {self.pairs!r}")
         for name in ("relax", "frictional_relax"):
             check_table(name, getattr(self, name), RELAX_SET_BY_JOB, "the ensemble",
                         RelaxConfig)
-        _int("np", self.np, 1)
+        check_int("np", self.np, 1)
 
     def _check_spheres(self):
         """dim = 3: phi, sizes the generator can fill, no 2D-only part."""
@@ -227,7 +228,7 @@ class EnsembleConfig(Config):
                 raise ConfigError(f"{key} = {getattr(self, key)!r} is 2D only (dim = 3: "
                                   f"spheres): {why}; leave it out or set {key} = "
                                   f"{_toml(off)}")
-        if not 0.1 < _num("phi", self.phi) < 0.74:
+        if not 0.1 < check_number("phi", self.phi) < 0.74:
             raise ConfigError(f"phi must be in (0.1, 0.74) for spheres (dim = 3), got "
                               f"phi = {self.phi!r}")
         for v in self.n:
@@ -247,8 +248,8 @@ class EnsembleConfig(Config):
                 raise ConfigError(f"{name} holds {len(val)} values for {len(n)} size(s) N "
                                   f"{list(n)}: give one number, or one per N, got "
                                   f"{name} = {list(val)!r}")
-            return tuple(_num(name, v, 0, lo_open=True) for v in val)
-        return _num(name, val, 0, lo_open=True)
+            return tuple(check_number(name, v, 0, lo_open=True) for v in val)
+        return check_number(name, val, 0, lo_open=True)
 
     def for_size(self, n):
         """The configuration of the packings of size ``n`` (one of ``self.n``):

@@ -88,7 +88,7 @@ from remote_trigger.pywrap.jobs.ensemble.figure import plot
 from remote_trigger.pywrap.jobs.ensemble.report import (
     rows_of, statistics, write_table, write_summary)
 from remote_trigger.pywrap.jobs.ensemble.task import (
-    run_packing, run_ramp, record_ramp, _jsonable, task_path, load_task, packing_failed,
+    run_packing, run_ramp, record_ramp, jsonable, task_path, load_task, packing_failed,
     saddle_escape_of, add_missing_shape)
 
 __all__ = ["MANIFEST", "TABLE", "run_ensemble", "combine_runs", "check_out", "register",
@@ -241,7 +241,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
         res = dict(res, saddle_escape=cfg.saddle_escape,
                    wall=res["wall"] + part_wall.pop(key, 0.0))
         write_json(task_path(out, t["key"]), {"task": t, "status": "complete",
-                                               "result": _jsonable(res)})
+                                               "result": jsonable(res)})
         computed.append(t["key"])
         d = res["default"]
         r0 = d["ramps"].get("mu0", {}).get(f"I0_{cfg.I0_dynamics:g}", {})
@@ -270,7 +270,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
                     # recorded by a version without the pair's long-wave
                     # fraction: measured on the ramp's kept equilibria, else NaN
                     write_json(task_path(out, t["key"]), {"task": t, "status": "complete",
-                                                           "result": _jsonable(res)})
+                                                           "result": jsonable(res)})
                     shaped.append(t["key"])
                     measured += got
                 rows.extend(rows_of(t, res, cfg))
@@ -294,7 +294,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
                              "environment": environment()})
             write_json(mpath, {"config": cfg.to_dict(), "out": out, "status": "complete",
                                "n_packings": len(tasks), "sessions": sessions,
-                               "statistics": _jsonable(
+                               "statistics": jsonable(
                                    {k: v for k, v in st.items()
                                     if k not in ("order", "paper_percentile", "n_exponent")})})
             # rows without every bracket certified ('failed', 'incomplete'),

@@ -8,11 +8,14 @@ import math
 import os
 
 import numpy as np
-from remote_trigger.analysis.stability.verdict import (Decision, classify_dense,
-                                                       collective_decision, collective_reason)
+from remote_trigger.analysis.stability.decision import Decision
 
-def spectrum(state, basis=None, soft_rel=None):
-    """Certified spectrum of one state (the ramp's dense path).
+
+def spectrum(state, basis=None, pairs="all"):
+    """The engine's dense verdict on one state, as the ensemble's records hold it.
+
+    :func:`~remote_trigger.analysis.stability.verdict.decide` on the state's
+    reduced system with ``method='dense'`` (the ramp's dense path).
 
     Parameters
     ----------
@@ -21,48 +24,33 @@ def spectrum(state, basis=None, soft_rel=None):
     basis : remote_trigger.analysis.stability.decision.SpectrumBasis, optional
         The previous point's ``basis``: the decision starts from it where it
         certifies (``classify_spectrum(basis=)``, the same answer as from
-        dgeev).
-    soft_rel : float, optional
-        With a number (a ramp with ``pairs`` = 'collective'): ``decision`` is
-        that on the pairs that are not soft
+        dgeev), carried over to this state's kept dofs.
+    pairs : {'all', 'collective'}
+        The soft-pair policy (``VerdictOptions.pairs``): with 'collective'
+        (a ramp with ``pairs`` = 'collective') ``decision`` is that on the
+        pairs that are not soft
         (:func:`~remote_trigger.analysis.stability.verdict.collective_decision`;
-        from dgeev again where the basis leaves it undecided). Default None:
-        on all pairs.
+        from dgeev again where the basis leaves it undecided).
 
     Returns
     -------
     dict
-        ``decision`` (1 complex, 0 real, -1 undecided), ``confidence``,
+        ``decision`` (the :class:`Decision`; its code 1 complex, 0 real, -1
+        undecided is what the task files store), ``confidence``,
         ``eigenvalues`` (complex, shape (M,), eigenvalues of M^-1 K after
-        rattler removal, 1/time^2, sorted by real part), ``n_pairs`` (pairs
+        rattler removal, 1/time^2, sorted by real part), ``n_pairs`` (units
         certified complex), ``growth`` (max |Im sqrt(lambda)|, 1/time),
         ``basis`` (the decision's verified basis, for the next point; None
         if there is none), ``reason`` (why, when undecided; else '').
     """
-    from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability import eigen, jacobian
+    from remote_trigger.analysis.stability.verdict import VerdictOptions, stability_of
 
-    res = analyze(state, eigenvalues=False, decide=False)
-    keep = res.rattlers.keep_dofs
-    if keep.size == 0:
-        return {"decision": 0, "confidence": math.inf, "eigenvalues": np.zeros(0, complex),
-                "n_pairs": 0, "growth": 0.0, "basis": None, "reason": ""}
-    Kr, mr = jacobian.remove_dofs(res.K, res.mass, keep)
-    dec = classify_dense(eigen.dynamical_matrix(Kr, mr).toarray(), basis, soft_rel)
-    lam = np.asarray(dec.eigenvalues, np.complex128)
-    lam = lam[np.lexsort((lam.imag, lam.real))]
-    code = -1 if dec.complex_present is None else int(bool(dec.complex_present))
-    why = str(dec.reason or "") if code == -1 else ""
-    if soft_rel is not None:
-        word = collective_decision(dec, float(np.max(lam.real)), soft_rel)[0]
-        code = int(Decision.of(word))
-        why = "" if code != -1 else (str(dec.reason or "") if dec.complex_present is None
-                                     else collective_reason(dec))
-    n_pairs = sum(1 for p in dec.pairs
-                  if p.method != "gershgorin" and p.is_complex and p.certified)
-    return {"decision": code, "confidence": float(dec.confidence), "eigenvalues": lam,
-            "n_pairs": int(n_pairs), "growth": float(eigen.growth_rate(lam)),
-            "basis": dec.basis, "reason": why}
+    res = stability_of(state, VerdictOptions(method="dense", pairs=pairs), basis)
+    decision = res.policy_decision
+    return {"decision": decision, "confidence": float(res.confidence),
+            "eigenvalues": res.eigenvalues, "n_pairs": int(res.complex_units),
+            "growth": float(res.growth_rate), "basis": res.basis,
+            "reason": res.reason if decision is Decision.UNDECIDED else ""}
 
 
 def read_ramp(h5):
@@ -148,7 +136,7 @@ def bracket(points):
     """
     cx = [p["F_x"] for p in points if p["decision"] == Decision.COMPLEX]
     hi = min(cx) if cx else math.inf
-    real = [p["F_x"] for p in points if p["decision"] == 0 and p["F_x"] < hi]
+    real = [p["F_x"] for p in points if p["decision"] == Decision.REAL and p["F_x"] < hi]
     lo = max(real) if real else math.nan
     return float(lo), float(hi)
 
@@ -279,7 +267,7 @@ def growth_slope(F, g, lo, hi):
     return out
 
 
-def onset_numbers(points, dF_x, soft_rel=None):
+def onset_numbers(points, dF_x, pairs="all"):
     """Bracket, pair position and growth-rate slope of a ramp's points.
 
     Parameters
@@ -290,8 +278,9 @@ def onset_numbers(points, dF_x, soft_rel=None):
     dF_x : float
         Ramp step: the slope uses the certified complex points within one
         step above F_x_c_high.
-    soft_rel : float, optional
-        :func:`pair_position`'s (a ramp with ``pairs`` = 'collective').
+    pairs : {'all', 'collective'}
+        The ramp's soft-pair policy: with 'collective' :func:`pair_position`
+        leaves the soft pairs out (its ``soft_rel``, ``VerdictOptions.soft_rel``).
 
     Returns
     -------
@@ -308,6 +297,9 @@ def onset_numbers(points, dF_x, soft_rel=None):
         (the smallest F_x with a soft pair certified, a ramp with ``pairs`` =
         'collective'; NaN if none).
     """
+    from remote_trigger.analysis.stability.verdict import VerdictOptions
+
+    soft_rel = VerdictOptions(pairs=pairs).soft_rel
     lo, hi = bracket(points)
     out = {"F_x_c_low": lo, "F_x_c_high": hi,
            "n_undecided": sum(1 for p in points if p["decision"] == Decision.UNDECIDED),
@@ -326,7 +318,8 @@ def onset_numbers(points, dF_x, soft_rel=None):
         top = next(p for p in points if p["F_x"] == hi and p["decision"] == Decision.COMPLEX)
         out.update(pair_position(top["eigenvalues"], top.get("lambda_max", math.nan),
                                  top.get("n_dof", -1), soft_rel))
-        near = [p for p in points if p["decision"] == Decision.COMPLEX and p["F_x"] <= hi + dF_x * (1 + 1e-9)]
+        near = [p for p in points
+                if p["decision"] == Decision.COMPLEX and p["F_x"] <= hi + dF_x * (1 + 1e-9)]
         out.update(growth_slope([p["F_x"] for p in near], [p["growth"] for p in near], lo, hi))
     return out
 
@@ -351,7 +344,7 @@ def is_saddle(point):
     return bool(np.min(lam.real) < -NEGATIVE_REL * top)
 
 
-def reanalyse(points, I0, soft_rel=None):
+def reanalyse(points, I0, pairs="all"):
     """The same equilibria with the moment of inertia I = I0 m R^2 in M.
 
     Only the mass matrix changes (K does not depend on the inertia); the
@@ -363,8 +356,8 @@ def reanalyse(points, I0, soft_rel=None):
     points : list of dict
         From :func:`read_ramp` (their ``dump`` files must exist).
     I0 : float
-    soft_rel : float, optional
-        :func:`spectrum`'s (a ramp with ``pairs`` = 'collective').
+    pairs : {'all', 'collective'}
+        :func:`spectrum`'s soft-pair policy (the ramp's ``pairs``).
 
     Returns
     -------
@@ -377,7 +370,7 @@ def reanalyse(points, I0, soft_rel=None):
     out, basis = [], None
     for p in points:
         s = spectrum(read_dump(p["dump"], require_contacts=False, inertia_factor=I0), basis,
-                     soft_rel)
+                     pairs)
         basis = s.pop("basis")
         # a whole dense spectrum: its own top and size (M changed with I0)
         out.append(dict(p, decision=s["decision"], growth=s["growth"],

@@ -9,7 +9,8 @@ import numpy as np
 from remote_trigger.analysis.output import write_text_atomic
 from remote_trigger.pywrap.jobs.paper.config import PAPER
 from remote_trigger.pywrap.jobs.ensemble.config import ONLY_2D
-from remote_trigger.analysis.stability.verdict import Decision, SOFT_MODE_REL
+from remote_trigger.analysis.stability.decision import Decision
+from remote_trigger.analysis.stability.verdict import SOFT_MODE_REL
 from remote_trigger.analysis.stability.modeshape import LONG_WAVE_M
 from remote_trigger.pywrap.jobs.ensemble.onset import LOCAL_PAIR_PARTICLES
 
@@ -515,14 +516,13 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
     L += ["", "## Packings", "",
           "| key | protocol | I0 | status | phi | F_x^c(mu0) bracket | F_x^c(mu_ss mu0) "
           "bracket | order | at F_x = 0 | reason |", "|---|---|---|---|---|---|---|---|---|---|"]
-    dec = {1: "complex", 0: "real", -1: "undecided"}
     for r in rows:
         az = r["decision_at_zero"]
         L.append(f"| {r['key']} | {r['protocol']} | {r['I0']:g} | {r['status']} | "
                  f"{_f(r['phi'])} | [{_f(r['F_x_c_low'], '.6g')}, {_f(r['F_x_c_high'], '.6g')}]"
                  f" | [{_f(r['F_x_c_ss_low'], '.6g')}, {_f(r['F_x_c_ss_high'], '.6g')}] | "
                  f"{ {1: 'holds', 0: 'reversed', -1: '-'}[int(r['order'])] } | "
-                 f"{dec.get(int(az), '-') if math.isfinite(az) else '-'} | "
+                 f"{Decision.of(az).label if math.isfinite(az) else '-'} | "
                  f"{r['reason'] or ''} |")
     cpu = sum({r["key"]: r["wall"] for r in rows}.values())
     L += ["", "## Cost", "",

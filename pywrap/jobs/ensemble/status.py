@@ -109,7 +109,7 @@ def ensemble_status(out):
     from remote_trigger.pywrap.jobs.ensemble.combine import read_run
     from remote_trigger.analysis.output import bracket_text
     from remote_trigger.pywrap.jobs.ensemble.task import (
-        PROGRESS, _load_progress, load_task, packing_failed)
+        PROGRESS, load_progress, load_task, packing_failed)
 
     out = os.path.abspath(out)
     _, cfg = read_run(out, flag="--status")
@@ -130,7 +130,7 @@ def ensemble_status(out):
                          + (" (--resume --retry-failed runs it again)"
                             if packing_failed(res) else ""))
             continue
-        prog = _load_progress(folder) if os.path.isfile(os.path.join(folder, PROGRESS)) \
+        prog = load_progress(folder) if os.path.isfile(os.path.join(folder, PROGRESS)) \
             else None
         if prog is None and not os.path.isdir(folder):
             counts["not started"] += 1

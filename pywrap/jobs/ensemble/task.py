@@ -21,14 +21,14 @@ import numpy as np
 
 from remote_trigger.pywrap.jobs.ensemble.onset import (
     spectrum, read_ramp, bracket, onset_numbers, reanalyse, pair_shape)
-from remote_trigger.analysis.stability.verdict import Decision
+from remote_trigger.analysis.stability.decision import Decision
 from remote_trigger.pywrap.runtime.jobfolder import resolved_path, stored_path
 
 __all__ = ["PROGRESS", "run_packing", "run_ramp", "record_ramp", "ramp_frictions",
            "inertia_points", "task_path", "load_task"]
 
 
-def _new_point(eng, rcfg, start_dump, F_x, prefix, I0, soft_rel=None):
+def _new_point(eng, rcfg, start_dump, F_x, prefix, I0, pairs="all"):
     """Equilibrium at F_x from the equilibrium of ``start_dump`` (a ramp step), analysed
     with I0; returns the point dict, or None without an equilibrium."""
     from remote_trigger.analysis.state.dumpfile import read_dump
@@ -42,7 +42,7 @@ def _new_point(eng, rcfg, start_dump, F_x, prefix, I0, soft_rel=None):
         return None
     save_equilibrium(eng, rcfg, F_x, prefix)
     s = spectrum(read_dump(prefix + ".dump", require_contacts=False, inertia_factor=I0),
-                 soft_rel=soft_rel)
+                 pairs=pairs)
     s.pop("basis")
     return {"F_x": float(F_x), "decision": s["decision"], "growth": s["growth"],
             "dump": prefix + ".dump", "eigenvalues": s["eigenvalues"], "reason": s["reason"]}
@@ -84,8 +84,8 @@ def inertia_points(cfg, points, mu, I0, folder):
     from remote_trigger.pywrap.stages.ramp import adaptive_step
     from remote_trigger.pywrap.stages import next_bisection_point
 
-    soft_rel = _soft_rel(cfg)
-    pts = reanalyse(points, I0, soft_rel)
+    pairs = _pairs(cfg)
+    pts = reanalyse(points, I0, pairs)
     if not pts:
         return pts
     lo, hi = bracket(pts)
@@ -113,7 +113,7 @@ def inertia_points(cfg, points, mu, I0, folder):
                                         for p in (prev, last)))
             F = last["F_x"] + h
             p = _new_point(eng, rcfg, last["dump"], F, os.path.join(folder, f"ext_{k:04d}"),
-                           I0, soft_rel)
+                           I0, pairs)
             if p is None:
                 break
             pts.append(dict(p, new=True))
@@ -121,14 +121,15 @@ def inertia_points(cfg, points, mu, I0, folder):
             lo, hi = bracket(pts)
         j = 0
         while math.isfinite(hi) and math.isfinite(lo):
-            unknown = sorted(p["F_x"] for p in pts if p["decision"] == Decision.UNDECIDED and lo < p["F_x"] < hi)
+            unknown = sorted(p["F_x"] for p in pts
+                             if p["decision"] == Decision.UNDECIDED and lo < p["F_x"] < hi)
             mid, _ = next_bisection_point(lo, hi, unknown, cfg.tol)
             if mid is None:
                 break
-            start = max((p for p in pts if p["F_x"] == lo and p["decision"] == 0),
+            start = max((p for p in pts if p["F_x"] == lo and p["decision"] == Decision.REAL),
                         key=lambda p: p["F_x"])
             p = _new_point(eng, rcfg, start["dump"], mid,
-                           os.path.join(folder, f"bisect_{j:03d}"), I0, soft_rel)
+                           os.path.join(folder, f"bisect_{j:03d}"), I0, pairs)
             j += 1
             pts.append(dict(p, new=True) if p is not None else
                         {"F_x": mid, "decision": -1, "growth": math.nan, "dump": "",
@@ -185,7 +186,7 @@ def _ramp_part(cfg, relaxed, mu, folder, resume=False, verdict_dir=None):
     pts = read_ramp(res.h5)
     part["at_zero"] = ({"decision": pts[0]["decision"], "growth": pts[0]["growth"]}
                        if pts and pts[0]["F_x"] == 0.0 else None)
-    o = onset_numbers(pts, cfg.dF_x, _soft_rel(cfg))
+    o = onset_numbers(pts, cfg.dF_x, _pairs(cfg))
     part[f"I0_{cfg.I0_dynamics:g}"] = dict(o, **pair_shape(pts, o), n_new=0,
                                            tol_reached=bool(res.tol_reached))
     if cfg.inertia_I0 is not None and pts:
@@ -193,7 +194,7 @@ def _ramp_part(cfg, relaxed, mu, folder, resume=False, verdict_dir=None):
         ifolder = os.path.join(folder, f"I0_{I0:g}")
         shutil.rmtree(ifolder, ignore_errors=True)     # a killed run's points
         ipts = inertia_points(cfg, pts, mu, I0, ifolder)
-        o = onset_numbers(ipts, cfg.dF_x, _soft_rel(cfg))
+        o = onset_numbers(ipts, cfg.dF_x, _pairs(cfg))
         o.update(pair_shape(ipts, o, inertia_factor=I0),
                  n_new=sum(1 for p in ipts if p.get("new")),
                  tol_reached=bool(o["F_x_c_high"] - o["F_x_c_low"] <= cfg.tol))
@@ -201,12 +202,10 @@ def _ramp_part(cfg, relaxed, mu, folder, resume=False, verdict_dir=None):
     return part
 
 
-def _soft_rel(cfg):
-    """The soft-pair threshold of the pair's place: None unless ``pairs`` is
-    'collective' (an older configuration has no ``pairs``)."""
-    from remote_trigger.analysis.stability.verdict import SOFT_MODE_REL
-
-    return SOFT_MODE_REL if getattr(cfg, "pairs", "all") == "collective" else None
+def _pairs(cfg):
+    """The ensemble's soft-pair policy (``VerdictOptions.pairs``): its ``pairs``,
+    'all' for an older configuration without one."""
+    return getattr(cfg, "pairs", "all")
 
 
 #: what :func:`.onset.pair_shape` measures of the pair's mode
@@ -232,7 +231,7 @@ def _with_shape(cfg, part, folder, onset=True):
     if not os.path.isfile(h5):
         return dict(part, **{key: dict({k: math.nan for k in SHAPE_KEYS}, **part[key])})
     pts = read_ramp(h5)
-    o = dict(part[key], **onset_numbers(pts, cfg.dF_x, _soft_rel(cfg))) if onset else dict(part[key])
+    o = dict(part[key], **onset_numbers(pts, cfg.dF_x, _pairs(cfg))) if onset else dict(part[key])
     shape = {k: v for k, v in pair_shape(pts, o).items()
              if not (math.isnan(v) and math.isfinite(part[key].get(k, math.nan)))}
     return dict(part, **{key: dict(o, **shape)})
@@ -265,7 +264,7 @@ def _frictional_part(cfg, datafile, folder):
     from remote_trigger.analysis.state.dumpfile import read_dump
 
     rel = _relax(cfg, datafile, folder, "frictional")
-    s = spectrum(read_dump(rel.dumpfile, require_contacts=False), soft_rel=_soft_rel(cfg))
+    s = spectrum(read_dump(rel.dumpfile, require_contacts=False), pairs=_pairs(cfg))
     return {"phi": rel.packing_fraction, "residual": rel.residual,
             "antisymmetry": rel.antisymmetry, "decision": s["decision"],
             "confidence": s["confidence"], "n_pairs": s["n_pairs"],
@@ -312,8 +311,8 @@ def run_ramp(cfg, folder, key):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            relaxed = resolved_path(folder, _load_progress(folder)["relax"]["datafile"])
-            part = _jsonable(_ramp_part(cfg, relaxed, mu, os.path.join(folder, f"ramp_{key}"),
+            relaxed = resolved_path(folder, load_progress(folder)["relax"]["datafile"])
+            part = jsonable(_ramp_part(cfg, relaxed, mu, os.path.join(folder, f"ramp_{key}"),
                                         True, os.path.join(folder, VERDICTS, key)))
             err = None
         except Exception as exc:  # noqa: BLE001 - returned: the final call records it
@@ -327,7 +326,7 @@ def record_ramp(folder, key, res):
     recorded)."""
     from remote_trigger.pywrap.runtime.jobfolder import write_json
 
-    done = _load_progress(folder)
+    done = load_progress(folder)
     done["warnings"] = _warning_lines((), done["warnings"] + res["warnings"])
     if res["part"] is not None:
         done["ramps"][key] = res["part"]
@@ -407,7 +406,7 @@ def _warning_lines(caught, earlier=()):
     return sorted(set(earlier) | {f"{w.category.__name__}: {w.message}" for w in caught})
 
 
-def _load_progress(folder):
+def load_progress(folder):
     """The stages a killed run finished (``progress.json``), or None."""
     try:
         with open(os.path.join(folder, PROGRESS)) as fh:
@@ -422,7 +421,7 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
     from remote_trigger.pywrap.runtime.jobfolder import write_json
 
     t0 = time.perf_counter()
-    done = _load_progress(folder) if resume else None
+    done = load_progress(folder) if resume else None
     if done is None:
         if os.path.isdir(folder):
             shutil.rmtree(folder)
@@ -433,9 +432,9 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
     def record(stage, key, value):
         """A finished stage, on disk before the next one starts."""
         if key is None:
-            done[stage] = _jsonable(value)
+            done[stage] = jsonable(value)
         else:
-            done[stage][key] = _jsonable(value)
+            done[stage][key] = jsonable(value)
         done["warnings"] = _warning_lines(caught, earlier)
         write_json(os.path.join(folder, PROGRESS), done)
 
@@ -497,7 +496,7 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
     return result
 
 
-def _jsonable(x):
+def jsonable(x):
     """Result dict with NaN/inf kept as floats and numpy types as Python ones."""
     return json.loads(json.dumps(x, default=_np_default))
 

@@ -47,7 +47,7 @@ from remote_trigger.pywrap.jobs.paper.stage_configs import (  # noqa: F401
     model_fields, relax_config, ramp_config, dynamics_config)
 from remote_trigger.pywrap.jobs.paper.phases import (  # noqa: F401
     analyze_on_root, continue_ramp, extension_loads, run_ramp, run_instability, run_perturb,
-    run_normal_form, _Clock)
+    run_normal_form, Clock)
 from remote_trigger.pywrap.jobs.paper.job import run_paper  # noqa: F401
 from remote_trigger.pywrap.jobs.paper.cli import register, config_from_args, main  # noqa: F401
 

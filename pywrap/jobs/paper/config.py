@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import math
 
 from remote_trigger.pywrap.config import (
-    Config, ConfigError, ContactModel, _int, check_bool, check_number as _num, check_numbers,
+    Config, ConfigError, ContactModel, check_bool, check_int, check_number, check_numbers,
     check_table, layered_config)
 from remote_trigger.pywrap.stages.config import DynamicsConfig, RelaxConfig
 
@@ -223,59 +223,59 @@ class PaperConfig(Config):
     def __post_init__(self):
         if self.dim not in (2, 3) or isinstance(self.dim, bool):
             raise ConfigError(f"dim must be 2 or 3, got dim = {self.dim!r}")
-        _int("n", self.n, 6)
+        check_int("n", self.n, 6)
         if self.n % 2:
             raise ConfigError(f"n must be even (equal numbers of both radii), got n = {self.n}")
-        _int("seed", self.seed, 0)
+        check_int("seed", self.seed, 0)
         phi_max = 0.91 if self.dim == 2 else 0.74
-        if not 0.1 < _num("phi", self.phi) < phi_max:
+        if not 0.1 < check_number("phi", self.phi) < phi_max:
             raise ConfigError(f"phi must be in (0.1, {phi_max})"
                               + (" for spheres (dim = 3)" if self.dim == 3 else "")
                               + f", got phi = {self.phi!r}")
-        _num("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
+        check_number("mu", self.mu, 0, lo_open=True)          # the paper's model has friction
         object.__setattr__(self, "k_t", ContactModel.of(self).k_t)
-        _num("dt", self.dt, 0, lo_open=True)
-        _num("mu_low", self.mu_low, 0, lo_open=True)
+        check_number("dt", self.dt, 0, lo_open=True)
+        check_number("mu_low", self.mu_low, 0, lo_open=True)
         if self.mu_low == self.mu:
             raise ConfigError(f"mu_low must differ from mu = {self.mu!r}, got "
                               f"mu_low = {self.mu_low!r}")
-        _num("dF_x", self.dF_x, 0, lo_open=True)
-        _num("tol", self.tol, 0, lo_open=True)
-        _num("F_x_max", self.F_x_max, 0, lo_open=True)
+        check_number("dF_x", self.dF_x, 0, lo_open=True)
+        check_number("tol", self.tol, 0, lo_open=True)
+        check_number("F_x_max", self.F_x_max, 0, lo_open=True)
         if self.dF_x >= self.F_x_max:
             raise ConfigError(f"dF_x must be < F_x_max = {self.F_x_max!r}, got "
                               f"dF_x = {self.dF_x!r}")
-        _num("extend_factor", self.extend_factor, 1, lo_open=True)
-        _int("extend_steps", self.extend_steps, 1)
-        _num("fig4_ratio", self.fig4_ratio, 1, lo_open=True)
-        if not 0 < _num("fig5_window", self.fig5_window) < 1:
+        check_number("extend_factor", self.extend_factor, 1, lo_open=True)
+        check_int("extend_steps", self.extend_steps, 1)
+        check_number("fig4_ratio", self.fig4_ratio, 1, lo_open=True)
+        if not 0 < check_number("fig5_window", self.fig5_window) < 1:
             raise ConfigError(f"fig5_window must be in (0, 1), got "
                               f"fig5_window = {self.fig5_window!r}")
         if self.fig5_F_x is not None:
-            _num("fig5_F_x", self.fig5_F_x, 0, lo_open=True)
-        if not 0 < _num("fig5_dt_fraction", self.fig5_dt_fraction) < 1:
+            check_number("fig5_F_x", self.fig5_F_x, 0, lo_open=True)
+        if not 0 < check_number("fig5_dt_fraction", self.fig5_dt_fraction) < 1:
             raise ConfigError(f"fig5_dt_fraction must be in (0, 1), got "
                               f"fig5_dt_fraction = {self.fig5_dt_fraction!r}")
-        _num("fig5_v0_margin", self.fig5_v0_margin, 1)
+        check_number("fig5_v0_margin", self.fig5_v0_margin, 1)
         for name in ("fig5_forcing_margin", "fig5_d_run", "fig5_settle_tol", "mu_star_tol",
                      "fig5_sat_span",
                      "omega_p"):
-            _num(name, getattr(self, name), 0, lo_open=True)
+            check_number(name, getattr(self, name), 0, lo_open=True)
         if self.a is not None:
-            _num("a", self.a, 0)
+            check_number("a", self.a, 0)
         if self.t_on is not None:
-            _num("t_on", self.t_on, 0)
+            check_number("t_on", self.t_on, 0)
         for name in ("t_instability", "instability_span", "d_sat", "t_perturb"):
-            _num(name, getattr(self, name), 0, lo_open=True)
-        _int("record_every", self.record_every, 1)
+            check_number(name, getattr(self, name), 0, lo_open=True)
+        check_int("record_every", self.record_every, 1)
         for name in ("a_paper", "B", "w", "mu_ss"):
-            _num(name, getattr(self, name), 0)
+            check_number(name, getattr(self, name), 0)
         if self.fig5_F_x is None and \
                 abs(float(self.mu_low) - float(self.mu_ss) * float(self.mu)) > 1e-12 * self.mu:
             raise ConfigError(f"the Fig. 5 window needs the second ramp at the dynamic "
                               f"friction, mu_low = mu_ss * mu = {self.mu_ss * self.mu:g}, got "
                               f"mu_low = {self.mu_low!r} (or give fig5_F_x)")
-        if not 0 < _num("nf_delta", self.nf_delta) < 1:
+        if not 0 < check_number("nf_delta", self.nf_delta) < 1:
             raise ConfigError(f"nf_delta must be in (0, 1), got nf_delta = {self.nf_delta!r}")
         object.__setattr__(self, "nf_eps", check_numbers("nf_eps", self.nf_eps))
         object.__setattr__(self, "nf_tau", check_numbers("nf_tau", self.nf_tau))
@@ -289,7 +289,7 @@ class PaperConfig(Config):
                                   f"nf_tau = {list(self.nf_tau)!r}")
         # checked now, before a re-run removes the outputs of the last one
         check_table("relax", self.relax, RELAX_SET_BY_JOB, "the paper job", RelaxConfig)
-        _int("np", self.np, 1)
+        check_int("np", self.np, 1)
         check_bool("quick", self.quick)
 
     def to_attrs(self):

@@ -33,6 +33,7 @@ import time
 
 import numpy as np
 
+from remote_trigger.analysis.stability.decision import Decision
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.stages import ramp_file
 
@@ -62,7 +63,9 @@ def friction_drop(eng, rcfg, datafile, F_x, mu, prefix):
     Returns
     -------
     dict
-        ``mu``, ``decision`` ('real', 'complex', 'undecided'), ``confidence``,
+        ``mu``, ``decision`` (the label of the
+        :class:`~remote_trigger.analysis.stability.decision.Decision`: 'real',
+        'complex', 'undecided', as the job's JSON records store it), ``confidence``,
         ``growth_rate`` (max Im sqrt(lambda), 1/time), ``residual``,
         ``datafile``.
     """
@@ -71,7 +74,8 @@ def friction_drop(eng, rcfg, datafile, F_x, mu, prefix):
 
     vals, res = ramp_point(eng, rcfg.replace(mu=float(mu)), datafile, float(F_x), prefix,
                             dim=data_dimension(datafile))
-    return {"mu": float(mu), "decision": res.decision, "confidence": float(res.confidence),
+    return {"mu": float(mu), "decision": res.decision.label,
+            "confidence": float(res.confidence),
             "growth_rate": float(res.growth_rate), "residual": float(vals["residual"]),
             "datafile": prefix + ".data"}
 
@@ -99,9 +103,9 @@ def mu_star(eng, rcfg, datafile, F_x, mu_lo, mu_hi, tol, folder):
         p = friction_drop(eng, rcfg, datafile, F_x, mid, os.path.join(folder, f"mu_{j:02d}"))
         points.append(p)
         j += 1
-        if p["decision"] == "complex":
+        if Decision.of(p["decision"]) is Decision.COMPLEX:
             lo = mid
-        elif p["decision"] == "real":
+        elif Decision.of(p["decision"]) is Decision.REAL:
             hi = mid
         else:
             message = (f"undecided at mu = {mid:.6g} (margin {p['confidence']:.2g}): "
@@ -184,7 +188,8 @@ def _load_analysis(eng, cfg, rcfg, start, F5, mu0, mu_ss, folder, clock):
     data5 = eq5["datafile"]
     drop = friction_drop(eng, rcfg, data5, F5, mu_ss, os.path.join(folder, "drop"))
     ms = {"low": float("nan"), "high": float("nan"), "points": [], "message": ""}
-    if eq5["decision"] == "real" and drop["decision"] == "complex":
+    if Decision.of(eq5["decision"]) is Decision.REAL and \
+            Decision.of(drop["decision"]) is Decision.COMPLEX:
         ms = mu_star(eng, rcfg, data5, F5, mu_ss, mu0, cfg.mu_star_tol,
                      os.path.join(folder, "mu_star"))
     clock.say(f"Fig. 5: at F_x = {F5:.7g}: mu = {mu0:g} {eq5['decision']} (margin "
@@ -215,7 +220,7 @@ def _control_load(eng, rcfg, F_steps, files, w_lo, F5, mu_ss, folder, clock):
                           os.path.join(folder, f"control_drop_{int(k):05d}"))
         d["F_x"] = float(F_steps[k])
         tried.append(d)
-        if d["decision"] == "real":
+        if Decision.of(d["decision"]) is Decision.REAL:
             control = {"F_x": float(F_steps[k]), "datafile": files[int(k)], "drop": d}
             break
     clock.say("Fig. 5 (d): control load " + (
@@ -334,12 +339,12 @@ class _Fig5Runs:
 
     def run(self, key, dc, datafile, variables, stop=True, **attrs):
         """One undamped run ``perturb_<key>.h5`` (stopped at fig5_d_run or saturation)."""
-        from remote_trigger.pywrap.stages.runs import _undamped_run
+        from remote_trigger.pywrap.stages.runs import undamped_run
 
         cfg = self.cfg
         t0 = time.perf_counter()
         h5 = os.path.join(self.out, f"perturb_{key}.h5")
-        res = _undamped_run(
+        res = undamped_run(
             self.eng, dc, datafile, h5, variables, f"perturb ({key})", True,
             stop=self._stop if stop else None, dim=cfg.dim,
             attrs=dict(self.base, run=key, d_run=cfg.fig5_d_run, sat_span=self.sat_span,

@@ -9,10 +9,10 @@ from remote_trigger.pywrap.jobs.paper.config import PAPER
 from remote_trigger.pywrap.runtime.environment import environment
 from remote_trigger.pywrap.runtime.jobfolder import write_json
 from remote_trigger.pywrap.jobs.paper.manifest import (
-    MANIFEST, prepare_out, load_manifest, finished_phases, _normalised, _report_done,
-    _utc_now, _ordered_phases)
+    MANIFEST, prepare_out, load_manifest, finished_phases, json_normalised, report_done,
+    utc_now, ordered_phases)
 from remote_trigger.pywrap.jobs.paper.phases import (
-    _Clock, run_instability, run_normal_form, run_perturb, run_ramp)
+    Clock, run_instability, run_normal_form, run_perturb, run_ramp)
 from remote_trigger.pywrap.jobs.paper.stage_configs import relax_config
 
 
@@ -108,7 +108,7 @@ class _PaperJob:
         self.mpath = os.path.join(self.out, MANIFEST)
         self.path = os.path.join(self.out, "report.md")
         self.t_job = time.perf_counter()
-        self.wclock = _Clock(speak and self.rank == 0)
+        self.wclock = Clock(speak and self.rank == 0)
         self.summary = None
         self.color, self.group, self.leader, self.clock = 0, self.comm, True, self.wclock
 
@@ -129,7 +129,7 @@ class _PaperJob:
                     done, sessions, phases = {}, [], {}
                 else:
                     done = finished_phases(man, out)
-                    complete = (_report_done(out, man) and
+                    complete = (report_done(out, man) and
                                 len(done) == len(finished_phases(man, out, False)))
                     sessions = list(man.get("sessions") or [])
                     names = {"relax": "relax", "ramp0": f"ramp_mu{cfg.mu:g}",
@@ -140,7 +140,7 @@ class _PaperJob:
                 summary = {"job": "remote-trigger paper", "status": "running", "out": out,
                            "config": cfg.to_dict(), "n_ranks": size, "paper": PAPER,
                            "task_parallel": size >= 2, "argv": sys.argv, "phases": phases,
-                           "sessions": sessions + [{"started": _utc_now(),
+                           "sessions": sessions + [{"started": utc_now(),
                                                     "resume": man is not None,
                                                     "n_ranks": size, "elapsed": 0.0,
                                                     "reused": sorted(done),
@@ -234,7 +234,7 @@ class _PaperJob:
             self.color = self.rank % 2
             self.group = self.comm.Split(self.color, self.rank)
         self.leader = self.group.Get_rank() == 0
-        self.clock = _Clock(self.speak and self.leader, t0=self.wclock.t0,
+        self.clock = Clock(self.speak and self.leader, t0=self.wclock.t0,
                             buffer=self.rank != 0)
 
     def merge(self, err):
@@ -318,13 +318,13 @@ class _PaperJob:
 
             try:
                 t0 = time.perf_counter()
-                summary["figures"] = figures.make_all(self.out, _normalised(summary))
+                summary["figures"] = figures.make_all(self.out, json_normalised(summary))
                 summary["phases"]["figures"] = time.perf_counter() - t0
                 summary["phases"]["total"] = time.perf_counter() - self.t_job
-                summary["phases"] = _ordered_phases(summary["phases"], self.cfg)
+                summary["phases"] = ordered_phases(summary["phases"], self.cfg)
                 summary["status"] = "complete"
                 self.checkpoint()
-                report.write_report(self.out, _normalised(summary))
+                report.write_report(self.out, json_normalised(summary))
                 self.wclock.say(f"done in {summary['phases']['total']:.0f} s")
             except Exception as exc:  # noqa: BLE001 - re-raised on every rank below
                 err = exc

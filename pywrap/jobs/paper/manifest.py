@@ -10,7 +10,7 @@ import shutil
 import time
 
 from remote_trigger.pywrap.config import ConfigError
-from remote_trigger.pywrap.runtime.jobfolder import _json_default
+from remote_trigger.pywrap.runtime.jobfolder import json_default
 
 #: files and folders the job writes under --out (removed when it is re-run there)
 OUTPUTS = ("paper.json", "packing.data", "relax.h5", "relax", "instability.h5", "instability",
@@ -90,9 +90,9 @@ def prepare_out(out, overwrite=False):
 
 
 # --------------------------------------------------------------------------- manifest, resume
-def _normalised(d):
+def json_normalised(d):
     """``d`` after a JSON round trip (tuples -> lists, numpy -> Python), for comparisons."""
-    return json.loads(json.dumps(d, default=_json_default))
+    return json.loads(json.dumps(d, default=json_default))
 
 
 #: configuration keys that may differ between the sessions of one job (they
@@ -128,7 +128,7 @@ def config_difference(stored, cfg):
         :data:`RESUME_FREE_KEYS` are ignored. A key missing on one side has
         the value ``'<missing>'`` there (but ``dim`` missing in ``stored`` is 2).
     """
-    a, b = _normalised(stored), _normalised(cfg.to_dict())
+    a, b = json_normalised(stored), json_normalised(cfg.to_dict())
     a.setdefault("dim", 2)      # a manifest written before spheres: disks
     missing = "<missing>"
     return [(k, a.get(k, missing), b.get(k, missing)) for k in sorted(set(a) | set(b))
@@ -255,7 +255,7 @@ def finished_phases(man, out, check_files=True):
             if all(os.path.exists(f) for f in _files_of(out, k, v))}
 
 
-def _report_done(out, man):
+def report_done(out, man):
     """The manifest says complete, and the report and every figure it lists exist."""
     figs = [f for f in (man.get("figures") or {}).values()
             if not str(f).startswith("error")]
@@ -264,11 +264,12 @@ def _report_done(out, man):
             and all(os.path.isfile(f) for f in figs))
 
 
-def _utc_now():
+def utc_now():
+    """The present time, UTC, ISO 8601 to the second (``2026-11-27T05:30:00Z``)."""
     return time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
 
 
-def _ordered_phases(phases, cfg):
+def ordered_phases(phases, cfg):
     """Phase timings in the order of the job (unknown names last)."""
     order = ["relax", f"ramp_mu{cfg.mu:g}", f"ramp_mu{cfg.mu_low:g}", "instability",
              "perturb", "normal_form", "figures", "total"]

@@ -11,7 +11,7 @@ from remote_trigger.pywrap.jobs.paper.manifest import ramp_dir
 from remote_trigger.pywrap.jobs.paper.stage_configs import dynamics_config, ramp_config
 
 
-class _Clock:
+class Clock:
     """Brief progress lines with the elapsed time.
 
     Printed at once on world rank 0; a clock with ``buffer`` (the leader of
@@ -26,6 +26,7 @@ class _Clock:
         self.lines = []
 
     def say(self, msg):
+        """Print ``msg`` with the elapsed time (or buffer it); nothing unless speaking."""
         if self.speak:
             line = f"[paper {time.perf_counter() - self.t0:7.1f} s] {msg}"
             if self.buffer:

@@ -32,13 +32,13 @@ from remote_trigger.analysis.dynamics.series import (  # noqa: F401 (API)
     exp_rate, growth_window, noise_level)
 
 from remote_trigger.pywrap.jobs.paper.config import PAPER
-from remote_trigger.pywrap.jobs.paper.report_checks import _check
+from remote_trigger.pywrap.jobs.paper.report_checks import add_check
 from remote_trigger.pywrap.jobs.paper.report_fig5 import fig5_rows as _fig5_rows
 from remote_trigger.analysis.output import write_json_atomic, write_text_atomic
 
 # the measurements live in report_metrics; their names stay importable here
 from remote_trigger.pywrap.jobs.paper.report_metrics import (
-    SATURATION_DECADES, _read_series, certified_bracket, instability_metrics, normal_form_metrics,
+    SATURATION_DECADES, read_series, certified_bracket, instability_metrics, normal_form_metrics,
     perturb_metrics, spectrum_at_zero, tracks)
 
 
@@ -66,11 +66,11 @@ def _relax_rows(out, summary, checks, info, extra):
         reason = (f"spheres: the paper's phi is that of disks in 2D, not comparable (the "
                   f"generator's box is at phi = {cfg['phi']:g}, near random close packing "
                   f"of spheres, and the relaxed packing's height sets phi)")
-    _check(checks, "packing_fraction", "packing fraction phi of the relaxed packing", phi,
+    add_check(checks, "packing_fraction", "packing fraction phi of the relaxed packing", phi,
            P["packing_fraction"], abs(phi - P["packing_fraction"]) <= 0.01, reason=reason,
            note="within 0.01 of the paper")
     r = rel["residual"]
-    _check(checks, "residual", "largest residual force max|F_i|, |T_i|/R_i reached", r,
+    add_check(checks, "residual", "largest residual force max|F_i|, |T_i|/R_i reached", r,
            P["f_min"], r <= P["f_min"],
            reason=("double precision cannot resolve forces below ~k_eff eps |x| ~ 1e-11 "
                    "for this packing (docs/driver.md); the paper's f_min = 1e-15 is below "
@@ -96,7 +96,7 @@ def _one_ramp_rows(k, mu, rr, t, checks, extra):
     """Spectrum at F_x = 0, coalescence and square-root law of ramp ``k`` (friction mu)."""
     sp = spectrum_at_zero(rr["h5"])
     extra[f"spectrum0_{k}"] = sp
-    _check(checks, f"real_at_zero_mu{mu:g}",
+    add_check(checks, f"real_at_zero_mu{mu:g}",
            f"mu = {mu:g}: all eigenvalues real and positive at F_x = {sp['F_x']:g}",
            sp["real_positive"], "yes", sp["real_positive"],
            reason=(f"certified complex pair at F_x = 0 (min Re lambda = "
@@ -110,7 +110,7 @@ def _one_ramp_rows(k, mu, rr, t, checks, extra):
     coal = t is not None and bool(np.any(t.complex_pair)) and \
         t.lam_a[np.argmax(t.complex_pair) - 1].real < t.lam_b[np.argmax(t.complex_pair)
                                                               - 1].real
-    _check(checks, f"coalescence_mu{mu:g}",
+    add_check(checks, f"coalescence_mu{mu:g}",
            f"mu = {mu:g}: two real eigenvalues coalesce into a complex pair at F_x^c",
            coal, "yes", coal,
            reason=f"ramp status {rr['status']}: {rr.get('message', '')}",
@@ -123,7 +123,7 @@ def _one_ramp_rows(k, mu, rr, t, checks, extra):
         extra[f"sqrt_law_{k}"] = sq
         ok = all(math.isfinite(sq[s_]) and abs(sq[s_] - 0.5) <= 0.1
                  for s_ in ("below", "above"))
-        _check(checks, f"sqrt_law_mu{mu:g}",
+        add_check(checks, f"sqrt_law_mu{mu:g}",
                f"mu = {mu:g}: exponent p of the pair's gap lambda_b - lambda_a ~ "
                f"(F_x^c - F_x)^p below F_x^c (Im lambda ~ (F_x - F_x^c)^q above)",
                sq["below"], "p = q = 1/2 (generic exceptional point)", ok,
@@ -144,7 +144,7 @@ def _F_x_c_rows(summary, mus, Fc, tr, checks, info):
         lo, hi = P["F_x_c_mu1_low"], P["F_x_c_mu1_high"]
         rr = ramps[0]
         cb0 = certified_bracket(rr["h5"])
-        _check(checks, f"F_x_c_mu{mus[0]:g}", f"F_x^c(mu = {mus[0]:g}) (midpoint of the "
+        add_check(checks, f"F_x_c_mu{mus[0]:g}", f"F_x^c(mu = {mus[0]:g}) (midpoint of the "
                "certified bracket)",
                Fc[0], f"{lo:g} < F_x^c < {hi:g}", lo < Fc[0] < hi,
                reason=(f"F_x^c is a property of the individual packing; ours (N = "
@@ -166,7 +166,7 @@ def _F_x_c_rows(summary, mus, Fc, tr, checks, info):
                          f"{cb['undecided']} equilibria undecided"
                          + (f"; {cb['message']}" if cb["message"] else ""), cb["width"]))
     else:
-        _check(checks, f"F_x_c_mu{mus[0]:g}", f"F_x^c(mu = {mus[0]:g})", float("nan"),
+        add_check(checks, f"F_x_c_mu{mus[0]:g}", f"F_x^c(mu = {mus[0]:g})", float("nan"),
                "0.0091 < F_x^c < 0.012", False,
                reason=f"ramp {ramps[0]['status']}: {ramps[0].get('message', '')}")
     if 1 in Fc:
@@ -176,7 +176,7 @@ def _F_x_c_rows(summary, mus, Fc, tr, checks, info):
                      f"width {rr['F_x_c_high'] - rr['F_x_c_low']:.2g})", Fc[1]))
     order_ok = 0 in Fc and 1 in Fc and ((Fc[1] < Fc[0]) == (mus[1] < mus[0]))
     ratio = Fc[1] / Fc[0] if (0 in Fc and 1 in Fc) else float("nan")
-    _check(checks, "F_x_c_ratio", f"F_x^c(mu = {mus[1]:g}) / F_x^c(mu = {mus[0]:g})", ratio,
+    add_check(checks, "F_x_c_ratio", f"F_x^c(mu = {mus[1]:g}) / F_x^c(mu = {mus[0]:g})", ratio,
            "< 1 (smaller mu, smaller F_x^c)" if mus[1] < mus[0] else "> 1", order_ok,
            reason=("for this packing the lower friction coefficient is not the less stable "
                    "one: the tangential displacements at F_x^c are small (u = |xi|/t* << 1), "
@@ -197,7 +197,7 @@ def _fig4_rows(out, summary, checks, info, extra):
     if summary.get("instability"):
         m = instability_metrics(out, summary)
         extra["instability"] = m
-        _check(checks, "msd_decades_fig4", "Fig. 4: decades of MSD growth from the noise "
+        add_check(checks, "msd_decades_fig4", "Fig. 4: decades of MSD growth from the noise "
                "level (log10 max D / noise)", m["decades"], f"~{P['msd_decades_fig4']:g}",
                m["decades"] >= 12.0,
                reason=(f"the run ended at t = {m['t_end']:.4g} with D = {m['D_max']:.3g} "
@@ -205,7 +205,7 @@ def _fig4_rows(out, summary, checks, info, extra):
                note=f"noise {m['noise']:.3g} -> max {m['D_max']:.3g}")
         rel_err = m["measured_growth_rate"] / m["predicted_growth_rate"] - 1 \
             if m["predicted_growth_rate"] > 0 else float("nan")
-        _check(checks, "growth_rate_fig4", "Fig. 4: measured growth rate g of D ~ e^{2gt} / "
+        add_check(checks, "growth_rate_fig4", "Fig. 4: measured growth rate g of D ~ e^{2gt} / "
                "predicted max Im sqrt(lambda) - 1", rel_err,
                "D grows as e^{2 Im(omega) t} (Eq. 6)",
                np.isfinite(rel_err) and abs(rel_err) < 0.1,
@@ -213,7 +213,7 @@ def _fig4_rows(out, summary, checks, info, extra):
                        f"{m['predicted_growth_rate']:.4g}"),
                note=(f"measured {m['measured_growth_rate']:.4g}, predicted "
                      f"{m['predicted_growth_rate']:.4g} [1/tau]"))
-        _check(checks, "saturation_fig4", "Fig. 4: the exponential growth has stopped "
+        add_check(checks, "saturation_fig4", "Fig. 4: the exponential growth has stopped "
                "(nonlinear saturation) by the end of the run: D over its last 10 % more "
                f"than {SATURATION_DECADES:g} decades below the exponential",
                m["saturated"], "yes", m["saturated"],
@@ -239,15 +239,15 @@ def _normal_form_rows(out, summary, checks, info, extra):
         extra["normal_form"] = nf
         if "A_sqrt_eps" in nf:
             v = nf["A_sqrt_eps"]
-            _check(checks, "nf_A_sqrt_eps", f"normal form: A sqrt(eps) at eps = "
+            add_check(checks, "nf_A_sqrt_eps", f"normal form: A sqrt(eps) at eps = "
                    f"{nf['eps_min']:g}, no damping", v, "-> 1 (A ~ eps^-1/2, Eq. 17)",
                    abs(v - 1) < 0.05, reason="the amplitude does not follow eps^-1/2")
         if "slope" in nf:
             s = nf["slope"]
-            _check(checks, "nf_slope", "normal form: d log A / d log eps at the smallest eps",
+            add_check(checks, "nf_slope", "normal form: d log A / d log eps at the smallest eps",
                    s, -0.5, abs(s + 0.5) < 0.05, reason="A does not scale as eps^-1/2")
         for tau, ratio in nf["damped_ratio"].items():
-            _check(checks, f"nf_damped_tau{tau:g}", f"normal form, tau = {tau:g}: A / damped "
+            add_check(checks, f"nf_damped_tau{tau:g}", f"normal form, tau = {tau:g}: A / damped "
                    f"estimate at eps = {nf['eps_min']:g}", ratio,
                    "1 (damped estimate, Section IV, with decay e^{-t/2tau})", abs(ratio - 1) < 0.1,
                    reason="the damped amplitude departs from the estimate")

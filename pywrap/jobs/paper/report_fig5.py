@@ -10,8 +10,10 @@ import math
 
 import numpy as np
 
+from remote_trigger.analysis.stability.decision import Decision
+
 from remote_trigger.pywrap.jobs.paper.config import PAPER
-from remote_trigger.pywrap.jobs.paper.report_checks import _check
+from remote_trigger.pywrap.jobs.paper.report_checks import add_check
 from remote_trigger.pywrap.jobs.paper.report_metrics import perturb_metrics
 
 #: Fig. 5 (c) counts as a runaway only if its largest D is more than this many
@@ -56,19 +58,21 @@ class _Fig5:
     def equilibrium_rows(self):
         pz, checks, mu0, mu_ss, ms = self.pz, self.checks, self.mu0, self.mu_ss, self.ms
         eq5, drop = pz["equilibrium"], pz["drop"]
-        _check(checks, "stable_fig5", f"Fig. 5: the equilibrium at F_x = {pz['F_x']:.7g} "
+        add_check(checks, "stable_fig5", f"Fig. 5: the equilibrium at F_x = {pz['F_x']:.7g} "
                f"(window fraction {float(pz.get('window_fraction', float('nan'))):.3g}) is "
                f"certified linearly stable "
-               f"with mu0 = {mu0:g} (all eigenvalues real)", eq5["decision"] == "real", "yes",
-               eq5["decision"] == "real",
+               f"with mu0 = {mu0:g} (all eigenvalues real)",
+               Decision.of(eq5["decision"]) is Decision.REAL, "yes",
+               Decision.of(eq5["decision"]) is Decision.REAL,
                reason=f"decision {eq5['decision']} (margin {eq5['confidence']:.3g})",
                note=f"margin {eq5['confidence']:.3g}")
         mus = (f"mu* in [{ms['low']:.5g}, {ms['high']:.5g}]" if np.isfinite(ms["low"])
                else "mu* not bisected") + (f"; {ms['message']}" if ms.get("message") else "")
-        _check(checks, "drop_unstable_fig5", "Fig. 5: the same state (history built at mu0) "
+        add_check(checks, "drop_unstable_fig5", "Fig. 5: the same state (history built at mu0) "
                f"re-equilibrated with mu = mu_ss mu0 = {mu_ss:g} has a certified complex "
-               "pair: a friction drop destabilises it", drop["decision"] == "complex", "yes",
-               drop["decision"] == "complex",
+               "pair: a friction drop destabilises it",
+               Decision.of(drop["decision"]) is Decision.COMPLEX, "yes",
+               Decision.of(drop["decision"]) is Decision.COMPLEX,
                reason=(f"decision {drop['decision']} (margin {drop['confidence']:.3g}): the "
                        "load is not inside the window for this history"),
                note=f"growth rate {drop['growth_rate']:.4g}; {mus}")
@@ -76,10 +80,10 @@ class _Fig5:
     def run_a_rows(self):
         pm, checks, P = self.pm, self.checks, PAPER
         ra = pm["a"]
-        _check(checks, "msd_growth_fig5a", "Fig. 5 (a): growth of D over the run "
+        add_check(checks, "msd_growth_fig5a", "Fig. 5 (a): growth of D over the run "
                "(log10 max D_a / median D_a)", ra["decades"], "~0 (stays at ~1e-20)",
                ra["decades"] < 2.0, reason="D grows in the unperturbed run")
-        _check(checks, "msd_level_fig5a", "Fig. 5 (a): noise level of D (median D_a)",
+        add_check(checks, "msd_level_fig5a", "Fig. 5 (a): noise level of D (median D_a)",
                pm["level_a"], P["msd_level_fig5a"],
                abs(math.log10(pm["level_a"] / P["msd_level_fig5a"])) <= 1.0,
                reason=("the noise comes from the residual force of the equilibrium and "
@@ -92,7 +96,7 @@ class _Fig5:
         rb = pm.get("b")
         ratio_f = cfg["omega_p"] * abs(pm["compliance"]) * pm["a_forcing"] / pm["v0"]
         extra["forced_over_noise"] = ratio_f
-        _check(checks, "forcing_fig5b", "Fig. 5 (b): quasi-static velocity of the top line "
+        add_check(checks, "forcing_fig5b", "Fig. 5 (b): quasi-static velocity of the top line "
                "under f(t) over v0, omega_p C a / v0 (C = d<x_top>/dF_x of the ramp)",
                ratio_f, "> 1 (f(t) can switch mu(v) on)", np.isfinite(ratio_f) and ratio_f > 1,
                reason=f"a = {pm['a_forcing']:.3g} moves the top line below the noise threshold",
@@ -100,7 +104,7 @@ class _Fig5:
                      f"(omega_p C), C = {pm['compliance']:.4g}); v0 = {pm['v0']:.3g} = "
                      f"{cfg['fig5_v0_margin']:g} x max |v_top| of the first half of (a)"))
         if rb is not None:
-            _check(checks, "msd_fig5b", "Fig. 5 (b): f(t) alone stays bounded: growth of the "
+            add_check(checks, "msd_fig5b", "Fig. 5 (b): f(t) alone stays bounded: growth of the "
                    "largest D from the first to the second half of the run (decades)",
                    rb["late_growth"], "bounded (max ~1e-17)",
                    np.isfinite(rb["late_growth"]) and rb["late_growth"] < 1.0,
@@ -119,7 +123,7 @@ class _Fig5:
             rel = g_meas / g_pred - 1 if g_pred > 0 else float("nan")
             tw = reached.get("t_window") or [float("nan")] * 2
             extra["growth_fig5c"] = {"measured": g_meas, "predicted": g_pred}
-            _check(checks, "growth_rate_fig5c", "Fig. 5 (c): D grows exponentially after mu "
+            add_check(checks, "growth_rate_fig5c", "Fig. 5 (c): D grows exponentially after mu "
                    "has settled, at the rate max Im sqrt(lambda) of M^-1 K at the friction "
                    "reached (measured / predicted - 1)", rel, "D ~ e^{2 Im(omega) t} (Eq. 6)",
                    np.isfinite(rel) and abs(rel) <= 0.25,
@@ -137,7 +141,7 @@ class _Fig5:
             # below the window) also jumps by many decades when it re-equilibrates
             d_max = pm["d"]["max_D"] if "d" in pm else float("nan")
             above_d = not (d_max > 0) or rc["max_D"] > FIG5C_OVER_CONTROL * d_max
-            _check(checks, "msd_decades_fig5c", "Fig. 5 (c): decades of D above the median "
+            add_check(checks, "msd_decades_fig5c", "Fig. 5 (c): decades of D above the median "
                    "D of (a) with f(t) + mu(v)", rc["decades"],
                    f"> {P['msd_decades_fig5c']:g}",
                    rc["decades"] > P["msd_decades_fig5c"] and above_d,
@@ -149,7 +153,7 @@ class _Fig5:
                    note=(f"max D_c = {rc['max_D']:.3g}; the friction drop alone (control d) "
                          f"reaches {pm['d']['max_D']:.3g}" if "d" in pm else
                          f"max D_c = {rc['max_D']:.3g}"))
-            _check(checks, "velocity_decades_fig5c", "Fig. 5 (c): rise of |v_top| above the "
+            add_check(checks, "velocity_decades_fig5c", "Fig. 5 (c): rise of |v_top| above the "
                    "median |v_top| of (a) (log10 max |v_c| / median |v_a|)", rc["v_decades"],
                    f"> {P['velocity_decades_fig5c']:g}",
                    rc["v_decades"] > P["velocity_decades_fig5c"],
@@ -162,7 +166,7 @@ class _Fig5:
                      "the onset transient of f(t) (its quasi-static velocity was only "
                      f"{qs:.3g} v0 at the switch)")
             extra["switch_cause"] = cause
-            _check(checks, "mu_drop_fig5c", "Fig. 5 (c): mu(v) switches on and the friction "
+            add_check(checks, "mu_drop_fig5c", "Fig. 5 (c): mu(v) switches on and the friction "
                    "falls to mu_ss mu0 (lowest mu reached)", rc["min_mu"],
                    f"mu(v) -> mu_ss mu0 = {mu_ss:g}", rc["min_mu"] <= mu_ss * (1 + 1e-3),
                    reason=(f"|v_top| never exceeded v0 = {pm['v0']:.2g}" if
@@ -180,7 +184,7 @@ class _Fig5:
             span = rd["t_end"] - rd["switch_time"] - 100.0
             expect = 2 * g_c * 0.75 * span / math.log(10) if g_c > 0 else float("nan")
             gd = rd.get("growth_after_switch", float("nan"))
-            _check(checks, "control_fig5d", f"Fig. 5 (d): control at F_x = {ctl['F_x']:.6g} "
+            add_check(checks, "control_fig5d", f"Fig. 5 (d): control at F_x = {ctl['F_x']:.6g} "
                    f"(certified real after the drop to mu = {mu_ss:g}): growth of D after its "
                    "re-equilibration jump (decades, max over the last vs the first quarter "
                    "after t_switch + 100)", gd, "no exponential growth (< 1 decade)",
@@ -192,7 +196,7 @@ class _Fig5:
                    note=(f"jump to {rd['post_switch_level']:.3g}, max {rd['max_D']:.3g}; "
                          f"at the rate of (c) it would grow {expect:.3g} decades"))
         else:
-            _check(checks, "control_fig5d", "Fig. 5 (d): control below the window", float("nan"),
+            add_check(checks, "control_fig5d", "Fig. 5 (d): control below the window", float("nan"),
                    "no exponential growth", False,
                    reason="no ramp step below the window is certified real after the drop "
                           "(see paper.json perturb.control_tried)")
@@ -202,7 +206,7 @@ class _Fig5:
         if "e" in pm:
             re_ = pm["e"]
             ok = not np.isfinite(re_["switch_time"]) and not re_["triggered"]
-            _check(checks, "control_fig5e", "Fig. 5 (e): mu(v) without forcing at the Fig. 5 "
+            add_check(checks, "control_fig5e", "Fig. 5 (e): mu(v) without forcing at the Fig. 5 "
                    "load stays untriggered (mu never leaves mu0)", re_["min_mu"],
                    f"mu0 = {mu0:g} throughout", ok,
                    reason=(f"noise alone switched mu(v) on at t = {re_['switch_time']:.4g}: "
@@ -217,7 +221,7 @@ class _Fig5:
         if "p" in pm:
             rp = pm["p"]
             qs_p = cfg["omega_p"] * abs(pm["compliance"]) * cfg["a_paper"] / pm["v0"]
-            _check(checks, "paper_amplitude_fig5", f"Fig. 5 (p): the paper's a = "
+            add_check(checks, "paper_amplitude_fig5", f"Fig. 5 (p): the paper's a = "
                    f"{cfg['a_paper']:g} with mu(v): decades of D above the (a) level",
                    rp["decades"], f"> {P['msd_decades_fig5c']:g} (paper's red line)",
                    rp["triggered"] and rp["decades"] > P["msd_decades_fig5c"],

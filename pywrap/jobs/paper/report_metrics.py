@@ -12,10 +12,12 @@ import numpy as np
 
 from remote_trigger.analysis.dynamics.series import (
     below_exponential, exp_rate, growth_window, noise_level)
-from remote_trigger.analysis.stability.verdict import Decision
+from remote_trigger.analysis.stability.decision import Decision
 
 # --------------------------------------------------------------------------- readers
-def _read_series(path):
+def read_series(path):
+    """A series file of the paper job (``t``, ``D``, ``v_top``, ``mu`` and its
+    attributes, bytes decoded), as a dict."""
     import h5py
 
     with h5py.File(path, "r") as fh:
@@ -45,7 +47,7 @@ def tracks(out, summary):
                 C = fh["complex"][()]
                 for i in range(len(F)):
                     extra.append((float(F[i]), fh[f"eigenvalues/ext_{i:02d}"][()],
-                                  bool(C[i] > 0)))
+                                  Decision.certified(C[i] > 0)))
         res[k] = track_pair(read_spectra(r["h5"], extra))
     return res
 
@@ -125,7 +127,7 @@ SATURATION_DECADES = 3.0
 
 def instability_metrics(out, summary):
     """Numbers and series of the Fig. 4 run."""
-    s = _read_series(os.path.join(out, "instability.h5"))
+    s = read_series(os.path.join(out, "instability.h5"))
     t, D = s["t"], s["D"]
     noise = noise_level(t, D)
     Dmax = float(np.max(D))
@@ -165,7 +167,7 @@ def perturb_metrics(out, summary):
     for k in "abcdep":
         p = os.path.join(out, f"perturb_{k}.h5")
         if os.path.exists(p):
-            runs[k] = _read_series(p)
+            runs[k] = read_series(p)
     a = runs["a"]
     pos = (a["t"] > 0) & (a["D"] > 0)
     level = float(np.median(a["D"][pos]))

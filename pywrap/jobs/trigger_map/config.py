@@ -3,7 +3,8 @@
 :mod:`remote_trigger.pywrap.jobs.trigger_map.job`, its design in docs/trigger_map.md."""
 from dataclasses import dataclass
 
-from remote_trigger.pywrap.config import Config, ConfigError, _int, _num, layered_config
+from remote_trigger.pywrap.config import (Config, ConfigError, check_int, check_number,
+                                          layered_config)
 
 #: onsets of f(t)
 ONSETS = ("step", "smooth")
@@ -102,7 +103,7 @@ class MapConfig(Config):
                 raise ConfigError(f"{name} must be a list, got {name} = {v!r}")
             object.__setattr__(self, name, tuple(v))
         for f in self.fractions:
-            if not 0.0 < _num("fractions", f) < 1.0:
+            if not 0.0 < check_number("fractions", f) < 1.0:
                 raise ConfigError(f"fractions must each be in (0, 1) (inside the window), got "
                                   f"fractions = {list(self.fractions)!r}")
         if not self.fractions and not self.below:
@@ -110,12 +111,12 @@ class MapConfig(Config):
         if not self.omega_p:
             raise ConfigError("omega_p must not be empty, got omega_p = []")
         for w in self.omega_p:
-            if not _num("omega_p", w) > 0:
+            if not check_number("omega_p", w) > 0:
                 raise ConfigError(f"omega_p must each be > 0, got omega_p = "
                                   f"{list(self.omega_p)!r}")
         for name in ("tau_g", "tau"):
             for t in getattr(self, name):
-                if not _num(name, t) > 0:
+                if not check_number(name, t) > 0:
                     raise ConfigError(f"{name} must each be > 0, got {name} = "
                                       f"{list(getattr(self, name))!r}")
         for o in self.onsets:
@@ -124,25 +125,25 @@ class MapConfig(Config):
                                   f"{list(self.onsets)!r}")
         if not self.onsets:
             raise ConfigError("onsets must not be empty, got onsets = []")
-        if not _num("t_max", self.t_max) > 0:
+        if not check_number("t_max", self.t_max) > 0:
             raise ConfigError(f"t_max must be > 0, got t_max = {self.t_max!r}")
-        if not 0.0 < _num("dt_fraction", self.dt_fraction) < 1.0:
+        if not 0.0 < check_number("dt_fraction", self.dt_fraction) < 1.0:
             raise ConfigError(f"dt_fraction must be in (0, 1), got dt_fraction = "
                               f"{self.dt_fraction!r}")
-        _int("dt_check", self.dt_check, 0)
-        if not _num("factor", self.factor) > 1.0:
+        check_int("dt_check", self.dt_check, 0)
+        if not check_number("factor", self.factor) > 1.0:
             raise ConfigError(f"factor must be > 1, got factor = {self.factor!r}")
-        if not _num("d_run_factor", self.d_run_factor) > 1.0:
+        if not check_number("d_run_factor", self.d_run_factor) > 1.0:
             raise ConfigError(f"d_run_factor must be > 1, got d_run_factor = "
                               f"{self.d_run_factor!r}")
-        if not _num("a_max_factor", self.a_max_factor) > 0:
+        if not check_number("a_max_factor", self.a_max_factor) > 0:
             raise ConfigError(f"a_max_factor must be > 0, got a_max_factor = "
                               f"{self.a_max_factor!r}")
         if self.record_every is not None:
-            _int("record_every", self.record_every, 1)
+            check_int("record_every", self.record_every, 1)
         if self.kappa_steps is not None:
-            _int("kappa_steps", self.kappa_steps, 1)
-        _int("np", self.np, 1)
+            check_int("kappa_steps", self.kappa_steps, 1)
+        check_int("np", self.np, 1)
 
 
 

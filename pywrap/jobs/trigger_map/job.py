@@ -174,7 +174,7 @@ def _dyn_config(setup, ld, task, dt):
 
 def _one_run(eng, setup, ld, task, a, muv, h5, d_run):
     """One run from the load's equilibrium; returns its summary dict."""
-    from remote_trigger.pywrap.stages.runs import _undamped_run
+    from remote_trigger.pywrap.stages.runs import undamped_run
 
     dt = task["dt_fraction"] * ld["dt_max"]
     dc = _dyn_config(setup, ld, task, dt)
@@ -192,7 +192,7 @@ def _one_run(eng, setup, ld, task, a, muv, h5, d_run):
     applied = {"a": v["a"], "omega_p": v["wp"], "muv": v["muv"]}
     if muv:
         applied.update(v0=v["v0"], v_ss=v["vss"])
-    r = _undamped_run(eng, dc, ld["equilibrium"], h5, v, h5, True, stop=stop,
+    r = undamped_run(eng, dc, ld["equilibrium"], h5, v, h5, True, stop=stop,
                       attrs=dict(applied, stage="trigger-map", d_run=d_run or 0.0),
                       dim=int(setup.get("dim", 2)))
     wall = time.perf_counter() - t0

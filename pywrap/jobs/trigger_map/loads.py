@@ -86,8 +86,7 @@ def spectrum_numbers(dump_mu0, dump_drop, taus):
         (max Re s with damping, per tau), ``D_drop``.
     """
     from remote_trigger.analysis.state.dumpfile import read_equilibrium
-    from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability.jacobian import remove_dofs
+    from remote_trigger.analysis.stability.system import reduced_system
     from remote_trigger.analysis.stability import eigen
 
     out = {}
@@ -98,9 +97,9 @@ def spectrum_numbers(dump_mu0, dump_drop, taus):
     per, first_rot = (6, 3) if s0.positions.shape[1] == 3 else (3, 2)
     res = {}
     for key, st in (("mu0", s0), ("drop", s1)):
-        an = analyze(st, eigenvalues=False, decide=False)
-        Kr, mr = remove_dofs(an.K, an.mass, an.rattlers.keep_dofs)
-        rot = (an.rattlers.keep_dofs % per) >= first_rot
+        an = reduced_system(st)
+        Kr, mr = an.K, an.mass
+        rot = (an.keep_dofs % per) >= first_rot
         res[key] = (eigen.dense_eigen(Kr, mr, vectors=True), Kr, mr, rot)
     e0, e1 = res["mu0"][0], res["drop"][0]
     w0 = np.sort(np.sqrt(np.abs(e0.eigenvalues.real)))
@@ -159,15 +158,12 @@ def ramp_kappa(ramp_h5, limit=None):
     """
     import h5py
     from remote_trigger.analysis.state.dumpfile import read_equilibrium
-    from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability.jacobian import remove_dofs
+    from remote_trigger.analysis.stability.system import reduced_system
     from remote_trigger.analysis.stability import eigen
 
     def spec(datafile):
-        st = read_equilibrium(datafile[:-len(".data")] + ".dump")
-        an = analyze(st, eigenvalues=False, decide=False)
-        Kr, mr = remove_dofs(an.K, an.mass, an.rattlers.keep_dofs)
-        return eigen.dense_eigen(Kr, mr, vectors=True)
+        an = reduced_system(read_equilibrium(datafile[:-len(".data")] + ".dump"))
+        return eigen.dense_eigen(an.K, an.mass, vectors=True)
 
     with h5py.File(ramp_h5, "r") as fh:
         hi = float(fh.attrs["F_x_c_high"])
