@@ -133,12 +133,6 @@ def _enough_sizes(n, least, what):
     return sizes
 
 
-def _slope(x, y):
-    xm = x.mean()
-    dx = x - xm
-    return float(np.dot(dx, y - y.mean()) / np.dot(dx, dx))
-
-
 def power_law_fit(n, y, confidence=0.95, n_resamples=2000, seed=0):
     """Fit y = A N^b over every value, with the exponent's uncertainty.
 
@@ -179,14 +173,17 @@ def power_law_fit(n, y, confidence=0.95, n_resamples=2000, seed=0):
     many = [k for k, g in enumerate(groups) if g.size > 1]
     if many:
         # a size with one value has nothing to resample: it enters as it is
-        def statistic(*samples):
-            gs = list(groups)
+        xs = np.concatenate([np.full(len(g), lx) for g, lx in zip(groups, logs)])
+        dx = xs - xs.mean()
+
+        def statistic(*samples, axis=-1):
+            batch = np.shape(samples[0])[:-1]
+            gs = [np.broadcast_to(g, batch + g.shape) for g in groups]
             for k, g in zip(many, samples):
                 gs[k] = g
-            xs = np.concatenate([np.full(len(g), lx) for g, lx in zip(gs, logs)])
-            return _slope(xs, np.concatenate(gs))
+            return np.concatenate(gs, axis=-1) @ dx / np.dot(dx, dx)
 
-        res = stats.bootstrap(tuple(groups[k] for k in many), statistic, vectorized=False,
+        res = stats.bootstrap(tuple(groups[k] for k in many), statistic, vectorized=True,
                               n_resamples=int(n_resamples), confidence_level=confidence,
                               method="percentile", rng=np.random.default_rng(seed))
         ci = (float(res.confidence_interval.low), float(res.confidence_interval.high))
@@ -291,6 +288,9 @@ class CrossoverTest:
         N_b of the best broken law (least squares over a grid of breaks).
     exponent_below, exponent_above : float
         Its slopes below and above N_b.
+    break_value : float
+        Its value at N_b (units of y): the broken law is
+        ``break_value * (N / N_b) ** slope``, the slope below or above N_b.
     f_statistic : float
         (SSE_single - SSE_broken) / (SSE_broken / (m - 3)) at N_b: the
         largest over the breaks tried.
@@ -326,6 +326,7 @@ class CrossoverTest:
     break_n: float
     exponent_below: float
     exponent_above: float
+    break_value: float
     f_statistic: float
     p_value: float
     lack_of_fit_f: float
@@ -358,14 +359,15 @@ class CrossoverTest:
                 f"N = {', '.join(str(s) for s in self.sizes)}")
 
 
-def _sse(q, Y):
-    """Residual sum of squares of each column of Y after least squares on the
-    design whose orthonormal basis is q."""
-    r = Y - q @ (q.T @ Y)
-    return np.einsum("ij,ij->j", r, r)
+def _sse(q, Y, yy):
+    """Residual sum of squares of each column of Y (centred; ``yy``: the
+    columns' squared norms) after least squares on a design with an intercept
+    whose orthonormal basis is q: |Y|^2 - |q^T Y|^2."""
+    p = q.T @ Y
+    return yy - np.einsum("ij,ij->j", p, p)
 
 
-def crossover_test(n, y, n_resamples=2000, seed=0, n_breaks=61):
+def crossover_test(n, y, n_resamples=10000, seed=0, n_breaks=61):
     """Test one power law y = A N^b against a broken (continuous) one.
 
     The broken law is ln y = a + b ln N + c (ln N - ln N_b)_+, its break
@@ -419,8 +421,10 @@ def crossover_test(n, y, n_resamples=2000, seed=0, n_breaks=61):
     member[np.arange(m), gid] = 1.0
 
     def statistics(Y):
-        sse0 = _sse(q0, Y)
-        sse1 = np.array([_sse(q, Y) for q in qb])
+        Y = Y - Y.mean(axis=0)          # every design has an intercept
+        yy = np.einsum("ij,ij->j", Y, Y)
+        sse0 = _sse(q0, Y, yy)
+        sse1 = np.array([_sse(q, Y, yy) for q in qb])
         j = np.argmin(sse1, axis=0)
         s1 = sse1[j, np.arange(Y.shape[1])]
         means = (member.T @ Y) / counts[:, None]
@@ -458,6 +462,7 @@ def crossover_test(n, y, n_resamples=2000, seed=0, n_breaks=61):
     return CrossoverTest(
         exponent=float(beta[1]), break_n=float(math.exp(breaks[j])),
         exponent_below=float(coef[1]), exponent_above=float(coef[1] + coef[2]),
+        break_value=float(math.exp(coef[0] + coef[1] * breaks[j])),
         f_statistic=float(f), p_value=float((1 + np.sum(fb >= f)) / (B + 1)),
         lack_of_fit_f=float(flof), lack_of_fit_df=(k - 2, m - k),
         lack_of_fit_p=float(stats.f.sf(flof, k - 2, m - k)),

@@ -130,16 +130,52 @@ class WeakestLinkTest:
 
 
 # --------------------------------------------------------------------------- likelihoods
-def _weibull_profile(groups, logk):
-    """Log-likelihood of the Weibull model with shape exp(logk) and each group's
-    own scale at its maximum (lambda_g^k = mean x^k), the groups' values scaled
-    to a geometric mean of about 1."""
-    k = math.exp(logk)
-    total = 0.0
-    for x, lx in groups:
-        m = x.size
-        total += m * logk - m * math.log(np.mean(np.exp(k * lx))) + (k - 1.0) * lx.sum() - m
-    return total
+class _Sample:
+    """Values in groups (one per size), kept as flat arrays for the likelihoods."""
+
+    def __init__(self, values):
+        self.x = np.concatenate(values)
+        self.lx = np.log(self.x)
+        self.cnt = np.array([v.size for v in values], float)
+        self.gid = np.repeat(np.arange(len(values)), [v.size for v in values])
+        self.m = self.x.size
+        self.slx = float(self.lx.sum())
+
+    def sums(self, w):
+        """Sum of w over each group."""
+        return np.bincount(self.gid, weights=w, minlength=self.cnt.size)
+
+    def part(self, keep):
+        """The sample of the groups ``keep`` (bool per group)."""
+        return _Sample([self.x[self.gid == g] for g in np.flatnonzero(keep)])
+
+    def weibull(self, logk):
+        """Log-likelihood of Weibull(k = exp(logk)) with each group's own scale
+        at its maximum (lambda_g^k = mean of x^k over the group)."""
+        k = math.exp(logk)
+        means = self.sums(np.exp(k * self.lx)) / self.cnt
+        return self.m * logk - float(np.dot(self.cnt, np.log(means))) + (k - 1.0) * self.slx \
+            - self.m
+
+    def lognormal(self):
+        """Log-likelihood of ln x ~ normal(mu_g, sigma) at its maximum (in x)."""
+        mean = self.sums(self.lx) / self.cnt
+        sse = float(np.sum((self.lx - mean[self.gid]) ** 2))
+        m = self.m
+        return -self.slx - 0.5 * m * math.log(sse / m) - 0.5 * m * math.log(2.0 * math.pi) \
+            - 0.5 * m
+
+    def normal_cv(self):
+        """Log-likelihood of x ~ normal(mu_g, (c mu_g)^2) at its maximum (one c)."""
+        s1, s2 = self.sums(self.x), self.sums(self.x * self.x)
+
+        def at(logc):
+            c2 = math.exp(2.0 * logc)
+            u = (s1 + np.sqrt(s1 * s1 + 4.0 * s2 * self.cnt * c2)) / (2.0 * s2)   # 1 / mu_g
+            r = self.x * u[self.gid] - 1.0
+            return (float(np.dot(self.cnt, np.log(u))) - 0.5 * self.m *
+                    (2.0 * logc + math.log(2.0 * math.pi)) - float(np.dot(r, r)) / (2.0 * c2))
+        return _max_1d(at, -8.0, 3.0)[1]
 
 
 def _max_1d(fun, lo=-4.0, hi=4.0):
@@ -166,28 +202,6 @@ def _sites_profile(lx, ln, a):
     return _max_1d(lambda t: _weibull_sites(lx, ln, a, t))[1]
 
 
-def _lognormal(groups):
-    """Log-likelihood of ln x ~ normal(mu_g, sigma) at its maximum (in x)."""
-    m = sum(x.size for x, _ in groups)
-    sse = sum(float(np.sum((lx - lx.mean()) ** 2)) for _, lx in groups)
-    slx = sum(float(lx.sum()) for _, lx in groups)
-    return -slx - 0.5 * m * math.log(sse / m) - 0.5 * m * math.log(2.0 * math.pi) - 0.5 * m
-
-
-def _normal_cv(groups):
-    """Log-likelihood of x ~ normal(mu_g, (c mu_g)^2) at its maximum (one c)."""
-    def at(logc):
-        c2 = math.exp(2.0 * logc)
-        total = 0.0
-        for x, _ in groups:
-            s1, s2, m = x.sum(), float(np.dot(x, x)), x.size
-            u = (s1 + math.sqrt(s1 * s1 + 4.0 * s2 * m * c2)) / (2.0 * s2)   # 1 / mu
-            total += (m * math.log(u) - 0.5 * m * (2.0 * logc + math.log(2.0 * math.pi))
-                      - float(np.sum((x * u - 1.0) ** 2)) / (2.0 * c2))
-        return total
-    return _max_1d(at, -8.0, 3.0)[1]
-
-
 def _interval(fun, best, at_best, step=0.25, limit=50.0):
     """Where fun (a profile log-likelihood) falls _CHI2_95 / 2 below its maximum
     at_best, on each side of ``best``; +-inf if not within ``limit``."""
@@ -208,39 +222,34 @@ def _interval(fun, best, at_best, step=0.25, limit=50.0):
     return tuple(out)
 
 
-def _fit(groups, sizes):
+def _fit(sample, sizes):
     """Every statistic of the test but the bootstrap (dict)."""
     from scipy import stats
 
-    lx = np.concatenate([g[1] for g in groups])
-    ln = np.concatenate([np.full(g[0].size, math.log(s)) for g, s in zip(groups, sizes)])
-    logk, l0 = _max_1d(lambda t: _weibull_profile(groups, t))
-    lo, hi = _interval(lambda t: _weibull_profile(groups, t), logk, l0, step=0.1, limit=8.0)
+    lx = sample.lx
+    ln = np.log(np.asarray(sizes, float))[sample.gid]
+    logk, l0 = _max_1d(sample.weibull)
+    lo, hi = _interval(sample.weibull, logk, l0, step=0.1, limit=8.0)
     # one shape per size (3 values or more) against one for those sizes
-    big = [g for g in groups if g[0].size >= 3]
-    shapes = [math.exp(_max_1d(lambda t, g=g: _weibull_profile([g], t))[0])
-              if g[0].size >= 3 else math.nan for g in groups]
+    big = sample.cnt >= 3
+    each = [_max_1d(sample.part(np.arange(sample.cnt.size) == g).weibull) if big[g] else
+            (math.nan, math.nan) for g in range(sample.cnt.size)]
     same_p = math.nan
-    if len(big) >= 2:
-        l_each = sum(_max_1d(lambda t, g=g: _weibull_profile([g], t))[1] for g in big)
-        l_one = _max_1d(lambda t: _weibull_profile(big, t))[1]
-        same_p = float(stats.chi2.sf(max(0.0, 2.0 * (l_each - l_one)), len(big) - 1))
+    if big.sum() >= 2:
+        l_one = _max_1d(sample.part(big).weibull)[1]
+        l_each = sum(e[1] for e, b in zip(each, big) if b)
+        same_p = float(stats.chi2.sf(max(0.0, 2.0 * (l_each - l_one)), int(big.sum()) - 1))
     a_best, l_sites = _max_1d(lambda a: _sites_profile(lx, ln, a), -20.0, 20.0)
     logk_b = _max_1d(lambda t: _weibull_sites(lx, ln, a_best, t))[0]
     a_ci = _interval(lambda a: _sites_profile(lx, ln, a), a_best, l_sites)
     l_a1 = _sites_profile(lx, ln, 1.0)
     return {"shape": math.exp(logk), "shape_ci": (math.exp(lo), math.exp(hi)),
-            "shapes": tuple(shapes), "same_shape_p": same_p,
+            "shapes": tuple(math.exp(e[0]) if b else math.nan for e, b in zip(each, big)),
+            "same_shape_p": same_p,
             "exponent": -a_best / math.exp(logk_b), "sites_exponent": a_best,
             "sites_ci": a_ci,
             "sites_p": float(stats.chi2.sf(max(0.0, 2.0 * (l_sites - l_a1)), 1)),
-            "weibull": l0, "lognormal": _lognormal(groups), "normal": _normal_cv(groups),
-            "logk": logk}
-
-
-def _groups(values):
-    """[(x, ln x)] of each size's values."""
-    return [(x, np.log(x)) for x in values]
+            "weibull": l0, "lognormal": sample.lognormal(), "normal": sample.normal_cv()}
 
 
 def weakest_link_test(n, y, n_resamples=500, seed=0):
@@ -287,7 +296,7 @@ def weakest_link_test(n, y, n_resamples=500, seed=0):
     # -m ln(scale), the same for every model: added back below)
     scale = math.exp(np.mean(np.log(y[ok & np.isin(n, sizes)])))
     values = [y[ok & (n == s)] / scale for s in sizes]
-    base = _fit(_groups(values), sizes)
+    base = _fit(_Sample(values), sizes)
     shift = -sum(v.size for v in values) * math.log(scale)
     d_obs = base["weibull"] - base["lognormal"]
     # parametric bootstrap of that difference under each fitted model
@@ -299,11 +308,11 @@ def weakest_link_test(n, y, n_resamples=500, seed=0):
                     / sum(v.size for v in values))
     d_w, d_l = [], []
     for _ in range(int(n_resamples)):
-        gw = _groups([lm * rng.weibull(k, v.size) for lm, v in zip(lam, values)])
-        gl = _groups([np.exp(m_ + sig * rng.standard_normal(v.size))
+        sw = _Sample([lm * rng.weibull(k, v.size) for lm, v in zip(lam, values)])
+        sl = _Sample([np.exp(m_ + sig * rng.standard_normal(v.size))
                       for m_, v in zip(mu, values)])
-        for g, out in ((gw, d_w), (gl, d_l)):
-            out.append(_max_1d(lambda t: _weibull_profile(g, t))[1] - _lognormal(g))
+        for smp, out in ((sw, d_w), (sl, d_l)):
+            out.append(_max_1d(smp.weibull)[1] - smp.lognormal())
     B = int(n_resamples)
     return WeakestLinkTest(
         sizes=tuple(int(s) for s in sizes), counts=tuple(int(v.size) for v in values),

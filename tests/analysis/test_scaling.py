@@ -100,6 +100,9 @@ def test_a_known_break_is_detected_and_placed():
     assert 400 <= t.break_n <= 2500, t.break_n
     assert t.exponent_below == pytest.approx(-1.4, abs=0.3)
     assert t.exponent_above == pytest.approx(-0.4, abs=0.3)
+    # the broken law through its break: the data's level there (A = 1 at N_b = 1000)
+    assert t.break_value * (1000.0 / t.break_n) ** (
+        t.exponent_below if t.break_n > 1000 else t.exponent_above) == pytest.approx(1.0, rel=0.3)
     assert t.sizes == SIZES5 and t.counts == tuple(2 * p for p in PER5)
 
 
