@@ -33,7 +33,8 @@ Subpackages and modules (docs/analysis.md):
 ``forcelaw_ref``                   independent complex-step-capable force law (tests)
 ``forcelaw_ref3d``                 the same for spheres (3D law, pair style's 3D step)
 ``output``                         atomic writers (text, JSON, HDF5, npz, figures), output checks
-``scaling``                        power laws over system sizes with bootstrap intervals
+``scaling``                        power laws over system sizes: fits, local slopes, crossover test
+``weakest_link``                   the weakest-link (extreme-value) test of a size dependence
 ``errors``                         the exception hierarchy
 =================================  ==============================================================
 

@@ -293,7 +293,8 @@ def test_the_kept_n6400_runs_of_seeds_4_to_7_combine(tmp_path):
     """Seeds 6-7 at N = 6400 (the configuration of seeds 4-5 with other seeds)
     combine with the kept runs into the 52 packings docs/ensemble.md counts:
     38 orders hold, 13 reversed, 1 not decided; at N = 6400 seeds 2, 4, 5, 7
-    hold, 1 and 6 reversed, 3 not decided; seed 6's mu0 onset is a soft mode."""
+    hold, 1 and 6 reversed, 3 not decided; seed 6's mu0 onset is a soft mode;
+    and the size dependence docs/ensemble.md gives is that of these files."""
     cfg, man, t = _combine_kept(tmp_path,
                                 ("N100_10000_local1600", "N6400_s4-5", "N6400_s6-7"))
     assert cfg["seeds"][3] == [1, 2, 3, 4, 5, 6, 7]
@@ -306,6 +307,32 @@ def test_the_kept_n6400_runs_of_seeds_4_to_7_combine(tmp_path):
                      "N6400_s5": 1, "N6400_s6": 0, "N6400_s7": 1}
     re_rel = dict(zip(order, t["pair_re_rel"][mid].tolist()))
     assert re_rel["N6400_s6"] < 1e-4 < re_rel["N6400_s7"]      # soft, collective
+    # the data set each packing was computed with, as its result records it
+    prov = {(int(n), c, m) for n, c, m, i in zip(t["n"], t["clearance"], t["blas"], t["I0"])
+            if i == 0.5}
+    assert prov == {(100, "all", ""), (400, "all", ""), (1600, "local", "Haswell (forced)"),
+                    (6400, "all", ""), (6400, "all", "Haswell (forced)"),
+                    (10000, "all", "SkylakeX")}
+    # the size dependence docs/ensemble.md gives (2026-11-27), from these files
+    md = (tmp_path / "all" / "ensemble.md").read_text()
+    for line in (
+            "| every packing | all onsets | N = 100-10000 | -0.917 | [-1.05, -0.795] |",
+            "| every packing | stiff onsets | N = 100-10000 | -0.859 | [-0.964, -0.747] |",
+            "| every packing | all onsets | N = 100-1600 | -1.08 | [-1.32, -0.872] |",
+            "| every packing | all onsets | N = 400-10000 | -0.715 | [-0.89, -0.554] |",
+            "| clearance 'all' | all onsets | N = 100, 400, 6400, 10000 | -0.868 | [-0.99, "
+            "-0.745] |",
+            "| all onsets | -1.32 [-1.8, -0.832] (20, 11) | -0.73 [-1.4, -0.207] (11, 12) | "
+            "-0.569 [-1.13, 0.00495] (12, 6) | -0.817 [-2.7, 1.36] (6, 2) |",
+            "slopes -1.19 below and -0.474 above N_b = 1.01e+03 against one law N^-0.917: "
+            "F = 5.37, p = 0.0583",
+            "N_top F_x^c / F_y ~ 0.251 N^-0.367 (95 % bootstrap interval [-0.497, -0.245]",
+            "sites M ~ N^a with a = -b k = 1.55 (95 % [1.19, 1.94]); sites in proportion to "
+            "N (a = 1, b = -1/k = -0.538): p = 0.00212",
+            "N PR ~ 0.372 N^0.956 (95 % bootstrap interval [0.918, 0.996]",
+            "1 of 2 [0.0126, 0.987] (N = 10000) (exact 95 % intervals); trend in ln N: "
+            "z = -0.877, p = 0.421"):
+        assert line in md, line
 
 
 def test_runs_of_per_size_steps_combine_per_size(tmp_path):
@@ -334,7 +361,8 @@ def test_the_figures_legend_names_soft_onsets_once(tmp_path, monkeypatch):
 
     runs = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "results", "runs")
     got = []
-    monkeypatch.setattr(job, "plot", lambda path, rows, cfg, fits=None: got.append((rows, cfg)))
+    monkeypatch.setattr(job, "plot", lambda path, rows, cfg, fits=None, limit=None:
+                        got.append((rows, cfg)))
     combine_runs([os.path.join(runs, "N100_1600"), os.path.join(runs, "N6400_escape")],
                  str(tmp_path / "both"))
     (rows, cfg), = got

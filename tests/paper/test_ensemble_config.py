@@ -241,8 +241,8 @@ def test_pair_shape_unmeasured_is_nan_never_a_failure(tmp_path, monkeypatch):
 
 
 def test_ramp_step_and_tolerance_per_size():
-    """dF_x and tol: one number for every N, or one per N (F_x^c falls about
-    as 1/N); for_size gives the numbers of one N; a list of another length
+    """dF_x and tol: one number for every N, or one per N (F_x^c falls by 50
+    from N = 100 to 10^4); for_size gives the numbers of one N; a list of another length
     is refused, naming both lengths."""
     import json
 

@@ -141,6 +141,17 @@ def test_two_ranks_same_table(serial, tmp_path):
         # what the worker rank computed with: this environment's versions
         assert result["environment"]["packages"]["numpy"] == numpy.__version__, name
         assert result["environment"]["source"] == source(), name
+        # and each stage what its own rank computed with (the two ramps were
+        # tasks of their own here): commit, BLAS kernel set, CPU
+        stages = [result["default"]] + list(result["default"]["ramps"].values())
+        if result["frictional"] and not result["frictional"].get("error"):
+            stages.append(result["frictional"])
+        assert len(result["default"]["ramps"]) == 2, name
+        for st in stages:
+            env = st["environment"]
+            assert env["source"] == source() and env["cpu"] == result["environment"]["cpu"]
+            assert [b["architecture"] for b in env["blas"]] == \
+                [b["architecture"] for b in result["environment"]["blas"]], name
     assert session["environment"]["packages"]["numpy"] == numpy.__version__
 
 

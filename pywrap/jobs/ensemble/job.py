@@ -281,7 +281,7 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
             st = statistics(rows, cfg)
             write_table(os.path.join(out, TABLE), rows, cfg)
             plot(os.path.join(out, "ensemble.png"), rows, cfg,
-                 st["n_fit"].get(cfg.I0_dynamics))
+                 st["n_fit"].get(cfg.I0_dynamics), st["limit"])
             wall = time.perf_counter() - t_start
             write_summary(path, rows, cfg, st, wall, n_workers(comm), computed)
             mpath = os.path.join(out, MANIFEST)

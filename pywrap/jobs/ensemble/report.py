@@ -13,6 +13,8 @@ from remote_trigger.analysis.stability.decision import Decision
 from remote_trigger.analysis.stability.verdict import SOFT_MODE_REL
 from remote_trigger.analysis.stability.modeshape import LONG_WAVE_M
 from remote_trigger.pywrap.jobs.ensemble.onset import LOCAL_PAIR_PARTICLES
+from remote_trigger.pywrap.jobs.ensemble.limit import (
+    PROVENANCE, limit_lines, limit_statistics, provenance)
 
 #: the paper's bracket of F_x^c(mu = 1) for its N = 100 packing
 PAPER_BRACKET = (PAPER["F_x_c_mu1_low"], PAPER["F_x_c_mu1_high"])
@@ -20,7 +22,8 @@ PAPER_BRACKET = (PAPER["F_x_c_mu1_low"], PAPER["F_x_c_mu1_high"])
 
 # --------------------------------------------------------------------------- rows
 #: string columns of the table
-STR_COLS = ("key", "protocol", "status", "reason", "ramp_status_mu0", "ramp_status_mu_ss")
+STR_COLS = ("key", "protocol", "status", "reason", "ramp_status_mu0", "ramp_status_mu_ss",
+            *PROVENANCE)
 #: columns of the table, in order (numbers are float64; -1 / NaN = not measured)
 COLUMNS = ("key", "n", "seed", "protocol", "I0", "dynamics_consistent", "status", "reason",
            "phi", "residual", "antisymmetry",
@@ -30,7 +33,7 @@ COLUMNS = ("key", "n", "seed", "protocol", "I0", "dynamics_consistent", "status"
            "n_undecided", "n_steps", "n_bisection", "n_extra", "ramp_status_mu0", "ramp_status_mu_ss",
            "decision_at_zero", "n_pairs_at_zero", "growth_at_zero", "soft_onset", "wall",
            "pair_pr", "pair_particles", "n_saddle", "n_escaped", "pair_longwave",
-           "F_x_soft", "F_x_soft_ss")
+           "F_x_soft", "F_x_soft_ss", *PROVENANCE)
 
 
 def _mid(lo, hi):
@@ -59,7 +62,7 @@ def _empty_row(task, protocol, I0, i0_dyn):
                dynamics_consistent=float(I0 == i0_dyn), status="failed", reason="",
                ramp_status_mu0="", ramp_status_mu_ss="", pair_index=-1, n_dof=-1,
                slope_points=0, order=-1, decision_at_zero=math.nan, n_extra=0,
-               soft_onset=-1)
+               soft_onset=-1, **{k: "" for k in PROVENANCE})
     return row
 
 
@@ -87,6 +90,9 @@ def rows_of(task, result, cfg):
     f = result.get("frictional")
     if f is not None:
         rows.append(_frictional_row(task, result, f, i0_dyn))
+    made = provenance(result)
+    for row in rows:
+        row.update(made)
     return rows
 
 
@@ -238,7 +244,12 @@ def statistics(rows, cfg):
         of F_x^c(mu0), F_x^c(mu_ss mu0) and the window width F_x^c(mu0) -
         F_x^c(mu_ss mu0) over every usable packing, keys ``'F_x_c'``,
         ``'F_x_c_ss'``, ``'width'``; a quantity with fewer than two sizes is
-        left out).
+        left out), ``limit`` (the size-dependence numbers of the default
+        protocol under the dynamics' convention,
+        :func:`~remote_trigger.pywrap.jobs.ensemble.limit.limit_statistics`).
+        ``per_n`` also holds ``window_rel`` (quartiles of 1 - ratio over the
+        packings whose order is decided, negative where reversed) and
+        ``window_rel_pos`` (the same where the order holds).
     """
     ft = "frictionless-then-friction"
     convs = cfg.conventions()
@@ -261,7 +272,10 @@ def statistics(rows, cfg):
                 "pair_particles": quartiles([r["pair_particles"] for r in sel]),
                 "n_local": sum(1 for r in sel if r["pair_particles"] < LOCAL_PAIR_PARTICLES),
                 "pair_longwave": quartiles([r["pair_longwave"] for r in sel]),
-                "F_x_c_stiff": quartiles([r["F_x_c"] for r in sel if r["soft_onset"] == 0])})
+                "F_x_c_stiff": quartiles([r["F_x_c"] for r in sel if r["soft_onset"] == 0]),
+                "window_rel": quartiles([1.0 - r["ratio"] for r in sel if r["order"] >= 0]),
+                "window_rel_pos": quartiles([1.0 - r["ratio"] for r in sel
+                                             if r["order"] == 1])})
         codes = [r["order"] for r in select(rows, ft, I0, usable=False)]
         st["order"][I0] = {"holds": codes.count(1), "reversed": codes.count(0),
                            "undecided": codes.count(-1), "total": len(codes)}
@@ -282,6 +296,7 @@ def statistics(rows, cfg):
             (n1, m1), (n2, m2) = meds[0], meds[-1]
             st.setdefault("n_exponent_stiff", {})[I0] = math.log(m2 / m1) / math.log(n2 / n1)
         st["n_fit"][I0] = size_fits(select(rows, ft, I0))
+    st["limit"] = limit_statistics(select(rows, ft, cfg.I0_dynamics), cfg)
     for n in cfg.n:
         fr = [r for r in rows if r["protocol"] == "frictional" and r["n"] == n]
         ok = [r for r in fr if r["status"] == "ok"]
@@ -485,6 +500,8 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
             L.append(f"- I0 = {I0:g}, fit over every packing: {fit.describe(names[key])}.")
     if not st["n_exponent"]:
         L.append("- one size only (or no usable median): no N dependence measured.")
+    L += limit_lines(st.get("limit") or {}, [p for p in st["per_n"]
+                                             if p["I0"] == cfg.I0_dynamics], cfg)
     L += ["", "## Does F_x^c(mu_ss mu0) < F_x^c(mu0) hold for every packing?", "",
           "Certified: the two brackets do not overlap.", "",
           "| I0 | holds | reversed | not decided | packings | every packing? |",

@@ -177,12 +177,17 @@ def _ramp_part(cfg, relaxed, mu, folder, resume=False, verdict_dir=None):
     """One ramp and the onset numbers under both conventions (dict, JSON-ready);
     ``folder``: the ramp's, inside the packing's folder; ``h5`` is stored
     relative to the packing's folder
-    (:func:`~remote_trigger.pywrap.runtime.jobfolder.stored_path`)."""
+    (:func:`~remote_trigger.pywrap.runtime.jobfolder.stored_path`);
+    ``environment``: that of the process that ran the ramp (it may be another
+    rank, or another machine, than the one that finishes the packing)."""
+    from remote_trigger.pywrap.runtime.environment import environment
+
     res = _ramp(cfg, relaxed, mu, folder, resume, verdict_dir)
     part = {"mu": float(mu), "ramp_status": res.status, "message": res.message,
             "n_steps": int(len(res.F_x)), "n_bisection": int(len(res.bisection_F_x)),
             "tol_reached": bool(res.tol_reached),
-            "h5": stored_path(os.path.dirname(os.path.abspath(folder)), res.h5)}
+            "h5": stored_path(os.path.dirname(os.path.abspath(folder)), res.h5),
+            "environment": environment()}
     pts = read_ramp(res.h5)
     part["at_zero"] = ({"decision": pts[0]["decision"], "growth": pts[0]["growth"]}
                        if pts and pts[0]["F_x"] == 0.0 else None)
@@ -260,8 +265,10 @@ def add_missing_shape(cfg, result, folder):
 
 
 def _frictional_part(cfg, datafile, folder):
-    """Frictional relaxation and its spectrum at F_x = 0 (dict, JSON-ready)."""
+    """Frictional relaxation and its spectrum at F_x = 0 (dict, JSON-ready; with
+    the ``environment`` of the process that ran it)."""
     from remote_trigger.analysis.state.dumpfile import read_dump
+    from remote_trigger.pywrap.runtime.environment import environment
 
     rel = _relax(cfg, datafile, folder, "frictional")
     s = spectrum(read_dump(rel.dumpfile, require_contacts=False), pairs=_pairs(cfg))
@@ -269,7 +276,7 @@ def _frictional_part(cfg, datafile, folder):
             "antisymmetry": rel.antisymmetry, "decision": s["decision"],
             "confidence": s["confidence"], "n_pairs": s["n_pairs"],
             "n_complex_eigenvalues": int(np.count_nonzero(s["eigenvalues"].imag != 0)),
-            "growth": s["growth"]}
+            "growth": s["growth"], "environment": environment()}
 
 
 def _failure(exc):
@@ -373,8 +380,12 @@ def run_packing(cfg, n, seed, folder, resume=False, ramps_apart=False):
         ``warnings`` (the distinct warnings raised meanwhile, recorded, not
         printed; for a resumed packing also those its kept stages recorded).
         ``wall`` is this call's time for the packing. ``environment``: the
-        versions, BLAS kernels and CPU of the rank that ran this run's part
-        (:func:`~remote_trigger.pywrap.runtime.environment.environment`).
+        source commit, versions, BLAS kernels and CPU of the rank that ran
+        this call (:func:`~remote_trigger.pywrap.runtime.environment.environment`);
+        each stage records its own besides (``default["environment"]``: the
+        relaxation's; each ramp part's and the frictional part's
+        ``environment``), since a packing's stages may run on several ranks
+        or, resumed, in several runs.
     """
     import warnings
 
@@ -418,6 +429,7 @@ def load_progress(folder):
 def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=False):
     """:func:`run_packing` without the warning capture."""
     from remote_trigger.pywrap.stages.packing import generate, write_data
+    from remote_trigger.pywrap.runtime.environment import environment
     from remote_trigger.pywrap.runtime.jobfolder import write_json
 
     t0 = time.perf_counter()
@@ -451,7 +463,8 @@ def _run_packing(cfg, n, seed, folder, resume=False, caught=(), ramps_apart=Fals
             record("relax", None, {"phi": rel.packing_fraction, "residual": rel.residual,
                                    "antisymmetry": rel.antisymmetry,
                                    "clearance_rule": rel.clearance_rule,
-                                   "datafile": stored_path(folder, rel.datafile)})
+                                   "datafile": stored_path(folder, rel.datafile),
+                                   "environment": environment()})
         d.update({k: v for k, v in done["relax"].items() if k != "datafile"})
         # the ramps' sliced verdicts, in one folder: a killed scan resumes, and
         # the second ramp's F_x = 0 point takes the first's verdict where the
