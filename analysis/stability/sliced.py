@@ -105,7 +105,7 @@ import scipy.sparse as sp
 
 from remote_trigger.analysis.errors import is_integer
 from remote_trigger.analysis.stability.decision import PairDecision, SpectrumDecision
-from remote_trigger.analysis.stability.enclosure import U, _gamma
+from remote_trigger.analysis.stability.enclosure import U, gamma
 from remote_trigger.analysis.stability.slicing import (
     _INFLATE, SlicedStats, _Fail, _arpack_hint, _norm1, _norm2_skew, _slices, _start,
     top_eigenvalue)
@@ -326,7 +326,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     normS = _norm1(S)
     stats.norm_W = normW
     rows = int(np.max(np.diff(A.indptr))) if n else 0
-    rnd = _gamma(n + rows + 4) * _norm1(abs(W)) * 4
+    rnd = gamma(n + rows + 4) * _norm1(abs(W)) * 4
     ctx = _Ctx(normW, normS, eps, window * normW if normW > 0 else 1e-3 * max(normS, 1.0), rnd,
                A, nA, W)
     stats.window = ctx.Delta

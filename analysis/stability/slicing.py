@@ -18,7 +18,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import qdldl
 
-from remote_trigger.analysis.stability.enclosure import U, _gamma
+from remote_trigger.analysis.stability.enclosure import U, gamma
 
 __all__ = ["count_below", "SlicedStats"]
 
@@ -218,12 +218,12 @@ def count_below(S, a, factor=None):
     one = np.ones(n)
     rows = aL @ (np.abs(d) * (aL.T @ one))       # |I + L| |D| |I + L|^T 1
     diag_err = U * float(np.max(np.abs(S.diagonal() - a)))      # rounding of S_ii - a
-    fuzz = (_gamma(2 * depth + 4) * float(np.max(rows)) + diag_err) * _INFLATE
+    fuzz = (gamma(2 * depth + 4) * float(np.max(rows)) + diag_err) * _INFLATE
     return int(np.count_nonzero(d < 0)), fuzz, factor
 
 
 def _norm1(X):
-    return float(abs(X).sum(axis=0).max()) * (1 + _gamma(X.shape[0]))
+    return float(abs(X).sum(axis=0).max()) * (1 + gamma(X.shape[0]))
 
 
 def _norm2_skew(W):
@@ -281,8 +281,8 @@ def _ritz(S, W, Q, normS, normW):
     R = SQ - Q * theta
     n, k = Q.shape
     G = Q.T @ Q - np.eye(k)
-    phi = (np.linalg.norm(G) + _gamma(n) * k) * _INFLATE
-    round_r = _gamma(n + 2) * (normS + float(np.max(np.abs(theta)))) * math.sqrt(k)
+    phi = (np.linalg.norm(G) + gamma(n) * k) * _INFLATE
+    round_r = gamma(n + 2) * (normS + float(np.max(np.abs(theta)))) * math.sqrt(k)
     resid = (np.linalg.norm(R, axis=0) + round_r) * _INFLATE
     # Kahan for the exactly orthonormal Q (Q^T Q)^{-1/2}: ||R|| (1 + phi) + 2 phi |theta|
     radius = (math.sqrt(float(np.sum(resid ** 2))) * (1 + phi)

@@ -15,7 +15,7 @@ import scipy.sparse as sp
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
-from remote_trigger.analysis.stability.enclosure import _gamma, _sigma_min_lower
+from remote_trigger.analysis.stability.enclosure import gamma, sigma_min_lower
 from remote_trigger.analysis.stability.slicing import _INFLATE, _Fail
 from remote_trigger.analysis.stability.winding import box_zero_count
 
@@ -127,11 +127,11 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     A = ctx.A
     n = A.shape[0]
     Q, _ = np.linalg.qr(buf.Q[:, I])
-    phiI = (float(np.linalg.norm(Q.T @ Q - np.eye(m))) + _gamma(n) * m) * _INFLATE
+    phiI = (float(np.linalg.norm(Q.T @ Q - np.eye(m))) + gamma(n) * m) * _INFLATE
     AQ = A @ Q
     Tc = Q.T @ AQ
     # errors of Tc and of the set: rounding, the non-orthonormality of Q, F
-    rho = ((_gamma(n + 8) * m * ctx.normA1 + (2 * phiI + phiI ** 2) * ctx.normA1)
+    rho = ((gamma(n + 8) * m * ctx.normA1 + (2 * phiI + phiI ** 2) * ctx.normA1)
            + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * _INFLATE
     I_n = sp.identity(n, format="csr")
     Qs = sp.csr_matrix(Q)
@@ -150,7 +150,7 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         Z = (A @ Y - x * Y) - AQ
         Z = Z - Q @ (Q.T @ Z)
         T = Tc - x * np.eye(m) - Q.T @ (A @ Y)
-        rY = cplx * _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y))
+        rY = cplx * gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y))
         zn = float(np.linalg.norm(Z)) + 4 * rY
         err = (b * zn / math.sqrt(g_min) / (1 - kap) + 2 * rY + rho) * _INFLATE
         if not deriv:
@@ -161,7 +161,7 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         Z2 = (A @ Y2 - x * Y2) - Y
         Z2 = Z2 - Q @ (Q.T @ Z2)
         D = -np.eye(m) - Q.T @ (A @ Y2)
-        rY2 = cplx * _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y2))
+        rY2 = cplx * gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y2))
         derr = (b * (float(np.linalg.norm(Z2)) + 4 * rY2 + zn / (g_min * (1 - kap)))
                 / math.sqrt(g_min) / (1 - kap) + 2 * rY2) * _INFLATE
         return T, err, D, derr
@@ -170,8 +170,8 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         T, err = schur(x)
         if T is None:
             return 0.0, 0.0, T
-        floor = 1e3 * _gamma(m + 2) * float(np.linalg.norm(T))
-        return _sigma_min_lower(T) - err, max(err, floor), T
+        floor = 1e3 * gamma(m + 2) * float(np.linalg.norm(T))
+        return sigma_min_lower(T) - err, max(err, floor), T
 
     def in_a_box(approx):
         """Complex if a box about an estimate, off the real axis, holds an
@@ -251,9 +251,9 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
             if T is None:
                 return "undecided", 0.0, "the bordered system of the strip is singular"
             ts = np.linspace(-h, h, 33)
-            smin = min(_sigma_min_lower(T + t * D) for t in ts)
+            smin = min(sigma_min_lower(T + t * D) for t in ts)
             low = smin - float(np.linalg.norm(D, 2)) * (ts[1] - ts[0]) / 2 * (1 + 1e-8)
-            floor = 1e3 * _gamma(m + 2) * float(np.linalg.norm(T))
+            floor = 1e3 * gamma(m + 2) * float(np.linalg.norm(T))
             slack = err + h * derr + 0.5 * curv * h * h + floor
             if low > slack:
                 margin = min(margin, low / slack)
