@@ -8,12 +8,10 @@
 ``verification``  its steps 1-5 for one basis: units, enclosure, pairs, isolation
 ``basis``         the decision started from a previous decision's basis
 ``projected``     the decision on the k eigenvalues nearest a shift (sparse, partial)
-``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse)
-``slicing``       its Sylvester counts and Ritz slices of the symmetric part
-``strips``        its strips: coupling across an interval, a strip's decision
-``scan_state``    its saved scan and verdict (checkpoint files, progress)
-``winding``       its count of eigenvalues in a box off the real axis
-``enclosure``     its rigorous float64 bounds
+``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse;
+                  a package: the scan object, its Sylvester counts, Ritz slices,
+                  buffer, strips, winding count and checkpoint)
+``enclosure``     the rigorous float64 bounds of both decisions
 ``verdict``       the ramp's verdict: certified decision, its codes, growth rate
 ``eigtrack``      the coalescing eigenvalue pair through a ramp (Fig. 3)
 ``modeshape``     the pair's mode: participation ratio, collective or local

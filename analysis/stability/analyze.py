@@ -380,7 +380,7 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
     ``rel_threshold`` lambda_max. First Sylvester's count of the eigenvalues
     of the symmetric part S of A below -t0, t0 = ``rel_threshold`` max S_ii
     <= t, from one sparse LDL^T factorization
-    (:func:`~remote_trigger.analysis.stability.slicing.count_below`, ~0.1 s
+    (:func:`~remote_trigger.analysis.stability.sliced.count_below`, ~0.1 s
     at n = 28 836): Re lambda = x^* S x for a unit eigenvector x of A, so a
     count of 0 proves that A has none. Otherwise S alone says nothing (a
     disk whose contacts all slide has a free rotation: a zero column of K,
@@ -407,7 +407,7 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
     """
     from scipy.sparse.linalg import ArpackError, eigs
 
-    from remote_trigger.analysis.stability.slicing import count_below
+    from remote_trigger.analysis.stability.sliced import count_below
 
     if not (isinstance(rel_threshold, (int, float, np.floating)) and rel_threshold >= 0
             and np.isfinite(rel_threshold)):
@@ -419,7 +419,7 @@ def negative_modes(state, rel_threshold=NEGATIVE_REL):
     if keep.size == 0:
         return 0
     Kr, mr = _jac.remove_dofs(res.K, res.mass, keep)
-    A, S, _ = _sliced._scaled(Kr, mr)
+    A, S, _ = _sliced.scaled_parts(Kr, mr)
     t0 = rel_threshold * float(np.max(S.diagonal()))        # lambda_max(S) >= max S_ii
     try:
         c = count_below(S, -t0)[0]
