@@ -8,9 +8,7 @@
 ``verification``  its steps 1-5 for one basis: units, enclosure, pairs, isolation
 ``basis``         the decision started from a previous decision's basis
 ``projected``     the decision on the k eigenvalues nearest a shift (sparse, partial)
-``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse;
-                  a package: the scan object, its Sylvester counts, Ritz slices,
-                  buffer, strips, winding count and checkpoint)
+``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse; a package)
 ``enclosure``     the rigorous float64 bounds of both decisions
 ``verdict``       the ramp's verdict: certified decision, its codes, growth rate
 ``eigtrack``      the coalescing eigenvalue pair through a ramp (Fig. 3)
