@@ -1,7 +1,8 @@
 """The package map of the README ("Layout") holds for the code: each package
 imports only what its row allows, no two modules import each other (no
-import circle of any length, lazy imports inside functions included), and
-every public function, class and method has a docstring. Checked on the
+import circle of any length, lazy imports inside functions included), no
+module imports another module's private (underscore) names, and every
+public function, class and method has a docstring. Checked on the
 installed sources."""
 import ast
 import os
@@ -145,6 +146,65 @@ def test_the_checks_can_fail():
     assert not allowed("pywrap.jobs.ensemble.job", "pywrap.jobs.trigger_map.job")
     assert allowed("pywrap.jobs.ensemble.job", "pywrap.jobs.paper.config")
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def private_imports(name, source=None):
+    """The private names of *other* modules of the project that module ``name``
+    uses: ``from m import _x`` (a name or a private module), and ``alias._x``
+    where ``alias`` is a project module it imported. Dunder names are not
+    private. Returns sorted ``(line, 'module._x')``."""
+    path, pkg = MODULES[name] if name in MODULES else (None, False)
+    base = name if pkg else name.rpartition(".")[0]
+    tree = ast.parse(source if source is not None else open(path).read())
+
+    def private(n):
+        return n.startswith("_") and not (n.startswith("__") and n.endswith("__"))
+
+    found, aliases = set(), {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                b = base
+                for _ in range(node.level - 1):
+                    b = b.rpartition(".")[0]
+                mod = b + ("." + node.module if node.module else "")
+            elif (node.module or "").startswith(P):
+                mod = node.module[len(P):]
+            else:
+                continue
+            for a in node.names:
+                full = mod + "." + a.name
+                if full in MODULES:
+                    aliases[a.asname or a.name] = full
+                if private(a.name) and mod != name and full != name:
+                    found.add((node.lineno, full))
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.startswith(P) and a.asname:
+                    aliases[a.asname] = a.name[len(P):]
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                and node.value.id in aliases and private(node.attr)
+                and aliases[node.value.id] != name):
+            found.add((node.lineno, aliases[node.value.id] + "." + node.attr))
+    return sorted(found)
+
+
+@pytest.mark.parametrize("name", sorted(MODULES))
+def test_no_private_name_is_imported_across_modules(name):
+    bad = private_imports(name)
+    assert not bad, f"{name} uses private names of other modules: " + ", ".join(
+        f"{what} (line {line})" for line, what in bad)
+
+
+def test_the_private_name_check_can_fail():
+    name = "analysis.stability.verdict"
+    assert private_imports(name, "from remote_trigger.analysis.stability.sliced import _x\n") \
+        == [(1, "analysis.stability.sliced._x")]
+    assert private_imports(name, "from . import decision as d\nd._y\n") == \
+        [(2, "analysis.stability.decision._y")]
+    assert private_imports(name, "from remote_trigger.analysis.stability import verdict\n"
+                                 "verdict._own\nfrom numpy import _z\n__all__ = []\n") == []
 
 
 def undocumented(source):

@@ -11,12 +11,8 @@
 ``verification``  its steps 1-5 for one basis: units, enclosure, pairs, isolation
 ``basis``         the decision started from a previous decision's basis
 ``projected``     the decision on the k eigenvalues nearest a shift (sparse, partial)
-``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse)
-``slicing``       its Sylvester counts and Ritz slices of the symmetric part
-``strips``        its strips: coupling across an interval, a strip's decision
-``scan_state``    its saved scan and verdict (checkpoint files, progress)
-``winding``       its count of eigenvalues in a box off the real axis
-``enclosure``     its rigorous float64 bounds
+``sliced``        the whole-spectrum certified verdict by spectrum slicing (sparse; a package)
+``enclosure``     the rigorous float64 bounds of both decisions
 ``eigtrack``      the coalescing eigenvalue pair through a ramp (Fig. 3)
 ``modeshape``     the pair's mode: participation ratio, collective or local
 ``analyze``       the analyzer of ``remote-trigger jacobian``; the saddle screen

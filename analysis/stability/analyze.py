@@ -232,7 +232,7 @@ def negative_modes(system, rel_threshold=NEGATIVE_REL):
     ``rel_threshold`` lambda_max. First Sylvester's count of the eigenvalues
     of the symmetric part S of A below -t0, t0 = ``rel_threshold`` max S_ii
     <= t, from one sparse LDL^T factorization
-    (:func:`~remote_trigger.analysis.stability.slicing.count_below`, ~0.1 s
+    (:func:`~remote_trigger.analysis.stability.sliced.count_below`, ~0.1 s
     at n = 28 836): Re lambda = x^* S x for a unit eigenvector x of A, so a
     count of 0 proves that A has none. Otherwise S alone says nothing (a
     disk whose contacts all slide has a free rotation: a zero column of K,
@@ -261,7 +261,7 @@ def negative_modes(system, rel_threshold=NEGATIVE_REL):
     """
     from scipy.sparse.linalg import ArpackError, eigs
 
-    from remote_trigger.analysis.stability.slicing import count_below
+    from remote_trigger.analysis.stability.sliced import count_below
 
     if not (isinstance(rel_threshold, (int, float, np.floating)) and rel_threshold >= 0
             and np.isfinite(rel_threshold)):
@@ -272,7 +272,7 @@ def negative_modes(system, rel_threshold=NEGATIVE_REL):
         system = reduced_system(system)
     if system.n == 0:
         return 0
-    A, S, _ = _sliced._scaled(system.K, system.mass)
+    A, S, _ = _sliced.scaled_parts(system.K, system.mass)
     t0 = rel_threshold * float(np.max(S.diagonal()))        # lambda_max(S) >= max S_ii
     try:
         c = count_below(S, -t0)[0]

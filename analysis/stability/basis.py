@@ -4,7 +4,7 @@ A ramp's next step (``classify_spectrum(A, basis=)``): steps 2-5 of
 :mod:`remote_trigger.analysis.stability.exceptional` hold for any
 nonsingular X, so the verified basis of a nearby matrix
 (:class:`~remote_trigger.analysis.stability.decision.SpectrumBasis`),
-corrected to first order, replaces LAPACK's eigenvectors (:func:`_from_basis`);
+corrected to first order, replaces LAPACK's eigenvectors (:func:`from_basis`);
 real units that the correction cannot separate become a pair
 (:func:`_merge_coupled`).
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from remote_trigger.analysis.stability.verification import _Unit, _Verified, _verify
+from remote_trigger.analysis.stability.verification import Unit, Verified, verify
 
 _BASIS_CORRECTED = 0.001         # a corrected basis is used once its verified coupling max|W| <= this
 _BASIS_ITERATIONS = 3           # ... after at most this many corrections
@@ -20,7 +20,7 @@ _BASIS_DIVERGED = 1.0           # a correction |W| above this: give up, start fr
 _BASIS_MERGE = 0.5              # |W_ij| above which two real units of a basis become a pair
 
 
-def _from_basis(A, basis, rel_error, input_error, Ap=None):
+def from_basis(A, basis, rel_error, input_error, Ap=None):
     """Steps 2-5 from a previous decision's basis, corrected (no eigen-solve).
 
     With C = R A X (block diagonal up to the change of A since X was
@@ -32,7 +32,7 @@ def _from_basis(A, basis, rel_error, input_error, Ap=None):
     max |W| <= ``_BASIS_CORRECTED``, at most ``_BASIS_ITERATIONS`` times (one
     correction was enough for 293 of the 297 N = 100 ramp steps tried). The
     verification of X is the same rigorous one as for dgeev's vectors (it
-    holds for any nonsingular X). Returns (entries, _Verified, eigenvalues)
+    holds for any nonsingular X). Returns (entries, Verified, eigenvalues)
     or None if the basis does not fit (size), the correction diverges or it
     has not converged after ``_BASIS_ITERATIONS`` corrections.
     """
@@ -76,12 +76,12 @@ def _from_basis(A, basis, rel_error, input_error, Ap=None):
         X = X + X @ W
         X /= np.sqrt(np.einsum("ij,ij->j", X, X))
         # the enclosure's C = X^-1 A X is the next iteration's C0
-        ver = _Verified(A, X, blocks, rel_error, input_error, Ap)
+        ver = Verified(A, X, blocks, rel_error, input_error, Ap)
         if not ver.ok:
             return None
         C0 = ver.C
-    units = [_Unit(tuple(range(s0, s0 + k)), merged=k == 2) for s0, k in blocks]
-    entries, ver = _verify(A, X, blocks, units, [False] * len(blocks), rel_error,
+    units = [Unit(tuple(range(s0, s0 + k)), merged=k == 2) for s0, k in blocks]
+    entries, ver = verify(A, X, blocks, units, [False] * len(blocks), rel_error,
                            input_error, Ap, ver)
     if entries is None or ver.conflicts:
         return None

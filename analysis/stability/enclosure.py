@@ -2,12 +2,12 @@
 
 Error-free products (Dekker's TwoProduct) and an exactly summed residual
 R = A Q - Q M with an entrywise error bound (:func:`exact_residual`);
-upper bounds of float64 sums (:func:`_up`, the gamma_k of Higham, "Accuracy
+upper bounds of float64 sums (:func:`rounded_up`, the gamma_k of Higham, "Accuracy
 and Stability of Numerical Algorithms", 2nd ed., section 3.1); the exact
 discriminant test of a 2 x 2 block with Fractions and the bound of its
-change (:func:`_disc_test`); rigorous lower bounds of the smallest singular
-value (:func:`_sigma_min_2x2_lower`, :func:`_sigma_min_lower`) and the
-radius of a pseudospectral disc (:func:`_cover_radius`). Steps 2-4 of
+change (:func:`disc_test`); rigorous lower bounds of the smallest singular
+value (:func:`sigma_min_2x2_lower`, :func:`sigma_min_lower`) and the
+radius of a pseudospectral disc (:func:`cover_radius`). Steps 2-4 of
 :mod:`.exceptional`'s docstring are built from these.
 """
 from fractions import Fraction
@@ -26,13 +26,15 @@ TINY = np.finfo(np.float64).tiny
 _SPLIT = 134217729.0            # 2^27 + 1, Veltkamp splitting constant
 
 
-def _gamma(k):
+def gamma(k):
+    """Higham's gamma_k = k u / (1 - k u): the relative error bound of a float64
+    computation of depth k (a sum or inner product of k terms)."""
     return k * U / (1.0 - k * U)
 
 
-def _up(x, k):
+def rounded_up(x, k):
     """Upper bound of a nonnegative quantity computed in float64 with depth-k sums."""
-    return x * (1.0 + 8.0 * _gamma(k + 4)) + (k + 4) * TINY
+    return x * (1.0 + 8.0 * gamma(k + 4)) + (k + 4) * TINY
 
 
 # --------------------------------------------------------------------------- exact residual
@@ -118,12 +120,13 @@ def exact_residual(A, Q, M):
 
 
 # --------------------------------------------------------------------------- 2 x 2 algebra
-def _frac(M):
+def frac(M):
+    """The 2 x 2 float matrix M as exact Fractions (list of rows)."""
     return [[Fraction(float(M[0, 0])), Fraction(float(M[0, 1]))],
             [Fraction(float(M[1, 0])), Fraction(float(M[1, 1]))]]
 
 
-def _disc_test(S, rad):
+def disc_test(S, rad):
     """Exact D of the centre S (Fractions) and a rigorous bound of its change.
 
     Parameters
@@ -146,20 +149,23 @@ def _disc_test(S, rad):
     return D, bound
 
 
-def _pair_eigs(S):
+def pair_eigs(S):
+    """The two eigenvalues of the 2 x 2 Fraction matrix S, in float (complex)."""
     tr = 0.5 * float(S[0][0] + S[1][1])
     D = float(((S[0][0] - S[1][1]) / 2) ** 2 + S[0][1] * S[1][0])
     r = np.sqrt(complex(D))
     return np.array([tr - r, tr + r])
 
 
-def _margin(D, bound):
+def margin(D, bound):
+    """|D| / bound: how far the sign of a discriminant D is from changing within
+    its bound (inf for an exact nonzero D, 0 for D = 0 exactly)."""
     if bound == 0:
         return math.inf if D != 0 else 0.0
     return float(abs(D) / bound)
 
 
-def _cover_radius(S, r):
+def cover_radius(S, r):
     """Radius of a disc about tr(S)/2 containing {z : sigma_min(S - z I) <= r}.
 
     S is the 2 x 2 centre (Fractions, exact); r >= 0 (float). With w = z -
@@ -174,17 +180,17 @@ def _cover_radius(S, r):
     return rho * (1 + 32 * U) + TINY
 
 
-def _sigma_min_2x2_lower(a, b, c, d):
+def sigma_min_2x2_lower(a, b, c, d):
     """Vectorised rigorous lower bound of sigma_min([[a, b], [c, d]]) = |det| / sigma_max."""
     det = a * d - b * c
-    err = _gamma(4) * (np.abs(a * d) + np.abs(b * c)) * (1 + 4 * U) + TINY
-    fro = np.sqrt(a * a + b * b + c * c + d * d) * (1 + _gamma(8))
+    err = gamma(4) * (np.abs(a * d) + np.abs(b * c)) * (1 + 4 * U) + TINY
+    fro = np.sqrt(a * a + b * b + c * c + d * d) * (1 + gamma(8))
     with np.errstate(divide="ignore", invalid="ignore"):
         out = np.maximum(np.abs(det) - err, 0.0) / fro
     return np.where(fro > 0, out * (1 - 4 * U), 0.0)
 
 
-def _inverse_residual(K):
+def inverse_residual(K):
     """Z ~ K^{-1} of a small square matrix and a rigorous e >= ||I - Z K||_F
     (the rounding of Z K bounded by gamma |Z||K|, doubled for complex
     arithmetic); None if the inverse is not finite."""
@@ -196,19 +202,19 @@ def _inverse_residual(K):
     if not np.all(np.isfinite(Z)):
         return None
     c = 2.0 if np.iscomplexobj(Z) else 1.0
-    E = np.abs(np.eye(p) - Z @ K) * (1 + 2 * c * U) + c * _gamma(p + 2) * (np.abs(Z) @ np.abs(K))
-    return Z, _up(float(np.linalg.norm(E)), p * p)
+    E = np.abs(np.eye(p) - Z @ K) * (1 + 2 * c * U) + c * gamma(p + 2) * (np.abs(Z) @ np.abs(K))
+    return Z, rounded_up(float(np.linalg.norm(E)), p * p)
 
 
-def _sigma_min_lower(K):
+def sigma_min_lower(K):
     """Rigorous lower bound of sigma_min(K) for a small square float matrix.
 
     Z ~ K^{-1}; with E = I - Z K bounded (gamma_p |Z||K| for the product),
     ||E||_F = e < 1 gives ||K^{-1}||_2 <= ||Z||_F / (1 - e).
     """
-    inv = _inverse_residual(K)
+    inv = inverse_residual(K)
     if inv is None or not inv[1] < 1.0:
         return 0.0
     Z, e = inv
     p = K.shape[0]
-    return (1.0 - e) / _up(float(np.linalg.norm(Z)), p * p) * (1 - 4 * U)
+    return (1.0 - e) / rounded_up(float(np.linalg.norm(Z)), p * p) * (1 - 4 * U)

@@ -80,7 +80,7 @@ rel_error |A| (+ input_error), no similarity.
 **From a previous basis** (``classify_spectrum(A, basis=)``, a ramp's next
 step). Steps 2-5 hold for any nonsingular X, so step 1 can be replaced by
 the verified basis of a nearby matrix, corrected without an eigen-solve
-(:func:`remote_trigger.analysis.stability.basis._from_basis`). Its answer
+(:func:`remote_trigger.analysis.stability.basis.from_basis`). Its answer
 is kept only if certified; otherwise the decision starts from dgeev. Either
 answer certifies the same thing.
 
@@ -115,11 +115,11 @@ import time
 import numpy as np
 import scipy.linalg as sla
 
-from remote_trigger.analysis.stability.basis import _from_basis
+from remote_trigger.analysis.stability.basis import from_basis
 from remote_trigger.analysis.stability.decision import Decision, PairDecision, SpectrumDecision
 from remote_trigger.analysis.stability.enclosure import (
-    EPS, UNIT_ROUNDOFF, _disc_test, _frac, _margin, _pair_eigs)
-from remote_trigger.analysis.stability.verification import _Unit, _analyse, _units
+    EPS, UNIT_ROUNDOFF, disc_test, frac, margin, pair_eigs)
+from remote_trigger.analysis.stability.verification import Unit, analyse, split_units
 
 __all__ = ["classify_spectrum", "block_discriminant"]
 
@@ -177,11 +177,11 @@ def _validate(A, input_error, rel_error):
 
 
 def _decide_2x2(A, input_error, rel_error):
-    S = _frac(A)
+    S = frac(A)
     rad = rel_error * np.abs(A) + input_error
-    D, bound = _disc_test(S, rad)
+    D, bound = disc_test(S, rad)
     cert = abs(D) > bound
-    return PairDecision(_pair_eigs(S), D < 0, bool(cert), _margin(D, bound), float(D),
+    return PairDecision(pair_eigs(S), D < 0, bool(cert), margin(D, bound), float(D),
                         float(bound), float(np.linalg.norm(rad)), math.inf, None, "exact-2x2",
                         "" if cert else "discriminant within its error bound", True)
 
@@ -252,7 +252,7 @@ def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF, basis=None):
                                           "decision": time.perf_counter() - t1}, "")
     Ap = _sparse_copy(A)
     if basis is not None:
-        warm = _from_basis(A, basis, rel_error, input_error, Ap)
+        warm = from_basis(A, basis, rel_error, input_error, Ap)
         if warm is not None:
             entries, ver, lam = warm
             dec = _summarize(entries, float(np.max(ver.dev)), lam,
@@ -265,21 +265,21 @@ def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF, basis=None):
     t1 = time.perf_counter()
     lam_sorted = lam[np.lexsort((lam.imag, lam.real))]
     try:
-        units = _units(lam, V)
+        units = split_units(lam, V)
     except ValueError as exc:
         return SpectrumDecision(None, 0.0, [], math.inf, lam_sorted,
                                 {"eigen": t1 - t0, "decision": time.perf_counter() - t1},
                                 str(exc))
-    entries, ver = _analyse(A, lam, V, units, rel_error, input_error, Ap)
+    entries, ver = analyse(A, lam, V, units, rel_error, input_error, Ap)
     if entries is not None and ver.conflicts:
         # neighbouring real eigenvalues whose discs touch: decide them as a pair
         taken, pairs = set(), []
         for i, j in ver.conflicts:
             if i not in taken and j not in taken:
-                pairs.append(_Unit((i, j), merged=True))
+                pairs.append(Unit((i, j), merged=True))
                 taken.update((i, j))
         new = [un for un in units if not (len(un.idx) == 1 and un.idx[0] in taken)] + pairs
-        entries2, ver2 = _analyse(A, lam, V, new, rel_error, input_error, Ap)
+        entries2, ver2 = analyse(A, lam, V, new, rel_error, input_error, Ap)
         if entries2 is not None:
             entries, ver = entries2, ver2
     timing = {"eigen": t1 - t0e, "decision": time.perf_counter() - t1 + t0e - t0}

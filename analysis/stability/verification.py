@@ -1,13 +1,13 @@
 """Steps 1-5 of the certified decision for one basis (the proof is the
 docstring of :mod:`remote_trigger.analysis.stability.exceptional`).
 
-Step 1: the spectrum cut into units (:func:`_units`) and each pair's real
+Step 1: the spectrum cut into units (:func:`split_units`) and each pair's real
 basis, refined near an exceptional point (:func:`_pair_basis`). Step 2: the
-row enclosure of S = X^{-1} A~ X (:class:`_Verified`). Steps 4-5: each
+row enclosure of S = X^{-1} A~ X (:class:`Verified`). Steps 4-5: each
 pair's 2 x 2 block, crude and sharp, with its Riccati coupling to the rest
 (:class:`_Block`). Step 3: the isolation of neighbouring discs
-(:func:`_isolation`). :func:`_analyse` builds X from LAPACK's eigenvectors;
-:func:`_verify` runs steps 2-5 for any nonsingular X (also a previous
+(:func:`_isolation`). :func:`analyse` builds X from LAPACK's eigenvectors;
+:func:`verify` runs steps 2-5 for any nonsingular X (also a previous
 decision's basis, :mod:`remote_trigger.analysis.stability.basis`).
 """
 from __future__ import annotations
@@ -21,8 +21,8 @@ import scipy.linalg as sla
 
 from remote_trigger.analysis.stability.decision import PairDecision, SpectrumBasis
 from remote_trigger.analysis.stability.enclosure import (
-    EPS, TINY, U, _cover_radius, _disc_test, _frac, _gamma, _margin, _pair_eigs,
-    _sigma_min_2x2_lower, _sigma_min_lower, _up, exact_residual)
+    EPS, TINY, U, cover_radius, disc_test, exact_residual, frac, gamma, margin, pair_eigs,
+    rounded_up, sigma_min_2x2_lower, sigma_min_lower)
 
 _PARALLEL = 1.0 - 1e-4          # |cos| of two real eigenvectors above which they form a pair
 _ILL = 100.0                    # pair basis condition above which the subspace is refined
@@ -31,13 +31,15 @@ _SHARP_BELOW = 1e4              # crude margin below which a pair is also comput
 
 # --------------------------------------------------------------------------- units and bases
 @dataclass
-class _Unit:
+class Unit:
+    """One unit of the spectrum (step 1): a real eigenvalue alone, or a pair."""
+
     idx: tuple                 # eigenvalue indices (1 or 2)
     complex_pair: bool = False
     merged: bool = False       # real pair formed because the eigenvectors are parallel
 
 
-def _units(lam, V):
+def split_units(lam, V):
     """Split the spectrum into real units and pairs (complex pairs, parallel real pairs)."""
     n = lam.size
     units = []
@@ -46,7 +48,7 @@ def _units(lam, V):
     while k < len(nonreal):             # LAPACK stores a complex pair as neighbours
         j = nonreal[k]
         if j + 1 < n and lam[j + 1] == np.conj(lam[j]):
-            units.append(_Unit((j, j + 1), complex_pair=True))
+            units.append(Unit((j, j + 1), complex_pair=True))
             k += 2
             continue
         raise ValueError("eigenvalue solver returned an unpaired complex eigenvalue")
@@ -62,10 +64,10 @@ def _units(lam, V):
     k = 0
     while k < len(reals):
         if k + 1 < len(reals) and parallel[k]:
-            units.append(_Unit((reals[k], reals[k + 1]), merged=True))
+            units.append(Unit((reals[k], reals[k + 1]), merged=True))
             k += 2
             continue
-        units.append(_Unit((reals[k],)))
+        units.append(Unit((reals[k],)))
         k += 1
     return units
 
@@ -115,7 +117,7 @@ def _pair_basis(A, lam, V, unit):
 
 
 # --------------------------------------------------------------------------- verification
-class _Verified:
+class Verified:
     """Enclosure of S = X^{-1} A~ X, row by row (step 2 of the proof)."""
 
     def __init__(self, A, X, blocks, rel_error, input_error, Ap=None):
@@ -123,7 +125,7 @@ class _Verified:
         self.n = n
         self.ok = False
         self.reason = ""
-        g = _gamma(n + 2)
+        g = gamma(n + 2)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
@@ -145,16 +147,16 @@ class _Verified:
         rxs = aR @ xs
         Fh = H
         Fh[np.diag_indices(n)] -= 1.0
-        f = _up(np.abs(Fh).sum(axis=1) + g * rxs, n)
+        f = rounded_up(np.abs(Fh).sum(axis=1) + g * rxs, n)
         fmax = float(f.max())
         if not fmax < 0.5:
             self.reason = f"eigenvector basis too ill-conditioned (||R X - I|| = {fmax:.2g})"
             return
         e1 = g * (rgs + raxs)
         absC = np.abs(C)
-        nrax = _up(float((absC.sum(axis=1) + e1).max()), n)
+        nrax = rounded_up(float((absC.sum(axis=1) + e1).max()), n)
         dev = e1 + f * (nrax / (1.0 - fmax))
-        ynorm_inf = _up(float(aR.sum(axis=1).max()), n) / (1.0 - fmax)
+        ynorm_inf = rounded_up(float(aR.sum(axis=1).max()), n) / (1.0 - fmax)
         if rel_error > 0:
             w = rel_error * raxs
             dev = dev + w + f * (float(w.max()) / (1.0 - fmax))
@@ -162,13 +164,13 @@ class _Verified:
             Rn = np.linalg.norm(R, axis=1)
             Yn = Rn + f * (float(Rn.max()) / (1.0 - fmax))
             dev = dev + Yn * input_error * float(np.linalg.norm(X, axis=0).sum())
-        self.dev = _up(dev, n)
+        self.dev = rounded_up(dev, n)
         one = [s for s, k in blocks if k == 1]
         absC[one, one] = 0.0
         for s, k in blocks:
             if k > 1:
                 absC[s:s + k, s:s + k] = 0.0
-        self.off = _up(absC.sum(axis=1), n)       # row sums outside the own block
+        self.off = rounded_up(absC.sum(axis=1), n)       # row sums outside the own block
         self.absC = absC
         self.C, self.R, self.f, self.fmax = C, R, f, fmax
         self.ynorm_inf = ynorm_inf
@@ -189,7 +191,7 @@ class _Verified:
         Rc = self.R[s:s + 2]
         aRc = np.abs(Rc)
         t = Rc @ r
-        rad = _gamma(n + 2) * (aRc @ np.abs(r)) + aRc @ er
+        rad = gamma(n + 2) * (aRc @ np.abs(r)) + aRc @ er
         # Y_c = R_c - (F Y)_c:  |(F Y r)_ik| <= f_i ||Y||_inf ||r_k + er_k||_inf
         rcol = (np.abs(r) + er).max(axis=0)
         rad = rad + np.outer(self.f[s:s + 2], self.ynorm_inf * rcol)
@@ -202,10 +204,10 @@ class _Verified:
             yc = float(np.linalg.norm(Rc)) + math.sqrt(2.0 * n) * float(self.f[s:s + 2].max()) \
                 * self.ynorm_inf
             rad = rad + yc * input_error * float(np.linalg.norm(Q))
-        Sf = _frac(Mt)
-        Tf = _frac(t)
+        Sf = frac(Mt)
+        Tf = frac(t)
         S = [[Sf[a][b] + Tf[a][b] for b in range(2)] for a in range(2)]
-        return S, _up(rad, n)
+        return S, rounded_up(rad, n)
 
 
 @dataclass
@@ -226,37 +228,37 @@ class _Block:
         rad = rad + U * np.abs(Sfl)          # float copy of the exact centre
         D0 = ((S[0][0] - S[1][1]) / 2) ** 2 + S[0][1] * S[1][0]
         if not np.all(np.isfinite(rad)):
-            return PairDecision(_pair_eigs(S), D0 < 0, False, 0.0, float(D0), eta=math.inf,
+            return PairDecision(pair_eigs(S), D0 < 0, False, 0.0, float(D0), eta=math.inf,
                                 reason="no finite bound on the block", sharp=sharp), math.inf
-        radn = _up(float(np.linalg.norm(rad)), 4)
+        radn = rounded_up(float(np.linalg.norm(rad)), 4)
         sep = math.inf
         if self.lam1.size:
-            sep = float(_sigma_min_2x2_lower(self.lam1 - Sfl[0, 0], -Sfl[1, 0], -Sfl[0, 1],
+            sep = float(sigma_min_2x2_lower(self.lam1 - Sfl[0, 0], -Sfl[1, 0], -Sfl[0, 1],
                                              self.lam1 - Sfl[1, 1]).min())
         for B in self.others:
             Kr = np.kron(np.eye(2), B) - np.kron(Sfl.T, np.eye(2))
-            sep = min(sep, _sigma_min_lower(Kr))
+            sep = min(sep, sigma_min_lower(Kr))
         delta = sep - self.err_rr - radn
         ric = 0.0
         if self.rest:
             if not (delta > 0 and 4.0 * self.gam * self.eta < delta * delta * (1 - 8 * U)):
                 return PairDecision(
-                    _pair_eigs(S), D0 < 0, False, 0.0, float(D0), sep=float(sep), eta=radn,
+                    pair_eigs(S), D0 < 0, False, 0.0, float(D0), sep=float(sep), eta=radn,
                     reason=f"pair not separated from the rest: sep >= {sep:.3g}, coupling "
                            f"{self.gam:.3g} x {self.eta:.3g}", sharp=sharp), math.inf
-            ric = _up(2.0 * self.gam * self.eta / delta, 4)
-        D, bound = _disc_test(S, rad + ric)
+            ric = rounded_up(2.0 * self.gam * self.eta / delta, 4)
+        D, bound = disc_test(S, rad + ric)
         cert = abs(D) > bound
-        dec = PairDecision(_pair_eigs(S), D < 0, bool(cert), _margin(D, bound), float(D),
-                           float(bound), _up(radn + 2 * ric, 4),
+        dec = PairDecision(pair_eigs(S), D < 0, bool(cert), margin(D, bound), float(D),
+                           float(bound), rounded_up(radn + 2 * ric, 4),
                            float(delta if self.rest else math.inf), None, "riccati-2x2",
                            "" if cert else "discriminant within its error bound", sharp)
         # eig(M_c) lies in the block region only if the coupling term is below r_c
-        cover = math.inf if ric > self.r_c else _cover_radius(S, self.r_c + radn)
+        cover = math.inf if ric > self.r_c else cover_radius(S, self.r_c + radn)
         return dec, cover
 
 
-def _analyse(A, lam, V, units, rel_error, input_error, Ap=None):
+def analyse(A, lam, V, units, rel_error, input_error, Ap=None):
     """One verification pass over the given units. Returns (entries, summary data)."""
     n = A.shape[0]
     # column layout: units sorted by the real part of their eigenvalues
@@ -282,17 +284,17 @@ def _analyse(A, lam, V, units, rel_error, input_error, Ap=None):
         if k == 2:
             X[:, s:s + 2], ref = _pair_basis(A, lam, V, un)
         refined.append(k == 2 and ref)
-    return _verify(A, X, blocks, units, refined, rel_error, input_error, Ap)
+    return verify(A, X, blocks, units, refined, rel_error, input_error, Ap)
 
 
-def _verify(A, X, blocks, units, refined, rel_error, input_error, Ap=None, ver=None):
-    """Steps 2-5 for the basis X (units' columns at ``blocks``): (entries, _Verified).
+def verify(A, X, blocks, units, refined, rel_error, input_error, Ap=None, ver=None):
+    """Steps 2-5 for the basis X (units' columns at ``blocks``): (entries, Verified).
 
     ``Ap``: A in a form for the product A X (a sparse copy; None: A). ``ver``:
     the step-2 enclosure of this X and ``blocks`` if already made."""
     n = A.shape[0]
     if ver is None:
-        ver = _Verified(A, X, blocks, rel_error, input_error, Ap)
+        ver = Verified(A, X, blocks, rel_error, input_error, Ap)
     if not ver.ok:
         return None, ver
     ver.basis = SpectrumBasis(X, ver.R, blocks)
@@ -313,14 +315,14 @@ def _verify(A, X, blocks, units, refined, rel_error, input_error, Ap=None, ver=N
         rest[c] = False
         blk = _Block(
             rest=bool(rest.any()),
-            gam=_up(math.sqrt(float(np.sum((ver.absC[:, c].sum(axis=1)[rest]
+            gam=rounded_up(math.sqrt(float(np.sum((ver.absC[:, c].sum(axis=1)[rest]
                                             + dev[rest]) ** 2))), n),
-            eta=_up(math.sqrt(float(np.sum(offdev[c] ** 2))), 2),
-            err_rr=_up(math.sqrt(float(np.sum(offdev[rest] ** 2))), n),
-            r_c=_up(float(offdev[c].sum()), 4),
+            eta=rounded_up(math.sqrt(float(np.sum(offdev[c] ** 2))), 2),
+            err_rr=rounded_up(math.sqrt(float(np.sum(offdev[rest] ** 2))), n),
+            r_c=rounded_up(float(offdev[c].sum()), 4),
             lam1=lam1,
             others=[C[s2:s2 + 2, s2:s2 + 2] for s2, k2 in blocks if k2 == 2 and s2 != s])
-        S0 = _frac(ver.crude_block(s)[0])
+        S0 = frac(ver.crude_block(s)[0])
         dec, cover = blk.decide(S0, ver.crude_block(s)[1], False)
         pending.append((b, s, blk, dec, cover, S0))
     # sharp enclosure: the pair nearest an exceptional point (smallest crude

@@ -3,10 +3,10 @@ r"""Contacts of a packing: geometric (overlapping disks) and recorded (the histo
 :func:`find_contacts` finds every overlapping pair in float64 (k-d tree,
 minimum image across the periodic direction, :func:`minimum_image`);
 :func:`touch_band` is the band of overlaps inside which the pair style lists
-a pair as its history says. :func:`_history_pairs` reads the pair style's
+a pair as its history says. :func:`history_pairs` reads the pair style's
 per-atom history (partner ids in ``i2_mindlin_partner``, xi in
 ``d2_mindlin_t``; each contact on both sides, mirror-checked) and
-:func:`_wall_contacts` the disks touching the wall;
+:func:`wall_contacts` the disks touching the wall;
 :func:`remote_trigger.analysis.state.state.build_state` merges them into a
 :class:`~remote_trigger.analysis.state.state.State`.
 """
@@ -185,7 +185,7 @@ def _norm(d):
     return np.sqrt(np.sum(d * d, axis=-1))
 
 
-def _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol):
+def history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol):
     """Disk-disk history (sorted by id) -> contacts (i < j, xi), mirror-checked.
 
     Spheres: ``X`` has shape (N, K, 3) (the vector t per slot), the mirror
@@ -281,7 +281,7 @@ def _history_pairs(P, X, ids, pos, radii, L, periodic, params, mirror_rtol):
     return hi_, hj, hxi, delta_h
 
 
-def _wall_contacts(ids, pos, radii, wall_y, wt, wall_t):
+def wall_contacts(ids, pos, radii, wall_y, wt, wall_t):
     """Disks touching the floor y = wall_y: (indices, xi, overlap, stale entries).
 
     ``wt`` is the wall history sorted by id (None: zero); ``wall_t`` the

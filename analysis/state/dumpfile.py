@@ -36,7 +36,7 @@ import numpy as np
 from remote_trigger.analysis.errors import is_integer, is_real
 from remote_trigger.analysis.state.contacts import PARTNER, XI
 from remote_trigger.analysis.state.state import (
-    DISC_INERTIA, ContactParams, _check_options, build_state)
+    DISC_INERTIA, ContactParams, build_state, check_options)
 
 __all__ = ["read_dump", "read_dump3d", "read_equilibrium", "read_history3d", "dump_dimension", "load_sidecar", "write_sidecar",
            "PARAM_KEYS", "REQUIRED_COLUMNS", "REQUIRED_COLUMNS_3D"]
@@ -340,7 +340,7 @@ def read_dump(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x=N
         parameters, or no contacts.
     """
     path = os.fsdecode(path)
-    _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
+    check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
     step, natoms, bounds, flags, columns, body, first = _frame(path, frame)
     missing = [c for c in REQUIRED_COLUMNS if c not in columns]
     pcols = _history_columns(columns, PARTNER)
@@ -489,7 +489,7 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
     path = os.fsdecode(path)
     if inertia_factor is None:
         inertia_factor = SPHERE_INERTIA
-    _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
+    check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
     step, natoms, bounds, flags, columns, body, first = _frame(path, frame)
     missing = [c for c in REQUIRED_COLUMNS_3D if c not in columns]
     hist = {name: _history_columns(columns, name) for name in (PARTNER,) + T3_COLUMNS}

@@ -42,7 +42,7 @@ import numpy as np
 
 from remote_trigger.analysis.errors import is_real
 from remote_trigger.analysis.state.contacts import (
-    _history_pairs, _wall_contacts, find_contacts, minimum_image, touch_band)
+    find_contacts, history_pairs, minimum_image, touch_band, wall_contacts)
 
 __all__ = ["ContactParams", "State", "build_state"]
 
@@ -237,7 +237,7 @@ class State:
         return dataclasses.replace(self, contact_xi=cx.copy(), wall_xi=wx.copy())
 
 
-def _check_options(mirror_rtol=None, inertia_factor=None):
+def check_options(mirror_rtol=None, inertia_factor=None):
     """A finite ``mirror_rtol`` >= 0 and a finite ``inertia_factor`` > 0 (None: unchecked).
 
     Raises
@@ -259,7 +259,7 @@ def _check_options(mirror_rtol=None, inertia_factor=None):
                              f"got {name} = {val!r}")
 
 
-def _atom_ids(ids, name="ids"):
+def atom_ids(ids, name="ids"):
     """Atom ids as int64, shape (N,); integer-valued floats are taken.
 
     Raises
@@ -286,7 +286,7 @@ def _atom_ids(ids, name="ids"):
     return a.astype(np.int64)
 
 
-def _shaped(name, a, shape, label, dtype=np.float64):
+def shaped(name, a, shape, label, dtype=np.float64):
     """``a`` as an array of exactly ``shape``; ValueError naming ``name``, ``label``
     (the shape in symbols, e.g. ``(N, 2)``) and the shape given."""
     try:
@@ -301,7 +301,7 @@ def _shaped(name, a, shape, label, dtype=np.float64):
     return arr
 
 
-def _history(name, a, n, k=None):
+def history_array(name, a, n, k=None):
     """A history array of shape (N, K) (an (N,) array is one slot); with ``k``
     (the slots of ``partners``) K must be k. ValueError naming ``name`` and the
     shapes expected and given."""
@@ -320,7 +320,7 @@ def _history(name, a, n, k=None):
     return arr
 
 
-def _box(box_lo, box_hi, dim, periodic):
+def box_bounds(box_lo, box_hi, dim, periodic):
     """(box_lo, box_hi) as float64 arrays of ``dim`` values and the periodic flags.
 
     In 2D a third (z) bound is accepted and dropped (LAMMPS' box has three).
@@ -447,20 +447,20 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
         ``partner_xi``; otherwise see
         :func:`~remote_trigger.analysis.state.dumpfile.read_dump`.
     """
-    _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
-    ids = _atom_ids(ids)
+    check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
+    ids = atom_ids(ids)
     n = ids.size
-    pos = _shaped("positions", positions, (n, 2), "(N, 2)")
-    radii = _shaped("radii", radii, (n,), "(N,)")
-    masses = _shaped("masses", masses, (n,), "(N,)")
+    pos = shaped("positions", positions, (n, 2), "(N, 2)")
+    radii = shaped("radii", radii, (n,), "(N,)")
+    masses = shaped("masses", masses, (n,), "(N,)")
     _check_params(params, wall_y)
     order = _check_atoms(ids, pos, radii, masses)
-    box_lo, box_hi, periodic = _box(box_lo, box_hi, 2, periodic)
+    box_lo, box_hi, periodic = box_bounds(box_lo, box_hi, 2, periodic)
 
     def srt(a, name, shape, label, dtype=np.float64, finite=False):
         if a is None:
             return None
-        a = _shaped(name, a, shape, label, dtype)
+        a = shaped(name, a, shape, label, dtype)
         if finite and not np.all(np.isfinite(a)):
             # (a NaN load gave a NaN residual and a verdict on it)
             raise ValueError(f"{name} must be finite, got {int(np.sum(~np.isfinite(a)))} "
@@ -482,10 +482,10 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
         if partner_xi is None:
             raise ValueError("partners needs partner_xi (the tangential displacement of "
                              "each partner), got partner_xi = None")
-        P = _history("partners", partners, n)[order].copy()
-        X = srt(_history("partner_xi", partner_xi, n, P.shape[1]), "partner_xi", P.shape,
+        P = history_array("partners", partners, n)[order].copy()
+        X = srt(history_array("partner_xi", partner_xi, n, P.shape[1]), "partner_xi", P.shape,
                 "(N, K)", finite=True)
-        hi_, hj, hxi, hdelta = _history_pairs(P, X, ids, pos, radii, L, periodic, params,
+        hi_, hj, hxi, hdelta = history_pairs(P, X, ids, pos, radii, L, periodic, params,
                                               mirror_rtol)
     else:
         hi_ = hj = np.zeros(0, np.int64)
@@ -517,7 +517,7 @@ def build_state(*, ids, positions, radii, masses, box_lo, box_hi, params, wall_y
     # ---- wall
     wt = (None if (wall_t is None or wall_y is None)
           else srt(wall_t, "wall_t", (n,), "(N,)", finite=True))
-    widx, wxi, wdelta, notes["stale_wall_history"] = _wall_contacts(ids, pos, radii, wall_y,
+    widx, wxi, wdelta, notes["stale_wall_history"] = wall_contacts(ids, pos, radii, wall_y,
                                                                      wt, wall_t)
 
     if partners is not None and (notes["stale_history"] or notes["unrecorded_contacts"]

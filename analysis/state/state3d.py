@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from remote_trigger.analysis.state.state import (
-    ContactParams, _atom_ids, _box, _check_options, _history, _shaped)
+    ContactParams, atom_ids, box_bounds, check_options, history_array, shaped)
 
 __all__ = ["SPHERE_INERTIA", "State3D", "build_state3d", "state3d_from_history",
            "minimum_image3", "plane_wall"]
@@ -306,13 +306,13 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
     """
     if not isinstance(params, ContactParams):
         raise ValueError(f"params must be a ContactParams, got {type(params).__name__}")
-    _check_options(inertia_factor=inertia_factor)
-    ids = _atom_ids(ids)
+    check_options(inertia_factor=inertia_factor)
+    ids = atom_ids(ids)
     n = ids.size
-    pos = _shaped("positions", positions, (n, 3), "(N, 3)")
-    radii = _shaped("radii", radii, (n,), "(N,)")
-    masses = _shaped("masses", masses, (n,), "(N,)")
-    box_lo, box_hi, periodic = _box(box_lo, box_hi, 3, periodic)
+    pos = shaped("positions", positions, (n, 3), "(N, 3)")
+    radii = shaped("radii", radii, (n,), "(N,)")
+    masses = shaped("masses", masses, (n,), "(N,)")
+    box_lo, box_hi, periodic = box_bounds(box_lo, box_hi, 3, periodic)
     for name, arr in (("positions", pos), ("radii", radii), ("masses", masses)):
         if not np.all(np.isfinite(arr)):
             raise ValueError(f"{name} must be finite")
@@ -323,7 +323,7 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
         raise ValueError("atom ids must be unique")
     ids, pos, radii, masses = ids[order], pos[order], radii[order], masses[order]
     ext = (np.zeros((n, 3)) if external is None
-           else _shaped("external", external, (n, 3), "(N, 3)")[order])
+           else shaped("external", external, (n, 3), "(N, 3)")[order])
     if not np.all(np.isfinite(ext)):
         raise ValueError(f"external must be finite, got {int(np.sum(~np.isfinite(ext)))} "
                          f"non-finite value(s)")
@@ -337,13 +337,13 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
     if np.size(pairs) == 0:
         pairs = np.zeros((0, 2), np.int64)
     else:
-        pairs = _shaped("pairs", pairs, np.shape(pairs), "(C, 2)")
+        pairs = shaped("pairs", pairs, np.shape(pairs), "(C, 2)")
         if pairs.ndim != 2 or pairs.shape[1] != 2:
             raise ValueError(f"pairs must have shape (C, 2), got shape {pairs.shape}")
-        pairs = _atom_ids(pairs.reshape(-1), "pairs").reshape(-1, 2)
+        pairs = atom_ids(pairs.reshape(-1), "pairs").reshape(-1, 2)
     C = pairs.shape[0]
     pt = (np.zeros((C, 3)) if pair_t is None
-          else _shaped("pair_t", pair_t, (C, 3), "(C, 3)"))
+          else shaped("pair_t", pair_t, (C, 3), "(C, 3)"))
     if not np.all(np.isfinite(pt)):
         raise ValueError(f"pair_t must be finite, got {int(np.sum(~np.isfinite(pt)))} "
                          f"non-finite value(s)")
@@ -360,14 +360,14 @@ def build_state3d(*, ids, positions, radii, masses, box_lo, box_hi, params,
                 and np.ndim(w[2]) == 0):
             raise ValueError(f"walls[{k}] must be (id, normal of 3 values, offset), got "
                              f"{w!r}")
-    widx = np.array([idx(_atom_ids([w[0]], f"the id of walls[{k}]")[0])
+    widx = np.array([idx(atom_ids([w[0]], f"the id of walls[{k}]")[0])
                      for k, w in enumerate(walls)], np.int64)
     wn = np.array([np.asarray(w[1], np.float64) for w in walls]).reshape(W, 3)
     woff = np.array([float(w[2]) for w in walls], np.float64)
     if W and not np.allclose(np.linalg.norm(wn, axis=1), 1.0, rtol=0, atol=1e-14):
         raise ValueError("wall normals must be unit vectors")
     wt = (np.zeros((W, 3)) if wall_t is None
-          else _shaped("wall_t", wall_t, (W, 3), "(W, 3), W = len(walls)"))
+          else shaped("wall_t", wall_t, (W, 3), "(W, 3), W = len(walls)"))
     if not np.all(np.isfinite(wt)):
         raise ValueError(f"wall_t must be finite, got {int(np.sum(~np.isfinite(wt)))} "
                          f"non-finite value(s)")
@@ -450,28 +450,28 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
     """
     import dataclasses
 
-    from remote_trigger.analysis.state.contacts import _history_pairs, find_contacts
+    from remote_trigger.analysis.state.contacts import history_pairs, find_contacts
 
-    _check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
-    ids = _atom_ids(ids)
+    check_options(mirror_rtol=mirror_rtol, inertia_factor=inertia_factor)
+    ids = atom_ids(ids)
     n = ids.size
     order = np.argsort(ids, kind="stable")
     ids_s = ids[order]
-    pos = _shaped("positions", positions, (n, 3), "(N, 3)")[order]
-    rad = _shaped("radii", radii, (n,), "(N,)")[order]
-    masses = _shaped("masses", masses, (n,), "(N,)")
-    box_lo, box_hi, per = _box(box_lo, box_hi, 3, periodic)
+    pos = shaped("positions", positions, (n, 3), "(N, 3)")[order]
+    rad = shaped("radii", radii, (n,), "(N,)")[order]
+    masses = shaped("masses", masses, (n,), "(N,)")
+    box_lo, box_hi, per = box_bounds(box_lo, box_hi, 3, periodic)
     if partners is not None:
         if partner_t is None:
             raise ValueError("partners needs partner_t (the tangential displacement of each "
                              "partner), got partner_t = None")
-        P = _history("partners", partners, n)[order]
+        P = history_array("partners", partners, n)[order]
         K = P.shape[1]
-        X = _shaped("partner_t", partner_t, (n, K, 3), "(N, K, 3), K that of partners")[order]
+        X = shaped("partner_t", partner_t, (n, K, 3), "(N, K, 3), K that of partners")[order]
     gi, gj, _ = find_contacts(pos, rad, box_lo, box_hi, per, ids=ids_s)
     t = np.zeros((gi.size, 3))
     if partners is not None and gi.size:
-        hi_, hj, ht, _ = _history_pairs(P, X, ids_s, pos, rad, box_hi - box_lo, per, params,
+        hi_, hj, ht, _ = history_pairs(P, X, ids_s, pos, rad, box_hi - box_lo, per, params,
                                         mirror_rtol)
         known = {(int(a), int(b)): k for k, (a, b) in enumerate(zip(hi_, hj))}
         for c, key in enumerate(zip(gi.tolist(), gj.tolist())):
@@ -481,7 +481,7 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
     if wall_y is not None:
         normal, offset = plane_wall("y", "lo", float(wall_y))
         wt_all = (np.zeros((n, 3)) if wall_t is None
-                  else _shaped("wall_t", wall_t, (n, 3), "(N, 3)")[order])
+                  else shaped("wall_t", wall_t, (n, 3), "(N, 3)")[order])
         low = pos[:, 1] - float(wall_y)
         if np.any(low <= 0.0):
             k = int(np.argmax(low <= 0.0))
@@ -490,7 +490,7 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
         for k in np.nonzero(rad - low > 0.0)[0]:
             walls.append((int(ids_s[k]), normal, offset))
             wt.append(wt_all[k])
-    ext = None if external is None else _shaped("external", external, (n, 3), "(N, 3)")[order]
+    ext = None if external is None else shaped("external", external, (n, 3), "(N, 3)")[order]
     st = build_state3d(ids=ids_s, positions=pos, radii=rad, masses=masses[order],
                        box_lo=box_lo, box_hi=box_hi, params=params, periodic=per,
                        pairs=np.column_stack([ids_s[gi], ids_s[gj]]), pair_t=t, walls=walls,

@@ -9,9 +9,8 @@ import pytest
 import scipy.sparse as sp
 
 from remote_trigger.analysis.stability import eigen, exceptional
-from remote_trigger.analysis.stability.scan_state import saved_scans
-from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced
-from remote_trigger.analysis.stability.slicing import count_below
+from remote_trigger.analysis.stability.sliced import (
+    SlicedStats, classify_sliced, count_below, saved_scans)
 
 from .arb_oracle import full_spectrum
 from remote_trigger.analysis.stability.decision import Decision
@@ -68,13 +67,13 @@ def test_count_below_inside_a_packing_spectrum():
     the dense one and the fuzz stays far below the gap."""
     from remote_trigger.analysis.stability import jacobian
     from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability.sliced import _scaled
+    from remote_trigger.analysis.stability.sliced import scaled_parts
 
     from .builders import random_packing
 
     res = analyze(random_packing(5, nx=20, ny=15), eigenvalues=False, decide=False)
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
-    S = _scaled(Kr, mr)[1]
+    S = scaled_parts(Kr, mr)[1]
     lam = np.linalg.eigvalsh(S.toarray())
     for i in np.linspace(5, lam.size - 6, 25).astype(int):
         a = 0.5 * (lam[i] + lam[i + 1])
@@ -91,7 +90,7 @@ def test_count_below_inside_a_packing_spectrum():
 
 
 def test_refactorized_counts_are_bitwise_new_factorizations():
-    """The slices count at many shifts a with one ordering (slicing._Shifts,
+    """The slices count at many shifts a with one ordering (sliced.inertia.Shifts,
     QDLDL's update): permutation, L, D, counts, fuzz and solves bitwise those
     of a new factorization at each shift; a zero pivot, which update() does
     not report, is refused as a new factorization refuses it, and the next
@@ -100,15 +99,15 @@ def test_refactorized_counts_are_bitwise_new_factorizations():
 
     from remote_trigger.analysis.stability import jacobian
     from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability.sliced import _scaled
-    from remote_trigger.analysis.stability.slicing import _Shifts, _shifted
+    from remote_trigger.analysis.stability.sliced import scaled_parts
+    from remote_trigger.analysis.stability.sliced.inertia import Shifts, shifted
 
     from .builders import random_packing
 
     res = analyze(random_packing(5, nx=20, ny=15), eigenvalues=False, decide=False)
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
-    S = _scaled(Kr, mr)[1]
-    shifts = _Shifts(S)
+    S = scaled_parts(Kr, mr)[1]
+    shifts = Shifts(S)
     b = np.random.default_rng(1).standard_normal(S.shape[0])
     lam = np.linalg.eigvalsh(S.toarray())
     # the first pivot of the ordering is S_pp - a: zero at a = S_pp
@@ -121,12 +120,12 @@ def test_refactorized_counts_are_bitwise_new_factorizations():
         except ValueError as exc:
             assert "zero pivot" in str(exc)
             with pytest.raises(RuntimeError):
-                qdldl.Solver(_shifted(S, a))
+                qdldl.Solver(shifted(S, a))
             with pytest.raises(ValueError):
                 count_below(S, a)
             failed += 1
             continue
-        fac, new = shifts.solver, qdldl.Solver(_shifted(S, a))
+        fac, new = shifts.solver, qdldl.Solver(shifted(S, a))
         (L1, d1, p1), (L2, d2, p2) = fac.factors(), new.factors()
         assert np.array_equal(p1, p2) and np.array_equal(d1, d2)
         assert np.array_equal(L1.indptr, L2.indptr) and np.array_equal(L1.indices, L2.indices)
@@ -198,10 +197,10 @@ def test_a_slice_with_inexact_vectors_is_computed_again(monkeypatch):
     strip of its own. Without the second computation (_REFINE = inf) the
     same scan keeps the large radius and strips of 2. Both verdicts are the
     dense one."""
-    from remote_trigger.analysis.stability import slicing
+    from remote_trigger.analysis.stability.sliced import slices
 
     K, M = planted(n=400, pairs=[(200, 0.7)])
-    eigsh = slicing.spla.eigsh
+    eigsh = slices.spla.eigsh
     calls = []
 
     def noisy(*args, **kwargs):
@@ -211,10 +210,10 @@ def test_a_slice_with_inexact_vectors_is_computed_again(monkeypatch):
             V = V + 1e-6 * np.random.default_rng(0).standard_normal(V.shape)
         return lam, V
 
-    monkeypatch.setattr(slicing.spla, "eigsh", noisy)
-    got, default = {}, slicing._REFINE
+    monkeypatch.setattr(slices.spla, "eigsh", noisy)
+    got, default = {}, slices._REFINE
     for refine in (default, np.inf):
-        monkeypatch.setattr(slicing, "_REFINE", refine)
+        monkeypatch.setattr(slices, "_REFINE", refine)
         calls.clear()
         st = SlicedStats()
         got[refine] = (classify_sliced(K, M, stats=st), st)
@@ -234,10 +233,10 @@ def test_a_poor_slice_weakens_only_the_boundaries_near_it(monkeypatch):
     own range and its neighbour's, and every eigenvalue of S above them in a
     strip of its own. (With the largest radius so far, the same scan made
     strips of 2-6 up to the top of the spectrum.)"""
-    from remote_trigger.analysis.stability import slicing
+    from remote_trigger.analysis.stability.sliced import slices
 
     K, M = planted(n=400, pairs=[(200, 0.7)])
-    eigsh = slicing.spla.eigsh
+    eigsh = slices.spla.eigsh
     seen = []
 
     def noisy(*args, **kwargs):
@@ -247,8 +246,8 @@ def test_a_poor_slice_weakens_only_the_boundaries_near_it(monkeypatch):
             V = V + 1e-5 * np.random.default_rng(0).standard_normal(V.shape)
         return lam, V
 
-    monkeypatch.setattr(slicing.spla, "eigsh", noisy)
-    monkeypatch.setattr(slicing, "_REFINE", np.inf)
+    monkeypatch.setattr(slices.spla, "eigsh", noisy)
+    monkeypatch.setattr(slices, "_REFINE", np.inf)
     st = SlicedStats()
     dec = classify_sliced(K, M, stats=st)
     top = float(np.max(seen[1]))            # the poor slice reaches up to here
@@ -403,17 +402,18 @@ def test_slicing_that_fails_above_a_complex_strip_is_complex(monkeypatch, pair, 
     """The slices stop after the third (a planted failure): with a complex
     strip below, the verdict is complex (the strip decides the whole matrix)
     with the failure as its note; without one, undecided."""
-    from remote_trigger.analysis.stability import sliced, slicing
+    from remote_trigger.analysis.stability.sliced import scan
+    from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
 
-    real_slices = sliced._slices
+    real_slices = scan.ritz_slices
 
     def failing(*args, **kwargs):
         for k, sl in enumerate(real_slices(*args, **kwargs)):
             if k == 3:
-                raise slicing._Fail("planted failure")
+                raise SliceFailure("planted failure")
             yield sl
 
-    monkeypatch.setattr(sliced, "_slices", failing)
+    monkeypatch.setattr(scan, "ritz_slices", failing)
     K, mass = planted(pairs=[(pair, 1.5)] if pair is not None else [], seed=6)
     res = classify_sliced(K, mass, slice_size=20)
     assert res.decision is want
@@ -538,12 +538,12 @@ def test_a_verdict_saved_under_another_strip_limit_is_not_taken(tmp_path, monkey
     """The saved state is keyed by the largest strip decided on the real axis
     too: a verdict (or a scan) saved under another limit is scanned over, so
     no verdict mixes strips decided by two rules."""
-    from remote_trigger.analysis.stability import sliced
+    from remote_trigger.analysis.stability.sliced import scan
 
     K, mass = planted(n=60, seed=2)
-    monkeypatch.setattr(sliced, "_MAX_STRIP", 8)
+    monkeypatch.setattr(scan, "_MAX_STRIP", 8)
     classify_sliced(K, mass, slice_size=20, checkpoint_dir=tmp_path)
-    monkeypatch.setattr(sliced, "_MAX_STRIP", 24)
+    monkeypatch.setattr(scan, "_MAX_STRIP", 24)
     seen = []
     classify_sliced(K, mass, slice_size=20, checkpoint_dir=tmp_path,
                     progress=lambda done, n: seen.append(done))
@@ -570,6 +570,41 @@ def test_a_stale_scan_state_is_removed_and_bad_input_refused(tmp_path):
     for bad in (-1.0, float("nan")):
         with pytest.raises(ValueError, match="checkpoint_seconds"):
             classify_sliced(K, mass, checkpoint_dir=tmp_path, checkpoint_seconds=bad)
+
+
+def test_a_state_of_other_code_under_the_calls_key_is_scanned_over(tmp_path):
+    """A saved scan and verdict under this call's own key that do not load (as
+    the files of the code before the package ``sliced`` would not: pickle
+    finds their classes by module path, and ``sliced._Scan`` and
+    ``ritz_buffer.RitzBuffer`` are gone; or a truncated file) are scanned
+    over from the beginning, to the bits of a call without them, and replaced
+    by this call's verdict."""
+    K, mass = planted(n=60, seed=2)
+    ref_st = SlicedStats()
+    want = _fields(classify_sliced(K, mass, slice_size=20, stats=ref_st), ref_st)
+    classify_sliced(K, mass, slice_size=20, checkpoint_dir=tmp_path)
+    done, = tmp_path.iterdir()
+    key = done.name[len("sliced-"):-len(".done.pkl")]
+    good = done.read_bytes()
+    payloads = {
+        # (key, sliced._Scan()) and (key, ritz_buffer.RitzBuffer()) as protocol 0
+        "old scan": b"(V%s\ncremote_trigger.analysis.stability.sliced\n_Scan\n)Rt." % key.encode(),
+        "old buffer": (b"(V%s\ncremote_trigger.analysis.stability.ritz_buffer\nRitzBuffer\n)Rt."
+                       % key.encode()),
+        "truncated": good[:len(good) // 2],
+    }
+    for name, payload in payloads.items():
+        with pytest.raises(Exception):
+            pickle.loads(payload)
+        for suffix in (".scan.pkl", ".done.pkl"):
+            (tmp_path / f"sliced-{key}{suffix}").write_bytes(payload)
+        seen, st = [], SlicedStats()
+        got = classify_sliced(K, mass, slice_size=20, stats=st, checkpoint_dir=tmp_path,
+                              progress=lambda done, n: seen.append(done))
+        assert _fields(got, st) == want, name
+        assert len(seen) == ref_st.slices, name
+        assert [p.name for p in tmp_path.iterdir()] == [done.name], name
+        assert done.read_bytes() != payload
 
 
 def test_soft_pairs_do_not_stop_the_scan_and_collective_decision():

@@ -1,21 +1,21 @@
 """The sliced verdict's bookkeeping: the buffer of Ritz vectors (slices added
 and dropped without copying the others) and the shift-invert factorizations
-made with the counting's ordering (analysis.stability.sliced, .slicing)."""
+made with the counting's ordering (analysis.stability.sliced: .buffer, .inertia)."""
 import pickle
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from remote_trigger.analysis.stability import scan_state
-from remote_trigger.analysis.stability.ritz_buffer import RitzBuffer
-from remote_trigger.analysis.stability.slicing import _Slice
+from remote_trigger.analysis.stability.sliced import checkpoint
+from remote_trigger.analysis.stability.sliced.buffer import RitzBuffer
+from remote_trigger.analysis.stability.sliced.slices import Slice
 
 
 def _slice(rng, n, k, lo, W):
     Q = np.linalg.qr(rng.standard_normal((n, k)))[0]
     theta = lo + np.sort(rng.uniform(0.1, 0.9, k))
-    return _Slice(lo, lo + 1.0, theta, Q, W @ Q, 1e-9, np.full(k, 1e-10), 1e-15)
+    return Slice(lo, lo + 1.0, theta, Q, W @ Q, 1e-9, np.full(k, 1e-10), 1e-15)
 
 
 def test_the_buffer_keeps_its_slices_through_growth_and_drops():
@@ -58,40 +58,42 @@ def test_the_buffer_keeps_its_slices_through_growth_and_drops():
     assert grows >= 2 and moves >= 2 and pieces >= 1
     state = pickle.loads(pickle.dumps(buf))
     assert state.Q is None and "_store" not in buf.__getstate__()
-    assert state.q_shape == buf.Q.shape and state.q_sha == scan_state.sha(Q)
+    assert state.q_shape == buf.Q.shape and state.q_sha == checkpoint.sha(Q)
     state.Q = Q
     assert np.array_equal(state.Q, buf.Q) and state.Q.flags.f_contiguous
 
 
 def test_shift_invert_solves_are_those_of_a_new_factorization():
     """The shift-invert solves of a slice use the counting's ordering
-    (slicing._Shifts.factor): bitwise the solves of a new factorization at
+    (sliced.inertia.Shifts.factor): bitwise the solves of a new factorization at
     that shift. At a shift where the factorization meets a zero pivot, which
     QDLDL's update does not report (it stops there, leaving the rest of the
     previous shift's factors), the probe solve's residual is large and a new
     factorization refuses the shift, as before."""
     import qdldl
 
-    from remote_trigger.analysis.stability import jacobian, slicing
+    from remote_trigger.analysis.stability import jacobian
     from remote_trigger.analysis.stability.analyze import analyze
-    from remote_trigger.analysis.stability.sliced import _scaled
+    from remote_trigger.analysis.stability.sliced import SlicedStats, scaled_parts
+    from remote_trigger.analysis.stability.sliced.inertia import Shifts, shifted
+    from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
+    from remote_trigger.analysis.stability.sliced.slices import shift_invert
 
     from .builders import random_packing
 
     res = analyze(random_packing(5, nx=20, ny=15), eigenvalues=False, decide=False)
     Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
-    S = _scaled(Kr, mr)[1]
+    S = scaled_parts(Kr, mr)[1]
     lam = np.linalg.eigvalsh(S.toarray())
-    shifts = slicing._Shifts(S)
+    shifts = Shifts(S)
     rng = np.random.default_rng(3)
     b = rng.standard_normal(S.shape[0])
     for a in (lam[40] + 1e-3, lam[200] - 1e-3, 0.5 * (lam[-3] + lam[-2])):
         fac = shifts.factor(a)
-        assert np.array_equal(fac.solve(b), qdldl.Solver(slicing._shifted(S, a)).solve(b))
-        got = slicing._shift_invert(S, shifts, a, 6, rng, slicing.SlicedStats())[0]
+        assert np.array_equal(fac.solve(b), qdldl.Solver(shifted(S, a)).solve(b))
+        got = shift_invert(S, shifts, a, 6, rng, SlicedStats())[0]
         near = lam[np.argsort(np.abs(lam - a))[:6]]
         np.testing.assert_allclose(np.sort(got), np.sort(near), rtol=1e-9)
     p0 = int(shifts.solver.factors()[2][0])     # the first pivot is S_pp - a
-    with pytest.raises(slicing._Fail, match=r"no LDL\^T factorization of S - sigma I"):
-        slicing._shift_invert(S, shifts, float(S.diagonal()[p0]), 6, rng,
-                              slicing.SlicedStats())
+    with pytest.raises(SliceFailure, match=r"no LDL\^T factorization of S - sigma I"):
+        shift_invert(S, shifts, float(S.diagonal()[p0]), 6, rng, SlicedStats())

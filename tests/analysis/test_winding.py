@@ -1,10 +1,10 @@
-"""The winding count of eigenvalues in a box (analysis.stability.winding) on
+"""The winding count of eigenvalues in a box (analysis.stability.sliced.winding) on
 matrix functions whose zeros are known: T(z) = V diag(lambda_i - z) V^-1 and a
 non-normal one, with and without an error bound."""
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.stability.winding import box_zero_count, sigma_min_lower
+from remote_trigger.analysis.stability.sliced.winding import box_zero_count, sigma_min_lower
 
 
 def _diag_schur(lam, V=None, err=0.0):

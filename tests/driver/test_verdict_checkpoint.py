@@ -14,7 +14,8 @@ import pickle
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.stability import eigen, sliced
+from remote_trigger.analysis.stability import eigen
+from remote_trigger.analysis.stability.sliced import scan
 from remote_trigger.pywrap import stages
 from remote_trigger.pywrap.runtime.results import read_all
 from remote_trigger.pywrap.stages.config import RampConfig
@@ -22,7 +23,7 @@ from remote_trigger.pywrap.stages.config import RampConfig
 from .test_kill import compare_ramp
 
 DF, TOL = 0.01, 1e-5
-_SLICES = sliced._slices        # the real one (the counters below wrap it)
+_SLICES = scan.ritz_slices      # the real one (the counters below wrap it)
 
 
 class _Killed(Exception):
@@ -30,7 +31,7 @@ class _Killed(Exception):
 
 
 class _CountScans:
-    """Wraps ``sliced._slices``: counts scans and slices; raises _Killed at slice
+    """Wraps ``sliced.scan.ritz_slices``: counts scans and slices; raises _Killed at slice
     ``kill_at`` (counted over the whole run). ``firsts``: the numbers of the
     slices that began a scan."""
 
@@ -50,7 +51,7 @@ class _CountScans:
 
 def _sliced_small(mp):
     mp.setattr(eigen, "DENSE_MAX", 10)
-    mp.setattr(sliced, "_SLICE_SIZE", 12)
+    mp.setattr(scan, "_SLICE_SIZE", 12)
 
 
 @pytest.fixture(scope="module")
@@ -64,7 +65,7 @@ def sliced_refs(relaxed, tmp_path_factory):
             cfg = cfg.replace(mu=cfg.mu * f)
             folder = tmp_path_factory.mktemp(f"sliced_{name}")
             count = _CountScans()
-            mp.setattr(sliced, "_slices", count)
+            mp.setattr(scan, "ritz_slices", count)
             res = stages.ramp(cfg, str(folder), quiet=True)
             assert res.status == "complete", res.message
             assert not os.path.exists(folder / "ramp" / "verdicts")   # removed at the end
@@ -77,7 +78,7 @@ def test_a_ramp_killed_inside_a_scan_resumes_it_bitwise(sliced_refs, tmp_path, m
     npts = sum(ref[1][f"{k}/F_x"].size for k in ("steps", "bisection"))
     assert ref_count.scans == npts and ref_count.slices > 2 * npts
     _sliced_small(monkeypatch)
-    monkeypatch.setattr(sliced, "CHECKPOINT_SECONDS", 0.0)
+    monkeypatch.setattr(scan, "CHECKPOINT_SECONDS", 0.0)
     # killed halfway through the ramp's slices, inside a scan: at a slice
     # that is not a scan's first, so that the scan has saved its state (how
     # many slices each scan takes depends on the BLAS's rounding, so the
@@ -85,7 +86,7 @@ def test_a_ramp_killed_inside_a_scan_resumes_it_bitwise(sliced_refs, tmp_path, m
     kill_at = next(k for k in range(ref_count.slices // 2, ref_count.slices + 1)
                    if k not in ref_count.firsts)
     killer = _CountScans(kill_at=kill_at)
-    monkeypatch.setattr(sliced, "_slices", killer)
+    monkeypatch.setattr(scan, "ritz_slices", killer)
     with pytest.raises(_Killed):
         stages.ramp(cfg, str(tmp_path), quiet=True)
     saved = os.listdir(tmp_path / "ramp" / "verdicts")
@@ -96,7 +97,7 @@ def test_a_ramp_killed_inside_a_scan_resumes_it_bitwise(sliced_refs, tmp_path, m
         again = len(pickle.load(fh)[1].buf.edges)
     assert again >= 1
     resumed = _CountScans()
-    monkeypatch.setattr(sliced, "_slices", resumed)
+    monkeypatch.setattr(scan, "ritz_slices", resumed)
     res = stages.ramp(cfg, str(tmp_path), quiet=True, resume=True)
     assert res.status == "complete"
     assert compare_ramp(ref, res.h5) == []
@@ -117,7 +118,7 @@ def test_the_second_ramp_of_a_packing_takes_its_F_x_0_verdict_from_the_first(
     for name in ("mu0", "mu_ss"):
         cfg, ref, ref_count = sliced_refs[name]
         count = _CountScans()
-        monkeypatch.setattr(sliced, "_slices", count)
+        monkeypatch.setattr(scan, "ritz_slices", count)
         res = stages.ramp(cfg, str(tmp_path / name), quiet=True, verdict_dir=str(shared))
         assert compare_ramp(ref, res.h5) == []
         assert count.scans == ref_count.scans - (name == "mu_ss")

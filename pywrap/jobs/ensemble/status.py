@@ -51,7 +51,7 @@ def _utc(t):
 def _scan_note(folder):
     """A running point's sliced verdict as its last save left it (the
     packing's ``verdicts`` folder, N >= 1600), or ''."""
-    from remote_trigger.analysis.stability.scan_state import saved_scans
+    from remote_trigger.analysis.stability.sliced import saved_scans
     from remote_trigger.pywrap.jobs.ensemble.task import VERDICTS
 
     vdir = os.path.join(folder, VERDICTS)
@@ -98,7 +98,7 @@ def ensemble_status(out):
         relaxed (phi) with each ramp finished (its bracket), running (its
         points so far and the certified bracket they give) or not started,
         and a sliced verdict in progress with its count of eigenvalues at
-        its last save (``analysis.stability.scan_state.saved_scans``).
+        its last save (``analysis.stability.sliced.saved_scans``).
 
     Raises
     ------

@@ -1,9 +1,14 @@
 """The strips of the sliced verdict: the coupling across an interval and the
 decision of a strip of m >= 2 eigenvalues from its Schur complement.
 
-The proof: :mod:`remote_trigger.analysis.stability.sliced` (module docstring,
-*Boundary lemma* and *Strips*); the winding count of a box off the real axis:
-:mod:`remote_trigger.analysis.stability.winding`.
+:class:`StripContext` holds what every boundary and strip test uses (the
+scaled matrix, its skew part, their norms and error bounds);
+:func:`coupling` bounds kappa across an interval (a boundary is certified
+where kappa < 1); :func:`decide_strip` decides a strip between two certified
+boundaries; :func:`arpack_hint` says what ARPACK sees in a strip left
+undecided (a note, not certified). The proof: the module docstring of
+:mod:`remote_trigger.analysis.stability.sliced` (*Boundary lemma* and
+*Strips*); the winding count of a box off the real axis: :mod:`.winding`.
 """
 from __future__ import annotations
 
@@ -15,30 +20,75 @@ import scipy.sparse as sp
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
-from remote_trigger.analysis.stability.enclosure import _gamma, _sigma_min_lower
-from remote_trigger.analysis.stability.slicing import _INFLATE, _Fail
-from remote_trigger.analysis.stability.winding import box_zero_count
+from remote_trigger.analysis.stability.decision import Decision
+from remote_trigger.analysis.stability.enclosure import U, gamma, sigma_min_lower
+from remote_trigger.analysis.stability.sliced.inertia import norm1, norm2_skew
+from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
+from remote_trigger.analysis.stability.sliced.winding import box_zero_count
+
+__all__ = ["StripContext", "coupling", "decide_strip", "arpack_hint"]
 
 
 def _norm22(x11, x12, x22):
     """2-norm of the symmetric 2 x 2 matrix of block norms."""
     m = 0.5 * (x11 + x22)
-    return (m + math.sqrt(0.25 * (x11 - x22) ** 2 + x12 * x12)) * _INFLATE
+    return (m + math.sqrt(0.25 * (x11 - x22) ** 2 + x12 * x12)) * INFLATE
 
 
-@dataclass
-class _Ctx:
+@dataclass(frozen=True, kw_only=True)
+class StripContext:
+    """What every boundary and strip test of a scan uses (built by :meth:`of`).
+
+    Attributes
+    ----------
+    A : scipy.sparse.csr_matrix, shape (n, n)
+        A = M^-1/2 K M^-1/2.
+    W : scipy.sparse.csr_matrix, shape (n, n)
+        Its skew part (A - A^T) / 2.
+    normW : float
+        Rigorous upper bound of ||W||_2.
+    normS : float
+        Upper bound of ||S||_1 >= ||S||_2 (S the symmetric part).
+    normA1 : float
+        Upper bound of ||A||_2, from ||A||_1 and ||A||_inf.
+    eps : float
+        Bound of ||F||_2 for every F of the set (|F| <= rel_error |A|) plus
+        the rounding of the scaling.
+    Delta : float
+        Half-width of the explicit window about a boundary (``window``
+        ||W||_2; 1e-3 max(||S||_1, 1) if W = 0).
+    rnd : float
+        Rounding of the products with W (absolute, 2-norm, per vector).
+    """
+
+    A: object
+    W: object
     normW: float
     normS: float
+    normA1: float
     eps: float
     Delta: float
-    rnd: float                  # rounding of the W products (absolute, 2-norm)
-    A: object = None            # M^-1/2 K M^-1/2 (CSR)
-    normA1: float = 0.0         # ||A||_1 >= ||A||_2 bound of |A|
-    W: object = None            # the skew part (A - A^T) / 2 of A (CSR)
+    rnd: float
+
+    @classmethod
+    def of(cls, A, S, W, rel_error, window):
+        """The context of A = S + W (:func:`~.scan.scaled_parts`) for the set
+        |F| <= ``rel_error`` |A| and a window of ``window`` ||W||_2."""
+        absA = abs(A)
+        normA1 = math.sqrt(norm1(absA) * norm1(absA.T))
+        nSW = norm1(abs(S) + abs(W))
+        eps = ((rel_error + 12 * U) * normA1 + U * nSW) * INFLATE
+        normW = norm2_skew(W)
+        normS = norm1(S)
+        n = A.shape[0]
+        rows = int(np.max(np.diff(A.indptr))) if n else 0
+        rnd = gamma(n + rows + 4) * norm1(abs(W)) * 4
+        Delta = window * normW if normW > 0 else 1e-3 * max(normS, 1.0)
+        return cls(A=A, W=W, normW=normW, normS=normS, normA1=normA1, eps=eps, Delta=Delta,
+                   rnd=rnd)
 
 
-def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
+def coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
     """kappa of the rest (all but ``exclude``) across the interval [lower, upper].
 
     ``lo_edge``/``hi_edge``: below/above them Ritz values are not in the buffer
@@ -50,7 +100,7 @@ def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
     ex = np.zeros(th.size, bool)
     ex[list(exclude)] = True
     if np.any((dist == 0) & ~ex):
-        raise _Fail("a Ritz value of the rest inside the interval")
+        raise SliceFailure("a Ritz value of the rest inside the interval")
     near = np.nonzero((dist < ctx.Delta) & ~ex)[0]
     far_d = [lower - lo_edge if lo_edge is not None else math.inf,
              hi_edge - upper if hi_edge is not None else math.inf]
@@ -59,16 +109,16 @@ def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
     used = np.concatenate([near, np.asarray(list(exclude), int)])
     phi = buf.phi(used) if used.size else 0.0
     rhat = (math.sqrt(float(np.sum(rs[used] ** 2))) * (1 + phi)
-            + 2 * phi * float(np.max(np.abs(th[used])) if used.size else 0.0)) * _INFLATE
+            + 2 * phi * float(np.max(np.abs(th[used])) if used.size else 0.0)) * INFLATE
     r = buf.radius              # largest Kahan radius of the buffer's slices
     d_eff = d_out - r - 4 * rhat
     if not d_eff > 0:
-        raise _Fail("the window's complement is not separated from the interval")
+        raise SliceFailure("the window's complement is not separated from the interval")
     g = dist[near]
     g_min = min(float(g.min()) if g.size else math.inf, d_eff)
     if not g_min > 2 * (r + 4 * rhat):
         # the count of S below the interval must equal that of the block-diagonal H
-        raise _Fail("a Ritz value within its radius of the interval")
+        raise SliceFailure("a Ritz value within its radius of the interval")
     xi = ctx.eps + 2 * rhat + (2 * phi + phi * phi) * ctx.normW + ctx.rnd * max(used.size, 1)
     below = lo_edge is None and not np.any((th < lower) & ~ex)
     above = hi_edge is None and not np.any((th > upper) & ~ex)
@@ -79,17 +129,17 @@ def _coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
     if Ls.size and Us.size:
         B = buf.Wn[np.ix_(Ls, Us)]
         x11 = float(np.linalg.norm((np.abs(B) + ctx.rnd) / np.sqrt(
-            np.outer(dist[Ls], dist[Us])))) * _INFLATE
+            np.outer(dist[Ls], dist[Us])))) * INFLATE
     else:
         x11 = 0.0
     x12 = ((math.sqrt(float(np.sum(wqn[near] ** 2 / g))) * (1 + phi) + ctx.rnd
-            * math.sqrt(near.size / g_min)) / math.sqrt(d_eff)) * _INFLATE if near.size else 0.0
+            * math.sqrt(near.size / g_min)) / math.sqrt(d_eff)) * INFLATE if near.size else 0.0
     x22 = ctx.normW / d_eff
     kappa = _norm22(x11, x12, x22) + xi / g_min
     return kappa, g_min, d_eff, near, g, xi, phi
 
 
-def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
+def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
                   real_routes=True):
     """Decide one strip of m >= 2 eigenvalues (module docstring, *Strips*).
 
@@ -100,39 +150,46 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     residual Z; the true complement differs by at most b ||Z|| /
     (sqrt(g_min) (1 - kappa_r)), and T is Lipschitz in x with constant
     1 + b^2 / (g_min (1 - kappa_r)^2) (b, kappa_r, g_min bounded on the
-    whole strip by :func:`_coupling`).
+    whole strip by :func:`coupling`).
 
     ``estimates``: a callable returning (note, ARPACK's estimates of the
     eigenvalues with real part in the strip), asked only when the real-axis
     routes fail (or are skipped: ``real_routes`` False); a box about each of
     the (at most two) complex estimates of largest Im, off the real axis,
     is then counted by winding
-    (:func:`~remote_trigger.analysis.stability.winding.box_zero_count`): one
+    (:func:`~.winding.box_zero_count`): one
     eigenvalue or more in it certifies the strip complex.
+
+    Returns
+    -------
+    (Decision, float, ndarray of complex, str)
+        The strip's decision, its margin, the approximations of its m
+        eigenvalues and, when UNDECIDED, why.
     """
     m = I.size
-    kap, g_min, d_eff, near, g, xi, phi = _coupling(
+    kap, g_min, d_eff, near, g, xi, phi = coupling(
         ctx, buf, a_lo, a_hi, lo_edge, hi_edge, exclude=I)
     lam0 = buf.th[I].astype(complex)
     if not kap < 1:
-        return "undecided", 0.0, lam0, f"the rest is coupled across the strip (kappa {kap:.3g})"
+        return (Decision.UNDECIDED, 0.0, lam0,
+                f"the rest is coupled across the strip (kappa {kap:.3g})")
     # column-major, as a column selection of W Q is (np.sum's last bit depends on it)
     WQI = np.asfortranarray(ctx.W @ buf.Q[:, I])
     cross = buf.Wn[np.ix_(near, I)]
     bn = float(np.linalg.norm((np.abs(cross) + ctx.rnd) / np.sqrt(g)[:, None])) if near.size else 0.0
     b = (math.sqrt(bn ** 2 + float(np.sum(WQI ** 2)) / d_eff) * (1 + phi)
-         + xi * math.sqrt(m) / math.sqrt(g_min)) * _INFLATE
+         + xi * math.sqrt(m) / math.sqrt(g_min)) * INFLATE
     # |T''(x)| <= 2 b^2 / (g_min^2 (1 - kappa_r)^3) on the strip
-    curv = 2 * b * b / (g_min ** 2 * (1 - kap) ** 3) * _INFLATE
+    curv = 2 * b * b / (g_min ** 2 * (1 - kap) ** 3) * INFLATE
     A = ctx.A
     n = A.shape[0]
     Q, _ = np.linalg.qr(buf.Q[:, I])
-    phiI = (float(np.linalg.norm(Q.T @ Q - np.eye(m))) + _gamma(n) * m) * _INFLATE
+    phiI = (float(np.linalg.norm(Q.T @ Q - np.eye(m))) + gamma(n) * m) * INFLATE
     AQ = A @ Q
     Tc = Q.T @ AQ
     # errors of Tc and of the set: rounding, the non-orthonormality of Q, F
-    rho = ((_gamma(n + 8) * m * ctx.normA1 + (2 * phiI + phiI ** 2) * ctx.normA1)
-           + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * _INFLATE
+    rho = ((gamma(n + 8) * m * ctx.normA1 + (2 * phiI + phiI ** 2) * ctx.normA1)
+           + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * INFLATE
     I_n = sp.identity(n, format="csr")
     Qs = sp.csr_matrix(Q)
 
@@ -150,9 +207,9 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         Z = (A @ Y - x * Y) - AQ
         Z = Z - Q @ (Q.T @ Z)
         T = Tc - x * np.eye(m) - Q.T @ (A @ Y)
-        rY = cplx * _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y))
+        rY = cplx * gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y))
         zn = float(np.linalg.norm(Z)) + 4 * rY
-        err = (b * zn / math.sqrt(g_min) / (1 - kap) + 2 * rY + rho) * _INFLATE
+        err = (b * zn / math.sqrt(g_min) / (1 - kap) + 2 * rY + rho) * INFLATE
         if not deriv:
             return T, err
         # T'(x) = -I - Q^T A (C_r - x)^-1 Y(x), from the same factorization
@@ -161,17 +218,17 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         Z2 = (A @ Y2 - x * Y2) - Y
         Z2 = Z2 - Q @ (Q.T @ Z2)
         D = -np.eye(m) - Q.T @ (A @ Y2)
-        rY2 = cplx * _gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y2))
+        rY2 = cplx * gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y2))
         derr = (b * (float(np.linalg.norm(Z2)) + 4 * rY2 + zn / (g_min * (1 - kap)))
-                / math.sqrt(g_min) / (1 - kap) + 2 * rY2) * _INFLATE
+                / math.sqrt(g_min) / (1 - kap) + 2 * rY2) * INFLATE
         return T, err, D, derr
 
     def test(x):
         T, err = schur(x)
         if T is None:
             return 0.0, 0.0, T
-        floor = 1e3 * _gamma(m + 2) * float(np.linalg.norm(T))
-        return _sigma_min_lower(T) - err, max(err, floor), T
+        floor = 1e3 * gamma(m + 2) * float(np.linalg.norm(T))
+        return sigma_min_lower(T) - err, max(err, floor), T
 
     def in_a_box(approx):
         """Complex if a box about an estimate, off the real axis, holds an
@@ -190,14 +247,14 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
                 schur, z0.real - r, z0.real + r, z0.imag - r, z0.imag + r, curv)
             if cnt is not None and cnt >= 1:
                 if inside.size == m:
-                    return "complex", margin, "", inside.astype(complex)
+                    return Decision.COMPLEX, margin, "", inside.astype(complex)
                 out = np.asarray(approx, complex).copy()
                 j = np.argsort(np.abs(out.real - z0.real))[:2]
                 out[j] = [z0, np.conj(z0)]
-                return "complex", margin, "", out
+                return Decision.COMPLEX, margin, "", out
             if cnt == 0:
                 why = f"winding count: no eigenvalue in the box about {z0:.6g}"
-        return "undecided", 0.0, why, approx
+        return Decision.UNDECIDED, 0.0, why, approx
 
     if not real_routes:
         verdict, margin, why, lam_b = in_a_box(lam0)
@@ -206,7 +263,7 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     # the strip's eigenvalues: fixed point of x = eig(T(x) + x) from the Ritz values
     T0, _ = schur(0.5 * (a_lo + a_hi))
     if T0 is None:
-        return "undecided", 0.0, lam0, "the bordered system of the strip is singular"
+        return Decision.UNDECIDED, 0.0, lam0, "the bordered system of the strip is singular"
     lam_c = np.linalg.eigvals(T0 + 0.5 * (a_lo + a_hi) * np.eye(m))
     # the roots of det T(x) = 0, estimated from T linearised about the cluster's
     # centre xc: det(T(xc) + (x - xc) T'(xc)) = 0, a generalized eigenproblem
@@ -230,13 +287,13 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         for p in pts:
             s, floor, T = test(float(p))
             if not s > floor:
-                return "undecided", max(s, 0.0) / floor if floor else 0.0, (
+                return Decision.UNDECIDED, max(s, 0.0) / floor if floor else 0.0, (
                     f"strip of {m}: det of its Schur complement not certified at x = {p:.9g}")
             margin = min(margin, (s + floor) / floor if floor else math.inf)
             signs.append(np.linalg.slogdet(T)[0])
         if all(signs[i] != signs[i + 1] for i in range(m)):
-            return "real", margin, ""
-        return "undecided", 0.0, f"strip of {m}: no sign change of det between roots"
+            return Decision.REAL, margin, ""
+        return Decision.UNDECIDED, 0.0, f"strip of {m}: no sign change of det between roots"
 
     def no_real_root():
         """Cover [a_lo, a_hi] by intervals [x - h, x + h] on which T(x + t) = T(x) +
@@ -249,20 +306,20 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
             T, err, D, derr = schur(mid, deriv=True)
             evals += 1
             if T is None:
-                return "undecided", 0.0, "the bordered system of the strip is singular"
+                return Decision.UNDECIDED, 0.0, "the bordered system of the strip is singular"
             ts = np.linspace(-h, h, 33)
-            smin = min(_sigma_min_lower(T + t * D) for t in ts)
+            smin = min(sigma_min_lower(T + t * D) for t in ts)
             low = smin - float(np.linalg.norm(D, 2)) * (ts[1] - ts[0]) / 2 * (1 + 1e-8)
-            floor = 1e3 * _gamma(m + 2) * float(np.linalg.norm(T))
+            floor = 1e3 * gamma(m + 2) * float(np.linalg.norm(T))
             slack = err + h * derr + 0.5 * curv * h * h + floor
             if low > slack:
                 margin = min(margin, low / slack)
                 continue
             if evals > 400 or h < 1e-12 * max(abs(mid), 1.0):
-                return "undecided", max(low, 0.0) / slack, (
+                return Decision.UNDECIDED, max(low, 0.0) / slack, (
                     f"strip of {m}: a real root cannot be excluded near x = {mid:.9g}")
             todo += [(lo, mid), (mid, hi)]
-        return "complex", margin, ""
+        return Decision.COMPLEX, margin, ""
 
     # the route the estimates suggest first, then the other one
     roots = np.sort(lam_c.real)
@@ -270,17 +327,52 @@ def _decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     first_real = bool(np.all(lam_c.imag == 0))
     tries = ([all_real] if first_real else []) + [no_real_root] + \
         ([all_real] if distinct and not first_real else [])
-    result = ("undecided", 0.0, f"strip of {m}: no distinct root estimates")
+    result = (Decision.UNDECIDED, 0.0, f"strip of {m}: no distinct root estimates")
     for route in tries:
         result = route(roots) if route is all_real else route()
-        if result[0] != "undecided":
+        if result[0] is not Decision.UNDECIDED:
             break
-    if result[0] == "real":
+    if result[0] is Decision.REAL:
         lam_c = roots.astype(complex)       # certified real: the estimates' real parts
-    if result[0] == "undecided" and estimates is not None:
+    if result[0] is Decision.UNDECIDED and estimates is not None:
         box = in_a_box(lam_c)
-        if box[0] == "complex":
+        if box[0] is Decision.COMPLEX:
             return box[0], box[1], box[3], ""
         if box[2]:
             result = (result[0], result[1], f"{result[2]}; {box[2]}")
     return result[0], result[1], lam_c, result[2]
+
+
+def arpack_hint(A, a_lo, a_hi, m):
+    """What ARPACK sees in an undecided strip [a_lo, a_hi] of m eigenvalues: a
+    note for its reason, marked not certified ('' if ARPACK fails), and the
+    estimates with real part in the strip (ndarray of complex, by real part).
+
+    The 2 m + 6 eigenvalues of A nearest the strip's centre (shift-invert);
+    those with real part in the strip are counted (a complex pair far from the
+    real axis may be missed: the note says how many of the m were seen) and
+    the complex ones named. Nothing is decided from it.
+    """
+    n = A.shape[0]
+    k = min(2 * m + 6, n - 2)
+    none = np.zeros(0, complex)
+    if k < 1:
+        return "", none
+    c = 0.5 * (a_lo + a_hi)
+    try:
+        lu = spla.splu(sp.csc_matrix(A - c * sp.identity(n, format="csr")))
+        op = spla.LinearOperator((n, n), matvec=lu.solve, dtype=float)
+        # a fixed start vector: the note does not depend on earlier ARPACK calls
+        nu = spla.eigs(op, k=k, which="LM", return_eigenvectors=False, maxiter=50 * n,
+                       v0=np.random.default_rng(0).standard_normal(n))
+    except (RuntimeError, spla.ArpackError):
+        return "", none
+    lam = c + 1.0 / nu
+    inside = lam[(lam.real >= a_lo) & (lam.real <= a_hi)]
+    cx = inside[inside.imag > 0]
+    note = f"; ARPACK, not certified: {inside.size} of its {m} eigenvalues seen, "
+    inside = inside[np.lexsort((inside.imag, inside.real))]
+    if not cx.size:
+        return note + "none complex", inside
+    z = cx[int(np.argmax(cx.imag))]
+    return note + f"{cx.size} complex pair(s), e.g. {z.real:.6g} +- {z.imag:.4g}i", inside

@@ -1,7 +1,7 @@
 """The Ritz pairs a sliced scan keeps in memory (its *buffer*).
 
 Part of :mod:`remote_trigger.analysis.stability.sliced`: the scan adds each
-slice of Ritz pairs of the symmetric part S (:mod:`.slicing`) and forgets the
+slice of Ritz pairs of the symmetric part S (:mod:`.slices`) and forgets the
 oldest slices once the certified boundaries have passed them; the strips and
 boundaries (:mod:`.strips`) read the values, vectors and couplings kept here.
 """
@@ -9,8 +9,8 @@ import math
 
 import numpy as np
 
-from remote_trigger.analysis.stability import scan_state
-from remote_trigger.analysis.stability.slicing import _INFLATE
+from remote_trigger.analysis.stability.sliced.checkpoint import sha
+from remote_trigger.analysis.stability.sliced.numerics import INFLATE
 
 __all__ = ["RitzBuffer"]
 
@@ -29,7 +29,7 @@ class RitzBuffer:
 
     Pickled (a scan's checkpoint) without Q, its only array of n rows: the
     sha256 of Q's bytes and its shape are saved instead, and a resumed scan
-    computes the buffer's slices again (:func:`.scan_state.restore_ritz`)."""
+    computes the buffer's slices again (:func:`.checkpoint.restore_ritz`)."""
 
     def __init__(self, n):
         self.th = np.zeros(0)
@@ -63,7 +63,7 @@ class RitzBuffer:
         Q = self.Q
         state["Q"] = None
         if Q is not None:      # (None: a loaded state, its vectors not restored)
-            state.update(q_shape=Q.shape, q_sha=scan_state.sha(Q))
+            state.update(q_shape=Q.shape, q_sha=sha(Q))
         return state
 
     def __setstate__(self, state):
@@ -160,4 +160,4 @@ class RitzBuffer:
         used = sorted(set(int(i) for i in self.sid[idx]))
         tot = sum(self.phis[i] ** 2 for i in used)
         tot += 2 * sum(self.cross[(i, j)] ** 2 for i in used for j in used if i < j)
-        return math.sqrt(tot) * _INFLATE
+        return math.sqrt(tot) * INFLATE

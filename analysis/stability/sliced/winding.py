@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from remote_trigger.analysis.stability.enclosure import U, _gamma, _inverse_residual
+from remote_trigger.analysis.stability.enclosure import U, gamma, inverse_residual
 
 __all__ = ["box_zero_count"]
 
@@ -47,18 +47,18 @@ def sigma_min_lower(T):
     """Rigorous lower bound of sigma_min of a small real or complex matrix.
 
     With Z ~ T^-1 and e >= ||I - Z T||_F < 1
-    (:func:`~remote_trigger.analysis.stability.enclosure._inverse_residual`),
+    (:func:`~remote_trigger.analysis.stability.enclosure.inverse_residual`),
     ||T^-1||_2 <= ||Z||_2 / (1 - e); ||Z||_2^2 = ||Z^H Z||_2 is at most the
     largest row sum of |Z^H Z| (a Hermitian matrix's spectral norm is at most
     its infinity norm), with the rounding of the product added.
     """
     T = np.asarray(T)
-    inv = _inverse_residual(T)
+    inv = inverse_residual(T)
     if inv is None or not inv[1] < 1.0:
         return 0.0
     Z, e = inv
     aZ = np.abs(Z)
-    g = 2 * _gamma(T.shape[0] + 4)      # complex products: twice the real gamma
+    g = 2 * gamma(T.shape[0] + 4)      # complex products: twice the real gamma
     G = np.abs(Z.conj().T @ Z) + g * (aZ.T @ aZ)
     z2 = math.sqrt(float(np.max(G.sum(axis=1))) * (1 + g))
     return (1.0 - e) / z2 * (1 - 4 * U)

@@ -1,13 +1,16 @@
-"""The saved state of a sliced verdict's scan: files, keys, and progress.
+"""The checkpoint of a sliced scan: its files, key and format, save and restore.
 
-Part of :mod:`remote_trigger.analysis.stability.sliced` (docs/analysis.md,
-"Checkpoint of a scan"): ``classify_sliced(..., checkpoint_dir=D)`` saves
-its scan (the ``_Scan`` of that module) as ``D/sliced-<key>.scan.pkl`` and its
-finished verdict as ``D/sliced-<key>.done.pkl``, each a pickle of
-``(key, object)`` written atomically; ``key`` (:func:`scan_key`) is a
-sha256 of the scaled matrix to the last bit and of the options, so a call
-only ever finds its own state. A saved scan holds no Ritz vector: a resume
-computes its buffer's slices again (:func:`restore_ritz`).
+``classify_sliced(..., checkpoint_dir=D)`` (docs/analysis.md, "Checkpoint of
+a scan") saves its scan (a :class:`~.scan.SlicedScan`) as
+``D/sliced-<key>.scan.pkl`` and its finished verdict as
+``D/sliced-<key>.done.pkl`` (:class:`ScanFiles`), each a pickle of ``(key,
+object)`` written atomically; ``key`` (:func:`scan_key`) is a sha256 of the
+scaled matrix to the last bit, of the options and of
+:data:`CHECKPOINT_FORMAT`, so a call only ever finds its own state. A saved
+scan holds no Ritz vector: the buffer (:class:`~.buffer.RitzBuffer`) pickles
+their shape and :func:`sha` instead, and a resume computes its slices again
+(:func:`restore_ritz`). :func:`saved_scans` lists a folder's saved scans for
+progress reports.
 """
 import copy
 import hashlib
@@ -16,18 +19,22 @@ import pickle
 
 import numpy as np
 
-__all__ = ["CHECKPOINT_FORMAT", "scan_key", "load", "save", "saved_scans", "sha", "restore_ritz"]
+from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
+
+__all__ = ["CHECKPOINT_FORMAT", "ScanFiles", "scan_key", "saved_scans", "sha", "restore_ritz"]
 
 #: checkpoint format; a file of another format (or code) is not resumed (4: the
 #: buffer's class and pickled state, and slices whose bits differ from those of 3;
-#: 5: ARPACK's shorter Lanczos basis, slices whose bits differ from those of 4)
-CHECKPOINT_FORMAT = 5
+#: 5: ARPACK's shorter Lanczos basis, slices whose bits differ from those of 4;
+#: 6: the scan's classes in the package ``sliced``, where pickle finds them by
+#: module path: a file of 5 names classes that no longer exist there)
+CHECKPOINT_FORMAT = 6
 
 
 def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None):
     """sha256 of everything a scan depends on: A = M^-1/2 K M^-1/2 (canonical CSR,
     bitwise), the options, the largest strip decided on the real axis
-    (``sliced._MAX_STRIP``: a scan or verdict saved under another limit is
+    (``scan._MAX_STRIP``: a scan or verdict saved under another limit is
     not taken, so its strips are not decided by two rules) and the
     checkpoint format. ``soft_rel`` (the stop rule's soft-pair threshold)
     enters only when given, so the keys of scans without it are those of
@@ -43,10 +50,10 @@ def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_
     return h.hexdigest()[:32]
 
 
-def load(path, key):
-    """The object saved at ``path`` for ``key`` (a _Scan, or a finished
-    (SpectrumDecision, SlicedStats)); None if there is none, or it is
-    unreadable or of another key (a scan from the start then replaces it)."""
+def _load(path, key):
+    """The object saved at ``path`` for ``key``; None if there is none, or it is
+    unreadable (truncated, or of other code: a class pickle no longer finds)
+    or of another key (a scan from the start then replaces it)."""
     try:
         with open(path, "rb") as fh:
             saved = pickle.load(fh)
@@ -55,6 +62,69 @@ def load(path, key):
     if not (isinstance(saved, tuple) and len(saved) == 2 and saved[0] == key):
         return None
     return saved[1]
+
+
+def _save(path, key, obj):
+    """Save (key, obj) to ``path`` atomically (pickle), creating its folder."""
+    from remote_trigger.analysis.output import atomic_path
+
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            pickle.dump((key, obj), fh, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+class ScanFiles:
+    """The files of one scan in a checkpoint folder.
+
+    Parameters
+    ----------
+    folder : str or path-like
+        ``classify_sliced``'s ``checkpoint_dir`` (created at the first save).
+    key : str
+        The scan's :func:`scan_key`.
+
+    Attributes
+    ----------
+    scan_path : str
+        ``<folder>/sliced-<key>.scan.pkl``: the scan's state (a
+        :class:`~.scan.SlicedScan`, without its Ritz vectors).
+    verdict_path : str
+        ``<folder>/sliced-<key>.done.pkl``: the finished verdict and its
+        statistics.
+    """
+
+    def __init__(self, folder, key):
+        self.key = key
+        stem = os.path.join(os.fspath(folder), f"sliced-{key}")
+        self.folder = os.path.dirname(stem)
+        self.scan_path = stem + ".scan.pkl"
+        self.verdict_path = stem + ".done.pkl"
+
+    def load_verdict(self):
+        """The saved (SpectrumDecision, SlicedStats) of this key, or None."""
+        return _load(self.verdict_path, self.key)
+
+    def load_scan(self):
+        """The saved scan of this key, or None (its Ritz vectors not restored:
+        :func:`restore_ritz`)."""
+        return _load(self.scan_path, self.key)
+
+    def save_scan(self, scan):
+        """Save the scan's state, atomically (its buffer without vectors)."""
+        _save(self.scan_path, self.key, scan)
+
+    def save_verdict(self, decision, stats):
+        """Save the finished verdict and its statistics, atomically, and remove
+        every ``sliced-*.scan.pkl`` of the folder (a folder serves one scan at a
+        time: another scan's state is stale)."""
+        _save(self.verdict_path, self.key, (decision, stats))
+        for name in os.listdir(self.folder):
+            if name.startswith("sliced-") and name.endswith(".scan.pkl"):
+                try:
+                    os.unlink(os.path.join(self.folder, name))
+                except FileNotFoundError:
+                    pass
 
 
 def saved_scans(folder):
@@ -88,20 +158,10 @@ def saved_scans(folder):
             mtime = os.path.getmtime(path)
             with open(path, "rb") as fh:
                 _, sc = pickle.load(fh)
-            out.append((path, int(sc.dropped + sc.buf.th.size), int(sc.stats.n), mtime))
+            out.append((path, int(sc.counted), int(sc.stats.n), mtime))
         except Exception:       # noqa: BLE001 - replaced meanwhile, truncated or other code
             continue
     return out
-
-
-def save(path, key, obj):
-    """Save (key, obj) to ``path`` atomically (pickle), creating its folder."""
-    from remote_trigger.analysis.output import atomic_path
-
-    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            pickle.dump((key, obj), fh, protocol=pickle.HIGHEST_PROTOCOL)
 
 
 def sha(a):
@@ -113,7 +173,7 @@ def sha(a):
 def restore_ritz(sc, slices):
     """Put the Ritz vectors back into a scan loaded from its checkpoint.
 
-    The saved buffer (``ritz_buffer.RitzBuffer``) has no vectors, only their
+    The saved buffer (:class:`~.buffer.RitzBuffer`) has no vectors, only their
     shape and :func:`sha`. Its slices are computed again from the position
     saved before the first of them (``sc.starts``) by ``slices(position)``,
     the slicing's generator with statistics of its own (the scan's are those
@@ -127,8 +187,6 @@ def restore_ritz(sc, slices):
         False where they are not the saved ones (another BLAS thread count,
         a damaged state): the scan then starts from the beginning.
     """
-    from remote_trigger.analysis.stability.slicing import _Fail
-
     buf = sc.buf
     shape, digest = buf.__dict__.pop("q_shape", None), buf.__dict__.pop("q_sha", None)
     if shape is None or (buf.edges and buf.edges[0][0] not in sc.starts):
@@ -143,7 +201,7 @@ def restore_ritz(sc, slices):
                     return False
                 Qs.append(sl.Q)
                 th.append(sl.theta)
-        except (StopIteration, _Fail):
+        except (StopIteration, SliceFailure):
             return False
     Q = np.hstack(Qs)
     if Q.shape != tuple(shape) or sha(Q) != digest or \

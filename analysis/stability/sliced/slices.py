@@ -1,0 +1,327 @@
+"""Ritz slices of the symmetric part S: its eigenpairs, slice by slice, none missed.
+
+:func:`ritz_slices` computes the eigenpairs of S from the bottom of the
+spectrum up, k at a time, by ARPACK shift-invert (:func:`shift_invert`)
+about a shift inside the slice; their Rayleigh-Ritz values bound the
+eigenvalues of S by Kahan's theorem (:func:`rayleigh_ritz`), and each
+slice's upper edge lies in a gap whose Sylvester count (:mod:`.inertia`)
+equals the count below its lower edge plus the Ritz values kept, so no
+eigenvalue is missed. The slicing's :class:`Position` between two slices is
+what a checkpoint saves of it (:mod:`.checkpoint`). The proof they serve:
+:mod:`remote_trigger.analysis.stability.sliced` (*Counting*).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+from remote_trigger.analysis.stability.enclosure import gamma
+from remote_trigger.analysis.stability.sliced.inertia import Shifts, count_below
+from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
+
+__all__ = ["Slice", "Position", "ritz_slices", "rayleigh_ritz", "shift_invert",
+           "start_position", "top_eigenvalue"]
+
+_ARPACK_TOL = 1e-8              # ARPACK stopping tolerance (only the checked residuals matter)
+# shift-invert shift above a slice's lower edge, in slice widths: the k pairs
+# nearest it reach ~0.08 of a width below the edge (pairs computed twice); a
+# shift too high misses the edge and the slice is computed again. Measured
+# (docs/results/analysis.md, "The shift of a slice"): pairs computed for the
+# n kept at N = 1600 / 6400 / 10^4, 1.38 / 1.35 / 1.34 n at 0.35, 1.32 /
+# 1.24 / 1.25 n at 0.42 (3, 0 and 4 misses); at 0.46, 17 misses at N = 6400
+_SHIFT_FRACTION = 0.42
+# ARPACK's Lanczos basis: NCV = _NCV_FACTOR k + 1 vectors for the k pairs of a
+# slice (scipy's default is 2k + 1). A shorter basis restarts more often but
+# each restart and reorthogonalization moves fewer vectors: measured
+# (docs/results/analysis.md, "The Lanczos basis of a slice"), CPU of a
+# certified-real scan at N = 6400: 252 s at 2k + 1, 200 s at 1.4 k + 1 (side
+# by side; QDLDL solves 8 % fewer), 238 s at 1.2 k + 1, 224 s at 1.6 k + 1;
+# at N = 10^4 664 s and 587 s side by side; at N = 1600 8.2-8.6 s at 2k + 1,
+# 7.4-7.6 s at 1.33-1.5 k + 1
+_NCV_FACTOR = 1.4
+# a slice whose Kahan radius exceeds this fraction of its mean Ritz value
+# spacing is computed again about a moved shift (docs/results/analysis.md, "A
+# shift at a tiny pivot"): at N = 10^4 the first 100 slices of a real point at
+# F_x = 1.25e-4 have radii 3e-5 - 6e-5 of their spacing, the slice about such a
+# shift 0.012
+_REFINE = 1e-3
+
+
+@dataclass
+class Slice:
+    """One slice of Ritz pairs of S, between two certified edges.
+
+    Attributes
+    ----------
+    lo, hi : float
+        Lower and upper edge (gap points: no eigenvalue of S within the Ritz
+        radius plus the inertia fuzz of them).
+    theta : ndarray, shape (k,)
+        The Ritz values in (lo, hi), ascending.
+    Q : ndarray, shape (n, k)
+        Their Ritz vectors.
+    WQ : ndarray, shape (n, k)
+        W Q (W the skew part).
+    radius : float
+        Kahan radius: every eigenvalue of S matched to a Ritz value of the
+        slice lies within it of that value.
+    resid : ndarray, shape (k,)
+        Bounds of the residual norms ||S q_i - theta_i q_i||.
+    phi : float
+        Bound of ||Q^T Q - I||_2.
+    """
+
+    lo: float
+    hi: float
+    theta: np.ndarray
+    Q: np.ndarray
+    WQ: np.ndarray
+    radius: float
+    resid: np.ndarray
+    phi: float
+
+
+def rayleigh_ritz(S, W, Q, normS):
+    """Rayleigh-Ritz of S on span(Q): values, vectors, W times them, radius, residuals, phi.
+
+    Q is ARPACK's (or LAPACK's) orthonormal to working precision; it is
+    orthonormalized again (QR) only where it is not, to 1e-10 in the Frobenius
+    norm (the bounds below hold for any Q: phi measures what is left).
+
+    Returns
+    -------
+    theta, Q, WQ, radius, resid, phi
+        As the fields of :class:`Slice` (``normS`` bounds ||S||_2 for the
+        rounding of the residuals).
+    """
+    k = Q.shape[1]
+    if np.linalg.norm(Q.T @ Q - np.eye(k)) > 1e-10:
+        Q, _ = np.linalg.qr(Q)
+    H = Q.T @ (S @ Q)
+    theta, Y = np.linalg.eigh((H + H.T) / 2)
+    Q = Q @ Y
+    SQ = S @ Q
+    R = SQ - Q * theta
+    n, k = Q.shape
+    G = Q.T @ Q - np.eye(k)
+    phi = (np.linalg.norm(G) + gamma(n) * k) * INFLATE
+    round_r = gamma(n + 2) * (normS + float(np.max(np.abs(theta)))) * math.sqrt(k)
+    resid = (np.linalg.norm(R, axis=0) + round_r) * INFLATE
+    # Kahan for the exactly orthonormal Q (Q^T Q)^{-1/2}: ||R|| (1 + phi) + 2 phi |theta|
+    radius = (math.sqrt(float(np.sum(resid ** 2))) * (1 + phi)
+              + 2 * phi * float(np.max(np.abs(theta)))) * INFLATE
+    return theta, Q, W @ Q, radius, resid, phi
+
+
+@dataclass
+class Position:
+    """Where the slicing stands between two slices (pickled at a checkpoint).
+
+    x is the next slice's lower edge, ``count`` the Sylvester count of S
+    below it and ``fuzz`` that count's fuzz; ``rng`` draws ARPACK's start
+    vectors; ``width`` is the estimated width of a slice (None before the
+    first).
+    """
+
+    x: float
+    count: int
+    fuzz: float
+    rng: np.random.Generator
+    width: float | None = None
+
+
+def start_position(S, lo0, stats):
+    """The position below the spectrum: no eigenvalue of S below ``lo0``, counted.
+
+    Raises
+    ------
+    SliceFailure
+        If S has eigenvalues below ``lo0`` (their count named).
+    """
+    cnt, fz, _ = count_below(S, lo0)
+    if cnt != 0:
+        raise SliceFailure(f"{cnt} eigenvalues of S below the Gershgorin bound {lo0:.6g}")
+    stats.fuzz = max(stats.fuzz, fz)
+    return Position(lo0, 0, fz, np.random.default_rng(12345))
+
+
+def shift_invert(S, shifts, sigma, k, rng, stats):
+    """ARPACK's k eigenpairs of S nearest sigma (shift-invert with QDLDL's
+    factorization of S - sigma I from ``shifts``, a :class:`~.inertia.Shifts`
+    of S, start vector drawn from ``rng``).
+
+    Raises
+    ------
+    SliceFailure
+        If S - sigma I has no LDL^T factorization (a zero pivot).
+    """
+    n = S.shape[0]
+    fac = shifts.factor_checked(sigma, f"S - sigma I at sigma = {sigma:.9g}")
+    op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=np.float64)
+    lam, V = spla.eigsh(S, k=k, sigma=sigma, which="LM", OPinv=op, tol=_ARPACK_TOL,
+                        v0=rng.standard_normal(n), ncv=min(n, int(_NCV_FACTOR * k) + 1))
+    stats.arpack_runs += 1
+    stats.computed += lam.size
+    return lam, V
+
+
+def ritz_slices(S, W, k, normS, pos, stats):
+    """Yield the Ritz slices (:class:`Slice`) of S from ``pos`` (a :class:`Position`) upwards.
+
+    Each slice: the k eigenvalues of S nearest a shift sigma (ARPACK
+    shift-invert), sigma placed ``_SHIFT_FRACTION`` (0.42) of a slice above
+    the previous upper edge x so that the k nearest reach below x (no hole:
+    checked, and the count below proves it); the new upper edge y lies in the
+    widest gap of the slice's upper part whose distance to its Ritz values
+    exceeds the Ritz radius and the inertia fuzz; the inertia count of (x, y)
+    must equal the number of Ritz values kept. ``pos`` is advanced to y
+    before each slice is yielded, so that a scan saved after a slice resumes
+    from it (:meth:`.scan.SlicedScan.save`) exactly as it would have gone on.
+    ``stats`` (a :class:`~.stats.SlicedStats`) counts the slices and solves.
+
+    Raises
+    ------
+    SliceFailure
+        If a slice cannot be certified (no shift reaches its lower edge, a
+        Ritz value within the radius of an edge, no certified upper edge).
+    """
+    n = S.shape[0]
+    shifts = Shifts(S)
+    while pos.count < n:
+        yield _next_slice(S, W, k, normS, pos, shifts, stats)
+
+
+def _next_slice(S, W, k, normS, pos, shifts, stats):
+    """The slice above ``pos.x`` (:func:`ritz_slices`); ``pos`` advanced to its upper edge."""
+    n = S.shape[0]
+    x, cnt_x, fz_x = pos.x, pos.count, pos.fuzz
+    kk = min(k, n - 2)
+    lam, V, sigma, whole = _pairs_reaching_below(S, shifts, pos, kk, stats)
+    ritz = rayleigh_ritz(S, W, V, normS)
+    theta, radius = ritz[0], ritz[3]
+    if not whole and radius > _REFINE * (theta[-1] - theta[0]) / max(theta.size - 1, 1):
+        lam, ritz = _reshifted(S, W, normS, shifts, sigma, kk, pos.rng, stats, lam, ritz)
+    theta, Q, WQ, radius, resid, phi = ritz
+    above = theta > x
+    if not whole and np.max(theta) <= x:
+        raise SliceFailure(f"no Ritz value above the slice edge {x:.6g}")
+    theta, Q, WQ, resid = theta[above], Q[:, above], WQ[:, above], resid[above]
+    if theta[0] - x <= 2 * (radius + fz_x):
+        raise SliceFailure(f"slice edge {x:.9g} within {2 * (radius + fz_x):.3g} of a Ritz value")
+    cands = _edge_candidates(theta, lam, radius, whole, cnt_x, n)
+    y, nkeep, cnt_y, fz = _certified_edge(shifts, cands, theta, radius, x, cnt_x)
+    stats.fuzz = max(stats.fuzz, fz)
+    stats.slices += 1
+    stats.ritz_radius = max(stats.ritz_radius, radius)
+    keep = slice(0, nkeep)
+    pos.width = float(theta[nkeep - 1] - theta[0]) * k / max(nkeep - 1, 1)
+    pos.x, pos.count, pos.fuzz = y, cnt_y, fz
+    return Slice(x, y, theta[keep], Q[:, keep], WQ[:, keep], radius, resid[keep], phi)
+
+
+def _pairs_reaching_below(S, shifts, pos, kk, stats):
+    """The kk eigenpairs of S nearest a shift sigma above ``pos.x`` that reach
+    below it: (lam, V, sigma, whole); ``whole``: all of S's eigenpairs above x
+    (LAPACK, where kk >= n - 2).
+
+    The kk nearest to sigma reach below x unless (x, sigma) holds more than
+    kk/2 of them: sigma 0.42 of a slice above x leaves a margin for the
+    variation of the eigenvalue density (a miss costs a second ARPACK run:
+    sigma is then halved towards x, and x itself after ten misses).
+    """
+    n = S.shape[0]
+    x, width = pos.x, pos.width
+    sigma = x if width is None else x + _SHIFT_FRACTION * width
+    for attempt in range(12):
+        if kk >= n - 2:
+            lam, V = np.linalg.eigh(S.toarray())
+            sel = lam > x
+            return lam[sel], V[:, sel], sigma, True
+        lam, V = shift_invert(S, shifts, sigma, kk, pos.rng, stats)
+        if sigma == x or np.min(lam) < x:
+            return lam, V, sigma, False
+        sigma = x + 0.5 * (sigma - x) if attempt < 10 else x   # a hole above x: lower
+    raise SliceFailure(f"no shift above {x:.6g} reached the slice edge")
+
+
+def _reshifted(S, W, normS, shifts, sigma, kk, rng, stats, lam, ritz):
+    """The slice computed again about a shift 1 % of its span lower, kept if its
+    Kahan radius is smaller: (lam, Rayleigh-Ritz of the slice kept).
+
+    A shift where QDLDL's elimination (no pivoting) met a tiny pivot: the
+    growth of D makes the solves inexact (N = 10^4: relative error 4.5e-6,
+    max |d| 1.1e13, inertia fuzz 1394 at one shift) and ARPACK converges to
+    vectors of that inexact operator whatever its tolerance (residuals ~1e-3
+    on all 60). The moved shift's window still reaches below the edge.
+    """
+    theta, radius = ritz[0], ritz[3]
+    lam2, V = shift_invert(S, shifts, sigma - 0.01 * float(theta[-1] - theta[0]), kk, rng, stats)
+    stats.reshifted += 1
+    better = rayleigh_ritz(S, W, V, normS)
+    if better[3] < radius:
+        return lam2, better
+    return lam, ritz
+
+
+def _edge_candidates(theta, lam, radius, whole, cnt_x, n):
+    """Candidate upper edges (y, Ritz values kept below it), best first.
+
+    The last slice: above its top Ritz value. Otherwise all eigenvalues up to
+    the largest |lam - sigma| are found, and the edges lie in gaps of what
+    lies below that reach: the widest of the top sixth first (the higher the
+    edge, the fewer Ritz pairs are computed twice), then the widest of the
+    rest of the upper half.
+    """
+    reach = np.max(lam) if not whole else math.inf
+    if whole or cnt_x + theta.size >= n:
+        y = float(theta[-1]) + max(1.0, abs(float(theta[-1]))) * 1e-3 + 2 * radius + 1.0
+        return [(y, theta.size)]
+    th = theta[theta < reach]
+    top = max(1, (th.size * 5) // 6)
+    half = max(1, th.size // 2)
+    cands = []
+    for lo_i, hi_i in ((top, th.size), (half, top)):
+        gaps = np.diff(th[lo_i - 1:hi_i])
+        cands += [(0.5 * (th[lo_i - 1 + j] + th[lo_i + j]), lo_i + j)
+                  for j in np.argsort(gaps)[::-1][:8]]
+    return cands
+
+
+def _certified_edge(shifts, cands, theta, radius, x, cnt_x):
+    """The first candidate edge y whose Sylvester count equals the count at x
+    plus the Ritz values kept, farther than 2 (radius + fuzz) from each Ritz
+    value: (y, Ritz values kept, count at y, its fuzz).
+
+    Raises
+    ------
+    SliceFailure
+        If no candidate is certified.
+    """
+    for y, nkeep in cands:
+        try:
+            cnt_y, fz, _ = shifts.count_below(y)
+        except (ValueError, SliceFailure):
+            continue
+        d = min(abs(theta - y))
+        if d > 2 * (radius + fz) and cnt_y - cnt_x == nkeep:
+            return y, nkeep, cnt_y, fz
+    raise SliceFailure(f"no certified edge above {x:.9g}: inertia count and Ritz values "
+                       f"differ or the edge is within the Ritz radius {radius:.3g} + "
+                       f"inertia fuzz of a Ritz value")
+
+
+def top_eigenvalue(S):
+    """ARPACK's largest eigenvalue of the symmetric S (an approximation; NaN if
+    ARPACK does not converge)."""
+    from scipy.sparse.linalg import ArpackError, eigsh
+
+    if S.shape[0] < 10:
+        return float(np.linalg.eigvalsh(S.toarray())[-1])
+    v0 = np.random.default_rng(0).standard_normal(S.shape[0])
+    try:
+        return float(eigsh(S, k=1, which="LA", v0=v0, return_eigenvectors=False)[0])
+    except ArpackError:         # ArpackNoConvergence included
+        return math.nan

@@ -1,0 +1,56 @@
+"""What a sliced verdict did: :class:`SlicedStats`, filled by its steps."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+__all__ = ["SlicedStats"]
+
+
+@dataclass
+class SlicedStats:
+    """What the sliced verdict did (``SpectrumDecision.timing`` holds the times).
+
+    Attributes
+    ----------
+    n : int
+        Order of A.
+    slices : int
+        Number of shift-invert slices of S.
+    boundaries : int
+        Certified boundaries (a strip between two).
+    strips : dict
+        Number of strips per size m.
+    norm_W : float
+        Rigorous upper bound of ||W||_2 (1/time^2).
+    window : float
+        Delta, the half-width of the explicit window (1/time^2).
+    max_kappa : float
+        Largest kappa(a) among certified boundaries.
+    fuzz : float
+        Largest inertia fuzz (1/time^2).
+    ritz_radius : float
+        Largest Ritz radius ||R||_2 of a slice (1/time^2).
+    arpack_runs : int
+        Shift-invert eigen-solves (a slice whose shift missed its lower edge
+        takes more than one).
+    computed : int
+        Eigenpairs computed by those solves (n of them are kept).
+    reshifted : int
+        Slices computed again about a shift moved by 1 % of their span (their
+        Kahan radius above 1e-3 of their mean Ritz value spacing,
+        :mod:`.slices`: inexact solves at a shift where the factorization met
+        a tiny pivot).
+    """
+
+    n: int = 0
+    slices: int = 0
+    boundaries: int = 0
+    strips: dict = field(default_factory=dict)
+    norm_W: float = 0.0
+    window: float = 0.0
+    max_kappa: float = 0.0
+    fuzz: float = 0.0
+    ritz_radius: float = 0.0
+    arpack_runs: int = 0
+    computed: int = 0
+    reshifted: int = 0
