@@ -354,12 +354,7 @@ def decide(system, options=None, basis=None, progress=None):
     """
     from remote_trigger.analysis.stability import eigen
 
-    options = VerdictOptions() if options is None else options
-    if not isinstance(options, VerdictOptions):
-        raise ValueError(f"options must be a VerdictOptions, got {type(options).__name__}")
-    if basis is not None and not isinstance(basis, SpectrumBasis):
-        raise ValueError(f"basis must be a SpectrumBasis (a previous result's .basis) or None, "
-                         f"got {type(basis).__name__}")
+    options = _check_inputs(options, basis)
     rat = system.rattlers
     if system.n == 0:          # every particle a rattler: nothing to decide
         return StabilityResult(np.zeros(0, complex), Decision.REAL, 0.0, 0.0,
@@ -386,6 +381,17 @@ def decide(system, options=None, basis=None, progress=None):
                            float(lam_max), coll, soft, method, units)
 
 
+def _check_inputs(options, basis):
+    """``options`` (None: the defaults), checked with ``basis``."""
+    options = VerdictOptions() if options is None else options
+    if not isinstance(options, VerdictOptions):
+        raise ValueError(f"options must be a VerdictOptions, got {type(options).__name__}")
+    if basis is not None and not isinstance(basis, SpectrumBasis):
+        raise ValueError(f"basis must be a SpectrumBasis (a previous result's .basis) or None, "
+                         f"got {type(basis).__name__}")
+    return options
+
+
 def stability_of(state, options=None, basis=None, progress=None):
     """:func:`decide` of a state: ``decide(reduced_system(state), ...)``.
 
@@ -398,10 +404,13 @@ def stability_of(state, options=None, basis=None, progress=None):
     Returns
     -------
     StabilityResult
+
+    Raises
+    ------
+    ValueError, TooLargeError
+        As :func:`decide` (a bad ``options`` or ``basis`` before K is built).
     """
-    if basis is not None and not isinstance(basis, SpectrumBasis):
-        raise ValueError(f"basis must be a SpectrumBasis (a previous result's .basis) or None, "
-                         f"got {type(basis).__name__}")
+    _check_inputs(options, basis)
     return decide(reduced_system(state), options, basis, progress)
 
 
