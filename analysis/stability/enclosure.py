@@ -61,8 +61,10 @@ def exact_residual(A, Q, M):
 
     Parameters
     ----------
-    A : ndarray, shape (n, n)
-        Real, finite; zeros are skipped (sparse structure).
+    A : ndarray or scipy.sparse matrix, shape (n, n)
+        Real, finite; zeros are skipped (sparse structure; a sparse A gives
+        the same R and err as its dense copy, without a search for its
+        nonzeros).
     Q : ndarray, shape (n, k)
     M : ndarray, shape (k, k)
 
@@ -78,19 +80,31 @@ def exact_residual(A, Q, M):
         If an entry is too large to be split exactly (|x| >= 2^995) or not
         finite.
     """
-    A = np.asarray(A, np.float64)
+    import scipy.sparse as sp
+
+    if sp.issparse(A):
+        A = sp.csr_matrix(A, dtype=np.float64)
+        A.sum_duplicates()
+        rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+        cols, a, bounds = A.indices, A.data, A.indptr
+        Ad = a                  # (the entries, for the checks below)
+    else:
+        A = np.asarray(A, np.float64)
+        rows = cols = None
+        Ad = A
     Q = np.asarray(Q, np.float64)
     M = np.asarray(M, np.float64)
     n, k = Q.shape
-    for name, X in (("A", A), ("Q", Q), ("M", M)):
+    for name, X in (("A", Ad), ("Q", Q), ("M", M)):
         if not np.all(np.isfinite(X)):
             raise ValueError(f"exact_residual: {name} has non-finite entries")
         if X.size and np.max(np.abs(X)) >= 2.0 ** 995:
             raise ValueError(f"exact_residual: |{name}| too large to split exactly "
                              f"({np.max(np.abs(X)):.3g} >= 2^995)")
-    rows, cols = np.nonzero(A)
-    a = A[rows, cols]
-    bounds = np.searchsorted(rows, np.arange(n + 1))
+    if rows is None:
+        rows, cols = np.nonzero(A)
+        a = A[rows, cols]
+        bounds = np.searchsorted(rows, np.arange(n + 1))
     out = np.empty((n, k))
     err = np.empty((n, k))
     for col in range(k):
@@ -218,3 +232,81 @@ def sigma_min_lower(K):
     Z, e = inv
     p = K.shape[0]
     return (1.0 - e) / rounded_up(float(np.linalg.norm(Z)), p * p) * (1 - 4 * U)
+
+# --------------------------------------------------------------------------- sep of 2 x 2 blocks
+def sep_2x2_lower(S, others):
+    """Rigorous lower bound of min_j sigma_min(I (x) B_j - S^T (x) I) over 2 x 2 blocks B_j.
+
+    sigma_min(I (x) B - S^T (x) I) is sep(B, S), the separation of the pair S
+    from the pair B (step 4 of :mod:`.exceptional`). Two bounds of it are
+    combined, each rigorous: with b, s half the traces and N_B, N_S the
+    traceless parts, I (x) B - S^T (x) I = (b - s) I + I (x) N_B - N_S^T (x) I,
+    so sep(B, S) >= |b - s| - ||N_B||_F - ||N_S||_F (Weyl); and for the blocks
+    where that is below the running minimum, the inverse bound of
+    :func:`sigma_min_lower` of the 4 x 4 matrix, evaluated for all of them
+    at once (a block j whose first bound is at least the minimum of the
+    bounds found cannot lower it). The result is min_j max(both bounds) >=
+    min_j :func:`sigma_min_lower`: the value of one
+    :func:`sigma_min_lower` per block, or larger.
+
+    Parameters
+    ----------
+    S : ndarray, shape (2, 2)
+        The pair's block (float64).
+    others : ndarray, shape (p, 2, 2)
+        The other pairs' blocks.
+
+    Returns
+    -------
+    float
+        inf if p = 0.
+    """
+    others = np.asarray(others, np.float64).reshape(-1, 2, 2)
+    if others.shape[0] == 0:
+        return math.inf
+    S = np.asarray(S, np.float64)
+    s = 0.5 * (S[0, 0] + S[1, 1])
+    ns = math.sqrt(0.25 * (S[0, 0] - S[1, 1]) ** 2 * 2 + S[0, 1] ** 2 + S[1, 0] ** 2)
+    b = 0.5 * (others[:, 0, 0] + others[:, 1, 1])
+    nb = np.sqrt(0.5 * (others[:, 0, 0] - others[:, 1, 1]) ** 2 + others[:, 0, 1] ** 2
+                 + others[:, 1, 0] ** 2)
+    # every operation above has a relative error <= u: 16 u covers the chains, and
+    # (1 - 4 u) the three roundings of the combination below
+    cheap = (np.abs(b - s) * (1 - 16 * U) - (nb + ns) * (1 + 16 * U)
+             - 16 * U * (np.abs(b) + abs(s))) * (1 - 4 * U) - TINY
+    cheap = np.where(cheap > 0, cheap, 0.0)          # (and 0 for a NaN)
+    order = np.argsort(cheap, kind="stable")
+    e2 = np.eye(2)
+    best = math.inf
+    k, p, step = 0, order.size, 8
+    while k < p and cheap[order[k]] < best:
+        idx = order[k:k + step]
+        idx = idx[cheap[idx] < best]
+        B = others[idx]
+        K = np.empty((idx.size, 4, 4))      # I (x) B - S^T (x) I, as np.kron forms it
+        K[:, :2, :2] = B - S[0, 0] * e2
+        K[:, 2:, 2:] = B - S[1, 1] * e2
+        K[:, :2, 2:] = -S[1, 0] * e2
+        K[:, 2:, :2] = -S[0, 1] * e2
+        best = min(best, float(np.min(np.maximum(cheap[idx], sigma_min_lower_many(K)))))
+        k += step
+        step *= 2
+    # the blocks left have cheap >= best
+    return best
+
+
+def sigma_min_lower_many(K):
+    """:func:`sigma_min_lower` of each matrix of the stack K (q, p, p), at once."""
+    q, p = K.shape[0], K.shape[1]
+    out = np.zeros(q)
+    try:
+        Z = np.linalg.inv(K)
+    except np.linalg.LinAlgError:       # a singular one: one at a time
+        return np.array([sigma_min_lower(Kj) for Kj in K])
+    fin = np.all(np.isfinite(Z), axis=(1, 2))
+    E = np.abs(np.eye(p) - Z @ K) * (1 + 2 * U) + gamma(p + 2) * (np.abs(Z) @ np.abs(K))
+    e = rounded_up(np.sqrt(np.sum(E * E, axis=(1, 2))), p * p)
+    zn = rounded_up(np.sqrt(np.sum(Z * Z, axis=(1, 2))), p * p)
+    ok = fin & (e < 1.0)
+    out[ok] = (1.0 - e[ok]) / zn[ok] * (1 - 4 * U)
+    return out

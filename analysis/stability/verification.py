@@ -22,7 +22,7 @@ import scipy.linalg as sla
 from remote_trigger.analysis.stability.decision import PairDecision, SpectrumBasis
 from remote_trigger.analysis.stability.enclosure import (
     EPS, TINY, U, cover_radius, disc_test, exact_residual, frac, gamma, margin, pair_eigs,
-    rounded_up, sigma_min_2x2_lower, sigma_min_lower)
+    rounded_up, sep_2x2_lower, sigma_min_2x2_lower)
 
 _PARALLEL = 1.0 - 1e-4          # |cos| of two real eigenvectors above which they form a pair
 _ILL = 100.0                    # pair basis condition above which the subspace is refined
@@ -72,34 +72,50 @@ def split_units(lam, V):
     return units
 
 
-def _refine(A, sigma, Q, iters=4):
+def _refine(A, sigma, Q, iters=4, Ap=None):
     """Orthonormal basis of the 2-dimensional invariant subspace nearest sigma.
 
     Subspace iteration with (A - sigma I)^{-1} from Q; returns Q unchanged if
     the shifted matrix cannot be factorised or the iteration breaks down.
+    ``Ap``: A's sparse copy, factorised by a sparse LU (SuperLU) instead of
+    the dense one (O(n^3) per pair: most of the decision's time where many
+    pairs are refined, as in a spectrum of near-double eigenvalues). Only a
+    proposal: the basis is verified afterwards (step 2).
     """
     n = A.shape[0]
-    B = A - sigma * np.eye(n)
+    solve = None
     for _ in range(3):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            lu, piv = sla.lu_factor(B, check_finite=False)
-        if np.all(np.diag(lu) != 0):
-            break
+        if Ap is not None:
+            import scipy.sparse as sp
+            import scipy.sparse.linalg as spla
+
+            try:
+                lu = spla.splu(sp.csc_matrix(Ap - sigma * sp.identity(n, format="csr")))
+                if np.all(lu.U.diagonal() != 0):
+                    solve = lu.solve
+                    break
+            except RuntimeError:            # exactly singular
+                pass
+        else:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                lu, piv = sla.lu_factor(A - sigma * np.eye(n), check_finite=False)
+            if np.all(np.diag(lu) != 0):
+                solve = lambda W, f=(lu, piv): sla.lu_solve(f, W, check_finite=False)  # noqa: E731
+                break
         sigma = sigma * (1 + 64 * EPS) + 64 * TINY
-        B = A - sigma * np.eye(n)
-    else:
+    if solve is None:
         return Q
     W = Q
     for _ in range(iters):
-        Y = sla.lu_solve((lu, piv), W, check_finite=False)
+        Y = solve(W)
         if not np.all(np.isfinite(Y)):
             return Q
         W, _ = np.linalg.qr(Y)
     return W
 
 
-def _pair_basis(A, lam, V, unit):
+def _pair_basis(A, lam, V, unit, Ap=None):
     """Real orthonormal basis (n x 2) of a pair's invariant subspace (refined near an EP)."""
     i, j = unit.idx
     if unit.complex_pair:
@@ -112,7 +128,7 @@ def _pair_basis(A, lam, V, unit):
     cond = sv[0] / sv[1] if sv[1] > 0 else math.inf
     if unit.merged or cond > _ILL:
         sigma = 0.5 * (lam[i].real + lam[j].real)
-        return _refine(A, sigma, Q), True
+        return _refine(A, sigma, Q, Ap=Ap), True
     return Q, False
 
 
@@ -196,7 +212,7 @@ class Verified:
         rcol = (np.abs(r) + er).max(axis=0)
         rad = rad + np.outer(self.f[s:s + 2], self.ynorm_inf * rcol)
         if rel_error > 0:
-            aAQ = np.abs(A) @ np.abs(Q)
+            aAQ = abs(A) @ np.abs(Q)        # (A dense, or its sparse copy)
             rad = rad + rel_error * (aRc @ aAQ
                                      + np.outer(self.f[s:s + 2], self.ynorm_inf
                                                 * aAQ.max(axis=0)))
@@ -220,7 +236,7 @@ class _Block:
     err_rr: float              # >= ||S_rr - blockdiag||_F
     r_c: float                 # block Gershgorin radius of the pair's rows
     lam1: np.ndarray           # centres of the real units
-    others: list               # centres (2 x 2) of the other pairs
+    others: np.ndarray         # centres (p, 2, 2) of the other pairs
 
     def decide(self, S, rad, sharp):
         """PairDecision and cover radius for centre S (Fractions) and radius rad (2 x 2)."""
@@ -235,9 +251,7 @@ class _Block:
         if self.lam1.size:
             sep = float(sigma_min_2x2_lower(self.lam1 - Sfl[0, 0], -Sfl[1, 0], -Sfl[0, 1],
                                              self.lam1 - Sfl[1, 1]).min())
-        for B in self.others:
-            Kr = np.kron(np.eye(2), B) - np.kron(Sfl.T, np.eye(2))
-            sep = min(sep, sigma_min_lower(Kr))
+        sep = min(sep, sep_2x2_lower(Sfl, self.others))
         delta = sep - self.err_rr - radn
         ric = 0.0
         if self.rest:
@@ -282,7 +296,7 @@ def analyse(A, lam, V, units, rel_error, input_error, Ap=None):
         X[:, at] = Vs / np.sqrt(np.einsum("ij,ij->j", Vs, Vs))
     for un, (s, k) in zip(units, blocks):
         if k == 2:
-            X[:, s:s + 2], ref = _pair_basis(A, lam, V, un)
+            X[:, s:s + 2], ref = _pair_basis(A, lam, V, un, Ap)
         refined.append(k == 2 and ref)
     return verify(A, X, blocks, units, refined, rel_error, input_error, Ap)
 
@@ -307,6 +321,10 @@ def verify(A, X, blocks, units, refined, rel_error, input_error, Ap=None, ver=No
     discs = [lam1.tolist(), offdev[s_one].tolist(), one.tolist()]
     pending = []                     # (block, start, _Block, crude decision, cover, centre)
     pair_out = []
+    pair_start = np.array([s for s, k in blocks if k == 2], dtype=np.intp)
+    pair_blocks = np.empty((pair_start.size, 2, 2))
+    for j, d in ((0, 0), (0, 1), (1, 0), (1, 1)):
+        pair_blocks[:, j, d] = C[pair_start + j, pair_start + d]
     for b, (s, k) in enumerate(blocks):
         if k == 1:
             continue
@@ -321,7 +339,7 @@ def verify(A, X, blocks, units, refined, rel_error, input_error, Ap=None, ver=No
             err_rr=rounded_up(math.sqrt(float(np.sum(offdev[rest] ** 2))), n),
             r_c=rounded_up(float(offdev[c].sum()), 4),
             lam1=lam1,
-            others=[C[s2:s2 + 2, s2:s2 + 2] for s2, k2 in blocks if k2 == 2 and s2 != s])
+            others=pair_blocks[pair_start != s])
         S0 = frac(ver.crude_block(s)[0])
         dec, cover = blk.decide(S0, ver.crude_block(s)[1], False)
         pending.append((b, s, blk, dec, cover, S0))
@@ -331,7 +349,8 @@ def verify(A, X, blocks, units, refined, rel_error, input_error, Ap=None, ver=No
     for q, (b, s, blk, dec, cover, S) in enumerate(pending):
         if q == crit or refined[b] or not dec.certified or dec.margin < _SHARP_BELOW:
             try:
-                Sx, radx = ver.sharp_block(A, X[:, s:s + 2], s, rel_error, input_error)
+                Sx, radx = ver.sharp_block(A if Ap is None else Ap, X[:, s:s + 2], s,
+                                           rel_error, input_error)
             except ValueError:
                 Sx = None
             if Sx is not None:
