@@ -21,7 +21,8 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from remote_trigger.analysis.stability.decision import Decision
-from remote_trigger.analysis.stability.enclosure import U, gamma, sigma_min_lower
+from remote_trigger.analysis.stability.enclosure import (
+    U, gamma, sigma_min_lower, sigma_min_lower_many)
 from remote_trigger.analysis.stability.sliced.inertia import norm1, norm2_skew
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
 from remote_trigger.analysis.stability.sliced.winding import box_zero_count
@@ -190,14 +191,30 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     # errors of Tc and of the set: rounding, the non-orthonormality of Q, F
     rho = ((gamma(n + 8) * m * ctx.normA1 + (2 * phiI + phiI ** 2) * ctx.normA1)
            + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * INFLATE
-    I_n = sp.identity(n, format="csr")
     Qs = sp.csr_matrix(Q)
+    # the bordered matrix [[A - x, Q], [Q^T, 0]] = M0 - x E, assembled once
+    M0 = sp.bmat([[A, Qs], [Qs.T, None]], format="csc")
+    E = sp.diags(np.r_[np.ones(n), np.zeros(m)], format="csc")
+    evaluated = {}              # x -> (T, D) of the solved routes (for the estimates)
+    # the projected cluster: Y = 0 in range(Q_r) is a solution like any other
+    # (the bound b ||Z|| / (sqrt(g_min) (1 - kappa_r)) holds for every Y in
+    # range(Q_r)), with the residual Z0 = -P_r A Q; T(x) = Tc - x, T' = -I, no
+    # sparse solve. The rounding of Z0 (the product A Q, the projection) is
+    # added to its norm. Tried first: a strip whose coupling to the rest is
+    # small against its own spread is decided from its m x m block alone.
+    Z0 = AQ - Q @ (Q.T @ AQ)
+    zn0 = (float(np.linalg.norm(Z0)) * (1 + 2 * gamma(n + m + 8))
+           + 2 * gamma(n + m + 8) * ctx.normA1 * math.sqrt(m) * (1 + phiI)) * INFLATE
+    err0 = (b * zn0 / math.sqrt(g_min) / (1 - kap) + rho) * INFLATE
+    projected = [False]
 
     def schur(x, deriv=False):
         # x real, or complex with Re x in the strip (the box route): the same
         # bounds (module winding), the rounding terms doubled for complex
         cplx = 2.0 if isinstance(x, complex) else 1.0
-        M = sp.bmat([[A - x * I_n, Qs], [Qs.T, None]], format="csc")
+        if projected[0]:          # (real x only: the real-axis routes)
+            return Tc - x * np.eye(m), err0
+        M = (M0 - x * E).tocsc()
         try:
             lu = spla.splu(M)
         except RuntimeError:
@@ -221,6 +238,8 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         rY2 = cplx * gamma(n + 8) * ctx.normA1 * float(np.linalg.norm(Y2))
         derr = (b * (float(np.linalg.norm(Z2)) + 4 * rY2 + zn / (g_min * (1 - kap)))
                 / math.sqrt(g_min) / (1 - kap) + 2 * rY2) * INFLATE
+        if not isinstance(x, complex):
+            evaluated[x] = (T, D)
         return T, err, D, derr
 
     def test(x):
@@ -243,6 +262,12 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
             r = 0.5 * min([z0.imag, z0.real - a_lo, a_hi - z0.real] + others)
             if not r > 0:
                 continue
+            # a box about an eigenvalue has sigma_min(T) <= ~ sqrt2 r ||T'|| on its
+            # edge, and every evaluation's error is at least rho: a box that
+            # small cannot be counted (its halvings would run to MAX_EVALS)
+            if math.sqrt(2.0) * r * (1 + b * b / (g_min * (1 - kap) ** 2)) < rho:
+                why = f"winding count: the box about {z0:.6g} is within the error bound"
+                continue
             cnt, why, margin = box_zero_count(
                 schur, z0.real - r, z0.real + r, z0.imag - r, z0.imag + r, curv)
             if cnt is not None and cnt >= 1:
@@ -260,26 +285,6 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         verdict, margin, why, lam_b = in_a_box(lam0)
         return verdict, margin, lam_b, why
 
-    # the strip's eigenvalues: fixed point of x = eig(T(x) + x) from the Ritz values
-    T0, _ = schur(0.5 * (a_lo + a_hi))
-    if T0 is None:
-        return Decision.UNDECIDED, 0.0, lam0, "the bordered system of the strip is singular"
-    lam_c = np.linalg.eigvals(T0 + 0.5 * (a_lo + a_hi) * np.eye(m))
-    # the roots of det T(x) = 0, estimated from T linearised about the cluster's
-    # centre xc: det(T(xc) + (x - xc) T'(xc)) = 0, a generalized eigenproblem
-    for _ in range(4):
-        xc = float(np.clip(np.mean(lam_c.real), a_lo, a_hi))
-        T1, _, D1, _ = schur(xc, deriv=True)
-        if T1 is None:
-            break
-        try:
-            est = sla.eigvals(T1 - xc * D1, -D1)
-        except (np.linalg.LinAlgError, ValueError):
-            break
-        if not np.all(np.isfinite(est)):
-            break
-        lam_c = est
-
     def all_real(roots):
         """m real roots: det T changes sign between consecutive estimated roots."""
         pts = np.concatenate([[a_lo], 0.5 * (roots[1:] + roots[:-1]), [a_hi]])
@@ -295,10 +300,45 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
             return Decision.REAL, margin, ""
         return Decision.UNDECIDED, 0.0, f"strip of {m}: no sign change of det between roots"
 
-    def no_real_root():
+    def no_real_root_projected(limit=200):
+        """The cover of no_real_root for the projected cluster: T(x) = Tc - x
+        + E(x), ||E(x)|| <= err0 on the whole strip, and sigma_min(Tc - x) is
+        1-Lipschitz in x, so sigma_min(Tc - mid) - h > err0 (+ the rounding
+        floor of forming Tc - mid) excludes a root from [mid - h, mid + h]."""
+        todo, margin, evals = [(a_lo, a_hi)], math.inf, 0
+        while todo:
+            lo, hi = todo.pop()
+            mid, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+            T = Tc - mid * np.eye(m)
+            evals += 1
+            low = sigma_min_lower(T) - h * (1 + 1e-8)
+            slack = err0 + 1e3 * gamma(m + 2) * float(np.linalg.norm(T))
+            if low > slack:
+                margin = min(margin, low / slack)
+                continue
+            hopeless = float(np.linalg.svd(T, compute_uv=False)[-1]) < 0.5 * slack
+            if hopeless or evals > limit or h < 1e-12 * max(abs(mid), 1.0):
+                return Decision.UNDECIDED, max(low, 0.0) / slack, (
+                    f"strip of {m}: a real root cannot be excluded near x = {mid:.9g} "
+                    f"(projected cluster)")
+            todo += [(lo, mid), (mid, hi)]
+        return Decision.COMPLEX, margin, ""
+
+    def no_real_root(probe=()):
         """Cover [a_lo, a_hi] by intervals [x - h, x + h] on which T(x + t) = T(x) +
         t T'(x) + O(curv t^2 / 2) stays nonsingular; sigma_min of the explicit
-        linear part is sampled (Lipschitz constant ||T'||)."""
+        linear part is sampled (Lipschitz constant ||T'||). ``probe``: points
+        (estimated real roots) where T is looked at first: one within its
+        error bound of a singular matrix ends the cover (no interval about it
+        can pass; the halvings down to it would take ~log2(width / err) solves)."""
+        for x in probe:
+            T, err = schur(float(np.clip(x, a_lo, a_hi)))
+            if T is None:
+                break
+            floor = 1e3 * gamma(m + 2) * float(np.linalg.norm(T))
+            if float(np.linalg.svd(T, compute_uv=False)[-1]) < 0.5 * (err + floor):
+                return Decision.UNDECIDED, 0.0, (
+                    f"strip of {m}: a real root cannot be excluded near x = {x:.9g}")
         todo, margin, evals = [(a_lo, a_hi)], math.inf, 0
         while todo:
             lo, hi = todo.pop()
@@ -308,18 +348,89 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
             if T is None:
                 return Decision.UNDECIDED, 0.0, "the bordered system of the strip is singular"
             ts = np.linspace(-h, h, 33)
-            smin = min(sigma_min_lower(T + t * D) for t in ts)
+            smin = float(np.min(sigma_min_lower_many(T[None] + ts[:, None, None] * D[None])))
             low = smin - float(np.linalg.norm(D, 2)) * (ts[1] - ts[0]) / 2 * (1 + 1e-8)
             floor = 1e3 * gamma(m + 2) * float(np.linalg.norm(T))
             slack = err + h * derr + 0.5 * curv * h * h + floor
             if low > slack:
                 margin = min(margin, low / slack)
                 continue
-            if evals > 400 or h < 1e-12 * max(abs(mid), 1.0):
+            # T(mid) itself within its error bound of a singular matrix: every
+            # interval about mid fails too (no halving can exclude a root there)
+            hopeless = float(np.linalg.svd(T, compute_uv=False)[-1]) < 0.5 * (err + floor)
+            if hopeless or evals > 400 or h < 1e-12 * max(abs(mid), 1.0):
                 return Decision.UNDECIDED, max(low, 0.0) / slack, (
                     f"strip of {m}: a real root cannot be excluded near x = {mid:.9g}")
             todo += [(lo, mid), (mid, hi)]
         return Decision.COMPLEX, margin, ""
+
+    # first the projected cluster alone (no sparse solve): its eigenvalues are
+    # the root estimates; tried only where its error leaves room (a float
+    # estimate of min sigma_min(Tc - x) over the estimates' real parts)
+    lam_p = np.linalg.eigvals(Tc)
+    xs = np.clip(lam_p.real, a_lo, a_hi)
+    room = min(float(np.linalg.svd(Tc - x * np.eye(m), compute_uv=False)[-1]) for x in xs)
+    if room > 2 * err0:
+        projected[0] = True
+        roots_p = np.sort(lam_p.real)
+        if np.all(lam_p.imag == 0) and np.all(np.diff(roots_p) > 0):
+            result = all_real(roots_p)
+        else:
+            result = no_real_root_projected()
+        projected[0] = False
+        if result[0] is Decision.COMPLEX:
+            return result[0], result[1], lam_p, result[2]
+        if result[0] is Decision.REAL:
+            return result[0], result[1], roots_p.astype(complex), result[2]
+
+    def linearised(xc, T1, D1):
+        """Roots of det(T(xc) + (x - xc) T'(xc)) = 0 (None if not finite)."""
+        try:
+            est = sla.eigvals(T1 - xc * D1, -D1)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+        return est if np.all(np.isfinite(est)) else None
+
+    cover_done = None
+    if not np.all(lam_p.imag == 0):
+        # the projected cluster has a complex pair: the cover first, and the
+        # estimates from its solves (T and T' at the evaluated point nearest
+        # the pair, re-linearised once), not from four solves of their own
+        cover_done = no_real_root()
+        if cover_done[0] is Decision.COMPLEX and evaluated:
+            x0 = float(np.mean(lam_p.real))
+            xc = min(evaluated, key=lambda x: abs(x - x0))
+            est = linearised(xc, *evaluated[xc])
+            if est is not None:
+                x1 = float(np.clip(np.mean(est.real), a_lo, a_hi))
+                T1, _, D1, _ = schur(x1, deriv=True)
+                est1 = linearised(x1, T1, D1) if T1 is not None else None
+                est = est1 if est1 is not None else est
+            return cover_done[0], cover_done[1], est if est is not None else lam_p, ""
+
+    # the strip's eigenvalues: fixed point of x = eig(T(x) + x) from the Ritz values
+    # (the projected cluster's when its coupling to the rest is below the
+    # error of any solve, err0 <= 2 rho: a solve would not move them)
+    negligible = err0 <= 2 * rho
+    T0, _ = (Tc - 0.5 * (a_lo + a_hi) * np.eye(m), None) if negligible else \
+        schur(0.5 * (a_lo + a_hi))
+    if T0 is None:
+        return Decision.UNDECIDED, 0.0, lam0, "the bordered system of the strip is singular"
+    lam_c = np.linalg.eigvals(T0 + 0.5 * (a_lo + a_hi) * np.eye(m))
+    # the roots of det T(x) = 0, estimated from T linearised about the cluster's
+    # centre xc: det(T(xc) + (x - xc) T'(xc)) = 0, a generalized eigenproblem
+    for _ in range(0 if negligible else 4):
+        xc = float(np.clip(np.mean(lam_c.real), a_lo, a_hi))
+        T1, _, D1, _ = schur(xc, deriv=True)
+        if T1 is None:
+            break
+        try:
+            est = sla.eigvals(T1 - xc * D1, -D1)
+        except (np.linalg.LinAlgError, ValueError):
+            break
+        if not np.all(np.isfinite(est)):
+            break
+        lam_c = est
 
     # the route the estimates suggest first, then the other one
     roots = np.sort(lam_c.real)
@@ -329,7 +440,10 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         ([all_real] if distinct and not first_real else [])
     result = (Decision.UNDECIDED, 0.0, f"strip of {m}: no distinct root estimates")
     for route in tries:
-        result = route(roots) if route is all_real else route()
+        if route is no_real_root and cover_done is not None:
+            result = cover_done          # (tried above, undecided)
+        else:
+            result = route(roots) if route is all_real else route(roots if first_real else ())
         if result[0] is not Decision.UNDECIDED:
             break
     if result[0] is Decision.REAL:
