@@ -28,6 +28,16 @@ name                                   what
                                        symmetric part a negative eigenvalue
                                        (-0.097): no saddle. (Newton reaches
                                        it only along the ramp's own path.)
+``tiled3_F0.0625``                     three exact copies of the default job's
+``tiled3_F0.0625.dump.json``           packing (N = 100, seed 1) side by side
+                                       along x (``benchmarks/degenerate.py``,
+                                       ``build('tiled3_F0.0625')``): the
+                                       equilibrium dump (and sidecar) at
+                                       F_x = 0.0625, 837 kept dofs. A
+                                       degenerate spectrum: the cell's Bloch
+                                       sectors, split into hundreds of close
+                                       pairs, some complex (the cell alone is
+                                       real there).
 =====================================  =========================================
 
 Files are stored gzip-compressed (LAMMPS ``write_data`` text, 21 kB each at
@@ -46,6 +56,8 @@ FILES = {
     "free_rotation_N400_s5_step_00002": "free_rotation_N400_s5_step_00002.dump.gz",
     "free_rotation_N400_s5_step_00002.dump.json":
         "free_rotation_N400_s5_step_00002.dump.json.gz",
+    "tiled3_F0.0625": "tiled3_F0.0625.dump.gz",
+    "tiled3_F0.0625.dump.json": "tiled3_F0.0625.dump.json.gz",
 }
 
 

@@ -1,0 +1,132 @@
+"""Degenerate spectra: the vectorised separation bound of the dense decision
+(enclosure.sep_2x2_lower) and a tiled packing decided by both paths."""
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from remote_trigger.analysis.stability.decision import Decision
+from remote_trigger.analysis.stability.enclosure import (
+    exact_residual, sep_2x2_lower, sigma_min_lower, sigma_min_lower_many)
+from remote_trigger.analysis.stability.system import reduced_system
+from remote_trigger.analysis.stability.verdict import VerdictOptions, decide
+from remote_trigger.analysis.state.dumpfile import read_equilibrium
+
+EPS = np.finfo(float).eps
+
+
+def _sep_matrix(S, B):
+    """I (x) B - S^T (x) I, whose smallest singular value is sep(B, S)."""
+    return np.kron(np.eye(2), B) - np.kron(S.T, np.eye(2))
+
+
+def _blocks(rng, S, p):
+    """p 2 x 2 blocks about S: far, near, equal to S, and S's real or complex kind."""
+    kind = rng.integers(0, 4, p)
+    scale = 10.0 ** rng.uniform(-12, 1, p)
+    B = np.empty((p, 2, 2))
+    for j in range(p):
+        if kind[j] == 0:                            # anywhere
+            B[j] = rng.standard_normal((2, 2)) * 10.0 ** rng.uniform(-1, 2)
+        elif kind[j] == 1:                          # S shifted along the identity
+            B[j] = S + scale[j] * rng.choice([-1, 1]) * np.eye(2)
+        elif kind[j] == 2:                          # S perturbed
+            B[j] = S + scale[j] * rng.standard_normal((2, 2))
+        else:                                       # S itself: sep 0
+            B[j] = S
+    return B
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_sep_2x2_lower_between_the_old_bound_and_the_separation(seed):
+    rng = np.random.default_rng(seed)
+    for trial in range(150):
+        c = rng.standard_normal(4) * 10.0 ** rng.uniform(-1, 2)
+        S = c.reshape(2, 2)
+        if trial % 3 == 0:                          # a complex pair
+            S = np.array([[c[0], abs(c[1]) + 1e-3], [-abs(c[2]) - 1e-3, c[0] + 1e-3 * c[3]]])
+        p = int(rng.integers(1, 40))
+        B = _blocks(rng, S, p)
+        if trial % 5 == 0:
+            B = B[(B != S).any(axis=(1, 2))]        # no exact copy of S
+            if B.shape[0] == 0:
+                continue
+        got = sep_2x2_lower(S, B)
+        Ks = [_sep_matrix(S, Bj) for Bj in B]
+        true = min(np.linalg.svd(K, compute_uv=False)[-1] for K in Ks)
+        norm = max(np.linalg.norm(K, 2) for K in Ks)
+        # never above the separation (the SVD's own error is ~ eps ||K||)
+        assert got <= true + 8 * EPS * norm, (seed, trial, got, true)
+        # never below the bound of one 4 x 4 inversion per block (the old one)
+        old = min(sigma_min_lower(K) for K in Ks)
+        assert got >= old * (1 - 1e-12), (seed, trial, got, old)
+        assert got >= 0.0
+
+
+def test_sep_2x2_lower_edge_cases():
+    S = np.array([[1.0, 2.0], [-3.0, 1.5]])
+    assert sep_2x2_lower(S, np.empty((0, 2, 2))) == np.inf
+    # a copy of S: sep exactly 0, and no positive bound may be claimed
+    assert sep_2x2_lower(S, np.stack([S, S + 5 * np.eye(2)])) == 0.0
+    # a shift along the identity by t: sep = |t| exactly; the inverse bound
+    # (1 - e) / ||Z||_F is at most a factor sqrt(4) below it for a 4 x 4 matrix
+    for t in (1e-9, 1e-3, 7.0):
+        got = sep_2x2_lower(S, (S + t * np.eye(2))[None])
+        assert 0.5 * t * (1 - 1e-6) <= got <= t
+
+
+def test_sigma_min_lower_many_is_the_one_at_a_time_bound():
+    rng = np.random.default_rng(7)
+    K = rng.standard_normal((50, 4, 4))
+    K[3] = 0.0                                  # singular: bound 0
+    K[4] = np.outer(np.arange(4.0), np.ones(4))
+    many = sigma_min_lower_many(K)
+    one = np.array([sigma_min_lower(k) for k in K])
+    assert many[3] == 0.0 and many[4] == 0.0
+    np.testing.assert_allclose(many, one, rtol=1e-12, atol=0.0)
+    true = np.linalg.svd(K, compute_uv=False)[:, -1]
+    assert np.all(many <= true * (1 + 1e-12))
+
+
+def test_exact_residual_of_a_sparse_A_is_the_dense_one():
+    rng = np.random.default_rng(3)
+    A = sp.random(60, 60, density=0.1, random_state=rng).toarray()
+    A[np.abs(A) > 0] += 1e-3 * rng.standard_normal(np.count_nonzero(A))
+    Q = rng.standard_normal((60, 2))
+    M = rng.standard_normal((2, 2))
+    Rd, ed = exact_residual(A, Q, M)
+    Rs, es = exact_residual(sp.csr_matrix(A), Q, M)
+    assert np.array_equal(Rd, Rs) and np.array_equal(ed, es)
+
+
+@pytest.fixture(scope="module")
+def tiled3(tmp_path_factory):
+    from tests.data import unpack
+
+    tmp = tmp_path_factory.mktemp("tiled3")
+    unpack("tiled3_F0.0625.dump.json", tmp)
+    return reduced_system(read_equilibrium(unpack("tiled3_F0.0625", tmp)))
+
+
+def test_tiled_packing_complex_by_both_paths(tiled3):
+    """Three exact copies of the default packing at F_x = 0.0625 (the cell
+    alone is real there): hundreds of close pairs. Both paths certify complex,
+    and the sliced scan, stopped at its first complex strip, lists the dense
+    path's eigenvalues below where it stopped."""
+    system = tiled3
+    assert system.K.shape[0] == 837
+    dense = decide(system, VerdictOptions(method="dense"))
+    sliced = decide(system, VerdictOptions(method="sliced", stop_at_complex=True))
+    assert dense.decision is Decision.COMPLEX and dense.confidence > 1
+    assert sliced.decision is Decision.COMPLEX and sliced.confidence > 1
+    below = sliced.scanned_below
+    lam_d = dense.eigenvalues[dense.eigenvalues.real < below]
+    lam_s = sliced.eigenvalues
+    assert lam_s.size == lam_d.size > 0
+    scale = float(np.max(np.abs(dense.eigenvalues)))
+    # the same spectrum below the stop, complex pairs included (sorted alike)
+    key = lambda z: (round(z.real / scale, 6), z.imag)  # noqa: E731
+    ls, ld = sorted(lam_s, key=key), sorted(lam_d, key=key)
+    assert np.max(np.abs(np.array(ls) - np.array(ld))) < 1e-6 * scale
+    # the complex pair that stopped the scan is one of the dense path's certified ones
+    top = lam_s[np.abs(lam_s.imag) > 0]
+    assert top.size and np.min(np.abs(dense.eigenvalues[:, None] - top[None])) < 1e-6 * scale
