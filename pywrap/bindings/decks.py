@@ -34,7 +34,10 @@ def deck_sections(path):
     pair style, wall, loads), ``damped`` (damping fixes and the integrator
     of the relaxing decks), ``dynamics`` (what every run needs), ``actions``
     (the standalone run), and the relax protocol's steps ``friction``,
-    ``start``, ``compact``, ``lower``, ``press``, ``relax``, ``output``.
+    ``start``, ``compact``, ``lower``, ``shift``, ``press``, ``press_end``,
+    ``fire`` (run by the driver too) and the standalone run's own
+    ``clearance_test``, ``lower_measure``, ``place``, ``press_loop``,
+    ``relax``, ``placement_test``, ``output``.
 
     Returns
     -------

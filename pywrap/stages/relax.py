@@ -292,6 +292,34 @@ def clearance_rule(cfg, n, dim=2):
     return "all" if n <= RELAX_DYNAMICS_AUTO_N and dim == 2 else "local"
 
 
+def placement_offsets(state, attempts):
+    """Shifts along x of the ``top`` line for its placements (``top_attempts``).
+
+    Placement k (k = 0 .. attempts - 1) shifts the line, from where
+    :func:`place_top` left it, by k/attempts of its spacing L/m: m = N_top
+    disks per line, or m = sqrt(N_top) spheres per row of an m x m layer.
+    ``in.relax`` and ``in.relax3d`` compute the same shifts (their ``place``
+    sections) and print them.
+
+    Parameters
+    ----------
+    state : gathered state (``Engine.gather_state``)
+        Needs ``top``, ``dim``, ``box_lo`` and ``box_hi``.
+    attempts : int
+        Placements, >= 1.
+
+    Returns
+    -------
+    list of float
+        ``attempts`` shifts (lj length units), the first 0.0.
+    """
+    per_row = max(1, int(np.count_nonzero(state.top)))
+    if state.dim == 3:                 # an m x m layer: m spheres per row along x
+        per_row = max(1, int(round(np.sqrt(per_row))))
+    spacing = float(state.box_hi[0] - state.box_lo[0]) / per_row
+    return [k * spacing / attempts for k in range(attempts)]
+
+
 def top_clearance(state, rule=None):
     """Clearance of the top line (or layer) above the bulk; > 0: clear.
 
@@ -417,18 +445,14 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
         compact_bulk(eng)
         place_top(eng, cfg.top_gap)
         t_comp = time.perf_counter() - tc
-        st = eng.gather_state()
-        per_row = max(1, int(np.count_nonzero(st.top)))
-        if st.dim == 3:                # an m x m layer: m spheres per row along x
-            per_row = max(1, int(round(np.sqrt(per_row))))
-        spacing = float(st.box_hi[0] - st.box_lo[0]) / per_row
-        offsets = [k * spacing / cfg.top_attempts for k in range(cfg.top_attempts)]
+        offsets = placement_offsets(eng.gather_state(), cfg.top_attempts)
     start = eng.gather_state()
     best = None
     for k, dx in enumerate(offsets):
         if k > 0:                      # same compacted bulk, line shifted along x
             eng.restore(start)
-            eng.command(f"displace_atoms top move {dx!r} 0.0 0.0 units box")
+            eng.command(f"variable dx string {dx!r}")
+            eng.run_section("shift")
         if cfg.settle_steps > 0:
             tc = time.perf_counter()
             if fire:

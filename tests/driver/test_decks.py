@@ -8,6 +8,7 @@ import pytest
 
 from remote_trigger.pywrap.bindings.decks import DECK_DIR, deck_sections
 from remote_trigger.pywrap.bindings.engine import DUMP_COLUMNS
+from remote_trigger.pywrap.stages.config import RELAX_DYNAMICS_AUTO_N
 
 from .conftest import LMP, cli_env
 from remote_trigger.analysis.stability.decision import Decision
@@ -46,9 +47,32 @@ def test_decks_have_sections():
         assert "read_data" in sec["scene"] and "fix integ" in integ
         assert sec["variables"].lstrip().startswith("#")   # documented on top
     relax = deck_sections(os.path.join(DECK_DIR, "in.relax"))
-    for name in ("friction", "compact", "lower_measure", "lower", "press", "press_loop",
-                 "press_end", "relax", "output", "fire"):
+    for name in ("friction", "clearance_test", "compact", "lower_measure", "lower", "place",
+                 "shift", "press", "press_loop", "press_end", "relax", "placement_test",
+                 "output", "fire"):
         assert relax.get(name, "").strip(), name
+    relax3d = deck_sections(os.path.join(DECK_DIR, "in.relax3d"))
+    for name in ("friction", "clearance_test", "compact", "lower", "place", "shift", "press",
+                 "press_end", "relax", "placement_test", "output", "fire"):
+        assert relax3d.get(name, "").strip(), name
+
+
+def test_relax_decks_take_the_drivers_defaults(packing_file):
+    """The decks' placements: RelaxConfig's count and shift rule, and the
+    'local' test's horizontal distance (stages.packing.TOP_SPACING_3D)."""
+    from remote_trigger.pywrap.stages.config import RelaxConfig
+    from remote_trigger.pywrap.stages.packing import TOP_SPACING_3D
+
+    cfg = RelaxConfig(datafile=packing_file)
+    for deck in ("in.relax", "in.relax3d"):
+        sec = deck_sections(os.path.join(DECK_DIR, deck))
+        assert f"variable top_attempts index {cfg.top_attempts}\n" in sec["variables"]
+        assert f"variable nsteps index {cfg.max_steps}\n" in sec["variables"]
+        assert f"<{TOP_SPACING_3D})*(y[${{id}}]>y)" in sec["clearance_test"]
+        assert "displace_atoms top move ${dx} 0.0 0.0 units box" in sec["shift"]
+    sec = deck_sections(os.path.join(DECK_DIR, "in.relax"))
+    assert "$((v_place-1)*(lx/count(top))/v_top_attempts:%.17g)" in sec["place"]
+    assert f"'$(count(all)) > {RELAX_DYNAMICS_AUTO_N}'" in sec["actions"]
 
 
 def test_driver_protocol_commands_come_from_the_deck():
@@ -68,7 +92,7 @@ def test_driver_protocol_commands_come_from_the_deck():
                     and isinstance(n.value, str) and id(n) not in docs]
     code = "\n".join(strings)
     for cmd in ("pair_coeff", "aveforce", "fix grav bulk", "fix damp", "fix integ",
-                "viscous", "variable mu_now", "min_style", "minimize "):
+                "viscous", "variable mu_now", "min_style", "minimize ", "displace_atoms"):
         assert cmd not in code, cmd
     relax = deck_sections(os.path.join(DECK_DIR, "in.relax"))
     assert "fix piston top aveforce" in relax["press"]

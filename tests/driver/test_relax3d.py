@@ -200,17 +200,20 @@ def test_jacobian_names_a_missing_sphere_column(relaxed3d, tmp_path, capsys):
     assert_one_line_error(err, "v_wall_tz")
 
 
-def test_relax3d_deck_standalone(packing3d, tmp_path):
-    """``lmp -in in.relax3d``: the driver's protocol without Newton (FIRE to 3e-6)."""
+def test_relax3d_deck_standalone(packing3d, relaxed3d, tmp_path):
+    """``lmp -in in.relax3d``: the driver's protocol without Newton (FIRE to
+    3e-6): the driver's placement of the layer (the first, clear by the
+    'local' test) and its packing fraction (measured: within 2e-9)."""
     import subprocess
 
     from remote_trigger.pywrap.bindings.decks import deck_path
+    from remote_trigger.pywrap.stages.common import packing_fraction
 
     from .conftest import LMP, cli_env
 
     out = tmp_path / "r"
-    proc = subprocess.run([LMP, "-in", deck_path("in.relax3d"), "-log", "none", "-screen",
-                           "none", "-var", "datafile", packing3d, "-var", "out", str(out)],
+    proc = subprocess.run([LMP, "-in", deck_path("in.relax3d"), "-log", "none",
+                           "-var", "datafile", packing3d, "-var", "out", str(out)],
                           cwd=tmp_path, env=cli_env(), capture_output=True, text=True,
                           timeout=280)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
@@ -218,3 +221,8 @@ def test_relax3d_deck_standalone(packing3d, tmp_path):
     r = max_residual(generalized_forces3d(st), spheres=True)
     assert r < 1e-5 and st.params.mu == 1.0 and not np.any(st.contact_t)
     assert read_data(str(out) + ".data").dimension == 3
+    places = [ln for ln in proc.stdout.splitlines() if ln.startswith("in.relax3d: placement")]
+    assert relaxed3d.top_attempts == 1 and relaxed3d.top_clearance > 0
+    assert places == ["in.relax3d: placement 1 of 4 (layer shifted by dx = 0) kept: clear "
+                      "(local: 0)"], places
+    assert abs(packing_fraction(st) - relaxed3d.packing_fraction) < 1e-7

@@ -1,8 +1,12 @@
 """The LAMMPS examples of README.md and of the pair style page run on a packing from
-`remote-trigger generate` (in the Python module, and with the `lmp` of the environment)."""
+`remote-trigger generate` (in the Python module, and with the `lmp` of the environment);
+the deck blocks of README.md and docs/driver.md run as pasted on generate's default
+packing."""
 import os
 import subprocess
 import sys
+
+import pytest
 
 from .lmputil import new_lammps
 
@@ -133,3 +137,71 @@ def test_the_pair_style_page_example_runs(tmp_path):
     _run_on_a_generated_packing(tmp_path, deck[0])
     alternative = "\n".join(ln for ln in deck[0].splitlines() if "mu/velocity" not in ln)
     _run_on_a_generated_packing(tmp_path, alternative + "\n" + adapt[0])
+
+
+def _driver_page_deck_block():
+    """The indented block of docs/driver.md "Decks" that runs the decks standalone."""
+    path = os.path.join(os.path.dirname(README), "docs", "driver.md")
+    with open(path) as fh:
+        text = fh.read()
+    head = "Each deck documents its variables at the top and runs standalone:\n\n"
+    assert text.count(head) == 1
+    lines = []
+    for line in text.split(head, 1)[1].splitlines():
+        if not line.startswith("    "):
+            break
+        lines.append(line[4:])
+    return "\n".join(lines) + "\n"
+
+
+def _run_shell_block(tmp_path, block):
+    """``sh -e`` of a documentation block in an empty folder that has the
+    repository's ``.venv`` and ``lammps_inputs`` (links to this environment
+    and its installed decks); returns the screen output."""
+    from remote_trigger.pywrap.bindings.decks import DECK_DIR
+
+    os.symlink(sys.prefix, tmp_path / ".venv")
+    os.symlink(DECK_DIR, tmp_path / "lammps_inputs")
+    for name in os.listdir(DECK_DIR):
+        os.symlink(os.path.join(DECK_DIR, name), tmp_path / name)
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    env["PATH"] = os.path.dirname(sys.executable) + os.pathsep + env.get("PATH", "")
+    res = subprocess.run(["sh", "-e", "-c", block], cwd=tmp_path, env=env, capture_output=True,
+                         text=True, timeout=900)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    return res.stdout
+
+
+def _placements(out):
+    return [ln.split(" (line shifted")[0] + (" kept" if ") kept" in ln else " not kept")
+            for ln in out.splitlines() if ln.startswith("in.relax: placement")]
+
+
+@pytest.mark.slow
+def test_the_readme_deck_block_runs_as_pasted(tmp_path):
+    """README.md's deck block on generate's default packing (seed 0): in.relax
+    keeps the second placement, as it says, and the ramp step and the
+    perturbation run write their outputs (two ranks:
+    tests/driver/test_deck_placements_mpi.py, the same packing)."""
+    blocks = [b for b in _fenced_blocks(README) if "lammps_inputs/in.relax" in b]
+    assert len(blocks) == 1, blocks
+    assert "generate --overwrite " in blocks[0] and "--seed" not in blocks[0]
+    out = _run_shell_block(tmp_path, blocks[0])
+    want = ["in.relax: placement 1 of 4 not kept", "in.relax: placement 2 of 4 kept"]
+    assert _placements(out) == want, out[-3000:]
+    for name in ("relaxed.dump", "step.dump", "perturb.txt"):
+        assert os.path.getsize(tmp_path / name) > 0, name
+    assert "seed = 0" in (tmp_path / "packing.data").read_text().splitlines()[0]
+
+
+@pytest.mark.slow
+def test_the_driver_page_deck_block_runs_as_pasted(tmp_path):
+    """docs/driver.md's deck block (decks in the current folder, the
+    environment's bin on PATH) on generate's default packing."""
+    block = _driver_page_deck_block()
+    assert block.startswith("remote-trigger generate -o packing.data\n"), block
+    out = _run_shell_block(tmp_path, block)
+    assert _placements(out) == ["in.relax: placement 1 of 4 not kept",
+                                "in.relax: placement 2 of 4 kept"], out[-3000:]
+    for name in ("relaxed.dump", "step.dump", "perturb.txt"):
+        assert os.path.getsize(tmp_path / name) > 0, name
