@@ -121,6 +121,35 @@ class Packing:
         return int(np.count_nonzero(self.top))
 
 
+def placement_offsets(state, attempts):
+    """Shifts along x of the ``top`` line for its placements (``top_attempts``).
+
+    The relax protocol's placement k (k = 0 .. attempts - 1) shifts the
+    line, from where :func:`~remote_trigger.pywrap.stages.relax.place_top`
+    left it, by k/attempts of its spacing L/m: m = N_top disks per line, or
+    m = sqrt(N_top) spheres per row of an m x m layer. ``in.relax`` and
+    ``in.relax3d`` compute the same shifts (their ``place`` sections) and
+    print them.
+
+    Parameters
+    ----------
+    state : gathered state (``Engine.gather_state``)
+        Needs ``top``, ``dim``, ``box_lo`` and ``box_hi``.
+    attempts : int
+        Placements, >= 1.
+
+    Returns
+    -------
+    list of float
+        ``attempts`` shifts (lj length units), the first 0.0.
+    """
+    per_row = max(1, int(np.count_nonzero(state.top)))
+    if state.dim == 3:                 # an m x m layer: m spheres per row along x
+        per_row = max(1, int(round(np.sqrt(per_row))))
+    spacing = float(state.box_hi[0] - state.box_lo[0]) / per_row
+    return [k * spacing / attempts for k in range(attempts)]
+
+
 def box_width(n, phi=0.82, radii=RADII, dim=2):
     """Periodic width L such that N disks at packing fraction phi fill an L x L box.
 

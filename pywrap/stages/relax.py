@@ -17,6 +17,7 @@ from remote_trigger.pywrap.stages.config import RELAX_DYNAMICS_AUTO_N, RelaxConf
 from remote_trigger.pywrap.bindings.engine import Engine
 from remote_trigger.pywrap.stages import equilibrium as eq
 from remote_trigger.pywrap.stages.newton_solve import stiffness
+from remote_trigger.pywrap.stages.packing import placement_offsets
 from remote_trigger.pywrap.runtime.results import write_atomic
 from remote_trigger.pywrap.stages.common import (
     RESULT_VERSION, ensure_dir, equilibrium_files, progress_bar, load_relax_scene,
@@ -290,34 +291,6 @@ def clearance_rule(cfg, n, dim=2):
     if cfg.clearance != "auto":
         return cfg.clearance
     return "all" if n <= RELAX_DYNAMICS_AUTO_N and dim == 2 else "local"
-
-
-def placement_offsets(state, attempts):
-    """Shifts along x of the ``top`` line for its placements (``top_attempts``).
-
-    Placement k (k = 0 .. attempts - 1) shifts the line, from where
-    :func:`place_top` left it, by k/attempts of its spacing L/m: m = N_top
-    disks per line, or m = sqrt(N_top) spheres per row of an m x m layer.
-    ``in.relax`` and ``in.relax3d`` compute the same shifts (their ``place``
-    sections) and print them.
-
-    Parameters
-    ----------
-    state : gathered state (``Engine.gather_state``)
-        Needs ``top``, ``dim``, ``box_lo`` and ``box_hi``.
-    attempts : int
-        Placements, >= 1.
-
-    Returns
-    -------
-    list of float
-        ``attempts`` shifts (lj length units), the first 0.0.
-    """
-    per_row = max(1, int(np.count_nonzero(state.top)))
-    if state.dim == 3:                 # an m x m layer: m spheres per row along x
-        per_row = max(1, int(round(np.sqrt(per_row))))
-    spacing = float(state.box_hi[0] - state.box_lo[0]) / per_row
-    return [k * spacing / attempts for k in range(attempts)]
 
 
 def top_clearance(state, rule=None):

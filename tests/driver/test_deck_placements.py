@@ -72,10 +72,10 @@ def run_deck(tmp_path, datafile, out, np_=1, **var):
 
 
 def offsets(datafile, attempts=4):
-    """The driver's shifts of the line (stages.relax.placement_offsets) for a
+    """The driver's shifts of the line (stages.packing.placement_offsets) for a
     data file of ``generate`` (its box line ``xlo xhi`` and its ``top``)."""
     from remote_trigger.pywrap.stages.packing import generate
-    from remote_trigger.pywrap.stages.relax import placement_offsets
+    from remote_trigger.pywrap.stages.packing import placement_offsets
 
     with open(datafile) as fh:
         xlo, xhi = next(map(float, ln.split()[:2]) for ln in fh if ln.rstrip().endswith("xlo xhi"))

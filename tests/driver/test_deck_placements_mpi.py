@@ -1,7 +1,10 @@
 """``mpirun -np 2``: ``in.relax`` keeps the placement of the top line that
-``mpirun -np 2 remote-trigger relax`` keeps, on generate's default packing
-(seed 0) and on the paper job's (seed 1), which the deck with a single
-placement refused on two ranks (status 4; docs/results/driver.md)."""
+``mpirun -np 2 remote-trigger relax`` keeps, on the paper job's packing
+(seed 1: the second placement on two ranks, the first on one; the deck
+with a single placement stopped there with status 4) and on seed 4 (one
+placement, another compaction than on one rank: phi 1.8e-4 apart).
+Generate's default packing (seed 0) compacts on two ranks as on one, to
+the bit (docs/results/driver.md, "Placements of the line in the deck")."""
 import subprocess
 
 import pytest
@@ -14,7 +17,7 @@ from .test_deck_placements import check_same_placement, packing, run_deck
 pytestmark = [pytest.mark.mpi, pytest.mark.slow]
 
 
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [1, 4])
 def test_relax_deck_keeps_the_drivers_placement_on_two_ranks(tmp_path, seed):
     data = packing(tmp_path, seed)
     deck = run_deck(tmp_path, data, "deck", np_=2)
