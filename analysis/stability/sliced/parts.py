@@ -81,13 +81,12 @@ import numpy as np
 
 from remote_trigger.analysis.stability.sliced.inertia import Shifts
 from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
-from remote_trigger.analysis.stability.sliced.scan import (
-    SlicedScan, part_count, spectrum_decision)
 from remote_trigger.analysis.stability.sliced.slices import Position
 from remote_trigger.analysis.stability.sliced.stats import SlicedStats
+from remote_trigger.analysis.stability.sliced.strips import spectrum_decision
 
 __all__ = ["PartsProblem", "CutTask", "Cut", "PartTask", "PartResult", "find_cut",
-           "scan_part", "split_point", "merged_decision", "classify_parts"]
+           "scan_part", "split_point", "merged_decision", "classify_parts", "part_count"]
 
 # the first boundary of a part lies this many windows Delta above its split
 # point: the window the whole scan keeps below its last boundary
@@ -110,29 +109,29 @@ class PartsProblem:
         Below the spectrum of every matrix of the set.
     hi0 : float
         Above the spectrum of S (a Gershgorin bound).
-    slice_size : int
-        Ritz pairs per slice.
     part_size : int
         Eigenvalues per part (about).
-    stop_at_complex : bool
-        A part ends at its first complex strip that is not soft.
-    soft_below : float
-        The soft-pair threshold of ``classify_sliced`` (-inf: none).
+    new_scan : callable
+        ``new_scan(stats)``: a new :class:`~.scan.SlicedScan` of S with the
+        call's options (slice size, stop rule; picklable: a
+        :func:`functools.partial` of the class).
     """
 
     S: object
     ctx: object
     lo0: float
     hi0: float
-    slice_size: int
     part_size: int
-    stop_at_complex: bool = False
-    soft_below: float = -math.inf
+    new_scan: object
 
     def scan(self, stats):
-        """A new :class:`~.scan.SlicedScan` of S with these options."""
-        return SlicedScan(self.S, self.ctx, self.lo0, self.slice_size, stats,
-                          stop_at_complex=self.stop_at_complex, soft_below=self.soft_below)
+        """A new :class:`~.scan.SlicedScan` of S with the call's options."""
+        return self.new_scan(stats)
+
+
+def part_count(n, part_size):
+    """Number of parts P = ceil(n / part_size) of a scan in parts of n eigenvalues."""
+    return max(1, -(-n // int(part_size)))
 
 
 def _rng(j):

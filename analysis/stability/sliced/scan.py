@@ -32,14 +32,15 @@ from remote_trigger.analysis.stability.sliced.buffer import RitzBuffer
 from remote_trigger.analysis.stability.sliced.checkpoint import (
     ScanFiles, restore_ritz, scan_key)
 from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
+from remote_trigger.analysis.stability.sliced.parts import PartsProblem, classify_parts, part_count
 from remote_trigger.analysis.stability.sliced.slices import (
     ritz_slices, start_position, top_eigenvalue)
 from remote_trigger.analysis.stability.sliced.stats import SlicedStats
 from remote_trigger.analysis.stability.sliced.strips import (
-    StripContext, arpack_hint, coupling, decide_strip)
+    StripContext, arpack_hint, coupling, decide_strip, spectrum_decision)
 
 __all__ = ["classify_sliced", "scaled_parts", "SlicedScan", "CHECKPOINT_SECONDS",
-           "spectrum_decision", "part_count"]
+           ]
 
 # largest cluster tried on the real axis (above it: the box route only); each
 # real-axis evaluation of its Schur complement is a sparse LU of n + m rows,
@@ -500,38 +501,6 @@ class SlicedScan:
                                  self.scanned_below, timing)
 
 
-def spectrum_decision(S, eps, pairs, lam, margins, complex_margins, undecided_margins, reason,
-                      scanned_below, timing):
-    """The SpectrumDecision of a finished (stopped, or failed) scan of S from what
-    its strips and boundaries found (:meth:`SlicedScan.decision`; the merge of a
-    partitioned scan's parts, :func:`.parts.merged_decision`)."""
-    n = S.shape[0]
-    lam = np.asarray(lam, complex)
-    lam = lam[np.lexsort((lam.imag, lam.real))] if lam.size else lam
-    if complex_margins and math.isfinite(scanned_below):
-        note = ("the scan stopped at the first strip certified complex" if not reason
-                else f"the slicing failed above a strip certified complex: {reason}")
-        return SpectrumDecision(True, max(complex_margins), pairs, eps, lam, timing, note,
-                                start="sliced", n_total=n,
-                                scanned_below=float(scanned_below),
-                                lambda_max=top_eigenvalue(S))
-    if reason:
-        return SpectrumDecision(None, 0.0, pairs, 0.0, lam, timing, reason, start="sliced",
-                                n_total=n)
-    if complex_margins:
-        return SpectrumDecision(True, max(complex_margins), pairs, eps, lam, timing,
-                                start="sliced", n_total=n)
-    if undecided_margins:
-        bad = [p.reason for p in pairs if not p.certified]
-        why = bad[0] if len(bad) == 1 else (
-            f"{len(bad)} undecided strips: " + " | ".join(bad[:3])
-            + (f" | and {len(bad) - 3} more" if len(bad) > 3 else ""))
-        return SpectrumDecision(None, min(undecided_margins), pairs, eps, lam, timing,
-                                why, start="sliced", n_total=n)
-    return SpectrumDecision(False, min(margins) if margins else math.inf, pairs,
-                            eps, lam, timing, start="sliced", n_total=n)
-
-
 def _checked_options(rel_error, window, slice_size, checkpoint_seconds, soft_rel):
     """The options of :func:`classify_sliced`, checked; (slice_size,
     checkpoint_seconds) with their defaults."""
@@ -577,11 +546,6 @@ def _top(S, ctx):
     gersh = float(np.max(S.diagonal() + (np.asarray(absS.sum(axis=1)).ravel()
                                          - np.abs(S.diagonal()))))
     return gersh + 1e-3 * max(ctx.normS, 1.0) + 1.0
-
-
-def part_count(n, part_size):
-    """Number of parts P = ceil(n / part_size) of a scan in parts of n eigenvalues."""
-    return max(1, -(-n // int(part_size)))
 
 
 def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=None,
@@ -733,10 +697,9 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     soft_below = (soft_rel * top_eigenvalue(S) if stop_at_complex and soft_rel is not None
                   else -math.inf)
     if part_size is not None and part_count(S.shape[0], part_size) > 1:
-        from remote_trigger.analysis.stability.sliced.parts import PartsProblem, classify_parts
-
-        pb = PartsProblem(S, ctx, lo0, _top(S, ctx), slice_size, int(part_size),
-                          stop_at_complex, soft_below)
+        new_scan = functools.partial(SlicedScan, S, ctx, lo0, slice_size,
+                                     stop_at_complex=stop_at_complex, soft_below=soft_below)
+        pb = PartsProblem(S, ctx, lo0, _top(S, ctx), int(part_size), new_scan)
         return classify_parts(pb, stats, map_tasks, progress)
     setup = dict(S=S, ctx=ctx, lo0=lo0, slice_size=slice_size, stats=stats,
                  stop_at_complex=stop_at_complex, soft_below=soft_below, t0=t0)
