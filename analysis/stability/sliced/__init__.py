@@ -81,6 +81,18 @@ strip). One or more: **complex**, certified. Otherwise the strip is
 **undecided** and says why, adding as a note marked "not certified" what
 ARPACK sees in it (how many of its m eigenvalues, how many complex pairs).
 
+**Parts.** A strip's decision needs three things of its edges: each is a
+certified boundary (the lemma: a statement about A + F, whichever
+computation proves it); the count of S between them equals the number of
+Ritz values of the strip's block (so the strip holds exactly m eigenvalues of
+A + F); the rest is coupled weakly across the strip (kappa_r < 1, computed
+from the deciding scan's own Ritz pairs and edges). So a scan may take as a
+boundary a point certified by another scan of the same matrix, provided it
+checks that the point lies between the same two of its own Ritz values (the
+count) and bounds the rest itself: :mod:`.parts` splits the spectrum into
+parts scanned independently, each ending at the first boundary certified by
+the part above (the argument in full there).
+
 The spectrum is *complex* if a strip is certified complex, *real* if every
 strip is certified real, else *undecided*. Every bound is rigorous with the
 rounding errors of the float64 computations bounded a priori (gamma_k, as
@@ -103,6 +115,7 @@ next, its steps named as above:
 ``buffer``        the Ritz pairs of the slices held (:class:`~.buffer.RitzBuffer`)
 ``strips``        the coupling across an interval and a strip's decision
 ``winding``       the count of eigenvalues in a box off the real axis
+``parts``         a scan in parts run side by side: cuts, parts, merge
 ``checkpoint``    the saved scan and verdict: files, key, format, restore
 ``numerics``      the inflation factor and the failure of a step
 ``stats``         :class:`SlicedStats`

@@ -32,13 +32,15 @@ from remote_trigger.analysis.stability.sliced.buffer import RitzBuffer
 from remote_trigger.analysis.stability.sliced.checkpoint import (
     ScanFiles, restore_ritz, scan_key)
 from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
+from remote_trigger.analysis.stability.sliced.parts import PartsProblem, classify_parts, part_count
 from remote_trigger.analysis.stability.sliced.slices import (
     ritz_slices, start_position, top_eigenvalue)
 from remote_trigger.analysis.stability.sliced.stats import SlicedStats
 from remote_trigger.analysis.stability.sliced.strips import (
-    StripContext, arpack_hint, coupling, decide_strip)
+    StripContext, arpack_hint, coupling, decide_strip, strips_decision)
 
-__all__ = ["classify_sliced", "scaled_parts", "SlicedScan", "CHECKPOINT_SECONDS"]
+__all__ = ["classify_sliced", "scaled_parts", "SlicedScan", "CHECKPOINT_SECONDS",
+           ]
 
 # largest cluster tried on the real axis (above it: the box route only); each
 # real-axis evaluation of its Schur complement is a sparse LU of n + m rows,
@@ -154,6 +156,11 @@ class SlicedScan:
 
     # computed by each call from the matrix and the options: not saved
     _TRANSIENT = ("S", "ctx", "lo0", "k", "stop_at_complex", "soft_below", "_slices", "_t0")
+    # a part of a partitioned scan (:meth:`begin_part`, :mod:`.parts`); a whole
+    # scan keeps these class defaults (its saved state is unchanged)
+    base = 0                    # eigenvalues of S below the scan's start
+    cuts = None                 # local gap index -> a boundary certified by a part
+    at_ceiling = False          # ended at the boundary of the part above
 
     def __init__(self, S, ctx, lo0, slice_size, stats, stop_at_complex=False,
                  soft_below=-math.inf, t0=None):
@@ -211,7 +218,7 @@ class SlicedScan:
     @property
     def counted(self):
         """Eigenvalues of S below the slices computed so far (their Sylvester count)."""
-        return self.dropped + self.buf.th.size
+        return self.base + self.dropped + self.buf.th.size
 
     # ----------------------------------------------------------------------- the loop
     def run(self, progress=None, files=None, checkpoint_seconds=CHECKPOINT_SECONDS):
@@ -235,7 +242,8 @@ class SlicedScan:
                 self.start()
             self._slices = ritz_slices(self.S, self.ctx.W, self.k, self.ctx.normS, self.pos,
                                        self.stats)
-            final = self.cert_count[-1] == n    # only for n = 0 (a scan is saved before its end)
+            # only for n = 0 (a scan is saved before its end)
+            final = self.cert_count[-1] == n - self.base
             while not final:
                 final = self.next_slice()
                 if progress is not None:
@@ -246,12 +254,90 @@ class SlicedScan:
                         time.monotonic() - t_saved >= checkpoint_seconds:
                     self.save(files)
                     t_saved = time.monotonic()
-            if self.cert_count[-1] != n:
+            if self.cert_count[-1] != n - self.base:
                 raise SliceFailure("the top of the spectrum has no certified boundary")
         except SliceFailure as exc:
             self.reason = str(exc)
             if self.complex_margins:     # the strips below the last boundary are decided
                 self.scanned_below = self.certified[-1]
+
+    def begin_part(self, pos, base, floor=None, ceiling=None):
+        """Make this scan one part of a partitioned scan (:mod:`.parts`), before
+        :meth:`run` or :meth:`first_boundary`.
+
+        Parameters
+        ----------
+        pos : Position or None
+            Where the part's slicing starts (its Sylvester count ``base``); None:
+            below the spectrum (:meth:`start`, the first part).
+        base : int
+            Eigenvalues of S below ``pos.x`` (0 for the first part).
+        floor, ceiling : (float, int), optional
+            Boundaries certified by the first-boundary step of this part and of
+            the part above (:meth:`first_boundary`), each with the number of
+            eigenvalues of S below it. No gap at or below ``floor`` is tested
+            and no strip is decided below it; the strip below ``ceiling`` ends
+            there and the scan stops (:attr:`at_ceiling`). Each is checked to
+            lie between the same two Ritz values of this part
+            (:meth:`check_cut`).
+        """
+        self.pos, self.base, self.cuts = pos, base, {}
+        if floor is not None:
+            c, g = floor
+            self.certified, self.cert_count = [c], [g - base]
+            self.n_done = g - base
+            self.cuts[g - base] = c
+        if ceiling is not None:
+            c, g = ceiling
+            self.cuts[g - base] = c
+
+    def check_cut(self, j, a):
+        """A boundary a certified by another part, to stand as this part's boundary
+        at its gap j: exactly j of this part's Ritz values lie below it (the
+        eigenvalues of S below a are then base + j, and the strips on both sides
+        hold as many Ritz values here as eigenvalues of A + F).
+
+        Raises
+        ------
+        SliceFailure
+            If a does not lie between this part's Ritz values j - 1 and j.
+        """
+        th, i = self.buf.th, j - self.dropped
+        if not (i >= 1 and i < th.size and th[i - 1] < a < th[i]):
+            raise SliceFailure(f"the boundary {a:.9g} certified by another part does not lie "
+                               f"between this part's Ritz values {self.base + j - 1} and "
+                               f"{self.base + j}")
+
+    def first_boundary(self, above):
+        """The first step of a part (:mod:`.parts`): scan from :attr:`pos` up to the
+        first gap a >= ``above`` certified by the boundary lemma (kappa(a) < 1),
+        below the top of the spectrum; no strip is decided.
+
+        Returns
+        -------
+        (float, int, float) or None
+            a, the eigenvalues of S below it (``base`` + its gap index) and
+            kappa(a); None if the top of the spectrum comes first.
+
+        Raises
+        ------
+        SliceFailure
+            If a slice cannot be certified.
+        """
+        n = self.S.shape[0] - self.base
+        self._slices = ritz_slices(self.S, self.ctx.W, self.k, self.ctx.normS, self.pos,
+                                   self.stats)
+        final = self.counted == self.S.shape[0]
+        while not final:
+            final = self.next_slice()
+            while (gap := self.next_gap(final)) is not None:
+                j, a = gap
+                if j >= n or a < above:
+                    continue
+                kap = self.gap_test(a, final)
+                if kap < 1:
+                    return a, self.base + j, kap
+        return None
 
     def start(self):
         """Start below the spectrum: the first boundary at ``lo0``, no eigenvalue of S
@@ -275,13 +361,14 @@ class SlicedScan:
     def edges(self, final):
         """Below/above them the Ritz values are not in the buffer (None: no
         eigenvalue of S there)."""
-        return (self.buf.lo if self.dropped else None, None if final else self.buf.hi)
+        return (self.buf.lo if self.dropped or self.base else None,
+                None if final else self.buf.hi)
 
     def next_gap(self, final):
         """The next gap to test, (j, a): a between the global Ritz values j - 1 and
         j, or above the top one for j = n; None while its window is not in the
         buffer (or every gap is tested)."""
-        n, buf, Delta = self.S.shape[0], self.buf, self.ctx.Delta
+        n, buf, Delta = self.S.shape[0] - self.base, self.buf, self.ctx.Delta
         while True:
             j = self.n_done
             if j > n:
@@ -293,10 +380,13 @@ class SlicedScan:
             else:
                 if j - self.dropped >= buf.th.size:
                     return None
-                if j == 0:               # below the first Ritz value: the start, lo0
+                if self.cuts and j in self.cuts:    # a boundary given (a part's floor or ceiling)
+                    a = self.cuts[j]
+                elif j == 0:             # below the first Ritz value: the start, lo0
                     self.n_done += 1
                     continue
-                a = 0.5 * (buf.th[j - 1 - self.dropped] + buf.th[j - self.dropped])
+                else:
+                    a = 0.5 * (buf.th[j - 1 - self.dropped] + buf.th[j - self.dropped])
                 if not final and a + Delta > buf.hi:
                     return None
             self.n_done += 1
@@ -318,6 +408,17 @@ class SlicedScan:
         stats = self.stats
         while (gap := self.next_gap(final)) is not None:
             j, a = gap
+            if self.cuts and j in self.cuts:
+                self.check_cut(j, a)
+                if j == self.cert_count[-1]:    # the floor: the part's first boundary
+                    continue
+                # the ceiling: the last strip, then the part ends
+                if self.finish_strip(self.cert_count[-1], j, self.certified[-1], a, final):
+                    self.scanned_below = a
+                self.certified.append(a)
+                self.cert_count.append(j)
+                self.at_ceiling = True
+                return True
             kap = self.gap_test(a, final)
             if kap < 1:
                 stats.boundaries += 1
@@ -394,33 +495,10 @@ class SlicedScan:
         if self.pos is None:            # no start: no count below the spectrum
             return SpectrumDecision(None, 0.0, [], 0.0, np.zeros(0, complex), timing,
                                     self.reason, start="sliced", n_total=n)
-        eps, reason = self.ctx.eps, self.reason
         self.stats.strips = dict(sorted(self.strips.items()))
-        pairs, complex_margins = self.pairs, self.complex_margins
-        lam = np.asarray(self.lam, complex)
-        lam = lam[np.lexsort((lam.imag, lam.real))] if lam.size else lam
-        if complex_margins and math.isfinite(self.scanned_below):
-            note = ("the scan stopped at the first strip certified complex" if not reason
-                    else f"the slicing failed above a strip certified complex: {reason}")
-            return SpectrumDecision(True, max(complex_margins), pairs, eps, lam, timing, note,
-                                    start="sliced", n_total=n,
-                                    scanned_below=float(self.scanned_below),
-                                    lambda_max=top_eigenvalue(self.S))
-        if reason:
-            return SpectrumDecision(None, 0.0, pairs, 0.0, lam, timing, reason, start="sliced",
-                                    n_total=n)
-        if complex_margins:
-            return SpectrumDecision(True, max(complex_margins), pairs, eps, lam, timing,
-                                    start="sliced", n_total=n)
-        if self.undecided_margins:
-            bad = [p.reason for p in pairs if not p.certified]
-            why = bad[0] if len(bad) == 1 else (
-                f"{len(bad)} undecided strips: " + " | ".join(bad[:3])
-                + (f" | and {len(bad) - 3} more" if len(bad) > 3 else ""))
-            return SpectrumDecision(None, min(self.undecided_margins), pairs, eps, lam, timing,
-                                    why, start="sliced", n_total=n)
-        return SpectrumDecision(False, min(self.margins) if self.margins else math.inf, pairs,
-                                eps, lam, timing, start="sliced", n_total=n)
+        return strips_decision(self.S, self.ctx.eps, self.pairs, self.lam, self.margins,
+                                 self.complex_margins, self.undecided_margins, self.reason,
+                                 self.scanned_below, timing)
 
 
 def _checked_options(rel_error, window, slice_size, checkpoint_seconds, soft_rel):
@@ -462,9 +540,17 @@ def _bottom(S, ctx, rel_error):
     return lo0
 
 
+def _top(S, ctx):
+    """A point above every eigenvalue of S (Gershgorin)."""
+    absS = abs(S)
+    gersh = float(np.max(S.diagonal() + (np.asarray(absS.sum(axis=1)).ravel()
+                                         - np.abs(S.diagonal()))))
+    return gersh + 1e-3 * max(ctx.normS, 1.0) + 1.0
+
+
 def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=None,
                     stop_at_complex=False, progress=None, checkpoint_dir=None,
-                    checkpoint_seconds=None, soft_rel=None):
+                    checkpoint_seconds=None, soft_rel=None, part_size=None, map_tasks=None):
     """Certified complex-pair verdict on the whole spectrum of M^-1 K, by slicing.
 
     Parameters
@@ -530,6 +616,21 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         :data:`~remote_trigger.analysis.stability.verdict.SOFT_MODE_REL`) does
         not stop the scan; the first other complex strip does. Default None:
         the first complex strip stops it.
+    part_size : int, optional
+        Scan in P = ceil(n / ``part_size``) parts of about ``part_size``
+        eigenvalues of the symmetric part, run by ``map_tasks``
+        (:mod:`.parts`; at least ``slice_size``). The partition depends on the
+        matrix and ``part_size`` only, so the answer is the same, bit for bit,
+        whatever runs the tasks; it is the verdict of the whole scan, its
+        eigenvalues the same to within the Ritz radii, its strips cut at
+        other boundaries. Default None (or P = 1): one part, the whole scan.
+        Not with ``checkpoint_dir``.
+    map_tasks : callable, optional
+        ``map_tasks(fn, tasks)`` returning ``fn``'s results in the order of
+        ``tasks`` (an iterable, read in order, perhaps not to its end:
+        ``stop_at_complex``); ``fn``, the tasks and the results are picklable
+        (an MPI executor sends them). Default: the builtin :func:`map` (one
+        task after the other). Used with ``part_size`` only.
 
     Returns
     -------
@@ -551,7 +652,9 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         ``rel_error`` is outside [0, 0.01) or so large that the set reaches
         below the Gershgorin bound, ``window`` is not a finite number > 0,
         ``slice_size`` not an integer >= 2, ``checkpoint_seconds`` is
-        negative or not a number, or ``soft_rel`` is not a number in [0, 1).
+        negative or not a number, ``soft_rel`` is not a number in [0, 1), or
+        ``part_size`` is not an integer >= ``slice_size`` or is given with
+        ``checkpoint_dir``.
 
     Notes
     -----
@@ -562,6 +665,15 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     stats = stats if stats is not None else SlicedStats()
     slice_size, checkpoint_seconds = _checked_options(rel_error, window, slice_size,
                                                       checkpoint_seconds, soft_rel)
+    if part_size is not None:
+        if not is_integer(part_size) or part_size < slice_size:
+            raise ValueError(f"part_size must be an integer >= slice_size ({slice_size}), "
+                             f"got part_size = {part_size!r}")
+        if checkpoint_dir is not None:
+            raise ValueError(f"part_size = {part_size!r} is not supported with a "
+                             f"checkpoint_dir (a scan in parts is not saved)")
+    if map_tasks is not None and not callable(map_tasks):
+        raise ValueError(f"map_tasks must be callable, got map_tasks = {map_tasks!r}")
     if K.shape[0] == 0:
         raise ValueError("K is empty (0 x 0): no degree of freedom to decide")
     A, S, W = scaled_parts(K, mass)
@@ -584,6 +696,11 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     # the real part below which a complex strip is soft (it does not stop the scan)
     soft_below = (soft_rel * top_eigenvalue(S) if stop_at_complex and soft_rel is not None
                   else -math.inf)
+    if part_size is not None and part_count(S.shape[0], part_size) > 1:
+        new_scan = functools.partial(SlicedScan, S, ctx, lo0, slice_size,
+                                     stop_at_complex=stop_at_complex, soft_below=soft_below)
+        pb = PartsProblem(S, ctx, lo0, _top(S, ctx), int(part_size), new_scan)
+        return classify_parts(pb, stats, map_tasks, progress)
     setup = dict(S=S, ctx=ctx, lo0=lo0, slice_size=slice_size, stats=stats,
                  stop_at_complex=stop_at_complex, soft_below=soft_below, t0=t0)
     scan = SlicedScan.resumed(saved, **setup) if saved is not None else None

@@ -35,6 +35,11 @@ class SlicedStats:
         takes more than one).
     computed : int
         Eigenpairs computed by those solves (n of them are kept).
+    parts : int
+        Parts of a scan in parts (``classify_sliced``'s ``part_size``,
+        :mod:`.parts`): 1 for a whole scan.
+    cuts : tuple of (float, float)
+        Their split points and first boundaries (x_j, c_j), j = 1 .. parts - 1.
     reshifted : int
         Slices computed again about a shift moved by 1 % of their span (their
         Kahan radius above 1e-3 of their mean Ritz value spacing,
@@ -54,3 +59,5 @@ class SlicedStats:
     arpack_runs: int = 0
     computed: int = 0
     reshifted: int = 0
+    parts: int = 1
+    cuts: tuple = ()

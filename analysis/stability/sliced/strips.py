@@ -20,14 +20,15 @@ import scipy.sparse as sp
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
-from remote_trigger.analysis.stability.decision import Decision
+from remote_trigger.analysis.stability.decision import Decision, SpectrumDecision
 from remote_trigger.analysis.stability.enclosure import (
     U, gamma, sigma_min_lower, sigma_min_lower_many)
 from remote_trigger.analysis.stability.sliced.inertia import norm1, norm2_skew
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
+from remote_trigger.analysis.stability.sliced.slices import top_eigenvalue
 from remote_trigger.analysis.stability.sliced.winding import box_zero_count
 
-__all__ = ["StripContext", "coupling", "decide_strip", "arpack_hint"]
+__all__ = ["StripContext", "coupling", "decide_strip", "arpack_hint", "strips_decision"]
 
 
 def _norm22(x11, x12, x22):
@@ -490,3 +491,35 @@ def arpack_hint(A, a_lo, a_hi, m):
         return note + "none complex", inside
     z = cx[int(np.argmax(cx.imag))]
     return note + f"{cx.size} complex pair(s), e.g. {z.real:.6g} +- {z.imag:.4g}i", inside
+
+
+def strips_decision(S, eps, pairs, lam, margins, complex_margins, undecided_margins, reason,
+                      scanned_below, timing):
+    """The SpectrumDecision of a finished (stopped, or failed) scan of S from what
+    its strips and boundaries found (:meth:`.scan.SlicedScan.decision`; the merge of a
+    partitioned scan's parts, :func:`.parts.merged_decision`)."""
+    n = S.shape[0]
+    lam = np.asarray(lam, complex)
+    lam = lam[np.lexsort((lam.imag, lam.real))] if lam.size else lam
+    if complex_margins and math.isfinite(scanned_below):
+        note = ("the scan stopped at the first strip certified complex" if not reason
+                else f"the slicing failed above a strip certified complex: {reason}")
+        return SpectrumDecision(True, max(complex_margins), pairs, eps, lam, timing, note,
+                                start="sliced", n_total=n,
+                                scanned_below=float(scanned_below),
+                                lambda_max=top_eigenvalue(S))
+    if reason:
+        return SpectrumDecision(None, 0.0, pairs, 0.0, lam, timing, reason, start="sliced",
+                                n_total=n)
+    if complex_margins:
+        return SpectrumDecision(True, max(complex_margins), pairs, eps, lam, timing,
+                                start="sliced", n_total=n)
+    if undecided_margins:
+        bad = [p.reason for p in pairs if not p.certified]
+        why = bad[0] if len(bad) == 1 else (
+            f"{len(bad)} undecided strips: " + " | ".join(bad[:3])
+            + (f" | and {len(bad) - 3} more" if len(bad) > 3 else ""))
+        return SpectrumDecision(None, min(undecided_margins), pairs, eps, lam, timing,
+                                why, start="sliced", n_total=n)
+    return SpectrumDecision(False, min(margins) if margins else math.inf, pairs,
+                            eps, lam, timing, start="sliced", n_total=n)
