@@ -59,8 +59,8 @@ def held_system(eng, cfg, F_x):
     the same positions, contact history, loads and masses that
     :func:`~remote_trigger.pywrap.stages.common.save_equilibrium` writes to
     the dump (``%.17g``, which float64 reads back bitwise), so the State,
-    K and the verdict are those of the dump (tests/driver/test_ramp.py
-    checks K bitwise).
+    K and the verdict are those of the dump (tests/driver/test_held_system.py
+    and test_ramp3d.py check K, M, the kept dofs and the residual bitwise).
 
     Returns
     -------
