@@ -55,6 +55,19 @@ def modules():
 MODULES = modules()
 
 
+def imported_from(node, base):
+    """The project module (without the ``remote_trigger.`` prefix) an
+    ``ast.ImportFrom`` in package ``base`` imports from; None outside the project."""
+    if node.level:
+        b = base
+        for _ in range(node.level - 1):
+            b = b.rpartition(".")[0]
+        return b + ("." + node.module if node.module else "")
+    if (node.module or "").startswith(P):
+        return node.module[len(P):]
+    return None
+
+
 def imports(name):
     """Modules of the project that ``name`` imports (anywhere in its source)."""
     path, pkg = MODULES[name]
@@ -62,14 +75,8 @@ def imports(name):
     found = set()
     for node in ast.walk(ast.parse(open(path).read(), filename=path)):
         if isinstance(node, ast.ImportFrom):
-            if node.level:
-                b = base
-                for _ in range(node.level - 1):
-                    b = b.rpartition(".")[0]
-                mod = b + ("." + node.module if node.module else "")
-            elif (node.module or "").startswith(P):
-                mod = node.module[len(P):]
-            else:
+            mod = imported_from(node, base)
+            if mod is None:
                 continue
             for a in node.names:
                 found.add(mod + "." + a.name if mod + "." + a.name in MODULES else mod)
@@ -163,14 +170,8 @@ def private_imports(name, source=None):
     found, aliases = set(), {}
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
-            if node.level:
-                b = base
-                for _ in range(node.level - 1):
-                    b = b.rpartition(".")[0]
-                mod = b + ("." + node.module if node.module else "")
-            elif (node.module or "").startswith(P):
-                mod = node.module[len(P):]
-            else:
+            mod = imported_from(node, base)
+            if mod is None:
                 continue
             for a in node.names:
                 full = mod + "." + a.name
