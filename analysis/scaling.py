@@ -106,10 +106,19 @@ class PowerLawFit:
                 f"{self.n_points} values at N = {', '.join(str(s) for s in self.sizes)})")
 
 
-def _checked(n, y, confidence=0.95, n_resamples=100):
-    """(n, y, usable) as float arrays; usable: y finite and > 0. Raises the
-    ValueErrors of :func:`power_law_fit` (lengths, sizes, confidence,
-    n_resamples), each naming the value."""
+def checked_sizes(n, y, confidence=0.95, n_resamples=100):
+    """(n, y, usable) as float arrays; usable: y finite and > 0.
+
+    The checks of every fit over system sizes here and in
+    :mod:`remote_trigger.analysis.weakest_link`.
+
+    Raises
+    ------
+    ValueError
+        ``n`` and ``y`` of different lengths, a size not finite and > 0,
+        ``confidence`` outside (0, 1) or ``n_resamples`` < 100; the message
+        names the value.
+    """
     n = np.asarray(n, dtype=float).ravel()
     y = np.asarray(y, dtype=float).ravel()
     if n.shape != y.shape:
@@ -163,7 +172,7 @@ def power_law_fit(n, y, confidence=0.95, n_resamples=2000, seed=0):
     """
     from scipy import stats
 
-    n, y, ok = _checked(n, y, confidence, n_resamples)
+    n, y, ok = checked_sizes(n, y, confidence, n_resamples)
     sizes = _enough_sizes(n[ok], 2, "a power law")
     x, ly = np.log(n[ok]), np.log(y[ok])
     reg = stats.linregress(x, ly)
@@ -255,7 +264,7 @@ def local_slopes(n, y, confidence=0.95, n_resamples=2000, seed=0):
         As :func:`power_law_fit` (lengths, sizes, fewer than two usable
         sizes, ``confidence``, ``n_resamples``).
     """
-    n, y, ok = _checked(n, y, confidence, n_resamples)
+    n, y, ok = checked_sizes(n, y, confidence, n_resamples)
     sizes = _enough_sizes(n[ok], 2, "a slope between sizes")
     rng = np.random.default_rng(seed)
     groups = [y[ok & (n == s)] for s in sizes]
@@ -400,7 +409,7 @@ def crossover_test(n, y, n_resamples=10000, seed=0, n_breaks=61):
     """
     from scipy import stats
 
-    n, y, ok = _checked(n, y, 0.95, n_resamples)
+    n, y, ok = checked_sizes(n, y, 0.95, n_resamples)
     if not int(n_breaks) >= 2:
         raise ValueError(f"n_breaks must be >= 2, got {n_breaks!r}")
     sizes = _enough_sizes(n[ok], 3, "a crossover test")
@@ -539,7 +548,7 @@ def fraction_by_size(n, present, confidence=0.95, n_permutations=20000, seed=0):
     """
     from scipy import stats
 
-    n, _, _ = _checked(n, np.ones(np.size(n)), confidence, n_permutations)
+    n, _, _ = checked_sizes(n, np.ones(np.size(n)), confidence, n_permutations)
     present = np.asarray(present, dtype=bool).ravel()
     if present.shape != n.shape:
         raise ValueError(f"n and present differ in length: {n.size} and {present.size}")

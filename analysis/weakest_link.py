@@ -42,6 +42,8 @@ import math
 
 import numpy as np
 
+from remote_trigger.analysis.scaling import checked_sizes
+
 __all__ = ["WeakestLinkTest", "weakest_link_test"]
 
 #: chi-square(1) quantile of the 95 % profile-likelihood interval
@@ -279,15 +281,7 @@ def weakest_link_test(n, y, n_resamples=500, seed=0):
         than two sizes have two distinct usable values each, or
         ``n_resamples`` < 100 (the message names the value).
     """
-    n = np.asarray(n, dtype=float).ravel()
-    y = np.asarray(y, dtype=float).ravel()
-    if n.shape != y.shape:
-        raise ValueError(f"n and y differ in length: {n.size} and {y.size}")
-    if np.any(~np.isfinite(n)) or np.any(n <= 0):
-        raise ValueError(f"sizes must be positive, got {n[~(n > 0)][:3].tolist()}")
-    if not int(n_resamples) >= 100:
-        raise ValueError(f"n_resamples must be >= 100, got {n_resamples!r}")
-    ok = np.isfinite(y) & (y > 0)
+    n, y, ok = checked_sizes(n, y, n_resamples=n_resamples)
     sizes = [s for s in np.unique(n[ok]) if np.unique(y[ok & (n == s)]).size >= 2]
     if len(sizes) < 2:
         raise ValueError(f"a weakest-link test needs two distinct values at two sizes or "
