@@ -20,8 +20,9 @@ have a complex pair and others do not), up to a factor of a few. Every
 bound below is rigorous: rounding errors of the float64 computations are
 bounded a priori (gamma_k = k u / (1 - k u), Higham, *Accuracy and Stability
 of Numerical Algorithms*, 2nd ed., section 3.5), the pair's small problem is
-evaluated exactly (error-free products and ``math.fsum``; rational
-arithmetic for the 2 x 2 discriminant). The a-priori bounds assume a BLAS
+evaluated with error-free products and sums (its residual as in twice the
+working precision, Dot2, with a rigorous bound; rational arithmetic for
+the 2 x 2 discriminant). The a-priori bounds assume a BLAS
 whose matrix product is a sum of products in any order, with or without
 FMA (OpenBLAS, MKL, reference BLAS), not a Strassen-type algorithm.
 
@@ -64,8 +65,10 @@ FMA (OpenBLAS, MKL, reference BLAS), not a Strassen-type algorithm.
    S_cc itself is first computed from C (*crude*). When that does not
    decide with a margin of 1e4, or the pair was refined, it is computed
    **sharply**: with the
-   exact residual r = A Q_c - Q_c M~ (each entry an exact sum of error-free
-   products, rounded once by ``math.fsum``), S_cc = M~ + Y_c r
+   residual r = A Q_c - Q_c M~ computed as in twice the working precision
+   (error-free products and sums, Dot2 of Ogita, Rump and Oishi, 2005, with
+   a rigorous entrywise bound ~u |r|: ``enclosure.accurate_residual``),
+   S_cc = M~ + Y_c r
    (Y = X^{-1}), so the only first-order uncertainty left is
    Y_c dA Q_c <= rel_error |R_c| |A| |Q_c|: the float64 representation of A.
 5. D(M) = ((m11 - m22)/2)^2 + m12 m21 is the similarity-invariant

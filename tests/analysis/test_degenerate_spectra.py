@@ -6,7 +6,7 @@ import scipy.sparse as sp
 
 from remote_trigger.analysis.stability.decision import Decision
 from remote_trigger.analysis.stability.enclosure import (
-    exact_residual, sep_2x2_lower, sigma_min_lower, sigma_min_lower_many)
+    accurate_residual, sep_2x2_lower, sigma_min_lower, sigma_min_lower_many)
 from remote_trigger.analysis.stability.system import reduced_system
 from remote_trigger.analysis.stability.verdict import VerdictOptions, decide
 from remote_trigger.analysis.state.dumpfile import read_equilibrium
@@ -87,14 +87,14 @@ def test_sigma_min_lower_many_is_the_one_at_a_time_bound():
     assert np.all(many <= true * (1 + 1e-12))
 
 
-def test_exact_residual_of_a_sparse_A_is_the_dense_one():
+def test_accurate_residual_of_a_sparse_A_is_the_dense_one():
     rng = np.random.default_rng(3)
     A = sp.random(60, 60, density=0.1, random_state=rng).toarray()
     A[np.abs(A) > 0] += 1e-3 * rng.standard_normal(np.count_nonzero(A))
     Q = rng.standard_normal((60, 2))
     M = rng.standard_normal((2, 2))
-    Rd, ed = exact_residual(A, Q, M)
-    Rs, es = exact_residual(sp.csr_matrix(A), Q, M)
+    Rd, ed = accurate_residual(A, Q, M)
+    Rs, es = accurate_residual(sp.csr_matrix(A), Q, M)
     assert np.array_equal(Rd, Rs) and np.array_equal(ed, es)
 
 
