@@ -18,6 +18,10 @@ measures on the states built here, and a profile may load them too.
   symmetric (no tangential history), so both paths have little to do.
 * ``random<N>_F<F_x>``: the same brought to F_x by Newton steps of
   ``DFX_RANDOM`` (below its F_x^c: a skew part like a ramp point's).
+* ``hex<n_x>x<rows>``: an ordered packing (:func:`hexagonal`: equal disks
+  R = 0.5 on a triangular lattice, ``rows`` rows of ``n_x``, the top row the
+  ``top`` line), relaxed by the default protocol; ``hex<n_x>x<rows>_F<F_x>``
+  brought to F_x as a random packing is.
 
 Every state is an equilibrium dump with its sidecar, kept under the cache
 folder (default ``$REMOTE_TRIGGER_BENCH_CACHE`` or
@@ -57,7 +61,30 @@ def cache_dir():
     return d
 
 
-def _relax(n, seed, folder):
+def hexagonal(n_x, rows):
+    """An ordered packing: ``rows`` rows of ``n_x`` equal disks (R = 0.5, type 1)
+    on a triangular lattice of spacing 2R, the first row on the wall, odd rows
+    shifted by R, periodic in x (L = 2 R n_x, n_x even); the top row is the
+    ``top`` line (a Packing for ``write_data``; seed -1)."""
+    import numpy as np
+
+    from remote_trigger.pywrap.stages.packing import RADII, Packing
+
+    if n_x < 2 or n_x % 2 or rows < 2:
+        raise ValueError(f"hexagonal: n_x must be even >= 2 and rows >= 2, got "
+                         f"n_x = {n_x}, rows = {rows}")
+    R = RADII[0]
+    j, i = np.divmod(np.arange(n_x * rows), n_x)
+    x = (i + 0.5 * (j % 2) + 0.25) * 2 * R
+    y = R + j * np.sqrt(3.0) * R
+    n = n_x * rows
+    return Packing(positions=np.column_stack([x, y]), radii=np.full(n, R),
+                   types=np.ones(n, int), top=j == rows - 1, width=2 * R * n_x,
+                   ylo=0.0, yhi=float(y.max() + 10 * R), seed=-1)
+
+
+def _relax(n, seed, folder, packing=None):
+    """Relax (the default protocol) ``generate(n, seed)``, or ``packing`` if given."""
     from mpi4py import MPI
 
     from remote_trigger.pywrap import stages
@@ -66,7 +93,7 @@ def _relax(n, seed, folder):
 
     os.makedirs(folder, exist_ok=True)
     data = os.path.join(folder, "p.data")
-    write_data(generate(n, seed=seed), data)
+    write_data(generate(n, seed=seed) if packing is None else packing, data)
     rel = stages.relax(RelaxConfig(datafile=data), folder, comm=MPI.COMM_SELF, quiet=True)
     return rel.datafile
 
@@ -106,7 +133,7 @@ def _cell(F_x):
 
 def build(name):
     """Dump path of the state ``name``: 'cell_F<F_x>', 'tiled<c>_F<F_x>', 'random<N>',
-    'random<N>_F<F_x>'."""
+    'random<N>_F<F_x>', 'hex<n_x>x<rows>', 'hex<n_x>x<rows>_F<F_x>'."""
     import re
 
     d = cache_dir()
@@ -128,16 +155,23 @@ def build(name):
         if not os.path.exists(dump):
             _relax(int(m.group(1)), RANDOM_SEED, folder)
         return dump
-    if m := re.fullmatch(r"random(\d+)_F([0-9.e-]+)", name):
+    if m := re.fullmatch(r"hex(\d+)x(\d+)", name):
+        folder = os.path.join(d, name)
+        dump = os.path.join(folder, "relax", "equilibrium.dump")
+        if not os.path.exists(dump):
+            _relax(0, 0, folder, packing=hexagonal(int(m.group(1)), int(m.group(2))))
+        return dump
+    if m := re.fullmatch(r"(random\d+|hex\d+x\d+)_F([0-9.e-]+)", name):
         F_x = float(m.group(2))
         prefix = os.path.join(d, name)
         if not os.path.exists(prefix + ".dump"):
-            start = build(f"random{m.group(1)}")[:-len(".dump")] + ".data"
+            start = build(m.group(1))[:-len(".dump")] + ".data"
             k = max(1, int(round(F_x / DFX_RANDOM)))
             _equilibrate_at(start, [F_x * j / k for j in range(k + 1)], prefix)
         return prefix + ".dump"
     raise ValueError(f"degenerate.build: unknown state {name!r} (cell_F<F_x>, "
-                     f"tiled<c>_F<F_x>, random<N>)")
+                     f"tiled<c>_F<F_x>, random<N>, random<N>_F<F_x>, hex<n_x>x<rows>, "
+                     f"hex<n_x>x<rows>_F<F_x>)")
 
 
 def matrix(name):
