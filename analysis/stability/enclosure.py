@@ -80,7 +80,10 @@ def accurate_residual(A, Q, M):
         Real, finite; zeros are skipped (sparse structure; a sparse A gives
         the same R and err as its dense copy, bit for bit).
     Q : ndarray, shape (n, k)
-    M : ndarray, shape (k, k)
+    M : ndarray, shape (k, k), or (p, b, b) with k = p b
+        M, or the diagonal blocks of a block-diagonal M (p blocks of b x b:
+        the residuals of p invariant subspaces of dimension b at once; each
+        column the same bits as its block's own call).
 
     Returns
     -------
@@ -110,6 +113,11 @@ def accurate_residual(A, Q, M):
     Q = np.asarray(Q, np.float64)
     M = np.asarray(M, np.float64)
     n, k = Q.shape
+    blocks = M if M.ndim == 3 else M[None]
+    p, b = blocks.shape[0], blocks.shape[1]
+    if blocks.shape != (p, b, b) or p * b != k:
+        raise ValueError(f"accurate_residual: M of shape {M.shape} does not fit Q of "
+                         f"shape {Q.shape} (want ({k}, {k}) or (p, b, b) with p b = {k})")
     for name, X in (("A", Ad), ("Q", Q), ("M", M)):
         if not np.all(np.isfinite(X)):
             raise ValueError(f"accurate_residual: {name} has non-finite entries")
@@ -124,13 +132,17 @@ def accurate_residual(A, Q, M):
     length = np.diff(bounds)
     width = int(length.max()) if n and length.size else 0
     pos = np.arange(rows.size) - bounds[rows]
-    p, e = _two_prod(a[:, None], Q[cols, :])             # (nnz, k)
+    prod, err_prod = _two_prod(a[:, None], Q[cols, :])   # (nnz, k)
     P = np.zeros((width, n, k))
     E = np.zeros((width, n, k))
-    P[pos, rows] = p
-    E[pos, rows] = e
+    P[pos, rows] = prod
+    E[pos, rows] = err_prod
     terms = [(P[j], E[j]) for j in range(width)]
-    terms += [_two_prod(-Q[:, l][:, None], M[l, :][None, :]) for l in range(k)]
+    # the l-th column of each block times its row l of the block: b terms per entry
+    Qb = Q.reshape(n, p, b)
+    terms += [tuple(x.reshape(n, k) for x in
+                    _two_prod(-Qb[:, :, l][:, :, None], blocks[:, l, :][None, :, :]))
+              for l in range(b)]
     s = np.zeros((n, k))
     c = np.zeros((n, k))
     total = np.zeros((n, k))
@@ -144,7 +156,7 @@ def accurate_residual(A, Q, M):
         if np.any(small):
             slack = slack + np.where(small, 2.0 * U * apj + 2.0 ** -1070, 0.0)
     out = s + c
-    L = width + k
+    L = width + b
     err = 2.0 * U * np.abs(out) + 4.0 * gamma(L) ** 2 * total + slack + 2.0 ** -1070
     return out, err
 

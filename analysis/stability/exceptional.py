@@ -122,7 +122,8 @@ from remote_trigger.analysis.stability.basis import from_basis
 from remote_trigger.analysis.stability.decision import Decision, PairDecision, SpectrumDecision
 from remote_trigger.analysis.stability.enclosure import (
     EPS, UNIT_ROUNDOFF, disc_test, frac, margin, pair_eigs)
-from remote_trigger.analysis.stability.verification import Unit, analyse, split_units
+from remote_trigger.analysis.stability.verification import (
+    SparseCopy, Unit, analyse, split_units)
 
 __all__ = ["classify_spectrum", "block_discriminant"]
 
@@ -194,11 +195,9 @@ def _sparse_copy(A):
     ``_SPARSE_PRODUCT`` of its entries are nonzero (an M^-1 K: ~4 %); else None.
     A sparse product is a sum of fewer products, so the a-priori bound gamma_n
     of step 2 holds for it too."""
-    import scipy.sparse as sp
-
     if np.count_nonzero(A) > _SPARSE_PRODUCT * A.size:
         return None
-    return sp.csr_matrix(A)
+    return SparseCopy(A)
 
 
 def classify_spectrum(A, input_error=0.0, rel_error=UNIT_ROUNDOFF, basis=None):

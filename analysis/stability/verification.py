@@ -18,6 +18,7 @@ import warnings
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 
 from remote_trigger.analysis.stability.decision import PairDecision, SpectrumBasis
 from remote_trigger.analysis.stability.enclosure import (
@@ -27,6 +28,7 @@ from remote_trigger.analysis.stability.enclosure import (
 _PARALLEL = 1.0 - 1e-4          # |cos| of two real eigenvectors above which they form a pair
 _ILL = 100.0                    # pair basis condition above which the subspace is refined
 _SHARP_BELOW = 1e4              # crude margin below which a pair is also computed sharply
+_RESIDUAL_CHUNK = 32            # pairs whose sharp residuals are computed in one call
 
 
 # --------------------------------------------------------------------------- units and bases
@@ -72,30 +74,56 @@ def split_units(lam, V):
     return units
 
 
+class SparseCopy(sp.csr_matrix):
+    """A CSR copy of a dense A (the same float64 entries, for the products A X)
+    that also gives A - sigma I in CSC form for the refinement's sparse LUs
+    (:meth:`shifted`), the positions of its diagonal found once."""
+
+    def shifted(self, sigma):
+        """A - sigma I as a CSC matrix: the same entries and structure as
+        ``csc_matrix(A - sigma * identity)`` (a diagonal entry that becomes
+        exactly 0 is dropped, as that difference drops it)."""
+        n = self.shape[0]
+        t = self.__dict__.get("_shift_template")
+        if t is None:
+            C = sp.csc_matrix(self)
+            C.sort_indices()
+            cols = np.repeat(np.arange(n), np.diff(C.indptr))
+            pos = np.nonzero(C.indices == cols)[0]
+            t = (C, pos, C.data[pos].copy()) if pos.size == n else (None, None, None)
+            self._shift_template = t
+        C, pos, diag = t
+        new = None if C is None else diag - sigma
+        if new is None or not np.all(new != 0):
+            return sp.csc_matrix(sp.csr_matrix(self) - sigma * sp.identity(n, format="csr"))
+        M = C.copy()
+        M.data[pos] = new
+        return M
+
+
 def _refine(A, sigma, Q, iters=4, Ap=None):
     """Orthonormal basis of the 2-dimensional invariant subspace nearest sigma.
 
     Subspace iteration with (A - sigma I)^{-1} from Q; returns Q unchanged if
     the shifted matrix cannot be factorised or the iteration breaks down.
-    ``Ap``: A's sparse copy, factorised by a sparse LU (SuperLU) instead of
-    the dense one (O(n^3) per pair: most of the decision's time where many
-    pairs are refined, as in a spectrum of near-double eigenvalues). Only a
-    proposal: the basis is verified afterwards (step 2).
+    ``Ap``: A's sparse copy (:class:`SparseCopy`), factorised by a sparse LU
+    (SuperLU) instead of the dense one (O(n^3) per pair: most of the
+    decision's time where many pairs are refined, as in a spectrum of
+    near-double eigenvalues). Only a proposal: the basis is verified
+    afterwards (step 2).
     """
     n = A.shape[0]
     solve = None
     for _ in range(3):
         if Ap is not None:
-            import scipy.sparse as sp
             import scipy.sparse.linalg as spla
 
             try:
                 # A's pattern is symmetric (K's): a minimum-degree ordering of
                 # A + A^T, diagonal pivots preferred (half the time of COLAMD's
                 # LU at 837 dofs; the basis is only a proposal, verified below)
-                lu = spla.splu(sp.csc_matrix(Ap - sigma * sp.identity(n, format="csr")),
-                               permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.01,
-                               options=dict(SymmetricMode=True))
+                lu = spla.splu(Ap.shifted(sigma), permc_spec="MMD_AT_PLUS_A",
+                               diag_pivot_thresh=0.01, options=dict(SymmetricMode=True))
                 if np.all(lu.U.diagonal() != 0):
                     solve = lu.solve
                     break
@@ -204,11 +232,26 @@ class Verified:
         d = self.dev[s:s + 2]
         return S, np.column_stack([d, d])
 
-    def sharp_block(self, A, Q, s, rel_error, input_error):
-        """S_cc = M~ + Y_c r with the accurate residual r = A Q - Q M~ (step 4)."""
+    def sharp_residuals(self, A, X, starts):
+        """The accurate residuals r = A Q - Q M~ of the pairs at ``starts`` (Q =
+        X[:, s:s + 2], M~ = C[s:s + 2, s:s + 2]), all in one call; a dict s ->
+        (r, its bound), for :meth:`sharp_block`."""
+        starts, out = list(starts), {}
+        for c0 in range(0, len(starts), _RESIDUAL_CHUNK):
+            chunk = starts[c0:c0 + _RESIDUAL_CHUNK]
+            cols = np.ravel([[s, s + 1] for s in chunk])
+            blocks = np.stack([self.C[s:s + 2, s:s + 2] for s in chunk])
+            r, er = accurate_residual(A, X[:, cols], blocks)
+            out.update({s: (r[:, 2 * j:2 * j + 2], er[:, 2 * j:2 * j + 2])
+                        for j, s in enumerate(chunk)})
+        return out
+
+    def sharp_block(self, A, Q, s, rel_error, input_error, residual=None):
+        """S_cc = M~ + Y_c r with the accurate residual r = A Q - Q M~ (step 4);
+        ``residual``: (r, its bound) if already computed (:meth:`sharp_residuals`)."""
         n = self.n
         Mt = self.C[s:s + 2, s:s + 2].copy()
-        r, er = accurate_residual(A, Q, Mt)
+        r, er = accurate_residual(A, Q, Mt) if residual is None else residual
         Rc = self.R[s:s + 2]
         aRc = np.abs(Rc)
         t = Rc @ r
@@ -351,13 +394,22 @@ def verify(A, X, blocks, units, refined, rel_error, input_error, Ap=None, ver=No
     # sharp enclosure: the pair nearest an exceptional point (smallest crude
     # margin), refined pairs, and every pair the crude enclosure leaves unsure
     crit = min(range(len(pending)), key=lambda q: pending[q][3].margin) if pending else -1
+    sharp = [q == crit or refined[b] or not dec.certified or dec.margin < _SHARP_BELOW
+             for q, (b, s, blk, dec, cover, S) in enumerate(pending)]
+    try:
+        resid = ver.sharp_residuals(A if Ap is None else Ap, X,
+                                    [pending[q][1] for q in range(len(pending)) if sharp[q]])
+    except ValueError:          # (an entry too large to split: no sharp block)
+        resid = None
     for q, (b, s, blk, dec, cover, S) in enumerate(pending):
-        if q == crit or refined[b] or not dec.certified or dec.margin < _SHARP_BELOW:
-            try:
-                Sx, radx = ver.sharp_block(A if Ap is None else Ap, X[:, s:s + 2], s,
-                                           rel_error, input_error)
-            except ValueError:
-                Sx = None
+        if sharp[q]:
+            Sx = None
+            if resid is not None:
+                try:
+                    Sx, radx = ver.sharp_block(A if Ap is None else Ap, X[:, s:s + 2], s,
+                                               rel_error, input_error, resid[s])
+                except ValueError:
+                    Sx = None
             if Sx is not None:
                 dec2, cover2 = blk.decide(Sx, radx, True)
                 if dec2.certified or not dec.certified:

@@ -98,6 +98,40 @@ def test_accurate_residual_of_a_sparse_A_is_the_dense_one():
     assert np.array_equal(Rd, Rs) and np.array_equal(ed, es)
 
 
+def test_accurate_residual_of_blocks_is_each_blocks_own():
+    """M block-diagonal, given as its 2 x 2 blocks: each column the bits of its
+    block's own call, dense or sparse A; a shape that does not fit is refused."""
+    rng = np.random.default_rng(5)
+    A = sp.random(50, 50, density=0.15, random_state=rng).toarray()
+    Q = rng.standard_normal((50, 8))
+    B = rng.standard_normal((4, 2, 2))
+    for Am in (A, sp.csr_matrix(A)):
+        R, e = accurate_residual(Am, Q, B)
+        for j in range(4):
+            Rj, ej = accurate_residual(Am, Q[:, 2 * j:2 * j + 2], B[j])
+            assert np.array_equal(R[:, 2 * j:2 * j + 2], Rj)
+            assert np.array_equal(e[:, 2 * j:2 * j + 2], ej)
+    with pytest.raises(ValueError, match="does not fit"):
+        accurate_residual(A, Q, B[:3])
+
+
+def test_sparse_copy_shifted_is_the_difference():
+    """SparseCopy.shifted(sigma): the entries and structure of csc(A - sigma I),
+    also where a diagonal entry becomes exactly 0 (dropped, as the difference
+    drops it)."""
+    from remote_trigger.analysis.stability.verification import SparseCopy
+
+    rng = np.random.default_rng(6)
+    A = sp.random(40, 40, density=0.1, random_state=rng).toarray() + np.diag(
+        rng.uniform(1, 2, 40))
+    Ap = SparseCopy(A)
+    for sigma in (0.3, 1.5, float(A[7, 7])):
+        want = sp.csc_matrix(sp.csr_matrix(A) - sigma * sp.identity(40, format="csr"))
+        got = Ap.shifted(sigma)
+        for attr in ("data", "indices", "indptr"):
+            assert np.array_equal(getattr(got, attr), getattr(want, attr)), (sigma, attr)
+
+
 @pytest.fixture(scope="module")
 def tiled3(tmp_path_factory):
     from tests.data import unpack
