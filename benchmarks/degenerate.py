@@ -12,7 +12,9 @@ measures on the states built here, and a profile may load them too.
   exact copies), re-equilibrated at the same F_x (Newton; the copies are an
   equilibrium of the wider box force for force, so this only polishes the
   rounding of the shifted coordinates). Its spectrum is the cell's Bloch
-  spectrum: at F_x = 0 real with exact degeneracies (the sectors +-k), at
+  spectrum: at F_x = 0 pairs of eigenvalues equal to rounding (the sectors
+  +-k; dgeev's |Im| <= 3e-15 ||A|| at 3 copies), which the verdict mostly
+  leaves undecided (docs/results/analysis.md, "Degenerate spectra"), at
   ``FX_LOADED`` complex (the sectors split at first order).
 * ``random<N>``: ``generate --seed 2 --n N``, relaxed (F_x = 0): nearly
   symmetric (no tangential history), so both paths have little to do.
