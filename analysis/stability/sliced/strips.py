@@ -157,7 +157,7 @@ TAYLOR_TERMS = 60
 #: most halvings of a strip into pieces
 _DEPTH = 6
 #: most steps of a piece's walk along the real axis
-_WALK = 4000
+_WALK = 500
 
 
 class DeflatedComplement:
@@ -474,7 +474,7 @@ def decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
     complex estimate holds an eigenvalue (winding on the polynomial).
 
     The series is first truncated at ``TAYLOR_LOOSE`` ||A||; the estimates
-    of the strip's eigenvalues then set the tolerance to 1e-2 of their
+    of the strip's eigenvalues then set the tolerance to 0.1 of their
     smallest |Im| or spacing (not below ``TAYLOR_TOL`` ||A||), and once more
     to ``TAYLOR_TOL`` ||A|| if the strip is left undecided.
 
@@ -498,7 +498,7 @@ def decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
             mid = 0.5 * (lo + hi)
             todo += [(mid, hi, depth + 1), (lo, mid, depth + 1)]
     pieces.sort(key=lambda pc: pc.lo)
-    est = _strip_estimates(pieces, m, a_lo, a_hi, 1)
+    est = _strip_estimates(pieces, m, a_lo, a_hi, 0)
     if est is None:
         return Decision.UNDECIDED, 0.0, None, "deflated route: no estimates"
     im = np.abs(est.imag[est.imag != 0])
@@ -506,14 +506,14 @@ def decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
     spread = min([float(im.min()) if im.size else math.inf]
                  + ([float(np.diff(re).min())] if re.size > 1 else []))
     result = (Decision.UNDECIDED, 0.0, est, "")
-    first = max(tight, min(TAYLOR_LOOSE * ctx.normA1, 1e-2 * spread))
+    first = max(tight, min(TAYLOR_LOOSE * ctx.normA1, 0.1 * spread))
     for target in dict.fromkeys((first, tight)):
         try:
             for pc in pieces:
                 pc.extend(target)
         except SliceFailure as exc:
             return Decision.UNDECIDED, 0.0, est, f"deflated route: {exc}"
-        est = _strip_estimates(pieces, m, a_lo, a_hi, 2)
+        est = _strip_estimates(pieces, m, a_lo, a_hi, 1)
         if est is None:
             break
         result = _deflated_routes(pieces, est, m, a_lo, a_hi)
@@ -576,10 +576,17 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     # errors of Tc and of the set: rounding, the non-orthonormality of Q, F
     rho = ((gamma(n + 8) * m * ctx.normA1 + (2 * phiI + phiI ** 2) * ctx.normA1)
            + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * INFLATE
-    Qs = sp.csr_matrix(Q)
-    # the bordered matrix [[A - x, Q], [Q^T, 0]] = M0 - x E, assembled once
-    M0 = sp.bmat([[A, Qs], [Qs.T, None]], format="csc")
-    E = sp.diags(np.r_[np.ones(n), np.zeros(m)], format="csc")
+    bordered = []               # [M0, E], assembled at the first solve
+
+    def bordered_at(x):
+        """The bordered matrix [[A - x, Q], [Q^T, 0]] = M0 - x E (M0 and E
+        assembled once)."""
+        if not bordered:
+            Qs = sp.csr_matrix(Q)
+            bordered.extend([sp.bmat([[A, Qs], [Qs.T, None]], format="csc"),
+                             sp.diags(np.r_[np.ones(n), np.zeros(m)], format="csc")])
+        return (bordered[0] - x * bordered[1]).tocsc()
+
     evaluated = {}              # x -> (T, D) of the solved routes (for the estimates)
     # the projected cluster: Y = 0 in range(Q_r) is a solution like any other
     # (the bound b ||Z|| / (sqrt(g_min) (1 - kappa_r)) holds for every Y in
@@ -599,7 +606,7 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         cplx = 2.0 if isinstance(x, complex) else 1.0
         if projected[0]:          # (real x only: the real-axis routes)
             return Tc - x * np.eye(m), err0
-        M = (M0 - x * E).tocsc()
+        M = bordered_at(x)
         try:
             lu = spla.splu(M)
         except RuntimeError:
