@@ -158,6 +158,8 @@ TAYLOR_TERMS = 60
 _DEPTH = 6
 #: most steps of a piece's walk along the real axis
 _WALK = 500
+#: strips of more than this many are tried by a box before the walk
+_BOX_FIRST = 8
 
 
 class DeflatedComplement:
@@ -382,9 +384,11 @@ class DeflatedComplement:
 def _strip_estimates(pieces, m, a_lo, a_hi, steps):
     """m estimates of the strip's eigenvalues from its pieces' complements (not
     certified): each piece's zeros with real part in it, refined ``steps``
-    times; if that is not m of them, the m zeros nearest the strip (None if
-    fewer)."""
+    times (not refined in a strip of more than ``_BOX_FIRST``: one generalized
+    eigenproblem of p x p per estimate); if that is not m of them, the m
+    zeros nearest the strip (None if fewer)."""
     found, every = [], []
+    steps = steps if m <= _BOX_FIRST else 0     # (a box refines its own estimate)
     for pc in pieces:
         z = pc.roots(pc.c)
         every.extend(z)
@@ -406,18 +410,49 @@ def _strip_estimates(pieces, m, a_lo, a_hi, steps):
 
 def _deflated_routes(pieces, est, m, a_lo, a_hi):
     """The routes of :func:`decide_deflated` on its pieces, given the estimates."""
-    why = ""
+    whys = []
     roots = np.sort(est.real)
     real_est = bool(np.all(est.imag == 0)) and bool(np.all(np.diff(roots) > 0))
     # a strip estimated mixed (real and complex zeros) goes to the box at once:
     # the walk would stop at its real root only after ~log(width / err) steps
     mixed = not real_est and bool(np.any(est.imag == 0))
+
+    def box():
+        """A box about a complex estimate, off the real axis (winding on T~):
+        (COMPLEX, margin) or None."""
+        cx = sorted((z for z in est if z.imag > 0), key=lambda z: -z.imag)
+        for z0 in cx[:2]:
+            pc = next((q for q in pieces if q.lo <= z0.real <= q.hi), None)
+            if pc is None:
+                continue
+            others = [abs(z0 - z) for z in est if z != z0]
+            if m > _BOX_FIRST:
+                z0 = pc.refined(z0, 1)
+                if not (z0.imag > 0 and pc.lo <= z0.real <= pc.hi):
+                    continue
+            r = 0.5 * min([z0.imag, z0.real - pc.lo, pc.hi - z0.real] + others)
+            if not r > 0:
+                continue
+            tau = abs(z0.real - pc.c) + r + (z0.imag + r)
+            zabs = abs(z0) + 2 * r
+            cnt, w, mg = box_zero_count(pc.schur(tau, zabs, z0), z0.real - r, z0.real + r,
+                                        z0.imag - r, z0.imag + r, pc.curvature(tau))
+            if cnt is not None and cnt >= 1:
+                return Decision.COMPLEX, mg
+            whys.append(w if w else f"no eigenvalue in the box about {z0:.6g}")
+        return None
+
+    # a strip of more than _BOX_FIRST: one box (its pairs would each be a dip
+    # of the walk, every step an inversion of p x p)
+    boxed = m > _BOX_FIRST and not real_est
+    if boxed and (found := box()):
+        return found[0], found[1], est, ""
     if not real_est and not mixed:
         margin = math.inf
         for pc in pieces:
             ok, mg, where = pc.walk(pc.lo, pc.hi)
             if not ok:
-                why = f"a real root cannot be excluded near x = {where:.9g}"
+                whys.append(f"a real root cannot be excluded near x = {where:.9g}")
                 break
             margin = min(margin, mg)
         else:
@@ -435,35 +470,17 @@ def _deflated_routes(pieces, est, m, a_lo, a_hi):
             slack = err + 1e3 * gamma(pc.p + 2) * float(np.linalg.norm(T))
             s = sigma_min_lower(T)
             if not s > slack:
-                why = f"strip of {m}: det of its complement not certified at x = {x:.9g}"
+                whys.append(f"strip of {m}: det of its complement not certified at x = {x:.9g}")
                 break
             margin = min(margin, s / slack)
             signs.append(np.linalg.slogdet(T)[0])
         else:
             if all(signs[i] != signs[i + 1] for i in range(m)):
                 return Decision.REAL, margin, roots.astype(complex), ""
-            why = f"strip of {m}: no sign change of det between roots"
-    # a box about a complex estimate, off the real axis (winding on T~)
-    cx = sorted((z for z in est if z.imag > 0), key=lambda z: -z.imag)
-    for z0 in cx[:2]:
-        pc = next((q for q in pieces if q.lo <= z0.real <= q.hi), None)
-        if pc is None:
-            continue
-        others = [abs(z0 - z) for z in est if z != z0]
-        r = 0.5 * min([z0.imag, z0.real - pc.lo, pc.hi - z0.real] + others)
-        if not r > 0:
-            continue
-        tau = abs(z0.real - pc.c) + r + (z0.imag + r)
-        zabs = abs(z0) + 2 * r
-        cnt, w, mg = box_zero_count(pc.schur(tau, zabs, z0), z0.real - r, z0.real + r,
-                                    z0.imag - r, z0.imag + r, pc.curvature(tau))
-        if cnt is not None and cnt >= 1:
-            return Decision.COMPLEX, mg, est, ""
-        if w:
-            why = f"{why}; {w}" if why else w
-        elif cnt == 0:
-            why = f"{why}; no eigenvalue in the box about {z0:.6g}"
-    return Decision.UNDECIDED, 0.0, est, why
+            whys.append(f"strip of {m}: no sign change of det between roots")
+    if not boxed and (found := box()):
+        return found[0], found[1], est, ""
+    return Decision.UNDECIDED, 0.0, est, "; ".join(whys)
 
 
 def decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
