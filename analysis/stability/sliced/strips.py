@@ -5,10 +5,13 @@ decision of a strip of m >= 2 eigenvalues from its Schur complement.
 scaled matrix, its skew part, their norms and error bounds);
 :func:`coupling` bounds kappa across an interval (a boundary is certified
 where kappa < 1); :func:`decide_strip` decides a strip between two certified
-boundaries; :func:`arpack_hint` says what ARPACK sees in a strip left
+boundaries, first by :func:`decide_deflated` (one sparse LU per piece of
+the strip, :class:`DeflatedComplement`), then by the routes of a sparse LU
+per evaluation; :func:`arpack_hint` says what ARPACK sees in a strip left
 undecided (a note, not certified). The proof: the module docstring of
-:mod:`remote_trigger.analysis.stability.sliced` (*Boundary lemma* and
-*Strips*); the winding count of a box off the real axis: :mod:`.winding`.
+:mod:`remote_trigger.analysis.stability.sliced` (*Boundary lemma*,
+*Strips* and *Deflated strips*); the winding count of a box off the real
+axis: :mod:`.winding`.
 """
 from __future__ import annotations
 
@@ -146,7 +149,7 @@ def coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
 #: rest within REACH x the piece's width of it, so that the rest's resolvent
 #: is analytic on a disc about the piece's centre of radius ~ (1/2 + REACH)
 #: x its width, and its Taylor series converges across the piece
-#: (docs/results/analysis.md, "Strips from one sparse LU")
+#: (docs/results/analysis.md, "Deflated strips")
 REACH = 1.0
 #: the series is truncated where its last term's share of the error bound is
 #: below max(rho, tol), tol first TAYLOR_LOOSE ||A||_2, at least TAYLOR_TOL ||A||_2
@@ -164,7 +167,7 @@ _BOX_FIRST = 8
 
 class DeflatedComplement:
     """The Schur complement of a piece [lo, hi] of a strip onto an enlarged
-    block, as a polynomial in z (package docstring, *Strips*, the deflated route).
+    block, as a polynomial in z (package docstring, *Deflated strips*).
 
     The explicit block E is the strip's Ritz vectors and those of the rest
     within ``REACH`` (hi - lo) of the piece (p columns, orthonormalised: Q);
@@ -185,6 +188,20 @@ class DeflatedComplement:
 
     Built by :meth:`of`; raises :class:`SliceFailure` where the far rest is not
     weakly coupled or the series does not reach its tolerance.
+
+    Attributes
+    ----------
+    lo, hi, c, r : float
+        The piece, its centre and half-width (units of A: K / M).
+    E : ndarray of int, shape (p,)
+        The buffer's indices of the explicit block (the strip's Ritz values
+        among them: ``inI``).
+    Tc : ndarray, shape (p, p)
+        Q^T A Q.
+    P : ndarray, shape (K, p, p)
+        The Taylor coefficients Q^T A Y_k.
+    target : float
+        The tolerance the series was truncated at (:meth:`extend`).
     """
 
     def __init__(self, **kw):
