@@ -299,7 +299,8 @@ class DeflatedComplement:
         """Bound of the rounding of evaluating T~(z) (Horner) for |z - c| <= tau,
         |z| <= zabs."""
         s = self.Tn + zabs * math.sqrt(self.p) + float(np.dot(tau ** np.arange(self.K), self.Pn))
-        return (2.0 if cplx else 1.0) * gamma(2 * self.K + 4) * s * INFLATE
+        # (+2: a product with a constant row scaling, :meth:`schur`)
+        return (2.0 if cplx else 1.0) * gamma(2 * self.K + 6) * s * INFLATE
 
     def __call__(self, z):
         """T~(z), computed (z real or complex)."""
@@ -355,20 +356,22 @@ class DeflatedComplement:
     def schur(self, tau, zabs, z0):
         """``schur(z, deriv=True)`` for :func:`~.winding.box_zero_count` on a box
         about z0 within |z - c| <= tau, |z| <= zabs: (d T~(z), err, d T~'(z),
-        0), err bounding ||T_F(z) - T~(z)|| on the whole box (so the
-        derivative's error is 0 and the curvature that of T~). d is a constant
-        diagonal scaling of the rows, 0 < d <= 1 (so ||d (T_F - T~)|| <= err
-        and det(d T) winds as det T): 1 on the strip's rows, the rows of the
-        rest's Ritz values far from z0 scaled down to the strip's size, so that
-        the box's evaluations are not conditioned by directions far away."""
+        derr), err bounding ||T_F(z) - T~(z)|| on the whole box (so the
+        derivative's error is its rounding only, derr, and the curvature that
+        of T~). d is a constant diagonal scaling of the rows, 0 < d <= 1 (so
+        ||d (T_F - T~)|| <= err and det(d T) winds as det T): 1 on the strip's
+        rows, the rows of the rest's Ritz values far from z0 scaled down to
+        the norm of the strip's rows of T~(z0), so that the box's evaluations
+        are not conditioned by directions far away."""
         err = self.err(tau) + self.rounding(tau, zabs, cplx=True)
+        derr = 2 * gamma(2 * self.K + 6) * (math.sqrt(self.p) + self.lipschitz(tau)) * INFLATE
         x0 = float(np.real(z0))
         size = float(np.linalg.norm(self(complex(z0))[self.inI]))
         d = np.where(self.inI, 1.0, np.minimum(1.0, size / np.maximum(
             np.abs(self.th - x0), 1e-300)))[:, None]
 
         def f(z, deriv=True):
-            return d * self(z), err, d * self.deriv(z), 0.0
+            return d * self(z), err, d * self.deriv(z), derr
         return f
 
     def roots(self, x0):
