@@ -114,9 +114,10 @@ times at points where sigma_min(T~) exceeds the slack (the far rest's
 determinant keeps its sign on the piece); **complex** if the winding count
 of det(d T~) (d a constant diagonal row scaling, 0 < d <= 1, which moves
 no zero and no error bound up) along a box about a complex estimate, off
-the real axis, is one or more. A piece whose far rest is not weakly coupled
-or whose series does not reach its tolerance in 60 terms is halved (at
-most 6 times); strips of any size are tried.
+the real axis, is one or more. A piece whose far rest cannot be bounded
+(kappa_f >= 1, or a step of the bound fails) or whose series does not
+reach its tolerance in 60 terms is halved (at most 6 times); strips of any
+size are tried.
 
 **Parts.** A strip's decision needs three things of its edges: each is a
 certified boundary (the lemma: a statement about A + F, whichever

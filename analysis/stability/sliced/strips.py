@@ -572,6 +572,12 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     1 + b^2 / (g_min (1 - kappa_r)^2) (b, kappa_r, g_min bounded on the
     whole strip by :func:`coupling`).
 
+    The order: the projected cluster (Y = 0, no solve; real x only), then
+    :func:`decide_deflated` (one sparse LU per piece; also where the rest is
+    coupled across the strip, kappa_r >= 1, and for strips of any size),
+    then the routes of a bordered solve per evaluation, where those leave
+    the strip undecided.
+
     ``estimates``: a callable returning (note, ARPACK's estimates of the
     eigenvalues with real part in the strip), asked only when the real-axis
     routes fail (or are skipped: ``real_routes`` False); a box about each of
