@@ -176,10 +176,10 @@ class DeflatedComplement:
     A + F - z is singular iff its complement T_F(z) onto span(Q) is. With one
     sparse LU of the bordered matrix [[A - c, Q], [Q^T, 0]] at the centre c,
     Y_0 solves P_r (A - c) Y_0 = P_r A Q and Y_k the same system with Y_{k-1}
-    on the right (Y_k in range(Q_r)); Y(z) = sum_k (z - c)^k Y_k has the
-    residual Z(z) = P_r (A - z) Y(z) - P_r A Q = sum_k (z - c)^k Z_k
-    - (z - c)^(K+1) Y_K, each Z_k computed, so ||Z(z)|| <= sum |z - c|^k
-    ||Z_k|| + |z - c|^(K+1) ||Y_K|| for every z. The polynomial
+    on the right (Y_k in range(Q_r)); Y(z) = sum_{k<K} (z - c)^k Y_k has the
+    residual Z(z) = P_r (A - z) Y(z) - P_r A Q = sum_{k<K} (z - c)^k Z_k
+    - (z - c)^K Y_{K-1}, each Z_k computed, so ||Z(z)|| <= sum |z - c|^k
+    ||Z_k|| + |z - c|^K ||Y_{K-1}|| for every z. The polynomial
     T~(z) = Q^T A Q - z - sum (z - c)^k Q^T A Y_k then differs from T_F(z) by
     at most :meth:`err` (|z - c|): b ||Z|| / (sqrt(g_min) (1 - kappa)) (the
     bound of the dense route, which holds for every Y in range(Q_r)), the
@@ -242,7 +242,8 @@ class DeflatedComplement:
             lu = spla.splu(M)
         except RuntimeError:
             raise SliceFailure("the bordered system of a piece is singular") from None
-        pc = cls(lo=lo, hi=hi, c=c, r=r, E=E, p=p, th=th[E], inI=np.isin(E, I), Tc=Tc, rho=rho, A=A, Q=Q, lu=lu, phiE=phiE,
+        pc = cls(lo=lo, hi=hi, c=c, r=r, E=E, p=p, th=th[E], inI=np.isin(E, I), Tc=Tc,
+                 rho=rho, A=A, Q=Q, lu=lu, phiE=phiE,
                  normA1=ctx.normA1, scale=b / math.sqrt(g_min) / (1 - kap),
                  Tn=float(np.linalg.norm(Tc)) * INFLATE, rhs=AQ, terms=[], target=math.inf)
         pc.extend(max(rho, target))
@@ -250,7 +251,7 @@ class DeflatedComplement:
 
     def extend(self, target):
         """Add Taylor terms until the last one's share of :meth:`err` (r), the
-        truncation |z - c|^K ||Y_K||, is at most ``target``: each term a solve
+        truncation r^K ||Y_{K-1}||, is at most ``target``: each term a solve
         with the piece's LU and its residual (raises :class:`SliceFailure`
         beyond ``TAYLOR_TERMS`` terms)."""
         if not target < self.target:
