@@ -12,6 +12,8 @@ from remote_trigger.analysis.stability import eigen, exceptional
 from remote_trigger.analysis.stability.sliced import (
     SlicedStats, classify_sliced, count_below, saved_scans)
 
+from remote_trigger.analysis.stability.sliced.strips import arpack_hint
+
 from .arb_oracle import full_spectrum
 from remote_trigger.analysis.stability.decision import Decision
 
@@ -315,25 +317,37 @@ def test_strip_with_a_pair_is_certified_complex_by_winding(w_chain, w_pair, m):
     assert full_spectrum(eigen.dynamical_matrix(K, mass).toarray()) == "complex"
 
 
-def test_undecided_strip_without_a_pair_says_none_complex():
+def test_real_cluster_of_26_is_certified_real_by_the_deflated_route():
+    """A real cluster of 26 (> 24: the routes of a sparse LU per evaluation try
+    it off the real axis only, and left it undecided): the deflated route (one
+    LU, det of the polynomial complement changing sign 26 times between its
+    estimated roots) certifies it real, as LAPACK and the arbitrary-precision
+    oracle have it. ARPACK's note for such a strip, were it undecided, sees
+    its 26 eigenvalues, none complex."""
     K, mass = _cluster(0.0022, 0.0022, n=200, m=26)
     assert np.all(np.linalg.eigvals(K.toarray()).imag == 0)
-    res = classify_sliced(K, mass)
-    assert res.decision is Decision.UNDECIDED           # a real cluster of 26: not decided
-    assert res.reason.startswith("strip of 26 eigenvalues (> 24)")
-    assert "ARPACK, not certified: 26 of its 26 eigenvalues seen, none complex" in res.reason
+    st = SlicedStats()
+    res = classify_sliced(K, mass, stats=st)
+    assert res.decision is Decision.REAL, res.reason
+    assert st.strips.get(26) == 1
+    assert full_spectrum(eigen.dynamical_matrix(K, mass).toarray()) == "real"
+    note, inside = arpack_hint(K, 49.9, 50.2, 26)     # (mass 1: A = K)
+    assert "26 of its 26 eigenvalues seen, none complex" in note and inside.size == 26
 
 
 def test_every_undecided_strip_is_named():
-    """Two undecided strips (two real clusters of 26): the reason names both."""
-    K, mass = _cluster(0.0022, 0.0022, n=200, m=26, clusters=((30, 20.0), (100, 50.0)))
+    """Two undecided strips, each an exact double real eigenvalue (W = 0: no
+    route can certify a double root real, nor exclude it): the reason names
+    both, with ARPACK's note for each."""
+    K, mass = _cluster(0.0, 0.0, n=200, m=2, spacing=0.0, clusters=((30, 20.0), (100, 50.0)))
     assert np.all(np.linalg.eigvals(K.toarray()).imag == 0)
     res = classify_sliced(K, mass)
     assert res.decision is Decision.UNDECIDED
-    assert res.reason.startswith("2 undecided strips: strip of 26 eigenvalues (> 24)")
+    assert res.reason.startswith("2 undecided strips: strip of 2: ")
     low, high = res.reason.split(" | ")
+    assert "near x = 20;" in low and "near x = 50;" in high
     assert low.endswith("none complex") and high.endswith("none complex")
-    assert "26 of its 26 eigenvalues seen" in high
+    assert "2 of its 2 eigenvalues seen" in high
 
 
 @pytest.mark.parametrize("m, clusters", [

@@ -72,7 +72,8 @@ holds no real eigenvalue: its m eigenvalues are complex pairs
 sigma_min(T - x) > eta(x), there are m real roots (**real**). Otherwise
 the strip is tried once more off the real axis (a strip of real and complex
 eigenvalues together, a *mixed* strip, is neither all real nor free of real
-roots); a strip of more than 24 is tried there only. ARPACK's estimates of
+roots); a strip of more than 24 is tried there only by these routes (by
+the deflated route below on the real axis too). ARPACK's estimates of
 the eigenvalues of A in the strip propose a box about a complex one,
 strictly above the real axis; the box's eigenvalues are counted by the
 winding number of det T(z) along its edge (:mod:`.winding`, rigorous
@@ -80,6 +81,43 @@ with the same error bounds, which hold for complex z with Re z in the
 strip). One or more: **complex**, certified. Otherwise the strip is
 **undecided** and says why, adding as a note marked "not certified" what
 ARPACK sees in it (how many of its m eigenvalues, how many complex pairs).
+
+**Deflated strips.** The routes above evaluate T by a sparse LU of the
+bordered matrix [[A - x, Q_I], [Q_I^T, 0]] at every x, and a strip whose
+rest is coupled to it across its whole width (kappa_r near 1, so that the
+curvature bound of T is large) takes tens of them. So a strip is first
+decided by its *deflated* complement (tried after the projected cluster,
+Y = 0, which needs no solve; the LU routes run only where it leaves the
+strip undecided). For a piece [l, h] of the strip the explicit block E is
+the strip's Ritz vectors and the rest's within ``REACH`` (h - l) of the
+piece (p of them; Q orthonormal). The rest of the space, the far rest, is
+coupled across the piece by kappa_f < 1 (the bound of the lemma with E
+explicit), so for Re z in [l, h] (z real or not: the lemma's bound holds
+for every Im z) det(A + F - z) = det(far rest) det T_F(z), T_F the Schur
+complement onto span(Q). One sparse LU of [[A - c, Q], [Q^T, 0]] at the
+piece's centre c gives Y_0 in range(Q_r) with P_r (A - c) Y_0 = P_r A Q,
+and Y_k the same solve with Y_{k-1} on the right; the polynomial
+Y(z) = sum_{k<K} (z - c)^k Y_k has the residual Z(z) = sum_k (z - c)^k Z_k
+- (z - c)^K Y_{K-1}, each Z_k computed, so ||Z(z)|| <= sum_k |z - c|^k
+||Z_k|| + |z - c|^K ||Y_{K-1}|| for every z (a bound that holds whether or
+not the series converges; it is truncated where its last term is below a
+tolerance). The bound b ||Z|| / (sqrt(g_min) (1 - kappa_f)), which holds for
+every Y in range(Q_r), with the rounding of the coefficients and the error
+rho of Q^T A Q, bounds ||T_F(z) - T~(z)|| <= err(|z - c|) for the explicit
+p x p polynomial T~(z) = Q^T A Q - z - sum_k (z - c)^k Q^T A Y_k. Every test
+then evaluates T~ only (with the rounding of its evaluation added): the
+strip is **complex** if sigma_min(T~(x)) exceeds err and that rounding on
+the whole strip (a walk from its lower edge: at x, sigma_min s above the
+slack excludes a root from [x, x + (s - slack) / (2 L)], L a bound of
+||T~'|| on the piece); **real** if it is one piece and det T~ changes sign m
+times at points where sigma_min(T~) exceeds the slack (the far rest's
+determinant keeps its sign on the piece); **complex** if the winding count
+of det(d T~) (d a constant diagonal row scaling, 0 < d <= 1, which moves
+no zero and no error bound up) along a box about a complex estimate, off
+the real axis, is one or more. A piece whose far rest cannot be bounded
+(kappa_f >= 1, or a step of the bound fails) or whose series does not
+reach its tolerance in 60 terms is halved (at most 6 times); strips of any
+size are tried.
 
 **Parts.** A strip's decision needs three things of its edges: each is a
 certified boundary (the lemma: a statement about A + F, whichever
@@ -98,8 +136,9 @@ strip is certified real, else *undecided*. Every bound is rigorous with the
 rounding errors of the float64 computations bounded a priori (gamma_k, as
 in :mod:`~remote_trigger.analysis.stability.enclosure`), except that the
 sums and norms of computed nonnegative quantities (Frobenius norms, the
-2-norm of a strip's derivative block) are inflated by a factor (1 + 1e-10)
-rather than bounded term by term. ARPACK and LAPACK are used only to
+2-norm of a strip's derivative block, the norms of a deflated complement's
+Taylor coefficients) are inflated by a factor (1 + 1e-10) rather than
+bounded term by term. ARPACK and LAPACK are used only to
 propose vectors; nothing rests on their accuracy but through the residuals
 and counts checked here.
 
@@ -114,6 +153,7 @@ next, its steps named as above:
 ``inertia``       Sylvester counts of S - a I (QDLDL's LDL^T) and norm bounds
 ``buffer``        the Ritz pairs of the slices held (:class:`~.buffer.RitzBuffer`)
 ``strips``        the coupling across an interval and a strip's decision
+                  (the deflated complement of a piece: ``DeflatedComplement``)
 ``winding``       the count of eigenvalues in a box off the real axis
 ``parts``         a scan in parts run side by side: cuts, parts, merge
 ``checkpoint``    the saved scan and verdict: files, key, format, restore

@@ -5,10 +5,13 @@ decision of a strip of m >= 2 eigenvalues from its Schur complement.
 scaled matrix, its skew part, their norms and error bounds);
 :func:`coupling` bounds kappa across an interval (a boundary is certified
 where kappa < 1); :func:`decide_strip` decides a strip between two certified
-boundaries; :func:`arpack_hint` says what ARPACK sees in a strip left
+boundaries, first by :func:`decide_deflated` (one sparse LU per piece of
+the strip, :class:`DeflatedComplement`), then by the routes of a sparse LU
+per evaluation; :func:`arpack_hint` says what ARPACK sees in a strip left
 undecided (a note, not certified). The proof: the module docstring of
-:mod:`remote_trigger.analysis.stability.sliced` (*Boundary lemma* and
-*Strips*); the winding count of a box off the real axis: :mod:`.winding`.
+:mod:`remote_trigger.analysis.stability.sliced` (*Boundary lemma*,
+*Strips* and *Deflated strips*); the winding count of a box off the real
+axis: :mod:`.winding`.
 """
 from __future__ import annotations
 
@@ -28,7 +31,8 @@ from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFail
 from remote_trigger.analysis.stability.sliced.slices import top_eigenvalue
 from remote_trigger.analysis.stability.sliced.winding import box_zero_count
 
-__all__ = ["StripContext", "coupling", "decide_strip", "arpack_hint", "strips_decision"]
+__all__ = ["StripContext", "coupling", "decide_strip", "decide_deflated", "DeflatedComplement",
+           "arpack_hint", "strips_decision"]
 
 
 def _norm22(x11, x12, x22):
@@ -141,6 +145,421 @@ def coupling(ctx, buf, lower, upper, lo_edge, hi_edge, exclude=()):
     return kappa, g_min, d_eff, near, g, xi, phi
 
 
+#: a piece's explicit block holds the strip's Ritz vectors and those of the
+#: rest within REACH x the piece's width of it, so that the rest's resolvent
+#: is analytic on a disc about the piece's centre of radius ~ (1/2 + REACH)
+#: x its width, and its Taylor series converges across the piece
+#: (docs/results/analysis.md, "Deflated strips")
+REACH = 1.0
+#: the series is truncated where its last term's share of the error bound is
+#: below max(rho, tol), tol first TAYLOR_LOOSE ||A||_2, at least TAYLOR_TOL ||A||_2
+TAYLOR_LOOSE = 1e-6
+TAYLOR_TOL = 1e-10
+#: most Taylor terms of a piece (a piece whose series is longer is halved)
+TAYLOR_TERMS = 60
+#: most halvings of a strip into pieces
+_DEPTH = 6
+#: most steps of a piece's walk along the real axis
+_WALK = 500
+#: strips of more than this many are tried by a box before the walk
+_BOX_FIRST = 8
+
+
+class DeflatedComplement:
+    """The Schur complement of a piece [lo, hi] of a strip onto an enlarged
+    block, as a polynomial in z (package docstring, *Deflated strips*).
+
+    The explicit block E is the strip's Ritz vectors and those of the rest
+    within ``REACH`` (hi - lo) of the piece (p columns, orthonormalised: Q);
+    the far rest (the orthogonal complement) is coupled across the piece by
+    kappa < 1 (:func:`coupling` with E excluded), so for Re z in [lo, hi]
+    A + F - z is singular iff its complement T_F(z) onto span(Q) is. With one
+    sparse LU of the bordered matrix [[A - c, Q], [Q^T, 0]] at the centre c,
+    Y_0 solves P_r (A - c) Y_0 = P_r A Q and Y_k the same system with Y_{k-1}
+    on the right (Y_k in range(Q_r)); Y(z) = sum_{k<K} (z - c)^k Y_k has the
+    residual Z(z) = P_r (A - z) Y(z) - P_r A Q = sum_{k<K} (z - c)^k Z_k
+    - (z - c)^K Y_{K-1}, each Z_k computed, so ||Z(z)|| <= sum |z - c|^k
+    ||Z_k|| + |z - c|^K ||Y_{K-1}|| for every z. The polynomial
+    T~(z) = Q^T A Q - z - sum (z - c)^k Q^T A Y_k then differs from T_F(z) by
+    at most :meth:`err` (|z - c|): b ||Z|| / (sqrt(g_min) (1 - kappa)) (the
+    bound of the dense route, which holds for every Y in range(Q_r)), the
+    rounding of the coefficients and rho (rounding of Q^T A Q, the
+    non-orthonormality of Q, F).
+
+    Built by :meth:`of`; raises :class:`SliceFailure` where the far rest is not
+    weakly coupled or the series does not reach its tolerance.
+
+    Attributes
+    ----------
+    lo, hi, c, r : float
+        The piece, its centre and half-width (units of A: K / M).
+    E : ndarray of int, shape (p,)
+        The buffer's indices of the explicit block (the strip's Ritz values
+        among them: ``inI``).
+    Tc : ndarray, shape (p, p)
+        Q^T A Q.
+    P : ndarray, shape (K, p, p)
+        The Taylor coefficients Q^T A Y_k.
+    target : float
+        The tolerance the series was truncated at (:meth:`extend`).
+    """
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+    @classmethod
+    def of(cls, ctx, buf, I, lo, hi, lo_edge, hi_edge, target):
+        """The complement of the piece [lo, hi] of the strip of Ritz values I,
+        its series truncated at ``target`` (:meth:`extend`)."""
+        A = ctx.A
+        n = A.shape[0]
+        c, r = 0.5 * (lo + hi), 0.5 * (hi - lo)
+        th = buf.th
+        dist = np.where(th < lo, lo - th, np.where(th > hi, th - hi, 0.0))
+        inE = dist < REACH * (hi - lo)
+        inE[I] = True
+        E = np.nonzero(inE)[0]
+        p = E.size
+        kap, g_min, d_eff, near, g, xi, phi = coupling(ctx, buf, lo, hi, lo_edge, hi_edge,
+                                                       exclude=E)
+        if not kap < 1:
+            raise SliceFailure(f"the far rest is coupled across the piece (kappa {kap:.3g})")
+        WQE = ctx.W @ buf.Q[:, E]
+        cross = buf.Wn[np.ix_(near, E)]
+        bn = float(np.linalg.norm((np.abs(cross) + ctx.rnd) / np.sqrt(g)[:, None])) \
+            if near.size else 0.0
+        b = (math.sqrt(bn ** 2 + float(np.sum(WQE ** 2)) / d_eff) * (1 + phi)
+             + xi * math.sqrt(p) / math.sqrt(g_min)) * INFLATE
+        Q, _ = np.linalg.qr(buf.Q[:, E])
+        phiE = (float(np.linalg.norm(Q.T @ Q - np.eye(p))) + gamma(n) * p) * INFLATE
+        AQ = A @ Q
+        Tc = Q.T @ AQ
+        rho = ((gamma(n + 8) * p * ctx.normA1 + (2 * phiE + phiE ** 2) * ctx.normA1)
+               + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * INFLATE
+        Qs = sp.csr_matrix(Q)
+        M = sp.bmat([[A - c * sp.identity(n, format="csr"), Qs], [Qs.T, None]], format="csc")
+        try:
+            lu = spla.splu(M)
+        except RuntimeError:
+            raise SliceFailure("the bordered system of a piece is singular") from None
+        pc = cls(lo=lo, hi=hi, c=c, r=r, E=E, p=p, th=th[E], inI=np.isin(E, I), Tc=Tc,
+                 rho=rho, A=A, Q=Q, lu=lu, phiE=phiE,
+                 normA1=ctx.normA1, scale=b / math.sqrt(g_min) / (1 - kap),
+                 Tn=float(np.linalg.norm(Tc)) * INFLATE, rhs=AQ, terms=[], target=math.inf)
+        pc.extend(max(rho, target))
+        return pc
+
+    def extend(self, target):
+        """Add Taylor terms until the last one's share of :meth:`err` (r), the
+        truncation r^K ||Y_{K-1}||, is at most ``target``: each term a solve
+        with the piece's LU and its residual (raises :class:`SliceFailure`
+        beyond ``TAYLOR_TERMS`` terms)."""
+        if not target < self.target:
+            return
+        A, Q, n, p, c = self.A, self.Q, self.A.shape[0], self.p, self.c
+        # rounding of one coefficient: A Y_k, Q^T (A Y_k), the projections, as
+        # gamma |Q|^T |A| |Y_k| <= gamma sqrt(p) (1 + phi) ||A|| ||Y_k||_F
+        gz = gamma(2 * n + 8)
+        zeros = np.zeros((p, p))
+        terms = self.terms
+        while True:
+            if terms and self.scale * self.r ** len(terms) * (terms[-1][3] + terms[-1][2]) \
+                    <= target:
+                break
+            if len(terms) >= TAYLOR_TERMS:
+                raise SliceFailure("the Taylor series of a piece does not reach its tolerance")
+            rhs = self.rhs
+            Yk = self.lu.solve(np.vstack([rhs, zeros]))[:n]
+            Yk = Yk - Q @ (Q.T @ Yk)
+            AY = A @ Yk
+            Z = (AY - c * Yk) - rhs
+            Z = Z - Q @ (Q.T @ Z)
+            ny = float(np.linalg.norm(Yk))
+            rr = gz * self.normA1 * math.sqrt(p) * (1 + self.phiE) * ny
+            zn = float(np.linalg.norm(Z)) + 4 * rr + gz * float(np.linalg.norm(rhs))
+            if not (math.isfinite(ny) and math.isfinite(zn)):
+                raise SliceFailure("the Taylor series of a piece is not finite")
+            # (Q^T A Y_k, ||Z_k|| bound, rounding, ||Y_k||)
+            terms.append((Q.T @ AY, zn * INFLATE, rr, ny * INFLATE))
+            self.rhs = Yk
+        self.target = target
+        self.K = len(terms)
+        self.P = np.array([t[0] for t in terms])
+        self.zk = np.array([t[1] for t in terms])
+        self.rk = np.array([t[2] for t in terms])
+        self.ztail = (terms[-1][3] + terms[-1][2]) * INFLATE
+        self.Pn = np.linalg.norm(self.P, axis=(1, 2)) * INFLATE
+
+    def err(self, tau):
+        """Bound of ||T_F(z) - T~(z)||_2 for |z - c| <= tau, every F of the set."""
+        pw = tau ** np.arange(self.K + 1)
+        zn = float(np.dot(pw[:-1], self.zk)) + pw[-1] * self.ztail
+        return (self.scale * zn + 3 * float(np.dot(pw[:-1], self.rk)) + self.rho) * INFLATE
+
+    def rounding(self, tau, zabs, cplx=False):
+        """Bound of the rounding of evaluating T~(z) (Horner) for |z - c| <= tau,
+        |z| <= zabs."""
+        s = self.Tn + zabs * math.sqrt(self.p) + float(np.dot(tau ** np.arange(self.K), self.Pn))
+        # (+2: a product with a constant row scaling, :meth:`schur`)
+        return (2.0 if cplx else 1.0) * gamma(2 * self.K + 6) * s * INFLATE
+
+    def __call__(self, z):
+        """T~(z), computed (z real or complex)."""
+        t = z - self.c
+        S = self.P[-1].astype(complex) if isinstance(z, complex) else self.P[-1].copy()
+        for k in range(self.K - 2, -1, -1):
+            S = S * t + self.P[k]
+        return self.Tc - z * np.eye(self.p) - S
+
+    def deriv(self, z):
+        """T~'(z), computed."""
+        t = z - self.c
+        S = -np.eye(self.p) + 0 * t
+        for k in range(self.K - 1, 0, -1):
+            S = S - k * self.P[k] * t ** (k - 1)
+        return S
+
+    def lipschitz(self, tau):
+        """Bound of ||T~'(z)||_2 for |z - c| <= tau."""
+        k = np.arange(1, self.K)
+        return (1 + float(np.sum(k * tau ** (k - 1) * self.Pn[1:]))) * INFLATE
+
+    def curvature(self, tau):
+        """Bound of ||T~''(z)||_2 for |z - c| <= tau."""
+        k = np.arange(2, self.K)
+        return float(np.sum(k * (k - 1) * tau ** (k - 2) * self.Pn[2:])) * INFLATE
+
+    def walk(self, lo, hi):
+        """Certify that T_F(x) is nonsingular for every real x in [lo, hi] and F
+        of the set: from x = lo, sigma_min(T~(x)) = s > slack (the error bound
+        over the piece, the evaluation's rounding and a floor) excludes a root
+        from [x, x + (s - slack) / (2 L)] (L the Lipschitz bound of T~ on the
+        piece), on which sigma_min(T_F) >= (s + slack) / 2 - ... > 0; the
+        next x is its end. Returns (True, margin, None) or (False, margin, x)
+        at the first x where s <= slack."""
+        tau = max(self.c - lo, hi - self.c)
+        L = self.lipschitz(tau)
+        err = self.err(tau)
+        x, margin = lo, math.inf
+        for _ in range(_WALK):
+            T = self(x)
+            floor = 1e3 * gamma(self.p + 2) * float(np.linalg.norm(T))
+            slack = err + self.rounding(tau, max(abs(lo), abs(hi))) + floor
+            s = sigma_min_lower(T)
+            if not s > slack:
+                return False, max(s, 0.0) / slack, x
+            margin = min(margin, 0.5 * (s + slack) / slack)
+            x = x + (s - slack) / (2 * L) * (1 - 1e-8)
+            if x >= hi:
+                return True, margin, None
+        return False, 0.0, x
+
+    def schur(self, tau, zabs, z0):
+        """``schur(z, deriv=True)`` for :func:`~.winding.box_zero_count` on a box
+        about z0 within |z - c| <= tau, |z| <= zabs: (d T~(z), err, d T~'(z),
+        derr), err bounding ||T_F(z) - T~(z)|| on the whole box (so the
+        derivative's error is its rounding only, derr, and the curvature that
+        of T~). d is a constant diagonal scaling of the rows, 0 < d <= 1 (so
+        ||d (T_F - T~)|| <= err and det(d T) winds as det T): 1 on the strip's
+        rows, the rows of the rest's Ritz values far from z0 scaled down to
+        the norm of the strip's rows of T~(z0), so that the box's evaluations
+        are not conditioned by directions far away."""
+        err = self.err(tau) + self.rounding(tau, zabs, cplx=True)
+        derr = 2 * gamma(2 * self.K + 6) * (math.sqrt(self.p) + self.lipschitz(tau)) * INFLATE
+        x0 = float(np.real(z0))
+        size = float(np.linalg.norm(self(complex(z0))[self.inI]))
+        d = np.where(self.inI, 1.0, np.minimum(1.0, size / np.maximum(
+            np.abs(self.th - x0), 1e-300)))[:, None]
+
+        def f(z, deriv=True):
+            return d * self(z), err, d * self.deriv(z), derr
+        return f
+
+    def roots(self, x0):
+        """Estimates of the zeros of det T~ (not certified): the eigenvalues of
+        T~ linearised about x0."""
+        T0, D0 = self(x0), self.deriv(x0)
+        try:
+            z = sla.eigvals(T0 - x0 * D0, -D0)
+        except (np.linalg.LinAlgError, ValueError):
+            return np.zeros(0, complex)
+        return z[np.isfinite(z)]
+
+    def refined(self, z, steps=3):
+        """Estimate z moved to the nearest eigenvalue of T~ linearised about
+        it, ``steps`` times (Newton's method on the polynomial; not certified)."""
+        for _ in range(steps):
+            z0 = complex(z) if abs(np.imag(z)) > 0 else float(np.real(z))
+            T0, D0 = self(z0), self.deriv(z0)
+            try:
+                w = sla.eigvals(T0 - z0 * D0, -D0)
+            except (np.linalg.LinAlgError, ValueError):
+                break
+            w = w[np.isfinite(w)]
+            if not w.size:
+                break
+            z = w[int(np.argmin(np.abs(w - z0)))]
+        return complex(z)
+
+
+def _strip_estimates(pieces, m, a_lo, a_hi, steps):
+    """m estimates of the strip's eigenvalues from its pieces' complements (not
+    certified): each piece's zeros with real part in it, refined ``steps``
+    times (not refined in a strip of more than ``_BOX_FIRST``: one generalized
+    eigenproblem of p x p per estimate); if that is not m of them, the m
+    zeros nearest the strip (None if fewer)."""
+    found, every = [], []
+    steps = steps if m <= _BOX_FIRST else 0     # (a box refines its own estimate)
+    for pc in pieces:
+        z = pc.roots(pc.c)
+        every.extend(z)
+        for w in z[(z.real >= pc.lo) & (z.real <= pc.hi) & (z.imag >= 0)]:
+            w = pc.refined(w, steps)
+            if not (pc.lo <= w.real <= pc.hi) or w.imag < 0:
+                continue
+            found.append(w)
+            if w.imag > 0:
+                found.append(np.conj(w))
+    if len(found) != m:
+        every = np.asarray(every, complex)
+        d = np.maximum(np.maximum(a_lo - every.real, every.real - a_hi), 0.0)
+        found = list(every[np.lexsort((np.abs(every.real - 0.5 * (a_lo + a_hi)), d))][:m])
+        if len(found) < m:
+            return None
+    return np.sort_complex(np.asarray(found, complex))
+
+
+def _deflated_routes(pieces, est, m, a_lo, a_hi):
+    """The routes of :func:`decide_deflated` on its pieces, given the estimates."""
+    whys = []
+    roots = np.sort(est.real)
+    real_est = bool(np.all(est.imag == 0)) and bool(np.all(np.diff(roots) > 0))
+    # a strip estimated mixed (real and complex zeros) goes to the box at once:
+    # the walk would stop at its real root only after ~log(width / err) steps
+    mixed = not real_est and bool(np.any(est.imag == 0))
+
+    def box():
+        """A box about a complex estimate, off the real axis (winding on T~):
+        (COMPLEX, margin) or None."""
+        cx = sorted((z for z in est if z.imag > 0), key=lambda z: -z.imag)
+        for z0 in cx[:2]:
+            pc = next((q for q in pieces if q.lo <= z0.real <= q.hi), None)
+            if pc is None:
+                continue
+            others = [abs(z0 - z) for z in est if z != z0]
+            if m > _BOX_FIRST:
+                z0 = pc.refined(z0, 1)
+                if not (z0.imag > 0 and pc.lo <= z0.real <= pc.hi):
+                    continue
+            r = 0.5 * min([z0.imag, z0.real - pc.lo, pc.hi - z0.real] + others)
+            if not r > 0:
+                continue
+            tau = abs(z0.real - pc.c) + r + (z0.imag + r)
+            zabs = abs(z0) + 2 * r
+            cnt, w, mg = box_zero_count(pc.schur(tau, zabs, z0), z0.real - r, z0.real + r,
+                                        z0.imag - r, z0.imag + r, pc.curvature(tau))
+            if cnt is not None and cnt >= 1:
+                return Decision.COMPLEX, mg
+            whys.append(w if w else f"no eigenvalue in the box about {z0:.6g}")
+        return None
+
+    # a strip of more than _BOX_FIRST: one box (its pairs would each be a dip
+    # of the walk, every step an inversion of p x p)
+    boxed = m > _BOX_FIRST and not real_est
+    if boxed and (found := box()):
+        return found[0], found[1], est, ""
+    if not real_est and not mixed:
+        margin = math.inf
+        for pc in pieces:
+            ok, mg, where = pc.walk(pc.lo, pc.hi)
+            if not ok:
+                whys.append(f"a real root cannot be excluded near x = {where:.9g}")
+                break
+            margin = min(margin, mg)
+        else:
+            return Decision.COMPLEX, margin, est, ""
+    elif real_est and len(pieces) == 1:
+        # m sign changes of det T~ (one piece: one far rest, whose determinant
+        # keeps its sign on the strip) at points where T_F is nonsingular
+        pc = pieces[0]
+        pts = np.concatenate([[a_lo], 0.5 * (roots[1:] + roots[:-1]), [a_hi]])
+        tau = max(pc.c - a_lo, a_hi - pc.c)
+        err = pc.err(tau) + pc.rounding(tau, max(abs(a_lo), abs(a_hi)))
+        signs, margin = [], math.inf
+        for x in pts:
+            T = pc(float(x))
+            slack = err + 1e3 * gamma(pc.p + 2) * float(np.linalg.norm(T))
+            s = sigma_min_lower(T)
+            if not s > slack:
+                whys.append(f"strip of {m}: det of its complement not certified at x = {x:.9g}")
+                break
+            margin = min(margin, s / slack)
+            signs.append(np.linalg.slogdet(T)[0])
+        else:
+            if all(signs[i] != signs[i + 1] for i in range(m)):
+                return Decision.REAL, margin, roots.astype(complex), ""
+            whys.append(f"strip of {m}: no sign change of det between roots")
+    if not boxed and (found := box()):
+        return found[0], found[1], est, ""
+    return Decision.UNDECIDED, 0.0, est, "; ".join(whys)
+
+
+def decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
+    """Decide a strip of m >= 2 by its deflated complements (one sparse LU per
+    piece, :class:`DeflatedComplement`): complex if no real x in the strip is
+    a root (:meth:`~DeflatedComplement.walk`), real if det changes sign m
+    times between estimated roots in one piece, complex if a box about a
+    complex estimate holds an eigenvalue (winding on the polynomial).
+
+    The series is first truncated at ``TAYLOR_LOOSE`` ||A||; the estimates
+    of the strip's eigenvalues then set the tolerance to 0.1 of their
+    smallest |Im| or spacing (not below ``TAYLOR_TOL`` ||A||), and once more
+    to ``TAYLOR_TOL`` ||A|| if the strip is left undecided.
+
+    Returns
+    -------
+    (Decision, float, ndarray of complex or None, str)
+        The decision, its margin, the m eigenvalue estimates and, when
+        UNDECIDED, why.
+    """
+    m = I.size
+    tight = TAYLOR_TOL * ctx.normA1
+    pieces, todo = [], [(a_lo, a_hi, 0)]
+    while todo:
+        lo, hi, depth = todo.pop()
+        try:
+            pieces.append(DeflatedComplement.of(ctx, buf, I, lo, hi, lo_edge, hi_edge,
+                                                TAYLOR_LOOSE * ctx.normA1))
+        except SliceFailure as exc:
+            if depth >= _DEPTH:
+                return Decision.UNDECIDED, 0.0, None, f"deflated route: {exc}"
+            mid = 0.5 * (lo + hi)
+            todo += [(mid, hi, depth + 1), (lo, mid, depth + 1)]
+    pieces.sort(key=lambda pc: pc.lo)
+    est = _strip_estimates(pieces, m, a_lo, a_hi, 0)
+    if est is None:
+        return Decision.UNDECIDED, 0.0, None, "deflated route: no estimates"
+    im = np.abs(est.imag[est.imag != 0])
+    re = np.sort(est.real[est.imag == 0])
+    spread = min([float(im.min()) if im.size else math.inf]
+                 + ([float(np.diff(re).min())] if re.size > 1 else []))
+    result = (Decision.UNDECIDED, 0.0, est, "")
+    first = max(tight, min(TAYLOR_LOOSE * ctx.normA1, 0.1 * spread))
+    for target in dict.fromkeys((first, tight)):
+        try:
+            for pc in pieces:
+                pc.extend(target)
+        except SliceFailure as exc:
+            return Decision.UNDECIDED, 0.0, est, f"deflated route: {exc}"
+        est = _strip_estimates(pieces, m, a_lo, a_hi, 1)
+        if est is None:
+            break
+        result = _deflated_routes(pieces, est, m, a_lo, a_hi)
+        if result[0] is not Decision.UNDECIDED:
+            return result
+    return result[0], result[1], result[2], f"deflated route: {result[3]}"
+
+
 def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
                   real_routes=True):
     """Decide one strip of m >= 2 eigenvalues (module docstring, *Strips*).
@@ -153,6 +572,12 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     (sqrt(g_min) (1 - kappa_r)), and T is Lipschitz in x with constant
     1 + b^2 / (g_min (1 - kappa_r)^2) (b, kappa_r, g_min bounded on the
     whole strip by :func:`coupling`).
+
+    The order: the projected cluster (Y = 0, no solve; real x only), then
+    :func:`decide_deflated` (one sparse LU per piece; also where the rest is
+    coupled across the strip, kappa_r >= 1, and for strips of any size),
+    then the routes of a bordered solve per evaluation, where those leave
+    the strip undecided.
 
     ``estimates``: a callable returning (note, ARPACK's estimates of the
     eigenvalues with real part in the strip), asked only when the real-axis
@@ -173,6 +598,9 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         ctx, buf, a_lo, a_hi, lo_edge, hi_edge, exclude=I)
     lam0 = buf.th[I].astype(complex)
     if not kap < 1:
+        deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
+        if deflated[0] is not Decision.UNDECIDED:
+            return deflated
         return (Decision.UNDECIDED, 0.0, lam0,
                 f"the rest is coupled across the strip (kappa {kap:.3g})")
     # column-major, as a column selection of W Q is (np.sum's last bit depends on it)
@@ -192,10 +620,17 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     # errors of Tc and of the set: rounding, the non-orthonormality of Q, F
     rho = ((gamma(n + 8) * m * ctx.normA1 + (2 * phiI + phiI ** 2) * ctx.normA1)
            + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * INFLATE
-    Qs = sp.csr_matrix(Q)
-    # the bordered matrix [[A - x, Q], [Q^T, 0]] = M0 - x E, assembled once
-    M0 = sp.bmat([[A, Qs], [Qs.T, None]], format="csc")
-    E = sp.diags(np.r_[np.ones(n), np.zeros(m)], format="csc")
+    bordered = []               # [M0, E], assembled at the first solve
+
+    def bordered_at(x):
+        """The bordered matrix [[A - x, Q], [Q^T, 0]] = M0 - x E (M0 and E
+        assembled once)."""
+        if not bordered:
+            Qs = sp.csr_matrix(Q)
+            bordered.extend([sp.bmat([[A, Qs], [Qs.T, None]], format="csc"),
+                             sp.diags(np.r_[np.ones(n), np.zeros(m)], format="csc")])
+        return (bordered[0] - x * bordered[1]).tocsc()
+
     evaluated = {}              # x -> (T, D) of the solved routes (for the estimates)
     # the projected cluster: Y = 0 in range(Q_r) is a solution like any other
     # (the bound b ||Z|| / (sqrt(g_min) (1 - kappa_r)) holds for every Y in
@@ -215,7 +650,7 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         cplx = 2.0 if isinstance(x, complex) else 1.0
         if projected[0]:          # (real x only: the real-axis routes)
             return Tc - x * np.eye(m), err0
-        M = (M0 - x * E).tocsc()
+        M = bordered_at(x)
         try:
             lu = spla.splu(M)
         except RuntimeError:
@@ -283,6 +718,9 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         return Decision.UNDECIDED, 0.0, why, approx
 
     if not real_routes:
+        deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
+        if deflated[0] is not Decision.UNDECIDED:
+            return deflated
         verdict, margin, why, lam_b = in_a_box(lam0)
         return verdict, margin, lam_b, why
 
@@ -383,6 +821,12 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
             return result[0], result[1], lam_p, result[2]
         if result[0] is Decision.REAL:
             return result[0], result[1], roots_p.astype(complex), result[2]
+
+    # the deflated route: one sparse LU per piece of the strip; the routes
+    # below (a sparse LU per evaluation) only where it leaves the strip undecided
+    deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
+    if deflated[0] is not Decision.UNDECIDED:
+        return deflated
 
     def linearised(xc, T1, D1):
         """Roots of det(T(xc) + (x - xc) T'(xc)) = 0 (None if not finite)."""
