@@ -108,15 +108,6 @@ def default_output(dump):
     return (root if ext and ext != ".npz" else dump) + ".npz"
 
 
-#: jacobian's options with a value, forwarded to the ranks of ``--np``
-_FORWARDED = (("-o", "output"), ("--frame", "frame"), ("--k-n", "k_n"), ("--k-t", "k_t"),
-              ("--mu", "mu"), ("--wall-y", "wall_y"), ("--method", "method"), ("--k", "k"),
-              ("--sigma", "sigma"), ("--min-contacts", "min_contacts"),
-              ("--part-size", "part_size"))
-_FLAGS = (("--overwrite", "overwrite"), ("--override", "override"),
-          ("--allow-residual", "allow_residual"), ("--no-eigen", "no_eigen"))
-
-
 def check_parallel(args):
     """Refuse a bad ``--np`` or ``--part-size`` in one line (before any work).
 
@@ -137,18 +128,6 @@ def check_parallel(args):
         raise InputError(f"--np {args.np} needs --part-size P: the ranks share the parts of "
                          f"the sliced verdict, whose answer depends on P only (e.g. "
                          f"--part-size 2000)")
-
-
-def relaunch_words(args):
-    """The command-line words after ``jacobian`` that repeat ``args`` (for the
-    ranks of ``--np``; ``--np`` itself left out)."""
-    words = [args.dump]
-    for flag, dest in _FORWARDED:
-        value = getattr(args, dest)
-        if value is not None:
-            words.append(f"{flag}={value}")
-    words += [flag for flag, dest in _FLAGS if getattr(args, dest)]
-    return words
 
 
 def run(args):
@@ -175,11 +154,10 @@ def run(args):
     check_parallel(args)
     world = MPI.COMM_WORLD
     if args.np > 1 and world.Get_size() == 1 and not os.environ.get(RELAUNCHED):
-        from remote_trigger.pywrap.runtime.relaunch import call_under_mpirun, find_mpirun
+        from remote_trigger.pywrap.cli import Parser
+        from remote_trigger.pywrap.runtime.relaunch import relaunch_words
 
-        cmd = [find_mpirun(args.np, "jacobian"), "-np", str(args.np), sys.executable, "-m",
-               "remote_trigger.pywrap.cli", "jacobian"] + relaunch_words(args)
-        return call_under_mpirun(cmd, dict(os.environ), "jacobian", args.np)
+        return relaunch_words("jacobian", Parser.words, args.np)
     if world.Get_size() == 1:
         return run_rank0(args)
     from remote_trigger.analysis.stability.sliced.parts import PartsProblem

@@ -133,3 +133,22 @@ def test_kill_inside_a_point_then_resume(two_rank_ramp, relaxed):
     assert res.returncode == 0, res.stdout + res.stderr
     assert int((out / "hits").read_text()) == 4           # the four saved tasks read back
     assert compare_ramp(read_all(str(ref / "ramp.h5")), out / "ramp.h5") == []
+
+
+def test_ramp_np_relaunches_under_mpirun(relaxed, tmp_path):
+    """``ramp --np 2 --part-size 60`` from a serial shell: the ramp runs on two
+    ranks (ramp.h5 records n_ranks 2 and part_size 60); ``--np 0`` is refused."""
+    from .conftest import CLI
+
+    out = tmp_path / "np2"
+    base = [CLI, "ramp", "--datafile", relaxed.datafile, "--out", str(out), "--set",
+            "dF_x=0.01", "--set", "tol=1e-5", "--quiet"]
+    res = subprocess.run(base + ["--np", "2", "--part-size", "60"], env=cli_env(),
+                         capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert res.stdout.count("ramp: F_x^c in") == 1
+    attrs, _ = read_all(str(out / "ramp.h5"))
+    assert (attrs["status"], attrs["n_ranks"], attrs["part_size"]) == ("complete", 2, 60)
+    res = subprocess.run(base + ["--np", "0"], env=cli_env(), capture_output=True,
+                         text=True, timeout=600)
+    assert res.returncode == 2 and "--np must be >= 1, got --np 0" in res.stderr
