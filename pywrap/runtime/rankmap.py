@@ -59,12 +59,14 @@ _POLL_MIN, _POLL_MAX = 1e-4, 5e-3
 
 class TaskRecord(NamedTuple):
     """One task that ran (:attr:`RankMap.log`): its round (1, 2, ... per call of
-    the map), its index in the round, the rank that ran it and its wall seconds."""
+    the map), its index in the round, the rank that ran it, its wall seconds
+    and the CPU seconds of the thread that ran it."""
 
     round: int
     index: int
     rank: int
     seconds: float
+    cpu: float
 
 
 def _wait_message(comm, source, tag):
@@ -199,11 +201,12 @@ class RankMap:
                         else:
                             self._cv.wait(0.05)
                             continue
-                    t0 = time.perf_counter()
+                    t0, c0 = time.perf_counter(), time.thread_time()
                     value = rd.fn(rd.tasks[j])      # an exception ends the round here
                     with self._cv:
                         rd.results[j] = (True, value)
-                        self.log.append(TaskRecord(rd.rid, j, 0, time.perf_counter() - t0))
+                        self.log.append(TaskRecord(rd.rid, j, 0, time.perf_counter() - t0,
+                                                   time.thread_time() - c0))
                 if not ok:
                     raise value
                 yield value
@@ -241,10 +244,10 @@ class RankMap:
                 # results (or the end of a cancelled task)
                 while comm.Iprobe(source=MPI.ANY_SOURCE, tag=_TAG_RESULT, status=status):
                     src = status.Get_source()
-                    rid, i, ok, value, seconds = comm.recv(source=src, tag=_TAG_RESULT)
+                    rid, i, ok, value, seconds, cpu = comm.recv(source=src, tag=_TAG_RESULT)
                     with self._cv:
                         self._busy.pop(src, None)
-                        self.log.append(TaskRecord(rid, i, src, seconds))
+                        self.log.append(TaskRecord(rid, i, src, seconds, cpu))
                         rd = self._round
                         if rd is not None and rd.rid == rid and not rd.cancelled:
                             rd.results[i] = (ok, value)
@@ -315,13 +318,14 @@ def serve(comm):
                 shared[key] = comm.bcast(None, root=0)
             continue
         _, rid, i, payload = msg
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         try:
             fn, task = _Unpickler(io.BytesIO(payload), shared).load()
             ok, value = True, fn(task)
         except Exception as exc:  # noqa: BLE001 - raised on rank 0
             ok, value = False, portable_exception(exc)
-        comm.send((rid, i, ok, value, time.perf_counter() - t0), dest=0, tag=_TAG_RESULT)
+        comm.send((rid, i, ok, value, time.perf_counter() - t0, time.thread_time() - c0),
+                  dest=0, tag=_TAG_RESULT)
 
 
 def on_rank0_with_ranks(comm, fn, shared_types=()):
