@@ -38,8 +38,10 @@ The result of a task does not depend on the rank that ran it (each task is
 deterministic: :mod:`~remote_trigger.analysis.stability.sliced.parts`),
 so the merged answer is the same, bit for bit, on any number of ranks
 (tests/driver/test_rankmap_mpi.py). Needs an MPI thread level of at least
-``MPI_THREAD_SERIALIZED`` (mpi4py asks for ``MPI_THREAD_MULTIPLE``); below
-it rank 0 only hands out tasks.
+``MPI_THREAD_SERIALIZED`` (mpi4py asks for ``MPI_THREAD_MULTIPLE``, MPICH
+and Open MPI grant it); below it :func:`on_rank0_with_ranks` runs every task
+on rank 0 (the same answer, the other ranks waiting). A :class:`RankMap`
+serves one computation: the shared objects stay referenced until it closes.
 """
 from __future__ import annotations
 
@@ -144,8 +146,10 @@ class RankMap:
         if comm.Get_rank() != 0:
             raise ValueError(f"a RankMap is made on rank 0, not on rank {comm.Get_rank()}")
         self.comm, self.shared_types = comm, tuple(shared_types)
+        if MPI.Query_thread() < MPI.THREAD_SERIALIZED:
+            raise ValueError(f"a RankMap needs an MPI thread level of at least "
+                             f"THREAD_SERIALIZED, got {MPI.Query_thread()}")
         self.log, self.bcast_seconds = [], 0.0
-        self.local = MPI.Query_thread() >= MPI.THREAD_SERIALIZED   # rank 0 runs tasks too
         self._cv = threading.Condition()
         self._round = None
         self._rid = 0
@@ -196,7 +200,7 @@ class RankMap:
                             ok, value = rd.results.pop(i)
                             break
                         j = None
-                        if self.local and rd.next < len(rd.tasks):
+                        if rd.next < len(rd.tasks):
                             j, rd.next = rd.next, rd.next + 1
                         else:
                             self._cv.wait(0.05)
@@ -338,7 +342,8 @@ def on_rank0_with_ranks(comm, fn, shared_types=()):
     ----------
     comm : mpi4py communicator or None
         ``None`` or size 1: ``fn(None)`` here (``None``: the caller's
-        default map, the builtin :func:`map`).
+        default map, the builtin :func:`map`); so too on rank 0 alone under
+        an MPI thread level below ``THREAD_SERIALIZED``.
     fn : callable
         ``fn(map_tasks)``, called on rank 0; ``map_tasks`` is a
         :class:`RankMap` of ``comm``. Its return value must be picklable.
@@ -355,10 +360,14 @@ def on_rank0_with_ranks(comm, fn, shared_types=()):
     Exception
         What ``fn`` (or a task) raised, on every rank (as ``on_rank0``).
     """
+    from mpi4py import MPI
+
     from remote_trigger.pywrap.runtime.parallel import on_rank0
 
     if comm is None or comm.Get_size() == 1:
         return fn(None)
+    if MPI.Query_thread() < MPI.THREAD_SERIALIZED:      # (the same on every rank)
+        return on_rank0(comm, fn, None)
     if comm.Get_rank() != 0:
         serve(comm)
         return on_rank0(comm, fn)       # (fn is not called here: rank 0's result)
