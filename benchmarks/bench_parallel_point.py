@@ -19,7 +19,9 @@ timing on rank 0: ``setup`` (K scaled, norms, bounds: before the first
 task), the cut tasks and the part tasks (each task's wall seconds on the
 rank that ran it), ``merge`` (after the last part's result). The model of k
 ranks (printed last) schedules the measured tasks of the one-rank run on k
-ranks (longest first, the two rounds one after the other) and adds setup,
+ranks (each task to the first free rank, in order, as the MPI map hands
+them out; a static partition beside it; the two rounds one after the
+other) and adds setup,
 merge and the sending of the matrices (a ``bcast`` of the pickled problem:
 its size and log2 k steps at the measured rate); for N = 10^4 and 10^5 it
 scales the measured costs with n by the exponents fitted between the two
@@ -177,12 +179,18 @@ def measure(dump, part_size, ranks):
 
 
 def schedule(costs, k):
-    """Wall time of independent tasks ``costs`` on k workers, longest first (LPT)."""
+    """Wall time of independent tasks ``costs`` on k workers handed out in their
+    order, each to the first free worker (what ``rankmap`` does)."""
     loads = [0.0] * k
-    for c in sorted(costs, reverse=True):
+    for c in costs:
         i = loads.index(min(loads))
         loads[i] += c
     return max(loads)
+
+
+def static(costs, k):
+    """The same, task i on worker i mod k (a static partition, for comparison)."""
+    return max(sum(costs[i::k]) for i in range(k))
 
 
 #: the rate (bytes/s) and latency (s) of one step of the problem's bcast in the
@@ -190,15 +198,16 @@ def schedule(costs, k):
 BCAST_RATE, BCAST_LATENCY = 2e9, 1e-4
 
 
-def model(rec, k):
+def model(rec, k, how=schedule):
     """Predicted wall of ``rec``'s point (the same parts) on k ranks from its
-    tasks' CPU seconds on one rank: setup, bcast, the two rounds scheduled
-    longest first, merge."""
+    tasks' CPU seconds on one rank: setup, bcast, the two rounds (each task
+    to the first free rank, in order; ``how=static``: task i on rank i mod k),
+    merge."""
     cuts = [t[3] for t in rec["tasks"] if t[0] == "find_cut"]
     parts = [t[3] for t in rec["tasks"] if t[0] == "scan_part"]
     steps = math.ceil(math.log2(k)) if k > 1 else 0
     send = steps * (BCAST_LATENCY + rec["problem_bytes"] / BCAST_RATE)
-    return rec["setup"] + send + schedule(cuts, k) + schedule(parts, k) + rec["merge"]
+    return rec["setup"] + send + how(cuts, k) + how(parts, k) + rec["merge"]
 
 
 def fitted(records, key):
@@ -292,9 +301,10 @@ def main(argv=None):
     print(f"decision, margin and eigenvalues bitwise the same on {args.ranks} ranks: {same}")
     one = recs[args.ranks[0]] if args.ranks[0] == 1 else None
     if one is not None:
-        print("model of k ranks, the same parts (one-rank tasks' CPU s scheduled longest "
-              "first, + setup, bcast, merge): " + ", ".join(
-                  f"k = {k}: {model(one, k):.1f} s" for k in (1, 2, 4, 8, 16)))
+        print("model of k ranks, the same parts (one-rank tasks' CPU s, each to the first "
+              "free rank in order, + setup, bcast, merge; static i mod k in brackets): "
+              + ", ".join(f"k = {k}: {model(one, k):.1f} s ({model(one, k, static):.1f})"
+                          for k in (1, 2, 4, 8, 16)))
         # keep the one-rank records for the model of larger n
         if "whole" in recs:
             with open(os.path.join(cache_dir(), f"records_N{n}.json"), "w") as fh:
