@@ -22,8 +22,10 @@ of the communicator run the tasks it hands out (:func:`serve`):
   every other rank once, by ``bcast`` (a tree: log2 k steps on k ranks); a
   task's message is then its few numbers.
 * **Results in task order.** The map returns an iterator of ``fn(task)``
-  in the order of ``tasks``; a task's exception is raised there, at its
-  place in the order.
+  in the order of ``tasks``; a task's exception (on any rank; a result
+  that cannot be pickled becomes one) is raised there, at its place in
+  the order, as the builtin :func:`map` would: a merge that stops before
+  it never sees it.
 * **Early stop.** Closing the iterator (the merge stops at its first complex
   part, ``stop_at_complex``) cancels the tasks not handed out yet; a rank
   busy with a task of the cancelled round finishes it (a task cannot be
@@ -206,9 +208,12 @@ class RankMap:
                             self._cv.wait(0.05)
                             continue
                     t0, c0 = time.perf_counter(), time.thread_time()
-                    value = rd.fn(rd.tasks[j])      # an exception ends the round here
+                    try:
+                        done = (True, rd.fn(rd.tasks[j]))
+                    except Exception as exc:  # noqa: BLE001 - raised at its place below
+                        done = (False, exc)
                     with self._cv:
-                        rd.results[j] = (True, value)
+                        rd.results[j] = done
                         self.log.append(TaskRecord(rd.rid, j, 0, time.perf_counter() - t0,
                                                    time.thread_time() - c0))
                 if not ok:
@@ -248,7 +253,8 @@ class RankMap:
                 # results (or the end of a cancelled task)
                 while comm.Iprobe(source=MPI.ANY_SOURCE, tag=_TAG_RESULT, status=status):
                     src = status.Get_source()
-                    rid, i, ok, value, seconds, cpu = comm.recv(source=src, tag=_TAG_RESULT)
+                    rid, i, ok, value, seconds, cpu = pickle.loads(
+                        comm.recv(source=src, tag=_TAG_RESULT))
                     with self._cv:
                         self._busy.pop(src, None)
                         self.log.append(TaskRecord(rid, i, src, seconds, cpu))
@@ -328,8 +334,13 @@ def serve(comm):
             ok, value = True, fn(task)
         except Exception as exc:  # noqa: BLE001 - raised on rank 0
             ok, value = False, portable_exception(exc)
-        comm.send((rid, i, ok, value, time.perf_counter() - t0, time.thread_time() - c0),
-                  dest=0, tag=_TAG_RESULT)
+        seconds, cpu = time.perf_counter() - t0, time.thread_time() - c0
+        try:
+            blob = pickle.dumps((rid, i, ok, value, seconds, cpu),
+                                protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception as exc:  # noqa: BLE001 - a result that cannot be sent
+            blob = pickle.dumps((rid, i, False, portable_exception(exc), seconds, cpu))
+        comm.send(blob, dest=0, tag=_TAG_RESULT)
 
 
 def on_rank0_with_ranks(comm, fn, shared_types=()):

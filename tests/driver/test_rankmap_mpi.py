@@ -40,8 +40,10 @@ def square(task):
 
 
 def boom(task):
-    if task.i == 3:
-        raise ValueError("bad task 3")
+    if task.i >= 3:
+        time.sleep(0.01 * (6 - task.i))     # (the later ones fail first)
+        raise ValueError(f"bad task {task.i}")
+    time.sleep(0.05)
     return task.i
 
 
@@ -77,6 +79,13 @@ def failing(pmap):
     return got, None
 got, err = on_rank0_with_ranks(comm, failing, (Big,))
 assert got == [0, 1, 2] and err == "bad task 3", (got, err)
+
+def early(pmap):                # the first result is all the caller reads
+    it = pmap(boom, [Task(big, i) for i in (0, 4, 5)])
+    first = next(it)
+    it.close()
+    return first
+assert on_rank0_with_ranks(comm, early, (Big,)) == 0
 
 def stopped(pmap):
     it = pmap(slow, [Task(big, i) for i in range(40)])
