@@ -100,7 +100,7 @@ def _relax(n, seed, folder, packing=None):
     return rel.datafile
 
 
-def _equilibrate_at(start, loads, prefix):
+def equilibrate_at(start, loads, prefix):
     """From the equilibrium ``start``, Newton-first equilibria at each F_x of
     ``loads`` in turn, in one engine; the last is saved as ``prefix.*``."""
     from mpi4py import MPI
@@ -129,7 +129,7 @@ def _cell(F_x):
         k = int(round(F_x / DFX_STEP))
         loads = [j * DFX_STEP for j in range(k + 1)]
         loads[-1] = F_x
-        _equilibrate_at(relaxed, loads, prefix)
+        equilibrate_at(relaxed, loads, prefix)
     return prefix
 
 
@@ -149,7 +149,7 @@ def build(name):
         if not os.path.exists(prefix + ".dump"):
             cell = _cell(F_x)
             tiled_packing(cell + ".data", c, prefix + ".tiled.data", jitter=0.0)
-            _equilibrate_at(prefix + ".tiled.data", [F_x], prefix)
+            equilibrate_at(prefix + ".tiled.data", [F_x], prefix)
         return prefix + ".dump"
     if m := re.fullmatch(r"random(\d+)", name):
         folder = os.path.join(d, name)
@@ -169,7 +169,7 @@ def build(name):
         if not os.path.exists(prefix + ".dump"):
             start = build(m.group(1))[:-len(".dump")] + ".data"
             k = max(1, int(round(F_x / DFX_RANDOM)))
-            _equilibrate_at(start, [F_x * j / k for j in range(k + 1)], prefix)
+            equilibrate_at(start, [F_x * j / k for j in range(k + 1)], prefix)
         return prefix + ".dump"
     raise ValueError(f"degenerate.build: unknown state {name!r} (cell_F<F_x>, "
                      f"tiled<c>_F<F_x>, random<N>, random<N>_F<F_x>, hex<n_x>x<rows>, "

@@ -97,7 +97,7 @@ class Analysis:
 
 
 def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=None,
-            min_contacts=None, progress=None):
+            min_contacts=None, progress=None, part_size=None, map_tasks=None):
     """Stiffness, rattlers, spectrum and complex-pair decision of one state.
 
     Parameters
@@ -127,6 +127,11 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
     progress : callable, optional
         Sliced path only: ``progress(done, n)`` after each slice (see
         :func:`~remote_trigger.analysis.stability.sliced.classify_sliced`).
+    part_size, map_tasks : optional
+        Sliced path only: the scan in parts and what runs them
+        (:class:`~remote_trigger.analysis.stability.verdict.VerdictOptions`'s
+        ``part_size``, :func:`~remote_trigger.analysis.stability.verdict.decide`'s
+        ``map_tasks``); default None: the whole scan.
 
     Returns
     -------
@@ -136,8 +141,9 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
     ------
     ValueError
         An unknown ``method``, ``k`` not an integer >= 1, ``sigma`` not a
-        finite number (checked where eigenvalues are computed), or a shift
-        at an eigenvalue (sparse path).
+        finite number (checked where eigenvalues are computed), a shift
+        at an eigenvalue (sparse path), or a ``part_size`` that
+        ``VerdictOptions`` or the scan refuses.
     """
     system = reduced_system(state, min_contacts)
     eig = dec = None
@@ -159,7 +165,8 @@ def analyze(state, eigenvalues=True, decide=True, method="auto", k=12, sigma=Non
             # dense path, the Ritz values of the symmetric part and the strips'
             # block eigenvalues on the sliced one
             dec, path = spectrum_decision(system, VerdictOptions(
-                method="sliced" if sliced else "dense"), progress=progress)
+                method="sliced" if sliced else "dense", part_size=part_size),
+                progress=progress, map_tasks=map_tasks)
             eig = _eigen.EigenResult(np.asarray(dec.eigenvalues, np.complex128), method=path)
         elif dense:
             eig = _eigen.dense_eigen(Kr, mr, vectors=False)

@@ -98,6 +98,15 @@ class VerdictOptions:
         (``classify_sliced``'s ``checkpoint_dir``). Default None: nothing saved.
     checkpoint_seconds : float or None
         Sliced path: seconds between two saves (default None: the scan's own).
+    part_size : int or None
+        Sliced path: scan in parts of about this many eigenvalues of the
+        symmetric part (``classify_sliced``'s ``part_size``), which a
+        ``map_tasks`` given to :func:`decide` runs side by side (e.g. on MPI
+        ranks). The partition depends on the matrix and ``part_size`` only,
+        never on what runs the parts: the same verdict, eigenvalues and
+        margins, bit for bit, on one rank or many. At least the slice size
+        (``classify_sliced`` checks it against its default, 60, when
+        ``slice_size`` is None). Default None: one part, the whole scan.
 
     Raises
     ------
@@ -113,6 +122,7 @@ class VerdictOptions:
     slice_size: int | None = None
     checkpoint_dir: str | None = None
     checkpoint_seconds: float | None = None
+    part_size: int | None = None
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -128,6 +138,10 @@ class VerdictOptions:
                                             or self.slice_size < 2):
             raise ValueError(f"slice_size must be an integer >= 2, got "
                              f"slice_size = {self.slice_size!r}")
+        if self.part_size is not None and (not is_integer(self.part_size)
+                                           or self.part_size < max(2, self.slice_size or 2)):
+            raise ValueError(f"part_size must be None or an integer >= 2 and >= slice_size "
+                             f"({self.slice_size!r}), got part_size = {self.part_size!r}")
 
     @property
     def soft_rel(self):
@@ -271,7 +285,7 @@ def choose_method(n, options=None, available=None):
     return method
 
 
-def spectrum_decision(system, options=None, basis=None, progress=None):
+def spectrum_decision(system, options=None, basis=None, progress=None, map_tasks=None):
     """The certified decision of a reduced system, as the path returns it.
 
     The path is :func:`choose_method`'s. Dense: the decision of M^-1 K
@@ -288,6 +302,9 @@ def spectrum_decision(system, options=None, basis=None, progress=None):
     basis : SpectrumBasis, optional
     progress : callable, optional
         Sliced path: ``progress(done, n)`` after each slice.
+    map_tasks : callable, optional
+        Sliced path with ``options.part_size``: what runs the parts (as
+        :func:`decide`).
 
     Returns
     -------
@@ -307,7 +324,8 @@ def spectrum_decision(system, options=None, basis=None, progress=None):
                               stop_at_complex=options.stop_at_complex, progress=progress,
                               checkpoint_dir=options.checkpoint_dir,
                               checkpoint_seconds=options.checkpoint_seconds,
-                              soft_rel=options.soft_rel, **kw)
+                              soft_rel=options.soft_rel, part_size=options.part_size,
+                              map_tasks=map_tasks, **kw)
         return dec, method
     if basis is not None and basis.dofs is not None:
         # other rattlers than at the basis's point: carried over (or None)
@@ -319,7 +337,7 @@ def spectrum_decision(system, options=None, basis=None, progress=None):
     return dec, method
 
 
-def decide(system, options=None, basis=None, progress=None):
+def decide(system, options=None, basis=None, progress=None, map_tasks=None):
     """The stability verdict of a reduced system: the engine's one entry point.
 
     Parameters
@@ -339,6 +357,14 @@ def decide(system, options=None, basis=None, progress=None):
     progress : callable, optional
         Sliced path: ``progress(done, n)`` after each slice (see
         :func:`~remote_trigger.analysis.stability.sliced.classify_sliced`).
+    map_tasks : callable, optional
+        Sliced path with ``options.part_size``: ``map_tasks(fn, tasks)``
+        returning ``fn``'s results in the order of ``tasks``, an iterable
+        that may be closed before its end (``stop_at_complex``); ``fn``, the
+        tasks and results are picklable. An executor's ``map`` or an MPI map
+        (``remote_trigger.pywrap.runtime.rankmap``). Default None: the
+        builtin :func:`map`, one part after the other. It changes where the
+        parts run, never the answer.
 
     Returns
     -------
@@ -350,17 +376,17 @@ def decide(system, options=None, basis=None, progress=None):
         If the dense path would not fit in memory (:func:`check_dense_fits`).
     ValueError
         If ``options`` is not a VerdictOptions or ``basis`` not a
-        SpectrumBasis or None.
+        SpectrumBasis or None, or ``map_tasks`` is not callable.
     """
     from remote_trigger.analysis.stability import eigen
 
-    options = _check_inputs(options, basis)
+    options = _check_inputs(options, basis, map_tasks)
     rat = system.rattlers
     if system.n == 0:          # every particle a rattler: nothing to decide
         return StabilityResult(np.zeros(0, complex), Decision.REAL, 0.0, 0.0,
                                int(rat.ids.size), np.asarray(rat.ids, np.int64),
                                float("inf"), system.max_residual, n_dof=0)
-    dec, method = spectrum_decision(system, options, basis, progress)
+    dec, method = spectrum_decision(system, options, basis, progress, map_tasks)
     decision = dec.decision
     lam = np.asarray(dec.eigenvalues, np.complex128)
     lam = lam[np.lexsort((lam.imag, lam.real))]
@@ -381,24 +407,26 @@ def decide(system, options=None, basis=None, progress=None):
                            float(lam_max), coll, soft, method, units)
 
 
-def _check_inputs(options, basis):
-    """``options`` (None: the defaults), checked with ``basis``."""
+def _check_inputs(options, basis, map_tasks=None):
+    """``options`` (None: the defaults), checked with ``basis`` and ``map_tasks``."""
     options = VerdictOptions() if options is None else options
     if not isinstance(options, VerdictOptions):
         raise ValueError(f"options must be a VerdictOptions, got {type(options).__name__}")
     if basis is not None and not isinstance(basis, SpectrumBasis):
         raise ValueError(f"basis must be a SpectrumBasis (a previous result's .basis) or None, "
                          f"got {type(basis).__name__}")
+    if map_tasks is not None and not callable(map_tasks):
+        raise ValueError(f"map_tasks must be callable or None, got map_tasks = {map_tasks!r}")
     return options
 
 
-def stability_of(state, options=None, basis=None, progress=None):
+def stability_of(state, options=None, basis=None, progress=None, map_tasks=None):
     """:func:`decide` of a state: ``decide(reduced_system(state), ...)``.
 
     Parameters
     ----------
     state : State or State3D
-    options, basis, progress
+    options, basis, progress, map_tasks
         As in :func:`decide`.
 
     Returns
@@ -410,16 +438,17 @@ def stability_of(state, options=None, basis=None, progress=None):
     ValueError, TooLargeError
         As :func:`decide` (a bad ``options`` or ``basis`` before K is built).
     """
-    _check_inputs(options, basis)
-    return decide(reduced_system(state), options, basis, progress)
+    _check_inputs(options, basis, map_tasks)
+    return decide(reduced_system(state), options, basis, progress, map_tasks)
 
 
-def stability_of_dump(path, options=None, basis=None, progress=None, allow_residual=False):
+def stability_of_dump(path, options=None, basis=None, progress=None, allow_residual=False,
+                      map_tasks=None):
     """Read an equilibrium dump (+ sidecar JSON) and return :func:`stability_of` it.
 
     A dump of spheres (``dump_dimension``) is read by ``read_dump3d``.
 
-    ``options``, ``basis``, ``progress``: as in :func:`decide`.
+    ``options``, ``basis``, ``progress``, ``map_tasks``: as in :func:`decide`.
     ``allow_residual`` (default False): refuse a state that is not an
     equilibrium of its parameters, as ``remote-trigger jacobian`` does
     without ``--allow-residual``
@@ -444,7 +473,7 @@ def stability_of_dump(path, options=None, basis=None, progress=None, allow_resid
         raise ValueError(f"cannot read equilibrium dump {path!r}: {exc}") from exc
     if not allow_residual:
         check_equilibrium(state, what=path)
-    return stability_of(state, options, basis, progress)
+    return stability_of(state, options, basis, progress, map_tasks)
 
 
 def collective_decision(dec, lambda_max, soft_rel=None):

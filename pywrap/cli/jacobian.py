@@ -18,7 +18,17 @@ above the round-off floor (:func:`~remote_trigger.analysis.stability.residual.ch
 the spectrum of a state that is not an equilibrium means nothing.
 ``--allow-residual`` analyses it anyway and prints a warning. A ``--k-n``,
 ``--k-t`` or ``--mu`` that contradicts the sidecar is refused unless
-``--override``. Under ``mpirun`` it runs on rank 0 only.
+``--override``.
+
+One point on several cores (docs/analysis.md, "One large point on many
+cores"): ``--part-size P`` scans the sliced verdict in parts of about P
+eigenvalues (``VerdictOptions.part_size``), and ``--np K`` re-launches the
+command under ``mpirun -np K`` (or run it under ``mpirun -np K`` yourself):
+rank 0 reads, decides and writes, every rank runs parts
+(:mod:`~remote_trigger.pywrap.runtime.rankmap`). The partition depends on
+the matrix and P only: the verdict, eigenvalues and margins are the same,
+bit for bit, on any number of ranks. ``--np K > 1`` needs ``--part-size``;
+under ``mpirun`` without it rank 0 works alone.
 
 ``--method auto`` decides on the whole spectrum: dense LAPACK up to 3000
 dofs, spectrum slicing above (:mod:`~remote_trigger.analysis.stability.sliced`).
@@ -80,7 +90,14 @@ def register(subparsers):
                    help="rattler criterion: fewer contacts than this (default 2 for disks, "
                         "3 for spheres)")
     p.add_argument("--no-eigen", action="store_true", help="write K only")
-    p.set_defaults(func=run, serial=True)
+    p.add_argument("--part-size", type=int, default=None,
+                   help="sliced verdict in parts of about this many eigenvalues, run side by "
+                        "side on the MPI ranks (>= the slice size, 60; the answer depends on "
+                        "it, never on the number of ranks; default: one part, the whole scan)")
+    p.add_argument("--np", type=int, default=1,
+                   help="MPI ranks: re-launch under mpirun -np NP, every rank running parts "
+                        "of the sliced verdict (needs --part-size; default 1)")
+    p.set_defaults(func=run)
 
 
 def default_output(dump):
@@ -91,17 +108,71 @@ def default_output(dump):
     return (root if ext and ext != ".npz" else dump) + ".npz"
 
 
-def run(args):
-    """Execute the subcommand; returns the exit status.
+def check_parallel(args):
+    """Refuse a bad ``--np`` or ``--part-size`` in one line (before any work).
 
     Raises
     ------
     InputError
-        Bad output name, parameters that contradict the sidecar, or a state
-        far from equilibrium (without ``--allow-residual``).
+        ``--np`` below 1, ``--part-size`` below 2, or ``--np`` above 1
+        without ``--part-size``.
+    """
+    from remote_trigger.analysis.errors import InputError
+
+    if args.np < 1:
+        raise InputError(f"--np must be >= 1, got --np {args.np}")
+    if args.part_size is not None and args.part_size < 2:
+        raise InputError(f"--part-size must be an integer >= 2 (and >= the slice size, 60), "
+                         f"got --part-size {args.part_size}")
+    if args.np > 1 and args.part_size is None:
+        raise InputError(f"--np {args.np} needs --part-size P: the ranks share the parts of "
+                         f"the sliced verdict, whose answer depends on P only (e.g. "
+                         f"--part-size 2000)")
+
+
+def run(args):
+    """Execute the subcommand on every rank; returns the exit status.
+
+    Rank 0 reads the dump, decides and writes; under MPI the other ranks run
+    parts of a sliced verdict with ``--part-size``
+    (:func:`~remote_trigger.pywrap.runtime.rankmap.on_rank0_with_ranks`) and
+    return rank 0's status or exception.
+
+    Raises
+    ------
+    InputError
+        Bad output name, parameters that contradict the sidecar, a state
+        far from equilibrium (without ``--allow-residual``), or a bad
+        ``--np`` / ``--part-size``.
     FileNotFoundError, ValueError
         Missing or malformed dump.
     """
+    from mpi4py import MPI
+
+    from remote_trigger.pywrap.runtime.relaunch import RELAUNCHED
+
+    check_parallel(args)
+    world = MPI.COMM_WORLD
+    if args.np > 1 and world.Get_size() == 1 and not os.environ.get(RELAUNCHED):
+        from remote_trigger.pywrap.cli import Parser
+        from remote_trigger.pywrap.runtime.relaunch import relaunch_words
+
+        return relaunch_words("jacobian", Parser.words, args.np)
+    if world.Get_size() == 1:
+        return run_rank0(args)
+    from remote_trigger.analysis.stability.sliced.parts import PartsProblem
+    from remote_trigger.pywrap.runtime.rankmap import on_rank0_with_ranks
+
+    if args.part_size is None:          # rank 0 alone, the others wait
+        from remote_trigger.pywrap.runtime.parallel import on_rank0
+
+        return on_rank0(world, run_rank0, args)
+    return on_rank0_with_ranks(world, lambda pmap: run_rank0(args, pmap), (PartsProblem,))
+
+
+def run_rank0(args, map_tasks=None):
+    """The command on one process (rank 0): read, decide (the parts of a sliced
+    verdict run by ``map_tasks``), write, print; returns the exit status."""
     from remote_trigger.analysis.output import output_file, write_npz_atomic
     from remote_trigger.analysis.stability.decision import Decision
     from remote_trigger.analysis.stability.residual import check_equilibrium
@@ -145,7 +216,8 @@ def run(args):
     try:
         res = analyze(state, eigenvalues=not args.no_eigen, decide=not args.no_eigen,
                       method=args.method, k=args.k, sigma=args.sigma,
-                      min_contacts=args.min_contacts, progress=progress)
+                      min_contacts=args.min_contacts, progress=progress,
+                      part_size=args.part_size, map_tasks=map_tasks)
     finally:
         if bar:
             bar[0].close()
@@ -172,6 +244,7 @@ def run(args):
         "method": np.str_("none" if res.eigen is None else res.eigen.method),
         "sigma": np.float64(sigma),
         "equilibrium": np.int64(warning is None),
+        "part_size": np.int64(-1 if args.part_size is None else args.part_size),
     }
     write_npz_atomic(output, out)
     lines = [

@@ -9,6 +9,8 @@ the sidecar is refused unless ``--override``
 given keep the defaults of :mod:`remote_trigger.pywrap.config`;
 ``--set KEY=VALUE`` sets any other configuration field (unknown keys are an
 error). Errors and exit statuses: :mod:`remote_trigger.pywrap.cli`.
+``ramp --np K`` re-launches itself under ``mpirun -np K``; with
+``--part-size P`` every rank also runs parts of each sliced verdict.
 """
 import json
 import math
@@ -259,6 +261,13 @@ def register(subparsers):
     m.add_argument("--resume", action="store_true",
                    help="continue an interrupted ramp from its last equilibrium (without "
                         "--datafile: the start file OUT/ramp.h5 names)")
+    m.add_argument("--part-size", dest="part_size", type=int,
+                   help="sliced verdicts (above 3000 dofs) in parts of about this many "
+                        "eigenvalues, run on every MPI rank (>= 60; the answer depends on it, "
+                        "never on the number of ranks; default: one scan on rank 0)")
+    m.add_argument("--np", type=int, default=1,
+                   help="MPI ranks: re-launch under mpirun -np NP (LAMMPS and, with "
+                        "--part-size, the verdicts on every rank; default 1)")
     m.set_defaults(func=run_ramp, resume_hint=INTERRUPT_HINTS["ramp"])
 
     p = subparsers.add_parser(
@@ -376,13 +385,26 @@ def _check_dim(dim, datafile):
 def run_ramp(args):
     """``remote-trigger ramp``."""
     from remote_trigger.analysis.output import bracket_text
+    from remote_trigger.pywrap.config import ConfigError
+    from remote_trigger.pywrap.runtime.relaunch import RELAUNCHED
     from remote_trigger.pywrap.stages.config import RampConfig
     from remote_trigger.pywrap import stages
 
-    cfg = _config(RampConfig, args, ("dF_x", "tol", "dF_x_max"))
+    cfg = _config(RampConfig, args, ("dF_x", "tol", "dF_x_max", "part_size"))
     if args.dim is not None:
         _check_dim(args.dim, cfg.datafile)
     _note_model(args, cfg)
+    if args.np < 1:
+        raise ConfigError(f"--np must be >= 1, got --np {args.np}")
+    if args.np > 1 and not os.environ.get(RELAUNCHED):
+        from mpi4py import MPI
+
+        if MPI.COMM_WORLD.Get_size() == 1:
+            from remote_trigger.pywrap.cli import Parser
+            from remote_trigger.pywrap.runtime.relaunch import relaunch_words
+
+            return relaunch_words("ramp", Parser.words, args.np, args.resume_hint,
+                                  getattr(args, "out_lock", None))
     res = stages.ramp(cfg, args.out, quiet=args.quiet, resume=args.resume, log=args.log)
     if _rank() == 0:
         if res.status == "complete":

@@ -1,9 +1,10 @@
 """Re-launch a command-line job under the environment's ``mpirun`` (``--np N``).
 
-``paper``, ``trigger-map`` and ``ensemble`` take ``--np N``: run from a
-serial shell, they start ``mpirun -np N python -m remote_trigger.pywrap.cli
-COMMAND ...`` with an environment flag that keeps the child from
-re-launching itself, and return its exit status.
+``paper``, ``trigger-map``, ``ensemble``, ``ramp`` and ``jacobian`` take
+``--np N``: run from a serial shell, they start ``mpirun -np N python -m
+remote_trigger.pywrap.cli COMMAND ...`` with an environment flag that keeps
+the child from re-launching itself, and return its exit status. ``ramp``
+and ``jacobian`` repeat their own command line (:func:`relaunch_words`).
 """
 import os
 import shutil
@@ -63,6 +64,29 @@ def relaunch(command, args, np, env_flag, extra=()):
     # ensemble and trigger-map run np - 1 workers beside their coordinator
     return call_under_mpirun(cmd, dict(os.environ, **{env_flag: "1"}), command, np - 1,
                              getattr(args, "resume_hint", None), getattr(args, "out_lock", None))
+
+
+def relaunch_words(command, words, np, resume_hint=None, lock=None):
+    """Run ``remote-trigger WORDS`` (the command line as given, ``command``
+    among its words) under ``mpirun -np np``, every rank computing; returns
+    the child's exit status.
+
+    ``--np N`` (or ``--np=N``) is removed from ``words``; the child has
+    :data:`RELAUNCHED` set, so it does not re-launch itself. ``lock``: as
+    :func:`call_under_mpirun`.
+    """
+    words, skip = list(words), False
+    kept = []
+    for w in words:
+        if skip:
+            skip = False
+        elif w == "--np":
+            skip = True
+        elif not w.startswith("--np="):
+            kept.append(w)
+    cmd = [find_mpirun(np, command), "-np", str(np), sys.executable, "-m",
+           "remote_trigger.pywrap.cli"] + kept
+    return call_under_mpirun(cmd, dict(os.environ), command, np, resume_hint, lock)
 
 
 def interrupt_line(command, resume_hint=None):

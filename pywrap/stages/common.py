@@ -259,7 +259,10 @@ def decide_on_rank0(eng, what, options=None, basis=None, progress=None):
         :class:`~remote_trigger.analysis.stability.system.ReducedSystem` to
         decide (called on rank 0 only).
     options : VerdictOptions, optional
-        ``checkpoint_dir`` is written by rank 0.
+        ``checkpoint_dir`` is written by rank 0. With ``part_size`` every
+        rank runs parts of a sliced verdict
+        (:func:`~remote_trigger.pywrap.runtime.rankmap.on_rank0_with_ranks`),
+        with the same answer as rank 0 alone.
     basis : SpectrumBasis, optional
         The previous point's ``StabilityResult.basis`` (rank 0's; ignored
         elsewhere).
@@ -276,15 +279,22 @@ def decide_on_rank0(eng, what, options=None, basis=None, progress=None):
 
     kept = {}
 
-    def run():
+    def run(map_tasks=None):
         if callable(what):
-            res = decide(what(), options, basis, progress)
+            res = decide(what(), options, basis, progress, map_tasks)
         else:
-            res = stability_of_dump(what, options, basis, progress, allow_residual=True)
+            res = stability_of_dump(what, options, basis, progress, allow_residual=True,
+                                    map_tasks=map_tasks)
         kept["basis"], res.basis = res.basis, None
         return res
 
-    res = on_rank0(eng.comm, run)
+    if options is not None and options.part_size is not None:
+        from remote_trigger.analysis.stability.sliced.parts import PartsProblem
+        from remote_trigger.pywrap.runtime.rankmap import on_rank0_with_ranks
+
+        res = on_rank0_with_ranks(eng.comm, run, (PartsProblem,))
+    else:
+        res = on_rank0(eng.comm, run)
     res.basis = kept.get("basis")
     return res
 

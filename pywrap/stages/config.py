@@ -311,6 +311,14 @@ class RampConfig(RelaxConfig):
         ``analysis.stability.verdict.collective_decision``); a point whose
         only certified complex pairs are soft counts as real, and the column
         ``soft_pairs`` of ramp.h5 counts them (docs/driver.md "Soft pairs").
+    part_size : int or None
+        None (default): a sliced verdict (above 3000 dofs) is one scan, run
+        on rank 0 while the other ranks wait. An integer >= 60 (the slice
+        size; the scan refuses a smaller one): the scan in parts of about this many eigenvalues
+        (``VerdictOptions.part_size``), run on every MPI rank of the ramp
+        (``pywrap.runtime.rankmap``); the answer depends on it, never on
+        the number of ranks (docs/analysis.md "One large point on many
+        cores").
     """
 
     #: fields added after ramp files were written: the value an older file has
@@ -326,6 +334,7 @@ class RampConfig(RelaxConfig):
     keep_equilibria: bool = True
     saddle_escape: bool = True
     pairs: str = "all"
+    part_size: int = None
 
     def validate(self):
         """The relaxation's checks and the ramp's (:class:`ConfigError`)."""
@@ -348,6 +357,9 @@ class RampConfig(RelaxConfig):
         if self.pairs not in self.PAIRS:
             raise ConfigError(f"pairs must be one of {', '.join(map(repr, self.PAIRS))}, "
                               f"got pairs = {self.pairs!r}")
+        if self.part_size is not None:
+            # (the scan refuses one below its slice size, 60, in one line)
+            check_int("part_size", self.part_size, 2)
 
 
 @dataclass(frozen=True)

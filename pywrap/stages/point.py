@@ -176,7 +176,8 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
             escaped += 1.0
             counted = None
     options = VerdictOptions(pairs=getattr(cfg, "pairs", "all"), stop_at_complex=True,
-                             checkpoint_dir=checkpoint_dir)
+                             checkpoint_dir=checkpoint_dir,
+                             part_size=getattr(cfg, "part_size", None))
     res = decide_on_rank0(eng, system, options, basis, progress)
     # with pairs = 'collective' a point whose only complex pairs are soft is real
     code = res.policy_decision

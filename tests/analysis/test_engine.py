@@ -28,6 +28,12 @@ def system_of(K, mass):
     ({"pairs": "soft"}, "pairs must be one of all, collective, got pairs = 'soft'"),
     ({"stop_at_complex": 1}, "stop_at_complex must be True or False, got stop_at_complex = 1"),
     ({"slice_size": 1}, "slice_size must be an integer >= 2, got slice_size = 1"),
+    ({"part_size": 1}, r"part_size must be None or an integer >= 2 and >= slice_size \(None\), "
+                       r"got part_size = 1"),
+    ({"part_size": 30, "slice_size": 40}, r"part_size must be None or an integer >= 2 and >= "
+                                          r"slice_size \(40\), got part_size = 30"),
+    ({"part_size": 100.0}, "got part_size = 100.0"),
+    ({"part_size": True}, "got part_size = True"),
 ])
 def test_options_are_checked_where_they_are_made(kw, msg):
     with pytest.raises(ValueError, match=msg):
@@ -103,3 +109,33 @@ def test_decision_codes_and_labels_round_trip():
         assert Decision.of(d.label) is d and str(d) == d.label
     with pytest.raises(ValueError, match="not a decision code: 2"):
         Decision.of(2)
+
+
+def test_parts_through_the_engine():
+    """part_size through the options and a map_tasks through decide: the
+    decision, eigenvalues and margin of the parts run by a counting map are
+    those of the builtin map, bit for bit, and the whole scan's decision; a
+    part_size below the scan's slice size is refused by the scan in one line;
+    a map_tasks that is not callable is refused."""
+    K, mass = planted(n=300, pairs=[(100, 1.5)], seed=1)
+    system = system_of(K, mass)
+    opts = VerdictOptions(method="sliced", slice_size=20, part_size=100)
+    ran = []
+
+    def counting_map(fn, tasks):
+        for t in tasks:
+            ran.append(fn.__name__)
+            yield fn(t)
+
+    seq = decide(system, opts)
+    par = decide(system, opts, map_tasks=counting_map)
+    whole = decide(system, VerdictOptions(method="sliced", slice_size=20))
+    assert ran.count("scan_part") == 3 and ran.count("find_cut") == 2
+    assert par.decision is seq.decision is whole.decision is Decision.COMPLEX
+    assert par.confidence == seq.confidence
+    assert par.eigenvalues.tobytes() == seq.eigenvalues.tobytes()
+    with pytest.raises(ValueError, match=r"^part_size must be an integer >= slice_size \(60\), "
+                                         r"got part_size = 50$"):
+        decide(system, VerdictOptions(method="sliced", part_size=50))
+    with pytest.raises(ValueError, match="map_tasks must be callable or None, got map_tasks = 3"):
+        decide(system, opts, map_tasks=3)

@@ -126,9 +126,42 @@ def test_a_bad_part_size_is_refused(bad):
         run(K, mass, part_size=bad)
 
 
-def test_parts_are_not_checkpointed(tmp_path):
-    K, mass = planted(n=40)
-    with pytest.raises(ValueError, match="part_size = 30 is not supported with a checkpoint_dir"):
-        run(K, mass, part_size=30, checkpoint_dir=str(tmp_path))
+def test_parts_are_checkpointed(tmp_path):
+    """With a checkpoint_dir each finished task is saved: a scan stopped by an
+    exception inside its second part (as a kill would leave the folder) and
+    called again runs only the tasks not saved, and its answer is the
+    uninterrupted one, bit for bit; the finished verdict is then saved and
+    the task files removed. A map_tasks that is not callable is refused."""
+    import os
+
+    K, mass = planted(n=300, pairs=[(100, 1.5), (220, 0.9)], seed=1)
+    ref = fingerprint(*run(K, mass, part_size=100))
+
+    class Killed(Exception):
+        pass
+
+    ran = []
+
+    def killing_map(fn, tasks):
+        for t in tasks:
+            if fn.__name__ == "scan_part" and t.j > 0 and kill[0]:
+                raise Killed
+            ran.append((fn.__name__, t.j))
+            yield fn(t)
+
+    kill = [True]
+    with pytest.raises(Killed):
+        run(K, mass, part_size=100, checkpoint_dir=str(tmp_path), map_tasks=killing_map)
+    names = sorted(os.listdir(tmp_path))
+    assert [n.split(".", 1)[1] for n in names] == [
+        "task-cut-00001.pkl", "task-cut-00002.pkl", "task-part-00000.pkl"], names
+    kill[0], ran[:] = False, []
+    assert fingerprint(*run(K, mass, part_size=100, checkpoint_dir=str(tmp_path),
+                            map_tasks=killing_map)) == ref
+    assert [r[0] for r in ran] == ["scan_part", "scan_part"]      # parts 1 and 2 only
+    assert [n.split(".", 1)[1] for n in os.listdir(tmp_path)] == ["done.pkl"]
+    ran[:] = []                 # the saved verdict: nothing run
+    assert fingerprint(*run(K, mass, part_size=100, checkpoint_dir=str(tmp_path),
+                            map_tasks=killing_map)) == ref and ran == []
     with pytest.raises(ValueError, match="map_tasks must be callable, got map_tasks = 4"):
         run(K, mass, part_size=30, map_tasks=4)

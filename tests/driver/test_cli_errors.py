@@ -179,7 +179,7 @@ def test_options_are_taken_by_their_whole_name_only(capsys, tmp_path):
     (["relax", "--settle", "100"], ["--settle 100 (did you mean --settle-steps?)"]),
     # another case of an option (difflib named --w), and --np of a stage (--help)
     (["paper", "--N", "40"], ["--N 40 (did you mean --n?)"]),
-    (["ramp", "--np", "2"], ["--np 2 (did you mean mpirun -np N remote-trigger ramp ...?)"]),
+    (["relax", "--np", "2"], ["--np 2 (did you mean mpirun -np N remote-trigger relax ...?)"]),
     # an option of remote-trigger itself after a subcommand (it named --override)
     (["relax", "--version"], ["--version (did you mean remote-trigger --version?)"]),
     # a subcommand's options before it ("--quiet (did you mean --quiet?)",

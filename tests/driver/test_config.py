@@ -19,6 +19,16 @@ def test_bad_values_name_field_and_value(packing_file, key, val):
     assert key in str(exc.value) and repr(val) in str(exc.value)
 
 
+@pytest.mark.parametrize("val, msg", [
+    (1, "part_size must be >= 2, got part_size = 1"),
+    (100.0, "part_size must be an integer, got part_size = 100.0"),
+    (True, "part_size must be an integer, got part_size = True")])
+def test_bad_part_size(packing_file, val, msg):
+    with pytest.raises(ConfigError, match=f"^{msg}$"):
+        RampConfig(datafile=packing_file, part_size=val)
+    assert RampConfig(datafile=packing_file, part_size=2000).part_size == 2000
+
+
 def test_numpy_values_are_taken_as_python_numbers(packing_file):
     """A value from an array (np.int64 from a loop over np.arange, np.float32,
     an array of seeds) is checked and stored as the Python number; a

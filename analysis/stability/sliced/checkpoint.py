@@ -10,7 +10,9 @@ scaled matrix to the last bit, of the options and of
 scan holds no Ritz vector: the buffer (:class:`~.buffer.RitzBuffer`) pickles
 their shape and :func:`sha` instead, and a resume computes its slices again
 (:func:`restore_ritz`). :func:`saved_scans` lists a folder's saved scans for
-progress reports.
+progress reports. A scan in parts (:mod:`.parts`) saves each finished task
+instead, ``D/sliced-<key>.task-cut-NNNNN.pkl`` and ``.task-part-NNNNN.pkl``
+(:meth:`ScanFiles.save_task`), its key including the part size.
 """
 import copy
 import hashlib
@@ -31,19 +33,22 @@ __all__ = ["CHECKPOINT_FORMAT", "ScanFiles", "scan_key", "saved_scans", "sha", "
 CHECKPOINT_FORMAT = 6
 
 
-def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None):
+def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None,
+             part_size=None):
     """sha256 of everything a scan depends on: A = M^-1/2 K M^-1/2 (canonical CSR,
     bitwise), the options, the largest strip decided on the real axis
     (``scan._MAX_STRIP``: a scan or verdict saved under another limit is
     not taken, so its strips are not decided by two rules) and the
     checkpoint format. ``soft_rel`` (the stop rule's soft-pair threshold)
-    enters only when given, so the keys of scans without it are those of
-    earlier versions."""
+    and ``part_size`` (a scan in parts) enter only when given, so the keys of
+    scans without them are those of earlier versions."""
     h = hashlib.sha256()
     opts = (CHECKPOINT_FORMAT, A.shape, float(rel_error), float(window),
             int(slice_size), bool(stop_at_complex), int(max_strip))
     if soft_rel is not None:
         opts += (float(soft_rel),)
+    if part_size is not None:
+        opts += ("parts", int(part_size))
     h.update(repr(opts).encode())
     for arr in (A.indptr, A.indices, A.data):
         h.update(np.ascontiguousarray(arr).view(np.uint8))
@@ -114,13 +119,27 @@ class ScanFiles:
         """Save the scan's state, atomically (its buffer without vectors)."""
         _save(self.scan_path, self.key, scan)
 
+    def task_path(self, kind, j):
+        """``<folder>/sliced-<key>.task-<kind>-<j>.pkl``: a finished task of a scan
+        in parts (``kind`` 'cut' or 'part', ``j`` its number)."""
+        return os.path.join(self.folder, f"sliced-{self.key}.task-{kind}-{int(j):05d}.pkl")
+
+    def load_task(self, kind, j):
+        """The saved result of task ``kind`` ``j`` of this key, or None."""
+        return _load(self.task_path(kind, j), self.key)
+
+    def save_task(self, kind, j, result):
+        """Save the result of a finished task of a scan in parts, atomically."""
+        _save(self.task_path(kind, j), self.key, result)
+
     def save_verdict(self, decision, stats):
         """Save the finished verdict and its statistics, atomically, and remove
-        every ``sliced-*.scan.pkl`` of the folder (a folder serves one scan at a
-        time: another scan's state is stale)."""
+        every ``sliced-*.scan.pkl`` and saved task of the folder (a folder
+        serves one scan at a time: another scan's state is stale)."""
         _save(self.verdict_path, self.key, (decision, stats))
         for name in os.listdir(self.folder):
-            if name.startswith("sliced-") and name.endswith(".scan.pkl"):
+            if name.startswith("sliced-") and (name.endswith(".scan.pkl")
+                                               or ".task-" in name):
                 try:
                     os.unlink(os.path.join(self.folder, name))
                 except FileNotFoundError:

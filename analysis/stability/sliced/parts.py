@@ -323,7 +323,36 @@ def merged_decision(pb, cuts, results, stats, timing, progress=None):
                              scanned_below, timing)
 
 
-def classify_parts(pb, stats, map_tasks=None, progress=None):
+def _saved_map(map_tasks, fn, tasks, files, kind):
+    """``map_tasks(fn, tasks)`` with the results saved in ``files`` reused and each
+    new result saved as it is read (:meth:`~.checkpoint.ScanFiles.save_task`;
+    ``files`` None: the plain map). A generator of the results in task order;
+    closing it closes the map's iterator."""
+    if files is None:
+        it = iter(map_tasks(fn, tasks))
+        try:
+            yield from it
+        finally:
+            close = getattr(it, "close", None)
+            if close is not None:
+                close()
+        return
+    saved = [files.load_task(kind, t.j) for t in tasks]
+    todo = [t for t, r in zip(tasks, saved) if r is None]
+    it = iter(map_tasks(fn, todo)) if todo else iter(())
+    try:
+        for task, r in zip(tasks, saved):
+            if r is None:
+                r = next(it)
+                files.save_task(kind, task.j, r)
+            yield r
+    finally:
+        close = getattr(it, "close", None)
+        if close is not None:
+            close()
+
+
+def classify_parts(pb, stats, map_tasks=None, progress=None, files=None):
     """The verdict of a partitioned scan (module docstring): cuts, parts, merge.
 
     Parameters
@@ -338,6 +367,13 @@ def classify_parts(pb, stats, map_tasks=None, progress=None):
         tasks and results are picklable. Default: the builtin :func:`map`.
     progress : callable, optional
         ``progress(done, n)`` after each part is merged.
+    files : ScanFiles, optional
+        Where each finished task's result is saved (atomically, by this
+        process, as the merge reads it: in task order) and found again: a
+        scan killed and called again runs only the tasks not saved, and its
+        answer is that of an uninterrupted scan, bit for bit (a saved result
+        is the one the task computes; ``timing`` adds the saved tasks'
+        seconds, as a resumed whole scan adds its seconds before the resume).
 
     Returns
     -------
@@ -351,7 +387,7 @@ def classify_parts(pb, stats, map_tasks=None, progress=None):
     n = pb.S.shape[0]
     P = part_count(n, pb.part_size)
     tasks = [CutTask(pb, j, round(j * n / P)) for j in range(1, P)]
-    found = list(map_tasks(find_cut, tasks))
+    found = list(_saved_map(map_tasks, find_cut, tasks, files, "cut"))
     kept, prev = [], pb.lo0
     for cut in found:
         _add_stats(stats, cut.stats)
@@ -368,15 +404,13 @@ def classify_parts(pb, stats, map_tasks=None, progress=None):
     done = []
 
     def results():
-        it = iter(map_tasks(scan_part, ptasks))
+        it = _saved_map(map_tasks, scan_part, ptasks, files, "part")
         try:
             for r in it:
                 done.append(r)
                 yield r
         finally:                # an executor's map: the tasks not started are cancelled
-            close = getattr(it, "close", None)
-            if close is not None:
-                close()
+            it.close()
 
     eigen = sum(c.t_slices for c in found)
     timing = {"eigen": eigen, "decision": sum(c.seconds for c in found) - eigen}

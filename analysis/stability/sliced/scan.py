@@ -624,7 +624,9 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         whatever runs the tasks; it is the verdict of the whole scan, its
         eigenvalues the same to within the Ritz radii, its strips cut at
         other boundaries. Default None (or P = 1): one part, the whole scan.
-        Not with ``checkpoint_dir``.
+        With ``checkpoint_dir`` each finished task is saved
+        (``sliced-<key>.task-*.pkl``, the key including ``part_size``) and a
+        call again runs only the tasks not saved (:func:`.parts.classify_parts`).
     map_tasks : callable, optional
         ``map_tasks(fn, tasks)`` returning ``fn``'s results in the order of
         ``tasks`` (an iterable, read in order, perhaps not to its end:
@@ -653,8 +655,7 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         below the Gershgorin bound, ``window`` is not a finite number > 0,
         ``slice_size`` not an integer >= 2, ``checkpoint_seconds`` is
         negative or not a number, ``soft_rel`` is not a number in [0, 1), or
-        ``part_size`` is not an integer >= ``slice_size`` or is given with
-        ``checkpoint_dir``.
+        ``part_size`` is not an integer >= ``slice_size``.
 
     Notes
     -----
@@ -669,26 +670,24 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
         if not is_integer(part_size) or part_size < slice_size:
             raise ValueError(f"part_size must be an integer >= slice_size ({slice_size}), "
                              f"got part_size = {part_size!r}")
-        if checkpoint_dir is not None:
-            raise ValueError(f"part_size = {part_size!r} is not supported with a "
-                             f"checkpoint_dir (a scan in parts is not saved)")
     if map_tasks is not None and not callable(map_tasks):
         raise ValueError(f"map_tasks must be callable, got map_tasks = {map_tasks!r}")
     if K.shape[0] == 0:
         raise ValueError("K is empty (0 x 0): no degree of freedom to decide")
     A, S, W = scaled_parts(K, mass)
     files = saved = None
+    in_parts = part_size is not None and part_count(A.shape[0], part_size) > 1
     if checkpoint_dir is not None:
         files = ScanFiles(checkpoint_dir, scan_key(
             A, rel_error, window, slice_size, stop_at_complex, _MAX_STRIP,
-            soft_rel if stop_at_complex else None))
+            soft_rel if stop_at_complex else None, part_size if in_parts else None))
         done = files.load_verdict()
         if done is not None:
             dec, st = done
             for f in dataclasses.fields(st):
                 setattr(stats, f.name, getattr(st, f.name))
             return dec
-        saved = files.load_scan()
+        saved = None if in_parts else files.load_scan()
     stats.n = A.shape[0]
     ctx = StripContext.of(A, S, W, rel_error, window)
     stats.norm_W, stats.window = ctx.normW, ctx.Delta
@@ -696,11 +695,14 @@ def classify_sliced(K, mass, rel_error=U, window=10.0, slice_size=None, stats=No
     # the real part below which a complex strip is soft (it does not stop the scan)
     soft_below = (soft_rel * top_eigenvalue(S) if stop_at_complex and soft_rel is not None
                   else -math.inf)
-    if part_size is not None and part_count(S.shape[0], part_size) > 1:
+    if in_parts:
         new_scan = functools.partial(SlicedScan, S, ctx, lo0, slice_size,
                                      stop_at_complex=stop_at_complex, soft_below=soft_below)
         pb = PartsProblem(S, ctx, lo0, _top(S, ctx), int(part_size), new_scan)
-        return classify_parts(pb, stats, map_tasks, progress)
+        dec = classify_parts(pb, stats, map_tasks, progress, files)
+        if files is not None:
+            files.save_verdict(dec, dataclasses.replace(stats))
+        return dec
     setup = dict(S=S, ctx=ctx, lo0=lo0, slice_size=slice_size, stats=stats,
                  stop_at_complex=stop_at_complex, soft_below=soft_below, t0=t0)
     scan = SlicedScan.resumed(saved, **setup) if saved is not None else None
