@@ -63,16 +63,17 @@ def accurate_residual(A, Q, M):
     """R = A Q - Q M as if computed in twice the working precision, with a
     rigorous entrywise bound of its error.
 
-    Each entry is an inner product of L = (nonzeros of the row) + k terms,
-    evaluated by Dot2 of Ogita, Rump and Oishi ("Accurate sum and dot
-    product", SIAM J. Sci. Comput. 26 (2005) 1955, Alg. 5.3): every product
-    split error-free (Dekker's TwoProduct), the products summed by Knuth's
-    TwoSum and the errors gathered in a second sum. Their Thm. 5.3 bounds the
-    result: |R - R_exact| <= u |R_exact| + gamma_L^2 sum|terms|, so the bound
-    returned, 2u |R| + 4 gamma_L^2 fl(sum|terms|) (and a term for products
-    near underflow, where TwoProduct is not error-free), holds; it is within
-    a few u of |R| unless the terms cancel to below ~1e-13 of their sum. All
-    rows and columns are evaluated at once (vectorised over the entries).
+    Each entry is an inner product of L = (nonzeros of the row) + b terms
+    (b: M's block size, k for a full M), evaluated by Dot2 of Ogita, Rump
+    and Oishi ("Accurate sum and dot product", SIAM J. Sci. Comput. 26
+    (2005) 1955): every product split error-free (Dekker's TwoProduct), the
+    products summed by Knuth's TwoSum and the errors gathered in a second
+    sum. Their error bound for Dot2 (section 5 there), |R - R_exact| <=
+    u |R_exact| + gamma_L^2 sum|exact products|, gives the bound returned,
+    2u |R| + 4 gamma_L^2 fl(sum|products|), plus a term for products near
+    underflow, where TwoProduct is not error-free. It is within a few u of
+    |R| unless the terms cancel to below ~1e-13 of their sum. All rows and
+    columns are evaluated at once (vectorised over the entries).
 
     Parameters
     ----------
