@@ -234,8 +234,9 @@ class Verified:
 
     def sharp_residuals(self, A, X, starts):
         """The accurate residuals r = A Q - Q M~ of the pairs at ``starts`` (Q =
-        X[:, s:s + 2], M~ = C[s:s + 2, s:s + 2]), all in one call; a dict s ->
-        (r, its bound), for :meth:`sharp_block`."""
+        X[:, s:s + 2], M~ = C[s:s + 2, s:s + 2]), ``_RESIDUAL_CHUNK`` pairs per
+        call (each column the bits of its pair's own call); a dict s -> (r, its
+        bound), for :meth:`sharp_block`."""
         starts, out = list(starts), {}
         for c0 in range(0, len(starts), _RESIDUAL_CHUNK):
             chunk = starts[c0:c0 + _RESIDUAL_CHUNK]
