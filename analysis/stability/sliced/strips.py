@@ -165,6 +165,31 @@ _WALK = 500
 _BOX_FIRST = 8
 
 
+def _explicit_block(ctx, buf, idx, WQ, coupled):
+    """What a Schur complement onto the Ritz vectors ``idx`` needs: b (the
+    block's scaled coupling to the rest), Q (the vectors orthonormalised), phi_Q
+    (their departure from orthonormality), A Q, Q^T A Q and rho (the error of
+    Q^T A Q and of the set F). ``WQ``: W times the block's vectors (as the
+    caller lays it out); ``coupled``: :func:`coupling`'s answer with ``exclude
+    = idx``."""
+    kap, g_min, d_eff, near, g, xi, phi = coupled
+    p = idx.size
+    A = ctx.A
+    n = A.shape[0]
+    cross = buf.Wn[np.ix_(near, idx)]
+    bn = float(np.linalg.norm((np.abs(cross) + ctx.rnd) / np.sqrt(g)[:, None])) if near.size else 0.0
+    b = (math.sqrt(bn ** 2 + float(np.sum(WQ ** 2)) / d_eff) * (1 + phi)
+         + xi * math.sqrt(p) / math.sqrt(g_min)) * INFLATE
+    Q, _ = np.linalg.qr(buf.Q[:, idx])
+    phiQ = (float(np.linalg.norm(Q.T @ Q - np.eye(p))) + gamma(n) * p) * INFLATE
+    AQ = A @ Q
+    Tc = Q.T @ AQ
+    # errors of Tc and of the set: rounding, the non-orthonormality of Q, F
+    rho = ((gamma(n + 8) * p * ctx.normA1 + (2 * phiQ + phiQ ** 2) * ctx.normA1)
+           + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * INFLATE
+    return b, Q, phiQ, AQ, Tc, rho
+
+
 class DeflatedComplement:
     """The Schur complement of a piece [lo, hi] of a strip onto an enlarged
     block, as a polynomial in z (package docstring, *Deflated strips*).
@@ -224,18 +249,8 @@ class DeflatedComplement:
                                                        exclude=E)
         if not kap < 1:
             raise SliceFailure(f"the far rest is coupled across the piece (kappa {kap:.3g})")
-        WQE = ctx.W @ buf.Q[:, E]
-        cross = buf.Wn[np.ix_(near, E)]
-        bn = float(np.linalg.norm((np.abs(cross) + ctx.rnd) / np.sqrt(g)[:, None])) \
-            if near.size else 0.0
-        b = (math.sqrt(bn ** 2 + float(np.sum(WQE ** 2)) / d_eff) * (1 + phi)
-             + xi * math.sqrt(p) / math.sqrt(g_min)) * INFLATE
-        Q, _ = np.linalg.qr(buf.Q[:, E])
-        phiE = (float(np.linalg.norm(Q.T @ Q - np.eye(p))) + gamma(n) * p) * INFLATE
-        AQ = A @ Q
-        Tc = Q.T @ AQ
-        rho = ((gamma(n + 8) * p * ctx.normA1 + (2 * phiE + phiE ** 2) * ctx.normA1)
-               + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * INFLATE
+        b, Q, phiE, AQ, Tc, rho = _explicit_block(
+            ctx, buf, E, ctx.W @ buf.Q[:, E], (kap, g_min, d_eff, near, g, xi, phi))
         Qs = sp.csr_matrix(Q)
         M = sp.bmat([[A - c * sp.identity(n, format="csr"), Qs], [Qs.T, None]], format="csc")
         try:
@@ -604,22 +619,13 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         return (Decision.UNDECIDED, 0.0, lam0,
                 f"the rest is coupled across the strip (kappa {kap:.3g})")
     # column-major, as a column selection of W Q is (np.sum's last bit depends on it)
-    WQI = np.asfortranarray(ctx.W @ buf.Q[:, I])
-    cross = buf.Wn[np.ix_(near, I)]
-    bn = float(np.linalg.norm((np.abs(cross) + ctx.rnd) / np.sqrt(g)[:, None])) if near.size else 0.0
-    b = (math.sqrt(bn ** 2 + float(np.sum(WQI ** 2)) / d_eff) * (1 + phi)
-         + xi * math.sqrt(m) / math.sqrt(g_min)) * INFLATE
+    b, Q, phiI, AQ, Tc, rho = _explicit_block(
+        ctx, buf, I, np.asfortranarray(ctx.W @ buf.Q[:, I]),
+        (kap, g_min, d_eff, near, g, xi, phi))
     # |T''(x)| <= 2 b^2 / (g_min^2 (1 - kappa_r)^3) on the strip
     curv = 2 * b * b / (g_min ** 2 * (1 - kap) ** 3) * INFLATE
     A = ctx.A
     n = A.shape[0]
-    Q, _ = np.linalg.qr(buf.Q[:, I])
-    phiI = (float(np.linalg.norm(Q.T @ Q - np.eye(m))) + gamma(n) * m) * INFLATE
-    AQ = A @ Q
-    Tc = Q.T @ AQ
-    # errors of Tc and of the set: rounding, the non-orthonormality of Q, F
-    rho = ((gamma(n + 8) * m * ctx.normA1 + (2 * phiI + phiI ** 2) * ctx.normA1)
-           + ctx.eps + 2 * b * ctx.eps / math.sqrt(g_min) / (1 - kap)) * INFLATE
     bordered = []               # [M0, E], assembled at the first solve
 
     def bordered_at(x):
