@@ -85,17 +85,17 @@ def hexagonal(n_x, rows):
                    ylo=0.0, yhi=float(y.max() + 10 * R), seed=-1)
 
 
-def _relax(n, seed, folder, packing=None):
-    """Relax (the default protocol) ``generate(n, seed)``, or ``packing`` if given."""
+def _relax(packing, folder):
+    """Relax ``packing`` (a ``Packing``) by the default protocol in ``folder``."""
     from mpi4py import MPI
 
     from remote_trigger.pywrap import stages
     from remote_trigger.pywrap.stages.config import RelaxConfig
-    from remote_trigger.pywrap.stages.packing import generate, write_data
+    from remote_trigger.pywrap.stages.packing import write_data
 
     os.makedirs(folder, exist_ok=True)
     data = os.path.join(folder, "p.data")
-    write_data(generate(n, seed=seed) if packing is None else packing, data)
+    write_data(packing, data)
     rel = stages.relax(RelaxConfig(datafile=data), folder, comm=MPI.COMM_SELF, quiet=True)
     return rel.datafile
 
@@ -125,7 +125,9 @@ def _cell(F_x):
     if not os.path.exists(prefix + ".dump"):
         relaxed = os.path.join(d, "cell_relax", "relax", "equilibrium.data")
         if not os.path.exists(relaxed):
-            relaxed = _relax(100, CELL_SEED, os.path.join(d, "cell_relax"))
+            from remote_trigger.pywrap.stages.packing import generate
+
+            relaxed = _relax(generate(100, seed=CELL_SEED), os.path.join(d, "cell_relax"))
         k = int(round(F_x / DFX_STEP))
         loads = [j * DFX_STEP for j in range(k + 1)]
         loads[-1] = F_x
@@ -155,13 +157,15 @@ def build(name):
         folder = os.path.join(d, name)
         dump = os.path.join(folder, "relax", "equilibrium.dump")
         if not os.path.exists(dump):
-            _relax(int(m.group(1)), RANDOM_SEED, folder)
+            from remote_trigger.pywrap.stages.packing import generate
+
+            _relax(generate(int(m.group(1)), seed=RANDOM_SEED), folder)
         return dump
     if m := re.fullmatch(r"hex(\d+)x(\d+)", name):
         folder = os.path.join(d, name)
         dump = os.path.join(folder, "relax", "equilibrium.dump")
         if not os.path.exists(dump):
-            _relax(0, 0, folder, packing=hexagonal(int(m.group(1)), int(m.group(2))))
+            _relax(hexagonal(int(m.group(1)), int(m.group(2))), folder)
         return dump
     if m := re.fullmatch(r"(random\d+|hex\d+x\d+)_F([0-9.e-]+)", name):
         F_x = float(m.group(2))
