@@ -1,11 +1,14 @@
 """``in.relax`` places the top line as ``remote-trigger relax`` does: on the
-N = 100 packings of ``generate`` seeds 0-5, one rank, the deck keeps the
+N = 100 packings of ``generate`` seeds 0-2, one rank, the deck keeps the
 same placement (the same shift, the same count of attempts) and ends with
 the driver's packing fraction; where the driver keeps no clear placement the
 deck stops with status 4 naming the placements it tried.
 
-Before the deck tried placements itself it stopped with status 4 on seeds
-0, 2 and 5 (docs/results/driver.md). Two ranks: test_deck_placements_mpi.py.
+Seeds 0, 1 and 2 keep the second, the first and the third placement; before
+the deck tried placements itself it stopped with status 4 on seeds 0 and 2.
+Seeds 0-19 were compared once (docs/results/driver.md, "Placements of the
+line in the deck"; seeds 3-5 repeat the paths of seeds 1 and 2 and were
+dropped from the suite for time). Two ranks: test_deck_placements_mpi.py.
 """
 import os
 import re
@@ -20,7 +23,8 @@ from remote_trigger.pywrap.bindings.decks import DECK_DIR
 from .conftest import LMP, MPIRUN, cli_env
 
 N = 100
-SEEDS = range(6)
+#: placements kept by the driver: 2, 1, 3 (every path of seeds 0-5)
+SEEDS = range(3)
 #: the deck ends at fmin = 1e-10 by damped dynamics, the driver polishes with
 #: Newton from 3e-3: neighbouring equilibria of the same placement, whose
 #: heights h = max(y + R) differ by far less than this (measured: <= 2e-15 in
@@ -99,7 +103,7 @@ def check_same_placement(datafile, deck, drv_attempts, drv_clear, drv_phi, seed)
 
 
 @pytest.mark.slow
-def test_relax_deck_keeps_the_drivers_placement_on_seeds_0_to_5(tmp_path):
+def test_relax_deck_keeps_the_drivers_placement_on_seeds_0_to_2(tmp_path):
     from remote_trigger.pywrap import stages
     from remote_trigger.pywrap.stages.config import RelaxConfig
 
@@ -116,8 +120,8 @@ def test_relax_deck_keeps_the_drivers_placement_on_seeds_0_to_5(tmp_path):
     print("\nseed status placements phi(deck) placements phi(driver)")
     for row in rows:
         print(*row)
-    # the loop itself ran: some seeds kept a later placement
-    assert sorted({r[4] for r in rows}) != [1], rows
+    # the loop itself ran: the seeds kept the first, second and third placement
+    assert sorted({r[4] for r in rows}) == [1, 2, 3], rows
 
 
 def test_relax_deck_stops_with_status_4_where_the_driver_keeps_no_clear_line(tmp_path):
