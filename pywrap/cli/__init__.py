@@ -380,7 +380,9 @@ def _guarded(args, debug):
     lock = None
     try:
         check_lammps_paths(args)
-        if rank == 0 and getattr(args, "command", None) in LAMMPS_COMMANDS:
+        # (``ensemble --status`` only reads the folder, beside the run holding it)
+        if rank == 0 and getattr(args, "command", None) in LAMMPS_COMMANDS \
+                and not getattr(args, "status", False):
             from remote_trigger.pywrap.runtime.outlock import lock_output_folder
 
             lock = lock_output_folder(getattr(args, "out", None))

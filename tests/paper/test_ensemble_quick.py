@@ -548,9 +548,16 @@ def _unfinished(serial, tmp_path):
 
 
 def _status_line(copy, key):
-    """``ensemble --status``'s line of packing ``key``."""
-    proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(copy)],
-                          capture_output=True, text=True, timeout=300)
+    """``ensemble --status``'s line of packing ``key``, with the folder's lock
+    held as by the job still running in it."""
+    from remote_trigger.pywrap.runtime.outlock import lock_output_folder
+
+    fd = lock_output_folder(str(copy))
+    try:
+        proc = subprocess.run([CLI, "ensemble", "--status", "--out", str(copy)],
+                              capture_output=True, text=True, timeout=300)
+    finally:
+        os.close(fd)
     assert proc.returncode == 0, proc.stderr
     return next(x for x in proc.stdout.splitlines() if x.startswith(f"{key}: "))
 
