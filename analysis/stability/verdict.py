@@ -105,8 +105,8 @@ class VerdictOptions:
         ranks). The partition depends on the matrix and ``part_size`` only,
         never on what runs the parts: the same verdict, eigenvalues and
         margins, bit for bit, on one rank or many. At least the slice size
-        (``classify_sliced`` checks it against its default, 60, when
-        ``slice_size`` is None). Default None: one part, the whole scan.
+        (``slice_size``, or ``sliced.scan.SLICE_SIZE`` = 60 when None).
+        Default None: one part, the whole scan.
 
     Raises
     ------
@@ -138,10 +138,13 @@ class VerdictOptions:
                                             or self.slice_size < 2):
             raise ValueError(f"slice_size must be an integer >= 2, got "
                              f"slice_size = {self.slice_size!r}")
-        if self.part_size is not None and (not is_integer(self.part_size)
-                                           or self.part_size < max(2, self.slice_size or 2)):
-            raise ValueError(f"part_size must be None or an integer >= 2 and >= slice_size "
-                             f"({self.slice_size!r}), got part_size = {self.part_size!r}")
+        if self.part_size is not None:
+            from remote_trigger.analysis.stability.sliced.scan import SLICE_SIZE
+
+            least = SLICE_SIZE if self.slice_size is None else self.slice_size
+            if not is_integer(self.part_size) or self.part_size < least:
+                raise ValueError(f"part_size must be None or an integer >= the slice size "
+                                 f"({least}), got part_size = {self.part_size!r}")
 
     @property
     def soft_rel(self):

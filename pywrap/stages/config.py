@@ -314,7 +314,7 @@ class RampConfig(RelaxConfig):
     part_size : int or None
         None (default): a sliced verdict (above 3000 dofs) is one scan, run
         on rank 0 while the other ranks wait. An integer >= 60 (the slice
-        size; the scan refuses a smaller one): the scan in parts of about this many eigenvalues
+        size, ``analysis.stability.sliced.scan.SLICE_SIZE``): the scan in parts of about this many eigenvalues
         (``VerdictOptions.part_size``), run on every MPI rank of the ramp
         (``pywrap.runtime.rankmap``); the answer depends on it, never on
         the number of ranks (docs/analysis.md "One large point on many
@@ -358,8 +358,12 @@ class RampConfig(RelaxConfig):
             raise ConfigError(f"pairs must be one of {', '.join(map(repr, self.PAIRS))}, "
                               f"got pairs = {self.pairs!r}")
         if self.part_size is not None:
-            # (the scan refuses one below its slice size, 60, in one line)
+            from remote_trigger.analysis.stability.sliced.scan import SLICE_SIZE
+
             check_int("part_size", self.part_size, 2)
+            if self.part_size < SLICE_SIZE:      # refused here, not at the first sliced point
+                raise ConfigError(f"part_size must be >= the slice size ({SLICE_SIZE}), got "
+                                  f"part_size = {self.part_size!r}")
 
 
 @dataclass(frozen=True)

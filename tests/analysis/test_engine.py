@@ -28,10 +28,12 @@ def system_of(K, mass):
     ({"pairs": "soft"}, "pairs must be one of all, collective, got pairs = 'soft'"),
     ({"stop_at_complex": 1}, "stop_at_complex must be True or False, got stop_at_complex = 1"),
     ({"slice_size": 1}, "slice_size must be an integer >= 2, got slice_size = 1"),
-    ({"part_size": 1}, r"part_size must be None or an integer >= 2 and >= slice_size \(None\), "
+    ({"part_size": 1}, r"part_size must be None or an integer >= the slice size \(60\), "
                        r"got part_size = 1"),
-    ({"part_size": 30, "slice_size": 40}, r"part_size must be None or an integer >= 2 and >= "
-                                          r"slice_size \(40\), got part_size = 30"),
+    ({"part_size": 59}, r"part_size must be None or an integer >= the slice size \(60\), "
+                        r"got part_size = 59"),
+    ({"part_size": 30, "slice_size": 40}, r"part_size must be None or an integer >= the "
+                                          r"slice size \(40\), got part_size = 30"),
     ({"part_size": 100.0}, "got part_size = 100.0"),
     ({"part_size": True}, "got part_size = True"),
 ])
@@ -134,8 +136,8 @@ def test_parts_through_the_engine():
     assert par.decision is seq.decision is whole.decision is Decision.COMPLEX
     assert par.confidence == seq.confidence
     assert par.eigenvalues.tobytes() == seq.eigenvalues.tobytes()
-    with pytest.raises(ValueError, match=r"^part_size must be an integer >= slice_size \(60\), "
-                                         r"got part_size = 50$"):
+    with pytest.raises(ValueError, match=r"^part_size must be None or an integer >= the slice "
+                                         r"size \(60\), got part_size = 50$"):
         decide(system, VerdictOptions(method="sliced", part_size=50))
     with pytest.raises(ValueError, match="map_tasks must be callable or None, got map_tasks = 3"):
         decide(system, opts, map_tasks=3)

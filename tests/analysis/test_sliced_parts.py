@@ -4,12 +4,14 @@ whatever runs the tasks, strips decided across the split points."""
 import concurrent.futures
 import dataclasses
 import hashlib
+import pickle
 
 import numpy as np
 import pytest
 
 from remote_trigger.analysis.stability.decision import Decision
-from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced, scaled_parts
+from remote_trigger.analysis.stability.sliced import (SlicedStats, classify_sliced, saved_scans,
+                                                     scaled_parts)
 
 from .test_sliced import planted
 
@@ -155,6 +157,12 @@ def test_parts_are_checkpointed(tmp_path):
     names = sorted(os.listdir(tmp_path))
     assert [n.split(".", 1)[1] for n in names] == [
         "task-cut-00001.pkl", "task-cut-00002.pkl", "task-part-00000.pkl"], names
+    # the progress report counts the eigenvalues of the finished part
+    (pattern, listed, n_saved, _), = saved_scans(str(tmp_path))
+    with open(tmp_path / names[2], "rb") as fh:
+        part0 = pickle.load(fh)[1]
+    assert pattern == str(tmp_path / names[2].replace("00000", "*"))
+    assert (listed, n_saved) == (len(part0.lam), 300) and 0 < listed < 300
     kill[0], ran[:] = False, []
     assert fingerprint(*run(K, mass, part_size=100, checkpoint_dir=str(tmp_path),
                             map_tasks=killing_map)) == ref

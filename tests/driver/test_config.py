@@ -22,11 +22,13 @@ def test_bad_values_name_field_and_value(packing_file, key, val):
 @pytest.mark.parametrize("val, msg", [
     (1, "part_size must be >= 2, got part_size = 1"),
     (100.0, "part_size must be an integer, got part_size = 100.0"),
-    (True, "part_size must be an integer, got part_size = True")])
+    (True, "part_size must be an integer, got part_size = True"),
+    (59, r"part_size must be >= the slice size \(60\), got part_size = 59")])
 def test_bad_part_size(packing_file, val, msg):
     with pytest.raises(ConfigError, match=f"^{msg}$"):
         RampConfig(datafile=packing_file, part_size=val)
     assert RampConfig(datafile=packing_file, part_size=2000).part_size == 2000
+    assert RampConfig(datafile=packing_file, part_size=60).part_size == 60
 
 
 def test_numpy_values_are_taken_as_python_numbers(packing_file):

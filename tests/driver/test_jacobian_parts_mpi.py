@@ -52,7 +52,7 @@ def test_one_and_two_ranks_give_the_same_bits(dump, tmp_path):
                            r"got --part-size 1"),
     (["--np", "2"], "--np 2 needs --part-size P"),
     (["--part-size", "20", "--method", "sliced"],
-     r"part_size must be an integer >= slice_size \(60\), got part_size = 20"),
+     r"part_size must be None or an integer >= the slice size \(60\), got part_size = 20"),
 ])
 def test_bad_values_are_refused(dump, tmp_path, capsys, words, msg):
     import re

@@ -40,7 +40,7 @@ out, data, mode = sys.argv[1:4]
 from remote_trigger.analysis.stability import eigen
 from remote_trigger.analysis.stability.sliced import checkpoint, scan
 eigen.DENSE_MAX = 10
-scan._SLICE_SIZE = 12
+scan.SLICE_SIZE = 12
 from mpi4py import MPI
 rank = MPI.COMM_WORLD.Get_rank()
 save, load = checkpoint.ScanFiles.save_task, checkpoint.ScanFiles.load_task
@@ -100,7 +100,7 @@ def two_rank_ramp(relaxed, tmp_path_factory):
 def test_two_ranks_decide_as_one_process(two_rank_ramp, monkeypatch):
     _, out = two_rank_ramp
     monkeypatch.setattr(eigen, "DENSE_MAX", 10)
-    monkeypatch.setattr(scan, "_SLICE_SIZE", 12)
+    monkeypatch.setattr(scan, "SLICE_SIZE", 12)
     attrs, data = read_all(str(out / "ramp.h5"))
     assert attrs["status"] == "complete"
     F, files = read_points(str(out / "ramp.h5"))

@@ -51,7 +51,7 @@ class _CountScans:
 
 def _sliced_small(mp):
     mp.setattr(eigen, "DENSE_MAX", 10)
-    mp.setattr(scan, "_SLICE_SIZE", 12)
+    mp.setattr(scan, "SLICE_SIZE", 12)
 
 
 @pytest.fixture(scope="module")

@@ -158,29 +158,43 @@ def saved_scans(folder):
     Returns
     -------
     list of (str, int, int, float)
-        Per ``sliced-*.scan.pkl``, sorted by name: its path; the eigenvalues
-        of the symmetric part listed by then (the count ``progress`` reports);
-        the order n; the save's time (the file's mtime, seconds since the
-        epoch). A file that cannot be read (being replaced, or of other code)
-        is left out. It is only read: safe beside the running scan.
+        Per ``sliced-*.scan.pkl``, and per scan in parts (its
+        ``sliced-<key>.task-part-*.pkl``, one entry for them all), sorted by
+        name: its path (for a scan in parts the pattern
+        ``<folder>/sliced-<key>.task-part-*.pkl``); the eigenvalues of the
+        symmetric part listed by then (the count ``progress`` reports; for a
+        scan in parts those of its finished parts); the order n; the save's
+        time (the file's mtime, seconds since the epoch; the latest part's). A
+        file that cannot be read (being replaced, or of other code) is left
+        out. It is only read: safe beside the running scan.
     """
     try:
         names = sorted(os.listdir(folder))
     except FileNotFoundError:
         return []
-    out = []
+    out, parts = [], {}
     for name in names:
-        if not (name.startswith("sliced-") and name.endswith(".scan.pkl")):
-            continue
         path = os.path.join(folder, name)
+        if not name.startswith("sliced-"):
+            continue
+        stem, dot, rest = name.partition(".")
         try:
-            mtime = os.path.getmtime(path)
-            with open(path, "rb") as fh:
-                _, sc = pickle.load(fh)
-            out.append((path, int(sc.counted), int(sc.stats.n), mtime))
+            if rest == "scan.pkl":
+                mtime = os.path.getmtime(path)
+                with open(path, "rb") as fh:
+                    _, sc = pickle.load(fh)
+                out.append((path, int(sc.counted), int(sc.stats.n), mtime))
+            elif rest.startswith("task-part-") and rest.endswith(".pkl"):
+                mtime = os.path.getmtime(path)
+                with open(path, "rb") as fh:
+                    _, part = pickle.load(fh)
+                listed, n, last = parts.get(stem, (0, 0, 0.0))
+                parts[stem] = (listed + len(part.lam), int(part.stats.n), max(last, mtime))
         except Exception:       # noqa: BLE001 - replaced meanwhile, truncated or other code
             continue
-    return out
+    out += [(os.path.join(folder, stem + ".task-part-*.pkl"), listed, n, mtime)
+            for stem, (listed, n, mtime) in parts.items()]
+    return sorted(out)
 
 
 def sha(a):

@@ -257,6 +257,7 @@ def scan_part(task):
     t0 = time.perf_counter()
     pb = task.problem
     stats = SlicedStats()
+    stats.n = pb.S.shape[0]         # (the order, for progress reports: saved_scans)
     scan = pb.scan(stats)
     pos = None if task.start is None else Position(*task.start, _rng(task.j))
     scan.begin_part(pos, 0 if task.start is None else task.start[1], task.floor,

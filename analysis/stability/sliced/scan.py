@@ -53,7 +53,9 @@ _MAX_STRIP = 24
 # factorizations falls with it; measured at N = 6400 (n = 18 582) with 2k + 1
 # Lanczos vectors: 40 -> 216 s, 60 -> 201 s, 85 -> 222 s, 124 -> 274 s of CPU
 # (docs/results/analysis.md)
-_SLICE_SIZE = 60
+#: Ritz pairs per slice when ``slice_size`` is None (also the smallest
+#: ``part_size``: a part holds at least one slice)
+SLICE_SIZE = 60
 #: seconds between two saves of a scan's state (``classify_sliced``'s
 #: ``checkpoint_dir``): a save writes 2.2-16.4 MB at N = 10^4 (measured; no
 #: Ritz vector: a resume computes the buffer's slices again), a scan there
@@ -511,7 +513,7 @@ def _checked_options(rel_error, window, slice_size, checkpoint_seconds, soft_rel
             and np.isfinite(window)):
         raise ValueError(f"window must be a finite number > 0, got window = {window!r}")
     if slice_size is None:
-        slice_size = _SLICE_SIZE
+        slice_size = SLICE_SIZE
     if not is_integer(slice_size) or \
             slice_size < 2:
         raise ValueError(f"slice_size must be an integer >= 2, got slice_size = {slice_size!r}")
