@@ -67,11 +67,13 @@ import time
 PAIR_RE_REL = 0.094
 #: points of an adaptive ramp of the default job (26 steps + 12 bisections)
 ADAPTIVE_POINTS = 38
-#: median F_x^c(mu0) of the ensemble (docs/results/ensemble.md: 20 packings at
-#: N = 100, 11 at 400, 6 at 1600, measured 2026-11-23/24) and the exponent of
-#: the power law fitted over every packing, used to extrapolate from N = 100
-FC_MEDIAN = {100: 0.0256, 400: 0.0037, 1600: 0.00167}
-FC_EXPONENT = -1.01
+#: median F_x^c(mu0) of the stored ensemble run docs/results/runs/N100_10000_s52
+#: (20, 11, 12, 6 and 2 packings at N = 100, 400, 1600, 6400 and 10^4; its
+#: ensemble.json, n_fit) and the exponent of the power law fitted there over
+#: its 51 usable packings, soft onsets included (docs/ensemble.md, "The size
+#: dependence"), used to extrapolate from N = 100 to other N
+FC_MEDIAN = {100: 0.0255, 400: 0.00411, 1600: 0.00149, 6400: 0.00067, 10000: 0.000408}
+FC_EXPONENT = -0.92
 
 
 #: packings relaxed once with the default protocol (ensemble generator, seed 1)
@@ -509,9 +511,9 @@ def main(argv=None):
           + "; fine ramp, adaptive: points x the mean of the points measured above "
           "N = 400, x the second below")
     print(f"fine ramp: F_x^c / dF_x + 12 points, F_x^c the ensemble's median "
-          f"({FC_MEDIAN[100]:g} at N = 100, {FC_MEDIAN[400]:g} at 400, {FC_MEDIAN[1600]:g} "
-          f"at 1600; at other N {FC_MEDIAN[100]:g} (N/100)^{FC_EXPONENT:g}, the "
-          f"fit over every packing); adaptive: {ADAPTIVE_POINTS} points "
+          f"({', '.join(f'{v:g} at N = {k}' for k, v in FC_MEDIAN.items())}; at other N "
+          f"{FC_MEDIAN[100]:g} (N/100)^{FC_EXPONENT:g}, the fit over the 51 usable packings "
+          f"of docs/results/runs/N100_10000_s52); adaptive: {ADAPTIVE_POINTS} points "
           f"(default job); both in s on one core (wall). cpu: process CPU time of the point "
           f"(equals its wall time on an idle core; the measure to trust on a loaded machine)")
     return 0
