@@ -4,7 +4,8 @@ non-normal one, with and without an error bound."""
 import numpy as np
 import pytest
 
-from remote_trigger.analysis.stability.sliced.winding import box_zero_count, sigma_min_lower
+from remote_trigger.analysis.stability.enclosure import sigma_min_lower
+from remote_trigger.analysis.stability.sliced.winding import box_zero_count
 
 
 def _diag_schur(lam, V=None, err=0.0):
@@ -47,8 +48,15 @@ def test_an_error_bound_larger_than_the_distance_to_a_zero_is_no_answer():
 
 
 def test_sigma_min_lower_of_a_complex_matrix():
+    """Both bounds of ||T^-1||_2 (the winding uses the spectral one) are below
+    sigma_min and not far below it, for complex and real matrices (neither
+    is always the tighter); another norm is refused."""
     rng = np.random.default_rng(1)
-    T = rng.standard_normal((5, 5)) + 1j * rng.standard_normal((5, 5))
-    s = np.linalg.svd(T, compute_uv=False)[-1]
-    lo = sigma_min_lower(T)
-    assert 0.5 * s <= lo <= s                      # rigorous, and not far below
+    for T in (rng.standard_normal((5, 5)) + 1j * rng.standard_normal((5, 5)),
+              rng.standard_normal((7, 7))):
+        s = np.linalg.svd(T, compute_uv=False)[-1]
+        for norm in ("spectral", "frobenius"):
+            lo = sigma_min_lower(T, norm=norm)
+            assert 0.5 * s <= lo <= s                  # rigorous, and not far below
+    with pytest.raises(ValueError, match="norm must be 'frobenius' or 'spectral', got norm = 'max'"):
+        sigma_min_lower(T, norm="max")

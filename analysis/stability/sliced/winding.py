@@ -35,33 +35,12 @@ import math
 
 import numpy as np
 
-from remote_trigger.analysis.stability.enclosure import U, gamma, inverse_residual
+from remote_trigger.analysis.stability.enclosure import sigma_min_lower
 
 __all__ = ["box_zero_count"]
 
 #: most evaluations of the complement (sparse bordered solves) one box may take
 MAX_EVALS = 600
-
-
-def sigma_min_lower(T):
-    """Rigorous lower bound of sigma_min of a small real or complex matrix.
-
-    With Z ~ T^-1 and e >= ||I - Z T||_F < 1
-    (:func:`~remote_trigger.analysis.stability.enclosure.inverse_residual`),
-    ||T^-1||_2 <= ||Z||_2 / (1 - e); ||Z||_2^2 = ||Z^H Z||_2 is at most the
-    largest row sum of |Z^H Z| (a Hermitian matrix's spectral norm is at most
-    its infinity norm), with the rounding of the product added.
-    """
-    T = np.asarray(T)
-    inv = inverse_residual(T)
-    if inv is None or not inv[1] < 1.0:
-        return 0.0
-    Z, e = inv
-    aZ = np.abs(Z)
-    g = 2 * gamma(T.shape[0] + 4)      # complex products: twice the real gamma
-    G = np.abs(Z.conj().T @ Z) + g * (aZ.T @ aZ)
-    z2 = math.sqrt(float(np.max(G.sum(axis=1))) * (1 + g))
-    return (1.0 - e) / z2 * (1 - 4 * U)
 
 
 def _norm2_upper(D):
@@ -115,7 +94,7 @@ def box_zero_count(schur, x0, x1, y0, y1, curv):
             Tb, eb, _, _ = at(zb)
             if Ta is None or Tb is None:
                 return None, "winding count: the bordered system is singular on the box", 0.0
-            s = sigma_min_lower(Ta)
+            s = sigma_min_lower(Ta, norm="spectral")
             h = abs(zb - za)
             rho = ea + h * (_norm2_upper(Da) + dea) + 0.5 * curv * h * h
             if not (rho + eb < 0.8 * s and ea < 0.25 * s):
