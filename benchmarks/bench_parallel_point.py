@@ -307,17 +307,24 @@ def main(argv=None):
                           for k in (1, 2, 4, 8, 16)))
         # keep the one-rank records for the model of larger n
         if "whole" in recs:
+            from remote_trigger.pywrap.runtime.environment import source
+
+            stamp = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                     "commit": (source()["commit"] or "unknown")[:7]}
             with open(os.path.join(cache_dir(), f"records_N{n}.json"), "w") as fh:
-                json.dump({"whole": recs["whole"], "parts": one}, fh)
+                json.dump({"whole": recs["whole"], "parts": one, "recorded": stamp}, fh)
     runs = []
     for name in sorted(os.listdir(cache_dir())):
         if name.startswith("records_N"):
             with open(os.path.join(cache_dir(), name)) as fh:
                 runs.append(json.load(fh))
     if runs:
-        sizes = sorted(r["parts"]["n"] for r in runs)
+        runs.sort(key=lambda r: r["parts"]["n"])
+        used = ", ".join(f"n = {r['parts']['n']} ({r.get('recorded', {}).get('date', 'undated')}, "
+                         f"{r.get('recorded', {}).get('commit', 'commit unknown')})" for r in runs)
         print(f"model of N = 10^4 (n = 28 800) and 10^5 (n = 300 000), k parts of n / k, "
-              f"from the one-rank runs at n = {sizes} (power laws through the two largest):")
+              f"from the one-rank runs kept in the cache (power laws through the two "
+              f"largest): {used}")
         for nn, ks in ((28800, (1, 2, 16)), (300000, (1, 16, 256))):
             for k in ks:
                 t, parts = extrapolate(runs, nn, k)
