@@ -258,6 +258,11 @@ def register(subparsers):
     m.add_argument("--tol", type=float, help="bisection tolerance (1e-7)")
     m.add_argument("--dF-x-max", dest="dF_x_max", type=float,
                    help="adaptive ramp: largest step (default: every step is dF_x)")
+    m.add_argument("--between", type=int,
+                   help="before the bisection, decide M - 1 loads between every two steps "
+                        "below the first complex one (the lower real), lowest first: a "
+                        "complex window narrower than a step looked for at step / M "
+                        "(default 1: none)")
     m.add_argument("--resume", action="store_true",
                    help="continue an interrupted ramp from its last equilibrium (without "
                         "--datafile: the start file OUT/ramp.h5 names)")
@@ -390,7 +395,7 @@ def run_ramp(args):
     from remote_trigger.pywrap.stages.config import RampConfig
     from remote_trigger.pywrap import stages
 
-    cfg = _config(RampConfig, args, ("dF_x", "tol", "dF_x_max", "part_size"))
+    cfg = _config(RampConfig, args, ("dF_x", "tol", "dF_x_max", "part_size", "between"))
     if args.dim is not None:
         _check_dim(args.dim, cfg.datafile)
     _note_model(args, cfg)

@@ -319,11 +319,21 @@ class RampConfig(RelaxConfig):
         (``pywrap.runtime.rankmap``); the answer depends on it, never on
         the number of ranks (docs/analysis.md "One large point on many
         cores").
+    between : int
+        1 (default): the first certified complex step and the bisection
+        below it. m >= 2: before the bisection, m - 1 loads evenly spaced
+        between every two consecutive steps below the first complex step
+        (the lower certified real) are decided too, each from the lower
+        step's equilibrium, lowest first (``stages.ramp.between_loads``);
+        the first complex one ends the check and the bisection moves there.
+        A complex window narrower than a step is then looked for at the
+        resolution dF_x / m, for about (m - 1) x (the steps) more points
+        (docs/driver.md "What the bracket certifies").
     """
 
     #: fields added after ramp files were written: the value an older file has
     #: (``clearance``, a relax field, plays no part in a ramp)
-    LATER_FIELDS = {"saddle_escape": False, "clearance": "auto", "pairs": "all"}
+    LATER_FIELDS = {"saddle_escape": False, "clearance": "auto", "pairs": "all", "between": 1}
     #: the values of ``pairs``
     PAIRS = ("all", "collective")
 
@@ -335,6 +345,7 @@ class RampConfig(RelaxConfig):
     saddle_escape: bool = True
     pairs: str = "all"
     part_size: int = None
+    between: int = 1
 
     def validate(self):
         """The relaxation's checks and the ramp's (:class:`ConfigError`)."""
@@ -357,6 +368,7 @@ class RampConfig(RelaxConfig):
         if self.pairs not in self.PAIRS:
             raise ConfigError(f"pairs must be one of {', '.join(map(repr, self.PAIRS))}, "
                               f"got pairs = {self.pairs!r}")
+        check_int("between", self.between, 1)
         if self.part_size is not None:
             from remote_trigger.analysis.stability.sliced.scan import SLICE_SIZE
 

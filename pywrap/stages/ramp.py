@@ -233,6 +233,14 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
     width reached; nothing narrower than what was certified is reported.
     A bisection point without an equilibrium is no answer either.
 
+    With ``cfg.between`` = m > 1, before the bisection, m - 1 loads evenly
+    spaced between every two consecutive steps below the first certified
+    complex step, the lower one certified real, are decided too
+    (:func:`between_loads`; recorded as bisection points, each from the
+    lower step's equilibrium, lowest first): a complex window narrower than
+    a step is then looked for at the resolution dF_x / m. The first
+    complex one ends the check, and the bracket and the bisection move to it.
+
     Parameters
     ----------
     cfg : RampConfig
@@ -286,6 +294,8 @@ def ramp(cfg, out, comm=None, quiet=False, resume=False, log="none", stop_after=
         vdir = verdict_dir or os.path.join(folder, VERDICTS)
         try:
             ended = _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim, vdir)
+            if ended is None and cfg.between > 1:
+                ended = _between(eng, cfg, rcfg, rlog, folder, bar, budget, dim, vdir)
             if ended is not None:
                 return ended
             return _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim, vdir)
@@ -426,6 +436,83 @@ def _ramp_steps(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
     return None
 
 
+def between_loads(rlog, m):
+    """The loads the check between steps decides (``RampConfig.between`` = m), in order.
+
+    For every two consecutive steps F_k < F_{k+1} whose lower one is certified
+    real and whose upper one is at or below the first step certified complex
+    (every step so far while there is none), the m - 1 loads F_k + j (F_{k+1}
+    - F_k) / m, j = 1 .. m - 1, each with the data file of step k (its
+    start), lowest first. The list depends only on the recorded steps, so a
+    resumed ramp takes the same loads.
+
+    Parameters
+    ----------
+    rlog : ramp_file.RampLog
+    m : int
+        Subintervals per step, >= 1 (1: none).
+
+    Returns
+    -------
+    list of (float, str)
+        (F_x, start data file).
+    """
+    steps = rlog.rows[ramp_file.STEPS]
+    F, dec, files = steps["F_x"], steps["decision"], rlog.files[ramp_file.STEPS]
+    out = []
+    for k in range(len(F) - 1):
+        if dec[k] != Decision.REAL:
+            continue
+        a, b = float(F[k]), float(F[k + 1])
+        out += [(a + j * (b - a) / m, files[k]) for j in range(1, m)]
+        if dec[k + 1] == Decision.COMPLEX:
+            break
+    return out
+
+
+def _between_pending(rlog, m):
+    """(F_x, start) of :func:`between_loads` not yet recorded and below the
+    bracket's upper end (all of them before a complex load is recorded)."""
+    hi = ramp_bracket(rlog)[1]
+    done = set(float(f) for f in rlog.rows[ramp_file.BISECTION]["F_x"])
+    return [(F, f) for F, f in between_loads(rlog, m)
+            if F not in done and not F >= hi]
+
+
+def _between(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
+    """The check between steps (``cfg.between`` > 1): the loads of
+    :func:`between_loads` below the bracket's upper end, lowest first, until
+    one is certified complex. Returns a :class:`RampResult` where the ramp
+    ends here (interrupted), else None: the bisection follows."""
+    bis = rlog.rows[ramp_file.BISECTION]
+    while True:
+        todo = _between_pending(rlog, cfg.between)
+        if not todo:
+            return None
+        F, start = todo[0]
+        j = len(bis["F_x"])
+        name = ramp_file.point_name(ramp_file.BISECTION, j)
+        prefix = os.path.join(folder, name)
+        try:
+            # (no start basis: the same numbers whether or not the ramp was resumed)
+            vals, res = ramp_point(eng, rcfg, start, F, prefix, None, dim,
+                                   verdict_progress(bar, F), vdir)
+        except eq.NoEquilibriumError:
+            vals = {c: np.nan for c in ramp_file.COLUMNS}
+            vals.update(F_x=F, complex=2.0)     # no equilibrium: no answer
+            res = None
+        rlog.add(ramp_file.BISECTION, name, prefix + ".data", vals,
+                 [] if res is None else res.eigenvalues, "" if res is None else res.reason)
+        _remember(eng, rlog, prefix + ".data", None if res is None else res.basis)
+        lo, hi, _, _ = ramp_bracket(rlog)
+        rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
+        _checkpoint(eng, rlog, folder, "running")
+        bar.update(1)
+        bar.set_postfix_str(f"between steps: F_x {F:.6g} complex {bool(vals['complex'] == 1)}")
+        if budget.spend():
+            return _ramp_result(rlog, "interrupted")
+
+
 def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
     """Bisection of F_x^c on certified answers only (docs/driver.md); returns the
     :class:`RampResult` (``'complete'``, or ``'interrupted'``)."""
@@ -488,7 +575,8 @@ def _basis_path(datafile):
 
 
 def _starts(rlog):
-    """Data files of the recorded points a later point can start from."""
+    """Data files of the recorded points a later point can start from with its
+    basis (the checks between steps start from theirs without one)."""
     files = rlog.files[ramp_file.STEPS]
     lo_file = ramp_bracket(rlog)[2]
     return {f for f in ([files[-1]] if files else []) + [lo_file] if f}
@@ -496,9 +584,12 @@ def _starts(rlog):
 
 def _prune_equilibria(rlog):
     """Remove the equilibrium files of the recorded points except the starts
-    (:func:`_starts`) and the bracket's upper end (the smallest load certified
+    (:func:`_starts`, and with ``between`` > 1 those of the loads between steps
+    still to decide) and the bracket's upper end (the smallest load certified
     complex); files already gone are skipped."""
     keep, hi = _starts(rlog), ramp_bracket(rlog)[1]
+    if rlog.cfg.between > 1:          # the starts of the loads between steps still to decide
+        keep |= {f for _, f in _between_pending(rlog, rlog.cfg.between)}
     for kind in (ramp_file.STEPS, ramp_file.BISECTION):
         rows = rlog.rows[kind]
         for F, d, f in zip(rows["F_x"], rows["decision"], rlog.files[kind]):

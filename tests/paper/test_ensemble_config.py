@@ -317,6 +317,23 @@ def test_pairs_collective_configuration(tmp_path):
     assert RampConfig(datafile=str(data)).pairs == "all"
 
 
+def test_between_configuration(tmp_path):
+    """``between``: an integer >= 1, named when bad; config.json holds it only
+    when > 1 (older folders resume with 1); each ramp of the job gets it."""
+    from remote_trigger.pywrap.jobs.paper.stage_configs import ramp_config
+
+    cfg = ec.EnsembleConfig.from_dict({"between": 4})
+    assert cfg.to_dict()["between"] == 4
+    assert "between" not in ec.EnsembleConfig().to_dict()
+    for bad in (0, 2.0, "3"):
+        with pytest.raises(ConfigError, match=f"got between = {bad!r}"):
+            ec.EnsembleConfig.from_dict({"between": bad})
+    data = tmp_path / "x.data"
+    data.write_text("")
+    assert ramp_config(cfg, str(data), 1.0).between == 4
+    assert ramp_config(ec.EnsembleConfig(), str(data), 1.0).between == 1
+
+
 def test_collective_ensemble_runs_and_says_so(tmp_path):
     """``--set pairs=collective`` through the command line, with the I0
     re-analysis and the frictional protocol: its ramps record it and the

@@ -126,6 +126,12 @@ class EnsembleConfig(Config):
         decision at F_x = 0 then decide on the pairs that are not soft too.
         Written to ``config.json`` only when 'collective' (a folder of
         earlier runs resumes as 'all').
+    between : int
+        Loads decided between the ramp's steps (``RampConfig.between``): 1
+        (default) none; m >= 2: m - 1 between every two steps below the
+        first complex one, before the bisection (a complex window narrower
+        than a step looked for at dF_x / m). Every N. Written to
+        ``config.json`` only when > 1.
     np : int
         Ranks that run packings, >= 1 (default 1). Above 1 the job re-launches
         itself under ``mpirun -np np+1``: rank 0 hands out the packings
@@ -161,6 +167,7 @@ class EnsembleConfig(Config):
     keep_equilibria: bool = False
     saddle_escape: bool = True
     pairs: str = "all"
+    between: int = 1
     np: int = 1
     quick: bool = False
 
@@ -215,6 +222,7 @@ class EnsembleConfig(Config):
         if self.pairs not in RampConfig.PAIRS:
             raise ConfigError(f"pairs must be one of {', '.join(map(repr, RampConfig.PAIRS))}"
                               f", got pairs = {self.pairs!r}")
+        check_int("between", self.between, 1)
         for name in ("relax", "frictional_relax"):
             check_table(name, getattr(self, name), RELAX_SET_BY_JOB, "the ensemble",
                         RelaxConfig)
@@ -301,8 +309,8 @@ class EnsembleConfig(Config):
         ``dim`` is there only for spheres: the configuration of disks is
         written as before ``dim`` existed, so a folder of disks written
         then resumes (``--resume`` compares ``config.json``) and its files
-        are unchanged. Likewise ``pairs`` only when 'collective', and
-        ``saddle_escape`` only when False; whether
+        are unchanged. Likewise ``pairs`` only when 'collective',
+        ``between`` only when > 1, and ``saddle_escape`` only when False; whether
         a packing escaped saddles is recorded in its result (``tasks/``,
         missing: not) and checked by ``--resume`` and ``--combine``.
         """
@@ -315,6 +323,8 @@ class EnsembleConfig(Config):
             del d["saddle_escape"]
         if self.pairs == "all":
             del d["pairs"]
+        if self.between == 1:
+            del d["between"]
         return d
 
     @property
