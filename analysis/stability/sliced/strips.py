@@ -567,6 +567,9 @@ def decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
             result = _decide_pieces(ctx, pieces, m, a_lo, a_hi)
             if result[0] is not Decision.UNDECIDED or m > WHOLE_MAX:
                 return result
+        elif m > WHOLE_MAX:
+            return (Decision.UNDECIDED, 0.0, None,
+                    f"deflated route: the strip of {m} could not be cut into pieces")
     pieces, todo = [], [(a_lo, a_hi, 0)]
     while todo:
         lo, hi, depth = todo.pop()
@@ -990,7 +993,8 @@ def arpack_hint(A, a_lo, a_hi, m):
     note for its reason, marked not certified ('' if ARPACK fails), and the
     estimates with real part in the strip (ndarray of complex, by real part).
 
-    The 2 m + 6 eigenvalues of A nearest the strip's centre (shift-invert);
+    The 2 m + 6 eigenvalues of A nearest the strip's centre (shift-invert;
+    not asked for a strip of more than ``WHOLE_MAX``);
     those with real part in the strip are counted (a complex pair far from the
     real axis may be missed: the note says how many of the m were seen) and
     the complex ones named. Nothing is decided from it.
@@ -1000,6 +1004,9 @@ def arpack_hint(A, a_lo, a_hi, m):
     none = np.zeros(0, complex)
     if k < 1:
         return "", none
+    if m > WHOLE_MAX:
+        # (thousands of eigenvalues by shift-invert: more than the scan costs)
+        return f"; ARPACK not asked (a strip of more than {WHOLE_MAX})", none
     c = 0.5 * (a_lo + a_hi)
     try:
         lu = spla.splu(sp.csc_matrix(A - c * sp.identity(n, format="csr")))
