@@ -698,6 +698,15 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
             return deflated
         return (Decision.UNDECIDED, 0.0, lam0,
                 f"the rest is coupled across the strip (kappa {kap:.3g})")
+    if not real_routes:
+        # the deflated route first: the strip's own block (below; n x m, and
+        # m^2 n for Q^T A Q) is needed only by the box on ARPACK's estimates
+        # after it, which a strip of more than WHOLE_MAX does not get
+        deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
+        if deflated[0] is not Decision.UNDECIDED:
+            return deflated
+        if m > WHOLE_MAX:
+            return Decision.UNDECIDED, 0.0, lam0, ""
     # column-major, as a column selection of W Q is (np.sum's last bit depends on it)
     b, Q, phiI, AQ, Tc, rho = _explicit_block(
         ctx, buf, I, np.asfortranarray(ctx.W @ buf.Q[:, I]),
@@ -803,10 +812,7 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
                 why = f"winding count: no eigenvalue in the box about {z0:.6g}"
         return Decision.UNDECIDED, 0.0, why, approx
 
-    if not real_routes:
-        deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
-        if deflated[0] is not Decision.UNDECIDED:
-            return deflated
+    if not real_routes:         # (the deflated route tried above)
         verdict, margin, why, lam_b = in_a_box(lam0)
         return verdict, margin, lam_b, why
 
