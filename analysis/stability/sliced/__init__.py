@@ -136,7 +136,8 @@ piece), so a sign change of det T~ between two such points is a real
 eigenvalue of A + F between them; the intervals are disjoint, and if the
 changes over all pieces number m, the strip's m eigenvalues are all real. A
 strip of at most 200 left undecided in pieces is tried once more as one
-piece.
+piece; a larger one is left undecided (its one block would hold thousands
+of dense columns), and ARPACK's note is not asked for it.
 
 **Parts.** A strip's decision needs three things of its edges: each is a
 certified boundary (the lemma: a statement about A + F, whichever
