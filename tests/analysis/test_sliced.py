@@ -693,3 +693,52 @@ def test_collective_decision_leaves_soft_units_aside():
     pair = PairDecision(np.array([0.4 - 0.01j, 0.4 + 0.01j]), True, True, 3.0)
     assert collective_decision(dec([soft_pair, stiff_open, pair]), 1.0) == (Decision.COMPLEX, 1)
     assert collective_decision(dec([soft_pair, stiff]), 1.0, soft_rel=1e-7) == (Decision.COMPLEX, 0)
+
+
+@pytest.mark.parametrize("w_pair, want", [(0.0022, Decision.REAL), (0.01, Decision.COMPLEX)])
+def test_a_cluster_of_40_is_decided_in_pieces_as_lapack_has_it(monkeypatch, w_pair, want):
+    """A strip of 40 nearly equal eigenvalues (a skew chain along the cluster,
+    one member pair coupled by ``w_pair``) is cut into pieces of about 16
+    (strips.PIECE), each with its own deflated complement: real (sign changes
+    counted piece by piece) or complex (a box on one piece), as LAPACK has it;
+    the strip's 40 estimates are LAPACK's eigenvalues, one to one."""
+    from remote_trigger.analysis.stability.sliced import strips
+
+    widths = []
+    of = strips.DeflatedComplement.of.__func__
+
+    def spy(cls, ctx, buf, I, *args):
+        widths.append(I.size)
+        return of(cls, ctx, buf, I, *args)
+
+    monkeypatch.setattr(strips.DeflatedComplement, "of", classmethod(spy))
+    K, mass = _cluster(0.0022, w_pair, n=200, m=40)
+    lam = np.linalg.eigvals(K.toarray())          # (mass 1: A = K)
+    st = SlicedStats()
+    res = classify_sliced(K, mass, stats=st)
+    assert res.decision is want, res.reason
+    assert st.strips.get(40) == 1
+    assert any(0 < w < 40 for w in widths)
+    strip = [p for p in res.pairs if p.eigenvalues.size == 40]
+    assert len(strip) == 1 and strip[0].certified
+    est = np.asarray(strip[0].eigenvalues)
+    inside = lam[(lam.real > 49.9) & (lam.real < 50.3)]
+    assert inside.size == 40
+    d = np.abs(est[:, None] - inside[None])
+    assert np.max(np.min(d, axis=1)) < 1e-8 * 50 and np.max(np.min(d, axis=0)) < 1e-8 * 50
+    assert (np.count_nonzero(est.imag != 0) > 0) == (want is Decision.COMPLEX)
+    assert full_spectrum(eigen.dynamical_matrix(K, mass).toarray()) == want.label
+
+
+@pytest.mark.parametrize("w_pair", [0.0016, 0.0019, 0.0021, 0.0023, 0.0026, 0.003])
+def test_a_cluster_of_40_near_its_exceptional_point_is_never_decided_wrongly(w_pair):
+    """Across the coupling where a pair of the cluster of 40 becomes complex:
+    wherever the scan in pieces decides, it agrees with the arbitrary-precision
+    oracle (a piece's route that certified a false verdict would fail here)."""
+    K, mass = _cluster(0.0022, w_pair, n=200, m=40)
+    res = classify_sliced(K, mass)
+    truth = full_spectrum(eigen.dynamical_matrix(K, mass).toarray())
+    lam = np.linalg.eigvals(K.toarray())
+    lapack = "complex" if np.any(lam.imag != 0) else "real"
+    assert truth in (None, lapack)
+    assert res.decision is Decision.UNDECIDED or res.decision.label == lapack, (res.reason, truth)

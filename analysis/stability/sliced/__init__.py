@@ -119,6 +119,26 @@ the real axis, is one or more. A piece whose far rest cannot be bounded
 reach its tolerance in 60 terms is halved (at most 6 times); strips of any
 size are tried.
 
+**Large strips in pieces.** A strip of more than 16 Ritz values (a cluster as
+wide as a Bloch band of a tiled packing holds hundreds or thousands) is
+first cut into pieces, from its lower edge up: a piece ends midway between
+two of the strip's Ritz values and holds the next 16 of them, doubled until
+its far rest is coupled weakly across it (kappa_f < 1) and its series
+converges; each piece has its own explicit block, LU and polynomial T~, as a
+halved piece has. Nothing else is needed for the proof: each statement
+above is about one piece, [l, h], whatever cut it. The walk covers every
+piece (complex); a box lies inside one piece (complex; it is tried first,
+with only that piece's series extended); for *real*, in each piece det T~
+is evaluated at its edges and between consecutive estimated real roots,
+where sigma_min(T~) exceeds the slack: within a piece the far rest's
+determinant keeps its sign (it is nonsingular for every real x in the
+piece), so a sign change of det T~ between two such points is a real
+eigenvalue of A + F between them; the intervals are disjoint, and if the
+changes over all pieces number m, the strip's m eigenvalues are all real. A
+strip of at most 200 left undecided in pieces is tried once more as one
+piece; a larger one is left undecided (its one block would hold thousands
+of dense columns), and ARPACK's note is not asked for it.
+
 **Parts.** A strip's decision needs three things of its edges: each is a
 certified boundary (the lemma: a statement about A + F, whichever
 computation proves it); the count of S between them equals the number of
@@ -153,7 +173,8 @@ next, its steps named as above:
 ``inertia``       Sylvester counts of S - a I (QDLDL's LDL^T) and norm bounds
 ``buffer``        the Ritz pairs of the slices held (:class:`~.buffer.RitzBuffer`)
 ``strips``        the coupling across an interval and a strip's decision
-                  (the deflated complement of a piece: ``DeflatedComplement``)
+                  (the deflated complement of a piece: ``DeflatedComplement``;
+                  a large strip's pieces)
 ``winding``       the count of eigenvalues in a box off the real axis
 ``parts``         a scan in parts run side by side: cuts, parts, merge
 ``checkpoint``    the saved scan and verdict: files, key, format, restore

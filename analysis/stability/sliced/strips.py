@@ -163,6 +163,15 @@ _DEPTH = 6
 _WALK = 500
 #: strips of more than this many are tried by a box before the walk
 _BOX_FIRST = 8
+#: a strip of more than PIECE Ritz values is first cut into pieces of about
+#: PIECE (each grown, by doubling, until its far rest is coupled weakly across
+#: it): a piece's explicit block then holds ~3 PIECE columns where the whole
+#: strip's would hold ~3 m (docs/results/analysis.md, "Large clusters in pieces")
+PIECE = 16
+#: a strip cut into pieces whose routes leave it undecided is tried once more
+#: as one piece (halved as before) only up to this many Ritz values: beyond,
+#: one piece's bordered LU has more dense columns than it is worth
+WHOLE_MAX = 200
 
 
 def _explicit_block(ctx, buf, idx, WQ, coupled):
@@ -444,6 +453,33 @@ def _strip_estimates(pieces, m, a_lo, a_hi, steps):
     return np.sort_complex(np.asarray(found, complex))
 
 
+def _box(pieces, est, m, whys):
+    """A box about a complex estimate (the two of largest Im), off the real axis
+    (winding on the complement T~ of the piece that holds its real part):
+    (COMPLEX, margin) or None (why not appended to ``whys``)."""
+    cx = sorted((z for z in est if z.imag > 0), key=lambda z: -z.imag)
+    for z0 in cx[:2]:
+        pc = next((q for q in pieces if q.lo <= z0.real <= q.hi), None)
+        if pc is None:
+            continue
+        others = [abs(z0 - z) for z in est if z != z0]
+        if m > _BOX_FIRST:
+            z0 = pc.refined(z0, 1)
+            if not (z0.imag > 0 and pc.lo <= z0.real <= pc.hi):
+                continue
+        r = 0.5 * min([z0.imag, z0.real - pc.lo, pc.hi - z0.real] + others)
+        if not r > 0:
+            continue
+        tau = abs(z0.real - pc.c) + r + (z0.imag + r)
+        zabs = abs(z0) + 2 * r
+        cnt, w, mg = box_zero_count(pc.schur(tau, zabs, z0), z0.real - r, z0.real + r,
+                                    z0.imag - r, z0.imag + r, pc.curvature(tau))
+        if cnt is not None and cnt >= 1:
+            return Decision.COMPLEX, mg
+        whys.append(w if w else f"no eigenvalue in the box about {z0:.6g}")
+    return None
+
+
 def _deflated_routes(pieces, est, m, a_lo, a_hi):
     """The routes of :func:`decide_deflated` on its pieces, given the estimates."""
     whys = []
@@ -454,29 +490,7 @@ def _deflated_routes(pieces, est, m, a_lo, a_hi):
     mixed = not real_est and bool(np.any(est.imag == 0))
 
     def box():
-        """A box about a complex estimate, off the real axis (winding on T~):
-        (COMPLEX, margin) or None."""
-        cx = sorted((z for z in est if z.imag > 0), key=lambda z: -z.imag)
-        for z0 in cx[:2]:
-            pc = next((q for q in pieces if q.lo <= z0.real <= q.hi), None)
-            if pc is None:
-                continue
-            others = [abs(z0 - z) for z in est if z != z0]
-            if m > _BOX_FIRST:
-                z0 = pc.refined(z0, 1)
-                if not (z0.imag > 0 and pc.lo <= z0.real <= pc.hi):
-                    continue
-            r = 0.5 * min([z0.imag, z0.real - pc.lo, pc.hi - z0.real] + others)
-            if not r > 0:
-                continue
-            tau = abs(z0.real - pc.c) + r + (z0.imag + r)
-            zabs = abs(z0) + 2 * r
-            cnt, w, mg = box_zero_count(pc.schur(tau, zabs, z0), z0.real - r, z0.real + r,
-                                        z0.imag - r, z0.imag + r, pc.curvature(tau))
-            if cnt is not None and cnt >= 1:
-                return Decision.COMPLEX, mg
-            whys.append(w if w else f"no eigenvalue in the box about {z0:.6g}")
-        return None
+        return _box(pieces, est, m, whys)
 
     # a strip of more than _BOX_FIRST: one box (its pairs would each be a dip
     # of the walk, every step an inversion of p x p)
@@ -493,27 +507,36 @@ def _deflated_routes(pieces, est, m, a_lo, a_hi):
             margin = min(margin, mg)
         else:
             return Decision.COMPLEX, margin, est, ""
-    elif real_est and len(pieces) == 1:
-        # m sign changes of det T~ (one piece: one far rest, whose determinant
-        # keeps its sign on the strip) at points where T_F is nonsingular
-        pc = pieces[0]
-        pts = np.concatenate([[a_lo], 0.5 * (roots[1:] + roots[:-1]), [a_hi]])
-        tau = max(pc.c - a_lo, a_hi - pc.c)
-        err = pc.err(tau) + pc.rounding(tau, max(abs(a_lo), abs(a_hi)))
-        signs, margin = [], math.inf
-        for x in pts:
-            T = pc(float(x))
-            slack = err + 1e3 * gamma(pc.p + 2) * float(np.linalg.norm(T))
-            s = sigma_min_lower(T)
-            if not s > slack:
-                whys.append(f"strip of {m}: det of its complement not certified at x = {x:.9g}")
-                break
-            margin = min(margin, s / slack)
-            signs.append(np.linalg.slogdet(T)[0])
+    elif real_est:
+        # in each piece, the sign changes of det T~ at points where T_F is
+        # nonsingular (the piece's far rest keeps the sign of its determinant
+        # on the piece): each is a real eigenvalue of A + F in the piece; m of
+        # them over the pieces are the strip's m eigenvalues
+        changes, margin = 0, math.inf
+        for pc in pieces:
+            r = roots[(roots > pc.lo) & (roots < pc.hi)]
+            pts = np.concatenate([[pc.lo], 0.5 * (r[1:] + r[:-1]), [pc.hi]])
+            tau = max(pc.c - pc.lo, pc.hi - pc.c)
+            err = pc.err(tau) + pc.rounding(tau, max(abs(pc.lo), abs(pc.hi)))
+            signs = []
+            for x in pts:
+                T = pc(float(x))
+                slack = err + 1e3 * gamma(pc.p + 2) * float(np.linalg.norm(T))
+                s = sigma_min_lower(T)
+                if not s > slack:
+                    whys.append(f"strip of {m}: det of its complement not certified at "
+                                f"x = {x:.9g}")
+                    break
+                margin = min(margin, s / slack)
+                signs.append(np.linalg.slogdet(T)[0])
+            else:
+                changes += sum(signs[i] != signs[i + 1] for i in range(len(signs) - 1))
+                continue
+            break
         else:
-            if all(signs[i] != signs[i + 1] for i in range(m)):
+            if changes == m:
                 return Decision.REAL, margin, roots.astype(complex), ""
-            whys.append(f"strip of {m}: no sign change of det between roots")
+            whys.append(f"strip of {m}: {changes} sign changes of det between roots")
     if not boxed and (found := box()):
         return found[0], found[1], est, ""
     return Decision.UNDECIDED, 0.0, est, "; ".join(whys)
@@ -538,7 +561,15 @@ def decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
         UNDECIDED, why.
     """
     m = I.size
-    tight = TAYLOR_TOL * ctx.normA1
+    if m > PIECE:
+        pieces = _cut(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
+        if pieces is not None:
+            result = _decide_pieces(ctx, pieces, m, a_lo, a_hi)
+            if result[0] is not Decision.UNDECIDED or m > WHOLE_MAX:
+                return result
+        elif m > WHOLE_MAX:
+            return (Decision.UNDECIDED, 0.0, None,
+                    f"deflated route: the strip of {m} could not be cut into pieces")
     pieces, todo = [], [(a_lo, a_hi, 0)]
     while todo:
         lo, hi, depth = todo.pop()
@@ -551,6 +582,40 @@ def decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
             mid = 0.5 * (lo + hi)
             todo += [(mid, hi, depth + 1), (lo, mid, depth + 1)]
     pieces.sort(key=lambda pc: pc.lo)
+    return _decide_pieces(ctx, pieces, m, a_lo, a_hi)
+
+
+def _cut(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
+    """The strip of Ritz values I (more than ``PIECE``) cut into pieces, from
+    its lower edge up: a piece holds the next ``PIECE`` Ritz values of the strip,
+    doubled until its complement can be built (the far rest coupled weakly
+    across it, the series reaching its tolerance), and ends midway between two
+    Ritz values (at ``a_hi`` for the last). None if a piece cannot be built
+    below the top of the strip."""
+    th = buf.th
+    pieces, s, m = [], 0, I.size
+    while s < m:
+        k = PIECE
+        while True:
+            e = min(s + k, m)
+            lo = a_lo if s == 0 else 0.5 * (th[I[s - 1]] + th[I[s]])
+            hi = a_hi if e == m else 0.5 * (th[I[e - 1]] + th[I[e]])
+            try:
+                pieces.append(DeflatedComplement.of(ctx, buf, I[s:e], lo, hi, lo_edge, hi_edge,
+                                                    TAYLOR_LOOSE * ctx.normA1))
+                break
+            except SliceFailure:
+                if e == m:
+                    return None
+                k *= 2
+        s = e
+    return pieces
+
+
+def _decide_pieces(ctx, pieces, m, a_lo, a_hi):
+    """The routes of :func:`decide_deflated` on the pieces that cover the strip
+    [a_lo, a_hi] of m eigenvalues (series extended as it says)."""
+    tight = TAYLOR_TOL * ctx.normA1
     est = _strip_estimates(pieces, m, a_lo, a_hi, 0)
     if est is None:
         return Decision.UNDECIDED, 0.0, None, "deflated route: no estimates"
@@ -559,6 +624,21 @@ def decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge):
     spread = min([float(im.min()) if im.size else math.inf]
                  + ([float(np.diff(re).min())] if re.size > 1 else []))
     result = (Decision.UNDECIDED, 0.0, est, "")
+    if len(pieces) > 1 and m > _BOX_FIRST and np.any(est.imag > 0):
+        # a strip in pieces: first the box, its piece's series alone extended
+        # to a tenth of the estimate's distance to the real axis and to the
+        # other estimates (the other pieces' estimates stay at the loose
+        # tolerance)
+        for z0 in sorted((z for z in est if z.imag > 0), key=lambda z: -z.imag)[:2]:
+            pc = next((q for q in pieces if q.lo <= z0.real <= q.hi), None)
+            near = min([abs(z0 - z) for z in est if z != z0] + [2 * z0.imag])
+            try:
+                if pc is not None:
+                    pc.extend(max(tight, min(TAYLOR_LOOSE * ctx.normA1, 0.1 * near)))
+            except SliceFailure:
+                continue
+        if (found := _box(pieces, est, m, [])) is not None:
+            return found[0], found[1], est, ""
     first = max(tight, min(TAYLOR_LOOSE * ctx.normA1, 0.1 * spread))
     for target in dict.fromkeys((first, tight)):
         try:
@@ -618,6 +698,15 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
             return deflated
         return (Decision.UNDECIDED, 0.0, lam0,
                 f"the rest is coupled across the strip (kappa {kap:.3g})")
+    if not real_routes:
+        # the deflated route first: the strip's own block (below; n x m, and
+        # m^2 n for Q^T A Q) is needed only by the box on ARPACK's estimates
+        # after it, which a strip of more than WHOLE_MAX does not get
+        deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
+        if deflated[0] is not Decision.UNDECIDED:
+            return deflated
+        if m > WHOLE_MAX:
+            return Decision.UNDECIDED, 0.0, lam0, ""
     # column-major, as a column selection of W Q is (np.sum's last bit depends on it)
     b, Q, phiI, AQ, Tc, rho = _explicit_block(
         ctx, buf, I, np.asfortranarray(ctx.W @ buf.Q[:, I]),
@@ -723,10 +812,7 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
                 why = f"winding count: no eigenvalue in the box about {z0:.6g}"
         return Decision.UNDECIDED, 0.0, why, approx
 
-    if not real_routes:
-        deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
-        if deflated[0] is not Decision.UNDECIDED:
-            return deflated
+    if not real_routes:         # (the deflated route tried above)
         verdict, margin, why, lam_b = in_a_box(lam0)
         return verdict, margin, lam_b, why
 
@@ -913,7 +999,8 @@ def arpack_hint(A, a_lo, a_hi, m):
     note for its reason, marked not certified ('' if ARPACK fails), and the
     estimates with real part in the strip (ndarray of complex, by real part).
 
-    The 2 m + 6 eigenvalues of A nearest the strip's centre (shift-invert);
+    The 2 m + 6 eigenvalues of A nearest the strip's centre (shift-invert;
+    not asked for a strip of more than ``WHOLE_MAX``);
     those with real part in the strip are counted (a complex pair far from the
     real axis may be missed: the note says how many of the m were seen) and
     the complex ones named. Nothing is decided from it.
@@ -923,6 +1010,9 @@ def arpack_hint(A, a_lo, a_hi, m):
     none = np.zeros(0, complex)
     if k < 1:
         return "", none
+    if m > WHOLE_MAX:
+        # (thousands of eigenvalues by shift-invert: more than the scan costs)
+        return f"; ARPACK not asked (a strip of more than {WHOLE_MAX})", none
     c = 0.5 * (a_lo + a_hi)
     try:
         lu = spla.splu(sp.csc_matrix(A - c * sp.identity(n, format="csr")))
