@@ -705,8 +705,9 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
         if deflated[0] is not Decision.UNDECIDED:
             return deflated
-        if m > WHOLE_MAX:
-            return Decision.UNDECIDED, 0.0, lam0, ""
+        if m > WHOLE_MAX:        # (an undecided strip says why)
+            return (Decision.UNDECIDED, 0.0, lam0,
+                    deflated[3] or f"strip of {m} (> {WHOLE_MAX}): undecided in pieces")
     # column-major, as a column selection of W Q is (np.sum's last bit depends on it)
     b, Q, phiI, AQ, Tc, rho = _explicit_block(
         ctx, buf, I, np.asfortranarray(ctx.W @ buf.Q[:, I]),
