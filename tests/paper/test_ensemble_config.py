@@ -266,8 +266,10 @@ def test_ramp_step_and_tolerance_per_size():
 
 
 def test_each_size_ramps_with_its_own_step(tmp_path):
-    """A run with dF_x = [0.01, 0.02] for N = 16 and 20: each packing's ramp
-    steps by its N's step, and ensemble.md says which step each N had."""
+    """A run with dF_x = [0.01, 0.02] and between = [1, 2] for N = 16 and 20:
+    each packing's ramp steps by its N's step and checks its N's loads between
+    steps (N = 20: the midpoint of every step interval below the first complex
+    step), and ensemble.md says which step and check each N had."""
     import os
     import subprocess
     import sys
@@ -278,16 +280,29 @@ def test_each_size_ramps_with_its_own_step(tmp_path):
     cli = os.path.join(os.path.dirname(sys.executable), "remote-trigger")
     proc = subprocess.run([cli, "ensemble", "--quick", "--out", out, "--quiet",
                            "--set", "seeds=[[1],[1]]", "--set", "dF_x=[0.01,0.02]",
+                           "--set", "between=[1,2]",
                            "--set", "frictional=false", "--set", "inertia_I0=null"],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    for n, step in ((16, 0.01), (20, 0.02)):
+    for n, step, m in ((16, 0.01, 1), (20, 0.02, 2)):
         with h5py.File(os.path.join(out, "packings", f"N{n}_s1", "ramp_mu0", "ramp.h5")) as fh:
             F = fh["steps/F_x"][()]
+            dec = fh["steps/decision"][()]
+            B = fh["bisection/F_x"][()]
+            assert fh.attrs["between"] == m
         assert F.size >= 2
         np.testing.assert_allclose(np.diff(F), step, rtol=1e-12)
+        mids = [0.5 * (F[k] + F[k + 1]) for k in range(F.size - 1) if dec[k] == 0]
+        if m == 2:          # the midpoints first, lowest first, up to the first complex one
+            k = next((i for i, f in enumerate(B[:len(mids)]) if f not in mids), len(mids))
+            np.testing.assert_array_equal(B[:k], mids[:k])
+            assert k >= 1
+        else:
+            assert not set(B) & set(mids[:-1])
     with open(os.path.join(out, "ensemble.md")) as fh:
-        assert "ramp dF_x = 0.01 (N = 16), 0.02 (N = 20)" in fh.read()
+        text = fh.read()
+    assert "ramp dF_x = 0.01 (N = 16), 0.02 (N = 20)" in text
+    assert "loads between the steps checked: 1 (N = 16), 2 (N = 20) sub-steps per step" in text
 
 
 def test_pair_position_leaves_out_soft_pairs_when_asked():
@@ -318,8 +333,9 @@ def test_pairs_collective_configuration(tmp_path):
 
 
 def test_between_configuration(tmp_path):
-    """``between``: an integer >= 1, named when bad; config.json holds it only
-    when > 1 (older folders resume with 1); each ramp of the job gets it."""
+    """``between``: an integer >= 1 or one per N, named when bad; config.json
+    holds it only when not 1 (older folders resume with 1); each ramp of the
+    job gets its N's value."""
     from remote_trigger.pywrap.jobs.paper.stage_configs import ramp_config
 
     cfg = ec.EnsembleConfig.from_dict({"between": 4})
@@ -328,10 +344,18 @@ def test_between_configuration(tmp_path):
     for bad in (0, 2.0, "3"):
         with pytest.raises(ConfigError, match=f"got between = {bad!r}"):
             ec.EnsembleConfig.from_dict({"between": bad})
+    with pytest.raises(ConfigError, match=r"between holds 3 values for 2 size\(s\) N"):
+        ec.EnsembleConfig.from_dict({"between": [1, 2, 3]})
+    with pytest.raises(ConfigError, match="got between = 0"):
+        ec.EnsembleConfig.from_dict({"between": [1, 0]})
     data = tmp_path / "x.data"
     data.write_text("")
     assert ramp_config(cfg, str(data), 1.0).between == 4
     assert ramp_config(ec.EnsembleConfig(), str(data), 1.0).between == 1
+    per_n = ec.EnsembleConfig.from_dict({"n": [100, 400], "between": [1, 3]})
+    assert per_n.to_dict()["between"] == [1, 3]
+    assert ec.EnsembleConfig.from_dict(per_n.to_dict()).between == (1, 3)
+    assert [ramp_config(per_n.for_size(n), str(data), 1.0).between for n in (100, 400)] == [1, 3]
 
 
 def test_collective_ensemble_runs_and_says_so(tmp_path):

@@ -20,7 +20,7 @@ __all__ = ["collect_runs"]
 #: (``saddle_escape`` is compared per packing, below)
 _FREE = ("n", "seeds", "np", "saddle_escape")
 #: keys that may be one number per N (EnsembleConfig.for_size): compared per N
-_PER_SIZE = ("dF_x", "tol")
+_PER_SIZE = ("dF_x", "tol", "between")
 #: the key of ``relax`` that may differ: the clearance test is compared per
 #: packing (what each packing's relaxation used), below
 _RELAX_PER_PACKING = "clearance"
@@ -73,7 +73,7 @@ def _per_size_values(name, runs):
             if n in seen and seen[n][1] != val:
                 raise ConfigError(f"--combine: {seen[n][0]!r} and {d!r} differ in {name} "
                                   f"({seen[n][1]!r} vs {val!r}) for N = {n}; only n, seeds "
-                                  "and np may differ (dF_x and tol may be one per N)")
+                                  "and np may differ (dF_x, tol and between may be one per N)")
             seen.setdefault(n, (d, val))
     return {n: val for n, (_, val) in seen.items()}
 

@@ -126,12 +126,12 @@ class EnsembleConfig(Config):
         decision at F_x = 0 then decide on the pairs that are not soft too.
         Written to ``config.json`` only when 'collective' (a folder of
         earlier runs resumes as 'all').
-    between : int
+    between : int, or list of int
         Loads decided between the ramp's steps (``RampConfig.between``): 1
         (default) none; m >= 2: m - 1 between every two steps below the
         first complex one, before the bisection (a complex window narrower
-        than a step looked for at dF_x / m). Every N. Written to
-        ``config.json`` only when > 1.
+        than a step looked for at dF_x / m). One integer for every N, or one
+        per N (as ``dF_x``). Written to ``config.json`` only when not 1.
     np : int
         Ranks that run packings, >= 1 (default 1). Above 1 the job re-launches
         itself under ``mpirun -np np+1``: rank 0 hands out the packings
@@ -222,7 +222,7 @@ class EnsembleConfig(Config):
         if self.pairs not in RampConfig.PAIRS:
             raise ConfigError(f"pairs must be one of {', '.join(map(repr, RampConfig.PAIRS))}"
                               f", got pairs = {self.pairs!r}")
-        check_int("between", self.between, 1)
+        object.__setattr__(self, "between", self._per_size_int("between", self.between, n))
         for name in ("relax", "frictional_relax"):
             check_table(name, getattr(self, name), RELAX_SET_BY_JOB, "the ensemble",
                         RelaxConfig)
@@ -250,6 +250,20 @@ class EnsembleConfig(Config):
                                   f"{list(self.n)!r} (N = {v}: width {width:g})")
 
     @staticmethod
+    def _per_size_int(name, val, n):
+        """An integer >= 1, or a list of one per N (tuple)."""
+        if isinstance(val, (list, tuple)):
+            if len(val) != len(n):
+                raise ConfigError(f"{name} holds {len(val)} values for {len(n)} size(s) N "
+                                  f"{list(n)}: give one integer, or one per N, got "
+                                  f"{name} = {list(val)!r}")
+            for v in val:
+                check_int(name, v, 1)
+            return tuple(val)
+        check_int(name, val, 1)
+        return val
+
+    @staticmethod
     def _per_size(name, val, n):
         """A number > 0 (float), or a list of one number > 0 per N (tuple)."""
         if isinstance(val, (list, tuple)):
@@ -262,7 +276,7 @@ class EnsembleConfig(Config):
 
     def for_size(self, n):
         """The configuration of the packings of size ``n`` (one of ``self.n``):
-        ``dF_x`` and ``tol`` the numbers of that N.
+        ``dF_x``, ``tol`` and ``between`` the numbers of that N.
 
         Raises
         ------
@@ -272,7 +286,7 @@ class EnsembleConfig(Config):
         if n not in self.n:
             raise ConfigError(f"N = {n!r} is not one of the ensemble's sizes {list(self.n)}")
         k = self.n.index(n)
-        pick = {name: getattr(self, name)[k] for name in ("dF_x", "tol")
+        pick = {name: getattr(self, name)[k] for name in ("dF_x", "tol", "between")
                 if isinstance(getattr(self, name), tuple)}
         return dataclasses.replace(self, **pick) if pick else self
 
@@ -310,13 +324,15 @@ class EnsembleConfig(Config):
         written as before ``dim`` existed, so a folder of disks written
         then resumes (``--resume`` compares ``config.json``) and its files
         are unchanged. Likewise ``pairs`` only when 'collective',
-        ``between`` only when > 1, and ``saddle_escape`` only when False; whether
+        ``between`` only when not 1, and ``saddle_escape`` only when False; whether
         a packing escaped saddles is recorded in its result (``tasks/``,
         missing: not) and checked by ``--resume`` and ``--combine``.
         """
         d = asdict(self)
         d["n"] = list(self.n)
         d["seeds"] = [list(s) for s in self.seeds]
+        if isinstance(self.between, tuple):
+            d["between"] = list(self.between)
         if self.dim == 2:
             del d["dim"]
         if self.saddle_escape:

@@ -406,7 +406,11 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
          f"{n_pk} packings: " + ", ".join(f"N = {n}: seeds {list(s)}"
                                           for n, s in zip(cfg.n, cfg.seeds))
          + f". mu0 = {cfg.mu:g}, mu_ss mu0 = {cfg.mu * cfg.mu_ss:g}; ramp dF_x = "
-         f"{_per_size(cfg, 'dF_x')}, bisection to tol = {_per_size(cfg, 'tol')}, "
+         f"{_per_size(cfg, 'dF_x')}"
+         + ("" if cfg.between == 1 else
+            f", loads between the steps checked: {_per_size(cfg, 'between')} sub-steps per "
+            f"step")
+         + f", bisection to tol = {_per_size(cfg, 'tol')}, "
          f"F_x_max = {cfg.F_x_max:g}. F_x^c is the midpoint "
          f"of the certified bracket. Values: median [first quartile, third quartile] over the"
          f" packings whose row is not 'failed'.", ""]
