@@ -484,62 +484,53 @@ def _between(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
     :func:`between_loads` below the bracket's upper end, lowest first, until
     one is certified complex. Returns a :class:`RampResult` where the ramp
     ends here (interrupted), else None: the bisection follows."""
-    bis = rlog.rows[ramp_file.BISECTION]
     while True:
         todo = _between_pending(rlog, cfg.between)
         if not todo:
             return None
         F, start = todo[0]
-        j = len(bis["F_x"])
-        name = ramp_file.point_name(ramp_file.BISECTION, j)
-        prefix = os.path.join(folder, name)
-        try:
-            # (no start basis: the same numbers whether or not the ramp was resumed)
-            vals, res = ramp_point(eng, rcfg, start, F, prefix, None, dim,
-                                   verdict_progress(bar, F), vdir)
-        except eq.NoEquilibriumError:
-            vals = {c: np.nan for c in ramp_file.COLUMNS}
-            vals.update(F_x=F, complex=2.0)     # no equilibrium: no answer
-            res = None
-        rlog.add(ramp_file.BISECTION, name, prefix + ".data", vals,
-                 [] if res is None else res.eigenvalues, "" if res is None else res.reason)
-        _remember(eng, rlog, prefix + ".data", None if res is None else res.basis)
-        lo, hi, _, _ = ramp_bracket(rlog)
-        rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
-        _checkpoint(eng, rlog, folder, "running")
-        bar.update(1)
+        # (no start basis: the same numbers whether or not the ramp was resumed)
+        vals, _, _ = _bisection_point(eng, cfg, rcfg, rlog, folder, bar, dim, vdir, start, F,
+                                      None)
         bar.set_postfix_str(f"between steps: F_x {F:.6g} complex {bool(vals['complex'] == 1)}")
         if budget.spend():
             return _ramp_result(rlog, "interrupted")
 
 
+def _bisection_point(eng, cfg, rcfg, rlog, folder, bar, dim, vdir, start, F, basis):
+    """One point of the bisection table (a bisection point, or a load between
+    steps): equilibrium at F from ``start``, decision from ``basis``, the row
+    recorded and checkpointed; a point without an equilibrium is no answer.
+    Returns (the row's values, the bracket's lo, hi)."""
+    name = ramp_file.point_name(ramp_file.BISECTION, len(rlog.rows[ramp_file.BISECTION]["F_x"]))
+    prefix = os.path.join(folder, name)
+    try:
+        vals, res = ramp_point(eng, rcfg, start, F, prefix, basis, dim,
+                               verdict_progress(bar, F), vdir)
+    except eq.NoEquilibriumError:
+        vals = {c: np.nan for c in ramp_file.COLUMNS}
+        vals.update(F_x=F, complex=2.0)         # no equilibrium: no answer
+        res = None
+    rlog.add(ramp_file.BISECTION, name, prefix + ".data", vals,
+             [] if res is None else res.eigenvalues, "" if res is None else res.reason)
+    _remember(eng, rlog, prefix + ".data", None if res is None else res.basis)
+    lo, hi, _, _ = ramp_bracket(rlog)
+    rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
+    _checkpoint(eng, rlog, folder, "running")
+    bar.update(1)
+    return vals, lo, hi
+
+
 def _bisect(eng, cfg, rcfg, rlog, folder, bar, budget, dim=2, vdir=None):
     """Bisection of F_x^c on certified answers only (docs/driver.md); returns the
     :class:`RampResult` (``'complete'``, or ``'interrupted'``)."""
-    bis = rlog.rows["bisection"]
     while True:
         lo, hi, lo_file, unknown = ramp_bracket(rlog)
         mid, why = next_bisection_point(lo, hi, unknown, cfg.tol)
         if mid is None:
             break
-        j = len(bis["F_x"])
-        name = ramp_file.point_name(ramp_file.BISECTION, j)
-        prefix = os.path.join(folder, name)
-        try:
-            vals, res = ramp_point(eng, rcfg, lo_file, mid, prefix,
-                                    _load_basis(eng, lo_file), dim, verdict_progress(bar, mid),
-                                    vdir)
-        except eq.NoEquilibriumError:
-            vals = {c: np.nan for c in ramp_file.COLUMNS}
-            vals.update(F_x=mid, complex=2.0)   # no equilibrium: no answer
-            res = None
-        rlog.add(ramp_file.BISECTION, name, prefix + ".data", vals,
-                 [] if res is None else res.eigenvalues, "" if res is None else res.reason)
-        _remember(eng, rlog, prefix + ".data", None if res is None else res.basis)
-        lo, hi, _, _ = ramp_bracket(rlog)
-        rlog.attrs.update(_bracket_attrs(rlog, lo, hi, cfg.tol))
-        _checkpoint(eng, rlog, folder, "running")
-        bar.update(1)
+        _, lo, hi = _bisection_point(eng, cfg, rcfg, rlog, folder, bar, dim, vdir, lo_file, mid,
+                                     _load_basis(eng, lo_file))
         bar.set_postfix_str(f"F_x^c in {bracket_text(lo, hi, 9)}")
         if budget.spend():
             return _ramp_result(rlog, "interrupted")
