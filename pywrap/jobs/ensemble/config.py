@@ -222,7 +222,8 @@ class EnsembleConfig(Config):
         if self.pairs not in RampConfig.PAIRS:
             raise ConfigError(f"pairs must be one of {', '.join(map(repr, RampConfig.PAIRS))}"
                               f", got pairs = {self.pairs!r}")
-        object.__setattr__(self, "between", self._per_size_int("between", self.between, n))
+        object.__setattr__(self, "between",
+                           self._per_size("between", self.between, n, integer=True))
         for name in ("relax", "frictional_relax"):
             check_table(name, getattr(self, name), RELAX_SET_BY_JOB, "the ensemble",
                         RelaxConfig)
@@ -250,29 +251,22 @@ class EnsembleConfig(Config):
                                   f"{list(self.n)!r} (N = {v}: width {width:g})")
 
     @staticmethod
-    def _per_size_int(name, val, n):
-        """An integer >= 1, or a list of one per N (tuple)."""
-        if isinstance(val, (list, tuple)):
-            if len(val) != len(n):
-                raise ConfigError(f"{name} holds {len(val)} values for {len(n)} size(s) N "
-                                  f"{list(n)}: give one integer, or one per N, got "
-                                  f"{name} = {list(val)!r}")
-            for v in val:
+    def _per_size(name, val, n, integer=False):
+        """A number > 0 (float; ``integer``: an integer >= 1), or a list of one
+        per N (tuple)."""
+        def one(v):
+            if integer:
                 check_int(name, v, 1)
-            return tuple(val)
-        check_int(name, val, 1)
-        return val
+                return v
+            return check_number(name, v, 0, lo_open=True)
 
-    @staticmethod
-    def _per_size(name, val, n):
-        """A number > 0 (float), or a list of one number > 0 per N (tuple)."""
         if isinstance(val, (list, tuple)):
             if len(val) != len(n):
                 raise ConfigError(f"{name} holds {len(val)} values for {len(n)} size(s) N "
-                                  f"{list(n)}: give one number, or one per N, got "
-                                  f"{name} = {list(val)!r}")
-            return tuple(check_number(name, v, 0, lo_open=True) for v in val)
-        return check_number(name, val, 0, lo_open=True)
+                                  f"{list(n)}: give one {'integer' if integer else 'number'}, "
+                                  f"or one per N, got {name} = {list(val)!r}")
+            return tuple(one(v) for v in val)
+        return one(val)
 
     def for_size(self, n):
         """The configuration of the packings of size ``n`` (one of ``self.n``):
