@@ -177,19 +177,19 @@ def saved_scans(folder):
         path = os.path.join(folder, name)
         if not name.startswith("sliced-"):
             continue
-        stem, dot, rest = name.partition(".")
+        stem, _, rest = name.partition(".")
+        part = rest.startswith("task-part-") and rest.endswith(".pkl")
+        if not (part or rest == "scan.pkl"):
+            continue
         try:
-            if rest == "scan.pkl":
-                mtime = os.path.getmtime(path)
-                with open(path, "rb") as fh:
-                    _, sc = pickle.load(fh)
-                out.append((path, int(sc.counted), int(sc.stats.n), mtime))
-            elif rest.startswith("task-part-") and rest.endswith(".pkl"):
-                mtime = os.path.getmtime(path)
-                with open(path, "rb") as fh:
-                    _, part = pickle.load(fh)
+            mtime = os.path.getmtime(path)
+            with open(path, "rb") as fh:
+                _, obj = pickle.load(fh)
+            if part:
                 listed, n, last = parts.get(stem, (0, 0, 0.0))
-                parts[stem] = (listed + len(part.lam), int(part.stats.n), max(last, mtime))
+                parts[stem] = (listed + len(obj.lam), int(obj.stats.n), max(last, mtime))
+            else:
+                out.append((path, int(obj.counted), int(obj.stats.n), mtime))
         except Exception:       # noqa: BLE001 - replaced meanwhile, truncated or other code
             continue
     out += [(os.path.join(folder, stem + ".task-part-*.pkl"), listed, n, mtime)
