@@ -12,6 +12,7 @@ from remote_trigger.analysis.stability import eigen, exceptional
 from remote_trigger.analysis.stability.sliced import (
     SlicedStats, classify_sliced, count_below, saved_scans)
 
+from remote_trigger.analysis.stability.sliced import scan, strips
 from remote_trigger.analysis.stability.sliced.strips import arpack_hint
 
 from .arb_oracle import full_spectrum
@@ -336,18 +337,47 @@ def test_real_cluster_of_26_is_certified_real_by_the_deflated_route():
 
 
 def test_every_undecided_strip_is_named():
-    """Two undecided strips, each an exact double real eigenvalue (W = 0: no
-    route can certify a double root real, nor exclude it): the reason names
-    both, with ARPACK's note for each."""
-    K, mass = _cluster(0.0, 0.0, n=200, m=2, spacing=0.0, clusters=((30, 20.0), (100, 50.0)))
-    assert np.all(np.linalg.eigvals(K.toarray()).imag == 0)
+    """Two undecided strips, each a real pair at an exceptional point of the
+    cluster's skew chain (S = 20 and 50 + 0.004 k, W = 0.002 between members 4
+    and 5: a double root, defective, coupled to the cluster's rest): no route
+    can certify it real, nor exclude a real root. The reason names both, with
+    ARPACK's note for each."""
+    K, mass = _cluster(0.0, 0.002, n=200, m=6, spacing=0.004,
+                       clusters=((30, 20.0), (100, 50.0)))
     res = classify_sliced(K, mass)
     assert res.decision is Decision.UNDECIDED
     assert res.reason.startswith("2 undecided strips: strip of 2: ")
     low, high = res.reason.split(" | ")
-    assert "near x = 20;" in low and "near x = 50;" in high
+    assert "near x = 20.018;" in low and "near x = 50.018" in high
     assert low.endswith("none complex") and high.endswith("none complex")
     assert "2 of its 2 eigenvalues seen" in high
+
+
+def test_strips_equal_to_within_their_rounding_need_no_lu(monkeypatch):
+    """Exact double real eigenvalues with W = 0 (20 and 50): their projected
+    cluster is exact to its rounding, and no route can separate the pair
+    (:func:`strips.unresolved`). Each strip is undecided at once, named with
+    its estimates and the error floor; no deflated complement (the strip's
+    first sparse LU), no ARPACK (both made to fail here), and the
+    whole-spectrum verdict is undecided."""
+    K, mass = _cluster(0.0, 0.0, n=200, m=2, spacing=0.0, clusters=((30, 20.0), (100, 50.0)))
+    assert np.all(np.linalg.eigvals(K.toarray()).imag == 0)
+
+    def no_lu(*a, **k):
+        raise AssertionError("a strip equal to within its rounding took a sparse LU")
+    monkeypatch.setattr(strips, "decide_deflated", no_lu)
+    monkeypatch.setattr(scan, "arpack_hint", no_lu)
+    res = classify_sliced(K, mass)
+    assert res.decision is Decision.UNDECIDED
+    low, high = res.reason.split(" | ")
+    for part, x in ((low, "20"), (high, "50")):
+        assert "equal to within the rounding of its block" in part
+        assert f"the projected cluster: {x}+0j .. {x}+0j" in part and "ARPACK" not in part
+    # a pair split by much more than the floor is not skipped
+    assert not strips.unresolved([20.0, 20.0 + 1e-6], 1.0, 1e-11)
+    assert strips.unresolved([20.0, 20.0 + 1e-13], 1.0, 1e-11)
+    assert not strips.unresolved([20.0 + 1e-6j, 20.0 - 1e-6j], 1.0, 1e-11)
+    assert strips.unresolved([20.0 + 1e-13j, 20.0 - 1e-13j], 1.0, 1e-11)
 
 
 @pytest.mark.parametrize("m, clusters", [
@@ -742,3 +772,4 @@ def test_a_cluster_of_40_near_its_exceptional_point_is_never_decided_wrongly(w_p
     lapack = "complex" if np.any(lam.imag != 0) else "real"
     assert truth in (None, lapack)
     assert res.decision is Decision.UNDECIDED or res.decision.label == lapack, (res.reason, truth)
+

@@ -454,7 +454,8 @@ class SlicedScan:
         if m == 1:
             self.lam.append(complex(buf.th[I[0]]))
             return False
-        # ARPACK's view of the strip, asked at most once: (note, complex estimates)
+        # ARPACK's view of the strip, asked at most once: (note, complex estimates);
+        # an undecided strip's reason ends with the note (decide_strip adds it)
         estimates = functools.cache(lambda: arpack_hint(self.ctx.A, a_lo, a_hi, m))
         big = m > _MAX_STRIP
         try:
@@ -463,15 +464,14 @@ class SlicedScan:
                 self.ctx, buf, I, a_lo, a_hi, *self.edges(final), estimates=estimates,
                 real_routes=not big)
         except SliceFailure as exc:
-            verdict, margin, why = Decision.UNDECIDED, 0.0, str(exc)
+            verdict, margin, why = Decision.UNDECIDED, 0.0, str(exc) + estimates()[0]
             lam_c = buf.th[I].astype(complex)
         if big and verdict is Decision.UNDECIDED:
             lam_c = buf.th[I].astype(complex)
-            why = f"strip of {m} eigenvalues (> {_MAX_STRIP})" + (f"; {why}" if why else "")
+            sep = "" if why.startswith("; ") or not why else "; "
+            why = f"strip of {m} eigenvalues (> {_MAX_STRIP}){sep}{why}"
         self.lam.extend(lam_c)
         ok = verdict is not Decision.UNDECIDED
-        if not ok:
-            why += estimates()[0]
         self.pairs.append(PairDecision(np.sort_complex(lam_c), verdict is Decision.COMPLEX, ok,
                                        float(margin), method="sliced-strip", reason=why))
         (self.complex_margins if verdict is Decision.COMPLEX else self.margins if ok

@@ -32,7 +32,7 @@ from remote_trigger.analysis.stability.sliced.slices import top_eigenvalue
 from remote_trigger.analysis.stability.sliced.winding import box_zero_count
 
 __all__ = ["StripContext", "coupling", "decide_strip", "decide_deflated", "DeflatedComplement",
-           "arpack_hint", "strips_decision"]
+           "arpack_hint", "strips_decision", "unresolved"]
 
 
 def _norm22(x11, x12, x22):
@@ -172,6 +172,60 @@ PIECE = 16
 #: as one piece (halved as before) only up to this many Ritz values: beyond,
 #: one piece's bordered LU has more dense columns than it is worth
 WHOLE_MAX = 200
+#: a strip is left undecided at once (:func:`unresolved`) where its eigenvalue
+#: estimates are resolved to less than UNRESOLVED times the error floor of
+#: every route
+UNRESOLVED = 0.1
+
+
+def unresolved(est, lip, floor):
+    """Whether the routes cannot decide a strip whose m eigenvalues are
+    estimated by ``est``: each route's test is below ``UNRESOLVED`` times
+    ``floor``, the error that every route's bound holds at least (rho of the
+    strip's block).
+
+    A route passes where sigma_min of the computed complement T exceeds its
+    error bound (>= ``floor``) at the points the estimates place. As
+    sigma_min is 1-Lipschitz and ||T(x) - T(x0)|| <= ``lip`` |x - x0|,
+    sigma_min(T(x)) <= ``lip`` |x - z| at an eigenvalue z: so the sign test
+    between two real roots sees at most ``lip`` x half their gap, the cover of
+    the real axis at most ``lip`` |Im z| at Re z, and a box of half-width
+    r = min(Im z, the distance to the others) / 2 about a complex estimate at
+    most ``lip`` r on its nearest edge (sqrt2 r taken). True when all three
+    are below ``UNRESOLVED floor``: eigenvalues equal to within the rounding
+    of their own block (a near-double pair of a periodic or ordered packing
+    at F_x = 0). Nothing is decided from it, and a skipped route could only
+    have passed if the estimates were off by about ``floor`` / ``lip``: it is
+    used only with estimates that accurate (:func:`decide_strip`: a skew
+    part too small to move the cluster).
+
+    Parameters
+    ----------
+    est : array_like of complex, shape (m,)
+        Estimates of the strip's eigenvalues (units of A: K / M).
+    lip : float
+        Bound of ||T'(x)||_2 on the strip (>= 1).
+    floor : float
+        The least error bound of any route (units of A).
+
+    Returns
+    -------
+    bool
+    """
+    est = np.asarray(est, complex)
+    if est.size < 2:
+        return False
+    tol = UNRESOLVED * floor / lip
+    if not 0.5 * float(np.min(np.diff(np.sort(est.real)))) < tol:
+        return False                        # distinct real roots: the sign changes
+    if not float(np.min(np.abs(est.imag))) < tol:
+        return False                        # no real root: the cover
+    for i in np.nonzero(est.imag > 0)[0]:
+        others = np.abs(np.delete(est, i) - est[i])
+        r = 0.5 * min(float(est[i].imag), float(np.min(others)))
+        if not math.sqrt(2.0) * r < tol:
+            return False                    # a box about it
+    return True
 
 
 def _explicit_block(ctx, buf, idx, WQ, coupled):
@@ -680,7 +734,13 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     the (at most two) complex estimates of largest Im, off the real axis,
     is then counted by winding
     (:func:`~.winding.box_zero_count`): one
-    eigenvalue or more in it certifies the strip complex.
+    eigenvalue or more in it certifies the strip complex. An undecided
+    strip's reason ends with the note.
+
+    A strip whose projected cluster is as accurate as its block's rounding
+    (err0 <= 2 rho: a skew part too small to move it) and whose estimates
+    are :func:`unresolved` by that rounding is left undecided before any
+    sparse LU, its estimates named in place of ARPACK's note.
 
     Returns
     -------
@@ -688,6 +748,16 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
         The strip's decision, its margin, the approximations of its m
         eigenvalues and, when UNDECIDED, why.
     """
+    verdict, margin, lam, why, noted = _strip_routes(
+        ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates, real_routes)
+    if verdict is Decision.UNDECIDED and not noted and estimates is not None:
+        why += estimates()[0]
+    return verdict, margin, lam, why
+
+
+def _strip_routes(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates, real_routes):
+    """The routes of :func:`decide_strip`: (decision, margin, eigenvalue
+    approximations, why, whether why already names the estimates)."""
     m = I.size
     kap, g_min, d_eff, near, g, xi, phi = coupling(
         ctx, buf, a_lo, a_hi, lo_edge, hi_edge, exclude=I)
@@ -695,19 +765,19 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     if not kap < 1:
         deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
         if deflated[0] is not Decision.UNDECIDED:
-            return deflated
+            return deflated + (False,)
         return (Decision.UNDECIDED, 0.0, lam0,
-                f"the rest is coupled across the strip (kappa {kap:.3g})")
+                f"the rest is coupled across the strip (kappa {kap:.3g})", False)
     if not real_routes:
         # the deflated route first: the strip's own block (below; n x m, and
         # m^2 n for Q^T A Q) is needed only by the box on ARPACK's estimates
         # after it, which a strip of more than WHOLE_MAX does not get
         deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
         if deflated[0] is not Decision.UNDECIDED:
-            return deflated
+            return deflated + (False,)
         if m > WHOLE_MAX:        # (an undecided strip says why)
             return (Decision.UNDECIDED, 0.0, lam0,
-                    deflated[3] or f"strip of {m} (> {WHOLE_MAX}): undecided in pieces")
+                    deflated[3] or f"strip of {m} (> {WHOLE_MAX}): undecided in pieces", False)
     # column-major, as a column selection of W Q is (np.sum's last bit depends on it)
     b, Q, phiI, AQ, Tc, rho = _explicit_block(
         ctx, buf, I, np.asfortranarray(ctx.W @ buf.Q[:, I]),
@@ -739,6 +809,23 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
            + 2 * gamma(n + m + 8) * ctx.normA1 * math.sqrt(m) * (1 + phiI)) * INFLATE
     err0 = (b * zn0 / math.sqrt(g_min) / (1 - kap) + rho) * INFLATE
     projected = [False]
+    # eigenvalues equal to within the block's own rounding: no route can
+    # separate them (:func:`unresolved`). Where the skew part is too small to
+    # move the cluster (err0 <= 2 rho), the projected cluster's estimates and
+    # (after its LU) the deflated complement's are as accurate as any route's.
+    lam_p = np.linalg.eigvals(Tc)
+    lip = 1 + b * b / (g_min * (1 - kap) ** 2)
+    floor_bound = err0 <= 2 * rho
+
+    def floor_undecided(est, source):
+        est = np.sort_complex(np.asarray(est, complex))
+        return (Decision.UNDECIDED, 0.0, est,
+                f"strip of {m}: its eigenvalues are equal to within the rounding of its "
+                f"block ({source}: {est[0]:.9g} .. {est[-1]:.9g}, not certified; every "
+                f"route's error >= {rho:.2g})", True)
+
+    if floor_bound and unresolved(lam_p, lip, rho):
+        return floor_undecided(lam_p, "the projected cluster")
 
     def schur(x, deriv=False):
         # x real, or complex with Re x in the strip (the box route): the same
@@ -815,7 +902,7 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
 
     if not real_routes:         # (the deflated route tried above)
         verdict, margin, why, lam_b = in_a_box(lam0)
-        return verdict, margin, lam_b, why
+        return verdict, margin, lam_b, why, False
 
     def all_real(roots):
         """m real roots: det T changes sign between consecutive estimated roots."""
@@ -899,7 +986,6 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     # first the projected cluster alone (no sparse solve): its eigenvalues are
     # the root estimates; tried only where its error leaves room (a float
     # estimate of min sigma_min(Tc - x) over the estimates' real parts)
-    lam_p = np.linalg.eigvals(Tc)
     xs = np.clip(lam_p.real, a_lo, a_hi)
     room = min(float(np.linalg.svd(Tc - x * np.eye(m), compute_uv=False)[-1]) for x in xs)
     if room > 2 * err0:
@@ -911,15 +997,17 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
             result = no_real_root_projected()
         projected[0] = False
         if result[0] is Decision.COMPLEX:
-            return result[0], result[1], lam_p, result[2]
+            return result[0], result[1], lam_p, result[2], False
         if result[0] is Decision.REAL:
-            return result[0], result[1], roots_p.astype(complex), result[2]
+            return result[0], result[1], roots_p.astype(complex), result[2], False
 
     # the deflated route: one sparse LU per piece of the strip; the routes
     # below (a sparse LU per evaluation) only where it leaves the strip undecided
     deflated = decide_deflated(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge)
     if deflated[0] is not Decision.UNDECIDED:
-        return deflated
+        return deflated + (False,)
+    if floor_bound and deflated[2] is not None and unresolved(deflated[2], lip, rho):
+        return floor_undecided(deflated[2], "its deflated complement")
 
     def linearised(xc, T1, D1):
         """Roots of det(T(xc) + (x - xc) T'(xc)) = 0 (None if not finite)."""
@@ -944,7 +1032,7 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
                 T1, _, D1, _ = schur(x1, deriv=True)
                 est1 = linearised(x1, T1, D1) if T1 is not None else None
                 est = est1 if est1 is not None else est
-            return cover_done[0], cover_done[1], est if est is not None else lam_p, ""
+            return cover_done[0], cover_done[1], est if est is not None else lam_p, "", False
 
     # the strip's eigenvalues: fixed point of x = eig(T(x) + x) from the Ritz values
     # (the projected cluster's when its coupling to the rest is below the
@@ -953,7 +1041,8 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     T0, _ = (Tc - 0.5 * (a_lo + a_hi) * np.eye(m), None) if negligible else \
         schur(0.5 * (a_lo + a_hi))
     if T0 is None:
-        return Decision.UNDECIDED, 0.0, lam0, "the bordered system of the strip is singular"
+        return (Decision.UNDECIDED, 0.0, lam0, "the bordered system of the strip is singular",
+                False)
     lam_c = np.linalg.eigvals(T0 + 0.5 * (a_lo + a_hi) * np.eye(m))
     # the roots of det T(x) = 0, estimated from T linearised about the cluster's
     # centre xc: det(T(xc) + (x - xc) T'(xc)) = 0, a generalized eigenproblem
@@ -989,10 +1078,10 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     if result[0] is Decision.UNDECIDED and estimates is not None:
         box = in_a_box(lam_c)
         if box[0] is Decision.COMPLEX:
-            return box[0], box[1], box[3], ""
+            return box[0], box[1], box[3], "", False
         if box[2]:
             result = (result[0], result[1], f"{result[2]}; {box[2]}")
-    return result[0], result[1], lam_c, result[2]
+    return result[0], result[1], lam_c, result[2], False
 
 
 def arpack_hint(A, a_lo, a_hi, m):
