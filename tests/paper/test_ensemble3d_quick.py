@@ -6,8 +6,9 @@ frictional or I0 = 1 rows) with certified brackets of F_x^c(mu0) and
 F_x^c(0.8 mu0) to tol, the per-packing order from those brackets, the
 report's note of what 3D skips; a packing whose second ramp was not yet
 recorded is resumed serially without redoing its relaxation or first ramp,
-and the table is that of the uninterrupted run; a 2D ``--resume`` of that
-folder, or a 2D-only option with ``--dim 3``, is refused in one line.
+and the table is that of the uninterrupted run, as it is again from
+``--resume`` alone (the folder's own configuration); a 2D ``--resume`` of
+that folder, or a 2D-only option with ``--dim 3``, is refused in one line.
 """
 import json
 import os
@@ -102,4 +103,12 @@ def test_resumed_packing_gives_the_same_table(spheres, tmp_path):
         man = json.load(fh)
     assert man["sessions"][-1]["computed"] == ["N96_s3"] and man["sessions"][-1]["resume"]
     assert [os.stat(f).st_mtime_ns for f in kept] == stamps, "a recorded stage was redone"
+    _same(t1, er.read_table(os.path.join(out, en.TABLE)))
+    # --resume alone takes the folder's configuration (dim = 3 with it): nothing to compute
+    r = subprocess.run([CLI, "ensemble", "--out", out, "--resume", "--quiet"],
+                       capture_output=True, text=True, timeout=300,
+                       env=dict(os.environ, OMP_NUM_THREADS="1"))
+    assert r.returncode == 0, r.stderr[-3000:]
+    with open(os.path.join(out, en.MANIFEST)) as fh:
+        assert json.load(fh)["sessions"][-1]["computed"] == []
     _same(t1, er.read_table(os.path.join(out, en.TABLE)))

@@ -81,7 +81,7 @@ from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.environment import environment
 from remote_trigger.pywrap.runtime.jobfolder import (
-    add_job_arguments, describe_keys, job_overrides)
+    CONFIG_FILE, add_job_arguments, describe_keys, job_overrides)
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.jobs.ensemble.config import build_config
 from remote_trigger.pywrap.jobs.ensemble.figure import plot
@@ -369,7 +369,9 @@ def register(subparsers):
     add_job_arguments(p, "ensemble", "EnsembleConfig",
                       "small test variant (3 packings of N = 16 and 20, coarse ramps)",
                       "continue an interrupted ensemble in --out (same configuration; "
-                      "finished packings and the finished stages of a started one are kept)", "--set n=[100] --set seeds=[1,2,3]")
+                      "finished packings and the finished stages of a started one are kept); "
+                      "without --config, --quick, --set or --dim: the configuration --out "
+                      "records", "--set n=[100] --set seeds=[1,2,3]")
     p.add_argument("--retry-failed", action="store_true",
                    help="with --resume: run again the packings recorded with an error "
                         "(their finished stages kept, an interrupted ramp continued)")
@@ -391,9 +393,15 @@ def register(subparsers):
 
 
 def config_from_args(args):
-    """EnsembleConfig from parsed arguments."""
-    return build_config(args.config, job_overrides(args, dim=args.dim),
-                        quick=bool(args.quick))
+    """EnsembleConfig from parsed arguments. ``--resume`` with no configuration
+    option (``--config``, ``--quick``, ``--set``, ``--dim``) continues with the
+    configuration the folder --out records (its ``config.json``)."""
+    source = args.config
+    if source is None and args.resume and not (args.quick or args.set or args.dim is not None):
+        stored = os.path.join(args.out, CONFIG_FILE)
+        if os.path.isfile(stored):
+            source = stored
+    return build_config(source, job_overrides(args, dim=args.dim), quick=bool(args.quick))
 
 
 def _run_options_given(args):
