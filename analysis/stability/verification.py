@@ -148,8 +148,17 @@ def _refine(A, sigma, Q, iters=4, Ap=None):
     return W
 
 
-def _pair_basis(A, lam, V, unit, Ap=None):
-    """Real orthonormal basis (n x 2) of a pair's invariant subspace (refined near an EP)."""
+def _pair_basis(A, lam, V, unit, Ap=None, floor=None):
+    """Real orthonormal basis (n x 2) of a pair's invariant subspace (refined near an EP).
+
+    A merged or ill-conditioned pair is refined (:func:`_refine`) unless its
+    orthonormalised eigenvector basis Q already spans an invariant subspace
+    to ``floor`` (||A Q - Q Q^T A Q||_F <= ``floor``, n u ||A||_F from
+    :func:`analyse`: the rounding of the product itself, which no refinement
+    goes below): the near-double pairs of an almost normal A (a periodic or
+    ordered packing at F_x = 0), where the refinement's sparse LUs were most
+    of the decision's time. Either basis is only a proposal: step 2 verifies
+    it, and it is marked for the sharp check (True) as a refined one."""
     i, j = unit.idx
     if unit.complex_pair:
         V0 = np.column_stack([V[:, i].real, V[:, i].imag])
@@ -160,6 +169,10 @@ def _pair_basis(A, lam, V, unit, Ap=None):
     Q, _ = np.linalg.qr(V0)
     cond = sv[0] / sv[1] if sv[1] > 0 else math.inf
     if unit.merged or cond > _ILL:
+        if floor is not None:
+            AQ = (A if Ap is None else Ap) @ Q
+            if float(np.linalg.norm(AQ - Q @ (Q.T @ AQ))) <= floor:
+                return Q, True
         sigma = 0.5 * (lam[i].real + lam[j].real)
         return _refine(A, sigma, Q, Ap=Ap), True
     return Q, False
@@ -343,9 +356,10 @@ def analyse(A, lam, V, units, rel_error, input_error, Ap=None):
         at, idx = (np.array(c) for c in zip(*single))
         Vs = V[:, idx].real
         X[:, at] = Vs / np.sqrt(np.einsum("ij,ij->j", Vs, Vs))
+    floor = n * U * float(np.linalg.norm(A))
     for un, (s, k) in zip(units, blocks):
         if k == 2:
-            X[:, s:s + 2], ref = _pair_basis(A, lam, V, un, Ap)
+            X[:, s:s + 2], ref = _pair_basis(A, lam, V, un, Ap, floor)
         refined.append(k == 2 and ref)
     return verify(A, X, blocks, units, refined, rel_error, input_error, Ap)
 

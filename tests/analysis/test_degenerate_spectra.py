@@ -196,3 +196,52 @@ def test_tiled_packing_every_strip_decided_as_lapack_has_it(tiled3):
             n_real += 1
             assert np.max(np.abs(near.imag)) < 1e-9 * scale
     assert n_complex > 200 and n_real >= 1
+
+
+def test_near_double_pairs_of_an_almost_normal_matrix_are_not_refined(monkeypatch):
+    """A symmetric 40 x 40 matrix with 20 near-double eigenvalues (split 1e-13
+    and 1e-11): the dense decision merges each pair (their discs touch) and,
+    as every pair's eigenvector basis already spans an invariant subspace to
+    the rounding of its own residual (n u ||A||_F), refines none (the sparse
+    LUs of the refinement were most of the time on near-double spectra). The
+    decision is the same as with every pair refined (no floor):
+    real, every pair certified. A pair near an exceptional point (parallel
+    eigenvectors) is still refined."""
+    from remote_trigger.analysis.stability import verification
+    from remote_trigger.analysis.stability.exceptional import classify_spectrum
+
+    calls = []
+    refine = verification._refine
+
+    def counted(*a, **k):
+        calls.append(1)
+        return refine(*a, **k)
+    monkeypatch.setattr(verification, "_refine", counted)
+    rng = np.random.default_rng(5)
+    n = 40
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    for delta in (1e-13, 1e-11):
+        d = np.repeat(np.arange(1.0, n // 2 + 1), 2) + np.tile([0.0, delta], n // 2)
+        A = (Q * d) @ Q.T
+        calls.clear()
+        skipped = classify_spectrum(A)
+        assert not calls
+        with monkeypatch.context() as mp:              # no floor: every merged pair refined
+            mp.setattr(verification, "_pair_basis",
+                       lambda A, lam, V, un, Ap=None, floor=None, f=verification._pair_basis:
+                       f(A, lam, V, un, Ap, None))
+            calls.clear()
+            refined = classify_spectrum(A)
+            assert len(calls) == n // 2
+        for dec in (skipped, refined):
+            assert dec.decision is Decision.REAL
+            assert all(p.certified and not p.is_complex for p in dec.pairs)
+    # a Jordan-like pair (eigenvectors nearly parallel: a merged unit whose
+    # basis is ill-conditioned) is refined
+    # (rotated: in J's own coordinates the basis would be exact)
+    J = np.diag(np.arange(1.0, 11.0))
+    J[4, 5], J[5, 5] = 1.0, 5.0 + 1e-9
+    R, _ = np.linalg.qr(rng.standard_normal((10, 10)))
+    calls.clear()
+    classify_spectrum(R @ J @ R.T)
+    assert calls
