@@ -464,12 +464,12 @@ class SlicedScan:
                 self.ctx, buf, I, a_lo, a_hi, *self.edges(final), estimates=estimates,
                 real_routes=not big)
         except SliceFailure as exc:
-            verdict, margin, why = Decision.UNDECIDED, 0.0, str(exc) + estimates()[0]
+            verdict, margin = Decision.UNDECIDED, 0.0
+            why = "; ".join(w for w in (str(exc), estimates()[0]) if w)
             lam_c = buf.th[I].astype(complex)
         if big and verdict is Decision.UNDECIDED:
             lam_c = buf.th[I].astype(complex)
-            sep = "" if why.startswith("; ") or not why else "; "
-            why = f"strip of {m} eigenvalues (> {_MAX_STRIP}){sep}{why}"
+            why = "; ".join(w for w in (f"strip of {m} eigenvalues (> {_MAX_STRIP})", why) if w)
         self.lam.extend(lam_c)
         ok = verdict is not Decision.UNDECIDED
         self.pairs.append(PairDecision(np.sort_complex(lam_c), verdict is Decision.COMPLEX, ok,

@@ -751,7 +751,7 @@ def decide_strip(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates=None,
     verdict, margin, lam, why, noted = _strip_routes(
         ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates, real_routes)
     if verdict is Decision.UNDECIDED and not noted and estimates is not None:
-        why += estimates()[0]
+        why = "; ".join(w for w in (why, estimates()[0]) if w)
     return verdict, margin, lam, why
 
 
@@ -1102,7 +1102,7 @@ def arpack_hint(A, a_lo, a_hi, m):
         return "", none
     if m > WHOLE_MAX:
         # (thousands of eigenvalues by shift-invert: more than the scan costs)
-        return f"; ARPACK not asked (a strip of more than {WHOLE_MAX})", none
+        return f"ARPACK not asked (a strip of more than {WHOLE_MAX})", none
     c = 0.5 * (a_lo + a_hi)
     try:
         lu = spla.splu(sp.csc_matrix(A - c * sp.identity(n, format="csr")))
@@ -1115,7 +1115,7 @@ def arpack_hint(A, a_lo, a_hi, m):
     lam = c + 1.0 / nu
     inside = lam[(lam.real >= a_lo) & (lam.real <= a_hi)]
     cx = inside[inside.imag > 0]
-    note = f"; ARPACK, not certified: {inside.size} of its {m} eigenvalues seen, "
+    note = f"ARPACK, not certified: {inside.size} of its {m} eigenvalues seen, "
     inside = inside[np.lexsort((inside.imag, inside.real))]
     if not cx.size:
         return note + "none complex", inside
