@@ -10,9 +10,8 @@ import scipy.sparse as sp
 
 from remote_trigger.analysis.stability import eigen, exceptional
 from remote_trigger.analysis.stability.sliced import (
-    SlicedStats, classify_sliced, count_below, saved_scans)
+    SlicedStats, classify_sliced, count_below, saved_scans, scan, strips)
 
-from remote_trigger.analysis.stability.sliced import scan, strips
 from remote_trigger.analysis.stability.sliced.strips import arpack_hint
 
 from .arb_oracle import full_spectrum
@@ -772,4 +771,3 @@ def test_a_cluster_of_40_near_its_exceptional_point_is_never_decided_wrongly(w_p
     lapack = "complex" if np.any(lam.imag != 0) else "real"
     assert truth in (None, lapack)
     assert res.decision is Decision.UNDECIDED or res.decision.label == lapack, (res.reason, truth)
-
