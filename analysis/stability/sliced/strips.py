@@ -884,7 +884,7 @@ def _strip_routes(ctx, buf, I, a_lo, a_hi, lo_edge, hi_edge, estimates, real_rou
             # a box about an eigenvalue has sigma_min(T) <= ~ sqrt2 r ||T'|| on its
             # edge, and every evaluation's error is at least rho: a box that
             # small cannot be counted (its halvings would run to MAX_EVALS)
-            if math.sqrt(2.0) * r * (1 + b * b / (g_min * (1 - kap) ** 2)) < rho:
+            if math.sqrt(2.0) * r * lip < rho:
                 why = f"winding count: the box about {z0:.6g} is within the error bound"
                 continue
             cnt, why, margin = box_zero_count(
