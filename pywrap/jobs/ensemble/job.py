@@ -380,6 +380,10 @@ def register(subparsers):
                         "folders (runs of other sizes or seeds, the same other keys) into "
                         "the new folder --out and write its table, figure and fits over "
                         "every size; nothing is recomputed")
+    p.add_argument("--compare", nargs="+", metavar="DIR", default=None,
+                   help="instead of running: the F_x^c(N) laws of these finished ensemble "
+                        "folders (e.g. disks and spheres) side by side: compare.png and "
+                        "compare.md in --out; nothing is recomputed")
     p.add_argument("--status", action="store_true",
                    help="instead of running: say how far the ensemble in --out has come "
                         "(per packing: finished, relaxing, or each ramp's points and "
@@ -414,8 +418,11 @@ def _run_options_given(args):
 
 def main(args):
     """``remote-trigger ensemble``; returns the exit status."""
+    if args.combine is not None and args.compare is not None:
+        raise ConfigError("--combine and --compare are two different commands; give one")
     if args.status:
-        given = _run_options_given(args) + (["--combine"] if args.combine else [])
+        given = _run_options_given(args) + (["--combine"] if args.combine else []) + \
+            (["--compare"] if args.compare else [])
         if given:
             raise ConfigError(f"--status reads the folder --out only; drop {given[0]}")
         from remote_trigger.pywrap.jobs.ensemble.status import ensemble_status
@@ -428,6 +435,14 @@ def main(args):
             raise ConfigError(f"--combine takes its configuration from the folders; "
                               f"drop {given[0]}")
         print(f"ensemble: {combine_runs(args.combine, args.out, speak=not args.quiet)}")
+        return 0
+    if args.compare is not None:
+        given = _run_options_given(args)
+        if given:
+            raise ConfigError(f"--compare reads finished folders only; drop {given[0]}")
+        from remote_trigger.pywrap.jobs.ensemble.compare import compare_runs
+
+        print(f"ensemble: {compare_runs(args.compare, args.out, speak=not args.quiet)}")
         return 0
     _check_retry(args.resume, args.retry_failed)      # (before a relaunch under mpirun)
     cfg = config_from_args(args)
