@@ -376,3 +376,18 @@ def test_the_figures_legend_names_soft_onsets_once(tmp_path, monkeypatch):
     assert labels.count("soft-mode onset") == 1
     marks = [ln for ln in fig.axes[2].get_lines() if ln.get_marker() == "x"]
     assert sorted(float(ln.get_xdata()[0]) for ln in marks) == [100.0, 400.0]
+
+
+def test_a_seed_run_again_in_a_folder_of_its_own_is_not_left_out(tmp_path, capsys):
+    """N20_s1 unfinished in one run (killed) and finished in another made for
+    it alone: taken from the second, and not named as left out (it was, by
+    the folder where it did not finish)."""
+    a = _run_folder(tmp_path / "a", 16, [1, 2], ["N16_s1", "N16_s2"])
+    b = _run_folder(tmp_path / "b", 20, [1], [])
+    c = _run_folder(tmp_path / "c", 20, [1], ["N20_s1"])
+    out = tmp_path / "all"
+    combine_runs([a, b, c], str(out))
+    man = json.loads((out / "ensemble.json").read_text())
+    assert man["left_out"] == [] and man["n_packings"] == 3
+    assert "left out" not in capsys.readouterr().out
+    assert_reference_columns(out / "ensemble.h5")

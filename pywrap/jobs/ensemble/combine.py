@@ -100,8 +100,8 @@ def collect_runs(dirs, out, speak=True):
     -------
     (EnsembleConfig, list of str, list of str)
         The combined configuration (written to ``out/config.json``), the
-        folders (absolute paths), the packings left out (not finished), as
-        ``'<key> (<folder>)'``.
+        folders (absolute paths), the packings left out (finished in no
+        folder), as ``'<key> (<folder>)'``.
 
     Raises
     ------
@@ -140,7 +140,7 @@ def collect_runs(dirs, out, speak=True):
         for t in cfg.packings():
             res = load_task(d, t)
             if res is None:
-                missing.append(f"{t['key']} ({d})")
+                missing.append((t["key"], d))
             elif t["key"] in found:
                 raise ConfigError(f"--combine: packing {t['key']} is finished in both "
                                   f"{found[t['key']][0]!r} and {d!r}")
@@ -148,6 +148,9 @@ def collect_runs(dirs, out, speak=True):
                 found[t["key"]] = (d, t, saddle_escape_of(res), clearance_rule_of(res))
     if not found:
         raise ConfigError("--combine: no finished packing in " + ", ".join(map(repr, dirs)))
+    # a packing unfinished in one folder and finished in another (a seed run
+    # again in a folder of its own) is taken, not left out
+    missing = [f"{k} ({d})" for k, d in missing if k not in found]
     # a packing without the record (None) ran before the escape existed: False
     esc = {k: bool(v[2]) for k, v in found.items()}
     if len(set(esc.values())) > 1:
