@@ -145,3 +145,26 @@ def test_the_command_line(disks, tmp_path):
                              capture_output=True, text=True)
         assert bad.returncode == 2 and bad.stderr.count("\n") == 1, bad.stderr
         assert ("--resume" in bad.stderr) if extra == ["--resume"] else ("--combine" in bad.stderr)
+
+
+def test_the_kept_runs_of_disks_and_spheres_give_the_docs_numbers(disks, tmp_path):
+    """The kept 20-packing run of spheres (docs/results/runs/N160_640_3d, its
+    table rebuilt by ``--resume``) beside the disks: the numbers
+    docs/ensemble.md quotes (section Spheres)."""
+    from mpi4py import MPI
+
+    sph = tmp_path / "N160_640_3d"
+    shutil.copytree(os.path.join(RUNS, "N160_640_3d"), sph)
+    with open(sph / "config.json") as fh:
+        cfg = EnsembleConfig.from_dict(json.load(fh))
+    run_ensemble(cfg, str(sph), comm=MPI.COMM_SELF, speak=False, resume=True)
+    run = read_run_rows(str(sph))
+    assert len(run.rows) == 20 and {int(r["n"]) for r in run.rows} == {160, 640}
+    order = [int(r["order"]) for r in run.rows]
+    assert (order.count(1), order.count(0), order.count(-1)) == (14, 6, 0)
+    text = open(compare_runs([disks, str(sph)], str(tmp_path / "out"), speak=False)).read()
+    part = text[text.index("## spheres"):]
+    assert "N^-0.793 (95 % bootstrap interval [-1.21, -0.357]" in part
+    assert "| 160 | 12 (0) | 0.002246 [0.001691, 0.005041] |" in part
+    assert "| 640 | 8 (0) | 0.0009142 [0.0005883, 0.001033] |" in part
+    assert "two sizes: a line through two clouds" in part

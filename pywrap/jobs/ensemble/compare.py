@@ -127,8 +127,9 @@ def _markdown(runs, fits):
              ""]
     for run in runs:
         cfg, rows = run.cfg, run.rows
-        prov = {k: sorted({str(r[k]) or "?" for r in rows}) for k in ("commit", "cpu",
-                                                                       "clearance")}
+        # ('' or '?': a result of a version that did not record it)
+        prov = {k: sorted({str(r[k]) if str(r[k]) not in ("", "?") else "not recorded"
+                           for r in rows}) for k in ("commit", "cpu", "clearance")}
         lines += [f"## {run.label}", "",
                   f"Folder `{run.path}`; dim {cfg.dim}, I0 = {cfg.I0_dynamics:g}, mu0 = "
                   f"{cfg.mu:g}, mu_ss = {cfg.mu_ss:g}, F_y = {cfg.F_y:g}; commits "
@@ -194,8 +195,9 @@ def _plot(path, runs, fits):
     a.set_yscale("log")
     a.set_xlabel("N")
     a.set_ylabel(STRESS.replace("top line", "top particles"))
-    a.set_title("F_x^c(mu0): packings (x: soft-mode onsets), median and quartiles of "
-                "every onset; lines: stiff onsets' laws", fontsize=9)
+    a.set_title("F_x^c(mu0): packings (x: soft-mode onsets), median and quartiles of every\n"
+                "onset; lines: the power law over stiff onsets, 95 % interval of its exponent",
+                fontsize=9)
     a.legend(fontsize=7)
     b.axhline(1.0, color="k", lw=0.8)
     b.set_xscale("log")
