@@ -180,7 +180,8 @@ def _plot_limit(ax, rows, cfg, colors, st):
         a.plot(x, y, ":", color="k", lw=1.2,
                label=f"broken law ({t.exponent_below:.2f} / {t.exponent_above:.2f}), "
                      f"p = {t.p_value:.2g}")
-    _finish(a, "N", STRESS, bool(np.any(ok)), logy=True)
+    _finish(a, "N", STRESS if cfg.dim == 2 else STRESS.replace("top line", "top layer"),
+            bool(np.any(ok)), logy=True)
     # (f) local exponents with their intervals, and the single law's band
     a = ax[1]
     for j, (on, sl) in enumerate(st["local"].items()):

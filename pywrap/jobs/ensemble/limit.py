@@ -239,7 +239,8 @@ def limit_lines(st, per_n, cfg):
                  f"{_cell(s['clearance'])} | {_cell(s['machine'])} | {_cell(s['commit'])} |")
     L += ["", "## Size dependence: fits by data set and size range", "",
           f"{fy}: the ratio of two loads per top particle, i.e. the shear-to-normal stress "
-          f"ratio on the top line. Least squares on ln y; 95 % bootstrap interval of the "
+          f"ratio on the top {'line' if cfg.dim == 2 else 'layer'}. Least squares on ln y; "
+          f"95 % bootstrap interval of the "
           f"exponent (packings resampled within each size). Stiff onsets: the rows whose "
           f"first pair is not a soft-mode pair.", "",
           "| data set | onsets | sizes | exponent of F_x^c / F_y | 95 % interval | s.e. | "
