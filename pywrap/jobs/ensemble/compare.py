@@ -17,10 +17,10 @@ command keeps each folder apart and puts their laws side by side:
 
 The rows are those of each folder's ``ensemble.h5`` (default protocol,
 the dynamics' moment of inertia, status not ``failed``): nothing is
-recomputed. A folder without ``ensemble.h5`` (a run that never finished a
-packing, or a stored run without its table) is refused; ``ensemble
---resume --out DIR`` writes it without computing anything when every
-packing is finished.
+recomputed. A folder without ``ensemble.h5`` (a run not finished, or a
+stored run without its table) is refused; the job writes it when every
+packing is finished, so ``ensemble --resume --out DIR`` writes it for a
+stored run without computing anything.
 """
 import math
 import os
@@ -83,8 +83,8 @@ def read_run_rows(path):
     _, cfg = read_run(path, flag="--compare")
     table = os.path.join(path, "ensemble.h5")
     if not os.path.isfile(table):
-        raise ConfigError(f"--compare {path!r}: no ensemble.h5 there (ensemble --resume "
-                          f"--out {path} writes it once a packing is finished)")
+        raise ConfigError(f"--compare {path!r}: no ensemble.h5 there (the job writes it when "
+                          f"every packing is finished: ensemble --resume --out {path})")
     cols = read_table(table)
     rows = [dict(zip(cols, vals)) for vals in zip(*cols.values())]
     rows = [r for r in rows if r["protocol"] == PROTOCOL
