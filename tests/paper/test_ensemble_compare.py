@@ -134,6 +134,13 @@ def test_refusals_name_the_value(disks, tmp_path):
     assert (out / "compare.md").read_text() == "mine" and not (out / "compare.png").exists()
 
 
+def test_two_folders_of_one_name_are_told_apart(disks, tmp_path):
+    a = _spheres(tmp_path / "a" / "run", seed=1)
+    b = _spheres(tmp_path / "b" / "run", seed=2)
+    text = open(compare_runs([a, b], str(tmp_path / "out"), speak=False)).read()
+    assert f"## spheres ({a})" in text and f"## spheres ({b})" in text
+
+
 def test_the_command_line(disks, tmp_path):
     cmd = [sys.executable, "-m", "remote_trigger.pywrap.cli", "ensemble"]
     got = subprocess.run(cmd + ["--compare", disks, "--out", str(tmp_path / "o")],

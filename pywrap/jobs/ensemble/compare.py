@@ -248,6 +248,10 @@ def compare_runs(dirs, out, speak=True):
             raise ConfigError(f"--compare: {p!r} exists; give another --out (nothing is "
                               "overwritten)")
     runs = [read_run_rows(d) for d in dirs]
+    labels = [run.label for run in runs]
+    for run in runs:            # two folders of one name and dimension: their paths
+        if labels.count(run.label) > 1:
+            run.label = f"{run.label.split(' (')[0]} ({run.path})"
     fits = {}
     for run in runs:
         n, f = run.loads(stiff_only=True)
