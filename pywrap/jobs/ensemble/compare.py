@@ -29,6 +29,7 @@ import numpy as np
 
 from remote_trigger.analysis.output import savefig_atomic, write_text_atomic
 from remote_trigger.pywrap.config import ConfigError
+from remote_trigger.pywrap.jobs.ensemble.report import quartiles, read_table
 
 __all__ = ["Run", "read_run_rows", "compare_runs"]
 
@@ -47,8 +48,11 @@ class Run:
         The folder.
     cfg : EnsembleConfig
         Its configuration (``config.json``).
+    kind : str
+        ``'disks'`` or ``'spheres'`` (``cfg.dim``).
     label : str
-        ``'disks'`` or ``'spheres'``, with the folder's name.
+        ``kind`` with the folder's name (its path where two folders share
+        a name: :func:`compare_runs`).
     rows : list of dict
         The table's rows of the default protocol under the dynamics' moment
         of inertia whose status is not ``'failed'`` (columns as ``ensemble.h5``).
@@ -56,16 +60,23 @@ class Run:
 
     def __init__(self, path, cfg, rows):
         self.path, self.cfg, self.rows = path, cfg, rows
-        kind = "disks" if cfg.dim == 2 else "spheres"
-        self.label = f"{kind} ({os.path.basename(os.path.normpath(path))})"
+        self.kind = "disks" if cfg.dim == 2 else "spheres"
+        self.label = f"{self.kind} ({os.path.basename(os.path.normpath(path))})"
+
+    def onsets(self):
+        """(N, F_x^c(mu0) / F_y, soft) of the packings with a finite positive
+        F_x^c: arrays of shape (k,), ``soft`` True for a soft-mode onset."""
+        sel = [r for r in self.rows if math.isfinite(r["F_x_c"]) and r["F_x_c"] > 0]
+        return (np.array([r["n"] for r in sel], float),
+                np.array([r["F_x_c"] for r in sel], float) / self.cfg.F_y,
+                np.array([r["soft_onset"] == 1 for r in sel], bool))
 
     def loads(self, stiff_only=False):
-        """(N, F_x^c(mu0) / F_y) of the packings with a finite positive F_x^c,
-        arrays of shape (k,); ``stiff_only``: soft-mode onsets left out."""
-        sel = [r for r in self.rows if math.isfinite(r["F_x_c"]) and r["F_x_c"] > 0
-               and not (stiff_only and r["soft_onset"] == 1)]
-        return (np.array([r["n"] for r in sel], float),
-                np.array([r["F_x_c"] for r in sel], float) / self.cfg.F_y)
+        """(N, F_x^c(mu0) / F_y) of :meth:`onsets`; ``stiff_only``: soft-mode
+        onsets left out."""
+        n, f, soft = self.onsets()
+        keep = ~soft if stiff_only else np.ones(n.size, bool)
+        return n[keep], f[keep]
 
 
 def read_run_rows(path):
@@ -78,7 +89,6 @@ def read_run_rows(path):
         or has no ``ensemble.h5``.
     """
     from remote_trigger.pywrap.jobs.ensemble.combine import read_run
-    from remote_trigger.pywrap.jobs.ensemble.report import read_table
 
     _, cfg = read_run(path, flag="--compare")
     table = os.path.join(path, "ensemble.h5")
@@ -103,12 +113,8 @@ def _fit(n, y):
 
 
 def _q(x):
-    x = np.asarray(x, float)
-    x = x[np.isfinite(x)]
-    if not x.size:
-        return "-"
-    q1, m, q3 = np.percentile(x, [25, 50, 75])
-    return f"{m:.4g} [{q1:.4g}, {q3:.4g}]"
+    count, q1, m, q3 = quartiles(x)
+    return f"{m:.4g} [{q1:.4g}, {q3:.4g}]" if count else "-"
 
 
 def _fit_text(fit):
@@ -162,15 +168,12 @@ def _plot(path, runs, fits):
     fig, (a, b) = plt.subplots(1, 2, figsize=(12.5, 4.8))
     for j, run in enumerate(runs):
         c = colors[j % len(colors)]
-        n, f = run.loads()
-        soft = np.array([r["soft_onset"] == 1 for r in run.rows
-                         if math.isfinite(r["F_x_c"]) and r["F_x_c"] > 0], bool)
-        stiff = ~soft
-        a.plot(n[stiff], f[stiff], ".", color=c, alpha=0.45)
+        n, f, soft = run.onsets()
+        a.plot(n[~soft], f[~soft], ".", color=c, alpha=0.45)
         if np.any(soft):
             a.plot(n[soft], f[soft], "x", color=c, alpha=0.8)
         for s in np.unique(n):
-            q1, m, q3 = np.percentile(f[n == s], [25, 50, 75])
+            _, q1, m, q3 = quartiles(f[n == s])
             a.errorbar([s], [m], yerr=[[m - q1], [q3 - m]], fmt="o", color=c, capsize=4)
         fit = fits[run.path]["stiff"]
         if isinstance(fit, str):
@@ -183,10 +186,9 @@ def _plot(path, runs, fits):
         sizes = sorted({int(r["n"]) for r in run.rows})
         med = []
         for s in sizes:
-            x = np.array([r["ratio"] for r in run.rows if int(r["n"]) == s], float)
-            x = x[np.isfinite(x)]
-            if x.size:
-                med.append((s, *np.percentile(x, [25, 50, 75])))
+            count, q1, m, q3 = quartiles([r["ratio"] for r in run.rows if int(r["n"]) == s])
+            if count:
+                med.append((s, q1, m, q3))
         if med:
             s, q1, m, q3 = (np.array(v) for v in zip(*med))
             b.errorbar(s, m, yerr=[m - q1, q3 - m], fmt="o-", color=c, capsize=4,
@@ -251,7 +253,7 @@ def compare_runs(dirs, out, speak=True):
     labels = [run.label for run in runs]
     for run in runs:            # two folders of one name and dimension: their paths
         if labels.count(run.label) > 1:
-            run.label = f"{run.label.split(' (')[0]} ({run.path})"
+            run.label = f"{run.kind} ({run.path})"
     fits = {}
     for run in runs:
         n, f = run.loads(stiff_only=True)
