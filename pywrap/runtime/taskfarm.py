@@ -10,11 +10,19 @@ The same launch works on one machine and on k nodes (``mpirun -np P`` /
 ``srun``; docs/ensemble.md "Running on k nodes"): no shared file is used to
 hand out tasks, only MPI messages; the job's output folder must be visible
 to every rank, since a task writes its own files there.
+
+With ``join=True`` the workers left without a task join the points of the
+running tasks (:mod:`~remote_trigger.pywrap.runtime.joining`).
 """
 import collections
 import time
 
-__all__ = ["run_tasks", "n_workers"]
+__all__ = ["run_tasks", "n_workers", "helped"]
+
+#: On rank 0 after a joining :func:`run_tasks`: ``points`` (points that had
+#: helpers) and ``helpers`` (sorted (points joined, rank) of each helper
+#: task); empty when no helper ran.
+helped = {}
 
 
 def n_workers(comm):
@@ -32,7 +40,7 @@ def n_workers(comm):
     return max(1, size - 1)
 
 
-def run_tasks(comm, tasks, fn, args=(), done=None):
+def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
     """Call ``fn(task, *args)`` for every task; rank 0 gets the results.
 
     Every rank of ``comm`` calls this function; it returns when every task
@@ -59,6 +67,12 @@ def run_tasks(comm, tasks, fn, args=(), done=None):
         (follow-ups, e.g. the parts of a task that can run side by side),
         run like the others: on one rank after those already queued, under
         MPI handed to the next free rank.
+    join : bool, optional
+        Under MPI, workers without a task help the points of the running
+        tasks that are decided in parts
+        (:mod:`~remote_trigger.pywrap.runtime.joining`); a task handed out
+        waits at most for the point its worker is helping. No effect on one
+        rank.
 
     Returns
     -------
@@ -75,6 +89,7 @@ def run_tasks(comm, tasks, fn, args=(), done=None):
         rank it propagates at once.
     """
     ended = []
+    helped.clear()
     if comm is None or comm.Get_size() == 1:
         queue = collections.deque(tasks)
         while queue:
@@ -86,32 +101,58 @@ def run_tasks(comm, tasks, fn, args=(), done=None):
                 queue.extend(done(task, res, time.perf_counter() - t0) or ())
         return ended
     from concurrent.futures import FIRST_COMPLETED, wait
+    from contextlib import nullcontext
 
     from mpi4py.futures import MPICommExecutor
 
+    from remote_trigger.pywrap.runtime.joining import Broker, joining
     from remote_trigger.pywrap.runtime.parallel import portable_exception
 
     error = None
-    with MPICommExecutor(comm, root=0) as pool:
-        if pool is not None:             # rank 0; the workers run tasks meanwhile
-            futures = {pool.submit(_timed, fn, task, args): task for task in tasks}
-            while futures:
-                finished, _ = wait(futures, return_when=FIRST_COMPLETED)
-                for fut in finished:
-                    task = futures.pop(fut)
-                    try:
-                        res, wall = fut.result()
-                        ended.append((task, res))
-                        more = done(task, res, wall) if done is not None else None
-                        if error is None:     # after a failure no new work is started
-                            futures.update({pool.submit(_timed, fn, t, args): t
-                                            for t in (more or ())})
-                    except Exception as exc:  # noqa: BLE001 - raised on every rank below
-                        error = error or portable_exception(exc)
+    with (joining(comm) if join else nullcontext()) as jc:
+        with MPICommExecutor(comm, root=0) as pool:
+            if pool is not None:         # rank 0; the workers run tasks meanwhile
+                broker = Broker(jc, n_workers(comm)) if join else None
+                futures = {pool.submit(_timed, fn, task, args): task for task in tasks}
+                while futures:
+                    if broker is not None:
+                        broker.poll(pool, len(futures))
+                        waiting = futures.keys() | broker.helpers
+                    else:
+                        waiting = futures
+                    finished, _ = wait(waiting, timeout=None if broker is None else 0.02,
+                                       return_when=FIRST_COMPLETED)
+                    for fut in finished:
+                        if broker is not None and fut in broker.helpers:
+                            failed = _portable(broker.ended(fut))
+                            error = error or failed
+                            continue
+                        task = futures.pop(fut)
+                        try:
+                            res, wall = fut.result()
+                            ended.append((task, res))
+                            more = done(task, res, wall) if done is not None else None
+                            if error is None:     # after a failure no new work is started
+                                futures.update({pool.submit(_timed, fn, t, args): t
+                                                for t in (more or ())})
+                        except Exception as exc:  # noqa: BLE001 - raised on every rank below
+                            error = error or portable_exception(exc)
+                if broker is not None:          # (even after a failure)
+                    failed = _portable(broker.close(pool))
+                    error = error or failed
+                    if broker.joined:
+                        helped.update(points=broker.points, helpers=sorted(broker.joined))
     error = comm.bcast(error, root=0)
     if error is not None:
         raise error
     return ended if comm.Get_rank() == 0 else None
+
+
+def _portable(exc):
+    """:func:`~.parallel.portable_exception` of ``exc``, or None."""
+    from remote_trigger.pywrap.runtime.parallel import portable_exception
+
+    return None if exc is None else portable_exception(exc)
 
 
 def _timed(fn, task, args):

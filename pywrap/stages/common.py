@@ -262,7 +262,9 @@ def decide_on_rank0(eng, what, options=None, basis=None, progress=None):
         ``checkpoint_dir`` is written by rank 0. With ``part_size`` every
         rank runs parts of a sliced verdict
         (:func:`~remote_trigger.pywrap.runtime.rankmap.on_rank0_with_ranks`),
-        with the same answer as rank 0 alone.
+        with the same answer as rank 0 alone; so do the free workers of a
+        joining task farm when ``eng`` runs on one rank of it
+        (:mod:`~remote_trigger.pywrap.runtime.joining`).
     basis : SpectrumBasis, optional
         The previous point's ``StabilityResult.basis`` (rank 0's; ignored
         elsewhere).
@@ -290,9 +292,14 @@ def decide_on_rank0(eng, what, options=None, basis=None, progress=None):
 
     if options is not None and options.part_size is not None:
         from remote_trigger.analysis.stability.sliced.parts import PartsProblem
+        from remote_trigger.pywrap.runtime import joining
         from remote_trigger.pywrap.runtime.rankmap import on_rank0_with_ranks
 
-        res = on_rank0_with_ranks(eng.comm, run, (PartsProblem,))
+        if joining.active(eng.comm):    # one rank of a farm: its free workers join
+            with joining.point_map((PartsProblem,)) as pmap:
+                res = run(pmap)
+        else:
+            res = on_rank0_with_ranks(eng.comm, run, (PartsProblem,))
     else:
         res = on_rank0(eng.comm, run)
     res.basis = kept.get("basis")

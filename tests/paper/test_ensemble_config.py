@@ -402,3 +402,21 @@ def test_a_narrow_bracket_prints_with_the_digits_that_tell_its_ends_apart():
     assert bracket_text(float("nan"), float("inf")) == "[nan, inf]"
     assert bracket_text(0.25, 0.5, digits=20) == "[0.25, 0.5]"    # (at most 17)
     assert bracket_text(0.1013000001, 0.1013000002, 9) == "[0.1013000001, 0.1013000002]"
+
+
+def test_part_size_configuration(tmp_path):
+    """``part_size``: None or an integer >= the slice size (60), named when
+    bad; config.json holds it only when set (older folders resume without);
+    every ramp of the job gets it."""
+    from remote_trigger.pywrap.jobs.paper.stage_configs import ramp_config
+
+    cfg = ec.EnsembleConfig.from_dict({"part_size": 2300})
+    assert cfg.to_dict()["part_size"] == 2300
+    assert "part_size" not in ec.EnsembleConfig().to_dict()
+    for bad in (59, 2300.0, "2300", True):
+        with pytest.raises(ConfigError, match=f"got part_size = {bad!r}"):
+            ec.EnsembleConfig.from_dict({"part_size": bad})
+    data = tmp_path / "x.data"
+    data.write_text("")
+    assert ramp_config(cfg, str(data), 1.0).part_size == 2300
+    assert ramp_config(ec.EnsembleConfig(), str(data), 1.0).part_size is None

@@ -132,6 +132,15 @@ class EnsembleConfig(Config):
         first complex one, before the bisection (a complex window narrower
         than a step looked for at dF_x / m). One integer for every N, or one
         per N (as ``dF_x``). Written to ``config.json`` only when not 1.
+    part_size : int or None
+        None (default): a sliced verdict (above 3000 dofs, N >~ 1100 disks)
+        is one scan on the packing's rank. An integer >= 60 (the slice size):
+        the scan in parts of about this many eigenvalues
+        (``RampConfig.part_size``), and ranks left without a packing join
+        the parts of the running packings' points
+        (:mod:`~remote_trigger.pywrap.runtime.joining`). The verdicts do not
+        depend on it; the eigenvalues' last bits do, never on the number of
+        ranks or helpers. Written to ``config.json`` only when set.
     np : int
         Ranks that run packings, >= 1 (default 1). Above 1 the job re-launches
         itself under ``mpirun -np np+1``: rank 0 hands out the packings
@@ -168,6 +177,7 @@ class EnsembleConfig(Config):
     saddle_escape: bool = True
     pairs: str = "all"
     between: int = 1
+    part_size: int = None
     np: int = 1
     quick: bool = False
 
@@ -228,6 +238,10 @@ class EnsembleConfig(Config):
             check_table(name, getattr(self, name), RELAX_SET_BY_JOB, "the ensemble",
                         RelaxConfig)
         check_int("np", self.np, 1)
+        if self.part_size is not None:
+            from remote_trigger.analysis.stability.sliced.scan import SLICE_SIZE
+
+            check_int("part_size", self.part_size, SLICE_SIZE)
 
     def _check_spheres(self):
         """dim = 3: phi, sizes the generator can fill, no 2D-only part."""
@@ -318,7 +332,8 @@ class EnsembleConfig(Config):
         written as before ``dim`` existed, so a folder of disks written
         then resumes (``--resume`` compares ``config.json``) and its files
         are unchanged. Likewise ``pairs`` only when 'collective',
-        ``between`` only when not 1, and ``saddle_escape`` only when False; whether
+        ``between`` only when not 1, ``part_size`` only when set, and
+        ``saddle_escape`` only when False; whether
         a packing escaped saddles is recorded in its result (``tasks/``,
         missing: not) and checked by ``--resume`` and ``--combine``.
         """
@@ -335,6 +350,8 @@ class EnsembleConfig(Config):
             del d["pairs"]
         if self.between == 1:
             del d["between"]
+        if self.part_size is None:
+            del d["part_size"]
         return d
 
     @property

@@ -66,6 +66,8 @@ ramp continues from its ``ramp.h5``). One
 packing's failure (no equilibrium, no certified bracket, any exception) is
 recorded in its rows (``status``, ``reason``) and does not stop the others.
 Rank 0 writes ``ensemble.h5``, ``ensemble.png`` and ``ensemble.md``.
+With ``part_size`` set, ranks left without a task join the sliced points
+of the running ones (:mod:`remote_trigger.pywrap.runtime.joining`).
 
 .. warning::
    The I0 = 1 rows are an analysis convention, not a simulation: their
@@ -82,6 +84,7 @@ from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.environment import environment
 from remote_trigger.pywrap.runtime.jobfolder import (
     CONFIG_FILE, add_job_arguments, describe_keys, job_overrides)
+from remote_trigger.pywrap.runtime import taskfarm
 from remote_trigger.pywrap.runtime.taskfarm import n_workers, run_tasks
 from remote_trigger.pywrap.jobs.ensemble.config import build_config
 from remote_trigger.pywrap.jobs.ensemble.figure import plot
@@ -252,7 +255,11 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
             + (f"; {len(res['warnings'])} distinct warning(s) in tasks/{t['key']}.json"
                if res["warnings"] else "") + ")")
 
-    run_tasks(comm, todo, _packing_task, (cfg, out, resume, apart), done)
+    join = cfg.part_size is not None
+    run_tasks(comm, todo, _packing_task, (cfg, out, resume, apart), done, join=join)
+    if join and taskfarm.helped.get("points"):
+        say(f"ranks left without a packing joined {taskfarm.helped['points']} point(s) ("
+            + ", ".join(f"rank {r}: {p}" for p, r in taskfarm.helped["helpers"] if p) + ")")
     path = os.path.join(out, "ensemble.md")
     err = None
     if rank == 0:

@@ -33,7 +33,8 @@ def ramp_config(cfg, datafile, mu):
              dF_x=float(cfg.dF_x), tol=float(cfg.tol), F_x_max=float(cfg.F_x_max),
              dF_x_max=getattr(cfg, "dF_x_max", None),
              saddle_escape=getattr(cfg, "saddle_escape", True),
-             pairs=getattr(cfg, "pairs", "all"), between=getattr(cfg, "between", 1))
+             pairs=getattr(cfg, "pairs", "all"), between=getattr(cfg, "between", 1),
+             part_size=getattr(cfg, "part_size", None))
     ramp_fields = set(RampConfig.__dataclass_fields__) - {"settle_steps", "g_settle",
                                                            "mu_settle", "top_gap"}
     d.update({k: v for k, v in cfg.relax.items() if k in ramp_fields
