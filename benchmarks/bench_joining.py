@@ -9,13 +9,15 @@ decided (``pywrap.stages.common.decide_on_rank0`` on the task's
 ``MPI.COMM_SELF``; ``VerdictOptions(method='sliced', part_size=P)``), on
 ``mpirun -np 1+w`` for each number of workers w (rank 0 schedules; one
 worker runs the task, the w - 1 others are free). It prints each run's wall
-time of the task, the points the helpers joined and a fingerprint of the
-verdict (decision and eigenvalues, which must be the same bits for every w).
+time of the task, the points the helpers joined, the CPU time of rank 0
+(the scheduler, which polls for the helpers' and points' messages every
+20 ms) and a fingerprint of the verdict (decision and eigenvalues, which
+must be the same bits for every w).
 
 The point is that of ``bench_parallel_point.py`` (the stored relaxed packing
 of N disks, seed 1, at F_x = 1e-4; built once and cached).
 
-    python benchmarks/bench_joining.py [--n 6400] [--part-size 2300] [--workers 1 2]
+    python benchmarks/bench_joining.py [--quick] [--n 6400] [--part-size 2300] [--workers 1 2]
 """
 import os
 
@@ -60,23 +62,29 @@ def run(dump, part_size):
     from remote_trigger.pywrap.runtime import taskfarm
 
     comm = MPI.COMM_WORLD
+    c0 = time.process_time()
     res = taskfarm.run_tasks(comm, [(dump, part_size)], point_task, join=True)
     if comm.Get_rank() == 0:
         (_, (wall, fp)), = res
         print("RESULT " + json.dumps({"workers": comm.Get_size() - 1, "wall": wall,
-                                      "fingerprint": fp,
+                                      "fingerprint": fp, "scheduler_cpu": time.process_time() - c0,
                                       "joined": taskfarm.helped.get("points", 0)}), flush=True)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=6400)
-    ap.add_argument("--part-size", type=int, default=2300)
+    ap.add_argument("--quick", action="store_true",
+                    help="N = 1600, parts of 600 (a smoke test)")
+    ap.add_argument("--n", type=int, default=None, help="default 6400 (--quick: 1600)")
+    ap.add_argument("--part-size", type=int, default=None,
+                    help="default 2300 (--quick: 600): about n / 8")
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--run", nargs=2, metavar=("DUMP", "PART_SIZE"), help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.run:
         return run(a.run[0], int(a.run[1]))
+    a.n = a.n or (1600 if a.quick else 6400)
+    a.part_size = a.part_size or (600 if a.quick else 2300)
     from bench_parallel_point import state
 
     dump = state(a.n)
@@ -91,7 +99,8 @@ def main():
         rows.append(json.loads(line[0][len("RESULT "):]))
         r = rows[-1]
         print(f"N = {a.n}, parts of {a.part_size}, {w} worker(s): the point {r['wall']:.1f} s, "
-              f"points joined {r['joined']}; {r['fingerprint']}", flush=True)
+              f"points joined {r['joined']}, rank 0 (scheduler) CPU {r['scheduler_cpu']:.1f} s; "
+              f"{r['fingerprint']}", flush=True)
     same = len({r["fingerprint"] for r in rows}) == 1
     base = rows[0]["wall"]
     print("speed-up against the first: " + ", ".join(
