@@ -1,7 +1,8 @@
 """Benchmark: one large sliced point on 1 and k MPI ranks, and a model of many ranks.
 
 The point: the stored relaxed packing of N disks (``benchmarks/data``,
-seed 1; N = 6400 by default, 1600 with ``--quick``) brought to F_x = 1e-4 by
+seed 1; N = 6400 and 10^4 by default, one after the other; 1600 with
+``--quick``) brought to F_x = 1e-4 by
 one Newton-first equilibrium (a ramp's first step), its dump cached under
 ``$REMOTE_TRIGGER_BENCH_CACHE`` (default ``~/.cache/remote_trigger``)
 ``/parallel_point``. Its verdict on the whole spectrum (``decide`` with
@@ -28,7 +29,7 @@ scales the measured costs with n by the exponents fitted between the two
 sizes measured (``--model-from``), with parts of n / k eigenvalues. What
 it cannot know: the memory per rank and a network's latency.
 
-    python benchmarks/bench_parallel_point.py [--quick] [--n 6400] [--part-size 2400]
+    python benchmarks/bench_parallel_point.py [--quick] [--n 6400 10000] [--part-size 2400]
                                               [--ranks 1 2] [--no-whole]
 """
 import os
@@ -249,7 +250,8 @@ def extrapolate(runs, n, k):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
     ap.add_argument("--quick", action="store_true", help="N = 1600, ranks 1 2")
-    ap.add_argument("--n", type=int, default=None, help="the stored packing (6400)")
+    ap.add_argument("--n", type=int, nargs="+", default=None,
+                    help="the stored packings, one point each (default 6400 10000)")
     ap.add_argument("--part-size", type=int, default=None,
                     help="eigenvalues per part (default: about n / 8)")
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
@@ -259,7 +261,16 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.run:
         return run_one(args.run, args.part_size, args.json)
-    n = args.n or (1600 if args.quick else 6400)
+    sizes = args.n or ([1600] if args.quick else [6400, 10000])
+    status = 0
+    for n in sizes:
+        status |= one_size(n, args)
+    model_large()
+    return status
+
+
+def one_size(n, args):
+    """The point of N = n on the ranks asked; 0 if the bits agree on every rank count."""
     dump = state(n)
     print(f"One sliced point, N = {n} (stored packing, seed 1, F_x = {F_X:g}); "
           f"{os.cpu_count()} cores, load {os.getloadavg()[0]:.1f} at the start; one BLAS "
@@ -313,6 +324,11 @@ def main(argv=None):
                      "commit": (source()["commit"] or "unknown")[:7]}
             with open(os.path.join(cache_dir(), f"records_N{n}.json"), "w") as fh:
                 json.dump({"whole": recs["whole"], "parts": one, "recorded": stamp}, fh)
+    return 0 if same else 1
+
+
+def model_large():
+    """The model of N = 10^4 and 10^5 from the one-rank records kept in the cache."""
     runs = []
     for name in sorted(os.listdir(cache_dir())):
         if name.startswith("records_N"):
@@ -331,7 +347,6 @@ def main(argv=None):
                 what = "; ".join(f"{key} {v:.3g} s (n^{a:.2f})" if key != "bcast" else
                                  f"bcast {v:.3g} s" for key, (v, a) in parts.items())
                 print(f"  n = {nn}, k = {k}: {t:.0f} s  [{what}]")
-    return 0 if same else 1
 
 
 if __name__ == "__main__":
