@@ -61,7 +61,8 @@ def joining(comm):
 
     Called by every rank of ``comm`` around the farm
     (:func:`~remote_trigger.pywrap.runtime.taskfarm.run_tasks`); while it is
-    open, :func:`point_comm` and :func:`help_points` on any rank use it.
+    open, :func:`active`, :func:`point_map` and :func:`help_points` on any
+    rank use it.
 
     Parameters
     ----------
@@ -237,7 +238,7 @@ class Broker:
         self.comm, self.n_workers = comm, int(n_workers)
         self.free, self.helpers, self.joined = [], set(), []
         self.points, self._releasing = 0, 0
-        self._tags = itertools.count(1)
+        self._tags = itertools.count()
 
     def _sources(self, tag):
         """Ranks with a message of ``tag`` waiting, each message received."""
@@ -270,7 +271,10 @@ class Broker:
         for owner in self._sources(_TAG_REQUEST):
             given = [] if excess > 0 else sorted(self.free)
             self.free = [r for r in self.free if r not in given]
-            tag = next(self._tags)
+            # a tag tells apart concurrent MPI_Comm_create_group calls of a
+            # rank; a point's helpers are its alone, so tags may repeat
+            # (and stay below the smallest MPI_TAG_UB, 32767)
+            tag = 1 + next(self._tags) % 32000
             for r in given:
                 self.comm.send(([owner] + given, tag), dest=r, tag=_TAG_ASSIGN)
             self.comm.send((given, tag), dest=owner, tag=_TAG_GROUP)
@@ -285,7 +289,7 @@ class Broker:
             What the helper task raised, if it did.
         """
         self.helpers.discard(fut)
-        self._releasing -= 1
+        self._releasing = max(0, self._releasing - 1)   # (0: it ended by raising)
         try:
             self.joined.append(fut.result())
         except Exception as exc:  # noqa: BLE001 - the farm raises it on every rank
