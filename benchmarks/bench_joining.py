@@ -10,8 +10,8 @@ decided (``pywrap.stages.common.decide_on_rank0`` on the task's
 ``mpirun -np 1+w`` for each number of workers w (rank 0 schedules; one
 worker runs the task, the w - 1 others are free). It prints each run's wall
 time of the task, the points the helpers joined, the CPU time of rank 0
-(the scheduler, which polls for the helpers' and points' messages every
-20 ms) and a fingerprint of the verdict (decision and eigenvalues, which
+(the scheduler, which polls for the helpers' and points' messages, every
+5-200 ms: ``joining.POLL_BUSY``, ``POLL_IDLE``) and a fingerprint of the verdict (decision and eigenvalues, which
 must be the same bits for every w).
 
 The point is that of ``bench_parallel_point.py`` (the stored relaxed packing

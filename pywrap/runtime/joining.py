@@ -36,12 +36,17 @@ import itertools
 import time
 from contextlib import contextmanager
 
-__all__ = ["Broker", "PointMap", "active", "help_points", "joining", "point_map"]
+__all__ = ["Broker", "POLL_BUSY", "POLL_IDLE", "PointMap", "active", "help_points",
+           "joining", "point_map"]
 
 # message tags on the joining communicator
 _TAG_READY, _TAG_ASSIGN, _TAG_REQUEST, _TAG_GROUP = 7401, 7402, 7403, 7404
 # polling: first and longest sleep between two probes (s)
 _POLL_MIN, _POLL_MAX = 1e-4, 5e-3
+#: rank 0's wait between two polls of the broker (s): right after something
+#: happened, and at most (it doubles while nothing does); a point waits at
+#: most this long for its helpers
+POLL_BUSY, POLL_IDLE = 0.005, 0.2
 
 # this rank's joining communicator while a joining farm runs (None otherwise)
 _farm = {"comm": None}
@@ -259,15 +264,24 @@ class Broker:
         pool : mpi4py.futures executor
         n_tasks : int
             The farm's tasks handed out and not ended (running or queued).
+
+        Returns
+        -------
+        bool
+            Whether anything happened (a message, a helper handed out or
+            sent away): the caller polls again soon if so, else less often.
         """
-        self.free.extend(self._sources(_TAG_READY))
+        ready = self._sources(_TAG_READY)
+        self.free.extend(ready)
         excess = n_tasks + len(self.helpers) - self._releasing - self.n_workers
         for _ in range(max(0, -excess)):          # free workers: a helper each
             self.helpers.add(pool.submit(help_points))
+        acted = bool(ready) or excess < 0
         while excess > 0 and self.free:            # a task waits: send helpers away
             self.comm.send(None, dest=self.free.pop(), tag=_TAG_ASSIGN)
             self._releasing += 1
             excess -= 1
+            acted = True
         for owner in self._sources(_TAG_REQUEST):
             given = [] if excess > 0 else sorted(self.free)
             self.free = [r for r in self.free if r not in given]
@@ -279,6 +293,8 @@ class Broker:
                 self.comm.send(([owner] + given, tag), dest=r, tag=_TAG_ASSIGN)
             self.comm.send((given, tag), dest=owner, tag=_TAG_GROUP)
             self.points += bool(given)
+            acted = True
+        return acted
 
     def ended(self, fut):
         """A helper task ended (it was sent away): record what it did.
@@ -309,7 +325,7 @@ class Broker:
         error = None
         while self.helpers:
             self.poll(pool, self.n_workers + len(self.helpers))   # (no new helper)
-            done, _ = wait(self.helpers, timeout=0.02, return_when=FIRST_COMPLETED)
+            done, _ = wait(self.helpers, timeout=POLL_BUSY, return_when=FIRST_COMPLETED)
             for fut in done:
                 error = error or self.ended(fut)
         return error

@@ -105,7 +105,7 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
 
     from mpi4py.futures import MPICommExecutor
 
-    from remote_trigger.pywrap.runtime.joining import Broker, joining
+    from remote_trigger.pywrap.runtime.joining import POLL_BUSY, POLL_IDLE, Broker, joining
     from remote_trigger.pywrap.runtime.parallel import portable_exception
 
     error = None
@@ -114,14 +114,18 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
             if pool is not None:         # rank 0; the workers run tasks meanwhile
                 broker = Broker(jc, n_workers(comm)) if join else None
                 futures = {pool.submit(_timed, fn, task, args): task for task in tasks}
+                pause = POLL_BUSY
                 while futures:
                     if broker is not None:
-                        broker.poll(pool, len(futures))
+                        busy = broker.poll(pool, len(futures))
+                        pause = POLL_BUSY if busy else min(2 * pause, POLL_IDLE)
                         waiting = futures.keys() | broker.helpers
                     else:
                         waiting = futures
-                    finished, _ = wait(waiting, timeout=None if broker is None else 0.02,
+                    finished, _ = wait(waiting, timeout=None if broker is None else pause,
                                        return_when=FIRST_COMPLETED)
+                    if finished:
+                        pause = POLL_BUSY
                     for fut in finished:
                         if broker is not None and fut in broker.helpers:
                             failed = _portable(broker.ended(fut))
