@@ -17,7 +17,13 @@ running tasks (:mod:`~remote_trigger.pywrap.runtime.joining`).
 import collections
 import time
 
-__all__ = ["run_tasks", "n_workers", "helped"]
+__all__ = ["run_tasks", "n_workers", "helped", "FARM_BACKOFF"]
+
+#: the longest sleep (s) of ``mpi4py.futures``' polling loops (its option
+#: ``backoff``; its default, 1 ms, kept rank 0's manager thread at ~3-4 % of
+#: a core through a farm; 10 ms: ~1 %, and at most ~10 ms more before a free
+#: rank gets its next task)
+FARM_BACKOFF = 0.01
 
 #: On rank 0 after a joining :func:`run_tasks`: ``points`` (points that had
 #: helpers) and ``helpers`` (sorted (points joined, rank) of each helper
@@ -110,7 +116,7 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
 
     error = None
     with (joining(comm) if join else nullcontext()) as jc:
-        with MPICommExecutor(comm, root=0) as pool:
+        with MPICommExecutor(comm, root=0, backoff=FARM_BACKOFF) as pool:
             if pool is not None:         # rank 0; the workers run tasks meanwhile
                 broker = Broker(jc, n_workers(comm)) if join else None
                 futures = {pool.submit(_timed, fn, task, args): task for task in tasks}
