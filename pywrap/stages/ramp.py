@@ -575,12 +575,24 @@ def _starts(rlog):
 
 def _prune_equilibria(rlog):
     """Remove the equilibrium files of the recorded points except the starts
-    (:func:`_starts`, and with ``between`` > 1 those of the loads between steps
-    still to decide) and the bracket's upper end (the smallest load certified
-    complex); files already gone are skipped."""
+    (:func:`_starts`; with ``between`` > 1 also those of the loads between
+    steps still to decide, and the highest point certified real below the
+    next of them, the bracket's lower end should that one be complex) and
+    the bracket's upper end (the smallest load certified complex); files
+    already gone are skipped."""
     keep, hi = _starts(rlog), ramp_bracket(rlog)[1]
     if rlog.cfg.between > 1:          # the starts of the loads between steps still to decide
-        keep |= {f for _, f in _between_pending(rlog, rlog.cfg.between)}
+        pending = _between_pending(rlog, rlog.cfg.between)
+        keep |= {f for _, f in pending}
+        if pending:
+            # should the next one be complex, the bracket's lower end is the
+            # highest load certified real below it, which may be a load between
+            nxt = pending[0][0]
+            below = [(F, f) for kind in (ramp_file.STEPS, ramp_file.BISECTION)
+                     for F, d, f in zip(rlog.rows[kind]["F_x"], rlog.rows[kind]["decision"],
+                                        rlog.files[kind]) if d == Decision.REAL and F < nxt]
+            if below:
+                keep.add(max(below, key=lambda x: x[0])[1])
     for kind in (ramp_file.STEPS, ramp_file.BISECTION):
         rows = rlog.rows[kind]
         for F, d, f in zip(rows["F_x"], rows["decision"], rlog.files[kind]):

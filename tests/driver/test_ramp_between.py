@@ -119,3 +119,40 @@ def test_interrupted_inside_the_check_and_resumed_is_bitwise(window, tmp_path):
                 continue
             np.testing.assert_array_equal(y[key], x[key], err_msg=key)
         assert (other.F_x_c_low, other.F_x_c_high) == (full.F_x_c_low, full.F_x_c_high)
+
+
+def test_pruning_keeps_the_load_between_that_may_become_the_lower_end(tmp_path):
+    """``keep_equilibria = False`` at a checkpoint inside the check between
+    steps: the highest load certified real below the next load to check is
+    kept, even when it is itself a load between, since that next load may be
+    complex and make it the bracket's lower end (the start of the bisection).
+    (Found on an N = 6400 ramp, where every point writes ramp.h5 and so
+    prunes: its bisection asked for a load between that had been removed.)"""
+    from types import SimpleNamespace
+
+    from remote_trigger.pywrap.stages.ramp import _prune_equilibria
+
+    def files(names):
+        out = []
+        for name in names:
+            for ext in (".data", ".dump", ".dump.json"):
+                (tmp_path / (name + ext)).write_text("")
+            out.append(str(tmp_path / (name + ".data")))
+        return out
+
+    # steps 0 .. 0.3 real, 0.4 complex (the bracket [0.3, 0.4]); m = 3: loads
+    # between 0.0333, 0.0667 (from step 0) and 0.1333 (from step 0.1) checked
+    # real; 0.1667 (from step 0.1) next
+    steps = {"F_x": [0.0, 0.1, 0.2, 0.3, 0.4], "decision": [0.0, 0.0, 0.0, 0.0, 1.0]}
+    between = {"F_x": [0.1 / 3, 0.2 / 3, 0.4 / 3], "decision": [0.0, 0.0, 0.0]}
+    rlog = SimpleNamespace(rows={"steps": steps, "bisection": between},
+                           files={"steps": files([f"step_{k}" for k in range(5)]),
+                                  "bisection": files(["bisect_0", "bisect_1", "bisect_2"])},
+                           cfg=SimpleNamespace(between=3))
+    _prune_equilibria(rlog)
+    kept = sorted(p.name for p in tmp_path.glob("*.data"))
+    # step_1, step_2: starts of loads still to check; step_3: the last step and the
+    # bracket's lower end; step_4: its upper end; bisect_2 (0.1333): the lower end
+    # should 0.1667 be complex
+    assert kept == ["bisect_2.data", "step_1.data", "step_2.data", "step_3.data",
+                    "step_4.data"], kept
