@@ -65,7 +65,7 @@ def test_refusals_name_the_value(runs, tmp_path):
                     phi=0.6)
     with pytest.raises(ConfigError, match=r"differ in frictional_relax \(\{'max_steps': 50000\} "
                                           r"vs \{'max_steps': 1\}\); phi \(0.82 vs 0.6\); only "
-                                          r"n, seeds and np may differ$"):
+                                          r"n, seeds, np and part_size may differ$"):
         combine_runs([a, c], str(tmp_path / "o1"))
     with pytest.raises(ConfigError, match="packing N16_s1 is finished in both"):
         combine_runs([a, b, a], str(tmp_path / "o2"))
@@ -391,3 +391,15 @@ def test_a_seed_run_again_in_a_folder_of_its_own_is_not_left_out(tmp_path, capsy
     assert man["left_out"] == [] and man["n_packings"] == 3
     assert "left out" not in capsys.readouterr().out
     assert_reference_columns(out / "ensemble.h5")
+
+
+def test_runs_of_other_part_sizes_combine(runs, tmp_path):
+    """``part_size`` (how the sliced points were split; the verdicts do not
+    depend on it) may differ between the runs; the combined configuration
+    leaves it out."""
+    a, _ = runs
+    b = _run_folder(tmp_path / "b3", 20, [1], ["N20_s1"], part_size=2300)
+    combine_runs([a, b], str(tmp_path / "o"), speak=False)
+    cfg = json.loads((tmp_path / "o" / "config.json").read_text())
+    with open(os.path.join(REF, "config.json")) as fh:
+        assert cfg == dict(json.load(fh), n=[16, 20], seeds=[[1, 2], [1]])

@@ -16,9 +16,10 @@ from remote_trigger.pywrap.config import ConfigError
 
 __all__ = ["collect_runs"]
 
-#: keys that may differ between the runs: the sizes, the seeds, the ranks used
-#: (``saddle_escape`` is compared per packing, below)
-_FREE = ("n", "seeds", "np", "saddle_escape")
+#: keys that may differ between the runs: the sizes, the seeds, the ranks used,
+#: the part size of the sliced points (their verdicts do not depend on it, only
+#: the eigenvalues' last bits) (``saddle_escape`` is compared per packing, below)
+_FREE = ("n", "seeds", "np", "part_size", "saddle_escape")
 #: keys that may be one number per N (EnsembleConfig.for_size): compared per N
 _PER_SIZE = ("dF_x", "tol", "between")
 #: the key of ``relax`` that may differ: the clearance test is compared per
@@ -72,8 +73,9 @@ def _per_size_values(name, runs):
         for n, val in (zip(cfg.n, v) if isinstance(v, tuple) else ((n, v) for n in every)):
             if n in seen and seen[n][1] != val:
                 raise ConfigError(f"--combine: {seen[n][0]!r} and {d!r} differ in {name} "
-                                  f"({seen[n][1]!r} vs {val!r}) for N = {n}; only n, seeds "
-                                  "and np may differ (dF_x, tol and between may be one per N)")
+                                  f"({seen[n][1]!r} vs {val!r}) for N = {n}; only n, seeds, "
+                                  "np and part_size may differ (dF_x, tol and between may be "
+                                  "one per N)")
             seen.setdefault(n, (d, val))
     return {n: val for n, (_, val) in seen.items()}
 
@@ -133,7 +135,7 @@ def collect_runs(dirs, out, speak=True):
                 diff.append(f"{k} ({c0.get(k)!r} vs {c.get(k)!r})")
         if diff:
             raise ConfigError(f"--combine: {d0!r} and {d!r} differ in {'; '.join(diff)}; "
-                              "only n, seeds and np may differ")
+                              "only n, seeds, np and part_size may differ")
     per_size = {name: _per_size_values(name, runs) for name in _PER_SIZE}
     found, missing = {}, []
     for d, _, cfg in runs:
@@ -173,6 +175,7 @@ def collect_runs(dirs, out, speak=True):
     sizes = sorted({v[1]["n"] for v in found.values()})
     seeds = [sorted(v[1]["seed"] for v in found.values() if v[1]["n"] == n) for n in sizes]
     merged = dict(c0, n=sizes, seeds=seeds, np=1)
+    merged.pop("part_size", None)   # (how each run split its points; nothing to resume)
     clearances = {(c.get("relax") or {}).get(_RELAX_PER_PACKING) for _, c, _ in runs}
     if len(clearances) > 1:     # runs that set it differently: per packing only
         merged["relax"] = _without_clearance(c0.get("relax"))
