@@ -27,22 +27,22 @@ points of the running tasks instead:
 The answer of a point does not depend on how many helpers joined it: the
 parts are fixed by ``part_size`` and each is deterministic, so the merged
 verdict and eigenvalues are the same bits on any number of ranks, as for
-``ramp --np`` (tests/driver/test_joining_mpi.py). Every wait polls with
-``Iprobe`` and sleeps between polls, so waiting costs no core.
+``ramp --np`` (tests/driver/test_joining_mpi.py). Every wait polls
+(:func:`~remote_trigger.pywrap.runtime.rankmap.wait_message`), so waiting
+costs no core.
 """
 from __future__ import annotations
 
 import itertools
-import time
 from contextlib import contextmanager
+
+from remote_trigger.pywrap.runtime.rankmap import RankMap, serve, wait_message
 
 __all__ = ["Broker", "POLL_BUSY", "POLL_IDLE", "PointMap", "active", "help_points",
            "joining", "point_map"]
 
 # message tags on the joining communicator
 _TAG_READY, _TAG_ASSIGN, _TAG_REQUEST, _TAG_GROUP = 7401, 7402, 7403, 7404
-# polling: first and longest sleep between two probes (s)
-_POLL_MIN, _POLL_MAX = 1e-4, 5e-3
 #: rank 0's wait between two polls of the broker (s): right after something
 #: happened, and at most (it doubles while nothing does); a point waits at
 #: most this long for its helpers
@@ -50,14 +50,6 @@ POLL_BUSY, POLL_IDLE = 0.005, 0.2
 
 # this rank's joining communicator while a joining farm runs (None otherwise)
 _farm = {"comm": None}
-
-
-def _wait_message(comm, source, tag):
-    """Poll for a message (sleeping between probes) until one is there."""
-    pause = _POLL_MIN
-    while not comm.Iprobe(source=source, tag=tag):
-        time.sleep(pause)
-        pause = min(2 * pause, _POLL_MAX)
 
 
 @contextmanager
@@ -145,11 +137,9 @@ class PointMap:
             self._asked = True
             jc = _farm["comm"]
             jc.send(None, dest=0, tag=_TAG_REQUEST)
-            _wait_message(jc, 0, _TAG_GROUP)
+            wait_message(jc, 0, _TAG_GROUP)
             helpers, tag = jc.recv(source=0, tag=_TAG_GROUP)
             if helpers:
-                from remote_trigger.pywrap.runtime.rankmap import RankMap
-
                 self.helpers = list(helpers)
                 self._sub = _sub_comm(jc, [jc.Get_rank()] + self.helpers, tag)
                 self._rankmap = RankMap(self._sub, self.shared_types)
@@ -198,13 +188,11 @@ def help_points(_task=None):
     tuple of int
         (points joined, this rank in the farm's communicator).
     """
-    from remote_trigger.pywrap.runtime.rankmap import serve
-
     jc = _farm["comm"]
     points = 0
     while True:
         jc.send(None, dest=0, tag=_TAG_READY)
-        _wait_message(jc, 0, _TAG_ASSIGN)
+        wait_message(jc, 0, _TAG_ASSIGN)
         msg = jc.recv(source=0, tag=_TAG_ASSIGN)
         if msg is None:
             return points, jc.Get_rank()
