@@ -126,24 +126,35 @@ def ramp_bracket(rlog):
     unknown : list of float
         Loads strictly inside (lo, hi) without a certified answer.
     """
+    F, dec, files = _all_rows(rlog)
+    cx = F[dec == Decision.COMPLEX]
+    hi = float(cx.min()) if cx.size else float("nan")
+    lo, lo_file = _highest_real_below(rlog, hi if cx.size else np.inf)
+    unknown = sorted(float(f) for f, d in zip(F, dec)
+                     if not (d == Decision.REAL or d == Decision.COMPLEX) and lo < f < hi)
+    return lo, hi, lo_file, unknown
+
+
+def _all_rows(rlog):
+    """(F_x, decision, data file) of every row, steps then bisection."""
     F, dec, files = [], [], []
     for kind in ("steps", "bisection"):
         rows = rlog.rows[kind]
         F.extend(rows["F_x"])
         dec.extend(rows["decision"])
         files.extend(rlog.files[kind])
-    F, dec = np.asarray(F, float), np.asarray(dec, float)
-    cx = F[dec == Decision.COMPLEX]
-    hi = float(cx.min()) if cx.size else float("nan")
-    real = np.flatnonzero((dec == 0) & (F < hi)) if cx.size else np.flatnonzero(dec == 0)
-    if real.size:
-        k = int(real[np.argmax(F[real])])
-        lo, lo_file = float(F[k]), files[k]
-    else:
-        lo, lo_file = float("nan"), None
-    unknown = sorted(float(f) for f, d in zip(F, dec)
-                     if not (d == Decision.REAL or d == Decision.COMPLEX) and lo < f < hi)
-    return lo, hi, lo_file, unknown
+    return np.asarray(F, float), np.asarray(dec, float), files
+
+
+def _highest_real_below(rlog, limit):
+    """(F_x, data file) of the highest row certified real below ``limit``
+    (NaN, None if none): the bracket's lower end were ``limit`` its upper."""
+    F, dec, files = _all_rows(rlog)
+    real = np.flatnonzero((dec == Decision.REAL) & (F < limit))
+    if not real.size:
+        return float("nan"), None
+    k = int(real[np.argmax(F[real])])
+    return float(F[k]), files[k]
 
 
 def next_bisection_point(lo, hi, unknown, tol):
@@ -587,12 +598,7 @@ def _prune_equilibria(rlog):
         if pending:
             # should the next one be complex, the bracket's lower end is the
             # highest load certified real below it, which may be a load between
-            nxt = pending[0][0]
-            below = [(F, f) for kind in (ramp_file.STEPS, ramp_file.BISECTION)
-                     for F, d, f in zip(rlog.rows[kind]["F_x"], rlog.rows[kind]["decision"],
-                                        rlog.files[kind]) if d == Decision.REAL and F < nxt]
-            if below:
-                keep.add(max(below, key=lambda x: x[0])[1])
+            keep.add(_highest_real_below(rlog, pending[0][0])[1])
     for kind in (ramp_file.STEPS, ramp_file.BISECTION):
         rows = rlog.rows[kind]
         for F, d, f in zip(rows["F_x"], rows["decision"], rlog.files[kind]):
