@@ -7,7 +7,10 @@ the answers are those of one rank; a task queued behind the helpers (a
 follow-up) still runs, the helpers being sent away; a point that raises,
 or a task that raises, leaves no helper waiting; and the sliced verdict in parts of a stored N = 400
 equilibrium, decided through the driver's ``decide_on_rank0`` inside a farm
-task, has the same bits as on one rank alone."""
+task, has the same bits as on one rank alone. ``kill -9`` of the rank that
+owns a joined point (right after the point's second part is saved), then the
+same farm again: the saved tasks are read back and the verdict has the bits
+of one rank alone."""
 import os
 import pickle
 import subprocess
@@ -143,6 +146,75 @@ open(f"{sys.argv[1]}/ok{rank}", "w").close()
 '''
 
 
+def checkpointed_bits(dump, folder, mode):
+    """The sliced verdict in parts of ``dump`` through ``decide_on_rank0`` with
+    its checkpoint in ``folder``; ``mode`` 'kill': this process kills itself
+    (SIGKILL) once the point's second part is saved, after writing the helpers
+    that joined the point to ``folder``/joined; 'resume': also how many saved
+    tasks were read back."""
+    import signal
+
+    from mpi4py import MPI
+
+    from remote_trigger.analysis.stability.sliced import checkpoint
+    from remote_trigger.analysis.stability.verdict import VerdictOptions
+    from remote_trigger.pywrap.runtime import joining
+    from remote_trigger.pywrap.stages.common import decide_on_rank0
+
+    joined, hits = [], []
+    call, save, load = (joining.PointMap.__call__, checkpoint.ScanFiles.save_task,
+                        checkpoint.ScanFiles.load_task)
+
+    def call_and_note(self, fn, tasks):
+        out = call(self, fn, tasks)
+        joined[:] = self.helpers
+        return out
+
+    def save_then_kill(self, kind, j, result):
+        save(self, kind, j, result)
+        if mode == "kill" and kind == "part" and j > 0:
+            with open(os.path.join(folder, "joined"), "w") as fh:
+                fh.write(" ".join(map(str, joined)))
+            os.kill(os.getpid(), signal.SIGKILL)
+
+    def load_and_count(self, kind, j):
+        r = load(self, kind, j)
+        hits.append(r is not None)
+        return r
+
+    joining.PointMap.__call__ = call_and_note
+    checkpoint.ScanFiles.save_task, checkpoint.ScanFiles.load_task = (save_then_kill,
+                                                                      load_and_count)
+    try:
+        time.sleep(1.0)                  # (the helpers report to rank 0 first)
+        opts = VerdictOptions(method="sliced", part_size=400, checkpoint_dir=folder)
+        res = decide_on_rank0(SimpleNamespace(comm=MPI.COMM_SELF), dump, opts)
+    finally:
+        joining.PointMap.__call__ = call
+        checkpoint.ScanFiles.save_task, checkpoint.ScanFiles.load_task = save, load
+    return (pickle.dumps((str(res.decision), np.asarray(res.eigenvalues).tobytes(),
+                          float(res.max_imag), res.reason, res.n_dof)), sum(hits),
+            list(joined))
+
+
+KILL_SCRIPT = r'''
+import sys
+sys.path.insert(0, sys.argv[2])
+from mpi4py import MPI
+from remote_trigger.pywrap.runtime.taskfarm import run_tasks
+from tests.driver.test_joining_mpi import checkpointed_bits, verdict_bits
+
+comm = MPI.COMM_WORLD
+folder, dump, mode = sys.argv[1], sys.argv[3], sys.argv[4]
+res = run_tasks(comm, [dump], checkpointed_bits, (folder, mode), join=True)
+if comm.Get_rank() == 0:
+    bits, hits, joined = res[0][1]
+    alone = verdict_bits(dump)[0]          # one rank, no farm, no checkpoint
+    with open(folder + "/resumed", "w") as fh:
+        fh.write(f"{int(bits == alone)} {hits} {len(joined)}")
+'''
+
+
 def test_outside_a_joining_farm_a_point_is_not_joined():
     assert not active(None)
 
@@ -158,3 +230,30 @@ def test_free_workers_join_the_points_of_a_running_task(tmp_path):
                          timeout=300)
     assert res.returncode == 0, res.stdout + res.stderr
     assert all((tmp_path / f"ok{r}").exists() for r in range(4))
+
+
+@pytest.mark.mpi
+def test_kill_inside_a_joined_point_then_resume(tmp_path):
+    unpack("free_rotation_N400_s5_step_00002.dump.json", str(tmp_path))
+    dump = unpack("free_rotation_N400_s5_step_00002", str(tmp_path))
+    script = tmp_path / "k.py"
+    script.write_text(KILL_SCRIPT)
+    folder = tmp_path / "verdicts"
+    folder.mkdir()
+
+    def farm(mode):
+        return subprocess.run([MPIRUN, "-np", "4", sys.executable, str(script),
+                               str(folder), ROOT, dump, mode], capture_output=True,
+                              text=True, env=cli_env(), timeout=300)
+
+    res = farm("kill")
+    assert res.returncode != 0
+    assert len((folder / "joined").read_text().split()) >= 1    # the killed point was joined
+    saved = sorted(p.name.split(".", 1)[1] for p in folder.glob("sliced-*.task-*"))
+    assert saved == ["task-cut-00001.pkl", "task-cut-00002.pkl", "task-part-00000.pkl",
+                     "task-part-00001.pkl"], saved
+    res = farm("resume")
+    assert res.returncode == 0, res.stdout + res.stderr
+    same, hits, helpers = map(int, (folder / "resumed").read_text().split())
+    assert (same, hits) == (1, 4), (same, hits)       # the bits of one rank; 4 tasks read back
+    assert helpers >= 1
