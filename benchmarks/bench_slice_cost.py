@@ -16,10 +16,14 @@ and the same pieces at N = 10^4 in the same run:
   force) and every diameter is scaled by 1 + ``--jitter`` xi (xi normal) to
   lift the copies' degenerate Bloch spectrum. The state is written as read
   (``run 0``), **not re-equilibrated**: forces of order k_eff jitter R
-  remain. (Newton from it, or from the tiled relaxed packing, runs for tens
-  of minutes at N = 10^5 on the rolling modes' singular K, and leaves a few
-  disks on two contacts of overlap ~1e-8 R near the Coulomb limit, which
-  raise ||W||_2 15-300 fold at two copies.) A wide layer (10 x as wide as
+  remain. (Re-equilibrating by Newton was tried, from the tiled loaded
+  point with jitter 1e-5 and from the tiled relaxed packing with jitter
+  1e-6: at two copies it left a few disks on two contacts of overlap
+  ~1e-8 R near the Coulomb limit, which raised ||W||_2 to 977 and 46-66
+  (3.24 at N = 10^4); at N = 10^5 it took 12 min from the loaded point,
+  and from the relaxed packing was stopped after 18 and 23 min, in the
+  solver for the rolling modes' singular K and in damped dynamics.)
+  A wide layer (10 x as wide as
   high) with the contact network of the N = 10^4 packing, not a packing of
   the ensemble's law. Cached under ``$REMOTE_TRIGGER_BENCH_CACHE`` (default
   ``~/.cache/remote_trigger``) ``/parallel_point``.
