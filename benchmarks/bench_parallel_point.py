@@ -24,10 +24,12 @@ ranks (each task to the first free rank, in order, as the MPI map hands
 them out; a static partition beside it; the two rounds one after the
 other) and adds setup,
 merge and the sending of the matrices (a ``bcast`` of the pickled problem:
-its size and log2 k steps at the measured rate); for N = 10^4 and 10^5 it
-scales the measured costs with n by the exponents fitted between the two
-sizes measured (``--model-from``), with parts of n / k eigenvalues. What
-it cannot know: the memory per rank and a network's latency.
+its size and log2 k steps at the measured rate); for N = 10^4 it scales
+the measured costs with n by the exponents fitted between the two largest
+sizes whose one-rank runs are kept in the cache, with parts of n / k
+eigenvalues (not for N = 10^5: no slice certifies there,
+``bench_slice_cost``). What it cannot know: the memory per rank and a
+network's latency.
 
     python benchmarks/bench_parallel_point.py [--quick] [--n 6400 10000] [--part-size 2400]
                                               [--ranks 1 2] [--no-whole]
@@ -328,7 +330,8 @@ def one_size(n, args):
 
 
 def model_large():
-    """The model of N = 10^4 and 10^5 from the one-rank records kept in the cache."""
+    """The model of N = 10^4 from the one-rank records kept in the cache (not of
+    10^5: its slices do not certify, ``bench_slice_cost``)."""
     runs = []
     for name in sorted(os.listdir(cache_dir())):
         if name.startswith("records_N"):
@@ -338,10 +341,10 @@ def model_large():
         runs.sort(key=lambda r: r["parts"]["n"])
         used = ", ".join(f"n = {r['parts']['n']} ({r.get('recorded', {}).get('date', 'undated')}, "
                          f"{r.get('recorded', {}).get('commit', 'commit unknown')})" for r in runs)
-        print(f"model of N = 10^4 (n = 28 800) and 10^5 (n = 300 000), k parts of n / k, "
-              f"from the one-rank runs kept in the cache (power laws through the two "
-              f"largest): {used}")
-        for nn, ks in ((28800, (1, 2, 16)), (300000, (1, 16, 256))):
+        print(f"model of N = 10^4 (n = 28 800), k parts of n / k, from the one-rank runs "
+              f"kept in the cache (power laws through the two largest): {used}; N = 10^5: "
+              f"none (bench_slice_cost: no slice certifies there)")
+        for nn, ks in ((28800, (1, 2, 16)),):
             for k in ks:
                 t, parts = extrapolate(runs, nn, k)
                 what = "; ".join(f"{key} {v:.3g} s (n^{a:.2f})" if key != "bcast" else
