@@ -73,6 +73,12 @@ def failing(task):
     return msg, [v for v, _ in again]
 
 
+def bits(res):
+    """A verdict's decision, eigenvalues, largest |Im|, reason and dofs, as bytes."""
+    return pickle.dumps((str(res.decision), np.asarray(res.eigenvalues).tobytes(),
+                         float(res.max_imag), res.reason, res.n_dof))
+
+
 def verdict_bits(dump):
     """The sliced verdict in parts of the equilibrium ``dump``, twice, through
     the driver's decide_on_rank0 on this rank (and the farm's helpers)."""
@@ -86,8 +92,7 @@ def verdict_bits(dump):
     for pause in (1.0, 0.3):             # (the helpers report to rank 0 first)
         time.sleep(pause)
         res = decide_on_rank0(SimpleNamespace(comm=MPI.COMM_SELF), dump, opts)
-        out.append(pickle.dumps((str(res.decision), np.asarray(res.eigenvalues).tobytes(),
-                                 float(res.max_imag), res.reason, res.n_dof)))
+        out.append(bits(res))
     return out
 
 
@@ -192,9 +197,7 @@ def checkpointed_bits(dump, folder, mode):
     finally:
         joining.PointMap.__call__ = call
         checkpoint.ScanFiles.save_task, checkpoint.ScanFiles.load_task = save, load
-    return (pickle.dumps((str(res.decision), np.asarray(res.eigenvalues).tobytes(),
-                          float(res.max_imag), res.reason, res.n_dof)), sum(hits),
-            list(joined))
+    return bits(res), sum(hits), list(joined)
 
 
 KILL_SCRIPT = r'''
@@ -219,32 +222,37 @@ def test_outside_a_joining_farm_a_point_is_not_joined():
     assert not active(None)
 
 
+def stored_dump(folder):
+    """The stored N = 400 equilibrium (with its sidecar) unpacked into ``folder``."""
+    unpack("free_rotation_N400_s5_step_00002.dump.json", str(folder))
+    return unpack("free_rotation_N400_s5_step_00002", str(folder))
+
+
+def farm_of_four(script, folder, dump, *args):
+    """``script`` (its text, written to ``folder``) under ``mpirun -np 4`` with the
+    arguments folder, the repository's root, ``dump`` and ``args``."""
+    path = folder / "farm.py"
+    path.write_text(script)
+    return subprocess.run([MPIRUN, "-np", "4", sys.executable, str(path), str(folder), ROOT,
+                           dump, *args], capture_output=True, text=True, env=cli_env(),
+                          timeout=300)
+
+
 @pytest.mark.mpi
 def test_free_workers_join_the_points_of_a_running_task(tmp_path):
-    unpack("free_rotation_N400_s5_step_00002.dump.json", str(tmp_path))
-    dump = unpack("free_rotation_N400_s5_step_00002", str(tmp_path))
-    script = tmp_path / "s.py"
-    script.write_text(SCRIPT)
-    res = subprocess.run([MPIRUN, "-np", "4", sys.executable, str(script), str(tmp_path),
-                          ROOT, dump], capture_output=True, text=True, env=cli_env(),
-                         timeout=300)
+    res = farm_of_four(SCRIPT, tmp_path, stored_dump(tmp_path))
     assert res.returncode == 0, res.stdout + res.stderr
     assert all((tmp_path / f"ok{r}").exists() for r in range(4))
 
 
 @pytest.mark.mpi
 def test_kill_inside_a_joined_point_then_resume(tmp_path):
-    unpack("free_rotation_N400_s5_step_00002.dump.json", str(tmp_path))
-    dump = unpack("free_rotation_N400_s5_step_00002", str(tmp_path))
-    script = tmp_path / "k.py"
-    script.write_text(KILL_SCRIPT)
+    dump = stored_dump(tmp_path)
     folder = tmp_path / "verdicts"
     folder.mkdir()
 
     def farm(mode):
-        return subprocess.run([MPIRUN, "-np", "4", sys.executable, str(script),
-                               str(folder), ROOT, dump, mode], capture_output=True,
-                              text=True, env=cli_env(), timeout=300)
+        return farm_of_four(KILL_SCRIPT, folder, dump, mode)
 
     res = farm("kill")
     assert res.returncode != 0
