@@ -161,12 +161,11 @@ def measure(dump, nslices, part_size=1000):
     return rec
 
 
-def model(rec, k, Delta=None):
+def model(rec, k):
     """Predicted wall of the point on k ranks, parts of n / k (module docstring):
     (total, its terms)."""
-    Delta = rec["Delta"] if Delta is None else Delta
     c = max(p["per_eig"] for p in rec["places"])
-    win = max(2 * Delta / p["spacing"] for p in rec["places"])
+    win = max(2 * rec["Delta"] / p["spacing"] for p in rec["places"])
     split = max(p["split"] for p in rec["places"])
     cut = split + (win + 60) * c
     part = (rec["n"] / k + 1.5 * win + 60) * c
