@@ -79,7 +79,7 @@ import time
 
 import numpy as np
 
-from remote_trigger.analysis.stability.sliced.inertia import Shifts
+from remote_trigger.analysis.stability.sliced.inertia import Shifts, count_below, fuzz_limit
 from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
 from remote_trigger.analysis.stability.sliced.slices import Position
 from remote_trigger.analysis.stability.sliced.stats import SlicedStats
@@ -170,21 +170,27 @@ class Cut:
 def split_point(shifts, lo, hi, target, tol):
     """A point x in (lo, hi) whose Sylvester count of S is within ``tol`` of
     ``target``, by bisection on the count (``shifts``: a :class:`~.inertia.Shifts`
-    of S): (x, count, fuzz).
+    of S): (x, count, fuzz). The bisection steers by float64 counts; the
+    count returned is double-word where their fuzz exceeds ``shifts.fuzz_limit``.
 
     Raises
     ------
     SliceFailure
         If 200 halvings do not reach such a count.
     """
+    def steer(x):                # float64 counts steer; the point kept is counted by shifts
+        return count_below(shifts.S, x, shifts.factor(x))[:2]
+
     for _ in range(200):
         x = 0.5 * (lo + hi)
         try:
-            cnt, fz, _ = shifts.count_below(x)
+            cnt, fz = steer(x)
         except (ValueError, SliceFailure):      # a zero pivot: a point beside it
             x = lo + 0.5000001 * (hi - lo)
-            cnt, fz, _ = shifts.count_below(x)
+            cnt, fz = steer(x)
         if abs(cnt - target) <= tol:
+            if fz > shifts.fuzz_limit:
+                cnt, fz = shifts.count_below_dw(x)
             return x, cnt, fz
         if cnt < target:
             lo = x
@@ -201,7 +207,8 @@ def find_cut(task):
     pb = task.problem
     stats = SlicedStats()
     tol = pb.part_size // _CUT_TOL
-    x, cnt, fz = split_point(Shifts(pb.S), pb.lo0, pb.hi0, task.target, tol)
+    shifts = Shifts(pb.S, fuzz_limit(pb.ctx.normS, pb.S.shape[0]))
+    x, cnt, fz = split_point(shifts, pb.lo0, pb.hi0, task.target, tol)
     cut = Cut(task.j, x, cnt, fz, None, stats=stats)
     scan = pb.scan(stats)
     scan.begin_part(Position(x, cnt, fz, _rng(task.j)), cnt)

@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from remote_trigger.analysis.stability.enclosure import gamma
-from remote_trigger.analysis.stability.sliced.inertia import Shifts, count_below
+from remote_trigger.analysis.stability.sliced.inertia import Shifts, count_below, fuzz_limit
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
 
 __all__ = ["Slice", "Position", "ritz_slices", "rayleigh_ritz", "shift_invert",
@@ -189,7 +189,7 @@ def ritz_slices(S, W, k, normS, pos, stats):
         Ritz value within the radius of an edge, no certified upper edge).
     """
     n = S.shape[0]
-    shifts = Shifts(S)
+    shifts = Shifts(S, fuzz_limit(normS, n))
     while pos.count < n:
         yield _next_slice(S, W, k, normS, pos, shifts, stats)
 
