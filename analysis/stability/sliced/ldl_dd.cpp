@@ -98,6 +98,10 @@ extern "C" {
 // row sum of |I + L| |D| |I + L|^T from the leading words (double);
 // *nnz_l, the entries of L. Returns 0, or k + 1 if the pivot of row k is zero
 // (the outputs are then not set), or -1 if memory ran out.
+// Two builds of the function, chosen at load time: one with the FMA
+// instruction (std::fma inline), one calling the library's fma; both
+// correctly rounded, so their results are the same bits.
+__attribute__((target_clones("fma", "default")))
 int ldl_dd_inertia(int64_t n, const int64_t* Ap, const int64_t* Ai, const double* Ax,
                    double a, int64_t* negative, int64_t* depth, double* max_row,
                    int64_t* nnz_l) {
