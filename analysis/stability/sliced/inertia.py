@@ -84,12 +84,15 @@ class Shifts:
 
     ``fuzz_limit`` (default: none): a count whose float64 fuzz exceeds it is
     made again by :func:`count_below_dw` in the same ordering (the
-    float64 factorization is kept for the solves); ``dw_counts`` counts them.
+    float64 factorization is kept for the solves); ``dw_counts`` counts them,
+    and so does ``stats.dw_counts`` if ``stats`` (a
+    :class:`~.stats.SlicedStats`) is given.
     """
 
-    def __init__(self, S, fuzz_limit=math.inf):
+    def __init__(self, S, fuzz_limit=math.inf, stats=None):
         self.S = S
         self.fuzz_limit = float(fuzz_limit)
+        self.stats = stats
         self.dw_counts = 0
         self.perm = None
         self.H = shifted(S, 0.0)
@@ -127,6 +130,8 @@ class Shifts:
         if self.perm is None:
             self.perm = self.solver.factors()[2]
         self.dw_counts += 1
+        if self.stats is not None:
+            self.stats.dw_counts += 1
         return count_below_dw(self.S, a, self.perm)
 
     def factor_checked(self, a, what="S - a I"):

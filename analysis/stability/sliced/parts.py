@@ -207,7 +207,7 @@ def find_cut(task):
     pb = task.problem
     stats = SlicedStats()
     tol = pb.part_size // _CUT_TOL
-    shifts = Shifts(pb.S, fuzz_limit(pb.ctx.normS, pb.S.shape[0]))
+    shifts = Shifts(pb.S, fuzz_limit(pb.ctx.normS, pb.S.shape[0]), stats)
     x, cnt, fz = split_point(shifts, pb.lo0, pb.hi0, task.target, tol)
     cut = Cut(task.j, x, cnt, fz, None, stats=stats)
     scan = pb.scan(stats)
@@ -278,7 +278,7 @@ def scan_part(task):
 
 def _add_stats(total, st):
     """Add the work of a task's statistics to ``total``."""
-    for name in ("slices", "boundaries", "arpack_runs", "computed", "reshifted"):
+    for name in ("slices", "boundaries", "arpack_runs", "computed", "reshifted", "dw_counts"):
         setattr(total, name, getattr(total, name) + getattr(st, name))
     for name in ("max_kappa", "fuzz", "ritz_radius"):
         setattr(total, name, max(getattr(total, name), getattr(st, name)))

@@ -189,7 +189,7 @@ def ritz_slices(S, W, k, normS, pos, stats):
         Ritz value within the radius of an edge, no certified upper edge).
     """
     n = S.shape[0]
-    shifts = Shifts(S, fuzz_limit(normS, n))
+    shifts = Shifts(S, fuzz_limit(normS, n), stats)
     while pos.count < n:
         yield _next_slice(S, W, k, normS, pos, shifts, stats)
 

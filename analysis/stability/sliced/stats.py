@@ -45,6 +45,9 @@ class SlicedStats:
         Kahan radius above 1e-3 of their mean Ritz value spacing,
         :mod:`.slices`: inexact solves at a shift where the factorization met
         a tiny pivot).
+    dw_counts : int
+        Sylvester counts made again in double-word arithmetic (their float64
+        fuzz above :func:`~.inertia.fuzz_limit`).
     """
 
     n: int = 0
@@ -59,5 +62,6 @@ class SlicedStats:
     arpack_runs: int = 0
     computed: int = 0
     reshifted: int = 0
+    dw_counts: int = 0
     parts: int = 1
     cuts: tuple = ()
