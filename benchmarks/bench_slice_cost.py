@@ -110,7 +110,7 @@ def measure(dump, nslices, part_size=1000):
 
     from remote_trigger.analysis.stability.sliced import (SlicedStats, classify_sliced,
                                                           scaled_parts)
-    from remote_trigger.analysis.stability.sliced.inertia import Shifts
+    from remote_trigger.analysis.stability.sliced.inertia import Shifts, count_below, fuzz_limit
     from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
     from remote_trigger.analysis.stability.sliced.parts import split_point
     from remote_trigger.analysis.stability.sliced.slices import Position, ritz_slices
@@ -137,12 +137,16 @@ def measure(dump, nslices, part_size=1000):
         scaled_parts(system.K, system.mass), protocol=pickle.HIGHEST_PROTOCOL)), places=[])
     for f in FRACTIONS:
         c0 = time.process_time()
-        shifts = Shifts(pb.S)
+        shifts = Shifts(pb.S, fuzz_limit(pb.ctx.normS, rec["n"]))
         x, cnt, fz = split_point(shifts, pb.lo0, pb.hi0, round(f * rec["n"]), part_size // 10)
         split = time.process_time() - c0
+        dw = shifts.dw_counts > 0
+        # the float64 count's own fuzz there (the count kept is double-word above the limit)
+        fz64 = count_below(pb.S, x, shifts.factor(x))[1]
         # the local spacing of the eigenvalues of S: counts 10 Delta apart
         hi, _, _ = shifts.count_below(x + 10 * pb.ctx.Delta)
-        place = {"fraction": f, "x": x, "split": split, "fuzz": fz,
+        place = {"fraction": f, "x": x, "split": split, "fuzz": fz, "fuzz64": fz64,
+                 "dw": dw,
                  "spacing": 10 * pb.ctx.Delta / max(1, hi - cnt), "slices": [],
                  "advanced": [], "failure": ""}
         pos = Position(x, cnt, fz, np.random.default_rng([12345, round(1000 * f)]))
@@ -199,8 +203,9 @@ def main(argv=None):
               f"setup {rec['setup']:.1f} s; ||W||_2 = {rec['normW']:.3g}, Delta = "
               f"{rec['Delta']:.3g}; problem {rec['problem_bytes'] / 2**20:.0f} MiB")
         for p in rec["places"]:
-            what = [f"split point {p['split']:.1f} s, its inertia fuzz {p['fuzz']:.3g}, mean "
-                    f"spacing of the eigenvalues there {p['spacing']:.3g}"]
+            what = [f"split point {p['split']:.1f} s, its inertia fuzz {p['fuzz']:.3g}"
+                    + (f" (double-word; float64 {p['fuzz64']:.3g})" if p["dw"] else "")
+                    + f", mean spacing of the eigenvalues there {p['spacing']:.3g}"]
             if p["slices"]:
                 what.append("slices " + " ".join(f"{v:.1f}" for v in p["slices"])
                             + " s advancing " + " ".join(str(v) for v in p["advanced"])
