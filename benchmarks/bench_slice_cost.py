@@ -33,7 +33,9 @@ and the same pieces at N = 10^4 in the same run:
   spectrum (a quarter, half and three quarters of the eigenvalues of S
   below): the bisection for a split point (``parts.split_point``, what a
   cut task starts with), the fuzz of its Sylvester count (the rigorous
-  bound of ``inertia.count_below``) beside the mean spacing of the
+  bound of ``inertia.count_below``; where it exceeds ``inertia.fuzz_limit``,
+  as the scan does, that of the double-word ``count_below_dw``, with the
+  float64 one beside it) beside the mean spacing of the
   eigenvalues there (from a second count 10 Delta above), and ``--slices``
   slices from there (``slices.ritz_slices``, what a scan is made of; the
   first left out of the cost as a warm-up) or the reason the first cannot
