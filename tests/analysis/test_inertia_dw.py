@@ -94,3 +94,51 @@ def test_shifts_count_in_double_word_above_the_fuzz_limit():
     x = fac.solve(np.ones(50))
     assert np.allclose((T - a * sp.identity(50)) @ x, 1.0)
     assert inertia.fuzz_limit(100.0, 2000) == pytest.approx(inertia.DW_FUZZ_FRACTION * 0.1)
+
+
+def test_the_scan_counts_again_where_only_the_fuzz_blocks_an_edge(monkeypatch):
+    """Every float64 count given a fuzz of 2.0 (the planted spectrum's spacing is
+    ~0.66) and no fuzz limit: the slices' edges are certified by counting
+    again in double-word arithmetic, with the verdict and eigenvalues of the
+    plain scan; in parts also the lower edge of each part's first slice (its
+    split point); with the double-word count refused, the same scan fails."""
+    from remote_trigger.analysis.stability.decision import Decision
+    from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced
+    from remote_trigger.analysis.stability.sliced import slices
+
+    from .test_sliced import planted
+
+    K, mass = planted(pairs=[(75, 1.5)])
+    plain = classify_sliced(K, mass)
+    assert plain.decision is Decision.COMPLEX
+
+    real_count = inertia.count_below
+    monkeypatch.setattr(inertia, "count_below",
+                        lambda S, a, factor=None: (lambda c: (c[0], max(c[1], 2.0), c[2]))(
+                            real_count(S, a, factor)))
+    monkeypatch.setattr(slices, "fuzz_limit", lambda normS, n: float("inf"))
+    st = SlicedStats()
+    res = classify_sliced(K, mass, stats=st)
+    assert st.dw_counts >= st.slices - 1 > 0
+    assert res.decision is plain.decision, res.reason
+    assert np.allclose(np.sort_complex(np.asarray(res.eigenvalues)),
+                       np.sort_complex(np.asarray(plain.eigenvalues)), rtol=0, atol=1e-9)
+
+    # in parts: the split points' counts blurred too, so each part's first slice
+    # counts its lower edge again (slices._recounted_edge)
+    from remote_trigger.analysis.stability.sliced import parts
+    monkeypatch.setattr(parts, "count_below", inertia.count_below)
+    monkeypatch.setattr(parts, "fuzz_limit", lambda normS, n: float("inf"))
+    st = SlicedStats()
+    res = classify_sliced(K, mass, part_size=60, stats=st)
+    assert st.parts > 1 and st.dw_counts >= st.slices + st.parts - 2
+    assert res.decision is plain.decision, res.reason
+    assert np.allclose(np.sort_complex(np.asarray(res.eigenvalues)),
+                       np.sort_complex(np.asarray(plain.eigenvalues)), rtol=0, atol=1e-9)
+
+    def refused(self, a):
+        raise ValueError(f"no inertia of S - a I at a = {a!r}: refused")
+    monkeypatch.setattr(inertia.Shifts, "count_below_dw", refused)
+    res = classify_sliced(K, mass)
+    assert res.decision is Decision.UNDECIDED
+    assert "edge" in res.reason

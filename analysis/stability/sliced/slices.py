@@ -210,7 +210,7 @@ def _next_slice(S, W, k, normS, pos, shifts, stats):
         raise SliceFailure(f"no Ritz value above the slice edge {x:.6g}")
     theta, Q, WQ, resid = theta[above], Q[:, above], WQ[:, above], resid[above]
     if theta[0] - x <= 2 * (radius + fz_x):
-        raise SliceFailure(f"slice edge {x:.9g} within {2 * (radius + fz_x):.3g} of a Ritz value")
+        fz_x = _recounted_edge(shifts, pos, theta[0] - x, radius)
     cands = _edge_candidates(theta, lam, radius, whole, cnt_x, n)
     y, nkeep, cnt_y, fz = _certified_edge(shifts, cands, theta, radius, x, cnt_x)
     stats.fuzz = max(stats.fuzz, fz)
@@ -290,22 +290,61 @@ def _edge_candidates(theta, lam, radius, whole, cnt_x, n):
     return cands
 
 
+def _recounted_edge(shifts, pos, d, radius):
+    """The fuzz at the lower edge ``pos.x`` where its count's fuzz alone puts the
+    nearest Ritz value above it (``d`` away) too close: the count made again in
+    double-word arithmetic (:meth:`~.inertia.Shifts.count_below_dw`), which must
+    equal ``pos.count``; ``pos.fuzz`` is set to its fuzz.
+
+    Raises
+    ------
+    SliceFailure
+        If the Ritz value lies within 2 x ``radius`` (or 2 (radius + the new
+        fuzz)) of the edge, or the double-word count differs.
+    """
+    x, fz_x = pos.x, pos.fuzz
+    if d > 2 * radius:
+        try:
+            cnt, fz = shifts.count_below_dw(x)
+        except ValueError:
+            cnt, fz = -1, math.inf
+        if cnt != pos.count and cnt >= 0:
+            raise SliceFailure(f"slice edge {x:.9g}: its double-word count {cnt} differs "
+                               f"from its float64 count {pos.count}")
+        if d > 2 * (radius + fz):
+            pos.fuzz = fz
+            return fz
+    raise SliceFailure(f"slice edge {x:.9g} within {2 * (radius + fz_x):.3g} of a Ritz value")
+
+
 def _certified_edge(shifts, cands, theta, radius, x, cnt_x):
     """The first candidate edge y whose Sylvester count equals the count at x
     plus the Ritz values kept, farther than 2 (radius + fuzz) from each Ritz
-    value: (y, Ritz values kept, count at y, its fuzz).
+    value: (y, Ritz values kept, count at y, its fuzz). If none is, the
+    candidates that only their count's fuzz kept too close to a Ritz value
+    are counted again in double-word arithmetic, in the same order.
 
     Raises
     ------
     SliceFailure
         If no candidate is certified.
     """
+    blurred = []
     for y, nkeep in cands:
         try:
             cnt_y, fz, _ = shifts.count_below(y)
         except (ValueError, SliceFailure):
             continue
         d = min(abs(theta - y))
+        if d > 2 * (radius + fz) and cnt_y - cnt_x == nkeep:
+            return y, nkeep, cnt_y, fz
+        if 2 * radius < d <= 2 * (radius + fz):
+            blurred.append((y, nkeep, d))
+    for y, nkeep, d in blurred:
+        try:
+            cnt_y, fz = shifts.count_below_dw(y)
+        except ValueError:
+            continue
         if d > 2 * (radius + fz) and cnt_y - cnt_x == nkeep:
             return y, nkeep, cnt_y, fz
     raise SliceFailure(f"no certified edge above {x:.9g}: inertia count and Ritz values "
