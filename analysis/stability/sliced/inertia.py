@@ -216,8 +216,9 @@ def count_below(S, a, factor=None):
 
 @functools.lru_cache(maxsize=None)
 def _ldl_dd():
-    """The compiled ``ldl_dd_inertia`` (``ldl_dd.cpp``, built with the package)."""
-    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "libldl_dd.so")
+    """The compiled ``ldl_dd_inertia`` (``ldl_dd.cpp``, built with the package into
+    ``native/``)."""
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "native", "libldl_dd.so")
     if not os.path.exists(path):
         raise RuntimeError(f"the double-word LDL^T library is missing: {path} (make install)")
     fn = ctypes.CDLL(path).ldl_dd_inertia
