@@ -37,7 +37,9 @@ U_DW = 16.0 * U * U
 #: spacing of S (bounded above by 2 ||S|| / n: :func:`fuzz_limit`) is counted
 #: again in double-word arithmetic by :meth:`Shifts.count_below`. Measured
 #: (docs/results/analysis.md, "Counting in double-word arithmetic"): the float64
-#: fuzz is 0.1-0.6 % of that spacing at N = 10^4 disks, 20-180 % at N = 10^5.
+#: fuzz is 0.1-0.6 % of that spacing at three places of an N = 10^4 spectrum
+#: (58 counts of a whole scan there exceed the limit: shifts near a tiny pivot),
+#: 20-180 % at N = 10^5.
 DW_FUZZ_FRACTION = 0.01
 
 
