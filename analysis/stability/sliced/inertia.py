@@ -38,7 +38,7 @@ U_DW = 16.0 * U * U
 #: again in double-word arithmetic by :meth:`Shifts.count_below`. Measured
 #: (docs/results/analysis.md, "Counting in double-word arithmetic"): the float64
 #: fuzz is 0.1-0.6 % of that spacing at three places of an N = 10^4 spectrum
-#: (58 counts of a whole scan there exceed the limit: shifts near a tiny pivot),
+#: (58 counts of a whole scan there exceed the limit),
 #: 20-180 % at N = 10^5.
 DW_FUZZ_FRACTION = 0.01
 
@@ -233,7 +233,7 @@ def _ldl_dd():
 
 def count_below_dw(S, a, perm=None):
     """Sylvester count of the eigenvalues of the symmetric S below a, from a
-    double-word LDL^T: the count of :func:`count_below` with a fuzz ~1e16 x smaller.
+    double-word LDL^T: the count of :func:`count_below` with a fuzz ~1e15 x smaller.
 
     Parameters
     ----------
@@ -266,7 +266,9 @@ def count_below_dw(S, a, perm=None):
     -----
     The factorization is :func:`count_below`'s (up-looking, no pivoting), with
     every operation in double-word arithmetic (``ldl_dd.cpp``), each with
-    relative error at most :data:`U_DW` = 16 u^2; S_ii - a is exact there.
+    relative error at most :data:`U_DW` = 16 u^2 (the bounds assume no
+    underflow: the entries of S and the pivots are far above 1e-290 here);
+    S_ii - a is exact there.
     The analysis of :func:`count_below` with u replaced by U_DW gives
     |Z| <= gamma'_{2m+4} |I + L| |D| |I + L|^T (gamma' of U_DW). The row sums
     of that matrix are computed in float64 from the leading words of L and D;

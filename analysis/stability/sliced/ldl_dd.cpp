@@ -1,6 +1,6 @@
 // Sylvester count of a sparse symmetric matrix from an LDL^T factorization in
 // double-word ("double-double") arithmetic, for remote_trigger's sliced verdict
-// (analysis/stability/sliced/inertia.py, count_below_dd).
+// (analysis/stability/sliced/inertia.py, count_below_dw).
 //
 // The factorization is the up-looking one, without pivoting, of a matrix given
 // by its upper triangle (CSC, rows sorted or not), in a fixed order:
@@ -12,7 +12,7 @@
 //   addition       AccurateDWPlusDW   3 u^2 + 13 u^3
 //   multiplication DWTimesDW1 (FMA)   4 u^2
 //   division       DWDivDW2           15 u^2 + 56 u^3
-// (u = 2^-53); the Python side uses 16 u^2 for every operation. The diagonal
+// (u = 2^-53, no underflow); the Python side uses 16 u^2 for every operation. The diagonal
 // A_kk - a is exact as a double-word (TwoSum). Only the signs of D and the
 // quantities of the a-priori bound leave this file: the count of negative
 // pivots, the largest row or column count of I + L, and the largest row sum

@@ -178,7 +178,7 @@ def split_point(shifts, lo, hi, target, tol):
     SliceFailure
         If 200 halvings do not reach such a count.
     """
-    def steer(x):                # float64 counts steer; the point kept is counted by shifts
+    def steer(x):                # float64 counts: they only steer the bisection
         return count_below(shifts.S, x, shifts.factor(x))[:2]
 
     for _ in range(200):
