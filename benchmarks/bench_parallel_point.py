@@ -27,8 +27,8 @@ merge and the sending of the matrices (a ``bcast`` of the pickled problem:
 its size and log2 k steps at the measured rate); for N = 10^4 it scales
 the measured costs with n by the exponents fitted between the two largest
 sizes whose one-rank runs are kept in the cache, with parts of n / k
-eigenvalues (not for N = 10^5: no slice certifies there,
-``bench_slice_cost``). What it cannot know: the memory per rank and a
+eigenvalues (not for N = 10^5: ``bench_slice_cost`` measures its pieces
+there). What it cannot know: the memory per rank and a
 network's latency.
 
     python benchmarks/bench_parallel_point.py [--quick] [--n 6400 10000] [--part-size 2400]
@@ -331,7 +331,7 @@ def one_size(n, args):
 
 def model_large():
     """The model of N = 10^4 from the one-rank records kept in the cache (not of
-    10^5: its slices do not certify, ``bench_slice_cost``)."""
+    10^5: ``bench_slice_cost`` measures its pieces there)."""
     runs = []
     for name in sorted(os.listdir(cache_dir())):
         if name.startswith("records_N"):
@@ -343,7 +343,7 @@ def model_large():
                          f"{r.get('recorded', {}).get('commit', 'commit unknown')})" for r in runs)
         print(f"model of N = 10^4 (n = 28 800), k parts of n / k, from the one-rank runs "
               f"kept in the cache (power laws through the two largest): {used}; N = 10^5: "
-              f"none (bench_slice_cost: no slice certifies there)")
+              f"none here (bench_slice_cost measures it)")
         for nn, ks in ((28800, (1, 2, 16)),):
             for k in ks:
                 t, parts = extrapolate(runs, nn, k)
