@@ -27,10 +27,11 @@ TINY = np.finfo(np.float64).tiny
 _SPLIT = 134217729.0            # 2^27 + 1, Veltkamp splitting constant
 
 
-def gamma(k):
+def gamma(k, u=U):
     """Higham's gamma_k = k u / (1 - k u): the relative error bound of a float64
-    computation of depth k (a sum or inner product of k terms)."""
-    return k * U / (1.0 - k * U)
+    computation of depth k (a sum or inner product of k terms); ``u`` another
+    arithmetic's bound per operation (e.g. double-word, ``sliced.inertia.U_DW``)."""
+    return k * u / (1.0 - k * u)
 
 
 def rounded_up(x, k):

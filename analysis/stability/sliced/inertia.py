@@ -226,7 +226,7 @@ def _ldl_dd():
     fn = ctypes.CDLL(path).ldl_dd_inertia
     i64p = ctypes.POINTER(ctypes.c_int64)
     f64p = ctypes.POINTER(ctypes.c_double)
-    fn.argtypes = [ctypes.c_int64, i64p, i64p, f64p, ctypes.c_double, i64p, i64p, f64p, i64p]
+    fn.argtypes = [ctypes.c_int64, i64p, i64p, f64p, ctypes.c_double, i64p, i64p, f64p]
     fn.restype = ctypes.c_int
     return fn
 
@@ -299,20 +299,16 @@ def count_below_dw(S, a, perm=None):
     Ax = np.ascontiguousarray(H.data, dtype=np.float64)
     i64 = ctypes.POINTER(ctypes.c_int64)
     f64 = ctypes.POINTER(ctypes.c_double)
-    neg, depth, nnz = ctypes.c_int64(), ctypes.c_int64(), ctypes.c_int64()
-    max_row = ctypes.c_double()
+    neg, depth, max_row = ctypes.c_int64(), ctypes.c_int64(), ctypes.c_double()
     rc = _ldl_dd()(n, Ap.ctypes.data_as(i64), Ai.ctypes.data_as(i64), Ax.ctypes.data_as(f64),
-                   float(a), ctypes.byref(neg), ctypes.byref(depth), ctypes.byref(max_row),
-                   ctypes.byref(nnz))
+                   float(a), ctypes.byref(neg), ctypes.byref(depth), ctypes.byref(max_row))
     if rc == -1:
         raise RuntimeError(f"out of memory in the double-word LDL^T of S - a I (n = {n})")
     if rc != 0:
         raise ValueError(f"no inertia of S - a I at a = {a!r}: zero pivot (double-word, row {rc - 1})")
     m = int(depth.value)
-    g = 2 * m + 4
-    gamma_dw = g * U_DW / (1.0 - g * U_DW)
     rows = float(max_row.value) * (1.0 + gamma(4 * m + 8)) + (4 * m + 8) * TINY
-    return int(neg.value), gamma_dw * rows * INFLATE
+    return int(neg.value), gamma(2 * m + 4, U_DW) * rows * INFLATE
 
 
 def norm1(X):

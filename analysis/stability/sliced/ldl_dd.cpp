@@ -95,16 +95,15 @@ extern "C" {
 // n, Ap (n + 1), Ai, Ax: the upper triangle of A (i <= j) in CSC, 64-bit
 // indices; a: the shift. Outputs: *negative, the number of negative pivots;
 // *depth, the largest row or column count of I + L; *max_row, the largest
-// row sum of |I + L| |D| |I + L|^T from the leading words (double);
-// *nnz_l, the entries of L. Returns 0, or k + 1 if the pivot of row k is zero
+// row sum of |I + L| |D| |I + L|^T from the leading words (double).
+// Returns 0, or k + 1 if the pivot of row k is zero
 // (the outputs are then not set), or -1 if memory ran out.
 // Two builds of the function, chosen at load time: one with the FMA
 // instruction (std::fma inline), one calling the library's fma; both
 // correctly rounded, so their results are the same bits.
 __attribute__((target_clones("fma", "default")))
 int ldl_dd_inertia(int64_t n, const int64_t* Ap, const int64_t* Ai, const double* Ax,
-                   double a, int64_t* negative, int64_t* depth, double* max_row,
-                   int64_t* nnz_l) {
+                   double a, int64_t* negative, int64_t* depth, double* max_row) {
   try {
     std::vector<int64_t> parent(n), flag(n), colcount(n, 0);
     // elimination tree and the column counts of L (up-looking: row k of L is
@@ -186,7 +185,6 @@ int ldl_dd_inertia(int64_t n, const int64_t* Ap, const int64_t* Ai, const double
     *negative = neg_count;
     *depth = std::max(longest_row, longest_col) + 1;
     *max_row = mr;
-    *nnz_l = nnz;
     return 0;
   } catch (...) {
     return -1;
