@@ -38,8 +38,9 @@ and the same pieces at N = 10^4 in the same run:
   float64 one beside it) beside the mean spacing of the
   eigenvalues there (from a second count 10 Delta above), and ``--slices``
   slices from there (``slices.ritz_slices``, what a scan is made of; the
-  first left out of the cost as a warm-up) or the reason the first cannot
-  be certified; from them the cost of a slice per eigenvalue it advances,
+  first left out of the cost as a warm-up; with the slices computed twice
+  and the shifts moved off a tiny pivot, ``SlicedStats.reshifted`` and
+  ``.moved``) or the reason the first cannot be certified; from them the cost of a slice per eigenvalue it advances,
   and how many eigenvalues of S the window 2 Delta holds there (Delta =
   10 ||W||_2, the window a cut's first boundary lies above its split point).
 * **The model of k ranks, one part of n / k eigenvalues each** (P = k),
@@ -152,7 +153,8 @@ def measure(dump, nslices, part_size=1000):
                  "spacing": 10 * pb.ctx.Delta / max(1, hi - cnt), "slices": [],
                  "advanced": [], "failure": ""}
         pos = Position(x, cnt, fz, np.random.default_rng([12345, round(1000 * f)]))
-        slices = ritz_slices(pb.S, pb.ctx.W, 60, pb.ctx.normS, pos, SlicedStats())
+        st = SlicedStats()
+        slices = ritz_slices(pb.S, pb.ctx.W, 60, pb.ctx.normS, pos, st)
         try:
             for _ in range(nslices):
                 c0, n0 = time.process_time(), pos.count
@@ -161,6 +163,7 @@ def measure(dump, nslices, part_size=1000):
                 place["advanced"].append(pos.count - n0)
         except SliceFailure as exc:
             place["failure"] = str(exc)
+        place["moved"], place["reshifted"] = st.moved, st.reshifted
         if len(place["slices"]) > 1:       # the first left out: a warm-up
             place["per_eig"] = sum(place["slices"][1:]) / sum(place["advanced"][1:])
         rec["places"].append(place)
@@ -211,7 +214,8 @@ def main(argv=None):
             if p["slices"]:
                 what.append("slices " + " ".join(f"{v:.1f}" for v in p["slices"])
                             + " s advancing " + " ".join(str(v) for v in p["advanced"])
-                            + " eigenvalues")
+                            + " eigenvalues" + f" ({p.get('reshifted', 0)} computed twice, "
+                            f"{p.get('moved', 0)} shifts moved)")
             if "per_eig" in p:
                 what.append(f"{p['per_eig'] * 1e3:.1f} ms per eigenvalue; 2 Delta holds "
                             f"{2 * rec['Delta'] / p['spacing']:.0f}")

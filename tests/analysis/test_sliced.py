@@ -196,9 +196,10 @@ def test_a_slice_with_inexact_vectors_is_computed_again(monkeypatch):
     simulated by perturbing the third slice's vectors by 1e-6) is computed
     again about a shift 1 % of its span lower: the scan's largest Kahan
     radius is then that of the clean slices and every eigenvalue is in a
-    strip of its own. Without the second computation (_REFINE = inf) the
+    strip of its own. Without the second computation (_RECOMPUTE_ABOVE = inf) the
     same scan keeps the large radius and strips of 2. Both verdicts are the
-    dense one."""
+    dense one. (The rule: a Kahan radius above ARPACK's own bound for the
+    slice's pairs, slices.arpack_bound; _RECOMPUTE_ABOVE = inf turns it off.)"""
     from remote_trigger.analysis.stability.sliced import slices
 
     K, M = planted(n=400, pairs=[(200, 0.7)])
@@ -213,9 +214,9 @@ def test_a_slice_with_inexact_vectors_is_computed_again(monkeypatch):
         return lam, V
 
     monkeypatch.setattr(slices.spla, "eigsh", noisy)
-    got, default = {}, slices._REFINE
+    got, default = {}, slices._RECOMPUTE_ABOVE
     for refine in (default, np.inf):
-        monkeypatch.setattr(slices, "_REFINE", refine)
+        monkeypatch.setattr(slices, "_RECOMPUTE_ABOVE", refine)
         calls.clear()
         st = SlicedStats()
         got[refine] = (classify_sliced(K, M, stats=st), st)
@@ -249,7 +250,7 @@ def test_a_poor_slice_weakens_only_the_boundaries_near_it(monkeypatch):
         return lam, V
 
     monkeypatch.setattr(slices.spla, "eigsh", noisy)
-    monkeypatch.setattr(slices, "_REFINE", np.inf)
+    monkeypatch.setattr(slices, "_RECOMPUTE_ABOVE", np.inf)
     st = SlicedStats()
     dec = classify_sliced(K, M, stats=st)
     top = float(np.max(seen[1]))            # the poor slice reaches up to here

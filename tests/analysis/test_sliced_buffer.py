@@ -97,3 +97,54 @@ def test_shift_invert_solves_are_those_of_a_new_factorization():
     p0 = int(shifts.solver.factors()[2][0])     # the first pivot is S_pp - a
     with pytest.raises(SliceFailure, match=r"no LDL\^T factorization of S - sigma I"):
         shift_invert(S, shifts, float(S.diagonal()[p0]), 6, rng, SlicedStats())
+
+
+def test_a_shift_at_a_tiny_pivot_is_moved_before_arpack_runs(monkeypatch):
+    """A shift 1e-13 (relative) from an eigenvalue of a leading block of the
+    permuted S - sigma I makes the elimination without pivoting meet a tiny
+    pivot: the probe solve's relative residual exceeds 1e-7, and
+    ``shift_invert`` moves the shift down by ``step`` before ARPACK runs; the
+    Frobenius norm of its pairs' residuals is then below 1e-2 of ARPACK's own
+    bound (``slices.arpack_bound``). With the move turned off
+    (``_PROBE_LIMIT`` = inf) the same call returns pairs whose residuals
+    exceed that bound (what makes the slice be computed again): the check
+    can fail. A clean shift is not moved."""
+    from remote_trigger.analysis.stability import jacobian
+    from remote_trigger.analysis.stability.analyze import analyze
+    from remote_trigger.analysis.stability.sliced import SlicedStats, scaled_parts
+    from remote_trigger.analysis.stability.sliced import slices
+    from remote_trigger.analysis.stability.sliced.inertia import Shifts, shifted
+    from remote_trigger.analysis.stability.sliced.strips import norm1
+
+    from .builders import random_packing
+
+    res = analyze(random_packing(5, nx=20, ny=15), eigenvalues=False, decide=False)
+    Kr, mr = jacobian.remove_dofs(res.K, res.mass, res.rattlers.keep_dofs)
+    S = scaled_parts(Kr, mr)[1]
+    n = S.shape[0]
+    lam = np.linalg.eigvalsh(S.toarray())
+    shifts = Shifts(S)
+    shifts.factor(0.0)
+    perm = shifts.solver.factors()[2]
+    P = shifted(S, 0.0)[perm][:, perm].toarray()
+    mu = np.linalg.eigvalsh(P[:n // 2, :n // 2])
+    tiny = float(mu[np.argmin(np.abs(mu - lam[n // 2]))]) * (1 + 1e-13)
+    clean = 0.5 * (lam[n // 2] + lam[n // 2 + 1])
+    step = 0.2 * float(np.median(np.diff(lam)))
+    bound = slices.arpack_bound(20, norm1(S), tiny)
+
+    def run(a):
+        st = SlicedStats()
+        got, V, used = slices.shift_invert(S, shifts, a, 20, np.random.default_rng(1), st, step)
+        return st.moved, used, float(np.linalg.norm(S @ V - V * got))
+
+    moved, used, worst = run(clean)
+    assert moved == 0 and used == clean and worst < 1e-2 * bound
+    shifts.factor_checked(tiny)
+    assert shifts.probe > 1e-7
+    moved, used, worst = run(tiny)
+    assert moved == 1 and used == tiny - step and worst < 1e-2 * bound
+    assert shifts.probe < 1e-10
+    monkeypatch.setattr(slices, "_PROBE_LIMIT", np.inf)
+    moved, used, worst = run(tiny)
+    assert moved == 0 and used == tiny and worst > bound

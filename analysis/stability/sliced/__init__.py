@@ -52,9 +52,11 @@ count is made again by the same elimination in double-word arithmetic
 (``ldl_dd.cpp``, every operation within U_DW = 16 u^2), whose fuzz is the
 same bound with U_DW for u. Ritz pairs of S are
 computed slice by slice (ARPACK shift-invert about a shift inside the
-slice; a slice whose Kahan radius exceeds 1e-3 of its mean Ritz spacing,
-as inexact solves at a shift with a tiny pivot leave it, is computed again
-about a shift moved by 1 % of its span), each slice's Rayleigh-Ritz residual R bounding
+slice, moved down before ARPACK runs where the probe solve of its
+factorization shows a tiny pivot's inexact solves; a slice whose Kahan
+radius still exceeds what ARPACK's stopping rule gives for exact solves is
+computed again about a shift moved by 1 % of its span), each slice's
+Rayleigh-Ritz residual R bounding
 its values by Kahan's theorem (|theta_i - lambda| <= ||R||_2, distinct
 eigenvalues); a boundary's test subtracts the largest radius of the slices
 in memory (the eigenvalues of the slices dropped lie below their edges). The slices' edges x_j lie in gaps; if every slice's count

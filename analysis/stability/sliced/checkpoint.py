@@ -29,8 +29,11 @@ __all__ = ["CHECKPOINT_FORMAT", "ScanFiles", "scan_key", "saved_scans", "sha", "
 #: buffer's class and pickled state, and slices whose bits differ from those of 3;
 #: 5: ARPACK's shorter Lanczos basis, slices whose bits differ from those of 4;
 #: 6: the scan's classes in the package ``sliced``, where pickle finds them by
-#: module path: a file of 5 names classes that no longer exist there)
-CHECKPOINT_FORMAT = 6
+#: module path: a file of 5 names classes that no longer exist there; 7: counts
+#: made again in double-word arithmetic, shifts moved away from a tiny pivot
+#: before ARPACK runs and slices computed again only above ARPACK's own residual
+#: bound, so slice edges and shifts whose bits differ from those of 6)
+CHECKPOINT_FORMAT = 7
 
 
 def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None,

@@ -105,6 +105,7 @@ class Shifts:
         self.diag_at = np.nonzero(on)[0][np.argsort(cols[on], kind="stable")]
         self.diag = H.data[self.diag_at].copy()
         self.solver = None
+        self.probe = math.nan
 
     def factor(self, a, what="S - a I"):
         """The factorization of S - a I (``what`` names it in an error)."""
@@ -144,15 +145,22 @@ class Shifts:
         leaves the rest of the factors of the previous shift. A probe whose
         residual is not small takes a new factorization instead (bitwise the
         same factors where there is no zero pivot), which refuses a zero pivot
-        (:class:`~.numerics.SliceFailure`, naming ``what``).
+        (:class:`~.numerics.SliceFailure`, naming ``what``). The probe's
+        residual ||(S - a I) x - 1|| / ||1|| of the factorization returned is
+        left in ``self.probe`` (a tiny pivot's growth of D makes it large:
+        :func:`~.slices.shift_invert` then moves the shift).
         """
         n = self.S.shape[0]
         fac = self.factor(a, what)
         one = np.ones(n)
         x = fac.solve(one)
-        if not (np.all(np.isfinite(x))
-                and np.linalg.norm(self.H @ x - one) <= 1e-6 * math.sqrt(n)):
+        res = np.linalg.norm(self.H @ x - one) / math.sqrt(n) if np.all(np.isfinite(x)) \
+            else math.inf
+        if not res <= 1e-6:
             fac = _ldl(shifted(self.S, a), what)
+            x = fac.solve(one)
+            res = np.linalg.norm(self.H @ x - one) / math.sqrt(n)
+        self.probe = float(res)
         return fac
 
 

@@ -278,7 +278,8 @@ def scan_part(task):
 
 def _add_stats(total, st):
     """Add the work of a task's statistics to ``total``."""
-    for name in ("slices", "boundaries", "arpack_runs", "computed", "reshifted", "dw_counts"):
+    for name in ("slices", "boundaries", "arpack_runs", "computed", "moved", "reshifted",
+                 "dw_counts"):
         setattr(total, name, getattr(total, name) + getattr(st, name))
     for name in ("max_kappa", "fuzz", "ritz_radius"):
         setattr(total, name, max(getattr(total, name), getattr(st, name)))

@@ -22,7 +22,7 @@ from remote_trigger.analysis.stability.enclosure import gamma
 from remote_trigger.analysis.stability.sliced.inertia import Shifts, count_below, fuzz_limit
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
 
-__all__ = ["Slice", "Position", "ritz_slices", "rayleigh_ritz", "shift_invert",
+__all__ = ["Slice", "Position", "ritz_slices", "rayleigh_ritz", "shift_invert", "arpack_bound",
            "start_position", "top_eigenvalue"]
 
 _ARPACK_TOL = 1e-8              # ARPACK stopping tolerance (only the checked residuals matter)
@@ -42,12 +42,25 @@ _SHIFT_FRACTION = 0.42
 # at N = 10^4 664 s and 587 s side by side; at N = 1600 8.2-8.6 s at 2k + 1,
 # 7.4-7.6 s at 1.33-1.5 k + 1
 _NCV_FACTOR = 1.4
-# a slice whose Kahan radius exceeds this fraction of its mean Ritz value
-# spacing is computed again about a moved shift (docs/results/analysis.md, "A
-# shift at a tiny pivot"): at N = 10^4 the first 100 slices of a real point at
-# F_x = 1.25e-4 have radii 3e-5 - 6e-5 of their spacing, the slice about such a
-# shift 0.012
-_REFINE = 1e-3
+# a shift whose factorization's probe solve (``Shifts.factor_checked``: the
+# residual of (S - sigma I) x = 1, relative to ||1||) exceeds this is moved
+# down by 1 % of a slice width before ARPACK runs, up to _MOVES times
+# (docs/results/analysis.md, "A shift at a tiny pivot"). Measured on the
+# N = 10^4 point of bench_parallel_point: 5e-16 - 1.5e-9 at 4 shifts, 2.5e-9 -
+# 6e-9 at 3 shifts of the N = 10^5 tiled state; at a shift planted 1e-13 / 1e-11 /
+# 1e-10 (relative) from a zero pivot of the N = 10^4 elimination, 4.4e-5 /
+# 2.5e-7 / 5.4e-8, and the slice's Kahan radius 0.092 / 1.5e-3 / 2.0e-4 against
+# 2.3e-5 at a clean shift
+_PROBE_LIMIT = 1e-7
+_MOVES = 3
+# a slice whose Kahan radius exceeds this multiple of ARPACK's own bound for
+# its k pairs (:func:`arpack_bound`) is computed again about a shift 1 % of its
+# span lower: ARPACK then converged to vectors of an inexact operator. Measured
+# radius / bound: 0.003 - 0.005 and 0.025 - 0.036 at the N = 10^4 and 10^5
+# shifts above, 12 at the shift planted 1e-13 from a zero pivot; the largest
+# of every slice of whole scans of bench_degenerate's states and the N = 1600
+# point: 0.002 - 0.042
+_RECOMPUTE_ABOVE = 1.0
 
 
 @dataclass
@@ -148,10 +161,29 @@ def start_position(S, lo0, stats):
     return Position(lo0, 0, fz, np.random.default_rng(12345))
 
 
-def shift_invert(S, shifts, sigma, k, rng, stats):
+def arpack_bound(k, normS, sigma):
+    """What ARPACK's stopping rule gives for the residuals of k pairs of S:
+    sqrt(k) tol (||S|| + |sigma|), ``normS`` >= ||S||_2.
+
+    ARPACK stops when each Ritz pair (mu, x) of (S - sigma I)^-1 has
+    ||(S - sigma I)^-1 x - mu x|| <= tol |mu|; multiplied by (S - sigma I), the
+    pair (sigma + 1/mu, x) of S has residual <= tol ||S - sigma I||, for exact
+    solves. The k residuals' Frobenius norm, which a Rayleigh-Ritz rotation
+    within their span leaves unchanged, is then <= sqrt(k) times that.
+    """
+    return math.sqrt(k) * _ARPACK_TOL * (float(normS) + abs(float(sigma)))
+
+
+def shift_invert(S, shifts, sigma, k, rng, stats, step=None):
     """ARPACK's k eigenpairs of S nearest sigma (shift-invert with QDLDL's
     factorization of S - sigma I from ``shifts``, a :class:`~.inertia.Shifts`
-    of S, start vector drawn from ``rng``).
+    of S, start vector drawn from ``rng``): (lam, V, sigma used).
+
+    With ``step`` (> 0), a shift whose factorization's probe solve has a
+    relative residual above ``_PROBE_LIMIT`` (1e-7; a tiny pivot of the
+    elimination without pivoting, whose growth of D makes every solve
+    inexact) is moved down by ``step``, up to ``_MOVES`` (3) times, before
+    ARPACK runs (``stats.moved`` counts the moves).
 
     Raises
     ------
@@ -160,12 +192,18 @@ def shift_invert(S, shifts, sigma, k, rng, stats):
     """
     n = S.shape[0]
     fac = shifts.factor_checked(sigma, f"S - sigma I at sigma = {sigma:.9g}")
+    for _ in range(_MOVES if step else 0):
+        if shifts.probe <= _PROBE_LIMIT:
+            break
+        sigma -= step
+        stats.moved += 1
+        fac = shifts.factor_checked(sigma, f"S - sigma I at sigma = {sigma:.9g}")
     op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=np.float64)
     lam, V = spla.eigsh(S, k=k, sigma=sigma, which="LM", OPinv=op, tol=_ARPACK_TOL,
                         v0=rng.standard_normal(n), ncv=min(n, int(_NCV_FACTOR * k) + 1))
     stats.arpack_runs += 1
     stats.computed += lam.size
-    return lam, V
+    return lam, V, sigma
 
 
 def ritz_slices(S, W, k, normS, pos, stats):
@@ -202,7 +240,7 @@ def _next_slice(S, W, k, normS, pos, shifts, stats):
     lam, V, sigma, whole = _pairs_reaching_below(S, shifts, pos, kk, stats)
     ritz = rayleigh_ritz(S, W, V, normS)
     theta, radius = ritz[0], ritz[3]
-    if not whole and radius > _REFINE * (theta[-1] - theta[0]) / max(theta.size - 1, 1):
+    if not whole and radius > _RECOMPUTE_ABOVE * arpack_bound(theta.size, normS, sigma):
         lam, ritz = _reshifted(S, W, normS, shifts, sigma, kk, pos.rng, stats, lam, ritz)
     theta, Q, WQ, radius, resid, phi = ritz
     above = theta > x
@@ -235,13 +273,14 @@ def _pairs_reaching_below(S, shifts, pos, kk, stats):
     n = S.shape[0]
     x, width = pos.x, pos.width
     sigma = x if width is None else x + _SHIFT_FRACTION * width
+    step = None if width is None else 0.01 * width
     for attempt in range(12):
         if kk >= n - 2:
             lam, V = np.linalg.eigh(S.toarray())
             sel = lam > x
             return lam[sel], V[:, sel], sigma, True
-        lam, V = shift_invert(S, shifts, sigma, kk, pos.rng, stats)
-        if sigma == x or np.min(lam) < x:
+        lam, V, sigma = shift_invert(S, shifts, sigma, kk, pos.rng, stats, step)
+        if sigma <= x or np.min(lam) < x:
             return lam, V, sigma, False
         sigma = x + 0.5 * (sigma - x) if attempt < 10 else x   # a hole above x: lower
     raise SliceFailure(f"no shift above {x:.6g} reached the slice edge")
@@ -255,10 +294,14 @@ def _reshifted(S, W, normS, shifts, sigma, kk, rng, stats, lam, ritz):
     growth of D makes the solves inexact (N = 10^4: relative error 4.5e-6,
     max |d| 1.1e13, inertia fuzz 1394 at one shift) and ARPACK converges to
     vectors of that inexact operator whatever its tolerance (residuals ~1e-3
-    on all 60). The moved shift's window still reaches below the edge.
+    on all 60). :func:`shift_invert` moves such a shift before ARPACK runs
+    when its probe solve shows it; this catches a slice whose radius still
+    exceeds ARPACK's own bound (:func:`arpack_bound`). The moved shift's
+    window still reaches below the edge.
     """
     theta, radius = ritz[0], ritz[3]
-    lam2, V = shift_invert(S, shifts, sigma - 0.01 * float(theta[-1] - theta[0]), kk, rng, stats)
+    lam2, V, _ = shift_invert(S, shifts, sigma - 0.01 * float(theta[-1] - theta[0]), kk, rng,
+                              stats)
     stats.reshifted += 1
     better = rayleigh_ritz(S, W, V, normS)
     if better[3] < radius:

@@ -40,11 +40,15 @@ class SlicedStats:
         :mod:`.parts`): 1 for a whole scan.
     cuts : tuple of (float, float)
         Their split points and first boundaries (x_j, c_j), j = 1 .. parts - 1.
+    moved : int
+        Shifts moved down by 1 % of a slice width before ARPACK ran, because
+        the probe solve of their factorization had a relative residual above
+        1e-7 (:func:`~.slices.shift_invert`: a tiny pivot of the elimination).
     reshifted : int
         Slices computed again about a shift moved by 1 % of their span (their
-        Kahan radius above 1e-3 of their mean Ritz value spacing,
-        :mod:`.slices`: inexact solves at a shift where the factorization met
-        a tiny pivot).
+        Kahan radius above ARPACK's own bound for their pairs,
+        :func:`~.slices.arpack_bound`: ARPACK converged to vectors of an
+        inexact operator).
     dw_counts : int
         Sylvester counts made again in double-word arithmetic (their float64
         fuzz above :func:`~.inertia.fuzz_limit`).
@@ -61,6 +65,7 @@ class SlicedStats:
     ritz_radius: float = 0.0
     arpack_runs: int = 0
     computed: int = 0
+    moved: int = 0
     reshifted: int = 0
     dw_counts: int = 0
     parts: int = 1
