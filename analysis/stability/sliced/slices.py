@@ -56,7 +56,7 @@ _MOVES = 3
 # a slice whose Kahan radius exceeds this multiple of ARPACK's own bound for
 # its k pairs (:func:`arpack_bound`) is computed again about a shift 1 % of its
 # span lower: ARPACK then converged to vectors of an inexact operator. Measured
-# radius / bound: 0.003 - 0.005 and 0.025 - 0.036 at the N = 10^4 and 10^5
+# radius / bound: 0.003 - 0.005 and 0.029 - 0.036 at the N = 10^4 and 10^5
 # shifts above, 12 at the shift planted 1e-13 from a zero pivot; the largest
 # of every slice of whole scans of bench_degenerate's states and the N = 1600
 # point: 0.002 - 0.042
