@@ -40,8 +40,9 @@ and the same pieces at N = 10^4 in the same run:
   slices from there (``slices.ritz_slices``, what a scan is made of; the
   first left out of the cost as a warm-up; with the slices computed twice
   and the shifts moved off a tiny pivot, ``SlicedStats.reshifted`` and
-  ``.moved``) or the reason the first cannot be certified; from them the cost of a slice per eigenvalue it advances,
-  and how many eigenvalues of S the window 2 Delta holds there (Delta =
+  ``.moved``) or the reason the first cannot be certified; from them the
+  cost of a slice per eigenvalue it advances, and how many eigenvalues of
+  S the window 2 Delta holds there (Delta =
   10 ||W||_2, the window a cut's first boundary lies above its split point).
 * **The model of k ranks, one part of n / k eigenvalues each** (P = k),
   where every place gave slices: setup + the problem's ``bcast`` + the

@@ -199,7 +199,7 @@ def test_a_slice_with_inexact_vectors_is_computed_again(monkeypatch):
     strip of its own. Without the second computation (_RECOMPUTE_ABOVE = inf) the
     same scan keeps the large radius and strips of 2. Both verdicts are the
     dense one. (The rule: a Kahan radius above ARPACK's own bound for the
-    slice's pairs, slices.arpack_bound; _RECOMPUTE_ABOVE = inf turns it off.)"""
+    slice's pairs, slices.arpack_bound.)"""
     from remote_trigger.analysis.stability.sliced import slices
 
     K, M = planted(n=400, pairs=[(200, 0.7)])
