@@ -108,7 +108,9 @@ def test_a_shift_at_a_tiny_pivot_is_moved_before_arpack_runs(monkeypatch):
     bound (``slices.arpack_bound``). With the move turned off
     (``_PROBE_LIMIT`` = inf) the same call returns pairs whose residuals
     exceed that bound (what makes the slice be computed again): the check
-    can fail. A clean shift is not moved."""
+    can fail. A clean shift is not moved; a shift at a zero pivot (no
+    factorization; without ``step`` the call raises, the test above) is
+    moved like a tiny one."""
     from remote_trigger.analysis.stability import jacobian
     from remote_trigger.analysis.stability.analyze import analyze
     from remote_trigger.analysis.stability.sliced import SlicedStats, scaled_parts
@@ -145,6 +147,10 @@ def test_a_shift_at_a_tiny_pivot_is_moved_before_arpack_runs(monkeypatch):
     moved, used, worst = run(tiny)
     assert moved == 1 and used == tiny - step and worst < 1e-2 * bound
     assert shifts.probe < 1e-10
+    p0 = int(shifts.solver.factors()[2][0])     # the first pivot is S_pp - a: a zero pivot
+    zero = float(S.diagonal()[p0])
+    moved, used, worst = run(zero)
+    assert moved == 1 and used == zero - step and worst < 1e-2 * bound
     monkeypatch.setattr(slices, "_PROBE_LIMIT", np.inf)
     moved, used, worst = run(tiny)
     assert moved == 0 and used == tiny and worst > bound

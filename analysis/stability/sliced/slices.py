@@ -184,21 +184,27 @@ def shift_invert(S, shifts, sigma, k, rng, stats, step=None):
     relative residual above ``_PROBE_LIMIT`` (1e-7; a tiny pivot of the
     elimination without pivoting, whose growth of D makes every solve
     inexact) is moved down by ``step``, up to ``_MOVES`` (3) times, before
-    ARPACK runs (``stats.moved`` counts the moves).
+    ARPACK runs (``stats.moved`` counts the moves); so is a shift with no
+    LDL^T factorization (a zero pivot).
 
     Raises
     ------
     SliceFailure
-        If S - sigma I has no LDL^T factorization (a zero pivot).
+        If S - sigma I has no LDL^T factorization (a zero pivot) and no
+        ``step`` is given, or none after the moves.
     """
     n = S.shape[0]
-    fac = shifts.factor_checked(sigma, f"S - sigma I at sigma = {sigma:.9g}")
-    for _ in range(_MOVES if step else 0):
-        if shifts.probe <= _PROBE_LIMIT:
-            break
+    moves = _MOVES if step else 0
+    for attempt in range(moves + 1):
+        try:
+            fac = shifts.factor_checked(sigma, f"S - sigma I at sigma = {sigma:.9g}")
+            if shifts.probe <= _PROBE_LIMIT or attempt == moves:
+                break
+        except SliceFailure:        # a zero pivot: moved as a tiny one is
+            if attempt == moves:
+                raise
         sigma -= step
         stats.moved += 1
-        fac = shifts.factor_checked(sigma, f"S - sigma I at sigma = {sigma:.9g}")
     op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=np.float64)
     lam, V = spla.eigsh(S, k=k, sigma=sigma, which="LM", OPinv=op, tol=_ARPACK_TOL,
                         v0=rng.standard_normal(n), ncv=min(n, int(_NCV_FACTOR * k) + 1))
