@@ -22,6 +22,7 @@ import scipy.sparse.linalg as spla
 
 from remote_trigger.analysis.stability.enclosure import TINY, U, gamma
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
+from remote_trigger.analysis.stability.sliced.stats import SlicedStats
 
 __all__ = ["count_below", "count_below_dw", "Shifts", "shifted", "norm1", "norm2_skew",
            "U_DW", "DW_FUZZ_FRACTION", "fuzz_limit"]
@@ -86,16 +87,16 @@ class Shifts:
 
     ``fuzz_limit`` (default: none): a count whose float64 fuzz exceeds it is
     made again by :func:`count_below_dw` in the same ordering (the
-    float64 factorization is kept for the solves); ``dw_counts`` counts them,
-    and so does ``stats.dw_counts`` if ``stats`` (a
-    :class:`~.stats.SlicedStats`) is given.
+    float64 factorization is kept for the solves). ``stats.dw_counts`` (a
+    :class:`~.stats.SlicedStats`, a new one if none is given) counts every
+    count made in double-word arithmetic, whether :meth:`count_below` or a
+    caller asked for it (:meth:`count_below_dw`); :attr:`dw_counts` reads it.
     """
 
     def __init__(self, S, fuzz_limit=math.inf, stats=None):
         self.S = S
         self.fuzz_limit = float(fuzz_limit)
-        self.stats = stats
-        self.dw_counts = 0
+        self.stats = SlicedStats() if stats is None else stats
         self.perm = None
         self.H = shifted(S, 0.0)
         # where the diagonal sits in H's data (every diagonal entry is stored)
@@ -106,6 +107,11 @@ class Shifts:
         self.diag = H.data[self.diag_at].copy()
         self.solver = None
         self.probe = math.nan
+
+    @property
+    def dw_counts(self):
+        """Counts made in double-word arithmetic so far (``stats.dw_counts``)."""
+        return self.stats.dw_counts
 
     def factor(self, a, what="S - a I"):
         """The factorization of S - a I (``what`` names it in an error)."""
@@ -132,9 +138,7 @@ class Shifts:
             self.factor(a)
         if self.perm is None:
             self.perm = self.solver.factors()[2]
-        self.dw_counts += 1
-        if self.stats is not None:
-            self.stats.dw_counts += 1
+        self.stats.dw_counts += 1
         return count_below_dw(self.S, a, self.perm)
 
     def factor_checked(self, a, what="S - a I"):
@@ -153,14 +157,17 @@ class Shifts:
         n = self.S.shape[0]
         fac = self.factor(a, what)
         one = np.ones(n)
-        x = fac.solve(one)
-        res = np.linalg.norm(self.H @ x - one) / math.sqrt(n) if np.all(np.isfinite(x)) \
-            else math.inf
-        if not res <= 1e-6:
-            fac = _ldl(shifted(self.S, a), what)
+
+        def probe(fac):
             x = fac.solve(one)
-            res = np.linalg.norm(self.H @ x - one) / math.sqrt(n)
-        self.probe = float(res)
+            if not np.all(np.isfinite(x)):
+                return math.inf
+            return float(np.linalg.norm(self.H @ x - one)) / math.sqrt(n)
+
+        self.probe = probe(fac)
+        if not self.probe <= 1e-6:
+            fac = _ldl(shifted(self.S, a), what)
+            self.probe = probe(fac)
         return fac
 
 

@@ -50,8 +50,9 @@ class SlicedStats:
         :func:`~.slices.arpack_bound`: ARPACK converged to vectors of an
         inexact operator).
     dw_counts : int
-        Sylvester counts made again in double-word arithmetic (their float64
-        fuzz above :func:`~.inertia.fuzz_limit`).
+        Sylvester counts made again in double-word arithmetic: their float64
+        fuzz above :func:`~.inertia.fuzz_limit`, or a slice edge that only
+        that fuzz kept too close to a Ritz value (:mod:`.slices`).
     """
 
     n: int = 0
