@@ -154,3 +154,68 @@ def test_a_shift_at_a_tiny_pivot_is_moved_before_arpack_runs(monkeypatch):
     monkeypatch.setattr(slices, "_PROBE_LIMIT", np.inf)
     moved, used, worst = run(tiny)
     assert moved == 0 and used == tiny and worst > bound
+
+
+def test_the_first_slice_is_computed_about_a_shift_just_below_the_spectrum(tmp_path,
+                                                                          monkeypatch):
+    """The first slice of a scan starts at the Gershgorin bound, far below the
+    spectrum of a relaxed packing (N = 400, n = 1176: -23 551 against a lowest
+    eigenvalue near 0). Its shift is put just below the lowest eigenvalue by
+    bisection on the count, and ARPACK takes about as many solves for it as
+    for the slices above it (at most 1.5 x their median). With the shift at
+    the Gershgorin bound (``_bottom_shift`` turned off, as before), the first
+    slice takes more than 3 x their median: the check can fail. The slices
+    computed hold the same eigenvalues (to their Kahan radii) either way."""
+    import scipy.sparse.linalg as spla
+
+    from remote_trigger.analysis.stability.sliced import SlicedStats, scaled_parts, slices
+    from remote_trigger.analysis.stability.sliced.scan import _bottom
+    from remote_trigger.analysis.stability.sliced.strips import StripContext
+    from remote_trigger.analysis.stability.system import reduced_system
+    from remote_trigger.analysis.state.dumpfile import read_equilibrium
+    from tests.data import unpack
+
+    unpack("free_rotation_N400_s5_step_00002.dump.json", str(tmp_path))
+    dump = unpack("free_rotation_N400_s5_step_00002", str(tmp_path))
+    system = reduced_system(read_equilibrium(dump))
+    A, S, W = scaled_parts(system.K, system.mass)
+    ctx = StripContext.of(A, S, W, 2.0 ** -53, 10.0)
+    lo0 = _bottom(S, ctx, 2.0 ** -53)
+    lam = np.linalg.eigvalsh(S.toarray())
+    assert lam[0] - lo0 > 1e4
+    real_eigsh = spla.eigsh
+
+    def scan(bottom):
+        solves, shifts = [], []
+
+        def eigsh(*args, OPinv=None, **kw):         # counts the solves of each run
+            count = [0]
+
+            def solve(v):
+                count[0] += 1
+                return OPinv.matvec(v)
+            out = real_eigsh(*args, OPinv=spla.LinearOperator(OPinv.shape, matvec=solve,
+                                                              dtype=np.float64), **kw)
+            solves.append(count[0])
+            shifts.append(float(kw["sigma"]))
+            return out
+
+        monkeypatch.setattr(slices.spla, "eigsh", eigsh)
+        if not bottom:
+            monkeypatch.setattr(slices, "_bottom_shift", lambda *args: None)
+        st = SlicedStats()
+        got = slices.ritz_slices(S, W, 60, ctx.normS, slices.start_position(S, lo0, st), st)
+        sl = [next(got) for _ in range(5)]
+        monkeypatch.undo()
+        return solves, shifts, sl
+
+    solves, shifts, sl = scan(True)
+    assert lo0 < shifts[0] < lam[0]
+    assert solves[0] <= 1.5 * np.median(solves[1:])
+    old, old_shifts, old_sl = scan(False)
+    assert old_shifts[0] == lo0
+    assert old[0] > 3 * np.median(old[1:])
+    for run in (sl, old_sl):            # every eigenvalue of S up to the fifth slice, in order
+        theta = np.concatenate([s.theta for s in run])
+        assert theta.size == np.count_nonzero(lam < run[-1].hi) > 200
+        assert np.all(np.abs(theta - lam[:theta.size]) <= max(s.radius for s in run))

@@ -52,7 +52,9 @@ count is made again by the same elimination in double-word arithmetic
 (``ldl_dd.cpp``, every operation within U_DW = 16 u^2), whose fuzz is the
 same bound with U_DW for u. Ritz pairs of S are
 computed slice by slice (ARPACK shift-invert about a shift inside the
-slice, moved down before ARPACK runs where the probe solve of its
+slice -- the first slice's just below the lowest eigenvalue, found by
+bisection on the counts, not at the Gershgorin bound far below it --
+moved down before ARPACK runs where the probe solve of its
 factorization shows a tiny pivot's inexact solves; a slice whose Kahan
 radius still exceeds what ARPACK's stopping rule gives for exact solves is
 computed again about a shift moved by 1 % of its span), each slice's

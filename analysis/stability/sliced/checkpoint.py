@@ -32,8 +32,10 @@ __all__ = ["CHECKPOINT_FORMAT", "ScanFiles", "scan_key", "saved_scans", "sha", "
 #: module path: a file of 5 names classes that no longer exist there; 7: counts
 #: made again in double-word arithmetic, shifts moved away from a tiny pivot
 #: before ARPACK runs and slices computed again only above ARPACK's own residual
-#: bound, so slice edges and shifts whose bits differ from those of 6)
-CHECKPOINT_FORMAT = 7
+#: bound, so slice edges and shifts whose bits differ from those of 6; 8: the
+#: first slice's shift among the lowest eigenvalues, not at the Gershgorin
+#: bound, so every slice edge above it differs from those of 7)
+CHECKPOINT_FORMAT = 8
 
 
 def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None,

@@ -219,7 +219,8 @@ def ritz_slices(S, W, k, normS, pos, stats):
     Each slice: the k eigenvalues of S nearest a shift sigma (ARPACK
     shift-invert), sigma placed ``_SHIFT_FRACTION`` (0.42) of a slice above
     the previous upper edge x so that the k nearest reach below x (no hole:
-    checked, and the count below proves it); the new upper edge y lies in the
+    checked, and the count below proves it; the first slice's sigma just
+    below the lowest eigenvalue, :func:`_bottom_shift`); the new upper edge y lies in the
     widest gap of the slice's upper part whose distance to its Ritz values
     exceeds the Ritz radius and the inertia fuzz; the inertia count of (x, y)
     must equal the number of Ritz values kept. ``pos`` is advanced to y
@@ -244,7 +245,7 @@ def _next_slice(S, W, k, normS, pos, shifts, stats):
     n = S.shape[0]
     x, cnt_x, fz_x = pos.x, pos.count, pos.fuzz
     kk = min(k, n - 2)
-    lam, V, sigma, whole = _pairs_reaching_below(S, shifts, pos, kk, stats)
+    lam, V, sigma, whole = _pairs_reaching_below(S, shifts, pos, kk, stats, normS)
     ritz = rayleigh_ritz(S, W, V, normS)
     theta, radius = ritz[0], ritz[3]
     if not whole and radius > _RECOMPUTE_ABOVE * arpack_bound(theta.size, normS, sigma):
@@ -267,7 +268,7 @@ def _next_slice(S, W, k, normS, pos, shifts, stats):
     return Slice(x, y, theta[keep], Q[:, keep], WQ[:, keep], radius, resid[keep], phi)
 
 
-def _pairs_reaching_below(S, shifts, pos, kk, stats):
+def _pairs_reaching_below(S, shifts, pos, kk, stats, normS):
     """The kk eigenpairs of S nearest a shift sigma above ``pos.x`` that reach
     below it: (lam, V, sigma, whole); ``whole``: all of S's eigenpairs above x
     (LAPACK, where kk >= n - 2).
@@ -275,10 +276,17 @@ def _pairs_reaching_below(S, shifts, pos, kk, stats):
     The kk nearest to sigma reach below x unless (x, sigma) holds more than
     kk/2 of them: sigma 0.42 of a slice above x leaves a margin for the
     variation of the eigenvalue density (a miss costs a second ARPACK run:
-    sigma is then halved towards x, and x itself after ten misses).
+    sigma is then halved towards x, and x itself after ten misses). At the
+    bottom (no eigenvalue of S below x, no slice yet) x is the Gershgorin
+    bound, far below the spectrum: the shift is put where
+    :func:`_bottom_shift` finds it instead, among the lowest eigenvalues.
     """
     n = S.shape[0]
     x, width = pos.x, pos.width
+    if kk < n - 2 and width is None and pos.count == 0:
+        bottom = _bottom_shift(S, shifts, pos, kk, stats, normS)
+        if bottom is not None:
+            return bottom
     sigma = x if width is None else x + _SHIFT_FRACTION * width
     step = None if width is None else 0.01 * width
     for attempt in range(12):
@@ -291,6 +299,48 @@ def _pairs_reaching_below(S, shifts, pos, kk, stats):
             return lam, V, sigma, False
         sigma = x + 0.5 * (sigma - x) if attempt < 10 else x   # a hole above x: lower
     raise SliceFailure(f"no shift above {x:.6g} reached the slice edge")
+
+
+def _bottom_shift(S, shifts, pos, kk, stats, normS):
+    """The first slice's pairs, about a shift just below the spectrum of S:
+    (lam, V, sigma, False), or None (then the shift at x, as before).
+
+    Below the spectrum (x the Gershgorin bound, ``pos.count`` 0), a shift at x
+    sees the kk lowest eigenvalues at nearly one distance (1 / (lambda - x)
+    nearly equal), and ARPACK converges slowly: measured ~2400 and ~3000
+    solves for the first slice at N = 6400 and 10^4, against ~140 for the
+    others (docs/results/analysis.md, "The first slice of a scan"). Here a
+    bisection on the float64 count between x (count 0) and ``normS`` + 1
+    (``normS`` >= ||S||_2) closes in on the lowest eigenvalue, two halvings
+    past the first upper end whose count is kk / 4 or less (or down to an
+    interval of 1e-6 ``normS``); the shift lies one final interval below its
+    lower end, so between one and two intervals below the lowest eigenvalue,
+    a fraction of the span of the lowest ones: the kk pairs nearest it are the
+    kk lowest, well separated in 1 / (lambda - sigma). The counts steer only:
+    the slice's own counts prove it complete, as for every slice.
+    """
+    lo, hi = pos.x, float(normS) + 1.0
+    cmax, extra, floor = max(kk // 4, 1), None, 1e-6 * float(normS)
+    while extra != 0 and hi - lo > floor:
+        mid = 0.5 * (lo + hi)
+        try:
+            cnt = count_below(S, mid, shifts.factor(mid))[0]
+        except (ValueError, SliceFailure):      # a zero pivot: the shift at x
+            return None
+        if cnt == 0:
+            lo = mid
+        else:
+            hi = mid
+        if extra is not None:
+            extra -= 1
+        elif 0 < cnt <= cmax:
+            extra = 2
+    try:
+        lam, V, sigma = shift_invert(S, shifts, max(pos.x, lo - (hi - lo)), kk, pos.rng,
+                                     stats)
+    except SliceFailure:
+        return None
+    return lam, V, sigma, False
 
 
 def _reshifted(S, W, normS, shifts, sigma, kk, rng, stats, lam, ritz):
