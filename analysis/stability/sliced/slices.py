@@ -307,9 +307,10 @@ def _bottom_shift(S, shifts, pos, kk, stats, normS):
 
     Below the spectrum (x the Gershgorin bound, ``pos.count`` 0), a shift at x
     sees the kk lowest eigenvalues at nearly one distance (1 / (lambda - x)
-    nearly equal), and ARPACK converges slowly: measured ~2400 and ~3000
-    solves for the first slice at N = 6400 and 10^4, against ~140 for the
-    others (docs/results/analysis.md, "The first slice of a scan"). Here a
+    nearly equal), and ARPACK converges slowly: measured 2255 and 2929
+    solves for the first slice at N = 6400 and 10^4, against 138 for the
+    next two, and 164 about this shift (docs/results/analysis.md, "The first
+    slice of a scan"). Here a
     bisection on the float64 count between x (count 0) and ``normS`` + 1
     (``normS`` >= ||S||_2) closes in on the lowest eigenvalue, two halvings
     past the first upper end whose count is kk / 4 or less (or down to an
