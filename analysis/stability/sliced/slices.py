@@ -220,8 +220,8 @@ def ritz_slices(S, W, k, normS, pos, stats):
     shift-invert), sigma placed ``_SHIFT_FRACTION`` (0.42) of a slice above
     the previous upper edge x so that the k nearest reach below x (no hole:
     checked, and the count below proves it; the first slice's sigma just
-    below the lowest eigenvalue, :func:`_bottom_shift`); the new upper edge y lies in the
-    widest gap of the slice's upper part whose distance to its Ritz values
+    below the lowest eigenvalue, :func:`_bottom_shift`); the new upper edge y
+    lies in the widest gap of the slice's upper part whose distance to its Ritz values
     exceeds the Ritz radius and the inertia fuzz; the inertia count of (x, y)
     must equal the number of Ritz values kept. ``pos`` is advanced to y
     before each slice is yielded, so that a scan saved after a slice resumes
@@ -310,15 +310,15 @@ def _bottom_shift(S, shifts, pos, kk, stats, normS):
     nearly equal), and ARPACK converges slowly: measured 2255 and 2929
     solves for the first slice at N = 6400 and 10^4, against 138 for the
     next two, and 164 about this shift (docs/results/analysis.md, "The first
-    slice of a scan"). Here a
-    bisection on the float64 count between x (count 0) and ``normS`` + 1
-    (``normS`` >= ||S||_2) closes in on the lowest eigenvalue, two halvings
-    past the first upper end whose count is kk / 4 or less (or down to an
-    interval of 1e-6 ``normS``); the shift lies one final interval below its
-    lower end, so between one and two intervals below the lowest eigenvalue,
-    a fraction of the span of the lowest ones: the kk pairs nearest it are the
-    kk lowest, well separated in 1 / (lambda - sigma). The counts steer only:
-    the slice's own counts prove it complete, as for every slice.
+    slice of a scan"). Here a bisection on the float64 count between x
+    (count 0) and ``normS`` + 1 (``normS`` >= ||S||_2) closes in on the
+    lowest eigenvalue, two halvings past the first upper end whose count is
+    kk / 4 or less (or down to an interval of 1e-6 ``normS``); the shift
+    lies one final interval below its lower end, so between one and two
+    intervals below the lowest eigenvalue, a fraction of the span of the
+    lowest ones: the kk pairs nearest it are the kk lowest, well separated
+    in 1 / (lambda - sigma). The counts steer only: the slice's own counts
+    prove it complete, as for every slice.
     """
     lo, hi = pos.x, float(normS) + 1.0
     cmax, extra, floor = max(kk // 4, 1), None, 1e-6 * float(normS)
