@@ -33,8 +33,8 @@ __all__ = ["CHECKPOINT_FORMAT", "ScanFiles", "scan_key", "saved_scans", "sha", "
 #: made again in double-word arithmetic, shifts moved away from a tiny pivot
 #: before ARPACK runs and slices computed again only above ARPACK's own residual
 #: bound, so slice edges and shifts whose bits differ from those of 6; 8: the
-#: first slice's shift among the lowest eigenvalues, not at the Gershgorin
-#: bound, so every slice edge above it differs from those of 7)
+#: first slice's shift just below the lowest eigenvalue, not at the Gershgorin
+#: bound, so slice edges whose last bits differ from those of 7)
 CHECKPOINT_FORMAT = 8
 
 
