@@ -53,10 +53,12 @@ demo: install
 
 # one BLAS thread per test worker: the workers already fill the cores, and a
 # threaded BLAS beside another worker made the suite take 13.5 min of CPU
-# instead of 7.4 (wall 7:17 against 4:31-6:41, 2 cores)
+# instead of 7.4 (wall 7:17 against 4:31-6:41, 2 cores). Test files are handed
+# out in collection order, the longest first (tests/conftest.py), not by
+# xdist's count of tests per file (which put the one-test docs build last)
 test: install
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 \
-	  $(PY) -m pytest -q -ra -n $(NP) --dist loadfile
+	  $(PY) -m pytest -q -ra -n $(NP) --dist loadfile --no-loadscope-reorder
 
 docs: install
 	$(PY) -m sphinx -W --keep-going -b html $(SPHINXOPTS) docs $(DOCS_OUT)
