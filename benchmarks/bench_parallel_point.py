@@ -304,6 +304,12 @@ def one_size(n, args):
         print(f"{name:<26}{r['wall']:>8.1f}{base / r['wall']:>8.2f}x{setup}"
               f"{len(cuts):>5} {sum(cuts):>9.1f}{len(prts):>6} {sum(prts):>9.1f}"
               f"{r['merge']:>7.2f}{r['load']:>6.1f}  {r['bits']}")
+        if cuts and prts and r["ranks"] == 1:   # (one rank runs cuts j = 1.., parts j = 0.. in order)
+            jc, jp = max(range(len(cuts)), key=cuts.__getitem__), max(range(len(prts)),
+                                                                   key=prts.__getitem__)
+            print(f"{'':<26}longest cut {cuts[jc]:.1f} s (j = {jc + 1}), longest part "
+                  f"{prts[jp]:.1f} s (j = {jp}, 0 the bottom of the spectrum); parts "
+                  f"{min(prts):.1f}-{max(prts):.1f} s, mean {sum(prts) / len(prts):.1f} s")
         per_rank = {}
         for t in r["tasks"]:
             per_rank[t[2]] = per_rank.get(t[2], 0.0) + t[3]
