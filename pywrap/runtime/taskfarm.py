@@ -3,9 +3,9 @@
 The ``ensemble`` (one task per packing) and ``trigger-map`` (one task per
 map point or control) jobs hand their tasks to :func:`run_tasks`. Under MPI
 it uses :class:`mpi4py.futures.MPICommExecutor` on the job's communicator:
-rank 0 schedules the tasks (in the order given) and receives every result,
-ranks 1..n-1 run them, a free rank taking the next task (dynamic load
-balance). On one rank the tasks run one after the other in this process.
+rank 0 schedules the tasks (in the order given, a task's follow-ups before
+the tasks not yet begun) and receives every result, ranks 1..n-1 run them,
+a free rank taking the next task (dynamic load balance). On one rank the tasks run one after the other in this process.
 The same launch works on one machine and on k nodes (``mpirun -np P`` /
 ``srun``; docs/ensemble.md "Running on k nodes"): no shared file is used to
 hand out tasks, only MPI messages; the job's output folder must be visible
@@ -71,8 +71,12 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
         order they end): where the job writes the task's result file and
         prints its progress line. It may return an iterable of new tasks
         (follow-ups, e.g. the parts of a task that can run side by side),
-        run like the others: on one rank after those already queued, under
-        MPI handed to the next free rank.
+        run like the others but before every task not yet handed out, in
+        the order returned: a task begun is finished before a new one
+        starts (an ensemble's relaxed packing has its ramps run before the
+        next packing is relaxed, so its result comes first). Under MPI rank
+        0 hands out at most one task per worker at a time and keeps the
+        rest, so a follow-up goes to the next free rank.
     join : bool, optional
         Under MPI, workers without a task help the points of the running
         tasks that are decided in parts
@@ -96,15 +100,17 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
     """
     ended = []
     helped.clear()
+    # the tasks not yet handed out; follow-ups go to its front
+    queue = collections.deque(tasks)
     if comm is None or comm.Get_size() == 1:
-        queue = collections.deque(tasks)
         while queue:
             task = queue.popleft()
             t0 = time.perf_counter()
             res = fn(task, *args)
             ended.append((task, res))
             if done is not None:
-                queue.extend(done(task, res, time.perf_counter() - t0) or ())
+                queue.extendleft(reversed(list(done(task, res, time.perf_counter() - t0)
+                                               or ())))
         return ended
     from concurrent.futures import FIRST_COMPLETED, wait
     from contextlib import nullcontext
@@ -119,7 +125,15 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
         with MPICommExecutor(comm, root=0, backoff=FARM_BACKOFF) as pool:
             if pool is not None:         # rank 0; the workers run tasks meanwhile
                 broker = Broker(jc, n_workers(comm)) if join else None
-                futures = {pool.submit(_timed, fn, task, args): task for task in tasks}
+                futures = {}
+
+                def hand_out():
+                    """One task per worker at most, the front of the queue first."""
+                    while queue and len(futures) < n_workers(comm):
+                        task = queue.popleft()
+                        futures[pool.submit(_timed, fn, task, args)] = task
+
+                hand_out()
                 pause = POLL_BUSY
                 while futures:
                     if broker is not None:
@@ -142,11 +156,12 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
                             res, wall = fut.result()
                             ended.append((task, res))
                             more = done(task, res, wall) if done is not None else None
-                            if error is None:     # after a failure no new work is started
-                                futures.update({pool.submit(_timed, fn, t, args): t
-                                                for t in (more or ())})
+                            if error is None:     # after a failure no follow-up is started
+                                queue.extendleft(reversed(list(more or ())))
                         except Exception as exc:  # noqa: BLE001 - raised on every rank below
                             error = error or portable_exception(exc)
+                        # (the tasks given are all run, after a failure too)
+                        hand_out()
                 if broker is not None:          # (even after a failure)
                     failed = _portable(broker.close(pool))
                     error = error or failed

@@ -55,6 +55,15 @@ if rank == 0:
     order = [t for t, _ in res]
     assert all(order.index(100 * t + k) > order.index(t) for t in (1, 2, 3) for k in (1, 2))
 
+# one worker (ranks 0 and 1): the follow-ups of a task are handed out before
+# the tasks not yet begun, in the order returned
+sub = comm.Split(0 if rank < 2 else MPI.UNDEFINED, rank)
+if sub != MPI.COMM_NULL:
+    res = run_tasks(sub, [1, 2, 3], square, (0,), parts)
+    if rank == 0:
+        assert [t for t, _ in res] == [1, 101, 102, 2, 201, 202, 3, 301, 302], res
+    sub.Free()
+
 try:
     run_tasks(comm, list(range(8)), fail)
 except ValueError as exc:
@@ -75,11 +84,13 @@ def test_one_rank_runs_the_tasks_in_order_here():
         run_tasks(None, [1, 0], lambda t: 1 / t)
 
 
-def test_one_rank_runs_follow_ups_after_the_queue():
-    """Tasks that ``done`` returns run after those already queued, and theirs after them."""
+def test_one_rank_runs_follow_ups_before_the_tasks_not_started():
+    """Tasks that ``done`` returns run before the tasks not yet begun, in the
+    order returned, and theirs before them: a task begun is finished first."""
     res = run_tasks(None, [1, 2], lambda t: t, (),
-                    lambda t, r, w: [10 * t] if t < 100 else None)
-    assert [t for t, _ in res] == [1, 2, 10, 20, 100, 200]
+                    lambda t, r, w: [10 * t, 10 * t + 1] if t < 100 else None)
+    assert [t for t, _ in res] == [1, 10, 100, 101, 11, 110, 111,
+                                   2, 20, 200, 201, 21, 210, 211]
 
 
 @pytest.mark.mpi
