@@ -5,7 +5,8 @@ map point or control) jobs hand their tasks to :func:`run_tasks`. Under MPI
 it uses :class:`mpi4py.futures.MPICommExecutor` on the job's communicator:
 rank 0 schedules the tasks (in the order given, a task's follow-ups before
 the tasks not yet begun) and receives every result, ranks 1..n-1 run them,
-a free rank taking the next task (dynamic load balance). On one rank the tasks run one after the other in this process.
+a free rank taking the next task (dynamic load balance). On one rank the
+tasks run one after the other in this process.
 The same launch works on one machine and on k nodes (``mpirun -np P`` /
 ``srun``; docs/ensemble.md "Running on k nodes"): no shared file is used to
 hand out tasks, only MPI messages; the job's output folder must be visible
