@@ -329,9 +329,10 @@ def one_size(n, args):
         stamp = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
                  "commit": (source()["commit"] or "unknown")[:7]}
         # every one-rank run's tasks (name, wall s, rank, CPU s), for a later look
-        with open(os.path.join(cache_dir(), f"tasks_N{n}_parts{part}.json"), "w") as fh:
+        kept = os.path.join(cache_dir(), f"tasks_N{n}_parts{part}.json")
+        with open(kept, "w") as fh:
             json.dump({"parts": one, "recorded": stamp}, fh)
-        print(f"(its tasks: {os.path.join(cache_dir(), f'tasks_N{n}_parts{part}.json')})")
+        print(f"(its tasks: {kept})")
         # keep the one-rank records for the model of larger n
         if "whole" in recs:
             with open(os.path.join(cache_dir(), f"records_N{n}.json"), "w") as fh:

@@ -110,8 +110,7 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
             res = fn(task, *args)
             ended.append((task, res))
             if done is not None:
-                queue.extendleft(reversed(list(done(task, res, time.perf_counter() - t0)
-                                               or ())))
+                _first(queue, done(task, res, time.perf_counter() - t0))
         return ended
     from concurrent.futures import FIRST_COMPLETED, wait
     from contextlib import nullcontext
@@ -125,12 +124,13 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
     with (joining(comm) if join else nullcontext()) as jc:
         with MPICommExecutor(comm, root=0, backoff=FARM_BACKOFF) as pool:
             if pool is not None:         # rank 0; the workers run tasks meanwhile
-                broker = Broker(jc, n_workers(comm)) if join else None
+                workers = n_workers(comm)
+                broker = Broker(jc, workers) if join else None
                 futures = {}
 
                 def hand_out():
                     """One task per worker at most, the front of the queue first."""
-                    while queue and len(futures) < n_workers(comm):
+                    while queue and len(futures) < workers:
                         task = queue.popleft()
                         futures[pool.submit(_timed, fn, task, args)] = task
 
@@ -158,7 +158,7 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
                             ended.append((task, res))
                             more = done(task, res, wall) if done is not None else None
                             if error is None:     # after a failure no follow-up is started
-                                queue.extendleft(reversed(list(more or ())))
+                                _first(queue, more)
                         except Exception as exc:  # noqa: BLE001 - raised on every rank below
                             error = error or portable_exception(exc)
                         # (the tasks given are all run, after a failure too)
@@ -172,6 +172,12 @@ def run_tasks(comm, tasks, fn, args=(), done=None, join=False):
     if error is not None:
         raise error
     return ended if comm.Get_rank() == 0 else None
+
+
+def _first(queue, more):
+    """Put the follow-ups ``more`` (an iterable or None) at the front of
+    ``queue``, in their order."""
+    queue.extendleft(reversed(list(more or ())))
 
 
 def _portable(exc):
