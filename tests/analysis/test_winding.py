@@ -114,3 +114,61 @@ def test_a_count_is_never_wrong_under_adversarial_errors(seed):
             assert (cnt is None) == (margin == 0.0)
             given += err == 1e-6 and cnt is not None
     assert given >= 12          # the near-exact complement counts (almost) every box
+
+
+def _near_exceptional(err, seed=0, eps=(0.002 ** 2, 0.0035 ** 2), a=0.496):
+    """T(z) = B - z, B two 2 x 2 blocks [[a, 1], [-eps, a]] (pairs a +- i sqrt(eps),
+    just past their exceptional points) in a random orthonormal basis: sigma_min(T)
+    near a zero is about the product of the distances to the pair's two members,
+    far below either."""
+    B = np.zeros((4, 4), complex)
+    for k, e in enumerate(eps):
+        B[2 * k:2 * k + 2, 2 * k:2 * k + 2] = [[a, 1.0], [-e, a]]
+    Q = np.linalg.qr(np.random.default_rng(seed).standard_normal((4, 4)))[0]
+    B = Q @ B @ Q.T
+    calls = []
+
+    def schur(z, deriv=True):
+        calls.append(z)
+        return B - z * np.eye(4), err, -np.eye(4), 0.0
+    return schur, calls
+
+
+@pytest.mark.parametrize("err", [0.0, 1e-8, 1e-7])
+def test_a_pair_near_its_exceptional_point_is_counted_on_the_eigenvector_basis(err):
+    """The box of half-width 0.00075 about 0.496 + 0.0035i (the other upper
+    member 0.0015 below it): on T the segments must be shorter than
+    sigma_min(T) ~ 1e-6 and the walk stops at its budget of evaluations; on
+    W T V (V the eigenvectors at the box's centre) they need only be short
+    beside the distance to the zeros, and the box holds 1."""
+    schur, calls = _near_exceptional(err)
+    box = (0.496 - 0.00075, 0.496 + 0.00075, 0.0035 - 0.00075, 0.0035 + 0.00075)
+    cnt, why, margin = box_zero_count(schur, *box, curv=0.0)
+    assert cnt == 1 and margin > 1, why
+    assert len(set(calls)) < 700                # the first walk's 601, then a few more
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_near_exceptional_counts_are_never_wrong_under_adversarial_errors(seed):
+    """As above with a random error of norm up to err at every evaluation, over
+    random boxes near the four zeros: the true count or none."""
+    schur0, _ = _near_exceptional(0.0, seed=seed)
+    rng = np.random.default_rng(200 + seed)
+    lam = np.array([0.496 + 0.002j, 0.496 - 0.002j, 0.496 + 0.0035j, 0.496 - 0.0035j])
+    given = 0
+    for _ in range(8):
+        x0, y0 = 0.496 + rng.uniform(-0.002, 0.0005), rng.uniform(0.0002, 0.003)
+        w, hgt = rng.uniform(0.0005, 0.003, size=2)
+        box = (x0, x0 + w, y0, y0 + hgt)
+        inside = int(np.sum((lam.real > box[0]) & (lam.real < box[1])
+                            & (lam.imag > box[2]) & (lam.imag < box[3])))
+        for err in (1e-9, 1e-7):
+            def schur(z, deriv=True, err=err):
+                T, _, D, _ = schur0(z)
+                r = np.random.default_rng([seed, abs(hash(z)) % 2**32])
+                E = r.standard_normal((4, 4)) + 1j * r.standard_normal((4, 4))
+                return T + 0.9 * err * E / np.linalg.norm(E, 2), err, D, 0.0
+            cnt, why, _ = box_zero_count(schur, *box, curv=0.0)
+            assert cnt is None or cnt == inside, (box, err, cnt, inside)
+            given += cnt is not None
+    assert given >= 10          # of 16
