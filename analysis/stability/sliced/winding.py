@@ -145,8 +145,7 @@ def box_zero_count(schur, x0, x1, y0, y1, curv):
     count, why2, margin = _walk(raw, corners, curv, (W, V))
     if count is not None:
         return count, why2, margin
-    why2 = why2[len("winding count: "):]
-    return None, f"{why}; on T's eigenvector basis at the box's centre: {why2}", 0.0
+    return None, f"{why}; on T's eigenvector basis at the box's centre: {why2[len('winding count: '):]}", 0.0
 
 
 def _walk(raw, corners, curv, similarity):
