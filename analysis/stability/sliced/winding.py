@@ -45,15 +45,6 @@ segments: a box walked in hundreds of segments is counted as surely as one
 walked in four. A node whose own ratio err / s leaves no segment from it
 passable (2 q + (1 + 2 q) q >= 0.9 with q = err / s: q >= 0.26) ends
 the count at once (no answer).
-
-*Non-normal T.* det(W T(z) V) = det(W) det(V) det T(z) for fixed W, V, so
-the count on W T V is the count on T; its error bounds are ||W|| ||V||
-times T's plus the rounding of the products. Near a pair's exceptional
-point sigma_min(T(z)) is about the product of the distances from z to the
-pair's two members, and a walk on T needs segments shorter than that; with
-V the eigenvectors of T at the box's centre (W its computed inverse)
-sigma_min(W T V) is about the distance itself. A walk on T that gives no
-count is made once more so.
 """
 from __future__ import annotations
 
@@ -61,7 +52,7 @@ import math
 
 import numpy as np
 
-from remote_trigger.analysis.stability.enclosure import gamma, sigma_min_lower
+from remote_trigger.analysis.stability.enclosure import sigma_min_lower
 
 __all__ = ["box_zero_count"]
 
@@ -82,12 +73,6 @@ def _norm2_upper(D):
 def box_zero_count(schur, x0, x1, y0, y1, curv):
     """Number of zeros of det T_F(z) in the box [x0, x1] x [y0, y1], for every F.
 
-    The box's edge is walked once on T itself and, if that gives no count, once
-    more on W T(z) V (V the eigenvectors of T at the box's centre, W its
-    computed inverse: the same determinant up to the constant det(W V), so the
-    same count), whose norms near a non-normal T (a pair near its exceptional
-    point) see the distance to the zeros rather than its square.
-
     Parameters
     ----------
     schur : callable
@@ -106,7 +91,7 @@ def box_zero_count(schur, x0, x1, y0, y1, curv):
         The number of zeros (eigenvalues of A + F in the box, with
         multiplicity); None if it could not be certified.
     why : str
-        Why not ('' when certified; both walks' reasons when neither counts).
+        Why not ('' when certified).
     margin : float
         pi over the bound of the error of the summed phase (its distance to
         the nearest multiple of 2 pi plus the rounding bound; > 1 when
@@ -115,58 +100,14 @@ def box_zero_count(schur, x0, x1, y0, y1, curv):
     Notes
     -----
     The proof is the module docstring's: per segment the computed phase is
-    exact up to the nodes' own errors, and around the loop those cancel. On
-    W T V the error bounds are ||W|| ||V|| times T's plus the rounding of the
-    two products (4 gamma_{m+2} ||W||_F ||X||_F ||V||_F for X = T, T'), the
-    curvature bound ||W|| ||V|| times T's; a singular W or V would make every
-    node fail its sigma_min test, so none is assumed nonsingular.
+    exact up to the nodes' own errors, and around the loop those cancel.
     """
+    corners = [complex(x0, y0), complex(x1, y0), complex(x1, y1), complex(x0, y1)]
     cache = {}
 
-    def raw(z):
-        if z not in cache:
-            cache[z] = schur(z, deriv=True)
-        return cache[z]
-
-    corners = [complex(x0, y0), complex(x1, y0), complex(x1, y1), complex(x0, y1)]
-    count, why, margin = _walk(raw, corners, curv, None)
-    if count is not None:
-        return count, why, margin
-    Tm = raw(complex(0.5 * (x0 + x1), 0.5 * (y0 + y1)))[0]
-    if Tm is None or not np.all(np.isfinite(Tm)):
-        return None, why, 0.0
-    try:
-        _, V = np.linalg.eig(Tm)
-        W = np.linalg.inv(V)
-    except np.linalg.LinAlgError:
-        return None, why, 0.0
-    if not (np.all(np.isfinite(V)) and np.all(np.isfinite(W))):
-        return None, why, 0.0
-    count, why2, margin = _walk(raw, corners, curv, (W, V))
-    if count is not None:
-        return count, why2, margin
-    return None, f"{why}; on T's eigenvector basis at the box's centre: {why2[len('winding count: '):]}", 0.0
-
-
-def _walk(raw, corners, curv, similarity):
-    """One walk of the box's edge (corners counter-clockwise) on T, or on W T V
-    with ``similarity`` = (W, V): (count or None, why, margin)."""
-    if similarity is not None:
-        W, V = similarity
-        nWV = _norm2_upper(W) * _norm2_upper(V)
-        fWV = float(np.linalg.norm(W)) * float(np.linalg.norm(V))
-        curv = curv * nWV
-    cache, seen = {}, set()
-
     def at(z):
-        seen.add(z)
         if z not in cache:
-            T, e, D, de = raw(z)
-            if T is not None and similarity is not None:
-                g = 4 * gamma(T.shape[0] + 2)
-                e = e * nWV + g * fWV * float(np.linalg.norm(T))
-                de = de * nWV + g * fWV * float(np.linalg.norm(D))
-                T, D = W @ T @ V, W @ D @ V
+            T, e, D, de = schur(z, deriv=True)
             s = sigma_min_lower(T, norm="spectral") if T is not None else 0.0
             cache[z] = (T, e, D, de, s)
         return cache[z]
@@ -176,7 +117,7 @@ def _walk(raw, corners, curv, similarity):
         todo = [(corners[k], corners[(k + 1) % 4])]
         while todo:
             za, zb = todo.pop()
-            if len(seen) > MAX_EVALS:
+            if len(cache) > MAX_EVALS:
                 return None, (f"winding count: more than {MAX_EVALS} evaluations of T "
                               f"on the box's edge"), 0.0
             Ta, ea, Da, dea, sa = at(za)
