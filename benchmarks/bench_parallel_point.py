@@ -324,19 +324,19 @@ def one_size(n, args):
               "free rank in order, + setup, bcast, merge; static i mod k in brackets): "
               + ", ".join(f"k = {k}: {model(one, k):.1f} s ({model(one, k, static):.1f})"
                           for k in (1, 2, 4, 8, 16)))
+        from remote_trigger.analysis.output import write_json_atomic
         from remote_trigger.pywrap.runtime.environment import source
 
         stamp = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
                  "commit": (source()["commit"] or "unknown")[:7]}
         # every one-rank run's tasks (name, wall s, rank, CPU s), for a later look
         kept = os.path.join(cache_dir(), f"tasks_N{n}_parts{part}.json")
-        with open(kept, "w") as fh:
-            json.dump({"parts": one, "recorded": stamp}, fh)
+        write_json_atomic(kept, {"parts": one, "recorded": stamp})
         print(f"(its tasks: {kept})")
         # keep the one-rank records for the model of larger n
         if "whole" in recs:
-            with open(os.path.join(cache_dir(), f"records_N{n}.json"), "w") as fh:
-                json.dump({"whole": recs["whole"], "parts": one, "recorded": stamp}, fh)
+            write_json_atomic(os.path.join(cache_dir(), f"records_N{n}.json"),
+                              {"whole": recs["whole"], "parts": one, "recorded": stamp})
     return 0 if same else 1
 
 
