@@ -60,3 +60,115 @@ def test_sigma_min_lower_of_a_complex_matrix():
             assert 0.5 * s <= lo <= s                  # rigorous, and not far below
     with pytest.raises(ValueError, match="norm must be 'frobenius' or 'spectral', got norm = 'max'"):
         sigma_min_lower(T, norm="max")
+
+
+def _noisy_schur(lam, V, err, seed):
+    """T_c(z) = T(z) + E(z), ||E(z)||_2 <= 0.9 err, E a fresh random matrix at
+    every z (not analytic, not even continuous): what the proof allows of a
+    computed complement. T itself is one member of the set."""
+    lam = np.asarray(lam, complex)
+    m = lam.size
+    Vi = np.linalg.inv(V)
+
+    def schur(z, deriv=True):
+        r = np.random.default_rng([seed, abs(hash(z)) % 2**32])
+        E = r.standard_normal((m, m)) + 1j * r.standard_normal((m, m))
+        E *= 0.9 * err / np.linalg.norm(E, 2)
+        return V @ np.diag(lam - z) @ Vi + E, err, -np.eye(m), 0.0
+    return schur
+
+
+def test_errors_do_not_accumulate_over_the_segments():
+    """Two pairs 0.015 apart (4 zeros), a box of half-width 0.0075 about the
+    upper one: with err up to 1e-3 (0.13 of the distance from the edge to the
+    zeros) the count is 1. The nodes' errors cancel around the loop (module
+    docstring); summed per segment, as a cruder bound would, they exceed pi
+    from err = 3e-4 on."""
+    lam = [5 + 0.02j, 5 - 0.02j, 5 + 0.035j, 5 - 0.035j]
+    box = (4.9925, 5.0075, 0.0275, 0.0425)
+    for err in (1e-4, 3e-4, 1e-3):
+        cnt, why, margin = box_zero_count(_diag_schur(lam, err=err), *box, curv=0.0)
+        assert cnt == 1 and margin > 1, (err, why)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_count_is_never_wrong_under_adversarial_errors(seed):
+    """Random perturbations of norm up to err at every evaluation (the computed
+    T_c may be any matrix within err of the true T): the count is the true
+    one or None, over boxes that hold 0, 1 or 2 zeros and boxes whose edge
+    passes within a few err of a zero; and with err small beside those
+    distances it is given."""
+    rng = np.random.default_rng(100 + seed)
+    V = np.eye(6) + 0.2 * rng.standard_normal((6, 6))
+    lam = np.array([5 + 0.02j, 5 - 0.02j, 5.01 + 0.03j, 5.01 - 0.03j, 4.97, 5.04])
+    given = 0
+    for _ in range(15):
+        x0, y0 = rng.uniform(4.96, 5.03), rng.uniform(0.001, 0.04)
+        w, hgt = rng.uniform(0.003, 0.03, size=2)
+        box = (x0, x0 + w, y0, y0 + hgt)
+        inside = int(np.sum((lam.real > box[0]) & (lam.real < box[1])
+                            & (lam.imag > box[2]) & (lam.imag < box[3])))
+        for err in (1e-6, 3e-4, 2e-3):
+            cnt, why, margin = box_zero_count(_noisy_schur(lam, V, err, seed), *box, curv=0.0)
+            assert cnt is None or cnt == inside, (box, err, cnt, inside)
+            assert (cnt is None) == (margin == 0.0)
+            given += err == 1e-6 and cnt is not None
+    assert given >= 12          # the near-exact complement counts (almost) every box
+
+
+def _near_exceptional(err, seed=0, eps=(0.002 ** 2, 0.0035 ** 2), a=0.496):
+    """T(z) = B - z, B two 2 x 2 blocks [[a, 1], [-eps, a]] (pairs a +- i sqrt(eps),
+    just past their exceptional points) in a random orthonormal basis: sigma_min(T)
+    near a zero is about the product of the distances to the pair's two members,
+    far below either."""
+    B = np.zeros((4, 4), complex)
+    for k, e in enumerate(eps):
+        B[2 * k:2 * k + 2, 2 * k:2 * k + 2] = [[a, 1.0], [-e, a]]
+    Q = np.linalg.qr(np.random.default_rng(seed).standard_normal((4, 4)))[0]
+    B = Q @ B @ Q.T
+    calls = []
+
+    def schur(z, deriv=True):
+        calls.append(z)
+        return B - z * np.eye(4), err, -np.eye(4), 0.0
+    return schur, calls
+
+
+@pytest.mark.parametrize("err", [0.0, 1e-8, 1e-7])
+def test_a_pair_near_its_exceptional_point_is_counted_on_the_eigenvector_basis(err):
+    """The box of half-width 0.00075 about 0.496 + 0.0035i (the other upper
+    member 0.0015 below it): on T the segments must be shorter than
+    sigma_min(T) ~ 1e-6 and the walk stops at its budget of evaluations; on
+    W T V (V the eigenvectors at the box's centre) they need only be short
+    beside the distance to the zeros, and the box holds 1."""
+    schur, calls = _near_exceptional(err)
+    box = (0.496 - 0.00075, 0.496 + 0.00075, 0.0035 - 0.00075, 0.0035 + 0.00075)
+    cnt, why, margin = box_zero_count(schur, *box, curv=0.0)
+    assert cnt == 1 and margin > 1, why
+    assert len(set(calls)) < 700                # the first walk's 601, then a few more
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_near_exceptional_counts_are_never_wrong_under_adversarial_errors(seed):
+    """As above with a random error of norm up to err at every evaluation, over
+    random boxes near the four zeros: the true count or none."""
+    schur0, _ = _near_exceptional(0.0, seed=seed)
+    rng = np.random.default_rng(200 + seed)
+    lam = np.array([0.496 + 0.002j, 0.496 - 0.002j, 0.496 + 0.0035j, 0.496 - 0.0035j])
+    given = 0
+    for _ in range(8):
+        x0, y0 = 0.496 + rng.uniform(-0.002, 0.0005), rng.uniform(0.0002, 0.003)
+        w, hgt = rng.uniform(0.0005, 0.003, size=2)
+        box = (x0, x0 + w, y0, y0 + hgt)
+        inside = int(np.sum((lam.real > box[0]) & (lam.real < box[1])
+                            & (lam.imag > box[2]) & (lam.imag < box[3])))
+        for err in (1e-9, 1e-7):
+            def schur(z, deriv=True, err=err):
+                T, _, D, _ = schur0(z)
+                r = np.random.default_rng([seed, abs(hash(z)) % 2**32])
+                E = r.standard_normal((4, 4)) + 1j * r.standard_normal((4, 4))
+                return T + 0.9 * err * E / np.linalg.norm(E, 2), err, D, 0.0
+            cnt, why, _ = box_zero_count(schur, *box, curv=0.0)
+            assert cnt is None or cnt == inside, (box, err, cnt, inside)
+            given += cnt is not None
+    assert given >= 10          # of 16
