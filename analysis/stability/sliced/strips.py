@@ -510,7 +510,9 @@ def _strip_estimates(pieces, m, a_lo, a_hi, steps):
 def _box(pieces, est, m, whys):
     """A box about a complex estimate (the two of largest Im), off the real axis
     (winding on the complement T~ of the piece that holds its real part):
-    (COMPLEX, margin) or None (why not appended to ``whys``)."""
+    (COMPLEX, margin, the m estimates with the counted pair's replaced by its
+    approximation: :func:`_pair_in_box`) or None (why not appended to
+    ``whys``)."""
     cx = sorted((z for z in est if z.imag > 0), key=lambda z: -z.imag)
     for z0 in cx[:2]:
         pc = next((q for q in pieces if q.lo <= z0.real <= q.hi), None)
@@ -529,9 +531,30 @@ def _box(pieces, est, m, whys):
         cnt, w, mg = box_zero_count(pc.schur(tau, zabs, z0), z0.real - r, z0.real + r,
                                     z0.imag - r, z0.imag + r, pc.curvature(tau))
         if cnt is not None and cnt >= 1:
-            return Decision.COMPLEX, mg
+            z = _pair_in_box(pc, z0, r)
+            out = est.copy()
+            j = np.argsort(np.abs(out - z0))[:1].tolist() + \
+                np.argsort(np.abs(out - np.conj(z0)))[:1].tolist()
+            if len(set(j)) == 2:
+                out[j] = [z, np.conj(z)]
+            return Decision.COMPLEX, mg, np.sort_complex(out)
         whys.append(w if w else f"no eigenvalue in the box about {z0:.6g}")
     return None
+
+
+def _pair_in_box(pc, z0, r):
+    """The approximation (not certified) of an eigenvalue counted in the box
+    of half-width r about z0: Newton's method on the piece's complement, its
+    series extended to ``TAYLOR_TOL`` ||A|| where it reaches that (the box's
+    estimate was made at a looser tolerance, off by up to ~5 % of its Im); z0
+    if the iterate leaves the box."""
+    try:
+        pc.extend(TAYLOR_TOL * pc.normA1)
+    except SliceFailure:
+        pass
+    z = pc.refined(z0, 3)
+    inside = abs(z.real - z0.real) <= r and abs(z.imag - z0.imag) <= r
+    return z if inside and np.isfinite(z) else complex(z0)
 
 
 def _deflated_routes(pieces, est, m, a_lo, a_hi):
@@ -550,7 +573,7 @@ def _deflated_routes(pieces, est, m, a_lo, a_hi):
     # of the walk, every step an inversion of p x p)
     boxed = m > _BOX_FIRST and not real_est
     if boxed and (found := box()):
-        return found[0], found[1], est, ""
+        return found[0], found[1], found[2], ""
     if not real_est and not mixed:
         margin = math.inf
         for pc in pieces:
@@ -592,7 +615,7 @@ def _deflated_routes(pieces, est, m, a_lo, a_hi):
                 return Decision.REAL, margin, roots.astype(complex), ""
             whys.append(f"strip of {m}: {changes} sign changes of det between roots")
     if not boxed and (found := box()):
-        return found[0], found[1], est, ""
+        return found[0], found[1], found[2], ""
     return Decision.UNDECIDED, 0.0, est, "; ".join(whys)
 
 
@@ -692,7 +715,7 @@ def _decide_pieces(ctx, pieces, m, a_lo, a_hi):
             except SliceFailure:
                 continue
         if (found := _box(pieces, est, m, [])) is not None:
-            return found[0], found[1], est, ""
+            return found[0], found[1], found[2], ""
     first = max(tight, min(TAYLOR_LOOSE * ctx.normA1, 0.1 * spread))
     for target in dict.fromkeys((first, tight)):
         try:
