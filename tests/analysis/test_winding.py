@@ -148,6 +148,31 @@ def test_a_pair_near_its_exceptional_point_is_counted_on_the_eigenvector_basis(e
     assert len(set(calls)) < 700                # the first walk's 601, then a few more
 
 
+def test_a_cheap_complement_may_take_a_larger_budget_of_evaluations():
+    """T(z) = [[a, 1], [-d^2, a]] - z (a pair a +- i d near its exceptional
+    point, d = 0.02), the box of half-width d/2 about a + i d, err = 6e-5: on
+    T, sigma_min on the lower edge is ~0.75 d^2 = 3e-4 and segments must be
+    shorter than ~1e-4, so the walk needs ~800 evaluations; on W T V the
+    error bound (times ||W|| ||V|| ~ 1/d) is above 0.26 of the distance, so
+    the second walk gives nothing either. With the default budget (600, for
+    sparse LUs) no count; with ``max_evals`` 10 000 (a deflated complement's
+    polynomial) the count 1."""
+    a, d = 0.5, 0.02
+    A0 = np.array([[a, 1.0], [-d * d, a]])
+    calls = []
+
+    def schur(z, deriv=True):
+        calls.append(z)
+        return A0 - z * np.eye(2), 6e-5, -np.eye(2), 0.0
+    box = (a - d / 2, a + d / 2, d / 2, 1.5 * d)
+    cnt, why, _ = box_zero_count(schur, *box, curv=0.0)
+    assert cnt is None and "more than 600 evaluations" in why and "eigenvector basis" in why
+    calls.clear()
+    cnt, why, margin = box_zero_count(schur, *box, curv=0.0, max_evals=10_000)
+    assert cnt == 1 and margin > 1, why
+    assert 600 < len(set(calls)) < 10_000
+
+
 @pytest.mark.parametrize("seed", range(2))
 def test_near_exceptional_counts_are_never_wrong_under_adversarial_errors(seed):
     """As above with a random error of norm up to err at every evaluation, over

@@ -507,6 +507,13 @@ def _strip_estimates(pieces, m, a_lo, a_hi, steps):
     return np.sort_complex(np.asarray(found, complex))
 
 
+#: most evaluations of a deflated complement one walk of a box's edge may take:
+#: each is a p x p polynomial (~0.1 ms at p ~ 10), where the bordered route's
+#: are sparse LUs (``winding.MAX_EVALS``). A pair near its exceptional point
+#: took 1077 (N = 6400, seed 2, docs/results/analysis.md).
+POLY_MAX_EVALS = 10_000
+
+
 def _box(pieces, est, m, whys):
     """A box about a complex estimate (the two of largest Im), off the real axis
     (winding on the complement T~ of the piece that holds its real part):
@@ -529,7 +536,8 @@ def _box(pieces, est, m, whys):
         tau = abs(z0.real - pc.c) + r + (z0.imag + r)
         zabs = abs(z0) + 2 * r
         cnt, w, mg = box_zero_count(pc.schur(tau, zabs, z0), z0.real - r, z0.real + r,
-                                    z0.imag - r, z0.imag + r, pc.curvature(tau))
+                                    z0.imag - r, z0.imag + r, pc.curvature(tau),
+                                    max_evals=POLY_MAX_EVALS)
         if cnt is not None and cnt >= 1:
             z = _pair_in_box(pc, z0, r)
             out = est.copy()

@@ -65,7 +65,8 @@ from remote_trigger.analysis.stability.enclosure import gamma, sigma_min_lower
 
 __all__ = ["box_zero_count"]
 
-#: most evaluations of the complement (sparse bordered solves) one box may take
+#: most evaluations of the complement one box may take, by default (each a
+#: sparse bordered solve on the bordered route: 600 are minutes at n ~ 2e4)
 MAX_EVALS = 600
 
 #: a segment's bounds: q_P below the first, q_P + (1 + q_P) q_Q below the
@@ -79,7 +80,7 @@ def _norm2_upper(D):
     return math.sqrt(float(aD.sum(axis=0).max()) * float(aD.sum(axis=1).max())) * (1 + 1e-12)
 
 
-def box_zero_count(schur, x0, x1, y0, y1, curv):
+def box_zero_count(schur, x0, x1, y0, y1, curv, max_evals=MAX_EVALS):
     """Number of zeros of det T_F(z) in the box [x0, x1] x [y0, y1], for every F.
 
     The box's edge is walked once on T itself and, if that gives no count, once
@@ -99,6 +100,12 @@ def box_zero_count(schur, x0, x1, y0, y1, curv):
         The box (x0 < x1, y0 < y1).
     curv : float
         Bound of ||T''(z)||_2 in the box.
+    max_evals : int, optional
+        Most evaluations of ``schur`` one walk of the edge may take (no count
+        beyond). A segment is passable once it is shorter than about
+        (0.6 - 2 err / s) s / ||T'||, s = sigma_min(T) at its start: near a
+        pair close to its exceptional point s is about the product of the
+        distances to the pair's members, and a box may need thousands.
 
     Returns
     -------
@@ -129,7 +136,7 @@ def box_zero_count(schur, x0, x1, y0, y1, curv):
         return cache[z]
 
     corners = [complex(x0, y0), complex(x1, y0), complex(x1, y1), complex(x0, y1)]
-    count, why, margin = _walk(raw, corners, curv, None)
+    count, why, margin = _walk(raw, corners, curv, None, max_evals)
     if count is not None:
         return count, why, margin
     Tm = raw(complex(0.5 * (x0 + x1), 0.5 * (y0 + y1)))[0]
@@ -142,16 +149,17 @@ def box_zero_count(schur, x0, x1, y0, y1, curv):
         return None, why, 0.0
     if not (np.all(np.isfinite(V)) and np.all(np.isfinite(W))):
         return None, why, 0.0
-    count, why2, margin = _walk(raw, corners, curv, (W, V))
+    count, why2, margin = _walk(raw, corners, curv, (W, V), max_evals)
     if count is not None:
         return count, why2, margin
     why2 = why2[len("winding count: "):]
     return None, f"{why}; on T's eigenvector basis at the box's centre: {why2}", 0.0
 
 
-def _walk(raw, corners, curv, similarity):
+def _walk(raw, corners, curv, similarity, max_evals):
     """One walk of the box's edge (corners counter-clockwise) on T, or on W T V
-    with ``similarity`` = (W, V): (count or None, why, margin)."""
+    with ``similarity`` = (W, V), in at most ``max_evals`` evaluations: (count
+    or None, why, margin)."""
     if similarity is not None:
         W, V = similarity
         nWV = _norm2_upper(W) * _norm2_upper(V)
@@ -177,8 +185,8 @@ def _walk(raw, corners, curv, similarity):
         todo = [(corners[k], corners[(k + 1) % 4])]
         while todo:
             za, zb = todo.pop()
-            if len(seen) > MAX_EVALS:
-                return None, (f"winding count: more than {MAX_EVALS} evaluations of T "
+            if len(seen) > max_evals:
+                return None, (f"winding count: more than {max_evals} evaluations of T "
                               f"on the box's edge"), 0.0
             Ta, ea, Da, dea, sa = at(za)
             Tb, eb, _, _, sb = at(zb)
