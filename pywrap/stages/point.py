@@ -138,7 +138,12 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
         part's Ritz values); -1 if the screen could not count. With
         ``cfg.pairs`` = 'collective', ``decision`` and ``complex`` are those
         of the pairs that are not soft (``StabilityResult.collective``) and
-        ``soft_pairs`` counts the soft ones (NaN otherwise).
+        ``soft_pairs`` counts the soft ones (NaN otherwise). ``eigen_time``
+        and ``decision_time``: the verdict's own split of its seconds
+        (``StabilityResult.timing``: the eigenvalues, dgeev or the sliced
+        scan's shift-invert slices; the rest, its strips and pairs), summed
+        over the parts of a scan in parts; a scan resumed from its
+        checkpoint counts the time before the kill too.
     res : StabilityResult
         The decision; a ramp needs only that, so a sliced scan stops at its
         first complex strip (``scanned_below``; with 'collective' the first
@@ -199,5 +204,7 @@ def ramp_point(eng, cfg, start_file, F_x, prefix, basis=None, dim=2, progress=No
             "n_dof": float(res.n_dof), "lambda_max": res.lambda_max,
             "scanned_below": res.scanned_below, "saddle_escaped": escaped,
             "n_negative": neg,
-            "soft_pairs": float(res.soft_pairs) if res.collective is not None else math.nan}
+            "soft_pairs": float(res.soft_pairs) if res.collective is not None else math.nan,
+            "eigen_time": float(res.timing.get("eigen", math.nan)),
+            "decision_time": float(res.timing.get("decision", math.nan))}
     return vals, res

@@ -50,13 +50,16 @@ EIGENVALUES = "eigenvalues"
 COLUMNS = ("F_x", "residual", "complex", "decision", "confidence", "growth_rate",
            "max_imag", "n_rattlers", "wall_time", "damped_time", "newton_steps",
            "from_basis", "n_dof", "lambda_max", "scanned_below", "saddle_escaped",
-           "n_negative", "soft_pairs")
+           "n_negative", "soft_pairs", "eigen_time", "decision_time")
+#: the columns that are measured times (seconds), different in every run
+TIME_COLUMNS = ("wall_time", "eigen_time", "decision_time")
 #: columns added after version 1 files were written, with the value a
 #: resumed older file gets for its existing rows (its spectra are whole:
 #: ``scanned_below`` = inf; no saddle escape; the rest was not kept)
 LATER_COLUMNS = {"from_basis": 0.0, "n_dof": float("nan"), "lambda_max": float("nan"),
                  "scanned_below": float("inf"), "saddle_escaped": 0.0,
-                 "n_negative": float("nan"), "soft_pairs": float("nan")}
+                 "n_negative": float("nan"), "soft_pairs": float("nan"),
+                 "eigen_time": float("nan"), "decision_time": float("nan")}
 DATAFILE = "datafile"
 #: root attribute (True): the ``datafile`` entries inside the file's folder are
 #: relative to it (:func:`point_file`)

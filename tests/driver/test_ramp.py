@@ -8,6 +8,7 @@ import pytest
 from remote_trigger.pywrap.stages.config import RampConfig
 from remote_trigger.pywrap import stages
 from remote_trigger.pywrap.runtime.results import read_all
+from remote_trigger.pywrap.stages import ramp_file as rf
 from remote_trigger.pywrap.stages.ramp_file import point_file, read_points
 from remote_trigger.analysis.stability.decision import Decision
 
@@ -234,7 +235,6 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
 
 def test_ramp_file_layout_and_reader(full_ramp):
     """pywrap.ramp_file names what RampLog writes; read_points returns its rows."""
-    from remote_trigger.pywrap.stages import ramp_file as rf
 
     _, res = full_ramp
     attrs, data = read_all(res.h5)
@@ -246,6 +246,12 @@ def test_ramp_file_layout_and_reader(full_ramp):
                    for k, f in enumerate(files))
         for c in rf.COLUMNS:
             assert data[rf.column(kind, c)].shape == F.shape, c
+        # the verdict's split of its time: within the point's wall time; no
+        # dgeev where the previous point's basis certified the decision
+        te, td = data[rf.column(kind, "eigen_time")], data[rf.column(kind, "decision_time")]
+        cold = data[rf.column(kind, "from_basis")] == 0
+        assert np.all(te >= 0) and np.all(td >= 0) and np.all(te[cold] > 0)
+        assert np.all(te + td <= data[rf.column(kind, "wall_time")])
         for k in range(F.size):
             assert f"{rf.EIGENVALUES}/{kind}/{rf.point_name(kind, k)}" in data
     np.testing.assert_array_equal(rf.read_points(res.h5)[0], res.F_x)
@@ -391,7 +397,7 @@ def test_keep_equilibria_false_keeps_only_the_bracket_and_the_same_numbers(full_
     _, a = read_all(res.h5)
     _, b = read_all(full.h5)
     for key in b:
-        if key.endswith("/datafile") or key.endswith("wall_time"):
+        if key.endswith("/datafile") or key.rsplit("/", 1)[-1] in rf.TIME_COLUMNS:
             continue
         np.testing.assert_array_equal(a[key], b[key], err_msg=key)
     assert (res.F_x_c_low, res.F_x_c_high) == (full.F_x_c_low, full.F_x_c_high)
