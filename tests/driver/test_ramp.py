@@ -235,7 +235,6 @@ def test_undecided_points_leave_the_honest_wide_bracket(full_ramp, monkeypatch, 
 
 def test_ramp_file_layout_and_reader(full_ramp):
     """pywrap.ramp_file names what RampLog writes; read_points returns its rows."""
-
     _, res = full_ramp
     attrs, data = read_all(res.h5)
     for kind in (rf.STEPS, rf.BISECTION):
