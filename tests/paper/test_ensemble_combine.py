@@ -57,8 +57,9 @@ def test_combined_runs_give_the_single_runs_table(runs, tmp_path, capsys):
 
 def test_refusals_name_the_value(runs, tmp_path):
     a, b = runs
-    c = _run_folder(tmp_path / "c", 20, [1], ["N20_s1"], tol=1e-3)
-    with pytest.raises(ConfigError, match=r"differ in tol \(0.002 vs 0.001\)"):
+    # (tol may be one per N: another tol at N = 16 itself)
+    c = _run_folder(tmp_path / "c", 16, [3], [], tol=1e-3)
+    with pytest.raises(ConfigError, match=r"differ in tol \(0.002 vs 0.001\) for N = 16"):
         combine_runs([a, c], str(tmp_path / "o1"))
     # every key that differs is named (the first alone was)
     c = _run_folder(tmp_path / "c2", 20, [1], ["N20_s1"], frictional_relax={"max_steps": 1},
@@ -337,18 +338,23 @@ def test_the_kept_n6400_runs_of_seeds_4_to_7_combine(tmp_path):
 
 def test_runs_of_per_size_steps_combine_per_size(tmp_path):
     """dF_x as one number per N: runs of other sizes combine into one list per
-    N; one N with two values is refused, naming both."""
+    N, whether a run gives a list or one number (for each of its own sizes:
+    a run of small N with one step and one of a large N with a finer one);
+    one N with two values is refused, naming both."""
     a = _run_folder(tmp_path / "a", 16, [1, 2], ["N16_s1", "N16_s2"], dF_x=[0.01])
     b = _run_folder(tmp_path / "b", 20, [1], ["N20_s1"], dF_x=[0.02])
     combine_runs([a, b], str(tmp_path / "both"))
     cfg = json.loads((tmp_path / "both" / "config.json").read_text())
     assert cfg["n"] == [16, 20] and cfg["dF_x"] == [0.01, 0.02]
-    c = _run_folder(tmp_path / "c", 20, [1], ["N20_s1"], dF_x=0.01)    # a number: every N
+    c = _run_folder(tmp_path / "c", 20, [1], ["N20_s1"], dF_x=0.01)    # a number: its N
     combine_runs([a, c], str(tmp_path / "same"))
     assert json.loads((tmp_path / "same" / "config.json").read_text())["dF_x"] == 0.01
     e = _run_folder(tmp_path / "e", 20, [1], ["N20_s1"], dF_x=0.03)
+    combine_runs([a, e], str(tmp_path / "finer"))
+    assert json.loads((tmp_path / "finer" / "config.json").read_text())["dF_x"] == [0.01, 0.03]
+    g = _run_folder(tmp_path / "g", 16, [3], [], dF_x=0.03)     # N = 16 again, another step
     with pytest.raises(ConfigError, match=r"differ in dF_x \(0.01 vs 0.03\) for N = 16"):
-        combine_runs([a, e], str(tmp_path / "o"))
+        combine_runs([a, g], str(tmp_path / "o"))
     assert not (tmp_path / "o").exists()
 
 

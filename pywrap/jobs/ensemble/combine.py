@@ -59,18 +59,19 @@ def read_run(path, flag="--combine"):
 
 def _per_size_values(name, runs):
     """``{N: value}`` of a key of :data:`_PER_SIZE` over the runs' sizes: a
-    number holds for every N, a list for the run's own sizes.
+    run's number holds for each of its own sizes, its list one per size (a
+    run of N <= 1600 with dF_x = 2.5e-4 and one of N = 6400 with 1e-4
+    combine into one value per N).
 
     Raises
     ------
     ConfigError
         Two runs that give one N two values (named, with both).
     """
-    every = sorted({n for _, _, cfg in runs for n in cfg.n})
     seen = {}
     for d, _, cfg in runs:
         v = getattr(cfg, name)
-        for n, val in (zip(cfg.n, v) if isinstance(v, tuple) else ((n, v) for n in every)):
+        for n, val in (zip(cfg.n, v) if isinstance(v, tuple) else ((n, v) for n in cfg.n)):
             if n in seen and seen[n][1] != val:
                 raise ConfigError(f"--combine: {seen[n][0]!r} and {d!r} differ in {name} "
                                   f"({seen[n][1]!r} vs {val!r}) for N = {n}; only n, seeds, "
@@ -88,8 +89,9 @@ def collect_runs(dirs, out, speak=True):
     dirs : sequence of str
         Ensemble output folders (each with ``config.json`` and ``tasks/``),
         at least two. Their configurations must agree in every key but
-        ``n``, ``seeds`` and ``np``; ``dF_x`` and ``tol`` per N (a number
-        holds for every N, a list for the run's own sizes); ``relax`` but
+        ``n``, ``seeds`` and ``np``; ``dF_x``, ``tol`` and ``between`` per N
+        (a run's number for each of its sizes, its list one per size; two
+        runs of one N must agree); ``relax`` but
         in its ``clearance``, which is compared per packing (the test each
         packing's relaxation used, the same for every packing of one N) and
         left out of the combined ``relax`` where the runs set it differently.
