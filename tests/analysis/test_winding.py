@@ -173,6 +173,18 @@ def test_a_cheap_complement_may_take_a_larger_budget_of_evaluations():
     assert 600 < len(set(calls)) < 10_000
 
 
+def test_the_deflated_budget_falls_with_the_cost_of_an_evaluation():
+    """10 000 evaluations of a deflated complement up to p = 16 (seed 2's strip
+    had p = 6), then in proportion to p^-3, never below the bordered route's
+    600: a walk that fails by its budget costs about the same at every p."""
+    from remote_trigger.analysis.stability.sliced.strips import poly_budget
+    from remote_trigger.analysis.stability.sliced.winding import MAX_EVALS
+
+    assert poly_budget(6) == poly_budget(16) == 10_000
+    assert poly_budget(32) == 1250
+    assert poly_budget(64) == poly_budget(400) == MAX_EVALS == 600
+
+
 @pytest.mark.parametrize("seed", range(2))
 def test_near_exceptional_counts_are_never_wrong_under_adversarial_errors(seed):
     """As above with a random error of norm up to err at every evaluation, over

@@ -29,10 +29,10 @@ from remote_trigger.analysis.stability.enclosure import (
 from remote_trigger.analysis.stability.sliced.inertia import norm1, norm2_skew
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
 from remote_trigger.analysis.stability.sliced.slices import top_eigenvalue
-from remote_trigger.analysis.stability.sliced.winding import box_zero_count
+from remote_trigger.analysis.stability.sliced.winding import MAX_EVALS, box_zero_count
 
 __all__ = ["StripContext", "coupling", "decide_strip", "decide_deflated", "DeflatedComplement",
-           "arpack_hint", "strips_decision", "unresolved"]
+           "arpack_hint", "strips_decision", "unresolved", "poly_budget"]
 
 
 def _norm22(x11, x12, x22):
@@ -507,11 +507,20 @@ def _strip_estimates(pieces, m, a_lo, a_hi, steps):
     return np.sort_complex(np.asarray(found, complex))
 
 
-#: most evaluations of a deflated complement one walk of a box's edge may take:
-#: each is a p x p polynomial (~0.1 ms at p ~ 10), where the bordered route's
-#: are sparse LUs (``winding.MAX_EVALS``). A pair near its exceptional point
-#: took 1077 (N = 6400, seed 2, docs/results/analysis.md).
+#: most evaluations of a deflated complement of p <= 16 one walk of a box's
+#: edge may take: each is a p x p polynomial (~0.15 ms at p <= 16, 1.1 ms at
+#: 64, 5 ms at 128, K = 20 terms), where the bordered route's are sparse LUs
+#: (``winding.MAX_EVALS``). A pair near its exceptional point took 1077
+#: (N = 6400, seed 2, p = 6; docs/results/analysis.md). Above p = 16 the
+#: budget falls as p^-3 (:func:`poly_budget`), never below MAX_EVALS.
 POLY_MAX_EVALS = 10_000
+
+
+def poly_budget(p):
+    """The evaluation budget of a box's walk on a deflated complement of order
+    p: ``POLY_MAX_EVALS`` up to p = 16, then in proportion to p^-3 (the cost
+    of one evaluation), not below ``winding.MAX_EVALS``."""
+    return max(MAX_EVALS, int(POLY_MAX_EVALS * min(1.0, (16.0 / p) ** 3)))
 
 
 def _box(pieces, est, m, whys):
@@ -537,7 +546,7 @@ def _box(pieces, est, m, whys):
         zabs = abs(z0) + 2 * r
         cnt, w, mg = box_zero_count(pc.schur(tau, zabs, z0), z0.real - r, z0.real + r,
                                     z0.imag - r, z0.imag + r, pc.curvature(tau),
-                                    max_evals=POLY_MAX_EVALS)
+                                    max_evals=poly_budget(pc.p))
         if cnt is not None and cnt >= 1:
             z = _pair_in_box(pc, z0, r)
             out = est.copy()
