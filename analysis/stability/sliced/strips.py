@@ -550,10 +550,9 @@ def _box(pieces, est, m, whys):
         if cnt is not None and cnt >= 1:
             z = _pair_in_box(pc, z0, r)
             out = est.copy()
-            j = np.argsort(np.abs(out - z0))[:1].tolist() + \
-                np.argsort(np.abs(out - np.conj(z0)))[:1].tolist()
-            if len(set(j)) == 2:
-                out[j] = [z, np.conj(z)]
+            i, k = (int(np.argmin(np.abs(out - w))) for w in (z0, np.conj(z0)))
+            if i != k:
+                out[[i, k]] = [z, np.conj(z)]
             return Decision.COMPLEX, mg, np.sort_complex(out)
         whys.append(w if w else f"no eigenvalue in the box about {z0:.6g}")
     return None
@@ -590,7 +589,7 @@ def _deflated_routes(pieces, est, m, a_lo, a_hi):
     # of the walk, every step an inversion of p x p)
     boxed = m > _BOX_FIRST and not real_est
     if boxed and (found := box()):
-        return found[0], found[1], found[2], ""
+        return (*found, "")
     if not real_est and not mixed:
         margin = math.inf
         for pc in pieces:
@@ -632,7 +631,7 @@ def _deflated_routes(pieces, est, m, a_lo, a_hi):
                 return Decision.REAL, margin, roots.astype(complex), ""
             whys.append(f"strip of {m}: {changes} sign changes of det between roots")
     if not boxed and (found := box()):
-        return found[0], found[1], found[2], ""
+        return (*found, "")
     return Decision.UNDECIDED, 0.0, est, "; ".join(whys)
 
 
@@ -732,7 +731,7 @@ def _decide_pieces(ctx, pieces, m, a_lo, a_hi):
             except SliceFailure:
                 continue
         if (found := _box(pieces, est, m, [])) is not None:
-            return found[0], found[1], found[2], ""
+            return (*found, "")
     first = max(tight, min(TAYLOR_LOOSE * ctx.normA1, 0.1 * spread))
     for target in dict.fromkeys((first, tight)):
         try:
