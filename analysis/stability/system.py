@@ -14,13 +14,13 @@ screen and the mode shapes take its result.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from remote_trigger.analysis.errors import is_integer
 
-__all__ = ["ReducedSystem", "reduced_system"]
+__all__ = ["ReducedSystem", "reduced_system", "tie_dofs"]
 
 
 @dataclass
@@ -43,9 +43,15 @@ class ReducedSystem:
         here: :func:`~remote_trigger.analysis.stability.residual.check_equilibrium`).
     K : scipy.sparse.csr_matrix, shape (n, n)
         K restricted to the kept dofs, n = ``keep_dofs.size`` (0 x 0 when
-        every particle is a rattler).
+        every particle is a rattler); with a layer rigid along y, P^T K P
+        on them (:func:`tie_dofs`).
     mass : ndarray, shape (n,)
-        M restricted to the kept dofs.
+        M restricted to the kept dofs (P^T M P: the layer's y carries the
+        sum of its spheres' masses).
+    tied : ndarray of int64, shape (2, T)
+        Row 0: dofs (indices into the d N) that move with another and are
+        not in ``keep_dofs``; row 1: the kept dof each moves with. Empty
+        unless the state has a layer rigid along y (``state.rigid_y``).
     """
 
     state: object
@@ -55,11 +61,46 @@ class ReducedSystem:
     residual: np.ndarray
     K: object
     mass: np.ndarray
+    tied: np.ndarray = field(default_factory=lambda: np.zeros((2, 0), np.int64))
 
     @property
     def keep_dofs(self):
-        """ndarray of int64, shape (n,): the kept dofs (indices into the d N of the state)."""
-        return self.rattlers.keep_dofs
+        """ndarray of int64, shape (n,): the kept dofs (indices into the d N of the state).
+
+        Ascending; a layer rigid along y keeps the y of its first kept sphere
+        for the layer (``tied``).
+        """
+        keep = self.rattlers.keep_dofs
+        if self.tied.shape[1] == 0:
+            return keep
+        return keep[~np.isin(keep, self.tied[0])]
+
+    def expand(self, vec):
+        """A vector on the kept dofs as one on all d N dofs.
+
+        Parameters
+        ----------
+        vec : array_like, shape (n,) or (n, k)
+
+        Returns
+        -------
+        ndarray, shape (d N,) or (d N, k)
+            ``vec`` at ``keep_dofs``, each tied dof equal to its kept dof,
+            zero on the rattlers.
+
+        Raises
+        ------
+        ValueError
+            If ``vec`` does not have n rows.
+        """
+        vec = np.asarray(vec)
+        if vec.ndim == 0 or vec.shape[0] != self.n:
+            raise ValueError(f"expand needs {self.n} rows (the kept dofs), got shape "
+                             f"{vec.shape}")
+        full = np.zeros((self.mass_full.size,) + vec.shape[1:], vec.dtype)
+        full[self.keep_dofs] = vec
+        full[self.tied[0]] = full[self.tied[1]]
+        return full
 
     @property
     def n(self):
@@ -126,4 +167,64 @@ def reduced_system(state, min_contacts=None):
         G = jacobian.generalized_forces(state)
     mass = state.mass_diagonal()
     Kr, mr = jacobian.remove_dofs(K, mass, rat.keep_dofs)
-    return ReducedSystem(state, K, mass, rat, G, Kr, mr)
+    layer = getattr(state, "rigid_y", None)
+    if layer is None or len(layer) < 2:
+        return ReducedSystem(state, K, mass, rat, G, Kr, mr)
+    ydofs = 6 * np.asarray(layer, np.int64) + 1
+    # the residual as LAMMPS shows it under fix aveforce: every sphere of the
+    # layer carries the layer's mean y force
+    G = np.array(G, dtype=np.float64, copy=True)
+    G[ydofs] = np.mean(G[ydofs])
+    kept_y = np.sort(ydofs[np.isin(ydofs, rat.keep_dofs)])
+    if kept_y.size < 2:
+        return ReducedSystem(state, K, mass, rat, G, Kr, mr)
+    Kr, mr = tie_dofs(Kr, mr, np.searchsorted(rat.keep_dofs, kept_y))
+    tied = np.vstack([kept_y[1:], np.full(kept_y.size - 1, kept_y[0])]).astype(np.int64)
+    return ReducedSystem(state, K, mass, rat, G, Kr, mr, tied)
+
+
+def tie_dofs(K, mass, group):
+    """Restrict K and the mass diagonal to a group of dofs that move as one.
+
+    With q = P q', where P is the identity except that every dof of
+    ``group`` takes the value of the group's first, K' = P^T K P and
+    M' = P^T M P (diagonal: the group's masses summed on its first dof); the
+    other dofs of the group are removed. This is the constraint of a rigid
+    body translating along one axis (the layer rigid along y,
+    ``fix aveforce NULL 0.0 NULL``): its generalized force is the sum of
+    the group's forces.
+
+    Parameters
+    ----------
+    K : sparse matrix or ndarray, shape (n, n)
+    mass : ndarray, shape (n,)
+    group : array_like of int, shape (g,)
+        Ascending distinct indices in [0, n); the first is kept.
+
+    Returns
+    -------
+    K_tied : scipy.sparse.csr_matrix, shape (n - g + 1, n - g + 1)
+    mass_tied : ndarray, shape (n - g + 1,)
+
+    Raises
+    ------
+    ValueError
+        If ``group`` is not ascending distinct indices in [0, n).
+    """
+    import scipy.sparse as sp
+
+    n = K.shape[0]
+    group = np.asarray(group, np.int64)
+    if group.ndim != 1 or (group.size and (group[0] < 0 or group[-1] >= n
+                                           or np.any(np.diff(group) <= 0))):
+        raise ValueError(f"group must be ascending distinct indices in [0, {n}), got "
+                         f"{group!r}")
+    drop = np.zeros(n, bool)
+    drop[group[1:]] = True
+    col = np.cumsum(~drop) - 1          # the new index of every dof kept
+    col[group[1:]] = col[group[0]] if group.size else col[group[1:]]
+    m = n - max(group.size - 1, 0)
+    P = sp.csr_matrix((np.ones(n), (np.arange(n), col)), shape=(n, m))
+    Kt = (P.T @ sp.csr_matrix(K) @ P).tocsr()
+    mt = np.asarray(P.T @ np.asarray(mass, np.float64)).ravel()
+    return Kt, mt
