@@ -38,57 +38,52 @@ def test_tie_dofs_refuses_a_bad_group(group):
         tie_dofs(sp.identity(9, format="csr"), np.ones(9), group)
 
 
+class TiedFD(LammpsFD3D):
+    """Finite differences of G' = P^T G: the layer's y force is the sum of its own."""
+
+    def __init__(self, lmp, layer):
+        self.layer = layer
+        super().__init__(lmp)
+        kept = np.delete(np.arange(6 * self.nl), 6 * layer[1:] + 1)
+        self.first = int(np.searchsorted(kept, 6 * layer[0] + 1))
+
+    def all_forces(self):
+        return super().forces()
+
+    def forces(self):
+        g = self.all_forces().reshape(-1, 6)
+        out = np.delete(g.reshape(-1), 6 * self.layer[1:] + 1)
+        out[self.first] = np.sum(g[self.layer, 1])
+        return out
+
+    def evaluate_layer(self, h):
+        """G' after moving the whole layer along y by h through one step."""
+        for k in self.layer:
+            loc = self.order[k]
+            self._arr("x")[loc, 1] += h
+            self._arr("v")[loc, 1] = h / DT
+        self.lmp.command("run 1 pre no post no")
+        g = self.forces()
+        self.restore()
+        return g
+
+
 @pytest.fixture(scope="module")
 def packing():
     lmp = sheared_packing_3d(n=27, steps=20000, shear=0.4)
     state = state_from_lammps(lmp)
-    layer = np.argsort(state.positions[:, 1])[-5:]        # the five highest
-    fd = LammpsFD3D(lmp)
+    layer = np.sort(np.argsort(state.positions[:, 1])[-5:])    # the five highest
     ids = " ".join(str(int(a)) for a in state.ids[layer])
-    lmp.commands_list([f"group layer id {ids}", "fix plate layer aveforce NULL 0.0 NULL",
-                       "run 0"])
-    yield lmp, state, np.sort(layer), fd
+    lmp.commands_list([f"group layer id {ids}", "fix plate layer aveforce NULL 0.0 NULL"])
+    fd = TiedFD(lmp, layer)                 # (its run 0 sets the fix up)
+    yield lmp, state, layer, fd
     lmp.close()
-
-
-def _tied_forces(fd, layer):
-    """G' = P^T G from the forces LAMMPS computes (the layer's y: the sum)."""
-    g = fd.forces().reshape(-1, 6)
-    out = np.delete(g.reshape(-1), 6 * layer[1:] + 1)
-    first = np.searchsorted(np.delete(np.arange(g.size), 6 * layer[1:] + 1), 6 * layer[0] + 1)
-    out[first] = np.sum(g[layer, 1])
-    return out, first
-
-
-def _evaluate_layer(fd, layer, h):
-    for k in layer:
-        loc = fd.order[k]
-        fd._arr("x")[loc, 1] += h
-        fd._arr("v")[loc, 1] = h / DT
-    fd.lmp.command("run 1 pre no post no")
-    g, _ = _tied_forces(fd, layer)
-    fd.restore()
-    return g
-
-
-def _evaluate_dof(fd, layer, dof, h):
-    loc = fd.order[dof // 6]
-    c = dof % 6
-    if c < 3:
-        fd._arr("x")[loc, c] += h
-        fd._arr("v")[loc, c] = h / DT
-    else:
-        fd._arr("omega")[loc, c - 3] = h / (fd.R[loc] * DT)
-    fd.lmp.command("run 1 pre no post no")
-    g, _ = _tied_forces(fd, layer)
-    fd.restore()
-    return g
 
 
 def test_the_layer_moves_as_one_under_aveforce(packing):
     lmp, state, layer, fd = packing
     fd.lmp.command("run 1 pre no post no")
-    f = fd.forces().reshape(-1, 6)
+    f = fd.all_forces().reshape(-1, 6)
     fd.restore()
     # each sphere of the layer carries the same y force (the mean), the others their own
     assert np.ptp(f[layer, 1]) <= 1e-12 * np.abs(f).max()
@@ -103,13 +98,12 @@ def test_tied_K_matches_lammps_finite_differences(packing):
     assert system.tied.shape == (2, layer.size - 1)
     assert np.all(system.tied[1] == 6 * layer[0] + 1)
     Kt = system.K.toarray()
-    _, first = _tied_forces(fd, layer)
+    first = fd.first
     h = 1e-9
-    cols = {first: -(_evaluate_layer(fd, layer, h) - _evaluate_layer(fd, layer, -h)) / (2 * h)}
+    cols = {first: -(fd.evaluate_layer(h) - fd.evaluate_layer(-h)) / (2 * h)}
     for j, dof in enumerate(system.keep_dofs):
         if j != first:
-            cols[j] = -(_evaluate_dof(fd, layer, dof, h)
-                        - _evaluate_dof(fd, layer, dof, -h)) / (2 * h)
+            cols[j] = -(fd.evaluate(dof, h) - fd.evaluate(dof, -h)) / (2 * h)
     D = np.column_stack([cols[j] for j in range(system.n)])
     err = np.linalg.norm(D - Kt) / np.linalg.norm(Kt)
     assert err <= 2e-6, err
