@@ -67,7 +67,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from remote_trigger.analysis.stability.jacobian import find_rattlers
+from remote_trigger.analysis.stability.jacobian import RattlerResult, find_rattlers, rattler_rule
 from remote_trigger.analysis.state.state3d import State3D
 
 __all__ = ["ContactTerms3D", "contact_terms3d", "contact_blocks3d", "wall_blocks3d",
@@ -373,6 +373,13 @@ def generalized_forces3d(state, external=True):
 def find_rattlers3d(state, min_contacts=3, count_wall=True):
     """Remove, iteratively, spheres with fewer than ``min_contacts`` contacts.
 
+    A rigid top layer (``state.rigid_layer``) is one body held by all its
+    contacts: its spheres are never removed, and the contacts of the others
+    with them count. Each of its spheres turns on its own, held only by its
+    own contacts: the three rotational dofs of a layer sphere with fewer
+    than ``min_contacts`` contacts among the kept spheres (walls counted)
+    are removed, as a rattler's are (docs/model.md section 9.1).
+
     Parameters
     ----------
     state : State3D
@@ -385,7 +392,8 @@ def find_rattlers3d(state, min_contacts=3, count_wall=True):
     Returns
     -------
     RattlerResult
-        ``keep_dofs`` lists 6 dofs per kept sphere, ascending.
+        ``keep_dofs`` lists 6 dofs per kept sphere, ascending (3 for a
+        layer sphere without its rotations).
 
     Raises
     ------
@@ -393,4 +401,22 @@ def find_rattlers3d(state, min_contacts=3, count_wall=True):
         If ``min_contacts`` is not an integer >= 0, or ``state`` is not a State3D.
     """
     _require_spheres(state)
-    return find_rattlers(state, min_contacts, count_wall)
+    layer = state.rigid_layer
+    if layer is None or len(layer) < 2:
+        return find_rattlers(state, min_contacts, count_wall)
+    n = state.n
+    wz = (np.bincount(state.wall_index, minlength=n) if count_wall
+          else np.zeros(n, np.int64))
+    held = wz.copy()
+    held[layer] += int(min_contacts)          # (the layer is never dropped)
+    alive, rounds = rattler_rule(n, state.contact_i, state.contact_j, held, min_contacts)
+    ci, cj = state.contact_i, state.contact_j
+    live = alive[ci] & alive[cj]
+    z = np.bincount(ci[live], minlength=n) + np.bincount(cj[live], minlength=n) + wz
+    keep = np.nonzero(alive)[0]
+    dofs = 6 * keep[:, None] + np.arange(6)
+    loose = np.isin(keep, layer) & (z[keep] < min_contacts)
+    keep_dofs = np.concatenate([dofs[~loose].reshape(-1), dofs[loose, :3].reshape(-1)])
+    idx = np.nonzero(~alive)[0].astype(np.int64)
+    return RattlerResult(idx, state.ids[idx], np.sort(keep_dofs).astype(np.int64), rounds,
+                         int(min_contacts))

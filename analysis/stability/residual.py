@@ -15,7 +15,8 @@ import numpy as np
 from remote_trigger.analysis.errors import is_real
 from remote_trigger.analysis.state.state3d import State3D
 
-__all__ = ["max_residual", "roundoff_floor", "check_equilibrium", "FAR_ABOVE_FLOOR",
+__all__ = ["max_residual", "roundoff_floor", "check_equilibrium", "generalized_residual",
+           "FAR_ABOVE_FLOOR",
            "FLOOR_MIN", "ROUNDOFF_FACTOR"]
 
 #: a residual this many times the round-off floor is "far above" it: the state
@@ -25,6 +26,38 @@ FAR_ABOVE_FLOOR = 1e3
 FLOOR_MIN = 1e-10
 #: floor = ROUNDOFF_FACTOR eps X k_eff (the driver's acceptance level, docs/driver.md)
 ROUNDOFF_FACTOR = 4.0
+
+
+def generalized_residual(state):
+    """G = contact + external forces of a state, as its equilibrium condition sees them.
+
+    (F, T/R) per particle (:func:`~remote_trigger.analysis.stability.jacobian.
+    generalized_forces`, ``jacobian3d.generalized_forces3d`` for spheres); a
+    rigid top layer (``State3D.rigid_layer``) translates as one body, so each
+    of its spheres carries the layer's mean force (what LAMMPS shows under
+    ``fix aveforce 0.0 0.0 0.0``; zero at an equilibrium of the layer), and
+    its own torque.
+
+    Parameters
+    ----------
+    state : State or State3D
+
+    Returns
+    -------
+    ndarray, shape (3 N,) or (6 N,)
+        Force units.
+    """
+    from remote_trigger.analysis.stability import jacobian, jacobian3d
+
+    if not isinstance(state, State3D):
+        return jacobian.generalized_forces(state)
+    G = jacobian3d.generalized_forces3d(state)
+    layer = state.rigid_layer
+    if layer is not None and len(layer) > 1:
+        G = np.array(G, dtype=np.float64, copy=True).reshape(-1, 6)
+        G[layer, :3] = np.mean(G[layer, :3], axis=0)
+        G = G.reshape(-1)
+    return G
 
 
 def max_residual(G, spheres=False):
@@ -140,14 +173,12 @@ def check_equilibrium(state, factor=FAR_ABOVE_FLOOR, what=None):
         If ``factor`` is not a number > 0.
     """
     from remote_trigger.analysis.errors import NotEquilibriumError
-    from remote_trigger.analysis.stability import jacobian, jacobian3d
 
     if not is_real(factor) or not factor > 0:
         raise ValueError(f"factor must be a number > 0, got factor = {factor!r}")
 
     spheres = isinstance(state, State3D)
-    G = (jacobian3d.generalized_forces3d if spheres else jacobian.generalized_forces)(state)
-    r = max_residual(G, spheres)
+    r = max_residual(generalized_residual(state), spheres)
     floor = roundoff_floor(state)
     ratio = r / floor
     if not ratio <= factor:

@@ -40,18 +40,20 @@ class ReducedSystem:
         The particles removed (ids, indices) and the kept dofs.
     residual : ndarray, shape (d N,)
         G = contact + external forces (zero at an equilibrium; not checked
-        here: :func:`~remote_trigger.analysis.stability.residual.check_equilibrium`).
+        here: :func:`~remote_trigger.analysis.stability.residual.check_equilibrium`);
+        a rigid top layer shows its mean force on each of its spheres
+        (:func:`~remote_trigger.analysis.stability.residual.generalized_residual`).
     K : scipy.sparse.csr_matrix, shape (n, n)
         K restricted to the kept dofs, n = ``keep_dofs.size`` (0 x 0 when
-        every particle is a rattler); with a layer rigid along y, P^T K P
-        on them (:func:`tie_dofs`).
+        every particle is a rattler); with a rigid top layer, P^T K P on
+        them (:func:`tie_dofs`).
     mass : ndarray, shape (n,)
-        M restricted to the kept dofs (P^T M P: the layer's y carries the
-        sum of its spheres' masses).
+        M restricted to the kept dofs (P^T M P: the layer's x, y and z carry
+        the sum of its spheres' masses).
     tied : ndarray of int64, shape (2, T)
         Row 0: dofs (indices into the d N) that move with another and are
         not in ``keep_dofs``; row 1: the kept dof each moves with. Empty
-        unless the state has a layer rigid along y (``state.rigid_y``).
+        unless the state has a rigid top layer (``state.rigid_layer``).
     """
 
     state: object
@@ -67,8 +69,8 @@ class ReducedSystem:
     def keep_dofs(self):
         """ndarray of int64, shape (n,): the kept dofs (indices into the d N of the state).
 
-        Ascending; a layer rigid along y keeps the y of its first kept sphere
-        for the layer (``tied``).
+        Ascending; a rigid top layer keeps the x, y and z of its first kept
+        sphere for the layer's (``tied``).
         """
         keep = self.rattlers.keep_dofs
         if self.tied.shape[1] == 0:
@@ -150,6 +152,7 @@ def reduced_system(state, min_contacts=None):
         If ``min_contacts`` is not an integer >= 0.
     """
     from remote_trigger.analysis.stability import jacobian, jacobian3d
+    from remote_trigger.analysis.stability.residual import generalized_residual
     from remote_trigger.analysis.state.state3d import State3D
 
     if min_contacts is not None and (not is_integer(min_contacts) or min_contacts < 0):
@@ -159,71 +162,82 @@ def reduced_system(state, min_contacts=None):
         K = jacobian3d.stiffness_matrix3d(state)
         rat = jacobian3d.find_rattlers3d(state, min_contacts=3 if min_contacts is None
                                          else min_contacts)
-        G = jacobian3d.generalized_forces3d(state)
     else:
         K = jacobian.stiffness_matrix(state)
         rat = jacobian.find_rattlers(state, min_contacts=2 if min_contacts is None
                                      else min_contacts)
-        G = jacobian.generalized_forces(state)
+    G = generalized_residual(state)
     mass = state.mass_diagonal()
     Kr, mr = jacobian.remove_dofs(K, mass, rat.keep_dofs)
-    layer = getattr(state, "rigid_y", None)
+    layer = getattr(state, "rigid_layer", None)
     if layer is None or len(layer) < 2:
         return ReducedSystem(state, K, mass, rat, G, Kr, mr)
-    ydofs = 6 * np.asarray(layer, np.int64) + 1
-    # the residual as LAMMPS shows it under fix aveforce: every sphere of the
-    # layer carries the layer's mean y force
-    G = np.array(G, dtype=np.float64, copy=True)
-    G[ydofs] = np.mean(G[ydofs])
-    kept_y = np.sort(ydofs[np.isin(ydofs, rat.keep_dofs)])
-    if kept_y.size < 2:
+    groups, tied = [], []
+    for c in range(3):                  # x, y, z of the layer: one dof each
+        dofs = 6 * np.asarray(layer, np.int64) + c
+        kept = np.sort(dofs[np.isin(dofs, rat.keep_dofs)])
+        if kept.size > 1:
+            groups.append(np.searchsorted(rat.keep_dofs, kept))
+            tied.append(np.vstack([kept[1:], np.full(kept.size - 1, kept[0])]))
+    if not groups:
         return ReducedSystem(state, K, mass, rat, G, Kr, mr)
-    Kr, mr = tie_dofs(Kr, mr, np.searchsorted(rat.keep_dofs, kept_y))
-    tied = np.vstack([kept_y[1:], np.full(kept_y.size - 1, kept_y[0])]).astype(np.int64)
-    return ReducedSystem(state, K, mass, rat, G, Kr, mr, tied)
+    Kr, mr = tie_dofs(Kr, mr, groups)
+    return ReducedSystem(state, K, mass, rat, G, Kr, mr,
+                         np.hstack(tied).astype(np.int64))
 
 
-def tie_dofs(K, mass, group):
-    """Restrict K and the mass diagonal to a group of dofs that move as one.
+def tie_dofs(K, mass, groups):
+    """Restrict K and the mass diagonal to groups of dofs that each move as one.
 
-    With q = P q', where P is the identity except that every dof of
-    ``group`` takes the value of the group's first, K' = P^T K P and
-    M' = P^T M P (diagonal: the group's masses summed on its first dof); the
-    other dofs of the group are removed. This is the constraint of a rigid
-    body translating along one axis (the layer rigid along y,
-    ``fix aveforce NULL 0.0 NULL``): its generalized force is the sum of
-    the group's forces.
+    With q = P q', where P is the identity except that every dof of a group
+    takes the value of the group's first, K' = P^T K P and M' = P^T M P
+    (diagonal: a group's masses summed on its first dof); the other dofs of
+    each group are removed. This is the constraint of a rigid body that
+    translates without turning (the top layer as a rigid plate, ``fix
+    aveforce 0.0 0.0 0.0``; one group per axis): its generalized force along
+    an axis is the sum of its spheres' forces.
 
     Parameters
     ----------
     K : sparse matrix or ndarray, shape (n, n)
     mass : ndarray, shape (n,)
-    group : array_like of int, shape (g,)
-        Ascending distinct indices in [0, n); the first is kept.
+    groups : sequence of array_like of int
+        Each ascending distinct indices in [0, n), the groups disjoint; the
+        first of each is kept.
 
     Returns
     -------
-    K_tied : scipy.sparse.csr_matrix, shape (n - g + 1, n - g + 1)
-    mass_tied : ndarray, shape (n - g + 1,)
+    K_tied : scipy.sparse.csr_matrix, shape (m, m)
+        m = n - sum over groups of (size - 1).
+    mass_tied : ndarray, shape (m,)
 
     Raises
     ------
     ValueError
-        If ``group`` is not ascending distinct indices in [0, n).
+        If a group is not ascending distinct indices in [0, n), or two
+        groups share an index.
     """
     import scipy.sparse as sp
 
     n = K.shape[0]
-    group = np.asarray(group, np.int64)
-    if group.ndim != 1 or (group.size and (group[0] < 0 or group[-1] >= n
-                                           or np.any(np.diff(group) <= 0))):
-        raise ValueError(f"group must be ascending distinct indices in [0, {n}), got "
-                         f"{group!r}")
     drop = np.zeros(n, bool)
-    drop[group[1:]] = True
+    seen = np.zeros(n, bool)
+    checked = []
+    for group in groups:
+        g = np.asarray(group, np.int64)
+        if g.ndim != 1 or (g.size and (g[0] < 0 or g[-1] >= n or np.any(np.diff(g) <= 0))):
+            raise ValueError(f"a group must be ascending distinct indices in [0, {n}), got "
+                             f"{g!r}")
+        if np.any(seen[g]):
+            raise ValueError(f"groups must be disjoint: index {int(g[seen[g]][0])} is in two")
+        seen[g] = True
+        drop[g[1:]] = True
+        checked.append(g)
     col = np.cumsum(~drop) - 1          # the new index of every dof kept
-    col[group[1:]] = col[group[0]] if group.size else col[group[1:]]
-    m = n - max(group.size - 1, 0)
+    for g in checked:
+        if g.size:
+            col[g[1:]] = col[g[0]]
+    m = int(np.count_nonzero(~drop))
     P = sp.csr_matrix((np.ones(n), (np.arange(n), col)), shape=(n, m))
     Kt = (P.T @ sp.csr_matrix(K) @ P).tocsr()
     mt = np.asarray(P.T @ np.asarray(mass, np.float64)).ravel()

@@ -54,6 +54,11 @@ REQUIRED_COLUMNS_3D = ("id", "type", "radius", "mass", "x", "y", "z", "fx", "fy"
 T3_COLUMNS = ("d2_mindlin_tx", "d2_mindlin_ty", "d2_mindlin_tz")
 #: the model parameters of the sidecar JSON
 PARAM_KEYS = ("k_n", "k_t", "mu", "wall_y", "F_x", "F_y", "dt")
+#: the loadings of the top layer (the sidecar's optional key ``top_layer``):
+#: ``'free'``, every top particle on its own (the paper's; absent key);
+#: ``'rigid'``, spheres only: the layer translates as one body, a rigid plate
+#: (``fix aveforce 0.0 0.0 0.0`` on ``top``; docs/model.md section 9.1)
+TOP_LAYERS = ("free", "rigid")
 
 
 #: leading bytes of binary files met where a dump is meant, and what to say
@@ -195,8 +200,9 @@ def load_sidecar(path):
     ------
     ValueError
         If the JSON is unreadable, holds a key other than :data:`PARAM_KEYS`
-        (a misspelt key would silently fall back to a default), or a value
-        is not a number (or null for wall_y).
+        and ``top_layer`` (a misspelt key would silently fall back to a
+        default), a value is not a number (or null for wall_y), or
+        ``top_layer`` is not one of :data:`TOP_LAYERS`.
     """
     side = os.fsdecode(path) + ".json"
     if not os.path.exists(side):
@@ -208,11 +214,16 @@ def load_sidecar(path):
         raise ValueError(f"{side}: not valid JSON: {exc}") from None
     if not isinstance(data, dict):
         raise ValueError(f"{side}: expected a JSON object, got {type(data).__name__}")
-    unknown = sorted(set(data) - set(PARAM_KEYS))
+    unknown = sorted(set(data) - set(PARAM_KEYS) - {"top_layer"})
     if unknown:
         raise ValueError(f"{side}: unknown key(s) {unknown}; the keys are "
-                         f"{', '.join(PARAM_KEYS)}")
+                         f"{', '.join(PARAM_KEYS)} and top_layer")
     out = {}
+    if "top_layer" in data:
+        if data["top_layer"] not in TOP_LAYERS:
+            raise ValueError(f"{side}: top_layer must be one of {', '.join(TOP_LAYERS)}, got "
+                             f"{data['top_layer']!r}")
+        out["top_layer"] = data["top_layer"]
     for key in PARAM_KEYS:
         if key in data:
             val = data[key]
@@ -238,14 +249,22 @@ def write_sidecar(path, values):
     values : dict
         Exactly the keys ``PARAM_KEYS`` (``wall_y`` may be None: no wall);
         numbers are stored as float64 (JSON numbers, exact round trip).
+        Optionally ``top_layer`` (one of :data:`TOP_LAYERS`), written only
+        when it is not ``'free'``.
 
     Raises
     ------
     ValueError
-        If a key is missing or unknown, or a value is not a finite number.
+        If a key is missing or unknown, a value is not a finite number, or
+        ``top_layer`` is not one of :data:`TOP_LAYERS`.
     """
     from remote_trigger.analysis.output import write_json_atomic
 
+    values = dict(values)
+    layer = values.pop("top_layer", "free")
+    if layer not in TOP_LAYERS:
+        raise ValueError(f"sidecar of {path}: top_layer must be one of "
+                         f"{', '.join(TOP_LAYERS)}, got {layer!r}")
     keys = set(values)
     if keys != set(PARAM_KEYS):
         raise ValueError(f"sidecar of {path}: keys must be {', '.join(PARAM_KEYS)}; missing "
@@ -260,6 +279,8 @@ def write_sidecar(path, values):
                 or not math.isfinite(float(val)):
             raise ValueError(f"sidecar of {path}: {key} must be a finite number, got {val!r}")
         out[key] = float(val)
+    if layer != "free":
+        out["top_layer"] = layer
     write_json_atomic(os.fspath(path) + ".json", out)
 
 
@@ -470,7 +491,9 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
     Returns
     -------
     State3D
-        Masses from the dump, I = I0 m R^2; ``F_x``, ``F_y``, ``source`` set.
+        Masses from the dump, I = I0 m R^2; ``F_x``, ``F_y``, ``source`` set;
+        ``rigid_layer`` the loaded spheres (v_fext_y != 0) when the sidecar
+        says ``top_layer = 'rigid'``, else None.
 
     Raises
     ------
@@ -533,11 +556,23 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
         wall_t=wall_t,
         external=data[:, [col["v_fext_x"], col["v_fext_y"], col["v_fext_z"]]],
         mirror_rtol=mirror_rtol, inertia_factor=inertia_factor, F_x=par["F_x"],
-        F_y=par["F_y"], source=path)
+        F_y=par["F_y"], source=path, rigid_layer=_rigid_layer(path, data, col))
     if require_contacts and state.contact_i.size == 0 and state.wall_index.size == 0:
         raise ValueError(f"{path}: the packing has no contact (no overlapping pair, no "
                          f"sphere on the wall)")
     return state
+
+
+def _rigid_layer(path, data, col):
+    """The mask of the rigid top layer (the loaded spheres) if the sidecar says
+    ``top_layer = 'rigid'``, else None."""
+    if load_sidecar(path).get("top_layer", "free") != "rigid":
+        return None
+    top = data[:, col["v_fext_y"]] != 0.0
+    if np.count_nonzero(top) < 2:
+        raise ValueError(f"{path}: the sidecar says top_layer = 'rigid' but "
+                         f"{np.count_nonzero(top)} sphere(s) carry a load (v_fext_y != 0)")
+    return top
 
 
 def read_history3d(path, frame=-1):

@@ -139,11 +139,11 @@ class State3D:
         The loads of the state, when it comes from a dump (sidecar).
     source : str or None
         The file it was read from.
-    rigid_y : ndarray of int64, shape (L,), or None
-        Indices of the spheres whose y moves as one body (the top layer held
-        rigid along y, ``fix aveforce NULL 0.0 NULL`` on ``top``; docs/model.md
-        section 9); None or fewer than 2: no such constraint. Each of them
-        keeps its own x, z and rotations.
+    rigid_layer : ndarray of int64, shape (L,), or None
+        Indices of the spheres that translate as one body (the top layer as
+        a rigid plate, ``fix aveforce 0.0 0.0 0.0`` on ``top``; docs/model.md
+        section 9.1); None or fewer than 2: no such constraint. Each keeps
+        its own rotations.
     """
 
     ids: np.ndarray
@@ -167,7 +167,7 @@ class State3D:
     F_x: float = None
     F_y: float = None
     source: str = None
-    rigid_y: np.ndarray = None
+    rigid_layer: np.ndarray = None
 
     @property
     def n(self):
@@ -437,9 +437,9 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
     inertia_factor : float
         I0 (default 2/5); finite, > 0.
     **extra
-        ``F_x``, ``F_y``, ``source``: stored on the state; ``rigid_y``: a
-        boolean mask of shape (N,) in the order of ``ids`` as given (the
-        spheres whose y moves as one body), stored as their indices.
+        ``F_x``, ``F_y``, ``source``: stored on the state; ``rigid_layer``:
+        a boolean mask of shape (N,) in the order of ``ids`` as given (the
+        spheres that translate as one body), stored as their indices.
 
     Returns
     -------
@@ -505,10 +505,10 @@ def state3d_from_history(*, ids, positions, radii, masses, box_lo, box_hi, param
                        wall_t=np.array(wt).reshape(-1, 3), external=ext,
                        inertia_factor=inertia_factor)
     keep = {k: extra[k] for k in ("F_x", "F_y", "source") if k in extra}
-    if extra.get("rigid_y") is not None:
-        mask = np.asarray(extra["rigid_y"])
+    if extra.get("rigid_layer") is not None:
+        mask = np.asarray(extra["rigid_layer"])
         if mask.shape != (n,) or mask.dtype != bool:
-            raise ValueError(f"rigid_y must be a boolean mask of shape ({n},), got dtype "
-                             f"{mask.dtype} and shape {mask.shape}")
-        keep["rigid_y"] = np.nonzero(mask[order])[0].astype(np.int64)
+            raise ValueError(f"rigid_layer must be a boolean mask of shape ({n},), got "
+                             f"dtype {mask.dtype} and shape {mask.shape}")
+        keep["rigid_layer"] = np.nonzero(mask[order])[0].astype(np.int64)
     return dataclasses.replace(st, **keep) if keep else st

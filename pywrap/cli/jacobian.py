@@ -234,7 +234,7 @@ def run_rank0(args, map_tasks=None):
         "K_data": K.data, "K_indices": K.indices, "K_indptr": K.indptr,
         "K_shape": np.array(K.shape, dtype=np.int64),
         "mass": res.mass, "ids": state.dof_ids(), "rattlers": res.rattlers.ids,
-        "keep_dofs": res.rattlers.keep_dofs, "eigenvalues": lam,
+        "keep_dofs": res.system.keep_dofs, "tied": res.system.tied, "eigenvalues": lam,
         "complex_pair": np.int64(-1 if partial else flag),
         "coverage": np.str_("none" if dec is None else dec.coverage),
         "partial_complex_pair": np.int64(flag if partial else -1),

@@ -94,11 +94,33 @@ def deck_vars(cfg, datafile, F_x):
         if hasattr(cfg, name):
             val = getattr(cfg, name)
             v[var] = int(val) if var in ("settle_steps", "check") else float(val)
+    if getattr(cfg, "top_layer", "free") != "free":      # (the decks' default: free)
+        v["top_layer"] = cfg.top_layer
     return v
 
 
 #: the relax deck of each dimension (disks, spheres)
 RELAX_DECKS = {2: "in.relax", 3: "in.relax3d"}
+
+
+#: the fix of the rigid top layer (``top_layer = 'rigid'``, the ``plate`` section
+#: of ``in.relax3d``)
+PLATE_FIX = "plate"
+
+
+def hold_layer(eng, cfg):
+    """The ``top`` layer a rigid plate from now on, if ``cfg.top_layer`` is 'rigid'.
+
+    The ``plate`` section of ``in.relax3d``: ``fix aveforce 0.0 0.0 0.0``
+    on ``top`` (defined after the loads, so that it averages the total
+    force): the layer translates as one body, each sphere keeping its loads
+    and its own rotations. Newton
+    (:func:`~remote_trigger.pywrap.stages.equilibrium.polish`) ties the
+    layer's x, y and z into three dofs while the fix is defined. Nothing for
+    ``'free'``.
+    """
+    if cfg.top_layer == "rigid" and not eng.has_fix(PLATE_FIX):
+        eng.run_section("plate")
 
 
 def load_relax_scene(eng, cfg, datafile, F_x, deck=None):
@@ -128,7 +150,8 @@ def load_equilibrium_scene(eng, cfg, datafile, F_x, dim):
     history there), one ``run 0`` (the pair creates its history arrays; a
     setup never advances the history), then the pair's and the wall's t
     exactly as in the equilibrium dump beside it
-    (:func:`~remote_trigger.analysis.state.dumpfile.read_history3d`).
+    (:func:`~remote_trigger.analysis.state.dumpfile.read_history3d`), and
+    the rigid top layer if ``cfg.top_layer`` says so (:func:`hold_layer`).
 
     Raises
     ------
@@ -140,6 +163,7 @@ def load_equilibrium_scene(eng, cfg, datafile, F_x, dim):
         return
     load_relax_scene(eng, cfg, datafile, F_x, deck=RELAX_DECKS[3])
     restore_saved_history3d(eng, datafile)
+    hold_layer(eng, cfg)
 
 
 def restore_saved_history3d(eng, datafile):
@@ -160,12 +184,30 @@ def restore_saved_history3d(eng, datafile):
     eng.restore_history3d(hist["partner"], hist["t"], hist["wall_t"])
 
 
-def check_spheres_ramp(cfg):
-    """For a ramp of spheres: refuse ``newton = False`` and a start without its dump.
+def start_top_layer(datafile):
+    """The ``top_layer`` of a start file: its sidecar's, ``'free'`` if it has none.
 
-    Damped dynamics alone do not bring a loaded 3D packing to rest, and the
-    history of spheres is in the equilibrium dump beside the data file
-    (:func:`read_saved_history3d`). No-op for disks.
+    Raises
+    ------
+    ConfigError
+        The sidecar is unreadable.
+    """
+    from remote_trigger.analysis.state.dumpfile import load_sidecar
+
+    try:
+        return load_sidecar(equilibrium_dump(datafile)).get("top_layer", "free")
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+
+
+def check_spheres_ramp(cfg):
+    """For a ramp: the start state's ``top_layer``; for spheres also refuse
+    ``newton = False`` and a start without its dump.
+
+    The loading of the top layer must be the one the start state was relaxed
+    with (:func:`start_top_layer`). Damped dynamics alone do not bring a
+    loaded 3D packing to rest, and the history of spheres is in the
+    equilibrium dump beside the data file (:func:`read_saved_history3d`).
 
     Raises
     ------
@@ -173,6 +215,12 @@ def check_spheres_ramp(cfg):
     """
     from remote_trigger.pywrap.bindings.datafile import data_dimension
 
+    layer = start_top_layer(cfg.datafile)
+    if layer != cfg.top_layer:
+        raise ConfigError(f"top_layer = {cfg.top_layer!r} differs from the start state's "
+                          f"{layer!r} ({equilibrium_dump(cfg.datafile)}.json): a state is an "
+                          f"equilibrium only of the loading it was relaxed with; give "
+                          f"top_layer = {layer!r}")
     if data_dimension(cfg.datafile) != 3:
         return
     if not cfg.newton:
@@ -207,24 +255,31 @@ def save_equilibrium(eng, cfg, F_x, prefix):
 
     The state must be an equilibrium with v = 0 and no damping fix. The dump
     holds contact forces only (the loads are switched off for its ``run 0``:
-    ``variable loadon equal 0``) and the loads in ``v_fext_x v_fext_y``.
+    ``variable loadon equal 0``, and the layer's ``fix aveforce`` too, so that
+    each sphere shows its own) and the loads in ``v_fext_x v_fext_y``; the
+    sidecar records ``top_layer`` when it is not ``'free'``.
     Each file is written under a temporary name and renamed.
     """
     rank0 = eng.rank == 0
     columns = DUMP_COLUMNS_3D if eng.dimension == 3 else DUMP_COLUMNS
+    plate = eng.has_fix(PLATE_FIX)     # (off for the dump: each sphere's own contact forces)
+    eng.unfix(PLATE_FIX)
     eng.command("variable loadon equal 0")
     eng.run(0)
     eng.command(f"write_dump all custom {prefix}.dump.part {columns} "
                 f"modify sort id format float %.17g")
     eng.command("variable loadon equal 1")
     eng.command(f"write_data {prefix}.data.part nocoeff")
+    if plate:
+        hold_layer(eng, cfg)
     eng.run(0)
     if rank0:
         from remote_trigger.analysis.state.dumpfile import write_sidecar
 
         write_sidecar(f"{prefix}.dump", {"k_n": cfg.k_n, "k_t": cfg.k_t, "mu": cfg.mu,
                                          "wall_y": 0.0, "F_x": F_x, "F_y": cfg.F_y,
-                                         "dt": cfg.dt})
+                                         "dt": cfg.dt,
+                                         "top_layer": getattr(cfg, "top_layer", "free")})
         os.replace(f"{prefix}.dump.part", f"{prefix}.dump")
         os.replace(f"{prefix}.data.part", f"{prefix}.data")
     eng.comm.Barrier()

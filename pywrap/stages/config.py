@@ -15,6 +15,7 @@ from dataclasses import dataclass, fields, asdict
 import json
 import os
 
+from remote_trigger.analysis.state.dumpfile import TOP_LAYERS  # (RelaxConfig.top_layer)
 from remote_trigger.pywrap.config import (
     Config, ConfigError, ContactModel, check_int, check_lammps_path, check_nonnegative, check_number,
     check_positive)
@@ -195,6 +196,18 @@ class RelaxConfig(StageConfig):
         line's height varies along the box). ``'auto'`` (default):
         ``'all'`` for N <= 400 disks (the results of N <= 400 are those of
         ``'all'``, bitwise), ``'local'`` above and for spheres.
+    top_layer : {'free', 'rigid'}
+        The loading of the top layer. ``'free'`` (default; the paper's):
+        every top particle carries its loads on its own. ``'rigid'``
+        (spheres only): the layer stays the piston it is in step (iii a), a
+        rigid plate that translates as one body (``fix aveforce 0.0 0.0
+        0.0`` on ``top``), every sphere carrying its loads (F_x, -F_y) and
+        turning on its own; Newton and the Jacobian tie the layer's x, y and
+        z into three dofs (docs/model.md section 9.1). A free layer of
+        frictionless spheres sinks into the bulk, more often the larger it
+        is (docs/ensemble.md "Not done here"). Recorded in the equilibrium's
+        sidecar; a ramp must be given the value its start state was relaxed
+        with.
     check_every : int
         Damped steps between residual checks, >= 1. Default 1000.
     max_steps : int
@@ -226,6 +239,7 @@ class RelaxConfig(StageConfig):
     top_gap: float = 0.05
     top_attempts: int = 4
     clearance: str = "auto"
+    top_layer: str = "free"
     check_every: int = 1000
     max_steps: int = 5_000_000
     newton: bool = True
@@ -256,6 +270,9 @@ class RelaxConfig(StageConfig):
         if self.clearance not in CLEARANCE_RULES:
             raise ConfigError(f"clearance must be one of {', '.join(CLEARANCE_RULES)}, "
                               f"got clearance = {self.clearance!r}")
+        if self.top_layer not in TOP_LAYERS:
+            raise ConfigError(f"top_layer must be one of {', '.join(TOP_LAYERS)}, got "
+                              f"top_layer = {self.top_layer!r}")
         check_nonnegative("mu_settle", self.mu_settle)
         check_nonnegative("g_settle", self.g_settle)
         check_int("check_every", self.check_every, 1)
@@ -333,7 +350,8 @@ class RampConfig(RelaxConfig):
 
     #: fields added after ramp files were written: the value an older file has
     #: (``clearance``, a relax field, plays no part in a ramp)
-    LATER_FIELDS = {"saddle_escape": False, "clearance": "auto", "pairs": "all", "between": 1}
+    LATER_FIELDS = {"saddle_escape": False, "clearance": "auto", "pairs": "all", "between": 1,
+                    "top_layer": "free"}
     #: the values of ``pairs``
     PAIRS = ("all", "collective")
 

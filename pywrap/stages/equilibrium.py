@@ -45,6 +45,7 @@ import time
 import numpy as np
 
 from remote_trigger.analysis.errors import RemoteTriggerError, EXIT_NO_EQUILIBRIUM
+from remote_trigger.pywrap.stages.common import PLATE_FIX
 from remote_trigger.pywrap.stages.newton_solve import newton_solver, stiffness
 
 DAMPING_FIXES = ("damp", "rdamp")
@@ -309,6 +310,9 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
     """
     target = cfg.f_min if target is None else target
     state, G, r = exact_residual(eng)
+    # a rigid top layer (fix plate): its x, y and z are three dofs
+    top = np.nonzero(state.top)[0]
+    tie = [6 * top + c for c in range(3)] if eng.has_fix(PLATE_FIX) else None
     record.add(t_sim, r, "newton", t0)
     stop = ""
     solve = None
@@ -322,7 +326,7 @@ def polish(eng, cfg, F_x, record, t0, t_sim, target=None, chord_below=None):
         if eng.rank == 0:   # one solve, broadcast: every rank applies the same step
             if fresh:
                 solve = newton_solver(stiffness(state, cfg.k_n, cfg.k_t, cfg.mu, F_x,
-                                                cfg.F_y))
+                                                cfg.F_y), tie=tie)
             dq = solve(G)
             if np.all(np.isfinite(dq)):
                 big = float(np.max(np.abs(dq)))

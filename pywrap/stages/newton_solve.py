@@ -11,13 +11,15 @@ sparse K).
 """
 import numpy as np
 
-def analysis_state(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0):
+def analysis_state(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0, top_layer="free"):
     """Convert an :class:`AtomState` into ``remote_trigger.analysis`` State (State3D
-    for spheres, :func:`analysis_state3d`)."""
+    for spheres, :func:`analysis_state3d`; ``top_layer`` 'rigid': its
+    ``rigid_layer`` is the ``top`` layer)."""
     from remote_trigger.analysis.state.state import ContactParams, build_state
 
     if state.dim == 3:
-        return analysis_state3d(state, k_n, k_t, mu, F_x, F_y, wall_y)
+        return analysis_state3d(state, k_n, k_t, mu, F_x, F_y, wall_y,
+                                rigid_layer=state.top if top_layer == "rigid" else None)
     ext = np.zeros((state.n, 2))
     ext[state.top, 0] = F_x
     ext[state.top, 1] = -F_y
@@ -30,10 +32,11 @@ def analysis_state(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0):
         require_contacts=False)
 
 
-def analysis_state3d(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0):
+def analysis_state3d(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0, rigid_layer=None):
     """The :class:`~remote_trigger.analysis.state.state3d.State3D` of a gathered state
     of spheres: contacts = overlapping pairs with the pair's t, the wall y =
-    ``wall_y`` with the wall fix's t, loads (F_x, -F_y, 0) on ``top``; float64."""
+    ``wall_y`` with the wall fix's t, loads (F_x, -F_y, 0) on ``top``; float64;
+    ``rigid_layer`` (a mask, optional): the rigid top layer."""
     from remote_trigger.analysis.state.state import ContactParams
     from remote_trigger.analysis.state.state3d import state3d_from_history
 
@@ -45,7 +48,7 @@ def analysis_state3d(state, k_n, k_t, mu, F_x, F_y, wall_y=0.0):
         box_lo=state.box_lo, box_hi=state.box_hi,
         params=ContactParams(float(k_n), float(k_t), float(mu)), periodic=(True, False, True),
         partners=state.partner, partner_t=state.xi, wall_y=wall_y, wall_t=state.wall_xi,
-        external=ext, F_x=F_x, F_y=F_y)
+        external=ext, F_x=F_x, F_y=F_y, rigid_layer=rigid_layer)
 
 
 #: largest number of degrees of freedom (3N) that Newton solves with a dense
@@ -95,7 +98,7 @@ def newton_step(K, G):
     return newton_solver(K)(G)
 
 
-def newton_solver(K):
+def newton_solver(K, tie=None):
     """Factorise K once for Newton steps K dq = G.
 
     Rows and columns that are entirely zero (contactless disks) are dropped;
@@ -106,6 +109,12 @@ def newton_solver(K):
     Parameters
     ----------
     K : ndarray or scipy.sparse matrix, shape (3N, 3N)
+    tie : sequence of array_like of int, optional
+        Groups of ascending dofs that each move as one (the x, y and z of a
+        rigid top layer, ``top_layer = 'rigid'``): K is solved as P^T K P
+        (``analysis.stability.system.tie_dofs``), G enters as P^T G (a
+        group's summed force; under ``fix aveforce`` each dof carries the
+        mean) and dq = P dq' (one step for a group).
 
     Returns
     -------
@@ -115,6 +124,8 @@ def newton_solver(K):
         chord steps of :func:`polish`). Spheres: G of shape (N, 6) or 6N -> dq
         of shape (N, 6) (the block size follows G's).
     """
+    if tie:
+        return _tied_solver(K, [np.asarray(g, np.int64) for g in tie])
     if hasattr(K, "tocsc"):
         return _sparse_newton_solver(K)
     import scipy.linalg as sla
@@ -142,6 +153,31 @@ def newton_solver(K):
         return sol
 
     return _on_live_dofs(idx, reduced)
+
+
+def _tied_solver(K, groups):
+    """:func:`newton_solver` on P^T K P for groups of dofs that each move as one."""
+    from remote_trigger.analysis.stability.system import tie_dofs
+
+    n = K.shape[0]
+    Kt, _ = tie_dofs(K, np.ones(n), groups)
+    inner = newton_solver(Kt if hasattr(K, "tocsc") else Kt.toarray())
+    drop = np.zeros(n, bool)
+    for g in groups:
+        drop[g[1:]] = True
+    col = np.cumsum(~drop) - 1          # q = P q': the index in q' of every dof
+    for g in groups:
+        col[g[1:]] = col[g[0]]
+
+    def solve(G):
+        G = np.asarray(G, np.float64)
+        g = G.reshape(-1)
+        gt = np.zeros(Kt.shape[0])
+        np.add.at(gt, col, g)           # P^T G
+        dq = inner(gt[:, None]).reshape(-1)[col]
+        return dq.reshape(-1, G.shape[1] if G.ndim == 2 else 3)
+
+    return solve
 
 
 def _on_live_dofs(idx, reduced):

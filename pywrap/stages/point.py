@@ -77,8 +77,9 @@ def held_system(eng, cfg, F_x):
 
     def system():
         if not kept:
-            kept.append(reduced_system(analysis_state(atoms, cfg.k_n, cfg.k_t, cfg.mu, F_x,
-                                                      cfg.F_y)))
+            kept.append(reduced_system(analysis_state(
+                atoms, cfg.k_n, cfg.k_t, cfg.mu, F_x, cfg.F_y,
+                top_layer=getattr(cfg, "top_layer", "free"))))
         return kept[0]
 
     return system

@@ -20,8 +20,8 @@ from remote_trigger.pywrap.stages.newton_solve import stiffness
 from remote_trigger.pywrap.stages.packing import placement_offsets
 from remote_trigger.pywrap.runtime.results import write_atomic
 from remote_trigger.pywrap.stages.common import (
-    RESULT_VERSION, ensure_dir, equilibrium_files, progress_bar, load_relax_scene,
-    packing_fraction, prepare_out, save_equilibrium, start_timestep)
+    PLATE_FIX, RESULT_VERSION, ensure_dir, equilibrium_files, hold_layer, progress_bar,
+    load_relax_scene, packing_fraction, prepare_out, save_equilibrium, start_timestep)
 
 
 @dataclass
@@ -422,6 +422,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
     start = eng.gather_state()
     best = None
     for k, dx in enumerate(offsets):
+        eng.unfix(PLATE_FIX)           # (a placement's plate is not the next piston's)
         if k > 0:                      # same compacted bulk, line shifted along x
             eng.restore(start)
             eng.command(f"variable dx string {dx!r}")
@@ -433,6 +434,7 @@ def _frictionless_then_friction(eng, cfg, prog, t0):
             else:
                 press_top(eng, cfg.F_x)
             t_comp += time.perf_counter() - tc
+        hold_layer(eng, cfg)
         try:
             if fire:       # FIRE, Newton; FIRE again tighter while Newton stalls
                 r, t_sim, rec = _fire_relax(eng, cfg0, t0, prog)
@@ -530,6 +532,10 @@ def relax(cfg, out, comm=None, quiet=False, log="none", overwrite=False):
                                      a_priori=cfg.settle_steps > 0)
         if eng.dimension == 3:
             check_spheres_config(cfg)
+        elif cfg.top_layer != "free":
+            raise ConfigError(f"top_layer = {cfg.top_layer!r} is for spheres: {cfg.datafile} "
+                              f"holds disks (dimension 2), whose top line is free "
+                              f"(docs/model.md)")
         prepare_out(eng, out, ["relax.h5"] + equilibrium_files("relax"), overwrite, "relax")
         ensure_dir(eng, os.path.join(out, "relax"))
         bar = progress_bar(None, "relax", quiet, eng.rank, unit=" checks")
