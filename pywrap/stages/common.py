@@ -200,6 +200,29 @@ def start_top_layer(datafile):
         raise ConfigError(str(exc)) from None
 
 
+def check_top_layer(cfg, datafile, stage):
+    """Refuse a start state relaxed with another loading of the top layer than ``cfg``'s.
+
+    ``cfg.top_layer`` (``'free'`` for a configuration without the field: the
+    dynamics stages run the free layer only) against the start file's
+    sidecar (:func:`start_top_layer`).
+
+    Raises
+    ------
+    ConfigError
+        Naming both values and the sidecar.
+    """
+    layer = start_top_layer(datafile)
+    mine = getattr(cfg, "top_layer", "free")
+    if layer == mine:
+        return
+    fix = (f"give top_layer = {layer!r}" if hasattr(cfg, "top_layer") else
+           f"{stage} runs the free layer only")
+    raise ConfigError(f"top_layer = {mine!r} differs from the start state's {layer!r} "
+                      f"({equilibrium_dump(datafile)}.json): a state is an equilibrium only "
+                      f"of the loading it was relaxed with; {fix}")
+
+
 def check_spheres_ramp(cfg):
     """For a ramp: the start state's ``top_layer``; for spheres also refuse
     ``newton = False`` and a start without its dump.
@@ -215,12 +238,7 @@ def check_spheres_ramp(cfg):
     """
     from remote_trigger.pywrap.bindings.datafile import data_dimension
 
-    layer = start_top_layer(cfg.datafile)
-    if layer != cfg.top_layer:
-        raise ConfigError(f"top_layer = {cfg.top_layer!r} differs from the start state's "
-                          f"{layer!r} ({equilibrium_dump(cfg.datafile)}.json): a state is an "
-                          f"equilibrium only of the loading it was relaxed with; give "
-                          f"top_layer = {layer!r}")
+    check_top_layer(cfg, cfg.datafile, "ramp")
     if data_dimension(cfg.datafile) != 3:
         return
     if not cfg.newton:
@@ -449,7 +467,8 @@ def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
     Returns ``(cfg with a numeric dt, TimestepInfo)``; see
     :func:`remote_trigger.pywrap.stages.timestep.resolve`. No step is run.
     A data file of spheres needs the dump beside it (its history) in every
-    stage but ``relax`` (``ConfigError``).
+    stage but ``relax``, and every stage but ``relax`` the loading of the top
+    layer its start was relaxed with (:func:`check_top_layer`; ``ConfigError``).
     """
     from remote_trigger.pywrap.bindings.datafile import check_datafile
     from remote_trigger.pywrap.stages.timestep import resolve
@@ -458,6 +477,8 @@ def start_timestep(eng, cfg, datafile, F_x, stage, a_priori=False):
     _check_stage_start(data)
     if data.dimension == 3 and stage != "relax":
         read_saved_history3d(datafile)
+    if stage != "relax":
+        check_top_layer(cfg, datafile, stage)
     probe = cfg.replace(dt=1.0) if cfg.dt == "auto" else cfg   # dt unused: no step run
     load_relax_scene(eng, probe, datafile, F_x)
     return resolve(eng, cfg, F_x, a_priori=a_priori, stage=stage)

@@ -152,3 +152,14 @@ def test_the_deck_keeps_the_plate_as_the_driver(relaxed, tmp_path):
                          cwd=tmp_path, env=cli_env(), capture_output=True, text=True,
                          timeout=60)
     assert bad.returncode == 2 and "top_layer = plate: give free or rigid" in bad.stdout
+
+
+def test_the_dynamics_stages_refuse_a_rigid_layer(relaxed, tmp_path):
+    from remote_trigger.pywrap import stages
+    from remote_trigger.pywrap.stages.config import DynamicsConfig
+
+    _, res = relaxed
+    with pytest.raises(ConfigError, match=r"differs from the start state's 'rigid'.*perturb "
+                                          r"runs the free layer only"):
+        stages.perturb(DynamicsConfig(datafile=res.datafile), str(tmp_path / "p"), quiet=True)
+    assert not (tmp_path / "p").exists() or not any((tmp_path / "p").iterdir())
