@@ -163,3 +163,14 @@ def test_the_dynamics_stages_refuse_a_rigid_layer(relaxed, tmp_path):
                                           r"runs the free layer only"):
         stages.perturb(DynamicsConfig(datafile=res.datafile), str(tmp_path / "p"), quiet=True)
     assert not (tmp_path / "p").exists() or not any((tmp_path / "p").iterdir())
+
+
+def test_the_ensemble_takes_the_plate_for_spheres_only():
+    from remote_trigger.pywrap.jobs.ensemble.config import DIM3, EnsembleConfig
+
+    cfg = EnsembleConfig.from_dict(dict(DIM3, dim=3, relax={"top_layer": "rigid"}))
+    assert cfg.relax["top_layer"] == "rigid"
+    with pytest.raises(ConfigError, match="relax.top_layer = 'rigid' is for spheres"):
+        EnsembleConfig.from_dict({"relax": {"top_layer": "rigid"}})
+    with pytest.raises(ConfigError, match="top_layer"):
+        EnsembleConfig.from_dict(dict(DIM3, dim=3, relax={"top_layer": "glued"}))

@@ -237,6 +237,10 @@ class EnsembleConfig(Config):
         for name in ("relax", "frictional_relax"):
             check_table(name, getattr(self, name), RELAX_SET_BY_JOB, "the ensemble",
                         RelaxConfig)
+        layer = (self.relax or {}).get("top_layer", "free")
+        if self.dim == 2 and layer != "free":
+            raise ConfigError(f"relax.top_layer = {layer!r} is for spheres (dim = 3); disks "
+                              f"keep the paper's free top line")
         check_int("np", self.np, 1)
         if self.part_size is not None:
             from remote_trigger.analysis.stability.sliced.scan import SLICE_SIZE

@@ -415,8 +415,12 @@ def write_summary(path, rows, cfg, st, wall, size, computed):
          f"of the certified bracket. Values: median [first quartile, third quartile] over the"
          f" packings whose row is not 'failed'.", ""]
     if cfg.dim == 3:
+        layer = (cfg.relax or {}).get("top_layer", "free")
         L += [f"Spheres: I0 = {cfg.I0_dynamics:g} (I = 2/5 m R^2, the dynamics' own). "
-              f"Skipped in 3D: {skipped_in_3d()}.", ""]
+              + ("The top layer is a rigid plate (top_layer = 'rigid': it translates as one "
+                 "body, every sphere with its loads; docs/model.md section 9.1). "
+                 if layer == "rigid" else "")
+              + f"Skipped in 3D: {skipped_in_3d()}.", ""]
     if cfg.inertia_I0 is not None:
         L += [f"**I0 = {cfg.inertia_I0:g} rows are an analysis convention only**: the same "
               f"equilibria (made by dynamics with I0 = {cfg.I0_dynamics}) analysed with "
