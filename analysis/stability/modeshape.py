@@ -248,7 +248,7 @@ def pair_mode(state, eigenvalue):
                       UserWarning, stacklevel=2)
     spheres = isinstance(state, State3D)
     per = 6 if spheres else 3
-    full = res.expand(v / np.sqrt(mr))    # displacements q = M^-1/2 v (a tied layer's y on each)
+    full = res.expand(v / np.sqrt(mr))    # q = M^-1/2 v (a rigid layer: its translation on each)
     u = full.reshape(state.n, per)[:, :(3 if spheres else 2)]
     u = u / np.linalg.norm(u)
     pr = participation_ratio(u)

@@ -7,8 +7,10 @@ sidecar says ``top_layer = 'rigid'``, and its residual recomputed by the
 analysis' own force law with the layer's forces summed (``generalized_residual``);
 the layer stays level (it was pressed as one body and moved as one); the
 verdict of the ramp's bracket is recomputed from the dumps by a plain
-``numpy.linalg.eigvals`` of P^T K P; a ramp from that state without the
-setting, and a relax of disks with it, are refused.
+``numpy.linalg.eigvals`` of P^T K P; the deck ``in.relax3d`` with
+``-var top_layer rigid`` reaches the driver's packing; a ramp or a dynamics
+stage from that state without the setting, a relax of disks with it and an
+ensemble of disks with it are refused.
 """
 import json
 
