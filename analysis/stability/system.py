@@ -20,7 +20,7 @@ import numpy as np
 
 from remote_trigger.analysis.errors import is_integer
 
-__all__ = ["ReducedSystem", "reduced_system", "tie_dofs"]
+__all__ = ["ReducedSystem", "reduced_system", "tie_dofs", "tie_index"]
 
 
 @dataclass
@@ -186,30 +186,23 @@ def reduced_system(state, min_contacts=None):
                          np.hstack(tied).astype(np.int64))
 
 
-def tie_dofs(K, mass, groups):
-    """Restrict K and the mass diagonal to groups of dofs that each move as one.
-
-    With q = P q', where P is the identity except that every dof of a group
-    takes the value of the group's first, K' = P^T K P and M' = P^T M P
-    (diagonal: a group's masses summed on its first dof); the other dofs of
-    each group are removed. This is the constraint of a rigid body that
-    translates without turning (the top layer as a rigid plate, ``fix
-    aveforce 0.0 0.0 0.0``; one group per axis): its generalized force along
-    an axis is the sum of its spheres' forces.
+def tie_index(n, groups):
+    """The map q = P q' of groups of dofs that each move as one.
 
     Parameters
     ----------
-    K : sparse matrix or ndarray, shape (n, n)
-    mass : ndarray, shape (n,)
+    n : int
+        Number of dofs.
     groups : sequence of array_like of int
         Each ascending distinct indices in [0, n), the groups disjoint; the
         first of each is kept.
 
     Returns
     -------
-    K_tied : scipy.sparse.csr_matrix, shape (m, m)
-        m = n - sum over groups of (size - 1).
-    mass_tied : ndarray, shape (m,)
+    col : ndarray of int64, shape (n,)
+        The index in q' of every dof (a group's dofs share its first's).
+    m : int
+        Length of q': n - sum over groups of (size - 1).
 
     Raises
     ------
@@ -217,9 +210,6 @@ def tie_dofs(K, mass, groups):
         If a group is not ascending distinct indices in [0, n), or two
         groups share an index.
     """
-    import scipy.sparse as sp
-
-    n = K.shape[0]
     drop = np.zeros(n, bool)
     seen = np.zeros(n, bool)
     checked = []
@@ -237,7 +227,42 @@ def tie_dofs(K, mass, groups):
     for g in checked:
         if g.size:
             col[g[1:]] = col[g[0]]
-    m = int(np.count_nonzero(~drop))
+    return col.astype(np.int64), int(np.count_nonzero(~drop))
+
+
+def tie_dofs(K, mass, groups):
+    """Restrict K and the mass diagonal to groups of dofs that each move as one.
+
+    With q = P q' (:func:`tie_index`: every dof of a group takes the value
+    of the group's first), K' = P^T K P and M' = P^T M P (diagonal: a
+    group's masses summed on its first dof); the other dofs of each group
+    are removed. This is the constraint of a rigid body that translates
+    without turning (the top layer as a rigid plate, ``fix aveforce 0.0 0.0
+    0.0``; one group per axis): its generalized force along an axis is the
+    sum of its spheres' forces.
+
+    Parameters
+    ----------
+    K : sparse matrix or ndarray, shape (n, n)
+    mass : ndarray, shape (n,)
+    groups : sequence of array_like of int
+        As :func:`tie_index`.
+
+    Returns
+    -------
+    K_tied : scipy.sparse.csr_matrix, shape (m, m)
+        m = n - sum over groups of (size - 1).
+    mass_tied : ndarray, shape (m,)
+
+    Raises
+    ------
+    ValueError
+        As :func:`tie_index`.
+    """
+    import scipy.sparse as sp
+
+    n = K.shape[0]
+    col, m = tie_index(n, groups)
     P = sp.csr_matrix((np.ones(n), (np.arange(n), col)), shape=(n, m))
     Kt = (P.T @ sp.csr_matrix(K) @ P).tocsr()
     mt = np.asarray(P.T @ np.asarray(mass, np.float64)).ravel()

@@ -297,11 +297,13 @@ def _model_parameters(path, no_wall, **given):
     """The model parameters of a dump: each given value, else the sidecar's.
 
     Returns ``{key: value}`` for :data:`PARAM_KEYS` (None where neither has
-    one). Raises ValueError if ``k_n``, ``k_t``, ``mu`` or (with a wall)
-    ``wall_y`` is missing from both.
+    one) and the sidecar's ``top_layer`` (``'free'`` if it has none). Raises
+    ValueError if ``k_n``, ``k_t``, ``mu`` or (with a wall) ``wall_y`` is
+    missing from both.
     """
     side = load_sidecar(path)
     par = {key: (given[key] if given[key] is not None else side.get(key)) for key in PARAM_KEYS}
+    par["top_layer"] = side.get("top_layer", "free")
     lack = [key for key in ("k_n", "k_t", "mu") if par[key] is None]
     if par["wall_y"] is None and not no_wall:
         lack.append("wall_y")
@@ -556,17 +558,17 @@ def read_dump3d(path, frame=-1, *, k_n=None, k_t=None, mu=None, wall_y=None, F_x
         wall_t=wall_t,
         external=data[:, [col["v_fext_x"], col["v_fext_y"], col["v_fext_z"]]],
         mirror_rtol=mirror_rtol, inertia_factor=inertia_factor, F_x=par["F_x"],
-        F_y=par["F_y"], source=path, rigid_layer=_rigid_layer(path, data, col))
+        F_y=par["F_y"], source=path, rigid_layer=_rigid_layer(path, par["top_layer"], data, col))
     if require_contacts and state.contact_i.size == 0 and state.wall_index.size == 0:
         raise ValueError(f"{path}: the packing has no contact (no overlapping pair, no "
                          f"sphere on the wall)")
     return state
 
 
-def _rigid_layer(path, data, col):
-    """The mask of the rigid top layer (the loaded spheres) if the sidecar says
-    ``top_layer = 'rigid'``, else None."""
-    if load_sidecar(path).get("top_layer", "free") != "rigid":
+def _rigid_layer(path, top_layer, data, col):
+    """The mask of the rigid top layer (the loaded spheres) if the sidecar's
+    ``top_layer`` is 'rigid', else None."""
+    if top_layer != "rigid":
         return None
     top = data[:, col["v_fext_y"]] != 0.0
     if np.count_nonzero(top) < 2:

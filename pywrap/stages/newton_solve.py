@@ -157,17 +157,12 @@ def newton_solver(K, tie=None):
 
 def _tied_solver(K, groups):
     """:func:`newton_solver` on P^T K P for groups of dofs that each move as one."""
-    from remote_trigger.analysis.stability.system import tie_dofs
+    from remote_trigger.analysis.stability.system import tie_dofs, tie_index
 
     n = K.shape[0]
     Kt, _ = tie_dofs(K, np.ones(n), groups)
     inner = newton_solver(Kt if hasattr(K, "tocsc") else Kt.toarray())
-    drop = np.zeros(n, bool)
-    for g in groups:
-        drop[g[1:]] = True
-    col = np.cumsum(~drop) - 1          # q = P q': the index in q' of every dof
-    for g in groups:
-        col[g[1:]] = col[g[0]]
+    col, _ = tie_index(n, groups)       # q = P q': the index in q' of every dof
 
     def solve(G):
         G = np.asarray(G, np.float64)
