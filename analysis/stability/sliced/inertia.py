@@ -4,8 +4,10 @@
 from a sparse LDL^T factorization of S - a I, with a rigorous bound of how
 far that count can be off (its *fuzz*); :class:`Shifts` factorizes S - a I
 at many shifts with one ordering, for the counts and for the shift-invert
-solves of the slices (:mod:`.slices`); :func:`norm1` and :func:`norm2_skew`
-bound the norms the verdict needs. The proof they serve:
+solves of the slices (:mod:`.slices`; where the factor is dense, as for
+large sphere packings, the solves use SuperLU's supernodal LU instead,
+:class:`SymmetricLU`); :func:`norm1` and :func:`norm2_skew` bound the norms
+the verdict needs. The proof they serve:
 :mod:`remote_trigger.analysis.stability.sliced` (*Counting*).
 """
 from __future__ import annotations
@@ -24,8 +26,8 @@ from remote_trigger.analysis.stability.enclosure import TINY, U, gamma
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
 from remote_trigger.analysis.stability.sliced.stats import SlicedStats
 
-__all__ = ["count_below", "count_below_dw", "Shifts", "shifted", "norm1", "norm2_skew",
-           "U_DW", "DW_FUZZ_FRACTION", "fuzz_limit"]
+__all__ = ["count_below", "count_below_dw", "Shifts", "SymmetricLU", "shifted", "norm1",
+           "norm2_skew", "U_DW", "DW_FUZZ_FRACTION", "fuzz_limit", "SUPERNODAL_FILL"]
 
 #: Relative error bound of every double-word operation of the factorization of
 #: :func:`count_below_dw` (``ldl_dd.cpp``): addition (AccurateDWPlusDW) 3 u^2 +
@@ -42,6 +44,17 @@ U_DW = 16.0 * U * U
 #: (58 counts of a whole scan there exceed the limit),
 #: 20-180 % at N = 10^5.
 DW_FUZZ_FRACTION = 0.01
+
+
+#: Entries of the factor per row (SuperLU's ``nnz`` / 2n at the first shift)
+#: from which :class:`Shifts` makes its shift-invert factorizations with
+#: SuperLU's supernodal LU (:class:`SymmetricLU`) instead of QDLDL's LDL^T.
+#: Measured (docs/results/analysis.md, "Spheres at N = 2560: where a slice's
+#: time goes"): QDLDL factorizes faster at 41 per row (disks, N = 6400: 0.035 s
+#: against 0.048 s) and 63 (spheres, N = 160), about as fast at 126 (spheres,
+#: N = 640: 0.035 s against 0.029 s), 4.7 x slower at 401 (spheres, N = 2560:
+#: 4.7 s against 1.0 s, and a solve 15.6 ms against 10.4 ms).
+SUPERNODAL_FILL = 200.0
 
 
 def fuzz_limit(normS, n):
@@ -70,6 +83,77 @@ def _ldl(H, what):
         raise SliceFailure(f"no LDL^T factorization of {what}: {exc}") from None
 
 
+class SymmetricLU:
+    """SuperLU's supernodal P^T H P = L U of a symmetric H, without pivoting,
+    for solves with H.
+
+    Parameters
+    ----------
+    H : scipy.sparse.csc_matrix, shape (n, n)
+        Symmetric, float64, every diagonal entry stored (:func:`shifted`).
+    perm : ndarray of int, shape (n,), optional
+        The elimination order: the matrix factorized is H[perm][:, perm].
+        Default None: SuperLU's minimum degree ordering of H + H^T
+        (``MMD_AT_PLUS_A``), which depends only on H's pattern.
+    what : str
+        Names the matrix in an error.
+
+    Attributes
+    ----------
+    lu : scipy.sparse.linalg.SuperLU
+    perm : ndarray of int, shape (n,)
+        The whole elimination order: L U = H[perm][:, perm].
+
+    Raises
+    ------
+    SliceFailure
+        If SuperLU met an exactly singular column or took an off-diagonal
+        pivot (a zero pivot on the diagonal).
+
+    Notes
+    -----
+    ``diag_pivot_thresh = 0`` and ``SymmetricMode`` make SuperLU take every
+    diagonal entry as its pivot (checked: its row and column permutations are
+    equal) and ``Equil = False`` keeps H unscaled: the elimination of QDLDL's
+    LDL^T in another order, in dense blocks (supernodes). Given ``perm``,
+    SuperLU's own order of the permuted matrix (its postorder of the
+    elimination tree, the identity where ``perm`` is SuperLU's) depends only
+    on the pattern, so the factors at a shift do not depend on what was
+    factorized before (as ``qdldl.Solver.update``). No Sylvester count is
+    taken from it: its L and U are two roundings of one factor, and the
+    bound of :func:`count_below` does not cover their difference (measured at
+    N = 2560 spheres: a bound ~100 x QDLDL's).
+    """
+
+    def __init__(self, H, perm=None, what="S - a I"):
+        X = H if perm is None else sp.csc_matrix(H[perm][:, perm])
+        try:
+            lu = spla.splu(X, permc_spec="MMD_AT_PLUS_A" if perm is None else "NATURAL",
+                           diag_pivot_thresh=0.0, options=dict(SymmetricMode=True, Equil=False))
+        except RuntimeError as exc:     # "Factor is exactly singular"
+            raise SliceFailure(f"no LDL^T factorization of {what}: {exc}") from None
+        if not np.array_equal(lu.perm_r, lu.perm_c):
+            raise SliceFailure(f"no LDL^T factorization of {what}: an off-diagonal pivot "
+                               f"(a zero pivot on the diagonal)")
+        order = np.argsort(lu.perm_c)           # L U = X[order][:, order]
+        self.lu = lu
+        self._given = perm is not None
+        self.perm = np.asarray(perm)[order] if self._given else order
+
+    @property
+    def fill(self):
+        """Entries of the factor per row: SuperLU's ``nnz`` (L and U) / 2n."""
+        return self.lu.nnz / (2.0 * max(self.lu.shape[0], 1))
+
+    def solve(self, b):
+        """x with H x = b; b of shape (n,)."""
+        if not self._given:
+            return self.lu.solve(b)
+        x = np.empty(b.shape[0], dtype=np.float64)
+        x[self.perm] = self.lu.solve(np.ascontiguousarray(b[self.perm], dtype=np.float64))
+        return x
+
+
 class Shifts:
     """Factorizations of S - a I for many shifts a, for counting and for
     shift-invert solves, the ordering computed once.
@@ -84,6 +168,13 @@ class Shifts:
     are those of the previous shift, which :meth:`factor_checked` sees in the
     residual of a probe solve. The shift-invert solves of a slice use the same
     object. Each call overwrites the previous factorization.
+
+    The shift-invert factorizations (:meth:`factor_checked`) are QDLDL's
+    too, unless SuperLU's factor of the first shift has more than
+    :data:`SUPERNODAL_FILL` entries per row (large sphere packings): then
+    each is a :class:`SymmetricLU` in that first factorization's order,
+    made anew at each shift. ``solves`` says which ('qdldl' or 'superlu';
+    None before the first). The counts are QDLDL's either way.
 
     ``fuzz_limit`` (default: none): a count whose float64 fuzz exceeds it is
     made again by :func:`count_below_dw` in the same ordering (the
@@ -106,6 +197,8 @@ class Shifts:
         self.diag_at = np.nonzero(on)[0][np.argsort(cols[on], kind="stable")]
         self.diag = H.data[self.diag_at].copy()
         self.solver = None
+        self.solves = None        # 'qdldl' or 'superlu', set by the first factor_checked
+        self.order = None         # SuperLU: the elimination order of every factorization
         self.probe = math.nan
 
     @property
@@ -144,6 +237,9 @@ class Shifts:
     def factor_checked(self, a, what="S - a I"):
         """A factorization of S - a I for solves (shift-invert).
 
+        Where the factor is dense (``solves == 'superlu'``, see the class), a
+        new :class:`SymmetricLU`, which refuses a zero pivot itself; its probe
+        residual is left in ``self.probe`` as below. Otherwise
         :meth:`factor`'s, checked by a probe solve: ``Solver.update`` does not
         report a zero pivot (a new ``Solver`` raises); it then stops there and
         leaves the rest of the factors of the previous shift. A probe whose
@@ -155,7 +251,21 @@ class Shifts:
         :func:`~.slices.shift_invert` then moves the shift).
         """
         n = self.S.shape[0]
-        fac = self.factor(a, what)
+        if self.solves is None:
+            self.H.data[self.diag_at] = self.diag - a
+            try:
+                first = SymmetricLU(self.H, what=what)
+            except SliceFailure:
+                first = None        # QDLDL decides (its own ordering)
+            big = first is not None and first.fill > SUPERNODAL_FILL
+            self.solves, self.order = ("superlu", first.perm) if big else ("qdldl", None)
+        if self.solves == "superlu":
+            # in the first factorization's order at every shift, the first
+            # one included: the factors do not depend on what came before
+            self.H.data[self.diag_at] = self.diag - a
+            fac = SymmetricLU(self.H, self.order, what)
+        else:
+            fac = self.factor(a, what)
         one = np.ones(n)
 
         def probe(fac):
@@ -165,7 +275,7 @@ class Shifts:
             return float(np.linalg.norm(self.H @ x - one)) / math.sqrt(n)
 
         self.probe = probe(fac)
-        if not self.probe <= 1e-6:
+        if not self.probe <= 1e-6 and self.solves == "qdldl":
             fac = _ldl(shifted(self.S, a), what)
             self.probe = probe(fac)
         return fac
