@@ -46,7 +46,7 @@ symmetric with ||Z||_2 <= ||Z||_inf <= fuzz (the a-priori backward error
 gamma_k |L||D||L^T| of the Cholesky-type elimination, k the longest
 inner product, Higham Thm. 10.3), so #neg(D) lies
 between the counts of S below a - fuzz and a + fuzz. Where that fuzz
-exceeds 1 % of the mean eigenvalue spacing bound 2 ||S|| / n (at N = 10^5
+exceeds 10 % of the mean eigenvalue spacing bound 2 ||S|| / n (at N = 10^5
 it outgrows the spacing: the growth of the unpivoted elimination), the
 count is made again by the same elimination in double-word arithmetic
 (``ldl_dd.cpp``, every operation within U_DW = 16 u^2), whose fuzz is the

@@ -38,12 +38,17 @@ U_DW = 16.0 * U * U
 
 #: A float64 count whose fuzz exceeds this fraction of the mean eigenvalue
 #: spacing of S (bounded above by 2 ||S|| / n: :func:`fuzz_limit`) is counted
-#: again in double-word arithmetic by :meth:`Shifts.count_below`. Measured
-#: (docs/results/analysis.md, "Counting in double-word arithmetic"): the float64
-#: fuzz is 0.1-0.6 % of that spacing at three places of an N = 10^4 spectrum
-#: (58 counts of a whole scan there exceed the limit),
-#: 20-180 % at N = 10^5.
-DW_FUZZ_FRACTION = 0.01
+#: again in double-word arithmetic by :meth:`Shifts.count_below`; below it, a
+#: slice edge that only the float64 fuzz keeps too close to a Ritz value is
+#: counted again too (:mod:`.slices`), so the fraction decides cost, not the
+#: proof. Measured (docs/results/analysis.md, "Counting in double-word
+#: arithmetic" and "Spheres at N = 2560: where a slice's time goes"): the
+#: float64 fuzz is 0.1-0.6 % of that spacing at three places of an N = 10^4
+#: disk spectrum, 20-180 % at N = 10^5, 1-2.2 % over most of the spectrum of
+#: spheres at N = 2560, where a double-word count costs 15 s (twice a slice):
+#: there four slices took 22.5-24 s each at 1 %, 6.6-7.2 s at 10 % (one
+#: 20.9 s: its edge needed a double-word count), with the same edges.
+DW_FUZZ_FRACTION = 0.1
 
 
 #: Entries of the factor per row (SuperLU's ``nnz`` / 2n at the first shift)
