@@ -51,16 +51,18 @@ U_DW = 16.0 * U * U
 DW_FUZZ_FRACTION = 0.1
 
 
-#: Entries of the factor per row (SuperLU's ``nnz`` / 2n at the first shift)
-#: from which :class:`Shifts` makes its shift-invert factorizations with
-#: SuperLU's supernodal LU (:class:`SymmetricLU`) instead of QDLDL's LDL^T.
-#: Measured (docs/results/analysis.md, "Spheres at N = 2560: where a slice's
-#: time goes"): QDLDL factorizes faster at 41 per row (disks, N = 6400: 0.035 s
-#: against 0.048 s) and 63 (spheres, N = 160), about as fast at 126 (spheres,
-#: N = 640: 0.035 s against 0.029 s), 4.7 x slower at 401 (spheres, N = 2560:
-#: 4.7 s against 1.0 s, and a solve 15.6 ms against 10.4 ms). A whole scan at
-#: N = 640 took 16.1 s with QDLDL's solves, 16.9 s with SuperLU's: the
-#: threshold lies above that.
+#: Entries of the factor per row (SuperLU's ``nnz`` / 2n at the first shift,
+#: in its own order) from which :class:`Shifts` makes its shift-invert
+#: factorizations with SuperLU's supernodal LU (:class:`SymmetricLU`) instead
+#: of QDLDL's LDL^T. Measured (docs/results/analysis.md, "Spheres at N = 2560:
+#: where a slice's time goes"; benchmarks/bench_sphere_factor.py): at 41 per
+#: row (disks, N = 6400) QDLDL refactorizes in 0.035 s, SuperLU in 0.048 s; at
+#: 65 (spheres, N = 160) 0.002 s against 0.003 s; at 143-145 (spheres,
+#: N = 640) 0.035 s against 0.029 s on idle cores but 0.034-0.040 s against
+#: 0.045-0.049 s beside other jobs, and a whole scan took 16.1 s with
+#: QDLDL's solves, 16.9 s with SuperLU's; at 401 (spheres, N = 2560) 4.7 s
+#: against 1.0 s, a solve 15.6 ms against 10.4 ms. The threshold lies
+#: between the last two.
 SUPERNODAL_FILL = 200.0
 
 
