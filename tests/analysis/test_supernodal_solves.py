@@ -96,3 +96,37 @@ def test_the_verdict_with_supernodal_solves(monkeypatch, pairs):
     assert lq.size == ls.size == 300
     assert np.max(np.abs(lq - ls)) < 1e-9 * np.max(np.abs(lq))
     assert np.array_equal(np.asarray(dq2.eigenvalues), np.asarray(dq.eigenvalues))
+
+
+def test_parts_with_supernodal_solves_give_the_same_bits(monkeypatch, tmp_path):
+    """With SuperLU's solves (SUPERNODAL_FILL = 0) a scan in parts gives the
+    same bits one part after the other, on two processes, and killed in its
+    second part then resumed from its checkpoint: each part chooses and
+    orders its factorizations from its own matrix, never from what ran
+    before it."""
+    import concurrent.futures
+
+    from .test_sliced import planted
+    from .test_sliced_parts import fingerprint, run
+
+    monkeypatch.setattr(inertia, "SUPERNODAL_FILL", 0.0)
+    K, mass = planted(n=300, pairs=[(100, 1.5), (220, 0.9)], seed=1)
+    seq = fingerprint(*run(K, mass, part_size=100))
+    with concurrent.futures.ProcessPoolExecutor(2) as ex:    # forked: the threshold too
+        assert fingerprint(*run(K, mass, part_size=100, map_tasks=ex.map)) == seq
+
+    class Killed(Exception):
+        pass
+
+    def killing_map(fn, tasks):
+        for t in tasks:
+            if fn.__name__ == "scan_part" and t.j > 0 and kill:
+                raise Killed
+            yield fn(t)
+
+    kill = True
+    with pytest.raises(Killed):
+        run(K, mass, part_size=100, checkpoint_dir=str(tmp_path), map_tasks=killing_map)
+    kill = False
+    assert fingerprint(*run(K, mass, part_size=100, checkpoint_dir=str(tmp_path),
+                            map_tasks=killing_map)) == seq
