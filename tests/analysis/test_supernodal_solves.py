@@ -64,7 +64,8 @@ def test_the_verdict_with_supernodal_solves(monkeypatch, pairs):
     every shift-invert solve by SuperLU (SUPERNODAL_FILL = 0): the same
     decision and strips as with QDLDL's, the eigenvalues within 1e-9
     of the largest (the solves differ in their rounding only); with the
-    threshold kept, the probe of the fill changes no bit."""
+    threshold kept, the probe of the fill changes no bit (against a scan
+    with the probe switched off)."""
     from remote_trigger.analysis.stability.decision import Decision
     from remote_trigger.analysis.stability.sliced import SlicedStats, classify_sliced
 
@@ -83,13 +84,18 @@ def test_the_verdict_with_supernodal_solves(monkeypatch, pairs):
         made.append(1)
         return real_lu(*args, **kw)
 
-    dq, st_q = run()
+    def probe_off(*args, **kw):                   # no fill measured: QDLDL's solves
+        raise SliceFailure("probe off")
+
     monkeypatch.setattr(inertia, "SymmetricLU", counted)
-    dq2, _ = run()
+    dq, st_q = run()
     probes = len(made)                            # one probe of the fill a Shifts
+    monkeypatch.setattr(inertia, "SymmetricLU", probe_off)
+    dq2, _ = run()
+    monkeypatch.setattr(inertia, "SymmetricLU", counted)
     monkeypatch.setattr(inertia, "SUPERNODAL_FILL", 0.0)
     ds, st_s = run()
-    assert len(made) - probes >= st_s.arpack_runs > 0     # every solve a SymmetricLU
+    assert probes > 0 and len(made) - probes >= st_s.arpack_runs > 0   # every solve a SymmetricLU
     assert ds.decision is dq.decision is Decision.certified(bool(pairs))
     assert st_s.strips == st_q.strips          # the slices may differ: edges in other gaps
     lq, ls = np.sort_complex(dq.eigenvalues), np.sort_complex(ds.eigenvalues)

@@ -260,8 +260,8 @@ class Shifts:
         :func:`~.slices.shift_invert` then moves the shift).
         """
         n = self.S.shape[0]
+        self.H.data[self.diag_at] = self.diag - a
         if self.solves is None:
-            self.H.data[self.diag_at] = self.diag - a
             try:
                 first = SymmetricLU(self.H, what=what)
             except SliceFailure:
@@ -271,7 +271,6 @@ class Shifts:
         if self.solves == "superlu":
             # in the first factorization's order at every shift, the first
             # one included: the factors do not depend on what came before
-            self.H.data[self.diag_at] = self.diag - a
             fac = SymmetricLU(self.H, self.order, what)
         else:
             fac = self.factor(a, what)
