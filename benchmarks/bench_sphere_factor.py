@@ -1,4 +1,5 @@
-"""Benchmark: the factorizations of a sliced verdict for spheres, QDLDL against SuperLU.
+"""Benchmark: the factorizations of a sliced verdict for spheres, QDLDL against SuperLU
+and the multifrontal LDL^T.
 
 A 3D contact network fills the factor of S - a I (S the symmetric part of
 M^-1/2 K M^-1/2) as a 3D grid does, and QDLDL's scalar LDL^T then costs a
@@ -6,9 +7,10 @@ slice most of its time (docs/results/analysis.md, "Spheres at N = 2560:
 where a slice's time goes"). The sliced scan therefore makes its
 shift-invert factorizations with SuperLU's supernodal LU where the factor
 has more than ``inertia.SUPERNODAL_FILL`` entries per row
-(``inertia.SymmetricLU``); its Sylvester counts stay QDLDL's. This
-benchmark measures both side by side in one process, one core, one BLAS
-thread, CPU seconds:
+(``inertia.SymmetricLU``), and its Sylvester counts with the multifrontal
+LDL^T in SuperLU's order (``supernodal.SupernodalLDL``). This benchmark
+measures them side by side in one process, one core, one BLAS thread, CPU
+seconds:
 
 * **The state.** ``generate(N, seed, dim=3)`` relaxed by the ``relax``
   stage with the top layer as a rigid plate (``top_layer = 'rigid'``, the
@@ -18,7 +20,10 @@ thread, CPU seconds:
 * **At shifts 0.01, 0.2 and 0.5 lambda_max:** QDLDL's numeric
   refactorization (``Solver.update``) and a solve; ``SymmetricLU`` in the
   order of its first factorization and a solve; their counts of negative
-  pivots (must be equal: the same inertia); the float64 count's fuzz over
+  pivots (must be equal: the same inertia); a Sylvester count each way:
+  QDLDL's (refactorization + ``inertia.count_below``'s bound) and
+  ``SupernodalLDL.count_below`` (count and fuzz; its symbolic analysis timed
+  once), their counts equal to the pivots'; each float64 count's fuzz over
   ``inertia.fuzz_limit`` (above 1 the scan makes the count again in
   double-word arithmetic). At the shift of the largest ratio, the time of
   that double-word count (what the limit trades against).
@@ -89,6 +94,7 @@ def main(argv=None):
     import scipy.sparse.linalg as spla
 
     from remote_trigger.analysis.stability.sliced import inertia, scaled_parts
+    from remote_trigger.analysis.stability.sliced.supernodal import SupernodalLDL
     from remote_trigger.analysis.stability.system import reduced_system
     from remote_trigger.analysis.state.dumpfile import read_equilibrium
     from remote_trigger.pywrap.runtime.environment import source
@@ -112,8 +118,12 @@ def main(argv=None):
           f"per row (threshold {inertia.SUPERNODAL_FILL:.0f}: the scan's solves by "
           f"{'SuperLU' if first.fill > inertia.SUPERNODAL_FILL else 'QDLDL'}); first "
           f"factorization with its ordering: QDLDL {t_q0:.3f} s, SuperLU {t_s0:.3f} s")
+    sn, t_sym = cpu(lambda: SupernodalLDL(S, first.perm))
+    print(f"  multifrontal LDL^T in SuperLU's order: {sn.supernodes} fronts, nnz(L) {sn.nnz_L} "
+          f"({sn.nnz_L / n:.0f} per row), symbolic analysis {t_sym:.3f} s")
     print("  a/lambda_max | QDLDL update, solve | SuperLU, solve | factorization ratio | "
-          "negative pivots (both) | float64 fuzz / limit")
+          "negative pivots (both) | count: QDLDL, multifrontal, ratio | fuzz / limit: QDLDL, "
+          "multifrontal")
     worst = (-1.0, None)
     for f in SHIFTS:
         a = f * lam_max
@@ -124,12 +134,14 @@ def main(argv=None):
         _, t_ls = cpu(lambda: lu.solve(b), SOLVES)
         neg_q = int(np.count_nonzero(qd.factors()[1] < 0))
         neg_s = int(np.count_nonzero(lu.lu.U.diagonal() < 0))
-        cnt, fuzz, _ = inertia.count_below(S, a, qd)
-        if neg_q != neg_s or cnt != neg_q:
+        (cnt, fuzz, _), t_c = cpu(lambda: inertia.count_below(S, a, qd))
+        (cnt_m, fz_m), t_m = cpu(lambda: sn.count_below(a))
+        if neg_q != neg_s or cnt != neg_q or cnt_m != neg_q:
             raise SystemExit(f"bench_sphere_factor: counts differ at a = {a!r}: QDLDL {neg_q}, "
-                             f"SuperLU {neg_s}")
+                             f"SuperLU {neg_s}, multifrontal {cnt_m}")
         print(f"  {f:5.2f} | {t_u:.3f} s, {t_qs * 1e3:.2f} ms | {t_l:.3f} s, {t_ls * 1e3:.2f} ms | "
-              f"{t_u / t_l:.2f} x | {neg_q} | {fuzz / limit:.2f}")
+              f"{t_u / t_l:.2f} x | {neg_q} | {t_u + t_c:.3f} s, {t_m:.3f} s, "
+              f"{(t_u + t_c) / t_m:.2f} x | {fuzz / limit:.2f}, {fz_m / limit:.2f}")
         worst = max(worst, (fuzz / limit, (f, a, cnt)))
     f, a, cnt = worst[1]
     qd.update(inertia.shifted(S, a))

@@ -89,9 +89,9 @@ def test_shifts_count_in_double_word_above_the_fuzz_limit():
     below = Shifts(T, fuzz_limit=10 * f64)
     assert below.count_below(a)[:2] == (c64, f64) and below.dw_counts == 0
     above = Shifts(T, fuzz_limit=0.5 * f64)
-    cnt, fuzz, fac = above.count_below(a)
+    cnt, fuzz = above.count_below(a)
     assert (cnt, fuzz) == count_below_dw(T, a, above.perm) and above.dw_counts == 1
-    x = fac.solve(np.ones(50))
+    x = above.solver.solve(np.ones(50))
     assert np.allclose((T - a * sp.identity(50)) @ x, 1.0)
     assert inertia.fuzz_limit(100.0, 2000) == pytest.approx(inertia.DW_FUZZ_FRACTION * 0.1)
 
@@ -124,10 +124,9 @@ def test_the_scan_counts_again_where_only_the_fuzz_blocks_an_edge(monkeypatch):
     assert np.allclose(np.sort_complex(np.asarray(res.eigenvalues)),
                        np.sort_complex(np.asarray(plain.eigenvalues)), rtol=0, atol=1e-9)
 
-    # in parts: the split points' counts blurred too, so each part's first slice
-    # counts its lower edge again (slices._recounted_edge)
+    # in parts: the split points' counts blurred too (Shifts.count), so each
+    # part's first slice counts its lower edge again (slices._recounted_edge)
     from remote_trigger.analysis.stability.sliced import parts
-    monkeypatch.setattr(parts, "count_below", inertia.count_below)
     monkeypatch.setattr(parts, "fuzz_limit", lambda normS, n: float("inf"))
     st = SlicedStats()
     res = classify_sliced(K, mass, part_size=60, stats=st)

@@ -9,6 +9,7 @@ import scipy.sparse as sp
 from remote_trigger.analysis.stability.sliced import inertia
 from remote_trigger.analysis.stability.sliced.inertia import Shifts, SymmetricLU, shifted
 from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
+from remote_trigger.analysis.stability.sliced.supernodal import SupernodalLDL
 
 
 def random_symmetric(n, seed):
@@ -41,8 +42,9 @@ def test_solves_in_one_order_whatever_was_factorized_before():
 
 def test_shifts_choose_supernodal_solves_by_the_fill(monkeypatch):
     """Shifts.factor_checked: QDLDL's factorization (the counts' object) below
-    SUPERNODAL_FILL entries per row, a SymmetricLU above it; the counts are
-    QDLDL's either way (the same count and fuzz)."""
+    SUPERNODAL_FILL entries per row, a SymmetricLU above it; the counts then
+    those of a SupernodalLDL in SuperLU's order (the same count as QDLDL's,
+    the fuzz of that order; no QDLDL factorization made)."""
     S = random_symmetric(300, 4)
     b = np.random.default_rng(2).standard_normal(S.shape[0])
     sparse_ = Shifts(S)
@@ -54,8 +56,10 @@ def test_shifts_choose_supernodal_solves_by_the_fill(monkeypatch):
     assert dense.solves == "superlu" and isinstance(lu, SymmetricLU) and dense.probe < 1e-10
     x = fac.solve(b)
     assert np.linalg.norm(lu.solve(b) - x) < 1e-9 * np.linalg.norm(x)
-    assert dense.count_below(1.1)[:2] == sparse_.count_below(1.1)[:2]
-    assert dense.solves == "superlu" and not isinstance(dense.solver, SymmetricLU)
+    cnt, fz = dense.count_below(1.1)
+    assert cnt == sparse_.count_below(1.1)[0]
+    assert (cnt, fz) == SupernodalLDL(S, dense.order).count_below(1.1)
+    assert dense.perm is dense.order and dense.solver is None
 
 
 @pytest.mark.parametrize("pairs", [[(100, 1.5)], []])

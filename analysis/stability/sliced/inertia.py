@@ -25,6 +25,7 @@ import scipy.sparse.linalg as spla
 from remote_trigger.analysis.stability.enclosure import TINY, U, gamma
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
 from remote_trigger.analysis.stability.sliced.stats import SlicedStats
+from remote_trigger.analysis.stability.sliced.supernodal import SupernodalLDL
 
 __all__ = ["count_below", "count_below_dw", "Shifts", "SymmetricLU", "shifted", "norm1",
            "norm2_skew", "U_DW", "DW_FUZZ_FRACTION", "fuzz_limit", "SUPERNODAL_FILL"]
@@ -167,37 +168,44 @@ class Shifts:
     """Factorizations of S - a I for many shifts a, for counting and for
     shift-invert solves, the ordering computed once.
 
-    S - a I has the same pattern for every a, so QDLDL's AMD ordering and
-    elimination tree are those of the first factorization; ``Solver.update``
-    redoes only the numerical factorization, with factors bitwise those of a
-    new ``Solver`` (the same permutation, L, D and solves: checked on the
-    N = 10^4 matrices and in the tests) in ~0.75 of its time at n = 28 800.
-    ``update`` does not report a zero pivot (a new ``Solver`` raises): D then
-    holds a zero, which :func:`count_below` refuses, and the factors after it
-    are those of the previous shift, which :meth:`factor_checked` sees in the
-    residual of a probe solve. The shift-invert solves of a slice use the same
-    object. Each call overwrites the previous factorization.
+    S - a I has the same pattern for every a. Which factorizations are made
+    is decided once, at the first shift (:meth:`count_below` or
+    :meth:`factor_checked`), by the fill of SuperLU's factor of S - a I in
+    its own minimum degree order (a property of the pattern; ``solves`` says
+    which, ``'qdldl'`` or ``'superlu'``):
 
-    The shift-invert factorizations (:meth:`factor_checked`) are QDLDL's
-    too, unless SuperLU's factor of the first shift has more than
-    :data:`SUPERNODAL_FILL` entries per row (large sphere packings): then
-    each is a :class:`SymmetricLU` in that first factorization's order,
-    made anew at each shift. ``solves`` says which ('qdldl' or 'superlu';
-    None before the first). The counts are QDLDL's either way.
+    * up to :data:`SUPERNODAL_FILL` entries per row (disks; spheres up to
+      N ~ 1000), QDLDL's: its AMD ordering and elimination tree are those of
+      the first factorization, and ``Solver.update`` redoes only the
+      numerical factorization, with factors bitwise those of a new
+      ``Solver`` (the same permutation, L, D and solves: checked on the
+      N = 10^4 matrices and in the tests) in ~0.75 of its time at
+      n = 28 800. ``update`` does not report a zero pivot (a new ``Solver``
+      raises): D then holds a zero, which :func:`count_below` refuses, and
+      the factors after it are those of the previous shift, which
+      :meth:`factor_checked` sees in the residual of a probe solve. The
+      counts and the shift-invert solves of a slice use the same object;
+      each call overwrites the previous factorization.
+    * above it (large sphere packings), SuperLU's order ``order`` for
+      everything: the shift-invert factorizations are :class:`SymmetricLU`
+      in that order, made anew at each shift; the counts are those of a
+      :class:`~.supernodal.SupernodalLDL` in the same order (the multifrontal
+      LDL^T, with :func:`count_below`'s fuzz bound).
 
     ``fuzz_limit`` (default: none): a count whose float64 fuzz exceeds it is
-    made again by :func:`count_below_dw` in the same ordering (the
-    float64 factorization is kept for the solves). ``stats.dw_counts`` (a
-    :class:`~.stats.SlicedStats`, a new one if none is given) counts every
-    count made in double-word arithmetic, whether :meth:`count_below` or a
-    caller asked for it (:meth:`count_below_dw`); :attr:`dw_counts` reads it.
+    made again by :func:`count_below_dw` in the same ordering (``perm``;
+    the float64 factorization is kept for the solves). ``stats.dw_counts``
+    (a :class:`~.stats.SlicedStats`, a new one if none is given) counts
+    every count made in double-word arithmetic, whether :meth:`count_below`
+    or a caller asked for it (:meth:`count_below_dw`); :attr:`dw_counts`
+    reads it.
     """
 
     def __init__(self, S, fuzz_limit=math.inf, stats=None):
         self.S = S
         self.fuzz_limit = float(fuzz_limit)
         self.stats = SlicedStats() if stats is None else stats
-        self.perm = None
+        self.perm = None          # the order of the counts (QDLDL's AMD, or ``order``)
         self.H = shifted(S, 0.0)
         # where the diagonal sits in H's data (every diagonal entry is stored)
         H = self.H
@@ -206,8 +214,9 @@ class Shifts:
         self.diag_at = np.nonzero(on)[0][np.argsort(cols[on], kind="stable")]
         self.diag = H.data[self.diag_at].copy()
         self.solver = None
-        self.solves = None        # 'qdldl' or 'superlu', set by the first factor_checked
+        self.solves = None        # 'qdldl' or 'superlu', decided at the first shift
         self.order = None         # SuperLU: the elimination order of every factorization
+        self.supernodal = None    # SuperLU: the counts' SupernodalLDL
         self.probe = math.nan
 
     @property
@@ -215,8 +224,22 @@ class Shifts:
         """Counts made in double-word arithmetic so far (``stats.dw_counts``)."""
         return self.stats.dw_counts
 
+    def _decide(self, a, what="S - a I"):
+        """``solves`` (and ``order``) from SuperLU's factor of S - a I, once."""
+        if self.solves is not None:
+            return
+        self.H.data[self.diag_at] = self.diag - a
+        try:
+            first = SymmetricLU(self.H, what=what)
+        except SliceFailure:
+            first = None        # QDLDL decides (its own ordering)
+        if first is not None and first.fill > SUPERNODAL_FILL:
+            self.solves, self.order = "superlu", first.perm
+        else:
+            self.solves = "qdldl"
+
     def factor(self, a, what="S - a I"):
-        """The factorization of S - a I (``what`` names it in an error)."""
+        """QDLDL's factorization of S - a I (``what`` names it in an error)."""
         self.H.data[self.diag_at] = self.diag - a
         if self.solver is None:
             self.solver = _ldl(self.H, what)
@@ -224,50 +247,66 @@ class Shifts:
             self.solver.update(self.H)
         return self.solver
 
+    def count(self, a):
+        """The float64 Sylvester count of S below a and its fuzz (:func:`count_below`'s,
+        or :class:`~.supernodal.SupernodalLDL`'s where ``solves`` is 'superlu').
+
+        Raises
+        ------
+        ValueError
+            At a zero pivot (no inertia in this order).
+        SliceFailure
+            If QDLDL refuses the factorization (a zero pivot).
+        """
+        self._decide(a)
+        if self.solves == "superlu":
+            if self.supernodal is None:
+                self.supernodal = SupernodalLDL(self.S, self.order)
+                self.perm = self.order
+            return self.supernodal.count_below(a)
+        return count_below(self.S, a, self.factor(a))[:2]
+
     def count_below(self, a):
-        """:func:`count_below` of S (the matrix of the constructor) at a:
-        (count, fuzz, factorization); the count and fuzz those of
-        :meth:`count_below_dw` where the float64 fuzz exceeds ``fuzz_limit``."""
-        cnt, fz, fac = count_below(self.S, a, self.factor(a))
+        """:meth:`count` at a, made again by :meth:`count_below_dw` where its
+        fuzz exceeds ``fuzz_limit``: (count, fuzz)."""
+        cnt, fz = self.count(a)
         if fz > self.fuzz_limit:
             cnt, fz = self.count_below_dw(a)
-        return cnt, fz, fac
+        return cnt, fz
 
     def count_below_dw(self, a):
         """:func:`count_below_dw` of S at a, in the ordering of the float64
-        factorizations (one is made first if none was): (count, fuzz)."""
-        if self.solver is None:
-            self.factor(a)
+        counts (one is made first if none was): (count, fuzz)."""
+        self._decide(a)
         if self.perm is None:
-            self.perm = self.solver.factors()[2]
+            if self.solves == "superlu":
+                self.perm = self.order
+            else:
+                if self.solver is None:
+                    self.factor(a)
+                self.perm = self.solver.factors()[2]
         self.stats.dw_counts += 1
         return count_below_dw(self.S, a, self.perm)
 
     def factor_checked(self, a, what="S - a I"):
         """A factorization of S - a I for solves (shift-invert).
 
-        Where the factor is dense (``solves == 'superlu'``, see the class), a
-        new :class:`SymmetricLU`, which refuses a zero pivot itself; its probe
-        residual is left in ``self.probe`` as below. Otherwise
-        :meth:`factor`'s, checked by a probe solve: ``Solver.update`` does not
-        report a zero pivot (a new ``Solver`` raises); it then stops there and
-        leaves the rest of the factors of the previous shift. A probe whose
-        residual is not small takes a new factorization instead (bitwise the
-        same factors where there is no zero pivot), which refuses a zero pivot
+        Where ``solves`` is 'superlu', a new :class:`SymmetricLU` in
+        ``order``, which refuses a zero pivot itself; its probe residual is
+        left in ``self.probe`` as below. Otherwise :meth:`factor`'s, checked
+        by a probe solve: ``Solver.update`` does not report a zero pivot (a
+        new ``Solver`` raises); it then stops there and leaves the rest of the
+        factors of the previous shift. A probe whose residual is not small
+        takes a new factorization instead (bitwise the same factors where
+        there is no zero pivot), which refuses a zero pivot
         (:class:`~.numerics.SliceFailure`, naming ``what``). The probe's
         residual ||(S - a I) x - 1|| / ||1|| of the factorization returned is
         left in ``self.probe`` (a tiny pivot's growth of D makes it large:
         :func:`~.slices.shift_invert` then moves the shift).
         """
         n = self.S.shape[0]
+        self._decide(a, what)
         self.H.data[self.diag_at] = self.diag - a
-        if self.solves is None:
-            try:
-                first = SymmetricLU(self.H, what=what)
-            except SliceFailure:
-                first = None        # QDLDL decides (its own ordering)
-            big = first is not None and first.fill > SUPERNODAL_FILL
-            self.solves, self.order = ("superlu", first.perm) if big else ("qdldl", None)
         if self.solves == "superlu":
             # in the first factorization's order at every shift, the first
             # one included: the factors do not depend on what came before

@@ -79,7 +79,7 @@ import time
 
 import numpy as np
 
-from remote_trigger.analysis.stability.sliced.inertia import Shifts, count_below, fuzz_limit
+from remote_trigger.analysis.stability.sliced.inertia import Shifts, fuzz_limit
 from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
 from remote_trigger.analysis.stability.sliced.slices import Position
 from remote_trigger.analysis.stability.sliced.stats import SlicedStats
@@ -179,7 +179,7 @@ def split_point(shifts, lo, hi, target, tol):
         If 200 halvings do not reach such a count.
     """
     def steer(x):                # float64 counts: they only steer the bisection
-        return count_below(shifts.S, x, shifts.factor(x))[:2]
+        return shifts.count(x)
 
     for _ in range(200):
         x = 0.5 * (lo + hi)

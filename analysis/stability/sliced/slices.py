@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse.linalg as spla
 
 from remote_trigger.analysis.stability.enclosure import gamma
-from remote_trigger.analysis.stability.sliced.inertia import Shifts, count_below, fuzz_limit
+from remote_trigger.analysis.stability.sliced.inertia import Shifts, fuzz_limit
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
 
 __all__ = ["Slice", "Position", "ritz_slices", "rayleigh_ritz", "shift_invert", "arpack_bound",
@@ -155,7 +155,7 @@ def start_position(S, lo0, stats):
     SliceFailure
         If S has eigenvalues below ``lo0`` (their count named).
     """
-    cnt, fz, _ = count_below(S, lo0)
+    cnt, fz = Shifts(S).count(lo0)         # QDLDL's count, or the multifrontal one
     if cnt != 0:
         raise SliceFailure(f"{cnt} eigenvalues of S below the Gershgorin bound {lo0:.6g}")
     stats.fuzz = max(stats.fuzz, fz)
@@ -325,7 +325,7 @@ def _bottom_shift(S, shifts, pos, kk, stats, normS):
     while extra != 0 and hi - lo > floor:
         mid = 0.5 * (lo + hi)
         try:
-            cnt = count_below(S, mid, shifts.factor(mid))[0]
+            cnt = shifts.count(mid)[0]
         except (ValueError, SliceFailure):      # a zero pivot: the shift at x
             return None
         if cnt == 0:
@@ -433,7 +433,7 @@ def _certified_edge(shifts, cands, theta, radius, x, cnt_x):
     blurred = []
     for y, nkeep in cands:
         try:
-            cnt_y, fz, _ = shifts.count_below(y)
+            cnt_y, fz = shifts.count_below(y)
         except (ValueError, SliceFailure):
             continue
         d = min(abs(theta - y))
