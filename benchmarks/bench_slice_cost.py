@@ -114,7 +114,7 @@ def measure(dump, nslices, part_size=1000):
 
     from remote_trigger.analysis.stability.sliced import (SlicedStats, classify_sliced,
                                                           scaled_parts)
-    from remote_trigger.analysis.stability.sliced.inertia import Shifts, count_below, fuzz_limit
+    from remote_trigger.analysis.stability.sliced.inertia import Shifts, fuzz_limit
     from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
     from remote_trigger.analysis.stability.sliced.parts import split_point
     from remote_trigger.analysis.stability.sliced.slices import Position, ritz_slices
@@ -146,9 +146,9 @@ def measure(dump, nslices, part_size=1000):
         split = time.process_time() - c0
         dw = shifts.dw_counts > 0
         # the float64 count's own fuzz there (the count kept is double-word above the limit)
-        fz64 = count_below(pb.S, x, shifts.factor(x))[1]
+        fz64 = shifts.count(x)[1]
         # the local spacing of the eigenvalues of S: counts 10 Delta apart
-        hi, _, _ = shifts.count_below(x + 10 * pb.ctx.Delta)
+        hi, _ = shifts.count_below(x + 10 * pb.ctx.Delta)
         place = {"fraction": f, "x": x, "split": split, "fuzz": fz, "fuzz64": fz64,
                  "dw": dw,
                  "spacing": 10 * pb.ctx.Delta / max(1, hi - cnt), "slices": [],

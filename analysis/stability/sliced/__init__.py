@@ -40,11 +40,14 @@ near block (explicit), x12 = ||W Q_N Gamma_N^{-1/2}||_F / sqrt(Delta_eff),
 x22 = ||W||_2 / Delta_eff, plus ||symmetric rest + F|| / min Gamma.
 
 **Counting.** The number of eigenvalues of S below a is Sylvester's inertia
-of a sparse factorization P^T(S - aI)P = L D L^T (QDLDL: a genuine LDL^T,
-AMD ordering, no pivoting): L D L^T = P^T(S - aI)P + Z exactly, Z
-symmetric with ||Z||_2 <= ||Z||_inf <= fuzz (the a-priori backward error
-gamma_k |L||D||L^T| of the Cholesky-type elimination, k the longest
-inner product, Higham Thm. 10.3), so #neg(D) lies
+of a sparse factorization P^T(S - aI)P = L D L^T (a genuine LDL^T, no
+pivoting: QDLDL's in its AMD ordering, or where the factor is dense the
+multifrontal one of ``supernodal.SupernodalLDL`` in SuperLU's minimum
+degree ordering, the same elimination in dense blocks): L D L^T =
+P^T(S - aI)P + Z exactly, Z symmetric with ||Z||_2 <= ||Z||_inf <= fuzz
+(the a-priori backward error gamma_k |L||D||L^T| of the Cholesky-type
+elimination, k the longest inner product, in any order of its sums,
+Higham Thm. 10.3), so #neg(D) lies
 between the counts of S below a - fuzz and a + fuzz. Where that fuzz
 exceeds 10 % of the mean eigenvalue spacing bound 2 ||S|| / n (at N = 10^5
 it outgrows the spacing: the growth of the unpivoted elimination), the
