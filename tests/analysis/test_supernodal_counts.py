@@ -135,3 +135,30 @@ def test_zero_pivot_and_bad_input_are_refused():
         SupernodalLDL(S, np.zeros(120, dtype=int))
     with pytest.raises(ValueError, match=r"perm must be a permutation"):
         SupernodalLDL(S, np.arange(119))
+
+
+def test_norm2_skew_by_the_multifrontal_count(monkeypatch):
+    """norm2_skew's count of [[0, W], [W^T, 0]] by the multifrontal LDL^T
+    (SUPERNODAL_FILL = 0: every pattern counts as dense) in the order that
+    puts i and n + i together: QDLDL's count (none below -1.02 sigma, some
+    below -0.9 sigma), a fuzz of the same size (another order, the same
+    bound), and a bound of ||W||_2 above LAPACK's largest singular value,
+    within 2 % of it, equal to QDLDL's path to 1e-9."""
+    from remote_trigger.analysis.stability.sliced import inertia
+
+    rng = np.random.default_rng(8)
+    S = particles(40, 6, 4)
+    G = sp.csc_matrix(S.multiply(rng.standard_normal(S.shape)))
+    W = sp.csc_matrix(G - G.T)
+    sigma = np.linalg.norm(W.toarray(), 2)
+    aug = sp.bmat([[None, W], [W.T, None]], format="csc")
+    qd = inertia._augmented_count(W, aug, -1.02 * sigma)
+    b_qd = inertia.norm2_skew(W)
+    monkeypatch.setattr(inertia, "SUPERNODAL_FILL", 0.0)
+    mf = inertia._augmented_count(W, aug, -1.02 * sigma)
+    assert mf[0] == qd[0] == 0
+    assert 0.1 * qd[1] < mf[1] < 10 * qd[1] and mf[1] < 1e-10 * sigma
+    assert inertia._augmented_count(W, aug, -0.9 * sigma)[0] >= 1
+    b_mf = inertia.norm2_skew(W)
+    assert sigma <= b_mf <= 1.02 * sigma * (1 + 1e-9) + mf[1]
+    assert b_mf == pytest.approx(b_qd, rel=1e-9)

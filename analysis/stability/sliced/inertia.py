@@ -488,6 +488,32 @@ def norm1(X):
     return float(abs(X).sum(axis=0).max()) * (1 + gamma(X.shape[0]))
 
 
+def _augmented_count(W, aug, a):
+    """:func:`count_below` of ``aug`` = [[0, W], [W^T, 0]] at a: (count, fuzz).
+
+    Where the pattern of W fills its factor densely (SuperLU's factor of
+    |W| + |W|^T + diag(its row sums + 1), a matrix with that pattern and no
+    zero pivot, has more than :data:`SUPERNODAL_FILL` entries per row: large
+    sphere packings), the count is :class:`~.supernodal.SupernodalLDL`'s in
+    the order that eliminates i and n + i one after the other, i in
+    SuperLU's order (the same bound; measured at N = 2560 spheres, ~25 s in
+    all where QDLDL's count took 71.7 s); elsewhere QDLDL's.
+    """
+    n = W.shape[0]
+    P = abs(sp.csc_matrix(W))
+    P = P + P.T
+    P = sp.csc_matrix(P + sp.diags(np.asarray(P.sum(axis=1)).ravel() + 1.0))
+    try:
+        lu = SymmetricLU(P, what="the pattern of |W| + |W|^T")
+    except SliceFailure:
+        lu = None
+    if lu is None or lu.fill <= SUPERNODAL_FILL:
+        return count_below(aug, a)[:2]
+    perm = np.empty(2 * n, dtype=np.int64)
+    perm[0::2], perm[1::2] = lu.perm, lu.perm + n
+    return SupernodalLDL(aug, perm).count_below(a)
+
+
 def norm2_skew(W):
     """Rigorous upper bound of ||W||_2 for a skew W: ||W||_1 (= ||W||_inf), sharpened
     by the inertia of [[t I, W], [W^T, t I]] (eigenvalues t +- sigma_i(W))."""
@@ -505,8 +531,8 @@ def norm2_skew(W):
     t = 1.02 * est
     aug = sp.bmat([[None, W], [W.T, None]], format="csc")
     try:
-        cnt, fuzz, _ = count_below(aug, -t)
-    except ValueError:
+        cnt, fuzz = _augmented_count(W, aug, -t)
+    except (ValueError, SliceFailure):
         return crude
     # the augmented matrix minus (-t) ... shifted: eigenvalues of aug are +- sigma_i,
     # so no eigenvalue below -t - fuzz means ||W|| <= t + fuzz
