@@ -38,13 +38,14 @@ def disks(tmp_path_factory):
     return str(path)
 
 
-def _spheres(path, law=(0.02, -0.7), seed=0):
+def _spheres(path, law=(0.02, -0.7), seed=0, **keys):
     """A made-up finished ensemble of spheres at N = 160, 640 and 2560 (8
     packings each) whose F_x^c(mu0) / F_y is law[0] N^law[1] times a log-normal
-    scatter, seed 1 of N = 640 a soft-mode onset, one failed row."""
+    scatter, seed 1 of N = 640 a soft-mode onset, one failed row; ``keys``
+    more keys of its configuration."""
     cfg = EnsembleConfig.from_dict({"dim": 3, "phi": 0.64, "frictional": False, "inertia_I0": None,
                                     "inertia_extra_steps": None, "n": [160, 640, 2560],
-                                    "seeds": list(range(1, 9))})
+                                    "seeds": list(range(1, 9)), **keys})
     rng = np.random.default_rng(seed)
     rows = []
     for n in cfg.n:
@@ -105,7 +106,7 @@ def test_spheres_beside_disks_recover_a_planted_law(disks, tmp_path):
     sph = _spheres(tmp_path / "sph")
     md = compare_runs([disks, sph], str(tmp_path / "out"), speak=False)
     text = open(md).read()
-    assert "## disks (s52)" in text and "## spheres (sph)" in text
+    assert "## disks, free top line (s52)" in text and "## spheres, free top layer (sph)" in text
     part = text[text.index("## spheres"):]
     assert "| 640 | 8 (1) |" in part and "| 2560 | 7 (0) |" in part     # failed row left out
     # the planted exponent -0.7, within the bootstrap interval printed
@@ -138,7 +139,24 @@ def test_two_folders_of_one_name_are_told_apart(disks, tmp_path):
     a = _spheres(tmp_path / "a" / "run", seed=1)
     b = _spheres(tmp_path / "b" / "run", seed=2)
     text = open(compare_runs([a, b], str(tmp_path / "out"), speak=False)).read()
-    assert f"## spheres ({a})" in text and f"## spheres ({b})" in text
+    assert f"## spheres, free top layer ({a})" in text
+    assert f"## spheres, free top layer ({b})" in text
+
+
+def test_each_folder_names_its_loading_and_steps(disks, tmp_path):
+    """Disks' free top line, spheres' free layer and the rigid plate are named
+    in the headings and the figure's legend; each folder's ramp steps per N."""
+    free = _spheres(tmp_path / "free", seed=1)
+    plate = _spheres(tmp_path / "plate", seed=2, relax={"top_layer": "rigid"},
+                     dF_x=[5e-5, 5e-5, 2e-5], between=3, dF_x_max=5e-4)
+    runs = [read_run_rows(p) for p in (disks, free, plate)]
+    assert [r.loading for r in runs] == ["free top line", "free top layer",
+                                         "top layer a rigid plate"]
+    text = open(compare_runs([disks, free, plate], str(tmp_path / "out"), speak=False)).read()
+    assert "## spheres, top layer a rigid plate (plate)" in text
+    assert "ramp steps dF_x = 5e-05 (N = 160), 5e-05 (N = 640), 2e-05 (N = 2560) " \
+           "(adaptive, up to 0.0005), sub-steps per step (`between`) 3" in text
+    assert "## disks, free top line (s52)" in text and "ramp steps dF_x = 0.00025," in text
 
 
 def test_the_command_line(disks, tmp_path):

@@ -50,9 +50,13 @@ class Run:
         Its configuration (``config.json``).
     kind : str
         ``'disks'`` or ``'spheres'`` (``cfg.dim``).
+    loading : str
+        How the top particles are loaded: ``'free top line'`` (disks, the
+        paper's), ``'free top layer'`` or ``'top layer a rigid plate'``
+        (spheres, ``[relax] top_layer``; docs/model.md section 9.1).
     label : str
-        ``kind`` with the folder's name (its path where two folders share
-        a name: :func:`compare_runs`).
+        ``kind`` and ``loading`` with the folder's name (its path where two
+        folders share a name: :func:`compare_runs`).
     rows : list of dict
         The table's rows of the default protocol under the dynamics' moment
         of inertia whose status is not ``'failed'`` (columns as ``ensemble.h5``).
@@ -61,7 +65,10 @@ class Run:
     def __init__(self, path, cfg, rows):
         self.path, self.cfg, self.rows = path, cfg, rows
         self.kind = "disks" if cfg.dim == 2 else "spheres"
-        self.label = f"{self.kind} ({os.path.basename(os.path.normpath(path))})"
+        layer = (cfg.relax or {}).get("top_layer", "free")
+        self.loading = ("free top line" if cfg.dim == 2 else
+                        "top layer a rigid plate" if layer == "rigid" else "free top layer")
+        self.label = f"{self.kind}, {self.loading} ({os.path.basename(os.path.normpath(path))})"
 
     def onsets(self):
         """(N, F_x^c(mu0) / F_y, soft) of the packings with a finite positive
@@ -112,6 +119,16 @@ def _fit(n, y):
     return power_law_fit(n, y)
 
 
+def _per_n(cfg, name):
+    """A per-size key of ``cfg`` as text: one value, or one per N."""
+    v = getattr(cfg, name)
+    if v is None:
+        v = 1 if name == "between" else v
+    if isinstance(v, (tuple, list)):
+        return ", ".join(f"{x:g} (N = {n})" for x, n in zip(v, cfg.n))
+    return f"{v:g}"
+
+
 def _q(x):
     count, q1, m, q3 = quartiles(x)
     return f"{m:.4g} [{q1:.4g}, {q3:.4g}]" if count else "-"
@@ -129,7 +146,9 @@ def _markdown(runs, fits):
     lines = ["# Ensembles side by side", "",
              "F_x^c / F_y: F_x and F_y are both loads per top particle, so this is the "
              "shear-to-normal stress ratio on the top line (disks) or layer (spheres). Rows: "
-             f"protocol `{PROTOCOL}`, the dynamics' moment of inertia, status not 'failed'.",
+             f"protocol `{PROTOCOL}`, the dynamics' moment of inertia, status not 'failed'. "
+             "Each folder names its loading of the top particles: laws of different loadings "
+             "are side by side here, not one law.",
              ""]
     for run in runs:
         cfg, rows = run.cfg, run.rows
@@ -137,8 +156,13 @@ def _markdown(runs, fits):
         prov = {k: sorted({str(r[k]) if str(r[k]) not in ("", "?") else "not recorded"
                            for r in rows}) for k in ("commit", "cpu", "clearance")}
         lines += [f"## {run.label}", "",
-                  f"Folder `{run.path}`; dim {cfg.dim}, I0 = {cfg.I0_dynamics:g}, mu0 = "
-                  f"{cfg.mu:g}, mu_ss = {cfg.mu_ss:g}, F_y = {cfg.F_y:g}; commits "
+                  f"Folder `{run.path}`; dim {cfg.dim}, {run.loading}, I0 = "
+                  f"{cfg.I0_dynamics:g}, mu0 = {cfg.mu:g}, mu_ss = {cfg.mu_ss:g}, F_y = "
+                  f"{cfg.F_y:g}; ramp steps dF_x = {_per_n(cfg, 'dF_x')}"
+                  f"{'' if cfg.dF_x_max is None else f' (adaptive, up to {cfg.dF_x_max:g})'}"
+                  f", sub-steps per "
+                  f"step (`between`) {_per_n(cfg, 'between')}, tol = "
+                  f"{_per_n(cfg, 'tol')}; commits "
                   f"{', '.join(prov['commit'])}; CPUs {', '.join(prov['cpu'])}; clearance "
                   f"tests {', '.join(prov['clearance'])}.", "",
                   "| N | packings (soft onsets) | F_x^c(mu0) / F_y | F_x^c(mu_ss mu0) / "
@@ -253,7 +277,7 @@ def compare_runs(dirs, out, speak=True):
     labels = [run.label for run in runs]
     for run in runs:            # two folders of one name and dimension: their paths
         if labels.count(run.label) > 1:
-            run.label = f"{run.kind} ({run.path})"
+            run.label = f"{run.kind}, {run.loading} ({run.path})"
     fits = {}
     for run in runs:
         n, f = run.loads(stiff_only=True)
