@@ -162,3 +162,11 @@ def test_norm2_skew_by_the_multifrontal_count(monkeypatch):
     b_mf = inertia.norm2_skew(W)
     assert sigma <= b_mf <= 1.02 * sigma * (1 + 1e-9) + mf[1]
     assert b_mf == pytest.approx(b_qd, rel=1e-9)
+
+
+def test_one_triangle_is_refused():
+    """A matrix given by one triangle only would lose half its entries in the
+    permuted lower triangle: refused, with the counts named."""
+    S = random_symmetric(60, 9)
+    with pytest.raises(ValueError, match=r"S must store both triangles: 0 entries below"):
+        SupernodalLDL(sp.triu(S), np.arange(60))

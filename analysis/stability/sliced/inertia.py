@@ -496,8 +496,9 @@ def _augmented_count(W, aug, a):
     zero pivot, has more than :data:`SUPERNODAL_FILL` entries per row: large
     sphere packings), the count is :class:`~.supernodal.SupernodalLDL`'s in
     the order that eliminates i and n + i one after the other, i in
-    SuperLU's order (the same bound; measured at N = 2560 spheres, ~25 s in
-    all where QDLDL's count took 71.7 s); elsewhere QDLDL's.
+    SuperLU's order (the same bound; measured at N = 2560 spheres:
+    ``norm2_skew`` 23.5 s in all where QDLDL's count alone took 86.4 s,
+    docs/results/analysis.md); elsewhere QDLDL's.
     """
     n = W.shape[0]
     P = abs(sp.csc_matrix(W))

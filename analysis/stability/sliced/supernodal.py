@@ -32,15 +32,14 @@ __all__ = ["SupernodalLDL"]
 # triangular solve and a matrix product between them.
 _COLUMNWISE = 32
 
-
-class ZeroPivot(ValueError):
-    """A pivot of the elimination is zero or not finite (no inertia in this order)."""
-
-
 # A child's update matrix goes into its parent's front as blocks of runs of
 # consecutive rows (a child's rows are mostly a few runs: a particle's dofs)
 # while they are at most this many; past it, by one fancy-indexed addition.
 _MAX_RUNS = 64
+
+
+class _ZeroPivot(ValueError):
+    """A pivot of the elimination is zero or not finite (no inertia in this order)."""
 
 
 def _runs(e):
@@ -72,7 +71,7 @@ def _ldl_dense(A):
 
     Raises
     ------
-    ZeroPivot
+    _ZeroPivot
         If a pivot is zero or not finite.
     """
     w = A.shape[0]
@@ -81,7 +80,7 @@ def _ldl_dense(A):
         for k in range(w):
             dk = A[k, k]
             if dk == 0.0 or not math.isfinite(dk):
-                raise ZeroPivot(f"pivot {k} of a front is {dk!r}")
+                raise _ZeroPivot(f"pivot {k} of a front is {dk!r}")
             d[k] = dk
             x = A[k + 1:, k].copy()             # l_ik d_k
             lk = x / dk
@@ -114,7 +113,7 @@ def _front(F, w):
 
     Raises
     ------
-    ZeroPivot
+    _ZeroPivot
         If a pivot is zero or not finite.
     """
     f = F.shape[0]
@@ -129,7 +128,7 @@ def _front(F, w):
     for k in range(w):
         dk = P[k, k]
         if dk == 0.0 or not math.isfinite(dk):
-            raise ZeroPivot(f"pivot {k} of a front is {dk!r}")
+            raise _ZeroPivot(f"pivot {k} of a front is {dk!r}")
         d[k] = dk
         x = P[k + 1:, k].copy()                  # l_ik d_k, i > k
         X[:, k] = x[w - k - 1:]
@@ -149,7 +148,8 @@ class SupernodalLDL:
     Parameters
     ----------
     S : scipy.sparse matrix, shape (n, n)
-        Symmetric, float64 (its lower triangle, after the permutation, is used).
+        Symmetric, float64, both triangles stored (its lower triangle after
+        the permutation is used).
     perm : ndarray of int, shape (n,)
         The elimination order: the matrix factorized is (S - a I)[perm][:, perm]
         (e.g. :attr:`~.inertia.SymmetricLU.perm`, SuperLU's minimum degree order).
@@ -168,7 +168,9 @@ class SupernodalLDL:
     Raises
     ------
     ValueError
-        If ``perm`` is not a permutation of range(n) or S is not square.
+        If ``perm`` is not a permutation of range(n), S is not square, or S
+        stores one triangle only (its two strict triangles have different
+        numbers of entries).
 
     Notes
     -----
@@ -193,6 +195,10 @@ class SupernodalLDL:
         inv[perm] = np.arange(n)
         r, c = inv[S.row], inv[S.col]
         low = r > c
+        if np.count_nonzero(low) != np.count_nonzero(r < c):
+            raise ValueError(f"S must store both triangles: {np.count_nonzero(S.row > S.col)} "
+                             f"entries below the diagonal, {np.count_nonzero(S.row < S.col)} "
+                             f"above")
         i = np.arange(n)
         # lower triangle of the permuted matrix, every diagonal entry stored (CSC)
         A = sp.csc_matrix((np.concatenate([S.data[low], S.diagonal()[perm]]),
@@ -325,7 +331,7 @@ class SupernodalLDL:
                 _extend_add(F, updates.pop(ch), self._extend[ch])
             try:
                 Lf, d, X = _front(F, w)
-            except ZeroPivot as exc:
+            except _ZeroPivot as exc:
                 raise ValueError(f"no inertia of S - a I at a = {a!r}: zero pivot "
                                  f"(column {int(start[s])} of the elimination; {exc})") from None
             if not np.all(np.isfinite(Lf)):
