@@ -34,8 +34,12 @@ __all__ = ["CHECKPOINT_FORMAT", "ScanFiles", "scan_key", "saved_scans", "sha", "
 #: before ARPACK runs and slices computed again only above ARPACK's own residual
 #: bound, so slice edges and shifts whose bits differ from those of 6; 8: the
 #: first slice's shift just below the lowest eigenvalue, not at the Gershgorin
-#: bound, so slice edges whose last bits differ from those of 7)
-CHECKPOINT_FORMAT = 8
+#: bound, so slice edges whose last bits differ from those of 7; 9: where the
+#: factor is dense (large sphere packings) the shift-invert solves by SuperLU
+#: and the counts by the multifrontal LDL^T, both in SuperLU's order, so slice
+#: edges and eigenvalues whose bits differ from those of 8 there; disks' scans
+#: are bitwise those of 8)
+CHECKPOINT_FORMAT = 9
 
 
 def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None,
