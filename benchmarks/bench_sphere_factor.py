@@ -27,6 +27,12 @@ seconds:
   ``inertia.fuzz_limit`` (above 1 the scan makes the count again in
   double-word arithmetic). At the shift of the largest ratio, the time of
   that double-word count (what the limit trades against).
+* **The bound of ||W||_2** (``inertia.norm2_skew``, once per scan): its
+  whole time (the multifrontal count of [[0, W], [W^T, 0]] + tI where W's
+  pattern fills densely) beside QDLDL's count of that matrix alone, at the
+  same t (QDLDL's count 0 must go with a bound sharper than ||W||_1, which
+  norm2_skew returns when its count is not 0). The state is at F_x = 0, where W is
+  tiny but has its full pattern: the cost depends on the pattern.
 
     python benchmarks/bench_sphere_factor.py [--quick] [--n 2560] [--seed 1]
 
@@ -101,7 +107,7 @@ def main(argv=None):
 
     dump = state(n_spheres, args.seed)
     system = reduced_system(read_equilibrium(dump))
-    S = scaled_parts(system.K, system.mass)[1]
+    _, S, W = scaled_parts(system.K, system.mass)
     n = S.shape[0]
     lam_max = float(spla.eigsh(S, k=1, which="LA", return_eigenvectors=False,
                                v0=np.ones(n))[0])
@@ -148,6 +154,20 @@ def main(argv=None):
     (cnt_dw, fz_dw), t_dw = cpu(lambda: inertia.count_below_dw(S, a, qd.factors()[2]))
     print(f"  double-word count at {f} lambda_max: {t_dw:.1f} s, count {cnt_dw} "
           f"({'equal' if cnt_dw == cnt else 'DIFFERS'}), fuzz {fz_dw:.2g}")
+    import scipy.sparse as sp
+
+    bound, t_nw = cpu(lambda: inertia.norm2_skew(W))
+    est = float(spla.svds(W, k=1, return_singular_vectors=False, tol=1e-6,
+                          v0=np.random.default_rng(0).standard_normal(n))[0])
+    aug = sp.bmat([[None, W], [W.T, None]], format="csc")
+    (cnt_a, _, _), t_aq = cpu(lambda: inertia.count_below(aug, -1.02 * est))
+    if (cnt_a == 0) != (bound < inertia.norm1(W)):
+        raise SystemExit(f"bench_sphere_factor: QDLDL's count of the augmented matrix is "
+                         f"{cnt_a}, and norm2_skew's bound {bound!r} against ||W||_1 "
+                         f"{inertia.norm1(W)!r} says otherwise")
+    print(f"  bound of ||W||_2 (norm2_skew, nnz(W) {W.nnz}): {bound:.4g} in {t_nw:.1f} s in all; "
+          f"QDLDL's count of the 2n augmented matrix alone {t_aq:.1f} s (count {cnt_a}; ||W||_1 "
+          f"{inertia.norm1(W):.4g})")
 
 if __name__ == "__main__":
     main()
