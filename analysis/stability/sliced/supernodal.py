@@ -244,15 +244,12 @@ class SupernodalLDL:
         ns = start.size - 1
         owner = np.repeat(np.arange(ns), np.diff(start))
         self.supernodes = ns
-        fronts, sparent, kids = [], np.full(ns, -1, dtype=np.int64), [[] for _ in range(ns)]
+        fronts, kids = [], [[] for _ in range(ns)]
         for s in range(ns):
             c0, c1 = start[s], start[s + 1]
-            R = np.concatenate([np.arange(c0, c1), struct[c1 - 1]])
-            fronts.append(R)
+            fronts.append(np.concatenate([np.arange(c0, c1), struct[c1 - 1]]))
             if parent[c1 - 1] >= 0:
-                p = owner[parent[c1 - 1]]
-                sparent[s] = p
-                kids[p].append(s)
+                kids[owner[parent[c1 - 1]]].append(s)
         # per front: where S's entries go (flat index into the f x f front, index
         # into A.data), and where each child's update matrix goes (local rows)
         loc = np.empty(n, dtype=np.int64)
