@@ -137,3 +137,20 @@ def test_parts_with_supernodal_solves_resume_to_the_same_bits(monkeypatch, tmp_p
     kill = False
     assert fingerprint(*run(K, mass, part_size=100, checkpoint_dir=str(tmp_path),
                             map_tasks=killing_map)) == seq
+
+
+def test_the_choice_does_not_depend_on_what_comes_first(monkeypatch):
+    """Shifts decide their factorizations at the first shift, a count or a
+    factorization for solves, from the pattern: the same choice, order,
+    counts and solves either way (SUPERNODAL_FILL = 0: SuperLU's path)."""
+    monkeypatch.setattr(inertia, "SUPERNODAL_FILL", 0.0)
+    S = random_symmetric(250, 6)
+    b = np.random.default_rng(3).standard_normal(S.shape[0])
+    first_count, first_solve = Shifts(S), Shifts(S)
+    c1 = first_count.count_below(0.4)
+    x1 = first_count.factor_checked(-1.1).solve(b)
+    x2 = first_solve.factor_checked(-1.1).solve(b)
+    c2 = first_solve.count_below(0.4)
+    assert first_count.solves == first_solve.solves == "superlu"
+    assert np.array_equal(first_count.order, first_solve.order)
+    assert c1 == c2 and np.array_equal(x1, x2)
