@@ -6,8 +6,9 @@ far that count can be off (its *fuzz*); :class:`Shifts` factorizes S - a I
 at many shifts with one ordering, for the counts and for the shift-invert
 solves of the slices (:mod:`.slices`; where the factor is dense, as for
 large sphere packings, the solves use SuperLU's supernodal LU instead,
-:class:`SymmetricLU`); :func:`norm1` and :func:`norm2_skew` bound the norms
-the verdict needs. The proof they serve:
+:class:`SymmetricLU`, and the counts the multifrontal LDL^T of
+:class:`~.supernodal.SupernodalLDL`, both in SuperLU's order);
+:func:`norm1` and :func:`norm2_skew` bound the norms the verdict needs. The proof they serve:
 :mod:`remote_trigger.analysis.stability.sliced` (*Counting*).
 """
 from __future__ import annotations
