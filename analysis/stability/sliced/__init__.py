@@ -183,6 +183,8 @@ next, its steps named as above:
 ``slices``        the Ritz slices of S (ARPACK shift-invert, Rayleigh-Ritz,
                   Kahan radii, certified edges) and the slicing's position
 ``inertia``       Sylvester counts of S - a I (QDLDL's LDL^T) and norm bounds
+``supernodal``    the same counts by a multifrontal LDL^T where the factor is
+                  dense (:class:`~.supernodal.SupernodalLDL`)
 ``buffer``        the Ritz pairs of the slices held (:class:`~.buffer.RitzBuffer`)
 ``strips``        the coupling across an interval and a strip's decision
                   (the deflated complement of a piece: ``DeflatedComplement``;
