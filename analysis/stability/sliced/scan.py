@@ -31,6 +31,7 @@ from remote_trigger.analysis.stability.enclosure import U
 from remote_trigger.analysis.stability.sliced.buffer import RitzBuffer
 from remote_trigger.analysis.stability.sliced.checkpoint import (
     ScanFiles, restore_ritz, scan_key)
+from remote_trigger.analysis.stability.sliced.inertia import Shifts, fuzz_limit
 from remote_trigger.analysis.stability.sliced.numerics import SliceFailure
 from remote_trigger.analysis.stability.sliced.parts import PartsProblem, classify_parts, part_count
 from remote_trigger.analysis.stability.sliced.slices import (
@@ -240,10 +241,14 @@ class SlicedScan:
         n = self.S.shape[0]
         t_saved = time.monotonic()
         try:
+            shifts = None
             if self.pos is None:
-                self.start()
+                # one Shifts for the start's count and the slices: its first
+                # factorization (with the ordering) made once
+                shifts = Shifts(self.S, fuzz_limit(self.ctx.normS, n), self.stats)
+                self.start(shifts)
             self._slices = ritz_slices(self.S, self.ctx.W, self.k, self.ctx.normS, self.pos,
-                                       self.stats)
+                                       self.stats, shifts)
             # only for n = 0 (a scan is saved before its end)
             final = self.cert_count[-1] == n - self.base
             while not final:
@@ -341,10 +346,11 @@ class SlicedScan:
                     return a, self.base + j, kap
         return None
 
-    def start(self):
+    def start(self, shifts=None):
         """Start below the spectrum: the first boundary at ``lo0``, no eigenvalue of S
-        below it (counted; :class:`~.numerics.SliceFailure` if there is one)."""
-        self.pos = start_position(self.S, self.lo0, self.stats)
+        below it (counted, by ``shifts`` if given; :class:`~.numerics.SliceFailure`
+        if there is one)."""
+        self.pos = start_position(self.S, self.lo0, self.stats, shifts)
         self.certified, self.cert_count = [self.pos.x], [0]
 
     def next_slice(self):

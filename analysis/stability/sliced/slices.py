@@ -147,15 +147,16 @@ class Position:
     width: float | None = None
 
 
-def start_position(S, lo0, stats):
-    """The position below the spectrum: no eigenvalue of S below ``lo0``, counted.
+def start_position(S, lo0, stats, shifts=None):
+    """The position below the spectrum: no eigenvalue of S below ``lo0``, counted
+    (by ``shifts``, a :class:`~.inertia.Shifts` of S, or a new one).
 
     Raises
     ------
     SliceFailure
         If S has eigenvalues below ``lo0`` (their count named).
     """
-    cnt, fz = Shifts(S).count(lo0)         # QDLDL's count, or the multifrontal one
+    cnt, fz = (Shifts(S) if shifts is None else shifts).count(lo0)
     if cnt != 0:
         raise SliceFailure(f"{cnt} eigenvalues of S below the Gershgorin bound {lo0:.6g}")
     stats.fuzz = max(stats.fuzz, fz)
@@ -213,7 +214,7 @@ def shift_invert(S, shifts, sigma, k, rng, stats, step=None):
     return lam, V, sigma
 
 
-def ritz_slices(S, W, k, normS, pos, stats):
+def ritz_slices(S, W, k, normS, pos, stats, shifts=None):
     """Yield the Ritz slices (:class:`Slice`) of S from ``pos`` (a :class:`Position`) upwards.
 
     Each slice: the k eigenvalues of S nearest a shift sigma (ARPACK
@@ -227,6 +228,11 @@ def ritz_slices(S, W, k, normS, pos, stats):
     before each slice is yielded, so that a scan saved after a slice resumes
     from it (:meth:`.scan.SlicedScan.save`) exactly as it would have gone on.
     ``stats`` (a :class:`~.stats.SlicedStats`) counts the slices and solves.
+    ``shifts``: the :class:`~.inertia.Shifts` of S to factorize with (that of
+    :func:`start_position`, so that its first factorization, with the
+    ordering, is not made twice); default a new one, with
+    :func:`~.inertia.fuzz_limit` of ``normS``. The factors at a shift do not
+    depend on what was factorized before, so neither do the slices.
 
     Raises
     ------
@@ -235,7 +241,8 @@ def ritz_slices(S, W, k, normS, pos, stats):
         Ritz value within the radius of an edge, no certified upper edge).
     """
     n = S.shape[0]
-    shifts = Shifts(S, fuzz_limit(normS, n), stats)
+    if shifts is None:
+        shifts = Shifts(S, fuzz_limit(normS, n), stats)
     while pos.count < n:
         yield _next_slice(S, W, k, normS, pos, shifts, stats)
 
