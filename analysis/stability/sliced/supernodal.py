@@ -76,19 +76,7 @@ def _ldl_dense(A):
     """
     w = A.shape[0]
     if w <= _COLUMNWISE:
-        d = np.empty(w)
-        for k in range(w):
-            dk = A[k, k]
-            if dk == 0.0 or not math.isfinite(dk):
-                raise _ZeroPivot(f"pivot {k} of a front is {dk!r}")
-            d[k] = dk
-            x = A[k + 1:, k].copy()             # l_ik d_k
-            lk = x / dk
-            A[k + 1:, k + 1:] -= np.outer(lk, x)   # only the lower triangle is read later
-            A[k + 1:, k] = lk
-        L = np.tril(A, -1)
-        L[np.diag_indices(w)] = 1.0
-        return L, d
+        return _front(A, w)[:2]             # a front that is all pivot block
     h = w // 2
     L11, d1 = _ldl_dense(A[:h, :h])
     X = la.solve_triangular(L11, A[h:, :h].T, lower=True, unit_diagonal=True,
