@@ -97,6 +97,7 @@ def main(argv=None):
 
     import numpy as np
     import qdldl
+    import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
     from remote_trigger.analysis.stability.sliced import inertia, scaled_parts
@@ -154,8 +155,6 @@ def main(argv=None):
     (cnt_dw, fz_dw), t_dw = cpu(lambda: inertia.count_below_dw(S, a, qd.factors()[2]))
     print(f"  double-word count at {f} lambda_max: {t_dw:.1f} s, count {cnt_dw} "
           f"({'equal' if cnt_dw == cnt else 'DIFFERS'}), fuzz {fz_dw:.2g}")
-    import scipy.sparse as sp
-
     bound, t_nw = cpu(lambda: inertia.norm2_skew(W))
     est = float(spla.svds(W, k=1, return_singular_vectors=False, tol=1e-6,
                           v0=np.random.default_rng(0).standard_normal(n))[0])

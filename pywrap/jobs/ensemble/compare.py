@@ -122,8 +122,6 @@ def _fit(n, y):
 def _per_n(cfg, name):
     """A per-size key of ``cfg`` as text: one value, or one per N."""
     v = getattr(cfg, name)
-    if v is None:
-        v = 1 if name == "between" else v
     if isinstance(v, (tuple, list)):
         return ", ".join(f"{x:g} (N = {n})" for x, n in zip(v, cfg.n))
     return f"{v:g}"
