@@ -198,22 +198,22 @@ def test_a_slice_with_inexact_vectors_is_computed_again(monkeypatch):
     radius is then that of the clean slices and every eigenvalue is in a
     strip of its own. Without the second computation (_RECOMPUTE_ABOVE = inf) the
     same scan keeps the large radius and strips of 2. Both verdicts are the
-    dense one. (The rule: a Kahan radius above ARPACK's own bound for the
-    slice's pairs, slices.arpack_bound.)"""
+    dense one. (The rule: a Kahan radius above the eigen-solver's own bound
+    for the slice's pairs, slices.stopping_bound.)"""
     from remote_trigger.analysis.stability.sliced import slices
 
     K, M = planted(n=400, pairs=[(200, 0.7)])
-    eigsh = slices.spla.eigsh
+    pairs = slices.nearest_pairs
     calls = []
 
-    def noisy(*args, **kwargs):
-        lam, V = eigsh(*args, **kwargs)
+    def noisy(*args):
+        lam, V, steps = pairs(*args)
         calls.append(1)
         if len(calls) == 3:         # the third slice's vectors, perturbed by 1e-6
             V = V + 1e-6 * np.random.default_rng(0).standard_normal(V.shape)
-        return lam, V
+        return lam, V, steps
 
-    monkeypatch.setattr(slices.spla, "eigsh", noisy)
+    monkeypatch.setattr(slices, "nearest_pairs", noisy)
     got, default = {}, slices._RECOMPUTE_ABOVE
     for refine in (default, np.inf):
         monkeypatch.setattr(slices, "_RECOMPUTE_ABOVE", refine)
@@ -222,7 +222,7 @@ def test_a_slice_with_inexact_vectors_is_computed_again(monkeypatch):
         got[refine] = (classify_sliced(K, M, stats=st), st)
     (dec, st), (dec0, st0) = got[default], got[np.inf]
     assert st.reshifted == 1 and st0.reshifted == 0
-    assert st.arpack_runs == st0.arpack_runs + 1
+    assert st.lanczos_runs == st0.lanczos_runs + 1
     assert st.ritz_radius < st0.ritz_radius / 100
     assert st.strips == {1: 400} and st0.strips.get(2, 0) > 0
     want = dense_decision(K, M).decision
@@ -239,17 +239,17 @@ def test_a_poor_slice_weakens_only_the_boundaries_near_it(monkeypatch):
     from remote_trigger.analysis.stability.sliced import slices
 
     K, M = planted(n=400, pairs=[(200, 0.7)])
-    eigsh = slices.spla.eigsh
+    pairs = slices.nearest_pairs
     seen = []
 
-    def noisy(*args, **kwargs):
-        lam, V = eigsh(*args, **kwargs)
+    def noisy(*args):
+        lam, V, steps = pairs(*args)
         seen.append(lam)
         if len(seen) == 2:
             V = V + 1e-5 * np.random.default_rng(0).standard_normal(V.shape)
-        return lam, V
+        return lam, V, steps
 
-    monkeypatch.setattr(slices.spla, "eigsh", noisy)
+    monkeypatch.setattr(slices, "nearest_pairs", noisy)
     monkeypatch.setattr(slices, "_RECOMPUTE_ABOVE", np.inf)
     st = SlicedStats()
     dec = classify_sliced(K, M, stats=st)

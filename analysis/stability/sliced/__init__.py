@@ -54,12 +54,13 @@ it outgrows the spacing: the growth of the unpivoted elimination), the
 count is made again by the same elimination in double-word arithmetic
 (``ldl_dd.cpp``, every operation within U_DW = 16 u^2), whose fuzz is the
 same bound with U_DW for u. Ritz pairs of S are
-computed slice by slice (ARPACK shift-invert about a shift inside the
-slice -- the first slice's just below the lowest eigenvalue, found by
+computed slice by slice (shift-invert Lanczos without restarts,
+:mod:`.lanczos`, or ARPACK where it has not converged, about a shift inside
+the slice -- the first slice's just below the lowest eigenvalue, found by
 bisection on the counts, not at the Gershgorin bound far below it --
-moved down before ARPACK runs where the probe solve of its
+moved down before the eigen-solver runs where the probe solve of its
 factorization shows a tiny pivot's inexact solves; a slice whose Kahan
-radius still exceeds what ARPACK's stopping rule gives for exact solves is
+radius still exceeds what the stopping rule gives for exact solves is
 computed again about a shift moved by 1 % of its span), each slice's
 Rayleigh-Ritz residual R bounding
 its values by Kahan's theorem (|theta_i - lambda| <= ||R||_2, distinct
@@ -170,7 +171,7 @@ in :mod:`~remote_trigger.analysis.stability.enclosure`), except that the
 sums and norms of computed nonnegative quantities (Frobenius norms, the
 2-norm of a strip's derivative block, the norms of a deflated complement's
 Taylor coefficients) are inflated by a factor (1 + 1e-10) rather than
-bounded term by term. ARPACK and LAPACK are used only to
+bounded term by term. The Lanczos, ARPACK and LAPACK are used only to
 propose vectors; nothing rests on their accuracy but through the residuals
 and counts checked here.
 
@@ -180,8 +181,10 @@ next, its steps named as above:
 ================  ============================================================
 ``scan``          :func:`classify_sliced`; :class:`~.scan.SlicedScan`: next
                   slice, gap test, finish a strip, save, the decision
-``slices``        the Ritz slices of S (ARPACK shift-invert, Rayleigh-Ritz,
+``slices``        the Ritz slices of S (shift-invert, Rayleigh-Ritz,
                   Kahan radii, certified edges) and the slicing's position
+``lanczos``       a slice's eigen-solver: Lanczos on (S - sigma I)^-1
+                  without restarts (:func:`~.lanczos.nearest_pairs`)
 ``inertia``       Sylvester counts of S - a I (QDLDL's LDL^T) and norm bounds
 ``supernodal``    the same counts by a multifrontal LDL^T where the factor is
                   dense (:class:`~.supernodal.SupernodalLDL`)

@@ -38,8 +38,10 @@ __all__ = ["CHECKPOINT_FORMAT", "ScanFiles", "scan_key", "saved_scans", "sha", "
 #: factor is dense (large sphere packings) the shift-invert solves by SuperLU
 #: and the counts by the multifrontal LDL^T, both in SuperLU's order, so slice
 #: edges and eigenvalues whose bits differ from those of 8 there; disks' scans
-#: are bitwise those of 8)
-CHECKPOINT_FORMAT = 9
+#: are bitwise those of 8; 10: a slice's pairs by the Lanczos without restarts
+#: of :mod:`.lanczos` (ARPACK only where it has not converged), so slice edges
+#: and eigenvalues whose bits differ from those of 9)
+CHECKPOINT_FORMAT = 10
 
 
 def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None,

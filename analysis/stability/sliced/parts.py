@@ -135,7 +135,7 @@ def part_count(n, part_size):
 
 
 def _rng(j):
-    """The random stream of part j's ARPACK start vectors (part 0: that of a whole scan)."""
+    """The random stream of part j's start vectors (part 0: that of a whole scan)."""
     return np.random.default_rng(12345 if j == 0 else [12345, j])
 
 
@@ -278,8 +278,8 @@ def scan_part(task):
 
 def _add_stats(total, st):
     """Add the work of a task's statistics to ``total``."""
-    for name in ("slices", "boundaries", "arpack_runs", "computed", "moved", "reshifted",
-                 "dw_counts"):
+    for name in ("slices", "boundaries", "lanczos_runs", "arpack_runs", "computed", "moved",
+                 "reshifted", "dw_counts"):
         setattr(total, name, getattr(total, name) + getattr(st, name))
     for name in ("max_kappa", "fuzz", "ritz_radius"):
         setattr(total, name, max(getattr(total, name), getattr(st, name)))

@@ -3,7 +3,7 @@
 :func:`classify_sliced` checks its options, scales K (:func:`scaled_parts`),
 builds a :class:`SlicedScan` (or restores a saved one) and runs it. The scan
 runs up the spectrum of the symmetric part S: it computes the next slice of
-Ritz pairs (:meth:`SlicedScan.next_slice`: ARPACK shift-invert, checked by
+Ritz pairs (:meth:`SlicedScan.next_slice`: shift-invert Lanczos, checked by
 Sylvester counts, :mod:`.slices`), tests the gaps between Ritz values whose
 window lies in the slices held (:meth:`SlicedScan.gap_test`, the boundary
 lemma), decides the strip between two certified boundaries
@@ -49,11 +49,12 @@ __all__ = ["classify_sliced", "scaled_parts", "SlicedScan", "CHECKPOINT_SECONDS"
 # up to 24 on the real axis": 8 before; 4 more of 2268 points decided at
 # N = 40, none contradicting the dense decision)
 _MAX_STRIP = 24
-# Ritz pairs per slice: ARPACK's work per pair grows with it (orthogonalization
-# against its Lanczos vectors, slices._NCV_FACTOR k + 1), the number of
-# factorizations falls with it; measured at N = 6400 (n = 18 582) with 2k + 1
+# Ritz pairs per slice: the eigen-solver's work per pair grows with it
+# (orthogonalization against its Lanczos vectors), the number of
+# factorizations falls with it; measured at N = 6400 (n = 18 582) with ARPACK's 2k + 1
 # Lanczos vectors: 40 -> 216 s, 60 -> 201 s, 85 -> 222 s, 124 -> 274 s of CPU
-# (docs/results/analysis.md)
+# (docs/results/analysis.md); with the Lanczos without restarts (.lanczos),
+# 60 -> 191 s, 80 -> 186 s side by side (one profiled): kept
 #: Ritz pairs per slice when ``slice_size`` is None (also the smallest
 #: ``part_size``: a part holds at least one slice)
 SLICE_SIZE = 60

@@ -1,7 +1,7 @@
 """Ritz slices of the symmetric part S: its eigenpairs, slice by slice, none missed.
 
 :func:`ritz_slices` computes the eigenpairs of S from the bottom of the
-spectrum up, k at a time, by ARPACK shift-invert (:func:`shift_invert`)
+spectrum up, k at a time, by shift-invert Lanczos (:func:`shift_invert`)
 about a shift inside the slice; their Rayleigh-Ritz values bound the
 eigenvalues of S by Kahan's theorem (:func:`rayleigh_ritz`), and each
 slice's upper edge lies in a gap whose Sylvester count (:mod:`.inertia`)
@@ -20,12 +20,13 @@ import scipy.sparse.linalg as spla
 
 from remote_trigger.analysis.stability.enclosure import gamma
 from remote_trigger.analysis.stability.sliced.inertia import Shifts, fuzz_limit
+from remote_trigger.analysis.stability.sliced.lanczos import nearest_pairs
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
 
-__all__ = ["Slice", "Position", "ritz_slices", "rayleigh_ritz", "shift_invert", "arpack_bound",
+__all__ = ["Slice", "Position", "ritz_slices", "rayleigh_ritz", "shift_invert", "stopping_bound",
            "start_position", "top_eigenvalue"]
 
-_ARPACK_TOL = 1e-8              # ARPACK stopping tolerance (only the checked residuals matter)
+_STOP_TOL = 1e-8                # the eigen-solver's stopping tolerance (only the checked residuals matter)
 # shift-invert shift above a slice's lower edge, in slice widths: the k pairs
 # nearest it reach ~0.08 of a width below the edge (pairs computed twice); a
 # shift too high misses the edge and the slice is computed again. Measured
@@ -33,8 +34,14 @@ _ARPACK_TOL = 1e-8              # ARPACK stopping tolerance (only the checked re
 # n kept at N = 1600 / 6400 / 10^4, 1.38 / 1.35 / 1.34 n at 0.35, 1.32 /
 # 1.24 / 1.25 n at 0.42 (3, 0 and 4 misses); at 0.46, 17 misses at N = 6400
 _SHIFT_FRACTION = 0.42
-# ARPACK's Lanczos basis: NCV = _NCV_FACTOR k + 1 vectors for the k pairs of a
-# slice (scipy's default is 2k + 1). A shorter basis restarts more often but
+# the Lanczos of a slice (:func:`.lanczos.nearest_pairs`, no restarts) stops
+# after at most _LANCZOS_STEPS k solves (then ARPACK): measured 130-140 solves
+# for k = 60 at N = 10^4 (docs/results/analysis.md, "The slice's Lanczos
+# without restarts"); its basis then holds up to 4 k vectors of n (55 MB at
+# n = 28 836)
+_LANCZOS_STEPS = 4
+# ARPACK's Lanczos basis (where the Lanczos above did not converge): NCV =
+# _NCV_FACTOR k + 1 vectors for the k pairs of a slice (scipy's default is 2k + 1). A shorter basis restarts more often but
 # each restart and reorthogonalization moves fewer vectors: measured
 # (docs/results/analysis.md, "The Lanczos basis of a slice"), CPU of a
 # certified-real scan at N = 6400: 252 s at 2k + 1, 200 s at 1.4 k + 1 (side
@@ -44,7 +51,7 @@ _SHIFT_FRACTION = 0.42
 _NCV_FACTOR = 1.4
 # a shift whose factorization's probe solve (``Shifts.factor_checked``: the
 # residual of (S - sigma I) x = 1, relative to ||1||) exceeds this is moved
-# down by 1 % of a slice width before ARPACK runs, up to _MOVES times
+# down by 1 % of a slice width before the eigen-solver runs, up to _MOVES times
 # (docs/results/analysis.md, "A shift at a tiny pivot"). Measured on the
 # N = 10^4 point of bench_parallel_point: 5e-16 - 1.5e-9 at 4 shifts, 2.5e-9 -
 # 6e-9 at 3 shifts of the N = 10^5 tiled state; at a shift planted 1e-13 / 1e-11 /
@@ -54,9 +61,10 @@ _NCV_FACTOR = 1.4
 # 1.15e-7; moved), the largest kept 4.4e-8; N = 6400, the largest 7.2e-8
 _PROBE_LIMIT = 1e-7
 _MOVES = 3
-# a slice whose Kahan radius exceeds this multiple of ARPACK's own bound for
-# its k pairs (:func:`arpack_bound`) is computed again about a shift 1 % of its
-# span lower: ARPACK then converged to vectors of an inexact operator. Measured
+# a slice whose Kahan radius exceeds this multiple of the eigen-solver's own
+# bound for its k pairs (:func:`stopping_bound`) is computed again about a
+# shift 1 % of its span lower: the eigen-solver then converged to vectors of an
+# inexact operator. Measured (with ARPACK as the eigen-solver)
 # radius / bound: 0.003 - 0.005 and 0.029 - 0.036 at the N = 10^4 and 10^5
 # shifts above, 12 at the shift planted 1e-13 from a zero pivot; the largest
 # of every slice of whole scans of bench_degenerate's states and the N = 1600
@@ -101,7 +109,7 @@ class Slice:
 def rayleigh_ritz(S, W, Q, normS):
     """Rayleigh-Ritz of S on span(Q): values, vectors, W times them, radius, residuals, phi.
 
-    Q is ARPACK's (or LAPACK's) orthonormal to working precision; it is
+    Q is the eigen-solver's (or LAPACK's) orthonormal to working precision; it is
     orthonormalized again (QR) only where it is not, to 1e-10 in the Frobenius
     norm (the bounds below hold for any Q: phi measures what is left).
 
@@ -135,7 +143,7 @@ class Position:
     """Where the slicing stands between two slices (pickled at a checkpoint).
 
     x is the next slice's lower edge, ``count`` the Sylvester count of S
-    below it and ``fuzz`` that count's fuzz; ``rng`` draws ARPACK's start
+    below it and ``fuzz`` that count's fuzz; ``rng`` draws the eigen-solver's start
     vectors; ``width`` is the estimated width of a slice (None before the
     first).
     """
@@ -163,30 +171,37 @@ def start_position(S, lo0, stats, shifts=None):
     return Position(lo0, 0, fz, np.random.default_rng(12345))
 
 
-def arpack_bound(k, normS, sigma):
-    """What ARPACK's stopping rule gives for the residuals of k pairs of S:
-    sqrt(k) tol (||S|| + |sigma|), ``normS`` >= ||S||_2.
+def stopping_bound(k, normS, sigma):
+    """What the eigen-solver's stopping rule gives for the residuals of k
+    pairs of S: sqrt(k) tol (||S|| + |sigma|), ``normS`` >= ||S||_2.
 
-    ARPACK stops when each Ritz pair (mu, x) of (S - sigma I)^-1 has
-    ||(S - sigma I)^-1 x - mu x|| <= tol |mu|; multiplied by (S - sigma I), the
-    pair (sigma + 1/mu, x) of S has residual <= tol ||S - sigma I||, for exact
-    solves. The k residuals' Frobenius norm, which a Rayleigh-Ritz rotation
-    within their span leaves unchanged, is then <= sqrt(k) times that.
+    The Lanczos of :func:`~.lanczos.nearest_pairs`, as ARPACK, stops when each
+    Ritz pair (mu, x) of (S - sigma I)^-1 has ||(S - sigma I)^-1 x - mu x|| <=
+    tol |mu|; multiplied by (S - sigma I), the pair (sigma + 1/mu, x) of S has
+    residual <= tol ||S - sigma I||, for exact solves. The k residuals'
+    Frobenius norm, which a Rayleigh-Ritz rotation within their span leaves
+    unchanged, is then <= sqrt(k) times that.
     """
-    return math.sqrt(k) * _ARPACK_TOL * (float(normS) + abs(float(sigma)))
+    return math.sqrt(k) * _STOP_TOL * (float(normS) + abs(float(sigma)))
 
 
 def shift_invert(S, shifts, sigma, k, rng, stats, step=None):
-    """ARPACK's k eigenpairs of S nearest sigma (shift-invert with QDLDL's
-    factorization of S - sigma I from ``shifts``, a :class:`~.inertia.Shifts`
-    of S, start vector drawn from ``rng``): (lam, V, sigma used).
+    """The k eigenpairs of S nearest sigma by shift-invert with the
+    factorization of S - sigma I from ``shifts`` (a :class:`~.inertia.Shifts`
+    of S), start vector drawn from ``rng``: (lam, V, sigma used).
+
+    The eigen-solver is :func:`~.lanczos.nearest_pairs` (Lanczos without
+    restarts, at most ``_LANCZOS_STEPS`` k solves; ``stats.lanczos_runs``);
+    where it has not converged by then, ARPACK's implicitly restarted Lanczos
+    (``eigsh``, NCV = ``_NCV_FACTOR`` k + 1; ``stats.arpack_runs``) from the
+    same start vector. Both stop by the same rule (:func:`stopping_bound`).
 
     With ``step`` (> 0), a shift whose factorization's probe solve has a
     relative residual above ``_PROBE_LIMIT`` (1e-7; a tiny pivot of the
     elimination without pivoting, whose growth of D makes every solve
     inexact) is moved down by ``step``, up to ``_MOVES`` (3) times, before
-    ARPACK runs (``stats.moved`` counts the moves); so is a shift with no
-    LDL^T factorization (a zero pivot).
+    the eigen-solver runs (``stats.moved`` counts the moves); so is a shift
+    with no LDL^T factorization (a zero pivot).
 
     Raises
     ------
@@ -206,10 +221,16 @@ def shift_invert(S, shifts, sigma, k, rng, stats, step=None):
                 raise
         sigma -= step
         stats.moved += 1
-    op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=np.float64)
-    lam, V = spla.eigsh(S, k=k, sigma=sigma, which="LM", OPinv=op, tol=_ARPACK_TOL,
-                        v0=rng.standard_normal(n), ncv=min(n, int(_NCV_FACTOR * k) + 1))
-    stats.arpack_runs += 1
+    v0 = rng.standard_normal(n)
+    stats.lanczos_runs += 1
+    got = nearest_pairs(fac.solve, sigma, n, k, v0, _STOP_TOL, max(k, int(_LANCZOS_STEPS * k)))
+    if got is not None:
+        lam, V = got[0], got[1]
+    else:
+        op = spla.LinearOperator((n, n), matvec=fac.solve, dtype=np.float64)
+        lam, V = spla.eigsh(S, k=k, sigma=sigma, which="LM", OPinv=op, tol=_STOP_TOL,
+                            v0=v0, ncv=min(n, int(_NCV_FACTOR * k) + 1))
+        stats.arpack_runs += 1
     stats.computed += lam.size
     return lam, V, sigma
 
@@ -217,8 +238,8 @@ def shift_invert(S, shifts, sigma, k, rng, stats, step=None):
 def ritz_slices(S, W, k, normS, pos, stats, shifts=None):
     """Yield the Ritz slices (:class:`Slice`) of S from ``pos`` (a :class:`Position`) upwards.
 
-    Each slice: the k eigenvalues of S nearest a shift sigma (ARPACK
-    shift-invert), sigma placed ``_SHIFT_FRACTION`` (0.42) of a slice above
+    Each slice: the k eigenvalues of S nearest a shift sigma (shift-invert
+    Lanczos), sigma placed ``_SHIFT_FRACTION`` (0.42) of a slice above
     the previous upper edge x so that the k nearest reach below x (no hole:
     checked, and the count below proves it; the first slice's sigma just
     below the lowest eigenvalue, :func:`_bottom_shift`); the new upper edge y
@@ -255,7 +276,7 @@ def _next_slice(S, W, k, normS, pos, shifts, stats):
     lam, V, sigma, whole = _pairs_reaching_below(S, shifts, pos, kk, stats, normS)
     ritz = rayleigh_ritz(S, W, V, normS)
     theta, radius = ritz[0], ritz[3]
-    if not whole and radius > _RECOMPUTE_ABOVE * arpack_bound(theta.size, normS, sigma):
+    if not whole and radius > _RECOMPUTE_ABOVE * stopping_bound(theta.size, normS, sigma):
         lam, ritz = _reshifted(S, W, normS, shifts, sigma, kk, pos.rng, stats, lam, ritz)
     theta, Q, WQ, radius, resid, phi = ritz
     above = theta > x
@@ -282,7 +303,7 @@ def _pairs_reaching_below(S, shifts, pos, kk, stats, normS):
 
     The kk nearest to sigma reach below x unless (x, sigma) holds more than
     kk/2 of them: sigma 0.42 of a slice above x leaves a margin for the
-    variation of the eigenvalue density (a miss costs a second ARPACK run:
+    variation of the eigenvalue density (a miss costs a second eigen-solve:
     sigma is then halved towards x, and x itself after ten misses). At the
     bottom (no eigenvalue of S below x, no slice yet) x is the Gershgorin
     bound, far below the spectrum: the shift is put where
@@ -314,9 +335,9 @@ def _bottom_shift(S, shifts, pos, kk, stats, normS):
 
     Below the spectrum (x the Gershgorin bound, ``pos.count`` 0), a shift at x
     sees the kk lowest eigenvalues at nearly one distance (1 / (lambda - x)
-    nearly equal), and ARPACK converges slowly: measured 2255 and 2929
-    solves for the first slice at N = 6400 and 10^4, against 138 for the
-    next two, and 164 about this shift (docs/results/analysis.md, "The first
+    nearly equal), and Lanczos converges slowly: measured (ARPACK) 2255 and
+    2929 solves for the first slice at N = 6400 and 10^4, against 138 for
+    the next two, and 164 about this shift (docs/results/analysis.md, "The first
     slice of a scan"). Here a bisection on the float64 count between x
     (count 0) and ``normS`` + 1 (``normS`` >= ||S||_2) closes in on the
     lowest eigenvalue, two halvings past the first upper end whose count is
@@ -357,11 +378,12 @@ def _reshifted(S, W, normS, shifts, sigma, kk, rng, stats, lam, ritz):
 
     A shift where QDLDL's elimination (no pivoting) met a tiny pivot: the
     growth of D makes the solves inexact (N = 10^4: relative error 4.5e-6,
-    max |d| 1.1e13, inertia fuzz 1394 at one shift) and ARPACK converges to
-    vectors of that inexact operator whatever its tolerance (residuals ~1e-3
-    on all 60). :func:`shift_invert` moves such a shift before ARPACK runs
-    when its probe solve shows it; this catches a slice whose radius still
-    exceeds ARPACK's own bound (:func:`arpack_bound`). The moved shift's
+    max |d| 1.1e13, inertia fuzz 1394 at one shift) and the eigen-solver
+    converges to vectors of that inexact operator whatever its tolerance
+    (measured with ARPACK: residuals ~1e-3 on all 60). :func:`shift_invert`
+    moves such a shift before the eigen-solver runs when its probe solve
+    shows it; this catches a slice whose radius still exceeds the
+    eigen-solver's own bound (:func:`stopping_bound`). The moved shift's
     window still reaches below the edge.
     """
     theta, radius = ritz[0], ritz[3]

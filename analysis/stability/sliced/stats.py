@@ -30,9 +30,12 @@ class SlicedStats:
         Largest inertia fuzz (1/time^2).
     ritz_radius : float
         Largest Ritz radius ||R||_2 of a slice (1/time^2).
+    lanczos_runs : int
+        Shift-invert eigen-solves (:func:`~.slices.shift_invert`; a slice whose
+        shift missed its lower edge takes more than one).
     arpack_runs : int
-        Shift-invert eigen-solves (a slice whose shift missed its lower edge
-        takes more than one).
+        Those of them made again by ARPACK, where the Lanczos without restarts
+        had not converged (:func:`~.lanczos.nearest_pairs`).
     computed : int
         Eigenpairs computed by those solves (n of them are kept).
     parts : int
@@ -41,13 +44,13 @@ class SlicedStats:
     cuts : tuple of (float, float)
         Their split points and first boundaries (x_j, c_j), j = 1 .. parts - 1.
     moved : int
-        Shifts moved down by 1 % of a slice width before ARPACK ran, because
+        Shifts moved down by 1 % of a slice width before the eigen-solver ran, because
         the probe solve of their factorization had a relative residual above
         1e-7 (:func:`~.slices.shift_invert`: a tiny pivot of the elimination).
     reshifted : int
         Slices computed again about a shift moved by 1 % of their span (their
-        Kahan radius above ARPACK's own bound for their pairs,
-        :func:`~.slices.arpack_bound`: ARPACK converged to vectors of an
+        Kahan radius above the eigen-solver's own bound for their pairs,
+        :func:`~.slices.stopping_bound`: it converged to vectors of an
         inexact operator).
     dw_counts : int
         Sylvester counts made again in double-word arithmetic: their float64
@@ -64,6 +67,7 @@ class SlicedStats:
     max_kappa: float = 0.0
     fuzz: float = 0.0
     ritz_radius: float = 0.0
+    lanczos_runs: int = 0
     arpack_runs: int = 0
     computed: int = 0
     moved: int = 0
