@@ -16,9 +16,10 @@ ARPACK with NCV = 1.4 k + 1, 130-140 here) but its own work (the
 reorthogonalization over its NCV vectors, the restarts' updates of the
 basis) is memory-bound BLAS-2 work about as long as the solves; here one
 Gram-Schmidt pass per step sufficed on the slices measured, and the Ritz
-vectors are one matrix product. A whole scan: 0.73-0.76 x ARPACK's CPU time
-at N = 6400 and 10^4 (docs/results/analysis.md, "The slice's Lanczos
-without restarts"). Nothing here is part of the proof:
+vectors are one matrix product. A whole scan: 0.75 and 0.73 x ARPACK's CPU
+time at N = 6400 and 10^4, side by side on a 2-core Intel Xeon; at N = 640
+spheres (n = 3537, the solves dominate) 1.04 x (docs/results/analysis.md,
+"The slice's Lanczos without restarts"). Nothing here is part of the proof:
 the slice's Ritz pairs are checked by Rayleigh-Ritz and Kahan's theorem and
 its edges by Sylvester counts (:mod:`.slices`), whatever produced them.
 """

@@ -38,11 +38,12 @@ _SHIFT_FRACTION = 0.42
 # after at most _LANCZOS_STEPS k solves (then ARPACK): measured 130-140 solves
 # for k = 60 at N = 10^4 (docs/results/analysis.md, "The slice's Lanczos
 # without restarts"); its basis then holds up to 4 k vectors of n (55 MB at
-# n = 28 836)
+# n = 28 836, 0.55 GB at n = 288 360; ~130 of them in the slices measured)
 _LANCZOS_STEPS = 4
 # ARPACK's Lanczos basis (where the Lanczos above did not converge): NCV =
-# _NCV_FACTOR k + 1 vectors for the k pairs of a slice (scipy's default is 2k + 1). A shorter basis restarts more often but
-# each restart and reorthogonalization moves fewer vectors: measured
+# _NCV_FACTOR k + 1 vectors for the k pairs of a slice (scipy's default is
+# 2k + 1). A shorter basis restarts more often but each restart and
+# reorthogonalization moves fewer vectors: measured
 # (docs/results/analysis.md, "The Lanczos basis of a slice"), CPU of a
 # certified-real scan at N = 6400: 252 s at 2k + 1, 200 s at 1.4 k + 1 (side
 # by side; QDLDL solves 8 % fewer), 238 s at 1.2 k + 1, 224 s at 1.6 k + 1;
