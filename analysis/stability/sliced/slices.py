@@ -224,7 +224,7 @@ def shift_invert(S, shifts, sigma, k, rng, stats, step=None):
         stats.moved += 1
     v0 = rng.standard_normal(n)
     stats.lanczos_runs += 1
-    got = nearest_pairs(fac.solve, sigma, n, k, v0, _STOP_TOL, max(k, int(_LANCZOS_STEPS * k)))
+    got = nearest_pairs(fac.solve, sigma, n, k, v0, _STOP_TOL, int(_LANCZOS_STEPS * k))
     if got is not None:
         lam, V = got[0], got[1]
     else:
