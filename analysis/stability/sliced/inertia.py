@@ -86,12 +86,21 @@ def shifted(S, a):
                          shape=C.shape).tocsc()
 
 
-def _ldl(H, what):
-    """QDLDL's P^T H P = (I + L) D (I + L)^T of a symmetric H (AMD ordering, no pivoting)."""
+def _ldl(H, what, upper=False):
+    """QDLDL's P^T H P = (I + L) D (I + L)^T of a symmetric H (AMD ordering, no
+    pivoting); ``upper``: H is given by its upper triangle (CSC), which is all
+    QDLDL reads (given the whole H, it takes that triangle itself)."""
     try:
-        return qdldl.Solver(H)
+        return qdldl.Solver(H, upper=upper)
     except RuntimeError as exc:      # a zero pivot (QDLDL: "not quasi-definite")
         raise SliceFailure(f"no LDL^T factorization of {what}: {exc}") from None
+
+
+def _diagonal_at(H):
+    """Where the diagonal of the CSC H (every diagonal entry stored) sits in ``H.data``."""
+    cols = np.repeat(np.arange(H.shape[0]), np.diff(H.indptr))
+    on = H.indices == cols
+    return np.nonzero(on)[0][np.argsort(cols[on], kind="stable")]
 
 
 class SymmetricLU:
@@ -208,12 +217,12 @@ class Shifts:
         self.stats = SlicedStats() if stats is None else stats
         self.perm = None          # the order of the counts (QDLDL's AMD, or ``order``)
         self.H = shifted(S, 0.0)
-        # where the diagonal sits in H's data (every diagonal entry is stored)
-        H = self.H
-        cols = np.repeat(np.arange(H.shape[0]), np.diff(H.indptr))
-        on = H.indices == cols
-        self.diag_at = np.nonzero(on)[0][np.argsort(cols[on], kind="stable")]
-        self.diag = H.data[self.diag_at].copy()
+        # where the diagonal sits in H's data (every diagonal entry is stored);
+        # QDLDL's factorizations read the upper triangle Hu, kept beside H
+        self.diag_at = _diagonal_at(self.H)
+        self.diag = self.H.data[self.diag_at].copy()
+        self.Hu = sp.triu(self.H, format="csc")
+        self.diag_at_u = _diagonal_at(self.Hu)
         self.solver = None
         self.solves = None        # 'qdldl' or 'superlu', decided at the first shift
         self.order = None         # SuperLU: the elimination order of every factorization
@@ -242,10 +251,11 @@ class Shifts:
     def factor(self, a, what="S - a I"):
         """QDLDL's factorization of S - a I (``what`` names it in an error)."""
         self.H.data[self.diag_at] = self.diag - a
+        self.Hu.data[self.diag_at_u] = self.diag - a
         if self.solver is None:
-            self.solver = _ldl(self.H, what)
+            self.solver = _ldl(self.Hu, what, upper=True)
         else:
-            self.solver.update(self.H)
+            self.solver.update(self.Hu, upper=True)
         return self.solver
 
     def count(self, a):
@@ -380,10 +390,12 @@ def count_below(S, a, factor=None):
     L, d, _ = factor.factors()
     if not np.all(np.isfinite(d)) or np.any(d == 0):
         raise ValueError(f"no inertia of S - a I at a = {a!r}: zero pivot")
-    aL = (abs(sp.csc_matrix(L)) + sp.identity(n, format="csc")).tocsc()
-    depth = int(max(np.max(np.diff(aL.indptr)), np.max(np.bincount(aL.indices, minlength=n))))
-    one = np.ones(n)
-    rows = aL @ (np.abs(d) * (aL.T @ one))       # |I + L| |D| |I + L|^T 1
+    aL = abs(sp.csc_matrix(L))      # L strictly lower: the unit diagonal is not stored
+    # entries of I + L per column and per row
+    depth = 1 + int(max(np.max(np.diff(aL.indptr), initial=0),
+                        np.max(np.bincount(aL.indices, minlength=n), initial=0)))
+    t = np.abs(d) * (1.0 + aL.T @ np.ones(n))     # |D| |I + L|^T 1
+    rows = t + aL @ t                              # |I + L| |D| |I + L|^T 1
     diag_err = U * float(np.max(np.abs(S.diagonal() - a)))      # rounding of S_ii - a
     fuzz = (gamma(2 * depth + 4) * float(np.max(rows)) + diag_err) * INFLATE
     return int(np.count_nonzero(d < 0)), fuzz, factor
