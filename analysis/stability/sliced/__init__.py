@@ -65,11 +65,21 @@ computed again about a shift moved by 1 % of its span), each slice's
 Rayleigh-Ritz residual R bounding
 its values by Kahan's theorem (|theta_i - lambda| <= ||R||_2, distinct
 eigenvalues); a boundary's test subtracts the largest radius of the slices
-in memory (the eigenvalues of the slices dropped lie below their edges). The slices' edges x_j lie in gaps; if every slice's count
-#neg(x_{j+1}) - #neg(x_j) equals its number of Ritz values and the counts
-run from 0 to n, every eigenvalue of S is matched to a Ritz value and lies
-inside a slice, so none is near an edge, and the window and Delta_eff of
-every boundary hold.
+in memory (the eigenvalues of the slices dropped lie below their edges).
+The counts are made at *counted points*: a run's shift (the factorization
+its solves used; its Ritz values farther than 2 (radius + fuzz) from it)
+or, where that does not hold, a gap of its Ritz values. Between two
+consecutive counted points p < q lie the Ritz values of one run, or of two
+runs split at a point y farther than twice each run's radius from both
+runs' values; the Ritz values kept are those of the lower run below y and
+of the upper run above it, and their number must equal #neg(q) - #neg(p).
+Each kept value's eigenvalue (Kahan, within its run's radius) then lies in
+its own part of (p, q), so these are distinct eigenvalues; if every
+interval's count holds and the counts run from 0 to n, every eigenvalue of
+S is matched to a Ritz value and lies inside a slice (the slices' edges
+are the split points and the counted gaps, all farther than twice the
+radii from the Ritz values), so none is near an edge, and the window and
+Delta_eff of every boundary hold.
 
 **Strips.** Certified boundaries cut the real axis into strips; a strip
 with one eigenvalue of S holds exactly one eigenvalue of A + F, which is

@@ -40,8 +40,10 @@ __all__ = ["CHECKPOINT_FORMAT", "ScanFiles", "scan_key", "saved_scans", "sha", "
 #: edges and eigenvalues whose bits differ from those of 8 there; disks' scans
 #: are bitwise those of 8; 10: a slice's pairs by the Lanczos without restarts
 #: of :mod:`.lanczos` (ARPACK only where it has not converged), so slice edges
-#: and eigenvalues whose bits differ from those of 9)
-CHECKPOINT_FORMAT = 10
+#: and eigenvalues whose bits differ from those of 9; 11: the counts at the
+#: runs' shifts prove the slices between them (:func:`~.slices.ritz_slices`), a
+#: saved position may hold a pending run, and slice edges differ from those of 10)
+CHECKPOINT_FORMAT = 11
 
 
 def scan_key(A, rel_error, window, slice_size, stop_at_complex, max_strip, soft_rel=None,

@@ -224,6 +224,7 @@ class Shifts:
         self.Hu = sp.triu(self.H, format="csc")
         self.diag_at_u = _diagonal_at(self.Hu)
         self.solver = None
+        self.held = None          # the shift of the QDLDL factorization ``solver`` holds
         self.solves = None        # 'qdldl' or 'superlu', decided at the first shift
         self.order = None         # SuperLU: the elimination order of every factorization
         self.supernodal = None    # SuperLU: the counts' SupernodalLDL
@@ -252,10 +253,12 @@ class Shifts:
         """QDLDL's factorization of S - a I (``what`` names it in an error)."""
         self.H.data[self.diag_at] = self.diag - a
         self.Hu.data[self.diag_at_u] = self.diag - a
+        self.held = None
         if self.solver is None:
             self.solver = _ldl(self.Hu, what, upper=True)
         else:
             self.solver.update(self.Hu, upper=True)
+        self.held = a
         return self.solver
 
     def count(self, a):
@@ -275,7 +278,8 @@ class Shifts:
                 self.supernodal = SupernodalLDL(self.S, self.order)
                 self.perm = self.order
             return self.supernodal.count_below(a)
-        return count_below(self.S, a, self.factor(a))[:2]
+        fac = self.solver if self.held == a else self.factor(a)
+        return count_below(self.S, a, fac)[:2]
 
     def count_below(self, a):
         """:meth:`count` at a, made again by :meth:`count_below_dw` where its
@@ -334,6 +338,7 @@ class Shifts:
 
         self.probe = probe(fac)
         if not self.probe <= 1e-6 and self.solves == "qdldl":
+            self.held = None        # ``solver`` holds the update that went wrong
             fac = _ldl(shifted(self.S, a), what)
             self.probe = probe(fac)
         return fac

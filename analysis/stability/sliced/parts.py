@@ -279,7 +279,7 @@ def scan_part(task):
 def _add_stats(total, st):
     """Add the work of a task's statistics to ``total``."""
     for name in ("slices", "boundaries", "lanczos_runs", "arpack_runs", "computed", "moved",
-                 "reshifted", "dw_counts"):
+                 "reshifted", "split_misses", "counted_edges", "dw_counts"):
         setattr(total, name, getattr(total, name) + getattr(st, name))
     for name in ("max_kappa", "fuzz", "ritz_radius"):
         setattr(total, name, max(getattr(total, name), getattr(st, name)))

@@ -3,15 +3,18 @@
 :func:`ritz_slices` computes the eigenpairs of S from the bottom of the
 spectrum up, k at a time, by shift-invert Lanczos (:func:`shift_invert`)
 about a shift inside the slice; their Rayleigh-Ritz values bound the
-eigenvalues of S by Kahan's theorem (:func:`rayleigh_ritz`), and each
-slice's upper edge lies in a gap whose Sylvester count (:mod:`.inertia`)
-equals the count below its lower edge plus the Ritz values kept, so no
-eigenvalue is missed. The slicing's :class:`Position` between two slices is
-what a checkpoint saves of it (:mod:`.checkpoint`). The proof they serve:
+eigenvalues of S by Kahan's theorem (:func:`rayleigh_ritz`). Sylvester
+counts (:mod:`.inertia`) at the shifts, taken from the factorizations the
+solves used, or at gaps where a shift's cannot serve, prove that between
+two counted points the Ritz values of the runs there number the
+eigenvalues of S there, so no eigenvalue is missed. The slicing's
+:class:`Position` between two slices is what a checkpoint saves of it
+(:mod:`.checkpoint`). The proof they serve:
 :mod:`remote_trigger.analysis.stability.sliced` (*Counting*).
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 import math
 
@@ -22,6 +25,7 @@ from remote_trigger.analysis.stability.enclosure import gamma
 from remote_trigger.analysis.stability.sliced.inertia import Shifts, fuzz_limit
 from remote_trigger.analysis.stability.sliced.lanczos import nearest_pairs
 from remote_trigger.analysis.stability.sliced.numerics import INFLATE, SliceFailure
+from remote_trigger.analysis.stability.sliced.stats import SlicedStats
 
 __all__ = ["Slice", "Position", "ritz_slices", "rayleigh_ritz", "shift_invert", "stopping_bound",
            "start_position", "top_eigenvalue"]
@@ -34,6 +38,14 @@ _STOP_TOL = 1e-8                # the eigen-solver's stopping tolerance (only th
 # n kept at N = 1600 / 6400 / 10^4, 1.38 / 1.35 / 1.34 n at 0.35, 1.32 /
 # 1.24 / 1.25 n at 0.42 (3, 0 and 4 misses); at 0.46, 17 misses at N = 6400
 _SHIFT_FRACTION = 0.42
+# the next run's shift lies past a run's reach by this fraction of half the
+# width of k values there (an overlap of ~0.1 k eigenvalues for the split
+# point), halved up to _NEXT_TRIES - 1 times where it does not reach back.
+# Measured (a throwaway slicing, N = 6400, docs/results/analysis.md, "The
+# counts' fuzz without a new matrix, and the counts at the shifts tried"): 0.8,
+# 357 runs of which 7 made again; 0.9, 399 of which 55
+_NEXT_STEP = 0.8
+_NEXT_TRIES = 4
 # the Lanczos of a slice (:func:`.lanczos.nearest_pairs`, no restarts) stops
 # after at most _LANCZOS_STEPS k solves (then ARPACK): measured 130-140 solves
 # for k = 60 at N = 10^4 (docs/results/analysis.md, "The slice's Lanczos
@@ -143,10 +155,15 @@ def rayleigh_ritz(S, W, Q, normS):
 class Position:
     """Where the slicing stands between two slices (pickled at a checkpoint).
 
-    x is the next slice's lower edge, ``count`` the Sylvester count of S
-    below it and ``fuzz`` that count's fuzz; ``rng`` draws the eigen-solver's start
-    vectors; ``width`` is the estimated width of a slice (None before the
-    first).
+    x is the next slice's lower edge, ``count`` the number of eigenvalues of S
+    below it (its Sylvester count, or the count at a shift plus the Ritz values
+    between, :func:`ritz_slices`) and ``fuzz`` that count's fuzz (0 where no
+    count was made at x); ``rng`` draws the eigen-solver's start vectors;
+    ``width`` is the estimated width of a slice (None before the first);
+    ``pending`` (shift, step): the run that proved the slice below x and
+    holds the pairs above it, asked for at that shift with that step of
+    :func:`shift_invert` (None: the next slice starts a new run), made again
+    the same way with start vectors drawn from ``rng``.
     """
 
     x: float
@@ -154,6 +171,7 @@ class Position:
     fuzz: float
     rng: np.random.Generator
     width: float | None = None
+    pending: tuple | None = None
 
 
 def start_position(S, lo0, stats, shifts=None):
@@ -239,16 +257,41 @@ def shift_invert(S, shifts, sigma, k, rng, stats, step=None):
 def ritz_slices(S, W, k, normS, pos, stats, shifts=None):
     """Yield the Ritz slices (:class:`Slice`) of S from ``pos`` (a :class:`Position`) upwards.
 
-    Each slice: the k eigenvalues of S nearest a shift sigma (shift-invert
-    Lanczos), sigma placed ``_SHIFT_FRACTION`` (0.42) of a slice above
-    the previous upper edge x so that the k nearest reach below x (no hole:
-    checked, and the count below proves it; the first slice's sigma just
-    below the lowest eigenvalue, :func:`_bottom_shift`); the new upper edge y
-    lies in the widest gap of the slice's upper part whose distance to its Ritz values
-    exceeds the Ritz radius and the inertia fuzz; the inertia count of (x, y)
-    must equal the number of Ritz values kept. ``pos`` is advanced to y
-    before each slice is yielded, so that a scan saved after a slice resumes
-    from it (:meth:`.scan.SlicedScan.save`) exactly as it would have gone on.
+    The eigenpairs come from *runs*: the k eigenvalues of S nearest a shift
+    sigma (shift-invert Lanczos) and their Rayleigh-Ritz pairs. A slice is the
+    part of one run between two edges, and the edges are proved by Sylvester
+    counts (:mod:`.inertia`) in one of two ways:
+
+    * **Counts at the shifts** (the rule). The count below a run's shift comes
+      from the factorization its solves used (no factorization of its own).
+      The next run's shift lies past the run's reach (the farthest of its k
+      values from its shift) by ``_NEXT_STEP`` (0.8) of half the width of k
+      values there, so that the two runs overlap by a few eigenvalues; the
+      split point y between them lies in a gap of both runs' Ritz values in
+      the overlap, farther than twice each run's Kahan radius from them.
+      Between the two shifts sigma_i < sigma_j the count must be the run i
+      values in (sigma_i, y) plus the run j values in (y, sigma_j): every Ritz
+      value lies within its run's radius of its own eigenvalue of S, so both
+      parts hold every eigenvalue of S there, and the count below y is the
+      count below sigma_i plus the first part, without a factorization at y.
+      A shift whose count cannot prove this (a Ritz value of its run within
+      twice the radius plus the count's fuzz of it) is replaced by a counted
+      edge in a gap just above it. A slice is thus proved by the run above
+      it, which stays pending (:attr:`Position.pending`).
+    * **A counted edge** (as at the top of the spectrum, and wherever the next
+      run does not reach back or the counts disagree): the upper edge y lies
+      in the widest gap of the slice's upper part whose distance to its Ritz
+      values exceeds the Ritz radius and the inertia fuzz, and the count of
+      (x, y) must equal the number of Ritz values kept. The next run then
+      starts from y as the first does: its shift ``_SHIFT_FRACTION`` (0.42)
+      of a slice above y so that its k nearest reach below y (checked; the
+      first run's shift just below the lowest eigenvalue,
+      :func:`_bottom_shift`).
+
+    ``pos`` is advanced to the slice's upper edge before each slice is
+    yielded, so that a scan saved after a slice resumes from it
+    (:meth:`.scan.SlicedScan.save`) exactly as it would have gone on: the
+    pending run is made again there from the same shift and start vector.
     ``stats`` (a :class:`~.stats.SlicedStats`) counts the slices and solves.
     ``shifts``: the :class:`~.inertia.Shifts` of S to factorize with (that of
     :func:`start_position`, so that its first factorization, with the
@@ -265,36 +308,218 @@ def ritz_slices(S, W, k, normS, pos, stats, shifts=None):
     n = S.shape[0]
     if shifts is None:
         shifts = Shifts(S, fuzz_limit(normS, n), stats)
+    rng = pos.rng               # the start vectors' stream, drawn as the runs are made
+    run = None
+    if pos.pending is not None:
+        # the run that proved the slice below pos.x, made again (not counted
+        # twice in ``stats``: the saved statistics hold it)
+        kept, shifts.stats = shifts.stats, SlicedStats()
+        try:
+            run = _solve_run(S, W, normS, shifts, pos.pending[0], min(k, n - 2), rng,
+                             SlicedStats(), pos.pending[1])
+            _anchor(shifts, run, pos.x, SlicedStats())
+        finally:
+            shifts.stats = kept
+        if run.anchor is None:
+            raise SliceFailure(f"the pending run at {pos.pending[0]:.9g} has no proved point")
     while pos.count < n:
-        yield _next_slice(S, W, k, normS, pos, shifts, stats)
+        sl, run = _next_slice(S, W, k, normS, pos, shifts, stats, run, rng)
+        yield sl
 
 
-def _next_slice(S, W, k, normS, pos, shifts, stats):
-    """The slice above ``pos.x`` (:func:`ritz_slices`); ``pos`` advanced to its upper edge."""
+@dataclass
+class _Run:
+    """One eigen-solve about a shift and its Rayleigh-Ritz pairs (ascending).
+
+    ``reach``: the largest |lambda - sigma| of the eigen-solver's values (the
+    eigenvalues of S within it of sigma are all sought; inf where ``whole``);
+    ``top``: the largest of them; ``asked``: the (shift, step) it was asked
+    for (:func:`_solve_run`); ``anchor``: the run's proved point (its
+    shift, or a counted edge above it: :func:`_anchor`), with its count and
+    fuzz, once set.
+    """
+
+    sigma: float
+    theta: np.ndarray
+    Q: np.ndarray
+    WQ: np.ndarray
+    radius: float
+    resid: np.ndarray
+    phi: float
+    reach: float
+    top: float
+    whole: bool = False
+    asked: tuple = ()
+    anchor: float | None = None
+    anchor_count: int = 0
+    anchor_fuzz: float = 0.0
+
+
+def _as_run(lam, sigma, ritz, whole):
+    theta, Q, WQ, radius, resid, phi = ritz
+    reach = math.inf if whole else float(np.max(np.abs(lam - sigma)))
+    return _Run(sigma, theta, Q, WQ, radius, resid, phi, reach,
+                math.inf if whole else float(np.max(lam)), whole)
+
+
+def _solve_run(S, W, normS, shifts, sigma, kk, rng, stats, step):
+    """The run about sigma (:func:`shift_invert`, moved by ``step`` from a tiny
+    pivot; computed again about a lower shift where its Kahan radius exceeds
+    the eigen-solver's bound, :func:`_reshifted`)."""
+    asked = (sigma, step)
+    lam, V, sigma = shift_invert(S, shifts, sigma, kk, rng, stats, step)
+    ritz = rayleigh_ritz(S, W, V, normS)
+    if ritz[3] > _RECOMPUTE_ABOVE * stopping_bound(ritz[0].size, normS, sigma):
+        lam, ritz, sigma = _reshifted(S, W, normS, shifts, sigma, kk, rng, stats, lam, ritz)
+    run = _as_run(lam, sigma, ritz, False)
+    run.asked = asked
+    return run
+
+
+def _anchor(shifts, run, lo, stats):
+    """Set the run's proved point above ``lo``: its shift, whose count comes from
+    the factorization of its solves where that is still held, if each of its
+    Ritz values lies farther than 2 (radius + fuzz) from it; else the widest
+    counted gap above max(lo, sigma) within half its reach that is as far
+    from them (one of ``stats.counted_edges``); None if none."""
+    run.anchor = None
+    if run.sigma > lo:
+        try:
+            cnt, fz = shifts.count_below(run.sigma)
+        except (ValueError, SliceFailure):
+            cnt, fz = -1, math.inf
+        if cnt >= 0 and np.min(np.abs(run.theta - run.sigma)) > 2 * (run.radius + fz):
+            run.anchor, run.anchor_count, run.anchor_fuzz = run.sigma, cnt, fz
+            return
+    base = max(lo, run.sigma)
+    th = run.theta[(run.theta > base) & (run.theta < run.sigma + 0.5 * run.reach)]
+    gaps = np.diff(th)
+    for j in np.argsort(gaps)[::-1][:8]:
+        y = 0.5 * (th[j] + th[j + 1])
+        try:
+            cnt, fz = shifts.count_below(y)
+        except (ValueError, SliceFailure):
+            continue
+        if np.min(np.abs(run.theta - y)) > 2 * (run.radius + fz):
+            run.anchor, run.anchor_count, run.anchor_fuzz = y, cnt, fz
+            stats.counted_edges += 1
+            return
+
+
+def _split(cur, nxt):
+    """A split point between two overlapping runs: in a gap of both runs' Ritz
+    values between cur's anchor and nxt's shift, within both reaches, farther
+    than twice each run's radius from its values (the widest first); None if none."""
+    lo = max(cur.anchor, nxt.sigma - nxt.reach)
+    hi = min(nxt.sigma, cur.sigma + cur.reach)
+    if not lo < hi:
+        return None
+    both = np.concatenate([cur.theta, nxt.theta])
+    t = np.sort(np.concatenate([[lo, hi], both[(both > lo) & (both < hi)]]))
+    gaps = np.diff(t)
+    for j in np.argsort(gaps)[::-1][:8]:
+        y = 0.5 * (t[j] + t[j + 1])
+        if np.min(np.abs(cur.theta - y)) > 2 * cur.radius and \
+                np.min(np.abs(nxt.theta - y)) > 2 * nxt.radius:
+            return float(y)
+    return None
+
+
+def _next_run(S, W, normS, shifts, cur, kk, rng, stats):
+    """The run above ``cur`` that overlaps it: (run, split point, the stream's
+    state before its start vector, width of kk values), or None where no shift
+    within ``_NEXT_TRIES`` reaches back (each try halves the step)."""
+    up = cur.theta[cur.theta > cur.sigma]
+    half = up[up.size // 2:]
+    if half.size < 4 or not half[-1] > half[0]:
+        return None
+    width = kk * (half[-1] - half[0]) / (half.size - 1)
+    step = _NEXT_STEP * 0.5 * width
+    for _ in range(_NEXT_TRIES):
+        state = copy.deepcopy(rng)
+        try:
+            nxt = _solve_run(S, W, normS, shifts, cur.sigma + cur.reach + step, kk, rng, stats,
+                             0.01 * width)
+        except SliceFailure:
+            return None
+        y = _split(cur, nxt)
+        if y is not None:
+            return nxt, y, state, width
+        stats.split_misses += 1
+        step *= 0.5
+    return None
+
+
+def _start_run(S, W, k, normS, pos, shifts, stats):
+    """A run whose k nearest reach below ``pos.x`` (:func:`_pairs_reaching_below`,
+    drawing from ``pos.rng``), its values below x dropped; the fuzz at x
+    recounted where the nearest value above x is too close for it."""
     n = S.shape[0]
-    x, cnt_x, fz_x = pos.x, pos.count, pos.fuzz
+    x = pos.x
     kk = min(k, n - 2)
     lam, V, sigma, whole = _pairs_reaching_below(S, shifts, pos, kk, stats, normS)
     ritz = rayleigh_ritz(S, W, V, normS)
-    theta, radius = ritz[0], ritz[3]
-    if not whole and radius > _RECOMPUTE_ABOVE * stopping_bound(theta.size, normS, sigma):
-        lam, ritz = _reshifted(S, W, normS, shifts, sigma, kk, pos.rng, stats, lam, ritz)
-    theta, Q, WQ, radius, resid, phi = ritz
-    above = theta > x
-    if not whole and np.max(theta) <= x:
+    if not whole and ritz[3] > _RECOMPUTE_ABOVE * stopping_bound(ritz[0].size, normS, sigma):
+        lam, ritz, sigma = _reshifted(S, W, normS, shifts, sigma, kk, pos.rng, stats, lam, ritz)
+    run = _as_run(lam, sigma, ritz, whole)
+    if not whole and run.top <= x:
         raise SliceFailure(f"no Ritz value above the slice edge {x:.6g}")
-    theta, Q, WQ, resid = theta[above], Q[:, above], WQ[:, above], resid[above]
-    if theta[0] - x <= 2 * (radius + fz_x):
-        fz_x = _recounted_edge(shifts, pos, theta[0] - x, radius)
-    cands = _edge_candidates(theta, lam, radius, whole, cnt_x, n)
-    y, nkeep, cnt_y, fz = _certified_edge(shifts, cands, theta, radius, x, cnt_x)
+    above = run.theta > x
+    if not np.any(above):
+        raise SliceFailure(f"no Ritz value above the slice edge {x:.6g}")
+    if run.theta[above][0] - x <= 2 * (run.radius + pos.fuzz):
+        _recounted_edge(shifts, pos, run.theta[above][0] - x, run.radius)
+    return run
+
+
+def _next_slice(S, W, k, normS, pos, shifts, stats, cur, rng):
+    """The slice above ``pos.x`` and the run left pending (None where its upper
+    edge was counted): :func:`ritz_slices`; ``pos`` advanced to its upper edge."""
+    n = S.shape[0]
+    x, cnt_x = pos.x, pos.count
+    kk = min(k, n - 2)
+    if cur is None:
+        cur = _start_run(S, W, k, normS, pos, shifts, stats)
+        if not cur.whole and cnt_x + np.count_nonzero(cur.theta > x) < n:
+            _anchor(shifts, cur, x, stats)
+            if cur.anchor is not None and cur.anchor_count - cnt_x != \
+                    np.count_nonzero((cur.theta > x) & (cur.theta < cur.anchor)):
+                cur.anchor = None
+    if cur.anchor is not None and cur.anchor_count + np.count_nonzero(cur.theta > cur.anchor) < n:
+        got = _next_run(S, W, normS, shifts, cur, kk, rng, stats)
+        if got is not None:
+            nxt, y, state, width = got
+            _anchor(shifts, nxt, y, stats)
+            a = int(np.count_nonzero((cur.theta > cur.anchor) & (cur.theta < y)))
+            if nxt.anchor is not None and nxt.anchor_count - cur.anchor_count == \
+                    a + np.count_nonzero((nxt.theta > y) & (nxt.theta < nxt.anchor)):
+                keep = (cur.theta > x) & (cur.theta < y)
+                sl = _slice(cur, keep, x, y, stats)
+                stats.fuzz = max(stats.fuzz, cur.anchor_fuzz, nxt.anchor_fuzz)
+                pos.x, pos.count, pos.fuzz = y, cur.anchor_count + a, 0.0
+                pos.rng, pos.width, pos.pending = state, width, nxt.asked
+                return sl, nxt
+    # a counted upper edge
+    above = cur.theta > x
+    theta = cur.theta[above]
+    cands = _edge_candidates(theta, cur.top, cur.radius, cur.whole, cnt_x, n)
+    y, nkeep, cnt_y, fz = _certified_edge(shifts, cands, theta, cur.radius, x, cnt_x)
     stats.fuzz = max(stats.fuzz, fz)
-    stats.slices += 1
-    stats.ritz_radius = max(stats.ritz_radius, radius)
-    keep = slice(0, nkeep)
+    stats.counted_edges += 1
+    keep = np.flatnonzero(above)[:nkeep]
+    sl = _slice(cur, keep, x, y, stats)
     pos.width = float(theta[nkeep - 1] - theta[0]) * k / max(nkeep - 1, 1)
     pos.x, pos.count, pos.fuzz = y, cnt_y, fz
-    return Slice(x, y, theta[keep], Q[:, keep], WQ[:, keep], radius, resid[keep], phi)
+    pos.rng, pos.pending = rng, None
+    return sl, None
+
+
+def _slice(run, keep, lo, hi, stats):
+    """The :class:`Slice` of ``run``'s pairs ``keep`` between lo and hi."""
+    stats.slices += 1
+    stats.ritz_radius = max(stats.ritz_radius, run.radius)
+    return Slice(lo, hi, run.theta[keep], run.Q[:, keep], run.WQ[:, keep], run.radius,
+                 run.resid[keep], run.phi)
 
 
 def _pairs_reaching_below(S, shifts, pos, kk, stats, normS):
@@ -375,7 +600,7 @@ def _bottom_shift(S, shifts, pos, kk, stats, normS):
 
 def _reshifted(S, W, normS, shifts, sigma, kk, rng, stats, lam, ritz):
     """The slice computed again about a shift 1 % of its span lower, kept if its
-    Kahan radius is smaller: (lam, Rayleigh-Ritz of the slice kept).
+    Kahan radius is smaller: (lam, Rayleigh-Ritz of the slice kept, its shift).
 
     A shift where QDLDL's elimination (no pivoting) met a tiny pivot: the
     growth of D makes the solves inexact (N = 10^4: relative error 4.5e-6,
@@ -388,16 +613,16 @@ def _reshifted(S, W, normS, shifts, sigma, kk, rng, stats, lam, ritz):
     window still reaches below the edge.
     """
     theta, radius = ritz[0], ritz[3]
-    lam2, V, _ = shift_invert(S, shifts, sigma - 0.01 * float(theta[-1] - theta[0]), kk, rng,
-                              stats)
+    lam2, V, sigma2 = shift_invert(S, shifts, sigma - 0.01 * float(theta[-1] - theta[0]), kk,
+                                   rng, stats)
     stats.reshifted += 1
     better = rayleigh_ritz(S, W, V, normS)
     if better[3] < radius:
-        return lam2, better
-    return lam, ritz
+        return lam2, better, sigma2
+    return lam, ritz, sigma
 
 
-def _edge_candidates(theta, lam, radius, whole, cnt_x, n):
+def _edge_candidates(theta, top, radius, whole, cnt_x, n):
     """Candidate upper edges (y, Ritz values kept below it), best first.
 
     The last slice: above its top Ritz value. Otherwise all eigenvalues up to
@@ -406,7 +631,7 @@ def _edge_candidates(theta, lam, radius, whole, cnt_x, n):
     edge, the fewer Ritz pairs are computed twice), then the widest of the
     rest of the upper half.
     """
-    reach = np.max(lam) if not whole else math.inf
+    reach = top          # the eigen-solver's largest value (inf where whole)
     if whole or cnt_x + theta.size >= n:
         y = float(theta[-1]) + max(1.0, abs(float(theta[-1]))) * 1e-3 + 2 * radius + 1.0
         return [(y, theta.size)]

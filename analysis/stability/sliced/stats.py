@@ -52,6 +52,16 @@ class SlicedStats:
         Kahan radius above the eigen-solver's own bound for their pairs,
         :func:`~.slices.stopping_bound`: it converged to vectors of an
         inexact operator).
+    split_misses : int
+        Runs made again with half the step because the run above a slice did not
+        reach back into it (no split point between the two runs,
+        :func:`~.slices.ritz_slices`).
+    counted_edges : int
+        Points proved by a count at a gap of Ritz values (a factorization of
+        their own), not at a run's shift: a slice's upper edge where the run
+        above does not prove it, or a run's proved point where its shift is
+        too near one of its Ritz values for its count
+        (:func:`~.slices.ritz_slices`).
     dw_counts : int
         Sylvester counts made again in double-word arithmetic: their float64
         fuzz above :func:`~.inertia.fuzz_limit`, or a slice edge that only
@@ -72,6 +82,8 @@ class SlicedStats:
     computed: int = 0
     moved: int = 0
     reshifted: int = 0
+    split_misses: int = 0
+    counted_edges: int = 0
     dw_counts: int = 0
     parts: int = 1
     cuts: tuple = ()
