@@ -329,7 +329,8 @@ def ritz_slices(S, W, k, normS, pos, stats, shifts=None):
 
 @dataclass
 class _Run:
-    """One eigen-solve about a shift and its Rayleigh-Ritz pairs (ascending).
+    """One eigen-solve about a shift and its Rayleigh-Ritz pairs (``pairs``, a
+    :class:`Slice` between sigma -/+ ``reach``, ascending, not yet proved).
 
     ``reach``: the largest |lambda - sigma| of the eigen-solver's values (the
     eigenvalues of S within it of sigma are all sought; inf where ``whole``);
@@ -340,12 +341,7 @@ class _Run:
     """
 
     sigma: float
-    theta: np.ndarray
-    Q: np.ndarray
-    WQ: np.ndarray
-    radius: float
-    resid: np.ndarray
-    phi: float
+    pairs: Slice
     reach: float
     top: float
     whole: bool = False
@@ -356,10 +352,11 @@ class _Run:
 
 
 def _as_run(lam, sigma, ritz, whole):
-    theta, Q, WQ, radius, resid, phi = ritz
+    """The :class:`_Run` of the eigen-solver's values ``lam`` about sigma and
+    their Rayleigh-Ritz ``ritz`` (:func:`rayleigh_ritz`)."""
     reach = math.inf if whole else float(np.max(np.abs(lam - sigma)))
-    return _Run(sigma, theta, Q, WQ, radius, resid, phi, reach,
-                math.inf if whole else float(np.max(lam)), whole)
+    pairs = Slice(sigma - reach, sigma + reach, *ritz)
+    return _Run(sigma, pairs, reach, math.inf if whole else float(np.max(lam)), whole)
 
 
 def _solve_run(S, W, normS, shifts, sigma, kk, rng, stats, step):
@@ -383,16 +380,17 @@ def _anchor(shifts, run, lo, stats):
     counted gap above max(lo, sigma) within half its reach that is as far
     from them (one of ``stats.counted_edges``); None if none."""
     run.anchor = None
+    theta, radius = run.pairs.theta, run.pairs.radius
     if run.sigma > lo:
         try:
             cnt, fz = shifts.count_below(run.sigma)
         except (ValueError, SliceFailure):
             cnt, fz = -1, math.inf
-        if cnt >= 0 and np.min(np.abs(run.theta - run.sigma)) > 2 * (run.radius + fz):
+        if cnt >= 0 and np.min(np.abs(theta - run.sigma)) > 2 * (radius + fz):
             run.anchor, run.anchor_count, run.anchor_fuzz = run.sigma, cnt, fz
             return
     base = max(lo, run.sigma)
-    th = run.theta[(run.theta > base) & (run.theta < run.sigma + 0.5 * run.reach)]
+    th = theta[(theta > base) & (theta < run.sigma + 0.5 * run.reach)]
     gaps = np.diff(th)
     for j in np.argsort(gaps)[::-1][:8]:
         y = 0.5 * (th[j] + th[j + 1])
@@ -400,7 +398,7 @@ def _anchor(shifts, run, lo, stats):
             cnt, fz = shifts.count_below(y)
         except (ValueError, SliceFailure):
             continue
-        if np.min(np.abs(run.theta - y)) > 2 * (run.radius + fz):
+        if np.min(np.abs(theta - y)) > 2 * (radius + fz):
             run.anchor, run.anchor_count, run.anchor_fuzz = y, cnt, fz
             stats.counted_edges += 1
             return
@@ -414,13 +412,13 @@ def _split(cur, nxt):
     hi = min(nxt.sigma, cur.sigma + cur.reach)
     if not lo < hi:
         return None
-    both = np.concatenate([cur.theta, nxt.theta])
+    both = np.concatenate([cur.pairs.theta, nxt.pairs.theta])
     t = np.sort(np.concatenate([[lo, hi], both[(both > lo) & (both < hi)]]))
     gaps = np.diff(t)
     for j in np.argsort(gaps)[::-1][:8]:
         y = 0.5 * (t[j] + t[j + 1])
-        if np.min(np.abs(cur.theta - y)) > 2 * cur.radius and \
-                np.min(np.abs(nxt.theta - y)) > 2 * nxt.radius:
+        if np.min(np.abs(cur.pairs.theta - y)) > 2 * cur.pairs.radius and \
+                np.min(np.abs(nxt.pairs.theta - y)) > 2 * nxt.pairs.radius:
             return float(y)
     return None
 
@@ -429,7 +427,7 @@ def _next_run(S, W, normS, shifts, cur, kk, rng, stats):
     """The run above ``cur`` that overlaps it: (run, split point, the stream's
     state before its start vector, width of kk values), or None where no shift
     within ``_NEXT_TRIES`` reaches back (each try halves the step)."""
-    up = cur.theta[cur.theta > cur.sigma]
+    up = cur.pairs.theta[cur.pairs.theta > cur.sigma]
     half = up[up.size // 2:]
     if half.size < 4 or not half[-1] > half[0]:
         return None
@@ -464,11 +462,11 @@ def _start_run(S, W, k, normS, pos, shifts, stats):
     run = _as_run(lam, sigma, ritz, whole)
     if not whole and run.top <= x:
         raise SliceFailure(f"no Ritz value above the slice edge {x:.6g}")
-    above = run.theta > x
+    above = run.pairs.theta > x
     if not np.any(above):
         raise SliceFailure(f"no Ritz value above the slice edge {x:.6g}")
-    if run.theta[above][0] - x <= 2 * (run.radius + pos.fuzz):
-        _recounted_edge(shifts, pos, run.theta[above][0] - x, run.radius)
+    if run.pairs.theta[above][0] - x <= 2 * (run.pairs.radius + pos.fuzz):
+        _recounted_edge(shifts, pos, run.pairs.theta[above][0] - x, run.pairs.radius)
     return run
 
 
@@ -480,30 +478,31 @@ def _next_slice(S, W, k, normS, pos, shifts, stats, cur, rng):
     kk = min(k, n - 2)
     if cur is None:
         cur = _start_run(S, W, k, normS, pos, shifts, stats)
-        if not cur.whole and cnt_x + np.count_nonzero(cur.theta > x) < n:
+        if not cur.whole and cnt_x + np.count_nonzero(cur.pairs.theta > x) < n:
             _anchor(shifts, cur, x, stats)
             if cur.anchor is not None and cur.anchor_count - cnt_x != \
-                    np.count_nonzero((cur.theta > x) & (cur.theta < cur.anchor)):
+                    np.count_nonzero((cur.pairs.theta > x) & (cur.pairs.theta < cur.anchor)):
                 cur.anchor = None
-    if cur.anchor is not None and cur.anchor_count + np.count_nonzero(cur.theta > cur.anchor) < n:
+    th = cur.pairs.theta
+    if cur.anchor is not None and cur.anchor_count + np.count_nonzero(th > cur.anchor) < n:
         got = _next_run(S, W, normS, shifts, cur, kk, rng, stats)
         if got is not None:
             nxt, y, state, width = got
             _anchor(shifts, nxt, y, stats)
-            a = int(np.count_nonzero((cur.theta > cur.anchor) & (cur.theta < y)))
+            a = int(np.count_nonzero((th > cur.anchor) & (th < y)))
             if nxt.anchor is not None and nxt.anchor_count - cur.anchor_count == \
-                    a + np.count_nonzero((nxt.theta > y) & (nxt.theta < nxt.anchor)):
-                keep = (cur.theta > x) & (cur.theta < y)
+                    a + np.count_nonzero((nxt.pairs.theta > y) & (nxt.pairs.theta < nxt.anchor)):
+                keep = (th > x) & (th < y)
                 sl = _slice(cur, keep, x, y, stats)
                 stats.fuzz = max(stats.fuzz, cur.anchor_fuzz, nxt.anchor_fuzz)
                 pos.x, pos.count, pos.fuzz = y, cur.anchor_count + a, 0.0
                 pos.rng, pos.width, pos.pending = state, width, nxt.asked
                 return sl, nxt
     # a counted upper edge
-    above = cur.theta > x
-    theta = cur.theta[above]
-    cands = _edge_candidates(theta, cur.top, cur.radius, cur.whole, cnt_x, n)
-    y, nkeep, cnt_y, fz = _certified_edge(shifts, cands, theta, cur.radius, x, cnt_x)
+    above = th > x
+    theta = th[above]
+    cands = _edge_candidates(theta, cur.top, cur.pairs.radius, cur.whole, cnt_x, n)
+    y, nkeep, cnt_y, fz = _certified_edge(shifts, cands, theta, cur.pairs.radius, x, cnt_x)
     stats.fuzz = max(stats.fuzz, fz)
     stats.counted_edges += 1
     keep = np.flatnonzero(above)[:nkeep]
@@ -517,9 +516,10 @@ def _next_slice(S, W, k, normS, pos, shifts, stats, cur, rng):
 def _slice(run, keep, lo, hi, stats):
     """The :class:`Slice` of ``run``'s pairs ``keep`` between lo and hi."""
     stats.slices += 1
-    stats.ritz_radius = max(stats.ritz_radius, run.radius)
-    return Slice(lo, hi, run.theta[keep], run.Q[:, keep], run.WQ[:, keep], run.radius,
-                 run.resid[keep], run.phi)
+    p = run.pairs
+    stats.ritz_radius = max(stats.ritz_radius, p.radius)
+    return Slice(lo, hi, p.theta[keep], p.Q[:, keep], p.WQ[:, keep], p.radius, p.resid[keep],
+                 p.phi)
 
 
 def _pairs_reaching_below(S, shifts, pos, kk, stats, normS):
