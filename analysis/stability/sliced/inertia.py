@@ -264,6 +264,9 @@ class Shifts:
     def count(self, a):
         """The float64 Sylvester count of S below a and its fuzz (:func:`count_below`'s,
         or :class:`~.supernodal.SupernodalLDL`'s where ``solves`` is 'superlu').
+        Where QDLDL's factorization of S - a I is the one held (``held`` == a:
+        the last shift factorized, as after a slice's solves there), it is
+        counted without a new factorization (the same factors either way).
 
         Raises
         ------
