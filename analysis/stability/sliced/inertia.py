@@ -342,7 +342,7 @@ class Shifts:
         self.probe = probe(fac)
         if not self.probe <= 1e-6 and self.solves == "qdldl":
             self.held = None        # ``solver`` holds the update that went wrong
-            fac = _ldl(shifted(self.S, a), what)
+            fac = _ldl(self.Hu, what, upper=True)
             self.probe = probe(fac)
         return fac
 

@@ -313,11 +313,12 @@ def ritz_slices(S, W, k, normS, pos, stats, shifts=None):
     if pos.pending is not None:
         # the run that proved the slice below pos.x, made again (not counted
         # twice in ``stats``: the saved statistics hold it)
-        kept, shifts.stats = shifts.stats, SlicedStats()
+        scratch = SlicedStats()
+        kept, shifts.stats = shifts.stats, scratch
         try:
             run = _solve_run(S, W, normS, shifts, pos.pending[0], min(k, n - 2), rng,
-                             SlicedStats(), pos.pending[1])
-            _anchor(shifts, run, pos.x, SlicedStats())
+                             scratch, pos.pending[1])
+            _anchor(shifts, run, pos.x, scratch)
         finally:
             shifts.stats = kept
         if run.anchor is None:
@@ -365,12 +366,20 @@ def _solve_run(S, W, normS, shifts, sigma, kk, rng, stats, step):
     the eigen-solver's bound, :func:`_reshifted`)."""
     asked = (sigma, step)
     lam, V, sigma = shift_invert(S, shifts, sigma, kk, rng, stats, step)
-    ritz = rayleigh_ritz(S, W, V, normS)
-    if ritz[3] > _RECOMPUTE_ABOVE * stopping_bound(ritz[0].size, normS, sigma):
-        lam, ritz, sigma = _reshifted(S, W, normS, shifts, sigma, kk, rng, stats, lam, ritz)
-    run = _as_run(lam, sigma, ritz, False)
+    run = _ritz_run(S, W, normS, shifts, lam, V, sigma, kk, rng, stats, False)
     run.asked = asked
     return run
+
+
+def _ritz_run(S, W, normS, shifts, lam, V, sigma, kk, rng, stats, whole):
+    """The :class:`_Run` of the eigen-solver's pairs (lam, V) about sigma: their
+    Rayleigh-Ritz, made again about a lower shift where its Kahan radius
+    exceeds the eigen-solver's bound (:func:`_reshifted`; not where
+    ``whole``, LAPACK's)."""
+    ritz = rayleigh_ritz(S, W, V, normS)
+    if not whole and ritz[3] > _RECOMPUTE_ABOVE * stopping_bound(ritz[0].size, normS, sigma):
+        lam, ritz, sigma = _reshifted(S, W, normS, shifts, sigma, kk, rng, stats, lam, ritz)
+    return _as_run(lam, sigma, ritz, whole)
 
 
 def _anchor(shifts, run, lo, stats):
@@ -456,12 +465,7 @@ def _start_run(S, W, k, normS, pos, shifts, stats):
     x = pos.x
     kk = min(k, n - 2)
     lam, V, sigma, whole = _pairs_reaching_below(S, shifts, pos, kk, stats, normS)
-    ritz = rayleigh_ritz(S, W, V, normS)
-    if not whole and ritz[3] > _RECOMPUTE_ABOVE * stopping_bound(ritz[0].size, normS, sigma):
-        lam, ritz, sigma = _reshifted(S, W, normS, shifts, sigma, kk, pos.rng, stats, lam, ritz)
-    run = _as_run(lam, sigma, ritz, whole)
-    if not whole and run.top <= x:
-        raise SliceFailure(f"no Ritz value above the slice edge {x:.6g}")
+    run = _ritz_run(S, W, normS, shifts, lam, V, sigma, kk, pos.rng, stats, whole)
     above = run.pairs.theta > x
     if not np.any(above):
         raise SliceFailure(f"no Ritz value above the slice edge {x:.6g}")
@@ -622,16 +626,15 @@ def _reshifted(S, W, normS, shifts, sigma, kk, rng, stats, lam, ritz):
     return lam, ritz, sigma
 
 
-def _edge_candidates(theta, top, radius, whole, cnt_x, n):
+def _edge_candidates(theta, reach, radius, whole, cnt_x, n):
     """Candidate upper edges (y, Ritz values kept below it), best first.
 
     The last slice: above its top Ritz value. Otherwise all eigenvalues up to
-    the largest |lam - sigma| are found, and the edges lie in gaps of what
-    lies below that reach: the widest of the top sixth first (the higher the
-    edge, the fewer Ritz pairs are computed twice), then the widest of the
-    rest of the upper half.
+    ``reach`` (the eigen-solver's largest value) are found, and the edges lie
+    in gaps of what lies below it: the widest of the top sixth first (the
+    higher the edge, the fewer Ritz pairs are computed twice), then the
+    widest of the rest of the upper half.
     """
-    reach = top          # the eigen-solver's largest value (inf where whole)
     if whole or cnt_x + theta.size >= n:
         y = float(theta[-1]) + max(1.0, abs(float(theta[-1]))) * 1e-3 + 2 * radius + 1.0
         return [(y, theta.size)]
