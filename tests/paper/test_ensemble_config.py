@@ -404,6 +404,21 @@ def test_a_narrow_bracket_prints_with_the_digits_that_tell_its_ends_apart():
     assert bracket_text(0.1013000001, 0.1013000002, 9) == "[0.1013000001, 0.1013000002]"
 
 
+def test_a_bracket_in_words_says_what_the_ramp_found():
+    """Status and progress lines: a ramp certified complex at its first point,
+    F_x = 0, has no F_x^c (was printed "[nan, 0]"); one that starts higher
+    has an upper bound only; one with no complex point, a lower bound
+    only (was "[lo, inf]")."""
+    nan, inf = float("nan"), float("inf")
+    pts = [{"F_x": 0.0, "decision": 1}, {"F_x": 0.1, "decision": 1}]
+    assert onset.bracket_words(*onset.bracket(pts), "F_x^c(mu0)") == \
+        "complex at F_x = 0 (no F_x^c(mu0))"
+    assert onset.bracket_words(0.1, 0.2) == "F_x^c in [0.1, 0.2]"
+    assert onset.bracket_words(nan, 0.2) == "complex at F_x = 0.2, no real point below (F_x^c <= 0.2)"
+    assert onset.bracket_words(0.1, inf) == "real up to F_x = 0.1"
+    assert onset.bracket_words(nan, inf) == "no certified point"
+
+
 def test_part_size_configuration(tmp_path):
     """``part_size``: None or an integer >= the slice size (60), named when
     bad; config.json holds it only when set (older folders resume without);

@@ -78,7 +78,7 @@ import math
 import os
 import time
 
-from remote_trigger.analysis.output import bracket_text
+from remote_trigger.pywrap.jobs.ensemble.onset import bracket_words
 from remote_trigger.pywrap.config import ConfigError
 from remote_trigger.pywrap.runtime.parallel import on_rank0
 from remote_trigger.pywrap.runtime.environment import environment
@@ -248,8 +248,9 @@ def run_ensemble(cfg, out, comm=None, speak=True, resume=False, retry_failed=Fal
         computed.append(t["key"])
         d = res["default"]
         r0 = d["ramps"].get("mu0", {}).get(f"I0_{cfg.I0_dynamics:g}", {})
-        say(f"{t['key']}: F_x^c(mu0) in "
-            f"{bracket_text(r0.get('F_x_c_low', math.nan), r0.get('F_x_c_high', math.nan))}"
+        onset = bracket_words(r0.get("F_x_c_low", math.nan), r0.get("F_x_c_high", math.nan),
+                              "F_x^c(mu0)")
+        say(f"{t['key']}: {onset}"
             + (f"; error: {d['error']}" if d["error"] else "")
             + f" ({res['wall']:.0f} s"
             + (f"; {len(res['warnings'])} distinct warning(s) in tasks/{t['key']}.json"

@@ -141,6 +141,38 @@ def bracket(points):
     return float(lo), float(hi)
 
 
+def bracket_words(lo, hi, name="F_x^c"):
+    """A bracket of :func:`bracket` as a status line says it.
+
+    Parameters
+    ----------
+    lo, hi : float
+        As :func:`bracket` returns them.
+    name : str
+        What the bracket brackets (``'F_x^c'``, ``'F_x^c(mu0)'``).
+
+    Returns
+    -------
+    str
+        ``'<name> in [lo, hi]'`` where both ends are certified; ``'complex
+        at F_x = 0 (no <name>)'`` where the ramp's first point, at F_x = 0,
+        is certified complex; ``'complex at F_x = hi, no real point below
+        (<name> <= hi)'`` where it starts higher; ``'real up to F_x = lo'``
+        where no point is certified complex; ``'no certified point'``.
+    """
+    from remote_trigger.analysis.output import bracket_text
+
+    if math.isfinite(hi):
+        if math.isfinite(lo):
+            return f"{name} in {bracket_text(lo, hi)}"
+        if hi == 0.0:
+            return f"complex at F_x = 0 (no {name})"
+        return f"complex at F_x = {hi:.6g}, no real point below ({name} <= {hi:.6g})"
+    if math.isfinite(lo):
+        return f"real up to F_x = {lo:.6g}"
+    return "no certified point"
+
+
 def pair_position(eigenvalues, lambda_max=math.nan, n_dof=-1, soft_rel=None):
     """Where the coalesced pair sits in the spectrum.
 

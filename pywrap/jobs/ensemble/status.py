@@ -19,13 +19,12 @@ __all__ = ["ensemble_status"]
 
 def _ramp_line(name, folder, part):
     """One ramp's state: finished (its part), running (its ramp.h5), or not started."""
-    from remote_trigger.analysis.output import bracket_text
-    from remote_trigger.pywrap.jobs.ensemble.onset import bracket, read_ramp
+    from remote_trigger.pywrap.jobs.ensemble.onset import bracket, bracket_words, read_ramp
 
     if part is not None:
         o = next((v for k, v in part.items() if k.startswith("I0_")), {})
         lo, hi = o.get("F_x_c_low", math.nan), o.get("F_x_c_high", math.nan)
-        return f"{name} {part.get('ramp_status', '?')}, F_x^c in {bracket_text(lo, hi)}"
+        return f"{name} {part.get('ramp_status', '?')}, {bracket_words(lo, hi)}"
     h5 = os.path.join(folder, f"ramp_{name}", "ramp.h5")
     if not os.path.isfile(h5):
         # the ramp's folder is made at its start, ramp.h5 at its first point
@@ -38,9 +37,7 @@ def _ramp_line(name, folder, part):
     if not pts:
         return f"{name} started, no point yet"
     lo, hi = bracket(pts)       # hi = inf: no certified complex point yet
-    where = (f"F_x^c in {bracket_text(lo, hi)}" if math.isfinite(hi) else
-             f"real up to F_x = {lo:.6g}" if math.isfinite(lo) else "no certified point yet")
-    return f"{name} running: {len(pts)} point(s), {where}"
+    return f"{name} running: {len(pts)} point(s), {bracket_words(lo, hi)}"
 
 
 def _utc(t):
@@ -107,7 +104,7 @@ def ensemble_status(out):
         names ``--status`` and the folder).
     """
     from remote_trigger.pywrap.jobs.ensemble.combine import read_run
-    from remote_trigger.analysis.output import bracket_text
+    from remote_trigger.pywrap.jobs.ensemble.onset import bracket_words
     from remote_trigger.pywrap.jobs.ensemble.task import (
         PROGRESS, load_progress, load_task, packing_failed)
 
@@ -124,7 +121,7 @@ def ensemble_status(out):
             o = ((d.get("ramps") or {}).get("mu0") or {}).get(key0, {})
             fr = (res.get("frictional") or {}).get("error")
             lo, hi = o.get("F_x_c_low", math.nan), o.get("F_x_c_high", math.nan)
-            lines.append(f"{t['key']}: finished, F_x^c(mu0) in {bracket_text(lo, hi)}"
+            lines.append(f"{t['key']}: finished, {bracket_words(lo, hi, 'F_x^c(mu0)')}"
                          + (f"; error: {d['error']}" if d.get("error") else "")
                          + (f"; frictional part's error: {fr}" if fr else "")
                          + (" (--resume --retry-failed runs it again)"
