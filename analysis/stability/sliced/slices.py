@@ -399,10 +399,7 @@ def _anchor(shifts, run, lo, stats):
             run.anchor, run.anchor_count, run.anchor_fuzz = run.sigma, cnt, fz
             return
     base = max(lo, run.sigma)
-    th = theta[(theta > base) & (theta < run.sigma + 0.5 * run.reach)]
-    gaps = np.diff(th)
-    for j in np.argsort(gaps)[::-1][:8]:
-        y = 0.5 * (th[j] + th[j + 1])
+    for _, y in _widest_gaps(theta[(theta > base) & (theta < run.sigma + 0.5 * run.reach)]):
         try:
             cnt, fz = shifts.count_below(y)
         except (ValueError, SliceFailure):
@@ -423,9 +420,7 @@ def _split(cur, nxt):
         return None
     both = np.concatenate([cur.pairs.theta, nxt.pairs.theta])
     t = np.sort(np.concatenate([[lo, hi], both[(both > lo) & (both < hi)]]))
-    gaps = np.diff(t)
-    for j in np.argsort(gaps)[::-1][:8]:
-        y = 0.5 * (t[j] + t[j + 1])
+    for _, y in _widest_gaps(t):
         if np.min(np.abs(cur.pairs.theta - y)) > 2 * cur.pairs.radius and \
                 np.min(np.abs(nxt.pairs.theta - y)) > 2 * nxt.pairs.radius:
             return float(y)
@@ -643,10 +638,14 @@ def _edge_candidates(theta, reach, radius, whole, cnt_x, n):
     half = max(1, th.size // 2)
     cands = []
     for lo_i, hi_i in ((top, th.size), (half, top)):
-        gaps = np.diff(th[lo_i - 1:hi_i])
-        cands += [(0.5 * (th[lo_i - 1 + j] + th[lo_i + j]), lo_i + j)
-                  for j in np.argsort(gaps)[::-1][:8]]
+        cands += [(y, lo_i + j) for j, y in _widest_gaps(th[lo_i - 1:hi_i])]
     return cands
+
+
+def _widest_gaps(t, m=8):
+    """The m widest gaps of the ascending values t, widest first: (j, midpoint
+    of t[j] and t[j + 1])."""
+    return [(int(j), 0.5 * (t[j] + t[j + 1])) for j in np.argsort(np.diff(t))[::-1][:m]]
 
 
 def _recounted_edge(shifts, pos, d, radius):
