@@ -173,3 +173,24 @@ def test_parts_are_checkpointed(tmp_path):
                             map_tasks=killing_map)) == ref and ran == []
     with pytest.raises(ValueError, match="map_tasks must be callable, got map_tasks = 4"):
         run(K, mass, part_size=30, map_tasks=4)
+
+
+def test_parts_with_chains_of_runs_give_the_whole_verdict(monkeypatch):
+    """Every float64 count too fuzzy (``DW_FUZZ_FRACTION`` 0): the runs form
+    chains between double-word counts, in the whole scan and in three parts
+    (each part's chains end at its ceiling); the verdict of the scan with one
+    count a run, the same eigenvalues to within the Ritz radii."""
+    from remote_trigger.analysis.stability.sliced import inertia, slices
+
+    K, mass = planted(n=300, pairs=[(100, 1.5), (220, 0.9)], seed=1)
+    ref, rst = run(K, mass)
+    monkeypatch.setattr(inertia, "DW_FUZZ_FRACTION", 0.0)
+    whole, wst = run(K, mass)
+    res, st = run(K, mass, part_size=100)
+    assert wst.deferred_counts > 0 and st.deferred_counts > 0
+    assert wst.dw_counts < wst.lanczos_runs
+    for got, gst in ((whole, wst), (res, st)):
+        assert got.decision is ref.decision is Decision.certified(True)
+        assert got.eigenvalues.size == 300
+        tol = 2 * max(gst.ritz_radius, rst.ritz_radius)
+        assert np.max(np.abs(got.eigenvalues - ref.eigenvalues)) <= tol

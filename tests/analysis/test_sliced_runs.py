@@ -103,3 +103,96 @@ def test_a_slicing_resumed_with_a_run_pending_gives_the_same_bits(packing):
             assert (got.lo, got.hi) == (sl.lo, sl.hi)
             assert got.theta.tobytes() == sl.theta.tobytes()
             assert got.Q.tobytes() == sl.Q.tobytes()
+
+
+def _chained(S, W, ctx, lo0, k=60, pos=None, st=None):
+    """ritz_slices where every float64 count counts as too fuzzy (``fuzz_limit``
+    0): each count made is double-word, and the runs between form chains."""
+    from remote_trigger.analysis.stability.sliced.inertia import Shifts
+
+    st = SlicedStats() if st is None else st
+    shifts = Shifts(S, 0.0, st)
+    pos = slices.start_position(S, lo0, st, shifts) if pos is None else pos
+    return slices.ritz_slices(S, W, k, ctx.normS, pos, st, shifts), st
+
+
+def test_chains_of_runs_between_double_word_counts(packing, monkeypatch):
+    """Where the float64 counts are too fuzzy, CHAIN_RUNS - 1 runs of every
+    CHAIN_RUNS leave their counts out and the counts at a chain's ends prove
+    its slices: the same spectrum as one double-word count a run, with about
+    1 / CHAIN_RUNS of the double-word counts."""
+    S, W, ctx, lo0, lam = packing
+    gen, st = _chained(S, W, ctx, lo0)
+    got = list(gen)
+    _checked(got, lam, ctx.normS)
+    monkeypatch.setattr(slices, "CHAIN_RUNS", 1)
+    gen1, st1 = _chained(S, W, ctx, lo0)
+    got1 = list(gen1)
+    theta1 = _checked(got1, lam, ctx.normS)
+    assert st1.deferred_counts == 0 and st.deferred_counts > 0
+    assert st.chain_failures == st1.chain_failures == 0
+    assert st.lanczos_runs == st1.lanczos_runs
+    assert st.dw_counts < 0.5 * st1.dw_counts
+    assert np.concatenate([sl.theta for sl in got]).tobytes() == theta1.tobytes()
+
+
+def test_no_run_above_stop_above_leaves_its_count_out(packing):
+    """``stop_above`` at the middle of the spectrum: every run whose shift lies
+    above it is counted (fewer counts left out than without it); the same
+    spectrum."""
+    S, W, ctx, lo0, lam = packing
+    from remote_trigger.analysis.stability.sliced.inertia import Shifts
+
+    mid = float(np.median(lam))
+    st = SlicedStats()
+    shifts = Shifts(S, 0.0, st)
+    got = list(slices.ritz_slices(S, W, 60, ctx.normS, slices.start_position(S, lo0, st, shifts),
+                                  st, shifts, stop_above=mid))
+    _checked(got, lam, ctx.normS)
+    gen, st_all = _chained(S, W, ctx, lo0)
+    list(gen)
+    assert 0 < st.deferred_counts < st_all.deferred_counts
+    assert st.dw_counts > st_all.dw_counts
+
+
+def test_a_chain_resumed_from_any_of_its_slices_gives_the_same_bits(packing):
+    """From a copy of the position after each of the first slices of chained
+    slicing (its pending run's count left out or not), the same slices, bit
+    for bit."""
+    S, W, ctx, lo0, lam = packing
+    gen, st = _chained(S, W, ctx, lo0)
+    first, saved = [next(gen)], []
+    for _ in range(6):
+        saved.append(copy.deepcopy(gen.gi_frame.f_locals["pos"]))
+        first.append(next(gen))
+    assert {p.deferred for p in saved} >= {0, 1}
+    for i, p in enumerate(saved):
+        again, _ = _chained(S, W, ctx, lo0, pos=copy.deepcopy(p))
+        for sl in first[i + 1:]:
+            got = next(again)
+            assert (got.lo, got.hi) == (sl.lo, sl.hi)
+            assert got.theta.tobytes() == sl.theta.tobytes()
+            assert got.Q.tobytes() == sl.Q.tobytes()
+
+
+def test_a_chain_whose_counts_disagree_is_made_again_run_by_run(packing, monkeypatch):
+    """A run inside a chain that misses an eigenvalue (one pair dropped from
+    its eigen-solve): the counts at the chain's ends disagree with its Ritz
+    values, and the chain is made again from its start with every run
+    counted (``chain_failures``); the same spectrum."""
+    S, W, ctx, lo0, lam = packing
+    real = slices.shift_invert
+    calls = []
+
+    def dropping(*args, **kw):
+        lam_, V, sigma = real(*args, **kw)
+        calls.append(sigma)
+        if len(calls) == 3:
+            j = int(np.argmin(np.abs(lam_ - sigma)))
+            return np.delete(lam_, j), np.delete(V, j, axis=1), sigma
+        return lam_, V, sigma
+
+    monkeypatch.setattr(slices, "shift_invert", dropping)
+    gen, st = _chained(S, W, ctx, lo0)
+    _checked(list(gen), lam, ctx.normS)
+    assert st.chain_failures >= 1

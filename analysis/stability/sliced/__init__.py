@@ -69,10 +69,12 @@ in memory (the eigenvalues of the slices dropped lie below their edges).
 The counts are made at *counted points*: a run's shift (the factorization
 its solves used; its Ritz values farther than 2 (radius + fuzz) from it)
 or, where that does not hold, a gap of its Ritz values. Between two
-consecutive counted points p < q lie the Ritz values of one run, or of two
-runs split at a point y farther than twice each run's radius from both
-runs' values; the Ritz values kept are those of the lower run below y and
-of the upper run above it, and their number must equal #neg(q) - #neg(p).
+consecutive counted points p < q lie the Ritz values of one run, or of
+consecutive runs split at points y farther than twice each adjacent run's
+radius from both runs' values (two runs; up to four where the float64
+counts are too fuzzy and the runs between two double-word counts leave
+theirs out); the Ritz values kept are those of each run between its split
+points, and their number must equal #neg(q) - #neg(p).
 Each kept value's eigenvalue (Kahan, within its run's radius) then lies in
 its own part of (p, q), so these are distinct eigenvalues; if every
 interval's count holds and the counts run from 0 to n, every eigenvalue of

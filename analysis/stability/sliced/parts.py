@@ -279,7 +279,8 @@ def scan_part(task):
 def _add_stats(total, st):
     """Add the work of a task's statistics to ``total``."""
     for name in ("slices", "boundaries", "lanczos_runs", "arpack_runs", "computed", "moved",
-                 "reshifted", "split_misses", "counted_edges", "dw_counts"):
+                 "reshifted", "split_misses", "counted_edges", "dw_counts", "deferred_counts",
+                 "chain_failures"):
         setattr(total, name, getattr(total, name) + getattr(st, name))
     for name in ("max_kappa", "fuzz", "ritz_radius"):
         setattr(total, name, max(getattr(total, name), getattr(st, name)))

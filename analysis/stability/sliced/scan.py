@@ -165,6 +165,10 @@ class SlicedScan:
     base = 0                    # eigenvalues of S below the scan's start
     cuts = None                 # local gap index -> a boundary certified by a part
     at_ceiling = False          # ended at the boundary of the part above
+    # no run above this shift leaves its count out (a chain ends at the first
+    # run past the part's ceiling or the cut's first boundary sought, so that
+    # no run beyond them is made only to close a chain: ritz_slices)
+    stop_above = math.inf
 
     def __init__(self, S, ctx, lo0, slice_size, stats, stop_at_complex=False,
                  soft_below=-math.inf, t0=None):
@@ -210,7 +214,8 @@ class SlicedScan:
         """
         t_restore = time.perf_counter()
         if not restore_ritz(saved, lambda pos: ritz_slices(S, ctx.W, slice_size, ctx.normS,
-                                                           pos, SlicedStats())):
+                                                           pos, SlicedStats(),
+                                                           stop_above=saved.stop_above)):
             return None
         saved._bind(S, ctx, lo0, slice_size, stop_at_complex, soft_below, t0)
         saved.t_slices += time.perf_counter() - t_restore      # (slices computed again)
@@ -249,7 +254,7 @@ class SlicedScan:
                 shifts = Shifts(self.S, fuzz_limit(self.ctx.normS, n), self.stats)
                 self.start(shifts)
             self._slices = ritz_slices(self.S, self.ctx.W, self.k, self.ctx.normS, self.pos,
-                                       self.stats, shifts)
+                                       self.stats, shifts, self.stop_above)
             # only for n = 0 (a scan is saved before its end)
             final = self.cert_count[-1] == n - self.base
             while not final:
@@ -298,6 +303,7 @@ class SlicedScan:
         if ceiling is not None:
             c, g = ceiling
             self.cuts[g - base] = c
+            self.stop_above = c
 
     def check_cut(self, j, a):
         """A boundary a certified by another part, to stand as this part's boundary
@@ -333,8 +339,9 @@ class SlicedScan:
             If a slice cannot be certified.
         """
         n = self.S.shape[0] - self.base
+        self.stop_above = above
         self._slices = ritz_slices(self.S, self.ctx.W, self.k, self.ctx.normS, self.pos,
-                                   self.stats)
+                                   self.stats, stop_above=above)
         final = self.counted == self.S.shape[0]
         while not final:
             final = self.next_slice()

@@ -46,6 +46,13 @@ _SHIFT_FRACTION = 0.42
 # 357 runs of which 7 made again; 0.9, 399 of which 55
 _NEXT_STEP = 0.8
 _NEXT_TRIES = 4
+# runs per count where a run's float64 count is too fuzzy to use (its count
+# would be made again in double-word arithmetic): the counts of the
+# CHAIN_RUNS - 1 runs between two counted ones are left out, and one pair
+# of counts proves the whole chain (:func:`ritz_slices`). Measured
+# (docs/results/analysis.md, "Chains of runs between double-word counts"):
+# at N = 10^5 a double-word count cost 18 s of a run's ~41 s
+CHAIN_RUNS = 4
 # the Lanczos of a slice (:func:`.lanczos.nearest_pairs`, no restarts) stops
 # after at most _LANCZOS_STEPS k solves (then ARPACK): measured 130-140 solves
 # for k = 60 at N = 10^4 (docs/results/analysis.md, "The slice's Lanczos
@@ -163,7 +170,11 @@ class Position:
     ``pending`` (shift, step): the run that proved the slice below x and
     holds the pairs above it, asked for at that shift with that step of
     :func:`shift_invert` (None: the next slice starts a new run), made again
-    the same way with start vectors drawn from ``rng``.
+    the same way with start vectors drawn from ``rng``; ``deferred``: the
+    runs since the last counted one whose counts were left out (a chain,
+    :func:`ritz_slices`), the pending run included; ``recount_to``: no run
+    whose shift lies at or below it leaves its count out (a chain that did
+    not prove its slices is made again so, run by run).
     """
 
     x: float
@@ -172,6 +183,8 @@ class Position:
     rng: np.random.Generator
     width: float | None = None
     pending: tuple | None = None
+    deferred: int = 0
+    recount_to: float = -math.inf
 
 
 def start_position(S, lo0, stats, shifts=None):
@@ -254,7 +267,7 @@ def shift_invert(S, shifts, sigma, k, rng, stats, step=None):
     return lam, V, sigma
 
 
-def ritz_slices(S, W, k, normS, pos, stats, shifts=None):
+def ritz_slices(S, W, k, normS, pos, stats, shifts=None, stop_above=math.inf):
     """Yield the Ritz slices (:class:`Slice`) of S from ``pos`` (a :class:`Position`) upwards.
 
     The eigenpairs come from *runs*: the k eigenvalues of S nearest a shift
@@ -278,6 +291,22 @@ def ritz_slices(S, W, k, normS, pos, stats, shifts=None):
       twice the radius plus the count's fuzz of it) is replaced by a counted
       edge in a gap just above it. A slice is thus proved by the run above
       it, which stays pending (:attr:`Position.pending`).
+    * **Chains** (where a run's float64 count is too fuzzy to use: its fuzz
+      above ``shifts.fuzz_limit``, so that it would be made again in
+      double-word arithmetic, as at N = 10^5). Up to ``CHAIN_RUNS`` - 1 (3)
+      consecutive runs leave their counts out; the runs are split as above,
+      and the count at the next counted run's shift (or at a counted edge)
+      minus the count at the chain's lower edge must equal the number of
+      Ritz values kept between them, each run's below its upper split point
+      and above its lower one. The argument is the one for two runs: each
+      kept value's eigenvalue lies within its run's radius, in its own part
+      of the chain, so the kept values are distinct eigenvalues, and the
+      counts say there are no others. The slices of a chain are yielded once
+      its end is counted, each with the position a resumed scan continues
+      the chain from (``Position.deferred``). A chain its counts do not
+      prove is made again from its start with every run counted
+      (``Position.recount_to``; ``stats.chain_failures``), so no single run
+      has to be found at fault.
     * **A counted edge** (as at the top of the spectrum, and wherever the next
       run does not reach back or the counts disagree): the upper edge y lies
       in the widest gap of the slice's upper part whose distance to its Ritz
@@ -298,6 +327,9 @@ def ritz_slices(S, W, k, normS, pos, stats, shifts=None):
     ordering, is not made twice); default a new one, with
     :func:`~.inertia.fuzz_limit` of ``normS``. The factors at a shift do not
     depend on what was factorized before, so neither do the slices.
+    ``stop_above``: no run whose shift lies above it leaves its count out
+    (where the caller needs slices only up to about there, so that a chain
+    closes at the first run past it, not up to ``CHAIN_RUNS`` - 1 runs later).
 
     Raises
     ------
@@ -318,14 +350,29 @@ def ritz_slices(S, W, k, normS, pos, stats, shifts=None):
         try:
             run = _solve_run(S, W, normS, shifts, pos.pending[0], min(k, n - 2), rng,
                              scratch, pos.pending[1])
-            _anchor(shifts, run, pos.x, scratch)
+            _anchor(shifts, run, pos.x, scratch, pos.deferred > 0)
         finally:
             shifts.stats = kept
         if run.anchor is None:
             raise SliceFailure(f"the pending run at {pos.pending[0]:.9g} has no proved point")
     while pos.count < n:
-        sl, run = _next_slice(S, W, k, normS, pos, shifts, stats, run, rng)
-        yield sl
+        before = copy.deepcopy((pos, rng))
+        try:
+            got, nxt = _next_slices(S, W, k, normS, pos, shifts, stats, run, rng, stop_above)
+        except _ChainFailure as exc:
+            # made again from the chain's start, every run counted up to its top
+            saved, rng = before
+            pos.__dict__.update(saved.__dict__)
+            pos.recount_to = max(pos.recount_to, exc.upto)
+            stats.chain_failures += 1
+            if run is not None:
+                _anchor(shifts, run, pos.x, stats)
+            pos.deferred = 0
+            continue
+        for sl, fields in got:
+            pos.__dict__.update(fields)
+            yield sl
+        run = nxt
 
 
 @dataclass
@@ -382,17 +429,30 @@ def _ritz_run(S, W, normS, shifts, lam, V, sigma, kk, rng, stats, whole):
     return _as_run(lam, sigma, ritz, whole)
 
 
-def _anchor(shifts, run, lo, stats):
+def _anchor(shifts, run, lo, stats, defer=False):
     """Set the run's proved point above ``lo``: its shift, whose count comes from
     the factorization of its solves where that is still held, if each of its
     Ritz values lies farther than 2 (radius + fuzz) from it; else the widest
     counted gap above max(lo, sigma) within half its reach that is as far
-    from them (one of ``stats.counted_edges``); None if none."""
+    from them (one of ``stats.counted_edges``); None if none.
+
+    With ``defer``, a shift above ``lo`` whose float64 count is too fuzzy to
+    use (above ``shifts.fuzz_limit``: it would be made again in double-word
+    arithmetic) is left uncounted: the anchor is the shift, its count None
+    (``stats.deferred_counts``), and the chain of runs it belongs to is
+    proved by the counts at its ends (:func:`_next_slices`)."""
     run.anchor = None
+    run.anchor_count, run.anchor_fuzz = 0, 0.0
     theta, radius = run.pairs.theta, run.pairs.radius
     if run.sigma > lo:
         try:
-            cnt, fz = shifts.count_below(run.sigma)
+            cnt, fz = shifts.count(run.sigma)
+            if fz > shifts.fuzz_limit:
+                if defer:
+                    run.anchor, run.anchor_count = run.sigma, None
+                    stats.deferred_counts += 1
+                    return
+                cnt, fz = shifts.count_below_dw(run.sigma)
         except (ValueError, SliceFailure):
             cnt, fz = -1, math.inf
         if cnt >= 0 and np.min(np.abs(theta - run.sigma)) > 2 * (radius + fz):
@@ -469,47 +529,117 @@ def _start_run(S, W, k, normS, pos, shifts, stats):
     return run
 
 
-def _next_slice(S, W, k, normS, pos, shifts, stats, cur, rng):
-    """The slice above ``pos.x`` and the run left pending (None where its upper
-    edge was counted): :func:`ritz_slices`; ``pos`` advanced to its upper edge."""
+class _ChainFailure(Exception):
+    """A chain of runs with counts left out whose counts at its ends disagree
+    with its Ritz values (or that no counted edge closes): ``upto``, the
+    highest shift of its runs."""
+
+    def __init__(self, upto):
+        super().__init__(upto)
+        self.upto = upto
+
+
+def _may_defer(run, deferred, pos, stop_above):
+    """Whether ``run``'s count may be left out: fewer than CHAIN_RUNS - 1 runs
+    left uncounted since the last count, and its shift above ``pos.recount_to``
+    and not above ``stop_above``."""
+    return deferred < CHAIN_RUNS - 1 and pos.recount_to < run.sigma <= stop_above
+
+
+def _next_slices(S, W, k, normS, pos, shifts, stats, cur, rng, stop_above):
+    """The slices above ``pos.x`` that one count proves, and the run left
+    pending (None where the last upper edge was counted): :func:`ritz_slices`.
+
+    Returns a list of (slice, the fields of ``pos`` at its upper edge) and the
+    pending run; ``pos`` itself is not changed.
+
+    Raises
+    ------
+    _ChainFailure
+        Where a chain with counts left out is not proved.
+    SliceFailure
+        Where a slice cannot be certified otherwise.
+    """
     n = S.shape[0]
     x, cnt_x = pos.x, pos.count
     kk = min(k, n - 2)
+    deferred = pos.deferred
     if cur is None:
         cur = _start_run(S, W, k, normS, pos, shifts, stats)
         if not cur.whole and cnt_x + np.count_nonzero(cur.pairs.theta > x) < n:
-            _anchor(shifts, cur, x, stats)
-            if cur.anchor is not None and cur.anchor_count - cnt_x != \
-                    np.count_nonzero((cur.pairs.theta > x) & (cur.pairs.theta < cur.anchor)):
+            _anchor(shifts, cur, x, stats, _may_defer(cur, deferred, pos, stop_above))
+            if cur.anchor is not None and cur.anchor_count is not None and \
+                    cur.anchor_count - cnt_x != np.count_nonzero(
+                        (cur.pairs.theta > x) & (cur.pairs.theta < cur.anchor)):
                 cur.anchor = None
-    th = cur.pairs.theta
-    if cur.anchor is not None and cur.anchor_count + np.count_nonzero(th > cur.anchor) < n:
+            deferred = deferred + 1 if cur.anchor is not None and \
+                cur.anchor_count is None else 0
+    # the chain: runs split at points y, each kept below the next split, up to
+    # a run whose count is made (or a counted edge)
+    steps = []                  # (run, lo, y, kept, rng state, width, deferred after the next)
+    lo, virt = x, cnt_x         # the lower edge of cur's part and the count below it
+    uncounted = cur.anchor is not None and cur.anchor_count is None
+    while cur.anchor is not None and virt + np.count_nonzero(cur.pairs.theta > lo) < n:
         got = _next_run(S, W, normS, shifts, cur, kk, rng, stats)
-        if got is not None:
-            nxt, y, state, width = got
-            _anchor(shifts, nxt, y, stats)
-            a = int(np.count_nonzero((th > cur.anchor) & (th < y)))
-            if nxt.anchor is not None and nxt.anchor_count - cur.anchor_count == \
-                    a + np.count_nonzero((nxt.pairs.theta > y) & (nxt.pairs.theta < nxt.anchor)):
-                keep = (th > x) & (th < y)
-                sl = _slice(cur, keep, x, y, stats)
-                stats.fuzz = max(stats.fuzz, cur.anchor_fuzz, nxt.anchor_fuzz)
-                pos.x, pos.count, pos.fuzz = y, cur.anchor_count + a, 0.0
-                pos.rng, pos.width, pos.pending = state, width, nxt.asked
-                return sl, nxt
-    # a counted upper edge
-    above = th > x
+        if got is None:
+            break
+        nxt, y, state, width = got
+        _anchor(shifts, nxt, y, stats, _may_defer(nxt, deferred, pos, stop_above))
+        if nxt.anchor is None:
+            break
+        deferred = deferred + 1 if nxt.anchor_count is None else 0
+        th = cur.pairs.theta
+        kept = int(np.count_nonzero((th > lo) & (th < y)))
+        steps.append((cur, lo, y, kept, state, width, deferred))
+        lo, virt, cur = y, virt + kept, nxt
+        if nxt.anchor_count is None:
+            uncounted = True
+            continue
+        if nxt.anchor_count - virt == np.count_nonzero((nxt.pairs.theta > y) &
+                                                       (nxt.pairs.theta < nxt.anchor)):
+            stats.fuzz = max([stats.fuzz, nxt.anchor_fuzz] +
+                             [r.anchor_fuzz for r, *_ in steps if r.anchor_count is not None])
+            out, count = [], cnt_x
+            for j, (run, lo_j, y_j, kept_j, state_j, width_j, after_j) in enumerate(steps):
+                th = run.pairs.theta
+                count += kept_j
+                nxt_j = steps[j + 1][0] if j + 1 < len(steps) else nxt
+                out.append((_slice(run, (th > lo_j) & (th < y_j), lo_j, y_j, stats),
+                            dict(x=y_j, count=count, fuzz=0.0, rng=state_j, width=width_j,
+                                 pending=nxt_j.asked, deferred=after_j)))
+            return out, nxt
+        if uncounted:
+            raise _ChainFailure(nxt.sigma)
+        # the old pair's counts disagree: a counted edge above cur's lower part
+        cur, lo, virt = steps[-1][0], steps[-1][1], virt - steps[-1][3]
+        steps.pop()
+        break
+    # a counted upper edge of cur, which proves the chain below it too
+    th = cur.pairs.theta
+    above = th > lo
     theta = th[above]
-    cands = _edge_candidates(theta, cur.top, cur.pairs.radius, cur.whole, cnt_x, n)
-    y, nkeep, cnt_y, fz = _certified_edge(shifts, cands, theta, cur.pairs.radius, x, cnt_x)
+    cands = _edge_candidates(theta, cur.top, cur.pairs.radius, cur.whole, virt, n)
+    try:
+        y, nkeep, cnt_y, fz = _certified_edge(shifts, cands, theta, cur.pairs.radius, lo, virt)
+    except SliceFailure:
+        if uncounted:
+            raise _ChainFailure(max([cur.sigma] + [r.sigma for r, *_ in steps])) from None
+        raise
     stats.fuzz = max(stats.fuzz, fz)
     stats.counted_edges += 1
+    out, count = [], cnt_x
+    for j, (run, lo_j, y_j, kept_j, state_j, width_j, after_j) in enumerate(steps):
+        t = run.pairs.theta
+        count += kept_j
+        nxt_j = steps[j + 1][0] if j + 1 < len(steps) else cur
+        out.append((_slice(run, (t > lo_j) & (t < y_j), lo_j, y_j, stats),
+                    dict(x=y_j, count=count, fuzz=0.0, rng=state_j, width=width_j,
+                         pending=nxt_j.asked, deferred=after_j)))
     keep = np.flatnonzero(above)[:nkeep]
-    sl = _slice(cur, keep, x, y, stats)
-    pos.width = float(theta[nkeep - 1] - theta[0]) * k / max(nkeep - 1, 1)
-    pos.x, pos.count, pos.fuzz = y, cnt_y, fz
-    pos.rng, pos.pending = rng, None
-    return sl, None
+    out.append((_slice(cur, keep, lo, y, stats),
+                dict(x=y, count=cnt_y, fuzz=fz, rng=rng, pending=None, deferred=0,
+                     width=float(theta[nkeep - 1] - theta[0]) * k / max(nkeep - 1, 1))))
+    return out, None
 
 
 def _slice(run, keep, lo, hi, stats):

@@ -66,6 +66,12 @@ class SlicedStats:
         Sylvester counts made again in double-word arithmetic: their float64
         fuzz above :func:`~.inertia.fuzz_limit`, or a slice edge that only
         that fuzz kept too close to a Ritz value (:mod:`.slices`).
+    deferred_counts : int
+        Runs whose count was left out (their float64 count too fuzzy to use,
+        between two counted runs of a chain, :func:`~.slices.ritz_slices`).
+    chain_failures : int
+        Chains whose end counts did not prove them, made again with every
+        run counted (:func:`~.slices.ritz_slices`).
     """
 
     n: int = 0
@@ -85,5 +91,7 @@ class SlicedStats:
     split_misses: int = 0
     counted_edges: int = 0
     dw_counts: int = 0
+    deferred_counts: int = 0
+    chain_failures: int = 0
     parts: int = 1
     cuts: tuple = ()
