@@ -37,10 +37,14 @@ and the same pieces at N = 10^4 in the same run:
   as the scan does, that of the double-word ``count_below_dw``, with the
   float64 one beside it) beside the mean spacing of the
   eigenvalues there (from a second count 10 Delta above), and ``--slices``
-  slices from there (``slices.ritz_slices``, what a scan is made of; the
-  first left out of the cost as a warm-up; with the slices computed twice
-  and the shifts moved off a tiny pivot, ``SlicedStats.reshifted`` and
-  ``.moved``) or the reason the first cannot be certified; from them the
+  slices from there (``slices.ritz_slices``, what a scan is made of), or
+  more up to the end of a chain where counts are left out (a chain's
+  slices come at once, its time on its first: the slices after the last
+  one read would cost nothing); those up to the first counted run left
+  out of the cost as a warm-up; with the slices computed twice, the shifts
+  moved off a tiny pivot, the double-word counts and the counts left out
+  (``SlicedStats.reshifted``, ``.moved``, ``.dw_counts``,
+  ``.deferred_counts``), or the reason the first cannot be certified; from them the
   cost of a slice per eigenvalue it advances, and how many eigenvalues of
   S the window 2 Delta holds there (Delta =
   10 ||W||_2, the window a cut's first boundary lies above its split point).
@@ -54,7 +58,7 @@ and the same pieces at N = 10^4 in the same run:
   against the tasks ``bench_parallel_point`` measured (when its records are
   in the cache).
 
-    python benchmarks/bench_slice_cost.py [--ranks 16 256] [--copies 10] [--slices 6]
+    python benchmarks/bench_slice_cost.py [--ranks 16 256] [--copies 10] [--slices 9]
 """
 import os
 
@@ -156,17 +160,25 @@ def measure(dump, nslices, part_size=1000):
         pos = Position(x, cnt, fz, np.random.default_rng([12345, round(1000 * f)]))
         st = SlicedStats()
         slices = ritz_slices(pb.S, pb.ctx.W, 60, pb.ctx.normS, pos, st)
+        # where counts are left out, a chain's slices come at once (its time on
+        # its first slice): go on to the end of a chain, a slice after which
+        # no count is left out (``pos.deferred`` 0), so no work is unread
+        ends = []
         try:
-            for _ in range(nslices):
+            while len(ends) < nslices or not ends[-1]:
                 c0, n0 = time.process_time(), pos.count
                 next(slices)
                 place["slices"].append(time.process_time() - c0)
                 place["advanced"].append(pos.count - n0)
+                ends.append(pos.deferred == 0)
         except SliceFailure as exc:
             place["failure"] = str(exc)
         place["moved"], place["reshifted"] = st.moved, st.reshifted
-        if len(place["slices"]) > 1:       # the first left out: a warm-up
-            place["per_eig"] = sum(place["slices"][1:]) / sum(place["advanced"][1:])
+        place["dw_counts"], place["deferred"] = st.dw_counts, st.deferred_counts
+        # the slices up to the first end left out: a warm-up (the first run)
+        first = ends.index(True) + 1 if True in ends else len(ends)
+        if len(place["slices"]) > first:
+            place["per_eig"] = sum(place["slices"][first:]) / sum(place["advanced"][first:])
         rec["places"].append(place)
     return rec
 
@@ -191,7 +203,8 @@ def main(argv=None):
                     help="copies of the N = 10^4 packing (default 10: N = 10^5)")
     ap.add_argument("--jitter", type=float, default=1e-6,
                     help="relative jitter of the diameters (default 1e-6)")
-    ap.add_argument("--slices", type=int, default=6, help="slices at each place (default 6)")
+    ap.add_argument("--slices", type=int, default=9,
+                    help="slices at each place, at least (default 9)")
     args = ap.parse_args(argv)
     from remote_trigger.pywrap.runtime.environment import source
 
@@ -216,7 +229,8 @@ def main(argv=None):
                 what.append("slices " + " ".join(f"{v:.1f}" for v in p["slices"])
                             + " s advancing " + " ".join(str(v) for v in p["advanced"])
                             + " eigenvalues" + f" ({p.get('reshifted', 0)} computed twice, "
-                            f"{p.get('moved', 0)} shifts moved)")
+                            f"{p.get('moved', 0)} shifts moved, {p.get('dw_counts', 0)} "
+                            f"double-word counts, {p.get('deferred', 0)} counts left out)")
             if "per_eig" in p:
                 what.append(f"{p['per_eig'] * 1e3:.1f} ms per eigenvalue; 2 Delta holds "
                             f"{2 * rec['Delta'] / p['spacing']:.0f}")

@@ -67,7 +67,8 @@ def test_the_verdict_with_supernodal_solves(monkeypatch, pairs):
     """A whole sliced verdict (n = 300, a planted complex pair or none) with
     every shift-invert solve by SuperLU (SUPERNODAL_FILL = 0): the same
     decision and strips as with QDLDL's, the eigenvalues within 1e-9
-    of the largest (the solves differ in their rounding only); with the
+    of the largest (the solves differ in their rounding only), counts left
+    out between counted runs (no count is at hand at a shift); with the
     threshold kept, the probe of the fill changes no bit (against a scan
     with the probe switched off)."""
     from remote_trigger.analysis.stability.decision import Decision
@@ -100,6 +101,8 @@ def test_the_verdict_with_supernodal_solves(monkeypatch, pairs):
     monkeypatch.setattr(inertia, "SUPERNODAL_FILL", 0.0)
     ds, st_s = run()
     assert probes > 0 and len(made) - probes >= st_s.lanczos_runs > 0   # every solve a SymmetricLU
+    # each count a factorization of its own there: chains of runs leave counts out
+    assert st_s.deferred_counts > 0 and st_q.deferred_counts == 0
     assert ds.decision is dq.decision is Decision.certified(bool(pairs))
     assert st_s.strips == st_q.strips          # the slices may differ: edges in other gaps
     lq, ls = np.sort_complex(dq.eigenvalues), np.sort_complex(ds.eigenvalues)

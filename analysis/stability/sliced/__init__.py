@@ -71,9 +71,11 @@ its solves used; its Ritz values farther than 2 (radius + fuzz) from it)
 or, where that does not hold, a gap of its Ritz values. Between two
 consecutive counted points p < q lie the Ritz values of one run, or of
 consecutive runs split at points y farther than twice each adjacent run's
-radius from both runs' values (two runs; up to four where the float64
-counts are too fuzzy and the runs between two double-word counts leave
-theirs out); the Ritz values kept are those of each run between its split
+radius from both runs' values (two runs; up to four where a run's count
+is not at hand -- its float64 count too fuzzy, or every count a
+factorization of its own, as with SuperLU's solves -- and the runs between
+two counted ones leave theirs out); the Ritz values kept are those of each
+run between its split
 points, and their number must equal #neg(q) - #neg(p).
 Each kept value's eigenvalue (Kahan, within its run's radius) then lies in
 its own part of (p, q), so these are distinct eigenvalues; if every

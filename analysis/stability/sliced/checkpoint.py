@@ -43,11 +43,12 @@ __all__ = ["CHECKPOINT_FORMAT", "ScanFiles", "scan_key", "saved_scans", "sha", "
 #: and eigenvalues whose bits differ from those of 9; 11: the counts at the
 #: runs' shifts prove the slices between them (:func:`~.slices.ritz_slices`), a
 #: saved position may hold a pending run, and slice edges differ from those of 10;
-#: 12: where a run's float64 count is too fuzzy to use, chains of runs between
-#: two double-word counts (a saved position says how many counts it left out),
-#: so slice edges there may differ from those of 11 (a shift too near one of
-#: its run's Ritz values, a chain made again); where the float64 counts
-#: serve (disks up to N = 10^4), scans are bitwise those of 11)
+#: 12: where a run's count is not at hand (its float64 count too fuzzy to use,
+#: or SuperLU's solves), chains of runs between two counted ones (a saved
+#: position says how many counts it left out), so slice edges there may
+#: differ from those of 11 (a shift too near one of its run's Ritz values, a
+#: chain made again); where QDLDL's float64 counts serve (disks up to
+#: N = 10^4, spheres up to N ~ 1000), scans are bitwise those of 11)
 CHECKPOINT_FORMAT = 12
 
 

@@ -46,12 +46,13 @@ _SHIFT_FRACTION = 0.42
 # 357 runs of which 7 made again; 0.9, 399 of which 55
 _NEXT_STEP = 0.8
 _NEXT_TRIES = 4
-# runs per count where a run's float64 count is too fuzzy to use (its count
-# would be made again in double-word arithmetic): the counts of the
+# runs per count where a run's count is not at hand: its float64 count too
+# fuzzy to use (it would be made again in double-word arithmetic), or every
+# count a factorization of its own (SuperLU's solves). The counts of the
 # CHAIN_RUNS - 1 runs between two counted ones are left out, and one pair
 # of counts proves the whole chain (:func:`ritz_slices`). Measured
 # (docs/results/analysis.md, "Chains of runs between double-word counts"):
-# at N = 10^5 a double-word count cost 18 s of a run's ~41 s
+# at N = 10^5 a double-word count costs ~12-18 s, the rest of a run ~17 s
 CHAIN_RUNS = 4
 # the Lanczos of a slice (:func:`.lanczos.nearest_pairs`, no restarts) stops
 # after at most _LANCZOS_STEPS k solves (then ARPACK): measured 130-140 solves
@@ -291,9 +292,11 @@ def ritz_slices(S, W, k, normS, pos, stats, shifts=None, stop_above=math.inf):
       twice the radius plus the count's fuzz of it) is replaced by a counted
       edge in a gap just above it. A slice is thus proved by the run above
       it, which stays pending (:attr:`Position.pending`).
-    * **Chains** (where a run's float64 count is too fuzzy to use: its fuzz
-      above ``shifts.fuzz_limit``, so that it would be made again in
-      double-word arithmetic, as at N = 10^5). Up to ``CHAIN_RUNS`` - 1 (3)
+    * **Chains** (where a run's count is not at hand: its float64 count too
+      fuzzy to use, its fuzz above ``shifts.fuzz_limit``, so that it would be
+      made again in double-word arithmetic, as at N = 10^5; or every count a
+      multifrontal factorization of its own, where ``shifts`` solves by
+      SuperLU, as for large sphere packings). Up to ``CHAIN_RUNS`` - 1 (3)
       consecutive runs leave their counts out; the runs are split as above,
       and the count at the next counted run's shift (or at a counted edge)
       minus the count at the chain's lower edge must equal the number of
@@ -436,15 +439,21 @@ def _anchor(shifts, run, lo, stats, defer=False):
     counted gap above max(lo, sigma) within half its reach that is as far
     from them (one of ``stats.counted_edges``); None if none.
 
-    With ``defer``, a shift above ``lo`` whose float64 count is too fuzzy to
-    use (above ``shifts.fuzz_limit``: it would be made again in double-word
-    arithmetic) is left uncounted: the anchor is the shift, its count None
-    (``stats.deferred_counts``), and the chain of runs it belongs to is
-    proved by the counts at its ends (:func:`_next_slices`)."""
+    With ``defer``, a shift above ``lo`` whose count is not at hand is left
+    uncounted: where its float64 count is too fuzzy to use (above
+    ``shifts.fuzz_limit``: it would be made again in double-word
+    arithmetic), or where ``shifts`` solves by SuperLU (each count then a
+    multifrontal factorization of its own). The anchor is then the shift,
+    its count None (``stats.deferred_counts``), and the chain of runs it
+    belongs to is proved by the counts at its ends (:func:`_next_slices`)."""
     run.anchor = None
     run.anchor_count, run.anchor_fuzz = 0, 0.0
     theta, radius = run.pairs.theta, run.pairs.radius
     if run.sigma > lo:
+        if defer and shifts.solves == "superlu":
+            run.anchor, run.anchor_count = run.sigma, None
+            stats.deferred_counts += 1
+            return
         try:
             cnt, fz = shifts.count(run.sigma)
             if fz > shifts.fuzz_limit:
