@@ -608,15 +608,7 @@ def _next_slices(S, W, k, normS, pos, shifts, stats, cur, rng, stop_above):
                                                        (nxt.pairs.theta < nxt.anchor)):
             stats.fuzz = max([stats.fuzz, nxt.anchor_fuzz] +
                              [r.anchor_fuzz for r, *_ in steps if r.anchor_count is not None])
-            out, count = [], cnt_x
-            for j, (run, lo_j, y_j, kept_j, state_j, width_j, after_j) in enumerate(steps):
-                th = run.pairs.theta
-                count += kept_j
-                nxt_j = steps[j + 1][0] if j + 1 < len(steps) else nxt
-                out.append((_slice(run, (th > lo_j) & (th < y_j), lo_j, y_j, stats),
-                            dict(x=y_j, count=count, fuzz=0.0, rng=state_j, width=width_j,
-                                 pending=nxt_j.asked, deferred=after_j)))
-            return out, nxt
+            return _chain_slices(steps, nxt, cnt_x, stats), nxt
         if uncounted:
             raise _ChainFailure(nxt.sigma)
         # the old pair's counts disagree: a counted edge above cur's lower part
@@ -636,19 +628,29 @@ def _next_slices(S, W, k, normS, pos, shifts, stats, cur, rng, stop_above):
         raise
     stats.fuzz = max(stats.fuzz, fz)
     stats.counted_edges += 1
-    out, count = [], cnt_x
-    for j, (run, lo_j, y_j, kept_j, state_j, width_j, after_j) in enumerate(steps):
-        t = run.pairs.theta
-        count += kept_j
-        nxt_j = steps[j + 1][0] if j + 1 < len(steps) else cur
-        out.append((_slice(run, (t > lo_j) & (t < y_j), lo_j, y_j, stats),
-                    dict(x=y_j, count=count, fuzz=0.0, rng=state_j, width=width_j,
-                         pending=nxt_j.asked, deferred=after_j)))
+    out = _chain_slices(steps, cur, cnt_x, stats)
     keep = np.flatnonzero(above)[:nkeep]
     out.append((_slice(cur, keep, lo, y, stats),
                 dict(x=y, count=cnt_y, fuzz=fz, rng=rng, pending=None, deferred=0,
                      width=float(theta[nkeep - 1] - theta[0]) * k / max(nkeep - 1, 1))))
     return out, None
+
+
+def _chain_slices(steps, last, cnt_x, stats):
+    """The proved slices of a chain's ``steps`` (:func:`_next_slices`: each
+    run with its lower edge, its split point y, the values it keeps, the
+    start-vector stream's state before the next run, the width, the counts
+    left out after the next run), each with the fields of the position at its
+    upper edge; ``last``: the run after the last step, left pending."""
+    out, count = [], cnt_x
+    for j, (run, lo, y, kept, state, width, after) in enumerate(steps):
+        th = run.pairs.theta
+        count += kept
+        pending = steps[j + 1][0] if j + 1 < len(steps) else last
+        out.append((_slice(run, (th > lo) & (th < y), lo, y, stats),
+                    dict(x=y, count=count, fuzz=0.0, rng=state, width=width,
+                         pending=pending.asked, deferred=after)))
+    return out
 
 
 def _slice(run, keep, lo, hi, stats):
