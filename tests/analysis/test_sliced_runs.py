@@ -116,14 +116,21 @@ def _chained(S, W, ctx, lo0, k=60, pos=None, st=None):
     return slices.ritz_slices(S, W, k, ctx.normS, pos, st, shifts), st
 
 
-def test_chains_of_runs_between_double_word_counts(packing, monkeypatch):
+@pytest.fixture(scope="module")
+def chained(packing):
+    """The whole chained slicing of the packing (:func:`_chained`): slices, stats."""
+    S, W, ctx, lo0, lam = packing
+    gen, st = _chained(S, W, ctx, lo0)
+    return list(gen), st
+
+
+def test_chains_of_runs_between_double_word_counts(packing, chained, monkeypatch):
     """Where the float64 counts are too fuzzy, CHAIN_RUNS - 1 runs of every
     CHAIN_RUNS leave their counts out and the counts at a chain's ends prove
     its slices: the same spectrum as one double-word count a run, with about
     1 / CHAIN_RUNS of the double-word counts."""
     S, W, ctx, lo0, lam = packing
-    gen, st = _chained(S, W, ctx, lo0)
-    got = list(gen)
+    got, st = chained
     _checked(got, lam, ctx.normS)
     monkeypatch.setattr(slices, "CHAIN_RUNS", 1)
     gen1, st1 = _chained(S, W, ctx, lo0)
@@ -136,7 +143,7 @@ def test_chains_of_runs_between_double_word_counts(packing, monkeypatch):
     assert np.concatenate([sl.theta for sl in got]).tobytes() == theta1.tobytes()
 
 
-def test_no_run_above_stop_above_leaves_its_count_out(packing):
+def test_no_run_above_stop_above_leaves_its_count_out(packing, chained):
     """``stop_above`` at the middle of the spectrum: every run whose shift lies
     above it is counted (fewer counts left out than without it); the same
     spectrum."""
@@ -149,8 +156,7 @@ def test_no_run_above_stop_above_leaves_its_count_out(packing):
     got = list(slices.ritz_slices(S, W, 60, ctx.normS, slices.start_position(S, lo0, st, shifts),
                                   st, shifts, stop_above=mid))
     _checked(got, lam, ctx.normS)
-    gen, st_all = _chained(S, W, ctx, lo0)
-    list(gen)
+    st_all = chained[1]
     assert 0 < st.deferred_counts < st_all.deferred_counts
     assert st.dw_counts > st_all.dw_counts
 
