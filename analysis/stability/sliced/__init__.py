@@ -75,8 +75,8 @@ radius from both runs' values (two runs; up to four where a run's count
 is not at hand -- its float64 count too fuzzy, or every count a
 factorization of its own, as with SuperLU's solves -- and the runs between
 two counted ones leave theirs out); the Ritz values kept are those of each
-run between its split
-points, and their number must equal #neg(q) - #neg(p).
+run between its split points, and their number must equal #neg(q) -
+#neg(p).
 Each kept value's eigenvalue (Kahan, within its run's radius) then lies in
 its own part of (p, q), so these are distinct eigenvalues; if every
 interval's count holds and the counts run from 0 to n, every eigenvalue of

@@ -67,8 +67,10 @@ class SlicedStats:
         fuzz above :func:`~.inertia.fuzz_limit`, or a slice edge that only
         that fuzz kept too close to a Ritz value (:mod:`.slices`).
     deferred_counts : int
-        Runs whose count was left out (their float64 count too fuzzy to use,
-        between two counted runs of a chain, :func:`~.slices.ritz_slices`).
+        Runs whose count was left out, between two counted runs of a chain
+        (their float64 count too fuzzy to use, or every count a
+        factorization of its own, as with SuperLU's solves;
+        :func:`~.slices.ritz_slices`).
     chain_failures : int
         Chains whose end counts did not prove them, made again with every
         run counted (:func:`~.slices.ritz_slices`).
