@@ -180,7 +180,7 @@ def test_parts_with_chains_of_runs_give_the_whole_verdict(monkeypatch):
     chains between double-word counts, in the whole scan and in three parts
     (each part's chains end at its ceiling); the verdict of the scan with one
     count a run, the same eigenvalues to within the Ritz radii."""
-    from remote_trigger.analysis.stability.sliced import inertia, slices
+    from remote_trigger.analysis.stability.sliced import inertia
 
     K, mass = planted(n=300, pairs=[(100, 1.5), (220, 0.9)], seed=1)
     ref, rst = run(K, mass)
