@@ -292,6 +292,17 @@ class Shifts:
             cnt, fz = self.count_below_dw(a)
         return cnt, fz
 
+    def count_at_hand(self, a):
+        """:meth:`count` at a where it is at hand and usable: None where each
+        count is a factorization of its own (``solves`` 'superlu') or the
+        float64 count's fuzz exceeds ``fuzz_limit`` (it would be made again in
+        double-word arithmetic by :meth:`count_below`). Raises as :meth:`count`."""
+        self._decide(a)
+        if self.solves == "superlu":
+            return None
+        cnt, fz = self.count(a)
+        return None if fz > self.fuzz_limit else (cnt, fz)
+
     def count_below_dw(self, a):
         """:func:`count_below_dw` of S at a, in the ordering of the float64
         counts (one is made first if none was): (count, fuzz)."""

@@ -341,7 +341,7 @@ class SlicedScan:
         n = self.S.shape[0] - self.base
         self.stop_above = above
         self._slices = ritz_slices(self.S, self.ctx.W, self.k, self.ctx.normS, self.pos,
-                                   self.stats, stop_above=above)
+                                   self.stats, stop_above=self.stop_above)
         final = self.counted == self.S.shape[0]
         while not final:
             final = self.next_slice()

@@ -439,29 +439,23 @@ def _anchor(shifts, run, lo, stats, defer=False):
     counted gap above max(lo, sigma) within half its reach that is as far
     from them (one of ``stats.counted_edges``); None if none.
 
-    With ``defer``, a shift above ``lo`` whose count is not at hand is left
-    uncounted: where its float64 count is too fuzzy to use (above
-    ``shifts.fuzz_limit``: it would be made again in double-word
-    arithmetic), or where ``shifts`` solves by SuperLU (each count then a
-    multifrontal factorization of its own). The anchor is then the shift,
-    its count None (``stats.deferred_counts``), and the chain of runs it
-    belongs to is proved by the counts at its ends (:func:`_next_slices`)."""
+    With ``defer``, a shift above ``lo`` whose count is not at hand
+    (:meth:`~.inertia.Shifts.count_at_hand`: its float64 count too fuzzy to
+    use, or each count a factorization of its own, as with SuperLU's
+    solves) is left uncounted: the anchor is then the shift, its count None
+    (``stats.deferred_counts``), and the chain of runs it belongs to is
+    proved by the counts at its ends (:func:`_next_slices`)."""
     run.anchor = None
     run.anchor_count, run.anchor_fuzz = 0, 0.0
     theta, radius = run.pairs.theta, run.pairs.radius
     if run.sigma > lo:
-        if defer and shifts.solves == "superlu":
-            run.anchor, run.anchor_count = run.sigma, None
-            stats.deferred_counts += 1
-            return
         try:
-            cnt, fz = shifts.count(run.sigma)
-            if fz > shifts.fuzz_limit:
-                if defer:
-                    run.anchor, run.anchor_count = run.sigma, None
-                    stats.deferred_counts += 1
-                    return
-                cnt, fz = shifts.count_below_dw(run.sigma)
+            got = shifts.count_at_hand(run.sigma) if defer else None
+            if defer and got is None:
+                run.anchor, run.anchor_count = run.sigma, None
+                stats.deferred_counts += 1
+                return
+            cnt, fz = got if got is not None else shifts.count_below(run.sigma)
         except (ValueError, SliceFailure):
             cnt, fz = -1, math.inf
         if cnt >= 0 and np.min(np.abs(theta - run.sigma)) > 2 * (radius + fz):
@@ -587,7 +581,10 @@ def _next_slices(S, W, k, normS, pos, shifts, stats, cur, rng, stop_above):
     # a run whose count is made (or a counted edge)
     steps = []                  # (run, lo, y, kept, rng state, width, deferred after the next)
     lo, virt = x, cnt_x         # the lower edge of cur's part and the count below it
-    uncounted = cur.anchor is not None and cur.anchor_count is None
+
+    def uncounted():            # a run of the chain left its count out
+        return any(r.anchor_count is None for r in [cur] + [st[0] for st in steps])
+
     while cur.anchor is not None and virt + np.count_nonzero(cur.pairs.theta > lo) < n:
         got = _next_run(S, W, normS, shifts, cur, kk, rng, stats)
         if got is None:
@@ -602,14 +599,13 @@ def _next_slices(S, W, k, normS, pos, shifts, stats, cur, rng, stop_above):
         steps.append((cur, lo, y, kept, state, width, deferred))
         lo, virt, cur = y, virt + kept, nxt
         if nxt.anchor_count is None:
-            uncounted = True
             continue
         if nxt.anchor_count - virt == np.count_nonzero((nxt.pairs.theta > y) &
                                                        (nxt.pairs.theta < nxt.anchor)):
             stats.fuzz = max([stats.fuzz, nxt.anchor_fuzz] +
                              [r.anchor_fuzz for r, *_ in steps if r.anchor_count is not None])
             return _chain_slices(steps, nxt, cnt_x, stats), nxt
-        if uncounted:
+        if uncounted():
             raise _ChainFailure(nxt.sigma)
         # the old pair's counts disagree: a counted edge above cur's lower part
         cur, lo, virt = steps[-1][0], steps[-1][1], virt - steps[-1][3]
@@ -623,7 +619,7 @@ def _next_slices(S, W, k, normS, pos, shifts, stats, cur, rng, stop_above):
     try:
         y, nkeep, cnt_y, fz = _certified_edge(shifts, cands, theta, cur.pairs.radius, lo, virt)
     except SliceFailure:
-        if uncounted:
+        if uncounted():
             raise _ChainFailure(max([cur.sigma] + [r.sigma for r, *_ in steps])) from None
         raise
     stats.fuzz = max(stats.fuzz, fz)
