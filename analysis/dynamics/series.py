@@ -12,8 +12,6 @@ import math
 import numpy as np
 
 from remote_trigger.analysis.errors import is_real
-from remote_trigger.analysis.dynamics._series_parts import (
-    check_series as _check_series, constant_rate_end as _constant_rate_end)
 
 #: default runaway level of D (sigma^2): the disks have moved by ~0.03 sigma rms,
 #: ~50x the typical contact overlap (F_y / k_n)^(2/3) ~ 6e-4 of the default
@@ -598,3 +596,67 @@ def runaway_consistent(rate, n_records, predicted, tol=RUNAWAY_RATE_TOL,
     if not (predicted > 0 and n_records >= min_records and math.isfinite(rate)):
         return False
     return bool(predicted / tol <= rate <= tol * predicted)
+
+
+# ----------------------------------------------------------------------- helpers
+def _check_series(func, t, **series):
+    """``t`` and each named series: 1-D arrays of one length, every value
+    finite, ``t`` increasing (the records of one run, in time order).
+
+    Returns the float64 arrays, ``t`` first, then the series in their order.
+
+    Raises
+    ------
+    ValueError
+        Naming ``func``, the arguments and their shapes, the first
+        non-finite value, or the first time not after its predecessor.
+    """
+    arrays = {}
+    for name, a in dict(t=t, **series).items():
+        try:
+            arrays[name] = np.asarray(a, np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{func}: {name} must be a 1-D array of numbers, got "
+                             f"{type(a).__name__} {str(a)[:40]}") from None
+    shapes = [a.shape for a in arrays.values()]
+    if any(len(sh) != 1 for sh in shapes) or len(set(shapes)) != 1:
+        # (growth_window(t, D[:10], ...) returned (None, nan); growth_fit and
+        # exp_rate were raw broadcasting / indexing errors)
+        names = list(arrays)
+        raise ValueError(f"{func}: {', '.join(names[:-1])} and {names[-1]} must be 1-D arrays "
+                         f"of one length, got shapes "
+                         f"{', '.join(str(sh) for sh in shapes[:-1])} and {shapes[-1]}")
+    for name, a in arrays.items():
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise ValueError(f"{func}: {name} must be finite, got {bad.size} non-finite "
+                             f"value(s), the first {float(a[bad[0]])!r} at index {int(bad[0])}")
+    t = arrays["t"]
+    # (a reversed or shuffled t gave a growth rate of the wrong sign, or NaN)
+    back = np.flatnonzero(np.diff(t) <= 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise ValueError(f"{func}: t must be increasing (records in time order), got "
+                         f"t[{i}] = {float(t[i])!r} after t[{i - 1}] = {float(t[i - 1])!r}")
+    return tuple(arrays.values())
+
+
+def _constant_rate_end(t, D, i0, i1, chunks, rtol):
+    """Last index of the constant-rate part of [i0, i1] (see :func:`growth_window`)."""
+    if not (D[i0] > 0 and np.log10(D[i1] / D[i0]) >= chunks):
+        return i1                     # pieces of less than a decade: rates too noisy
+    edges = np.linspace(t[i0], t[i1], chunks + 1)
+    rates, ends = [], []
+    for k in range(chunks):
+        sel = (t >= edges[k]) & (t <= edges[k + 1]) & (D > 0)
+        sel[:i0] = False
+        sel[i1 + 1:] = False
+        if np.count_nonzero(sel) < 3:
+            return i1
+        rates.append(float(np.polyfit(t[sel], np.log(D[sel]), 1)[0] / 2.0))
+        ends.append(int(np.flatnonzero(sel)[0]))
+    for k in range(1, chunks):
+        ref = float(np.median(rates[:k]))
+        if ref > 0 and abs(rates[k] - ref) > rtol * ref:
+            return max(i0, ends[k] - 1)
+    return i1
